@@ -1,0 +1,3 @@
+from stencil_cad.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,6 @@
+"""Command line (being written)."""
+
+
+def main(argv=None) -> int:
+    """Entry point."""
+    return 0
