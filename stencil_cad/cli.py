@@ -1,6 +1,191 @@
-"""Command line (being written)."""
+"""The `stencil-cad` command: run a whole job, or one stage on saved intermediates."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+import time
+from pathlib import Path
+
+from . import __version__
+from .errors import ConfigError, OutputError, UserError
+
+log = logging.getLogger("stencil_cad")
+
+EXAMPLE_OUT = Path("output") / "example"
 
 
-def main(argv=None) -> int:
-    """Entry point."""
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="stencil-cad",
+        description="Turn an image into spray-paint stencils to 3D-print or laser-cut.",
+    )
+    p.add_argument("--version", action="version", version=f"stencil-cad {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+
+    def job_args(sp: argparse.ArgumentParser, with_from: bool = False) -> None:
+        sp.add_argument("config", nargs="?", type=Path, help="job config YAML (default: the bundled example)")
+        sp.add_argument("--image", type=Path, help="input image (overrides the config's `image`)")
+        sp.add_argument("--out", type=Path, help="output folder (default: output/<name>, or output/example)")
+        sp.add_argument("--force", action="store_true", help="replace files in a non-empty output folder")
+        sp.add_argument("--seed", type=int, help="random seed (overrides the config's `seed`)")
+        if with_from:
+            sp.add_argument("--from", dest="src", type=Path, help="folder with the saved intermediates (default: --out)")
+        g = sp.add_mutually_exclusive_group()
+        g.add_argument("-v", "--verbose", action="store_true", help="log each step; show tracebacks")
+        g.add_argument("-q", "--quiet", action="store_true", help="no progress bars or summary")
+
+    job_args(sub.add_parser("run", help="run the whole job: decompose, stipple, build, simulate"))
+    job_args(sub.add_parser("decompose", help="decompose the image into primer + paint layers (layers.npz)"))
+    job_args(sub.add_parser("stipple", help="stipple saved layers into holes (layer_NN_dots.csv)"), True)
+    job_args(sub.add_parser("build", help="build plates and wall from saved dots (STEP, STL, DXF)"), True)
+    job_args(sub.add_parser("simulate", help="spray saved dots in simulation and score the result"), True)
+    job_args(sub.add_parser("hard", help="hard-stencil mode: flat colours, cut-outs held by bridges"))
+    sp = sub.add_parser("init", help="write a commented config file")
+    sp.add_argument("path", nargs="?", type=Path, default=Path("stencil.yaml"), help="where (default: stencil.yaml)")
+    sp.add_argument("--force", action="store_true", help="replace an existing file")
+    sub.add_parser("schema", help="print the config's JSON Schema (for editor completion)")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of `stencil-cad`; returns the exit code."""
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    verbose = getattr(args, "verbose", False)
+    quiet = getattr(args, "quiet", False)
+    logging.basicConfig(
+        level=logging.DEBUG if verbose else (logging.ERROR if quiet else logging.WARNING),
+        format="%(levelname)s %(name)s: %(message)s" if verbose else "stencil-cad: %(levelname)s: %(message)s",
+        stream=sys.stderr,
+    )
+    if verbose:
+        logging.getLogger("stencil_cad").setLevel(logging.DEBUG)
+    try:
+        return _dispatch(args)
+    except UserError as exc:
+        if verbose:
+            log.exception("failed")
+        print(f"stencil-cad: error: {exc}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:
+        # Output piped into `head` and the like: not an error of ours.
+        sys.stderr.close()
+        return 0
+    except KeyboardInterrupt:
+        print("stencil-cad: interrupted; no partial outputs were kept", file=sys.stderr)
+        return 130
+    except Exception as exc:  # noqa: BLE001 - the top level reports any failure cleanly
+        if verbose:
+            raise
+        print(
+            f"stencil-cad: internal error: {type(exc).__name__}: {exc} (run again with -v for the traceback "
+            "and report it; no partial outputs were kept)",
+            file=sys.stderr,
+        )
+        return 1
+
+
+def _dispatch(args) -> int:
+    from .config import io as cfg_io
+
+    if args.command == "schema":
+        print(json.dumps(cfg_io.json_schema(), indent=2))
+        return 0
+    if args.command == "init":
+        path: Path = args.path
+        if path.exists() and not args.force:
+            raise OutputError(f"{path} already exists (use --force to replace it, or give another path)")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.tmp")
+        tmp.write_text(cfg_io.default_yaml(), encoding="utf-8")
+        tmp.replace(path)
+        print(f"wrote {path}; edit it, then: stencil-cad run {path}")
+        return 0
+    return _job(args)
+
+
+def _load_job(args):
+    from .config import io as cfg_io
+    from .config import parse_overrides
+
+    src = getattr(args, "src", None)
+    config_path = args.config
+    if config_path is None and args.command in ("stipple", "build", "simulate"):
+        folder = src or args.out
+        if folder is not None and (folder / "config.yaml").exists():
+            config_path = folder / "config.yaml"
+    if config_path is not None:
+        cfg = cfg_io.load_config(config_path)
+    else:
+        cfg = cfg_io.parse_config({}, source="defaults")
+    cfg = parse_overrides(cfg, image=args.image, seed=args.seed, hard=args.command == "hard")
+    if args.out is not None:
+        out = args.out
+    elif args.config is None and args.image is None:
+        out = EXAMPLE_OUT
+    else:
+        out = Path("output") / cfg.name.replace(" ", "_")
+    return cfg, out
+
+
+def _job(args) -> int:
+    from . import pipeline, report
+    from .output import OutputDir
+
+    cfg, out_path = _load_job(args)
+    stage_cmd = args.command in ("stipple", "build", "simulate")
+    src = (args.src or out_path) if stage_cmd else None
+    # Check the input before any output folder is touched.
+    picture = None
+    t_load = time.perf_counter()
+    if args.command in ("run", "decompose", "hard", "simulate"):
+        try:
+            picture = pipeline.load_picture(cfg)
+        except UserError:
+            # `simulate` can score against the decomposition when the image is gone.
+            if args.command != "simulate":
+                raise
+    load_s = time.perf_counter() - t_load
+    out = OutputDir(out_path, force=args.force, allow_existing=stage_cmd)
+    run = pipeline.Run(cfg=cfg, out=out, quiet=args.quiet)
+    run.times["load"] = round(load_s, 3)
+    t0 = time.perf_counter() - load_s
+    try:
+        if args.command in ("run", "hard"):
+            files = pipeline.run_all(run, picture)
+        elif args.command == "decompose":
+            pipeline.save_config(run)
+            pipeline.stage_decompose(run, picture)
+            files = pipeline.finish(run, "decompose")
+        else:
+            layers = pipeline.read_layers(src)
+            size = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
+            if args.command == "stipple":
+                pipeline.stage_stipple(run, layers, size)
+            else:
+                dotsets = pipeline.read_dots(src, layers.count)
+                if args.command == "build":
+                    pipeline.check_dots(cfg, dotsets, size)
+                    pipeline.stage_build(run, layers, dotsets, size)
+                else:
+                    pipeline.stage_simulate(run, picture, layers, dotsets)
+            files = pipeline.finish(run, args.command)
+    except BaseException:
+        out.abort()
+        raise
+    run.times["total"] = round(time.perf_counter() - t0, 3)
+    if not args.quiet:
+        print(report.summary(run, files, out_path))
     return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
+
+__all__ = ["main", "ConfigError"]

@@ -98,7 +98,7 @@ def composite(primer: np.ndarray, colours: np.ndarray, alphas: np.ndarray) -> np
     h, w = alphas.shape[1:]
     out = np.empty((h, w, 3), dtype=np.float64)
     out[...] = np.asarray(primer, dtype=np.float64)
-    for colour, a in zip(colours, alphas):
+    for colour, a in zip(colours, alphas, strict=True):
         a3 = a[..., None]
         out *= 1.0 - a3
         out += a3 * np.asarray(colour, dtype=np.float64)

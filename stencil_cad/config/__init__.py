@@ -30,6 +30,7 @@ __all__ = [
     "StippleConfig",
     "StrictModel",
     "WallConfig",
+    "parse_overrides",
 ]
 
 
@@ -93,8 +94,12 @@ class JobConfig(StrictModel):
     )
     seed: int = Field(0, ge=0, description="Random seed; the same config and seed give the same dots.")
     size: SizeConfig = Field(default_factory=SizeConfig, description="Physical size of the picture area.")
-    decompose: DecomposeConfig = Field(default_factory=DecomposeConfig, description="Soft layer decomposition.")
-    stipple: StippleConfig = Field(default_factory=StippleConfig, description="Stippling and hole design rules.")
+    decompose: DecomposeConfig = Field(
+        default_factory=DecomposeConfig, description="Soft layer decomposition."
+    )
+    stipple: StippleConfig = Field(
+        default_factory=StippleConfig, description="Stippling and hole design rules."
+    )
     plate: PlateConfig = Field(default_factory=PlateConfig, description="The stencil plate.")
     wall: WallConfig = Field(default_factory=WallConfig, description="The interlocking wall.")
     spray: SprayConfig = Field(default_factory=SprayConfig, description="Spray simulation.")
@@ -104,3 +109,27 @@ class JobConfig(StrictModel):
     @model_validator(mode="after")
     def _cross_checks(self) -> JobConfig:
         return self
+
+
+def parse_overrides(cfg: JobConfig, image: Path | None = None, seed: int | None = None, hard: bool = False) -> JobConfig:
+    """Apply command-line overrides, validating them like config values.
+
+    Args:
+        cfg: The loaded config.
+        image: ``--image`` path, or None.
+        seed: ``--seed``, or None.
+        hard: The `hard` command forces ``mode: hard``.
+
+    Returns:
+        A new validated config.
+    """
+    from .io import parse_config
+
+    data = cfg.model_dump(mode="json")
+    if image is not None:
+        data["image"] = str(image)
+    if seed is not None:
+        data["seed"] = seed
+    if hard:
+        data["mode"] = Mode.hard.value
+    return parse_config(data, source="command line")

@@ -11,7 +11,9 @@ from .outline import OutlineConfig
 class PlateConfig(StrictModel):
     """The stencil plate."""
 
-    outline: OutlineConfig = Field(default_factory=OutlineConfig, description="Plate outline, margin and key.")
+    outline: OutlineConfig = Field(
+        default_factory=OutlineConfig, description="Plate outline, margin and key."
+    )
 
 
 class WallConfig(StrictModel):

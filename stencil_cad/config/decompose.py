@@ -2,8 +2,238 @@
 
 from __future__ import annotations
 
+import enum
+import re
+from typing import Literal
+
+from pydantic import Field, field_validator, model_validator
+
 from .base import StrictModel
+
+#: Largest number of paint layers a job may ask for. Each layer is one printed
+#: plate and one spray pass; beyond eight the plates stop paying for themselves
+#: and the colour step's normal equations (L + 1 unknowns) gain nothing.
+MAX_LAYERS = 8
+
+_HEX = re.compile(r"^#?([0-9a-fA-F]{6})$")
+
+
+def parse_colour(value: object) -> str:
+    """Normalise one colour to lower-case ``"#rrggbb"``.
+
+    Args:
+        value: ``"#1a2b3c"`` / ``"1a2b3c"`` or a sequence of three integers 0-255.
+
+    Returns:
+        The colour as ``"#rrggbb"``.
+
+    Raises:
+        ValueError: The value is neither a 6-digit hex string nor three
+            integers in 0-255.
+    """
+    if isinstance(value, str):
+        m = _HEX.match(value.strip())
+        if not m:
+            raise ValueError(f"colour {value!r} is not a 6-digit hex string like '#1a2b3c'")
+        return "#" + m.group(1).lower()
+    if isinstance(value, (list, tuple)) and len(value) == 3:
+        out = []
+        for v in value:
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or int(v) != v:
+                raise ValueError(f"colour {list(value)!r}: components must be integers 0-255")
+            if not 0 <= v <= 255:
+                raise ValueError(f"colour {list(value)!r}: component {v} is outside 0-255")
+            out.append(int(v))
+        return "#{:02x}{:02x}{:02x}".format(*out)
+    raise ValueError(f"colour {value!r} must be a hex string '#rrggbb' or a list [r, g, b] of integers 0-255")
+
+
+def colour_to_rgb(hex_colour: str) -> tuple[float, float, float]:
+    """``"#rrggbb"`` to an RGB triple of floats in [0, 1]."""
+    h = parse_colour(hex_colour)[1:]
+    return tuple(int(h[i : i + 2], 16) / 255.0 for i in (0, 2, 4))  # type: ignore[return-value]
+
+
+class LayerOrder(str, enum.Enum):
+    """Spray order of the paint layers."""
+
+    auto = "auto"
+    light_to_dark = "light_to_dark"
+    given = "given"
+
+
+class OpacitySource(str, enum.Enum):
+    """Where the opacity maps come from."""
+
+    auto = "auto"
+    rgb = "rgb"
+    alpha = "alpha"
+
+
+class EnergyWeights(StrictModel):
+    """Weights of the three energy terms (Vavilala 2015, eq. 1).
+
+    Colours and opacities are in [0, 1]; every term is a plain sum over pixels,
+    so the weights are dimensionless and independent of image size.
+    """
+
+    data: float = Field(
+        1.0,
+        gt=0.0,
+        le=1e6,
+        description=(
+            "gamma_data: weight of the reconstruction term sum_p |X_p - Y_p|^2 (colours in [0, 1]). "
+            "Range (0, 1e6]. Only its ratio to the other two weights matters."
+        ),
+    )
+    smooth: float = Field(
+        1e-3,
+        ge=0.0,
+        le=1e6,
+        description=(
+            "gamma_smooth: weight of the 8-neighbour opacity smoothness term "
+            "sum_l sum_p sum_{n in N8(p)} (alpha_l(p) - alpha_l(n))^2. Range [0, 1e6]. Larger values give "
+            "smoother, easier-to-stipple opacity maps and a blurrier reconstruction."
+        ),
+    )
+    sparse: float = Field(
+        1e-3,
+        ge=0.0,
+        le=1e6,
+        description=(
+            "gamma_sparse: weight of the sparsity term sum_p (1 - sum_l alpha_l(p))^2, which favours "
+            "about one full coat of paint per pixel. Range [0, 1e6]."
+        ),
+    )
 
 
 class DecomposeConfig(StrictModel):
-    """Settings of the decompose stage."""
+    """Settings of the decompose stage: primer + L alpha-blended paint layers."""
+
+    layers: int = Field(
+        4,
+        ge=1,
+        le=MAX_LAYERS,
+        description=(
+            f"Number of paint layers L (plates), sprayed over the primer. Integer in [1, {MAX_LAYERS}]. "
+            "With a palette list of N cans and N > layers, the best `layers` cans are chosen; with "
+            "N <= layers all N cans are used. An image with fewer distinct colours than L + 1 gets "
+            "fewer layers (with a warning)."
+        ),
+    )
+    weights: EnergyWeights = Field(
+        default_factory=EnergyWeights,
+        description="Energy weights gamma_data, gamma_smooth, gamma_sparse (dimensionless).",
+    )
+    tolerance: float = Field(
+        1e-4,
+        gt=0.0,
+        lt=1.0,
+        description=(
+            "Stop when one solver iteration lowers the energy by less than this fraction of it. "
+            "Range (0, 1)."
+        ),
+    )
+    max_iterations: int = Field(
+        200,
+        ge=1,
+        le=10000,
+        description="Most solver iterations at the finest level (each: all opacity maps, then all colours). Range [1, 10000].",
+    )
+    inner_tolerance: float = Field(
+        1e-4,
+        gt=0.0,
+        lt=1.0,
+        description=(
+            "One layer's opacity QP counts as solved when a projected SOR sweep changes no opacity by "
+            "more than this (opacity units). Range (0, 1)."
+        ),
+    )
+    inner_max_sweeps: int = Field(
+        100,
+        ge=1,
+        le=10000,
+        description="Most projected SOR sweeps per opacity QP. Range [1, 10000].",
+    )
+    palette: Literal["auto"] | tuple[str, ...] = Field(
+        "auto",
+        description=(
+            "Paint colours. 'auto': found by K-means and then refined by the solver. Or a list of the "
+            "cans you own, each a hex string '#1a2b3c' or [r, g, b] with integers 0-255: the colours "
+            f"are held fixed and only the opacities (and an 'auto' primer) are solved. 1 to {3 * MAX_LAYERS} cans."
+        ),
+    )
+    primer: str = Field(
+        "auto",
+        description=(
+            "Primer (base coat) colour. 'auto': solved with the paints (white for a grey or alpha input). "
+            "Or a hex string '#ffffff' / [r, g, b] 0-255: held fixed."
+        ),
+    )
+    order: LayerOrder = Field(
+        LayerOrder.auto,
+        description=(
+            "Spray order. Choices: auto (the order whose short coarse solve reaches the lowest energy), "
+            "light_to_dark (by luminance, lightest paint first), given (the palette list order; needs a "
+            "palette list)."
+        ),
+    )
+    opacity_source: OpacitySource = Field(
+        OpacitySource.auto,
+        description=(
+            "Choices: auto (a grey image is already an opacity map: one layer, opacity = darkness; "
+            "colour images are decomposed), rgb (always decompose the colours), alpha (the image's "
+            "alpha channel is the opacity of one layer; needs an RGBA image)."
+        ),
+    )
+    coarse_to_fine: bool = Field(
+        True,
+        description=(
+            "Solve on a pyramid (longer side halved down to `coarse_size_px`) and start each level from "
+            "the one below. Much faster on large images."
+        ),
+    )
+    coarse_size_px: int = Field(
+        96,
+        ge=16,
+        le=4096,
+        description="Longer side in px of the coarsest pyramid level. Range [16, 4096].",
+    )
+
+    @field_validator("palette", mode="before")
+    @classmethod
+    def _parse_palette(cls, value: object) -> object:
+        if isinstance(value, str):
+            if value == "auto":
+                return value
+            raise ValueError(f"must be 'auto' or a list of colours, got {value!r}")
+        if isinstance(value, (list, tuple)):
+            if not 1 <= len(value) <= 3 * MAX_LAYERS:
+                raise ValueError(f"must hold 1 to {3 * MAX_LAYERS} colours, got {len(value)}")
+            return tuple(parse_colour(v) for v in value)
+        raise ValueError(f"must be 'auto' or a list of colours, got {value!r}")
+
+    @field_validator("primer", mode="before")
+    @classmethod
+    def _parse_primer(cls, value: object) -> object:
+        if value == "auto":
+            return value
+        return parse_colour(value)
+
+    @model_validator(mode="after")
+    def _cross_checks(self) -> DecomposeConfig:
+        if self.order is LayerOrder.given and self.palette == "auto":
+            raise ValueError("order: 'given' needs a palette list, got palette: 'auto'")
+        return self
+
+    def palette_rgb(self) -> tuple[tuple[float, float, float], ...] | None:
+        """The palette as RGB triples in [0, 1], or None for 'auto'."""
+        if self.palette == "auto":
+            return None
+        return tuple(colour_to_rgb(c) for c in self.palette)
+
+    def primer_rgb(self) -> tuple[float, float, float] | None:
+        """The fixed primer as an RGB triple in [0, 1], or None for 'auto'."""
+        if self.primer == "auto":
+            return None
+        return colour_to_rgb(self.primer)

@@ -1,9 +1,233 @@
-"""Config section `stipple` (owned by the stipple stage)."""
+"""Config section `stipple` (owned by the stipple stage).
+
+Process presets set the hole floor, the minimum web between holes and the
+margin to the picture edge / label area. Each value below follows published
+design guidance (checked 2026-11):
+
+* ``fdm`` — FDM service guides advise against holes under about 2 mm diameter
+  (they print undersized or close up) and give 0.8 mm (two 0.4 mm nozzle
+  perimeters) as the thinnest printable wall (my3dpm "FDM/FFF design table";
+  Hoosier3D "Design for 3D printing"). Hole floor r = 1.0 mm, web 0.8 mm,
+  margin 3 mm.
+* ``sla`` — resin printers resolve features down to about 0.5 mm (Hycube
+  "3D design guidelines": SLA minimum feature 0.5 mm). Hole floor r = 0.5 mm,
+  web 0.5 mm, margin 2 mm.
+* ``laser`` — laser kerf is about 0.1–0.3 mm (Ponoko and Snijlab: about 0.2 mm;
+  Cut Laser Cut: 0.08–0.45 mm) and cut lines closer than about 0.5 mm can burn
+  away entirely (Cut Laser Cut, "What is laser kerf"). Hole floor r = 0.5 mm,
+  web 0.6 mm (raise it for thick or soft sheet: the same source advises webs no
+  thinner than the sheet), margin 2 mm.
+
+The global hole floor is r = 0.5 mm whatever the preset: a spray stencil hole
+smaller than 1 mm across clogs with paint.
+"""
 
 from __future__ import annotations
 
+import enum
+
+from pydantic import Field, field_validator, model_validator
+
 from .base import StrictModel
+
+#: Smallest hole radius any process may use, in mm.
+HOLE_FLOOR_MM = 0.5
+
+
+class Process(str, enum.Enum):
+    """Manufacturing process of the stencil plates."""
+
+    fdm = "fdm"
+    sla = "sla"
+    laser = "laser"
+
+
+class Tone(str, enum.Enum):
+    """How a layer's opacity becomes the stippling density."""
+
+    linear = "linear"
+    calibrated = "calibrated"
+
+
+#: Preset values per process: (hole_min_r_mm, web_mm, edge_margin_mm).
+PROCESS_PRESETS: dict[Process, tuple[float, float, float]] = {
+    Process.fdm: (1.0, 0.8, 3.0),
+    Process.sla: (0.5, 0.5, 2.0),
+    Process.laser: (0.5, 0.6, 2.0),
+}
 
 
 class StippleConfig(StrictModel):
-    """Settings of the stipple stage."""
+    """Settings of the stipple stage: dot count, hole sizes and design rules."""
+
+    process: Process = Field(
+        Process.fdm,
+        description=(
+            "Manufacturing process; sets the hole floor, web and edge margin unless they are given. "
+            "Choices: fdm (r >= 1.0 mm, web 0.8 mm, margin 3 mm), sla (r >= 0.5 mm, web 0.5 mm, "
+            "margin 2 mm), laser (r >= 0.5 mm, web 0.6 mm, margin 2 mm)."
+        ),
+    )
+    hole_min_r_mm: float | None = Field(
+        None,
+        ge=HOLE_FLOOR_MM,
+        le=20.0,
+        description="Smallest hole radius in mm, or null for the process preset. Range [0.5, 20].",
+    )
+    web_mm: float | None = Field(
+        None,
+        gt=0.0,
+        le=20.0,
+        description=(
+            "Minimum web (material left) between two holes in mm: centre distance >= r_i + r_j + web. "
+            "null for the process preset. Range (0, 20]."
+        ),
+    )
+    edge_margin_mm: float | None = Field(
+        None,
+        ge=0.0,
+        le=100.0,
+        description=(
+            "Minimum material between a hole and the picture-area border or a keep-out rectangle, in mm. "
+            "null for the process preset. Range [0, 100]. Set 0 when the plate frame already gives the margin."
+        ),
+    )
+    keepouts_mm: list[tuple[float, float, float, float]] = Field(
+        default_factory=list,
+        description=(
+            "Keep-out rectangles (label area, fixtures) in picture mm as [x0, y0, x1, y1] with x right, "
+            "y up, origin at the bottom-left of the picture area; no hole comes within edge_margin_mm."
+        ),
+    )
+    dots: int | None = Field(
+        None,
+        ge=1,
+        le=2_000_000,
+        description=(
+            "Number of dots per layer before the design rules, or null to derive it from the hole radius, "
+            "the web and the layer's ink. Range [1, 2000000]."
+        ),
+    )
+    radius_mm: float | None = Field(
+        None,
+        ge=HOLE_FLOOR_MM,
+        le=20.0,
+        description=(
+            "Hole radius in mm (the smallest radius when variable_radius is on), or null for the hole "
+            "floor. Range [0.5, 20]; must be >= the hole floor."
+        ),
+    )
+    variable_radius: bool = Field(
+        False,
+        description=(
+            "Larger holes where the density is high: r = radius + (max_radius - radius) * sqrt(density), "
+            "under the same web rule."
+        ),
+    )
+    max_radius_mm: float | None = Field(
+        None,
+        ge=HOLE_FLOOR_MM,
+        le=40.0,
+        description=(
+            "Largest hole radius in mm when variable_radius is on, or null for 2 x radius. Range [0.5, 40]; "
+            "must be >= radius."
+        ),
+    )
+    opacity_threshold: float = Field(
+        0.05,
+        ge=0.0,
+        lt=1.0,
+        description="No hole where the layer opacity is below this value. Range [0, 1).",
+    )
+    tone: Tone = Field(
+        Tone.linear,
+        description=(
+            "Opacity-to-density curve. Choices: linear (open area proportional to opacity, as in Secord "
+            "2002), calibrated (the density the spray simulator derives; the pipeline must supply it)."
+        ),
+    )
+    auto_spacing_factor: float = Field(
+        1.15,
+        ge=1.0,
+        le=4.0,
+        description=(
+            "With dots: null, the densest tone (opacity 1) is packed at this multiple of the minimum centre "
+            "spacing 2 r + web, leaving slack for the relaxation's irregularity. Range [1, 4]."
+        ),
+    )
+    max_iterations: int = Field(
+        50,
+        ge=0,
+        le=10_000,
+        description="Maximum Lloyd relaxation iterations. Range [0, 10000]; 0 keeps the importance-sampled start.",
+    )
+    tolerance_px: float = Field(
+        0.02,
+        ge=0.0,
+        le=10.0,
+        description=(
+            "Stop the relaxation when the mean centroid move of one iteration is below this, in pixels. "
+            "Range [0, 10]."
+        ),
+    )
+
+    @field_validator("keepouts_mm")
+    @classmethod
+    def _check_keepouts(cls, value: list[tuple[float, float, float, float]]):
+        for k, (x0, y0, x1, y1) in enumerate(value):
+            if not (x1 > x0 and y1 > y0):
+                raise ValueError(f"keep-out {k} must have x1 > x0 and y1 > y0, got [{x0}, {y0}, {x1}, {y1}]")
+        return value
+
+    @property
+    def resolved_hole_min_r_mm(self) -> float:
+        """Hole floor radius in mm (given value or the process preset)."""
+        if self.hole_min_r_mm is not None:
+            return float(self.hole_min_r_mm)
+        return PROCESS_PRESETS[self.process][0]
+
+    @property
+    def resolved_web_mm(self) -> float:
+        """Minimum web between holes in mm (given value or the process preset)."""
+        if self.web_mm is not None:
+            return float(self.web_mm)
+        return PROCESS_PRESETS[self.process][1]
+
+    @property
+    def resolved_edge_margin_mm(self) -> float:
+        """Margin to the picture border and keep-outs in mm (given value or the preset)."""
+        if self.edge_margin_mm is not None:
+            return float(self.edge_margin_mm)
+        return PROCESS_PRESETS[self.process][2]
+
+    @property
+    def resolved_radius_mm(self) -> float:
+        """Hole radius in mm (smallest radius with variable_radius)."""
+        if self.radius_mm is not None:
+            return float(self.radius_mm)
+        return self.resolved_hole_min_r_mm
+
+    @property
+    def resolved_max_radius_mm(self) -> float:
+        """Largest hole radius in mm (equals the radius unless variable_radius is on)."""
+        if not self.variable_radius:
+            return self.resolved_radius_mm
+        if self.max_radius_mm is not None:
+            return float(self.max_radius_mm)
+        return 2.0 * self.resolved_radius_mm
+
+    @model_validator(mode="after")
+    def _cross_checks(self) -> StippleConfig:
+        floor = self.resolved_hole_min_r_mm
+        if self.radius_mm is not None and self.radius_mm < floor:
+            raise ValueError(
+                f"stipple.radius_mm: must be >= the hole floor of {self.process.value} "
+                f"({floor} mm), got {self.radius_mm}"
+            )
+        if self.variable_radius and self.max_radius_mm is not None:
+            if self.max_radius_mm < self.resolved_radius_mm:
+                raise ValueError(
+                    f"stipple.max_radius_mm: must be >= radius ({self.resolved_radius_mm} mm), "
+                    f"got {self.max_radius_mm}"
+                )
+        return self

@@ -1,0 +1,171 @@
+"""Read a job config from YAML with one-line errors, and write the commented default config."""
+
+from __future__ import annotations
+
+import json
+import textwrap
+from pathlib import Path
+from typing import Any
+
+import yaml
+from pydantic import BaseModel, ValidationError
+
+from ..errors import ConfigError
+
+
+def _format_loc(loc: tuple) -> str:
+    parts: list[str] = []
+    for item in loc:
+        if isinstance(item, int):
+            parts.append(f"[{item}]")
+        elif item in ("function-after", "function-before") or str(item).startswith(("function-", "union[")):
+            continue
+        else:
+            parts.append(("." if parts else "") + str(item))
+    return "".join(parts) or "(top level)"
+
+
+def format_validation_error(exc: ValidationError, source: str = "config") -> str:
+    """Turn a pydantic error into one line per problem: dotted path, bad value, what is allowed.
+
+    Args:
+        exc: The pydantic error.
+        source: Name of the config file, for the message.
+
+    Returns:
+        The message; its first line alone is enough to fix the first problem.
+    """
+    lines = []
+    for err in exc.errors(include_url=False):
+        loc = _format_loc(tuple(err.get("loc", ())))
+        msg = err.get("msg", "invalid")
+        if msg.startswith("Value error, "):
+            msg = msg[len("Value error, ") :]
+        kind = err.get("type", "")
+        if kind == "extra_forbidden":
+            msg = "unknown key (check the spelling; `stencil-cad init` writes every valid key)"
+            lines.append(f"{source}: {loc}: {msg}")
+            continue
+        value = err.get("input")
+        shown = "" if kind == "missing" or isinstance(value, dict) else f", got {value!r}"
+        lines.append(f"{source}: {loc}: {msg}{shown}")
+    return "\n".join(lines)
+
+
+def parse_config(data: Any, source: str = "config"):
+    """Validate a mapping into a :class:`JobConfig`.
+
+    Raises:
+        ConfigError: With the dotted path, the bad value and what is allowed.
+    """
+    from . import JobConfig
+
+    if data is None:
+        raise ConfigError(f"{source}: the config is empty (write one with `stencil-cad init config.yaml`)")
+    if not isinstance(data, dict):
+        raise ConfigError(
+            f"{source}: the config must be a mapping of keys to values, got a {type(data).__name__} "
+            "(see templates/default.yaml)"
+        )
+    try:
+        return JobConfig.model_validate(data)
+    except ValidationError as exc:
+        raise ConfigError(format_validation_error(exc, source)) from None
+
+
+def load_config(path: Path | str):
+    """Read and validate a YAML config file.
+
+    A relative ``image`` path is resolved against the config file's folder.
+
+    Args:
+        path: The YAML file.
+
+    Returns:
+        The validated :class:`JobConfig`.
+
+    Raises:
+        ConfigError: Missing file, YAML syntax error, empty file or invalid content.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise ConfigError(f"config not found: {path} (write one with `stencil-cad init {path}`)")
+    if path.is_dir():
+        raise ConfigError(f"config path is a folder: {path} (give a .yaml file)")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise ConfigError(
+            f"{path}: not a text file (a config is YAML text; see templates/default.yaml)"
+        ) from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise ConfigError(
+            f"{path}: YAML syntax error{where}: {problem} (fix the indentation or quoting there)"
+        ) from None
+    cfg = parse_config(data, source=str(path))
+    if cfg.image is not None and not cfg.image.is_absolute():
+        cfg = cfg.model_copy(update={"image": (path.parent / cfg.image)})
+    return cfg
+
+
+def _yaml_scalar(value: Any) -> str:
+    if isinstance(value, (dict, list)):
+        return json.dumps(value)
+    dumped = yaml.safe_dump(value, default_flow_style=True, allow_unicode=True).strip()
+    if dumped.endswith("\n..."):
+        dumped = dumped[: -len("\n...")]
+    return dumped.removesuffix("...").strip()
+
+
+def _comment(text: str, indent: str) -> list[str]:
+    return [f"{indent}# {line}" for line in textwrap.wrap(text, width=96 - len(indent))]
+
+
+def _emit(model_cls: type[BaseModel], values: dict, indent: str) -> list[str]:
+    lines: list[str] = []
+    for name, field in model_cls.model_fields.items():
+        desc = field.description or ""
+        value = values.get(name)
+        ann = field.annotation
+        sub = ann if isinstance(ann, type) and issubclass(ann, BaseModel) else None
+        lines.extend(_comment(desc, indent))
+        if sub is not None and isinstance(value, dict) and value:
+            lines.append(f"{indent}{name}:")
+            lines.extend(_emit(sub, value, indent + "  "))
+        else:
+            lines.append(f"{indent}{name}: {_yaml_scalar(value)}")
+        if not indent:
+            lines.append("")
+    return lines
+
+
+def default_yaml() -> str:
+    """The commented default config: every key, with its unit, range and choices.
+
+    ``templates/default.yaml`` is this text (a test keeps them equal) and
+    ``stencil-cad init`` writes it.
+    """
+    from . import JobConfig
+
+    values = JobConfig().model_dump(mode="json")
+    head = [
+        "# stencil_cad job config. Every key is optional; the values below are the defaults.",
+        "# Run it with:  stencil-cad run this.yaml   (editors: `stencil-cad schema` prints a JSON Schema)",
+        "",
+    ]
+    return "\n".join(head + _emit(JobConfig, values, "")).rstrip() + "\n"
+
+
+def json_schema() -> dict:
+    """JSON Schema of the config, for editor completion."""
+    from . import JobConfig
+
+    schema = JobConfig.model_json_schema()
+    schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
+    schema["title"] = "stencil_cad job config"
+    return schema

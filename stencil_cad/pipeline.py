@@ -1,0 +1,405 @@
+"""The orchestrator: calls the stages in order, reports progress, writes through :mod:`output`.
+
+Stages are pure functions; this module is the only one that knows their order, which
+intermediates a stage command reads back, and which files a run writes.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import platform
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from . import __version__
+from .config import JobConfig, Mode
+from .errors import UserError
+from .model import DotSet, Layers, Picture
+from .output import MANIFEST, OutputDir
+
+log = logging.getLogger(__name__)
+
+LAYERS_NPZ = "layers.npz"
+CONFIG_COPY = "config.yaml"
+
+
+def dots_name(i: int) -> str:
+    """File name of layer ``i``'s dots (0-based index, 1-based in the name)."""
+    return f"layer_{i + 1:02d}_dots.csv"
+
+
+def layer_stem(i: int) -> str:
+    """Stem of layer ``i``'s files (0-based index, 1-based in the name)."""
+    return f"layer_{i + 1:02d}"
+
+
+@dataclass
+class Run:
+    """State of one command: config, output folder, timings and the figures for the manifest."""
+
+    cfg: JobConfig
+    out: OutputDir
+    quiet: bool = False
+    rng: np.random.Generator | None = None
+    times: dict = field(default_factory=dict)
+    figures: dict = field(default_factory=dict)
+    summary: list = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        if self.rng is None:
+            self.rng = np.random.default_rng(self.cfg.seed)
+
+    @contextlib.contextmanager
+    def stage(self, name: str) -> Iterator[None]:
+        """Time a stage."""
+        log.info("stage %s …", name)
+        t0 = time.perf_counter()
+        yield
+        self.times[name] = round(self.times.get(name, 0.0) + time.perf_counter() - t0, 3)
+
+    def bar(self, total: int | None, desc: str):
+        """A progress bar on stderr (silent with -q)."""
+        from tqdm.auto import tqdm
+
+        return tqdm(total=total, desc=desc, disable=self.quiet, leave=False, unit="it", dynamic_ncols=True)
+
+
+# --------------------------------------------------------------------------- stages
+
+
+def load_picture(cfg: JobConfig) -> Picture:
+    """Load the configured image (or the bundled example) onto the working grid."""
+    from .imaging import load_picture as _load
+
+    return _load(cfg.image, cfg.size.width_mm, cfg.size.height_mm, cfg.size.px_per_mm)
+
+
+def stage_decompose(run: Run, picture: Picture) -> Layers:
+    """Decompose the picture into a primer and paint layers, and save them."""
+    from . import decompose as dec
+
+    with run.stage("decompose"):
+        with run.bar(run.cfg.decompose.max_iterations, "decompose") as bar:
+
+            def progress(iteration: int, energy: float) -> None:
+                bar.update(1)
+                bar.set_postfix(energy=f"{energy:.4g}")
+
+            layers = dec.decompose(picture, run.cfg.decompose, run.rng, progress=progress)
+        out = run.out
+        out.write_npz(LAYERS_NPZ, dec.layers_to_npz(layers))
+        for i, a in enumerate(layers.alphas):
+            out.write_png(f"{layer_stem(i)}_opacity.png", 1.0 - a)
+        out.write_png("swatch.png", dec.swatch(layers))
+        out.write_png("composite.png", layers.composite())
+        trace = "iteration,energy\n" + "".join(f"{k},{e:.10g}\n" for k, e in enumerate(layers.energy_trace))
+        out.write_text("energy.csv", trace)
+    info = dict(layers.info)
+    run.figures["decompose"] = {
+        "layers": layers.count,
+        "primer": _hex(layers.primer),
+        "colours": [_hex(c) for c in layers.colours],
+        "iterations": layers.iterations,
+        **{k: v for k, v in info.items() if isinstance(v, (int, float, str, list))},
+    }
+    for w in info.get("warnings", []) or []:
+        log.warning("decompose: %s", w)
+    return layers
+
+
+def read_layers(folder: Path) -> Layers:
+    """Read the decomposition a previous `decompose` or `run` saved."""
+    from . import decompose as dec
+
+    path = folder / LAYERS_NPZ
+    if not path.exists():
+        raise UserError(f"{path} not found (run `stencil-cad decompose` first, or pass --from DIR)")
+    try:
+        with np.load(path) as data:
+            return dec.layers_from_npz(dict(data))
+    except (OSError, ValueError, KeyError) as exc:
+        raise UserError(f"{path}: not a readable decomposition ({exc}); re-run `stencil-cad decompose`") from None
+
+
+def stage_stipple(run: Run, layers: Layers, picture_mm: tuple[float, float]) -> list[DotSet]:
+    """Stipple every layer's opacity into holes, enforce the design rules, save CSV + previews."""
+    from . import dots as dots_mod
+    from . import stipple
+
+    width_mm, height_mm = picture_mm
+    sets: list[DotSet] = []
+    with run.stage("stipple"):
+        density_for = _density_hook(run, layers)
+        with run.bar(layers.count, "stipple") as bar:
+            for i, alpha in enumerate(layers.alphas):
+                density = density_for(i, alpha) if density_for else None
+                ds = stipple.stipple_layer(alpha, layers.mm_per_px, run.cfg.stipple, run.rng, density=density)
+                sets.append(ds)
+                bar.update(1)
+        for i, ds in enumerate(sets):
+            run.out.write_text(dots_name(i), dots_mod.dots_to_csv(ds))
+            run.out.write_png(f"{layer_stem(i)}_dots.png", dots_mod.dots_preview(ds, width_mm, height_mm))
+    run.figures["stipple"] = [
+        {"layer": i + 1, "dots": len(ds), **_plain(ds.report)} for i, ds in enumerate(sets)
+    ]
+    return sets
+
+
+def _density_hook(run: Run, layers: Layers) -> Callable | None:
+    """The calibrated tone curve, when the config asks for it."""
+    tone = getattr(run.cfg.stipple, "tone", None)
+    if tone is None or getattr(tone, "value", tone) != "calibrated":
+        return None
+    from . import simulate
+
+    def density(i: int, alpha: np.ndarray) -> np.ndarray:
+        return simulate.calibrated_density_for(alpha, layers.mm_per_px, run.cfg)
+
+    return density
+
+
+def read_dots(folder: Path, count: int | None = None) -> list[DotSet]:
+    """Read the dots CSV files of a folder, in layer order."""
+    from . import dots as dots_mod
+
+    files = sorted(folder.glob("layer_*_dots.csv"))
+    if not files:
+        raise UserError(f"no layer_NN_dots.csv in {folder} (run `stencil-cad stipple` first, or pass --from DIR)")
+    if count is not None and len(files) != count:
+        raise UserError(f"{folder} has {len(files)} dots files but the decomposition has {count} layers")
+    out = []
+    for f in files:
+        try:
+            out.append(dots_mod.dots_from_csv(f.read_text(encoding="utf-8")))
+        except ValueError as exc:
+            raise UserError(f"{f}: {exc}") from None
+    return out
+
+
+def stage_build(run: Run, layers: Layers, holes: list, picture_mm: tuple[float, float]) -> None:
+    """Build, check and export one plate per layer and the wall(s)."""
+    from . import cad, dxf, outline
+    from .cad import wall as wall_mod
+
+    cfg = run.cfg
+    width_mm, height_mm = picture_mm
+    exp = cfg.export
+    results = []
+    with run.stage("build"):
+        ring = outline.plate_outline(width_mm, height_mm, cfg.plate.outline)
+        with run.bar(len(holes), "build") as bar:
+            for i, h in enumerate(holes):
+                label = cad.LabelInfo(
+                    layer=i + 1,
+                    layers=len(holes),
+                    colour=_hex(layers.colours[i]),
+                    job=cfg.name,
+                )
+                model = cad.build_plate(h, width_mm, height_mm, cfg.plate, label)
+                check = cad.check_plate(model, h)
+                stem = layer_stem(i)
+                if exp.step:
+                    with run.out.open_path(f"{stem}.step") as p:
+                        cad.write_step(model, p)
+                if exp.stl:
+                    with run.out.open_path(f"{stem}.stl") as p:
+                        cad.write_stl(model, p, exp.stl_tolerance_mm)
+                if exp.dxf:
+                    with run.out.open_path(f"{stem}.dxf") as p:
+                        _write_layer_dxf(p, ring, h, stem, exp)
+                results.append({"layer": i + 1, **_plain(check)})
+                bar.update(1)
+        walls = []
+        for height in wall_mod.wall_heights(cfg.wall):
+            wm = wall_mod.build_wall(width_mm, height_mm, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, height)
+            suffix = "" if len(cfg.wall.heights_mm) == 1 else f"_{height:g}mm"
+            with run.out.open_path(f"wall{suffix}.step") as p:
+                wall_mod.write_wall_step(wm, p)
+            with run.out.open_path(f"wall{suffix}.stl") as p:
+                wall_mod.write_wall_stl(wm, p, exp.stl_tolerance_mm)
+            walls.append({"height_mm": height, **_plain(getattr(wm, "report", {}) or {})})
+    run.figures["build"] = {"plates": results, "walls": walls}
+    del dxf
+
+
+def _write_layer_dxf(path: Path, ring: np.ndarray, holes, stem: str, exp) -> None:
+    from . import dxf
+
+    if isinstance(holes, DotSet):
+        circles = np.column_stack([holes.xy_mm, holes.r_mm])
+        dxf.write_dxf(path, ring, circles_xy_r=circles, layer_name=stem.upper(), kerf_mm=exp.dxf_kerf_mm)
+    else:
+        dxf.write_dxf(path, ring, polygons=holes.polygons, layer_name=stem.upper(), kerf_mm=exp.dxf_kerf_mm)
+
+
+def stage_simulate(run: Run, picture: Picture | None, layers: Layers, dotsets: list[DotSet]) -> dict:
+    """Spray every plate in simulation, composite, score against the input, save previews."""
+    from . import simulate
+
+    with run.stage("simulate"):
+        sim = simulate.simulate(layers, dotsets, run.cfg.spray)
+        reference = picture.rgb if picture is not None else layers.composite()
+        ref = _resample(reference, sim.composite.shape[:2])
+        scores = simulate.score(ref, sim.composite)
+        run.out.write_png("simulated.png", sim.composite)
+        run.out.write_png(
+            "preview.png", simulate.preview(ref, _resample(layers.composite(), sim.composite.shape[:2]), sim.composite)
+        )
+        run.out.write_png("sweep.png", simulate.sweep(layers, dotsets, run.cfg.spray))
+    run.figures["simulate"] = {**_plain(scores), "layer_rmse": [float(x) for x in sim.layer_rmse]}
+    return scores
+
+
+def _resample(img: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    from skimage.transform import resize
+
+    if img.shape[:2] == tuple(shape):
+        return img
+    return np.clip(resize(img, (*shape, img.shape[2]), order=1, anti_aliasing=True), 0, 1)
+
+
+# --------------------------------------------------------------------------- commands
+
+
+def save_config(run: Run) -> None:
+    """Write the resolved config beside the results, so stage commands can re-read it."""
+    data = run.cfg.model_dump(mode="json")
+    run.out.write_text(CONFIG_COPY, yaml.safe_dump(data, sort_keys=False))
+
+
+def finish(run: Run, command: str) -> list[Path]:
+    """Write the manifest and move every file into place."""
+    manifest = {
+        "command": command,
+        "stencil_cad": __version__,
+        "versions": _versions(),
+        "config": run.cfg.model_dump(mode="json"),
+        "seconds": run.times,
+        **run.figures,
+        "files": run.out.file_table(),
+    }
+    run.out.write_json(MANIFEST, manifest)
+    return run.out.commit()
+
+
+def _versions() -> dict:
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = {"python": platform.python_version()}
+    for dist in ("build123d", "cadquery-ocp", "numpy", "scipy", "scikit-image", "ezdxf", "numba"):
+        try:
+            out[dist] = version(dist)
+        except PackageNotFoundError:
+            out[dist] = None
+    out["OCP"] = out.pop("cadquery-ocp")
+    return out
+
+
+def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
+    """The whole job: every stage in order."""
+    cfg = run.cfg
+    if picture is None:
+        with run.stage("load"):
+            picture = load_picture(cfg)
+    save_config(run)
+    size = (picture.width_mm, picture.height_mm)
+    run.figures["picture"] = {
+        "source": picture.source,
+        "width_mm": round(size[0], 3),
+        "height_mm": round(size[1], 3),
+        "pixels": list(picture.shape),
+        "mm_per_px": picture.mm_per_px,
+    }
+    if cfg.mode == Mode.hard:
+        return run_hard(run, picture)
+    layers = stage_decompose(run, picture)
+    dotsets = stage_stipple(run, layers, size)
+    stage_build(run, layers, dotsets, size)
+    stage_simulate(run, picture, layers, dotsets)
+    return finish(run, "run")
+
+
+def run_hard(run: Run, picture: Picture) -> list[Path]:
+    """Hard-stencil mode: segmentation, bridges, plates with polygon cut-outs, simulation."""
+    from . import hardstencil, simulate
+
+    cfg = run.cfg
+    size = (picture.width_mm, picture.height_mm)
+    with run.stage("segment"):
+        rules = _process_rules(cfg)
+        hard = hardstencil.make_hard_stencils(
+            picture, cfg.hard, rules["min_feature_mm"], rules["bridge_min_mm"], run.rng
+        )
+        run.out.write_png("segmentation.png", hard.palette[hard.labels])
+    run.figures["hard"] = _plain(hard.report)
+    layers = Layers(
+        primer=hard.primer,
+        colours=np.array([cl.colour for cl in hard.cut_layers]).reshape(-1, 3),
+        alphas=hard.cut_masks.astype(np.float64),
+        mm_per_px=picture.mm_per_px,
+    )
+    stage_build(run, layers, hard.cut_layers, size)
+    with run.stage("simulate"):
+        sim_alphas = np.stack([simulate.spray_mask(m, picture.mm_per_px, cfg.spray) for m in hard.cut_masks])
+        from .model import composite
+
+        comp = composite(hard.primer, layers.colours, sim_alphas)
+        scores = simulate.score(picture.rgb, comp)
+        run.out.write_png("simulated.png", comp)
+        run.out.write_png("preview.png", simulate.preview(picture.rgb, hard.palette[hard.labels], comp))
+    run.figures["simulate"] = _plain(scores)
+    return finish(run, "hard")
+
+
+def check_dots(cfg: JobConfig, dotsets: list[DotSet], picture_mm: tuple[float, float]) -> None:
+    """Check dots read from files against the design rules before any CAD.
+
+    Raises:
+        UserError: Naming the file's layer and the first offending dots.
+    """
+    from . import dots as dots_mod
+
+    rules = dots_mod.rules_from_config(cfg.stipple, *picture_mm)
+    for i, ds in enumerate(dotsets):
+        try:
+            dots_mod.check_rules(ds.xy_mm, ds.r_mm, rules)
+        except ValueError as exc:
+            raise UserError(f"{dots_name(i)}: {exc}") from None
+
+
+def _process_rules(cfg: JobConfig) -> dict:
+    from . import dots as dots_mod
+
+    rules = dots_mod.rules_from_config(cfg.stipple, cfg.size.width_mm, cfg.size.height_mm or cfg.size.width_mm)
+    return {"min_feature_mm": 2 * rules.hole_min_r_mm, "bridge_min_mm": max(rules.web_mm, 1.0)}
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def _hex(c) -> str:
+    c = np.clip(np.asarray(c, dtype=float), 0, 1)
+    return "#" + "".join(f"{round(v * 255):02x}" for v in c)
+
+
+def _plain(d) -> dict:
+    """Keep the JSON-friendly scalars of a report dict."""
+    out = {}
+    for k, v in (d or {}).items():
+        if isinstance(v, np.generic):
+            v = v.item()
+        if isinstance(v, float) and not np.isfinite(v):
+            v = None
+        if isinstance(v, (int, float, str, bool, type(None))):
+            out[k] = v
+        elif isinstance(v, (list, tuple)) and all(isinstance(x, (int, float, str, bool)) for x in v):
+            out[k] = list(v)
+        elif isinstance(v, dict):
+            out[k] = _plain(v)
+    return out

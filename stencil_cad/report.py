@@ -1,0 +1,70 @@
+"""The one-screen summary printed at the end of a run."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def _fmt(v, digits: int = 3) -> str:
+    if isinstance(v, float):
+        return f"{v:.{digits}g}"
+    return str(v)
+
+
+def summary(run, files: list[Path], out_path: Path) -> str:
+    """Files written, dots per layer, smallest web, validation, quality and time per stage."""
+    f = run.figures
+    lines = [f"stencil-cad: {run.cfg.name} → {out_path}/ ({len(files)} files)"]
+    pic = f.get("picture")
+    if pic:
+        lines.append(
+            f"  picture   {pic['width_mm']:g} × {pic['height_mm']:g} mm, {pic['pixels'][1]}×{pic['pixels'][0]} px "
+            f"({pic['source']})"
+        )
+    dec = f.get("decompose")
+    if dec:
+        rmse = dec.get("rmse")
+        lines.append(
+            f"  layers    {dec['layers']} on primer {dec['primer']}: {' '.join(dec['colours'])}"
+            + (f"  (composite RMSE {_fmt(rmse)} /255, {dec['iterations']} iterations)" if rmse is not None else "")
+        )
+    for row in f.get("stipple", []):
+        lines.append(
+            f"  layer {row['layer']:02d}  {row['dots']:6d} holes  smallest web {_fmt(row.get('min_web_mm'))} mm"
+            f"  removed {row.get('removed', 0)}  merged {row.get('merged', 0)}  nudged {row.get('nudged', 0)}"
+        )
+    hard = f.get("hard")
+    if hard:
+        lines.append("  hard      " + ", ".join(f"{k} {_fmt(v)}" for k, v in hard.items() if not isinstance(v, (list, dict))))
+    build = f.get("build")
+    if build:
+        ok = all(p.get("valid", False) for p in build["plates"])
+        for p in build["plates"]:
+            lines.append(
+                f"  plate {p['layer']:02d}  {'valid' if p.get('valid') else 'INVALID'}, {p.get('n_solids', '?')} solid, "
+                f"holes {p.get('hole_count', '?')}, volume error {_fmt(p.get('rel_error'))}"
+            )
+        lines.append(f"  walls     {', '.join(_fmt(w['height_mm']) + ' mm' for w in build['walls'])}")
+        lines.append(f"  checks    {'all solids valid' if ok else 'SOME SOLIDS FAILED — see manifest.json'}")
+    sim = f.get("simulate")
+    if sim:
+        lines.append(
+            f"  spray     ΔE2000 mean {_fmt(sim.get('de2000_mean'))}, p95 {_fmt(sim.get('de2000_p95'))}, "
+            f"PSNR {_fmt(sim.get('psnr'))} dB, SSIM {_fmt(sim.get('ssim'))}"
+        )
+    times = ", ".join(f"{k} {v:.1f} s" for k, v in run.times.items())
+    lines.append(f"  time      {times}")
+    names = sorted(p.name for p in files)
+    lines.append("  files     " + _wrap(names))
+    return "\n".join(lines)
+
+
+def _wrap(names: list[str], width: int = 100) -> str:
+    out, line = [], ""
+    for n in names:
+        if line and len(line) + len(n) + 2 > width - 12:
+            out.append(line)
+            line = ""
+        line = f"{line}, {n}" if line else n
+    out.append(line)
+    return "\n            ".join(out)

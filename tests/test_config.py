@@ -1,0 +1,105 @@
+from pathlib import Path
+
+import pytest
+
+from stencil_cad.config import JobConfig
+from stencil_cad.config.io import default_yaml, json_schema, load_config, parse_config
+from stencil_cad.errors import ConfigError
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_default_yaml_is_the_shipped_template():
+    shipped = (ROOT / "templates" / "default.yaml").read_text(encoding="utf-8")
+    assert shipped == default_yaml(), "regenerate with: python -m stencil_cad init templates/default.yaml --force"
+
+
+def test_default_yaml_round_trips(tmp_path):
+    p = tmp_path / "c.yaml"
+    p.write_text(default_yaml())
+    assert load_config(p) == JobConfig()
+
+
+def _walk(model_cls, prefix=""):
+    from pydantic import BaseModel
+
+    for name, field in model_cls.model_fields.items():
+        yield prefix + name, field
+        ann = field.annotation
+        if isinstance(ann, type) and issubclass(ann, BaseModel):
+            yield from _walk(ann, prefix + name + ".")
+
+
+def test_every_key_is_documented():
+    undocumented = [k for k, f in _walk(JobConfig) if not (f.description and len(f.description) > 10)]
+    assert undocumented == []
+
+
+def test_unknown_key_names_the_dotted_path():
+    with pytest.raises(ConfigError) as e:
+        parse_config({"size": {"widht_mm": 100}})
+    assert "size.widht_mm" in str(e.value)
+    assert "unknown key" in str(e.value)
+
+
+def test_out_of_range_names_path_value_and_limit():
+    with pytest.raises(ConfigError) as e:
+        parse_config({"size": {"width_mm": -5}})
+    msg = str(e.value)
+    assert "size.width_mm" in msg and "-5" in msg and "greater than 10" in msg
+
+
+def test_wrong_type():
+    with pytest.raises(ConfigError) as e:
+        parse_config({"seed": "abc"})
+    assert "seed" in str(e.value) and "'abc'" in str(e.value)
+
+
+def test_bad_choice_lists_choices():
+    with pytest.raises(ConfigError) as e:
+        parse_config({"mode": "medium"})
+    assert "mode" in str(e.value) and "'soft'" in str(e.value) and "'hard'" in str(e.value)
+
+
+def test_empty_config_file(tmp_path):
+    p = tmp_path / "empty.yaml"
+    p.write_text("# nothing\n")
+    with pytest.raises(ConfigError, match="empty"):
+        load_config(p)
+
+
+def test_yaml_syntax_error_has_line(tmp_path):
+    p = tmp_path / "bad.yaml"
+    p.write_text("name: a\nsize:\n  width_mm: [1, 2\n")
+    with pytest.raises(ConfigError, match=r"YAML syntax error at line \d+"):
+        load_config(p)
+
+
+def test_not_a_mapping(tmp_path):
+    p = tmp_path / "list.yaml"
+    p.write_text("- 1\n- 2\n")
+    with pytest.raises(ConfigError, match="mapping"):
+        load_config(p)
+
+
+def test_missing_config(tmp_path):
+    with pytest.raises(ConfigError, match="not found"):
+        load_config(tmp_path / "nope.yaml")
+
+
+def test_relative_image_is_taken_from_config_folder(tmp_path):
+    p = tmp_path / "c.yaml"
+    p.write_text("image: pics/a.png\n")
+    assert load_config(p).image == tmp_path / "pics" / "a.png"
+
+
+def test_config_is_frozen():
+    cfg = JobConfig()
+    with pytest.raises(Exception):
+        cfg.seed = 3
+
+
+def test_json_schema_forbids_extra_keys():
+    schema = json_schema()
+    assert schema["additionalProperties"] is False
+    assert "size" in schema["properties"]
