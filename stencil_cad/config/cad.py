@@ -2,23 +2,263 @@
 
 from __future__ import annotations
 
-from pydantic import Field
+import enum
+from pathlib import Path
+from typing import Annotated
+
+from pydantic import Field, model_validator
 
 from .base import StrictModel
 from .outline import OutlineConfig
 
 
+class LabelMode(str, enum.Enum):
+    """How the label is made on the plate's top face."""
+
+    engrave = "engrave"
+    emboss = "emboss"
+    none = "none"
+
+
 class PlateConfig(StrictModel):
-    """The stencil plate."""
+    """The stencil plate: a flat sheet with a hole per dot, a solid border and a label."""
 
     outline: OutlineConfig = Field(
         default_factory=OutlineConfig, description="Plate outline, margin and key."
     )
+    thickness_mm: float = Field(
+        1.2,
+        ge=0.4,
+        le=20.0,
+        description="Plate thickness in mm. Range [0.4, 20]. Plates are exported flat, z from 0 to the thickness.",
+    )
+    label: LabelMode = Field(
+        LabelMode.engrave,
+        description=(
+            "Label on the top face's bottom border: layer number, spray order, paint colour, job name and "
+            "an arrow pointing to the picture's top (it reads correctly only from above). "
+            "Choices: engrave (cut into the top), emboss (raised), none."
+        ),
+    )
+    label_depth_mm: float = Field(
+        0.4,
+        gt=0.0,
+        le=5.0,
+        description=(
+            "Depth of an engraved label, or height of an embossed one, in mm. Range (0, 5]; an engraving "
+            "must leave ≥ 0.3 mm of plate under it (≤ thickness_mm - 0.3)."
+        ),
+    )
+    label_height_mm: float = Field(
+        4.0,
+        ge=1.0,
+        le=50.0,
+        description=(
+            "Font size of the label in mm. Range [1, 50]. The label shrinks to fit the label area of the "
+            "border (outline.margin_mm - 2 * outline.label_gap_mm high), but never below label_min_height_mm."
+        ),
+    )
+    label_min_height_mm: float = Field(
+        2.0,
+        ge=1.0,
+        le=50.0,
+        description=(
+            "Smallest font size in mm the label may shrink to; below it the build fails with a message. "
+            "Range [1, 50]."
+        ),
+    )
+    label_font: str = Field(
+        "DejaVu Sans",
+        min_length=1,
+        max_length=100,
+        description="Font family of the label (a system font); OCCT's fallback font is used if it is missing.",
+    )
+    label_tolerance_mm: float = Field(
+        0.01,
+        gt=0.0,
+        le=0.1,
+        description=(
+            "Largest distance in mm between a letter's curved outline and the polygon that replaces it in "
+            "the plate. Range (0, 0.1]. Letters are polygons so that STEP, STL and B-rep agree exactly."
+        ),
+    )
+    min_web_mm: float = Field(
+        0.1,
+        gt=0.0,
+        le=5.0,
+        description=(
+            "Smallest web in mm between two holes, and between a hole and the picture edge, that the plate "
+            "accepts when it re-checks the dots (the stipple stage enforces the process web). Range (0, 5]. "
+            "Dots that break it, or holes below the 0.5 mm radius floor, stop the build with a list."
+        ),
+    )
+    full_check_max_holes: int = Field(
+        300,
+        ge=0,
+        le=100000,
+        description=(
+            "Plates with at most this many holes get OCCT's full B-rep check (BRepCheck_Analyzer, whose cost "
+            "grows with the square of the hole count on one face); larger plates are checked on tiles of "
+            "the same construction plus linear whole-plate checks. Range [0, 100000]."
+        ),
+    )
+    template: Path | None = Field(
+        None,
+        description=(
+            "Plate template: a Python file with module-level parameters and build(...), like "
+            "templates/plate.py (build123d) or templates/plate_cadquery.py (CadQuery, needs the cadquery "
+            "extra). A relative path is taken from the config file's folder. null: the built-in template."
+        ),
+    )
+    template_params: dict[str, float | int | bool | str] = Field(
+        default_factory=dict,
+        description=(
+            "Values for the template's own module-level parameters, by name (UPPER_CASE, as in the file). "
+            "A name the template does not define is an error."
+        ),
+    )
+
+    @model_validator(mode="after")
+    def _check(self) -> PlateConfig:
+        if self.label is LabelMode.engrave and self.label_depth_mm > self.thickness_mm - 0.3:
+            raise ValueError(
+                f"label_depth_mm must be ≤ thickness_mm - 0.3 ({self.thickness_mm - 0.3:g} mm) for an "
+                f"engraved label, got {self.label_depth_mm}"
+            )
+        if self.label_min_height_mm > self.label_height_mm:
+            raise ValueError(
+                f"label_min_height_mm must be ≤ label_height_mm ({self.label_height_mm} mm), "
+                f"got {self.label_min_height_mm}"
+            )
+        return self
 
 
 class WallConfig(StrictModel):
-    """The interlocking wall."""
+    """The interlocking wall: a frame standing on the surface that holds every plate at a stand-off height.
+
+    Its inner opening is the picture area (plus ``opening_margin_mm``), so it never shadows the
+    picture and keeps overspray inside it; at its top a pocket, the plate outline offset by the
+    clearance, takes the plate, whose key tabs drop into matching notches.
+    """
+
+    standoff_mm: list[Annotated[float, Field(ge=0.5, le=300.0)]] = Field(
+        default_factory=lambda: [10.0],
+        min_length=1,
+        max_length=8,
+        description=(
+            "Stand-off heights in mm: the plate's underside above the sprayed surface. One wall is made "
+            "per value, and every wall takes the same plates. Each in [0.5, 300]; 1 to 8 values. "
+            "A wall's total height is its stand-off plus the pocket depth."
+        ),
+    )
+    clearance_mm: float = Field(
+        0.2,
+        ge=0.0,
+        le=2.0,
+        description="Gap in mm between the plate's outline and the wall's pocket, all round. Range [0, 2].",
+    )
+    wall_thickness_mm: float = Field(
+        3.0,
+        ge=1.0,
+        le=30.0,
+        description="Thickness in mm of the wall's rim outside the pocket and its notches. Range [1, 30].",
+    )
+    opening_margin_mm: float = Field(
+        0.0,
+        ge=0.0,
+        le=50.0,
+        description=(
+            "How far in mm the wall's inner opening reaches beyond the picture area on every side. "
+            "Range [0, 50], and it must leave a ledge ≥ 1 mm under the plate's border "
+            "(plate.outline.margin_mm + clearance_mm - opening_margin_mm). 0 puts the wall's inner "
+            "face on the picture's edge, which gives the sharpest edge of spray."
+        ),
+    )
+    pocket_depth_mm: float | None = Field(
+        None,
+        gt=0.0,
+        le=50.0,
+        description=(
+            "Depth in mm of the pocket the plate sits in, at most the plate's thickness. Range (0, 50]. "
+            "null: the plate's thickness, so the plate's top is flush with the wall's top."
+        ),
+    )
+
+    finger_slot_mm: float = Field(
+        16.0,
+        ge=0.0,
+        le=100.0,
+        description=(
+            "Width in mm of a slot through the rim at the middle of the top side, reaching 3 mm under the "
+            "plate's edge and 1.5 mm below it, to lift the plate out with a fingernail. Range [0, 100]; "
+            "0: no slot."
+        ),
+    )
+
+    def pocket_depth(self, plate_thickness_mm: float) -> float:
+        """Pocket depth in mm for a plate of the given thickness."""
+        return plate_thickness_mm if self.pocket_depth_mm is None else self.pocket_depth_mm
+
+    def heights(self) -> list[float]:
+        """The distinct stand-off heights in mm, ascending."""
+        return sorted(set(self.standoff_mm))
+
+    def check_plate(self, outline: OutlineConfig, plate_thickness_mm: float) -> None:
+        """Cross-checks against the plate; the job config calls this.
+
+        Args:
+            outline: The plate's outline config.
+            plate_thickness_mm: The plate's thickness in mm.
+
+        Raises:
+            ValueError: Naming the value and its limit.
+        """
+        if self.pocket_depth_mm is not None and self.pocket_depth_mm > plate_thickness_mm:
+            raise ValueError(
+                f"wall.pocket_depth_mm must be ≤ plate thickness ({plate_thickness_mm} mm), got {self.pocket_depth_mm}"
+            )
+        ledge = outline.margin_mm + self.clearance_mm - self.opening_margin_mm
+        if ledge < 1.0:
+            raise ValueError(
+                f"wall.opening_margin_mm must leave a ledge ≥ 1 mm under the plate: plate.outline.margin_mm "
+                f"({outline.margin_mm}) + clearance_mm ({self.clearance_mm}) - opening_margin_mm "
+                f"({self.opening_margin_mm}) = {ledge:g} mm"
+            )
+        for i, k in enumerate(outline.keys):
+            if k.depth_mm <= 2.0 * self.clearance_mm:
+                raise ValueError(
+                    f"plate.outline.keys[{i}].depth_mm must exceed twice wall.clearance_mm "
+                    f"({2.0 * self.clearance_mm:g} mm), got {k.depth_mm}"
+                )
 
 
 class ExportConfig(StrictModel):
     """Which files are written and how."""
+
+    step: bool = Field(
+        True, description="Write a STEP file per plate (exact circles, one solid). true/false."
+    )
+    stl: bool = Field(
+        True, description="Write a binary STL per plate (watertight, consistently wound). true/false."
+    )
+    dxf: bool = Field(
+        True, description="Write a DXF per plate for laser cutting (outline and holes). true/false."
+    )
+    three_mf: bool = Field(
+        False, description="Also write a 3MF mesh per plate (same mesh as the STL). true/false."
+    )
+    stl_tolerance_mm: float = Field(
+        0.02,
+        ge=0.001,
+        le=0.5,
+        description=(
+            "Largest distance in mm between a round hole and the polygon that replaces it in the STL/3MF. "
+            "Range [0.001, 0.5]. Hole polygons keep each hole's exact area (the spray flow follows it)."
+        ),
+    )
+    dxf_kerf_mm: float = Field(
+        0.0,
+        ge=0.0,
+        le=1.0,
+        description="Laser kerf in mm; DXF contours are offset by half of it so cut parts keep their size. Range [0, 1].",
+    )

@@ -97,7 +97,7 @@ class EnergyWeights(StrictModel):
         ),
     )
     sparse: float = Field(
-        1e-3,
+        3e-4,
         ge=0.0,
         le=1e6,
         description=(
@@ -126,7 +126,7 @@ class DecomposeConfig(StrictModel):
         description="Energy weights gamma_data, gamma_smooth, gamma_sparse (dimensionless).",
     )
     tolerance: float = Field(
-        1e-4,
+        2e-3,
         gt=0.0,
         lt=1.0,
         description=(

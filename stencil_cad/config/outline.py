@@ -21,7 +21,9 @@ class Side(str, enum.Enum):
 class KeyTab(StrictModel):
     """One tab standing out of the plate outline; the wall's pocket has a matching notch."""
 
-    side: Side = Field(Side.bottom, description="Side of the plate the tab stands on. Choices: bottom, right, top, left.")
+    side: Side = Field(
+        Side.bottom, description="Side of the plate the tab stands on. Choices: bottom, right, top, left."
+    )
     position: float = Field(
         0.3,
         gt=0.0,
@@ -32,7 +34,9 @@ class KeyTab(StrictModel):
             "Keep it off 0.5 so that the plate cannot go in rotated or flipped."
         ),
     )
-    width_mm: float = Field(12.0, gt=1.0, le=200.0, description="Width of the tab along its side in mm. Range (1, 200].")
+    width_mm: float = Field(
+        12.0, gt=1.0, le=200.0, description="Width of the tab along its side in mm. Range (1, 200]."
+    )
     depth_mm: float = Field(
         3.0,
         gt=0.5,
@@ -121,7 +125,7 @@ class OutlineConfig(StrictModel):
             rk = self.key_corner_radius_mm
             if 2.0 * rk > k.width_mm or rk >= k.depth_mm:
                 raise ValueError(
-                    f"keys[{i}]: key_corner_radius_mm ({rk} mm) must be ≤ half the tab width "
-                    f"({k.width_mm} mm) and < its depth ({k.depth_mm} mm)"
+                    f"keys[{i}]: key_corner_radius_mm ({rk} mm) must be ≤ half the tab's width "
+                    f"({0.5 * k.width_mm:g} mm) and < its depth ({k.depth_mm} mm)"
                 )
         return self

@@ -221,13 +221,12 @@ class StippleConfig(StrictModel):
         floor = self.resolved_hole_min_r_mm
         if self.radius_mm is not None and self.radius_mm < floor:
             raise ValueError(
-                f"stipple.radius_mm: must be >= the hole floor of {self.process.value} "
-                f"({floor} mm), got {self.radius_mm}"
+                f"radius_mm must be ≥ the hole floor ({floor} mm for process {self.process.value}), "
+                f"got {self.radius_mm}"
             )
         if self.variable_radius and self.max_radius_mm is not None:
             if self.max_radius_mm < self.resolved_radius_mm:
                 raise ValueError(
-                    f"stipple.max_radius_mm: must be >= radius ({self.resolved_radius_mm} mm), "
-                    f"got {self.max_radius_mm}"
+                    f"max_radius_mm must be ≥ radius_mm ({self.resolved_radius_mm} mm), got {self.max_radius_mm}"
                 )
         return self

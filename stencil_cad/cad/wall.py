@@ -1,0 +1,313 @@
+"""The interlocking wall: a frame on the surface that holds every plate at its stand-off height.
+
+Cross-section, from the surface (z = 0) up::
+
+    z = s + p  ┌──rim──┐            pocket (plate outline + clearance), depth p
+               │       └────ledge───┐
+    z = s      │                    │ inner opening (picture area + opening margin)
+    z = 0      └────────────────────┘
+
+The frame's inner face is the picture's edge (or just beyond it), so it never shadows the
+picture and keeps overspray inside it. The pocket is the plate outline offset outward by the
+clearance, notches included, so the keyed plate drops in one way only and every layer's
+plate sits in the same place. The wall prints as built: base on the bed, pocket on top, no
+overhangs. Coordinates are the picture frame (mm, picture area ``[0, w] x [0, h]``), the
+frame the plates use, so a plate moved up by the stand-off sits exactly in its pocket.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import build123d as bd
+import numpy as np
+
+from ..config.cad import WallConfig
+from ..config.outline import OutlineConfig
+from ..outline import Segment, check_key, fits, min_clearance, outline_path, path_area, path_ring
+
+__all__ = ["Wall", "WallModel", "build_wall", "wall_heights", "wall_step", "wall_stl"]
+
+log = logging.getLogger(__name__)
+
+
+def wall_heights(wall_cfg: WallConfig) -> list[float]:
+    """The stand-off heights (mm) to build a wall for, distinct and ascending."""
+    return wall_cfg.heights()
+
+
+@dataclass(frozen=True)
+class WallRings:
+    """The three outlines a wall is made of, as exact paths (picture frame, mm).
+
+    Attributes:
+        outer: The wall's outside: the pocket grown by the wall thickness.
+        pocket: The plate outline grown by the clearance.
+        opening: The inner opening, a rectangle around the picture area.
+    """
+
+    outer: list[Segment]
+    pocket: list[Segment]
+    opening: list[Segment]
+
+
+def _rect_path(x0: float, y0: float, x1: float, y1: float) -> list[Segment]:
+    pts = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
+    return [Segment(pts[i], pts[(i + 1) % 4]) for i in range(4)]
+
+
+def wall_rings(
+    width_mm: float, height_mm: float, outline_cfg: OutlineConfig, wall_cfg: WallConfig
+) -> WallRings:
+    """The outer, pocket and opening outlines of a wall.
+
+    The outer outline follows the pocket (tabs included) at the wall thickness; where the
+    grown tabs would reach a corner or each other, it falls back to a rounded rectangle that
+    encloses every notch with at least the wall thickness.
+    """
+    c, t = wall_cfg.clearance_mm, wall_cfg.wall_thickness_mm
+    pocket = outline_path(width_mm, height_mm, outline_cfg, c)
+    try:
+        outer = outline_path(width_mm, height_mm, outline_cfg, c + t)
+    except ValueError:
+        log.info("wall: the key tabs are too close to fit the rim's shape; using a plain rounded rectangle")
+        plain = outline_cfg.model_copy(update={"keys": []})
+        outer = outline_path(width_mm, height_mm, plain, c + t + max(k.depth_mm for k in outline_cfg.keys))
+    o = wall_cfg.opening_margin_mm
+    opening = _rect_path(-o, -o, width_mm + o, height_mm + o)
+    return WallRings(outer=outer, pocket=pocket, opening=opening)
+
+
+def _wire(path: list[Segment], z: float) -> bd.Wire:
+    edges = []
+    for s in path:
+        p0, p1 = bd.Vector(*s.start, z), bd.Vector(*s.end, z)
+        if s.is_arc:
+            edges.append(bd.Edge.make_three_point_arc(p0, bd.Vector(*s.midpoint(), z), p1))
+        else:
+            edges.append(bd.Edge.make_line(p0, p1))
+    return bd.Wire(edges)
+
+
+def _prism(path: list[Segment], z0: float, z1: float) -> bd.Solid:
+    # The face's normal may point down (build123d picks it from the wire), so the extrusion
+    # direction is given explicitly and the result's bbox is checked by the caller.
+    return bd.Solid.extrude(bd.Face(_wire(path, z0)), bd.Vector(0, 0, z1 - z0))
+
+
+class Wall(bd.BasePartObject):
+    """The interlocking wall as a build123d part (usable in BuildPart or algebra mode).
+
+    Args:
+        width_mm: Picture width in mm.
+        height_mm: Picture height in mm.
+        outline: The plate's outline config (margin, key).
+        wall: Wall config (clearance, thickness, opening, pocket depth).
+        plate_thickness_mm: The plate's thickness in mm.
+        standoff_mm: Height in mm of the plate's underside above the surface.
+        rotation: Rotation applied after building. Defaults to none.
+        align: Alignment; None (default) keeps the picture frame, which registration needs.
+        mode: Builder combine mode. Defaults to ADD.
+
+    Raises:
+        ValueError: If the sizes do not make a wall (naming the value and its limit).
+    """
+
+    _applies_to = [bd.BuildPart._tag]
+
+    def __init__(
+        self,
+        width_mm: float,
+        height_mm: float,
+        outline: OutlineConfig,
+        wall: WallConfig,
+        plate_thickness_mm: float,
+        standoff_mm: float,
+        rotation: bd.RotationLike = (0, 0, 0),
+        align: bd.Align | tuple[bd.Align, bd.Align, bd.Align] | None = None,
+        mode: bd.Mode = bd.Mode.ADD,
+    ):
+        if plate_thickness_mm <= 0:
+            raise ValueError(f"plate thickness must be > 0 mm, got {plate_thickness_mm}")
+        if standoff_mm < 0.5:
+            raise ValueError(f"wall stand-off must be ≥ 0.5 mm, got {standoff_mm}")
+        wall.check_plate(outline, plate_thickness_mm)
+        self.rings = wall_rings(width_mm, height_mm, outline, wall)
+        self.standoff_mm = float(standoff_mm)
+        self.pocket_depth_mm = float(wall.pocket_depth(plate_thickness_mm))
+        self.total_height_mm = self.standoff_mm + self.pocket_depth_mm
+        s, top = self.standoff_mm, self.total_height_mm
+        solid = _prism(self.rings.outer, 0.0, top)
+        # Cutters overshoot the faces they open so no coplanar boolean is left to chance.
+        cut = _prism(self.rings.opening, -1.0, top + 1.0).fuse(_prism(self.rings.pocket, s, top + 1.0))
+        self.slot_volume_mm3 = 0.0
+        slot = self._finger_slot(width_mm, height_mm, outline, wall)
+        if slot is not None:
+            cut = cut.fuse(slot)
+        part = solid.cut(cut).clean()
+        super().__init__(part=part, rotation=rotation, align=align, mode=mode)
+
+    def _finger_slot(
+        self, width_mm: float, height_mm: float, outline: OutlineConfig, wall: WallConfig
+    ) -> bd.Solid | None:
+        """The slot cutter at the middle of the top side, or None; sets its analytic volume."""
+        fw = wall.finger_slot_mm
+        if fw <= 0:
+            return None
+        m, c, t = outline.margin_mm, wall.clearance_mm, wall.wall_thickness_mm
+        x0, x1 = 0.5 * (width_mm - fw), 0.5 * (width_mm + fw)
+        if x0 < -m + outline.corner_radius_mm:
+            raise ValueError(
+                f"wall.finger_slot_mm ({fw} mm) must leave the rounded corners alone: at most "
+                f"{width_mm + 2 * (m - outline.corner_radius_mm):g} mm for this plate"
+            )
+        for i, k in enumerate(outline.keys):
+            if k.side.value != "top":
+                continue
+            a = k.position * width_mm - 0.5 * k.width_mm - c - t
+            b = k.position * width_mm + 0.5 * k.width_mm + c + t
+            if a < x1 and b > x0:
+                raise ValueError(
+                    f"wall.finger_slot_mm ({fw} mm) meets plate.outline.keys[{i}] on the top side: "
+                    "move the tab, narrow the slot, or set finger_slot_mm to 0"
+                )
+        ledge = m + c - wall.opening_margin_mm
+        under = min(3.0, ledge - 1.0)  # keeps ≥ 1 mm of ledge under the plate at the slot
+        below = min(1.5, 0.5 * self.standoff_mm)
+        y_pocket = height_mm + m + c
+        z0, top = self.standoff_mm - below, self.total_height_mm
+        self.slot_volume_mm3 = fw * (t * (top - z0) + max(under, 0.0) * below)
+        box = bd.Solid.make_box(fw, t + 1.0 + max(under, 0.0), top + 1.0 - z0)
+        return box.moved(bd.Location((x0, y_pocket - max(under, 0.0), z0)))
+
+    @property
+    def analytic_volume_mm3(self) -> float:
+        """Volume in mm³ from the exact outline areas: A_outer·H − A_open·s − A_pocket·p − finger slot."""
+        r = self.rings
+        return (
+            path_area(r.outer) * self.total_height_mm
+            - path_area(r.opening) * self.standoff_mm
+            - path_area(r.pocket) * self.pocket_depth_mm
+            - self.slot_volume_mm3
+        )
+
+
+@dataclass(frozen=True)
+class WallModel:
+    """A built wall and the figures that check it.
+
+    Attributes:
+        part: The build123d part (one solid), picture frame, z = 0 on the surface.
+        volume_mm3: Analytic volume in mm³ from the exact outline areas.
+        standoff_mm: Height of the plate's underside above the surface, in mm.
+        height_mm: Total height of the wall, in mm.
+        pocket_depth_mm: Depth of the plate's pocket, in mm.
+        bbox: Expected bounding box ``(xmin, ymin, zmin, xmax, ymax, zmax)`` in mm.
+        outer_ring: ``(M, 2)`` ring of the wall's outside (sampled).
+        pocket_ring: ``(M, 2)`` ring of the pocket (sampled).
+        opening_ring: ``(4, 2)`` ring of the inner opening.
+        ledge_mm: Smallest width in mm of the ledge the plate rests on.
+    """
+
+    part: bd.Part
+    volume_mm3: float
+    standoff_mm: float
+    height_mm: float
+    pocket_depth_mm: float
+    bbox: tuple[float, float, float, float, float, float]
+    outer_ring: np.ndarray
+    pocket_ring: np.ndarray
+    opening_ring: np.ndarray
+    ledge_mm: float
+
+    @property
+    def name(self) -> str:
+        """A file-name stem, e.g. ``wall_10mm`` or ``wall_7.5mm``."""
+        return f"wall_{self.standoff_mm:g}mm"
+
+
+def build_wall(
+    width_mm: float,
+    height_mm: float,
+    outline_cfg: OutlineConfig,
+    wall_cfg: WallConfig,
+    plate_thickness_mm: float,
+    height_mm_standoff: float,
+) -> WallModel:
+    """Build the wall for one stand-off height.
+
+    Args:
+        width_mm: Picture width in mm.
+        height_mm: Picture height in mm.
+        outline_cfg: The plate's outline config.
+        wall_cfg: Wall config.
+        plate_thickness_mm: The plate's thickness in mm.
+        height_mm_standoff: Height in mm of the plate's underside above the surface (one of
+            :func:`wall_heights`).
+
+    Returns:
+        The wall with its analytic volume and expected bounding box.
+
+    Raises:
+        ValueError: If the config cannot make a wall, or the key does not stop a wrong placement.
+    """
+    check_key(width_mm, height_mm, outline_cfg, wall_cfg.clearance_mm)
+    wall = Wall(width_mm, height_mm, outline_cfg, wall_cfg, plate_thickness_mm, height_mm_standoff)
+    tol = outline_cfg.chord_tol_mm
+    outer = path_ring(wall.rings.outer, tol)
+    pocket = path_ring(wall.rings.pocket, tol)
+    opening = np.array([s.start for s in wall.rings.opening], dtype=np.float64)
+    ledge = _ledge_width(opening, pocket)
+    if ledge < 1.0 - 2.0 * tol:
+        raise ValueError(
+            f"the ledge under the plate is {ledge:.3f} mm wide at its narrowest, must be ≥ 1 mm: "
+            "reduce wall.opening_margin_mm or plate.outline.corner_radius_mm"
+        )
+    lo, hi = outer.min(axis=0), outer.max(axis=0)
+    bbox = (float(lo[0]), float(lo[1]), 0.0, float(hi[0]), float(hi[1]), wall.total_height_mm)
+    return WallModel(
+        part=wall,
+        volume_mm3=wall.analytic_volume_mm3,
+        standoff_mm=wall.standoff_mm,
+        height_mm=wall.total_height_mm,
+        pocket_depth_mm=wall.pocket_depth_mm,
+        bbox=bbox,
+        outer_ring=outer,
+        pocket_ring=pocket,
+        opening_ring=opening,
+        ledge_mm=ledge,
+    )
+
+
+def _ledge_width(opening: np.ndarray, pocket: np.ndarray) -> float:
+    if not fits(opening, pocket):
+        return -math.inf
+    return min_clearance(opening, pocket)
+
+
+def wall_step(model: WallModel, path: str | Path) -> None:
+    """Write the wall as STEP (AP214, mm, exact arcs) to ``path``."""
+    if not bd.export_step(model.part, str(path), timestamp="2000-01-01T00:00:00"):
+        raise OSError(f"STEP export failed: {path}")
+
+
+def wall_stl(
+    model: WallModel, path: str | Path, tolerance_mm: float = 0.01, angular_tolerance: float = 0.1
+) -> None:
+    """Write the wall as binary STL to ``path``.
+
+    The wall has a few dozen faces, so OCCT's incremental mesher is quick here (unlike the
+    perforated plate).
+
+    Args:
+        model: The wall.
+        path: Output file.
+        tolerance_mm: Largest chord error in mm. Defaults to 0.01 mm.
+        angular_tolerance: Largest angle between neighbouring facets on a curve, in
+            radians. Defaults to 0.1.
+    """
+    if not bd.export_stl(model.part, str(path), tolerance=tolerance_mm, angular_tolerance=angular_tolerance):
+        raise OSError(f"STL export failed: {path}")

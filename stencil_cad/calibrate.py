@@ -1,0 +1,379 @@
+"""Tone calibration: the stippling density that sprays the intended opacity.
+
+Why. The paper stipples with hole density proportional to the target opacity
+("linear tone"). The spray does not answer linearly: ``1 - I`` is a product
+over holes, so the optical depth ``-ln(1 - I)`` adds up with hole density,
+each hole deposits ``A 2 pi sigma^2`` of paint (more than its open area when
+``A (1 + h) / 2 > 1``), and a hole whose centre is clamped (``N >= 1``) wastes
+paint. Pale tones come out too dark and dark tones saturate.
+
+How. For the stippler's pattern at open-area tone ``t`` (hole radius
+``r(t) = r0 + (r1 - r0) sqrt(t)``, point density
+``lambda(t) = rho_pack t (r1 / r(t))^2`` with ``rho_pack`` the hexagonal packing
+at ``auto_spacing_factor (2 r1 + web)``, exactly as :mod:`stencil_cad.stipple`
+does), a small jittered hexagonal patch is sprayed with the simulator and its
+mean opacity ``m(t)`` and variance ``v(t)`` are measured: the *tone response*.
+In the sparse limit ``m(t) ~ 1 - exp(-lambda(t) K)`` with
+``K = ∫ -ln(1 - min(N, 1)) dA`` (Campbell's theorem), which the measurement
+refines for overlap, clamping and texture. The calibrated density is the
+inverse ``t(alpha) = m^-1(alpha)``, clipped to ``t <= 1`` where the minimum web
+saturates it (no denser packing is possible). With ``spray.calibrate:
+spray_time`` the spray time A of each layer is chosen from a geometric grid to
+minimise the predicted layer MSE ``mean((m(t(alpha)) - alpha)^2 + v(t(alpha)))``
+over the layer's opacities: a low A needs more holes than the web allows in dark
+areas, a high A makes a coarse, clamped texture.
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .config.spray import Calibrate, SprayConfig
+from .simulate import dot_sigma_mm, spray_opacity
+
+log = logging.getLogger(__name__)
+
+__all__ = [
+    "ToneChoice",
+    "ToneCurve",
+    "calibrated_density",
+    "calibrated_density_for",
+    "calibrated_tone_for",
+    "choose_tone",
+    "packing_density",
+    "tone_response",
+]
+
+#: Tone samples of a response curve (denser near 0, where the curve is steepest).
+_T_SAMPLES = np.concatenate([[0.0], np.linspace(0.0, 1.0, 32)[1:] ** 1.5])
+#: Lattice cells per side of a response patch.
+_CELLS = 10
+#: Jitter of the response patch's hexagonal lattice, as a fraction of the spacing (a
+#: relaxed weighted-Voronoi stipple is locally hexagonal with small disorder).
+_JITTER = 0.08
+#: Spray-time multipliers tried by ``calibrate: spray_time``.
+_A_FACTORS = tuple(2.0 ** (k / 2.0) for k in range(-4, 7))
+
+
+def packing_density(max_radius_mm: float, web_mm: float, spacing_factor: float = 1.15) -> float:
+    """Holes per mm^2 of the densest stipple (tone 1): hexagonal at ``spacing_factor (2 r1 + web)``.
+
+    Args:
+        max_radius_mm: Largest hole radius r1 in mm.
+        web_mm: Minimum web between holes in mm.
+        spacing_factor: ``stipple.auto_spacing_factor``. Defaults to 1.15.
+
+    Returns:
+        Holes per mm^2.
+    """
+    d = spacing_factor * (2.0 * max_radius_mm + web_mm)
+    return 2.0 / (math.sqrt(3.0) * d * d)
+
+
+@dataclass(frozen=True)
+class ToneCurve:
+    """Sprayed opacity of the stippler's pattern as a function of its open-area tone.
+
+    Attributes:
+        t: ``(K,)`` open-area tone samples in [0, 1], increasing (1 = densest pattern).
+        mean: ``(K,)`` mean sprayed opacity at each tone (made non-decreasing).
+        var: ``(K,)`` variance of the sprayed opacity over the pattern (its texture).
+        spray_time: Spray time A the curve was measured with.
+    """
+
+    t: np.ndarray
+    mean: np.ndarray
+    var: np.ndarray
+    spray_time: float
+
+    @property
+    def max_opacity(self) -> float:
+        """The darkest mean opacity this stencil can spray (at tone 1)."""
+        return float(self.mean[-1])
+
+    def opacity(self, t: np.ndarray) -> np.ndarray:
+        """Mean sprayed opacity at tone ``t`` (linear interpolation)."""
+        return np.interp(np.clip(t, 0.0, 1.0), self.t, self.mean)
+
+    def variance(self, t: np.ndarray) -> np.ndarray:
+        """Texture variance of the sprayed opacity at tone ``t``."""
+        return np.interp(np.clip(t, 0.0, 1.0), self.t, self.var)
+
+    def inverse(self, alpha: np.ndarray) -> np.ndarray:
+        """The tone that sprays mean opacity ``alpha``; 1 where ``alpha`` exceeds :attr:`max_opacity`."""
+        # A tiny ramp makes flat (saturated) stretches strictly increasing for np.interp.
+        m = self.mean + 1e-9 * np.arange(self.mean.size)
+        return np.interp(np.asarray(alpha, dtype=np.float64), m, self.t, left=0.0, right=1.0)
+
+    def predicted_mse(self, alpha: np.ndarray, t: np.ndarray) -> float:
+        """Predicted layer MSE of spraying tone ``t`` for target ``alpha``: bias^2 + texture variance."""
+        alpha = np.asarray(alpha, dtype=np.float64)
+        return float(np.mean((self.opacity(t) - alpha) ** 2 + self.variance(t)))
+
+
+def _hex_patch(spacing: float, width: float, margin: float, rng: np.random.Generator) -> np.ndarray:
+    """Jittered hexagonal lattice covering ``[-margin, width + margin]^2``, (N, 2) mm."""
+    dy = spacing * math.sqrt(3.0) / 2.0
+    ny = int(math.ceil((width + 2 * margin) / dy)) + 2
+    nx = int(math.ceil((width + 2 * margin) / spacing)) + 2
+    j, i = np.meshgrid(np.arange(ny), np.arange(nx), indexing="ij")
+    x = -margin - spacing + i * spacing + (j % 2) * spacing / 2.0
+    y = -margin - dy + j * dy
+    xy = np.column_stack([x.ravel(), y.ravel()])
+    return xy + rng.normal(0.0, _JITTER * spacing, xy.shape)
+
+
+@functools.lru_cache(maxsize=256)
+def _response(
+    radius_mm: float,
+    max_radius_mm: float,
+    web_mm: float,
+    spacing_factor: float,
+    spray_time: float,
+    nozzle_height: float,
+    max_error: float,
+) -> ToneCurve:
+    cfg = SprayConfig(spray_time=spray_time, nozzle_height=nozzle_height, max_error=max_error)
+    rho_pack = packing_density(max_radius_mm, web_mm, spacing_factor)
+    rng = np.random.default_rng(20150901)
+    mean = np.zeros(_T_SAMPLES.size)
+    var = np.zeros(_T_SAMPLES.size)
+    for k, t in enumerate(_T_SAMPLES):
+        if t <= 0.0:
+            continue
+        r = radius_mm + (max_radius_mm - radius_mm) * math.sqrt(t)
+        lam = rho_pack * t * (max_radius_mm / r) ** 2
+        spacing = math.sqrt(2.0 / (math.sqrt(3.0) * lam))
+        sigma = float(dot_sigma_mm(r, nozzle_height))
+        width = _CELLS * spacing
+        px = min(sigma / 2.0, spacing / 4.0)
+        n_px = int(math.ceil(width / px))
+        px = width / n_px
+        # Holes beyond the patch edge up to the fast path's reach, so the patch has no border.
+        margin = sigma * math.sqrt(2.0 * math.log(max(spray_time, 1.0) * 1e6)) + spacing
+        xy = _hex_patch(spacing, width, margin, rng)
+        opacity = spray_opacity(xy, r, (n_px, n_px), px, cfg)
+        mean[k] = float(opacity.mean())
+        var[k] = float(opacity.var())
+    mean = np.maximum.accumulate(mean)
+    return ToneCurve(t=_T_SAMPLES.copy(), mean=mean, var=var, spray_time=spray_time)
+
+
+def tone_response(
+    radius_mm: float,
+    web_mm: float,
+    cfg: SprayConfig,
+    *,
+    spray_time: float | None = None,
+    max_radius_mm: float | None = None,
+    spacing_factor: float = 1.15,
+) -> ToneCurve:
+    """Measure (once, then cached) the tone response of the stippler's pattern.
+
+    Args:
+        radius_mm: Hole radius r0 in mm (the smallest one with variable radius).
+        web_mm: Minimum web between holes in mm.
+        cfg: Spray settings (h, max_error; A unless ``spray_time`` is given).
+        spray_time: Spray time A. Defaults to ``cfg.spray_time``.
+        max_radius_mm: Largest hole radius r1 in mm. Defaults to ``radius_mm``.
+        spacing_factor: ``stipple.auto_spacing_factor``. Defaults to 1.15.
+
+    Returns:
+        The :class:`ToneCurve`.
+    """
+    a = cfg.spray_time if spray_time is None else float(spray_time)
+    r1 = radius_mm if max_radius_mm is None else float(max_radius_mm)
+    return _response(
+        float(radius_mm), r1, float(web_mm), float(spacing_factor), a, cfg.nozzle_height, cfg.max_error
+    )
+
+
+def calibrated_density(
+    alpha: np.ndarray,
+    mm_per_px: float,
+    radius_mm: float,
+    web_mm: float,
+    cfg: SprayConfig,
+    *,
+    spray_time: float | None = None,
+    max_radius_mm: float | None = None,
+    spacing_factor: float = 1.15,
+) -> np.ndarray:
+    """The stippling density that sprays ``alpha`` (the stippler's ``density=`` hook).
+
+    Args:
+        alpha: ``(H, W)`` target opacity in [0, 1].
+        mm_per_px: Pixel size of ``alpha`` in mm (the density is per pixel; kept for
+            a uniform stage signature).
+        radius_mm: Hole radius in mm (smallest radius with variable radius).
+        web_mm: Minimum web between holes in mm.
+        cfg: Spray settings.
+        spray_time: Spray time A. Defaults to ``cfg.spray_time``.
+        max_radius_mm: Largest hole radius in mm. Defaults to ``radius_mm``.
+        spacing_factor: ``stipple.auto_spacing_factor``. Defaults to 1.15.
+
+    Returns:
+        ``(H, W)`` open-area tone in [0, 1], 1 = the densest pattern the web allows
+        (``packing_density`` holes per mm^2 at the largest radius): the stippler's
+        ``density`` semantics, so its automatic dot count matches the calibration.
+    """
+    del mm_per_px
+    curve = tone_response(
+        radius_mm,
+        web_mm,
+        cfg,
+        spray_time=spray_time,
+        max_radius_mm=max_radius_mm,
+        spacing_factor=spacing_factor,
+    )
+    a = np.clip(np.nan_to_num(np.asarray(alpha, dtype=np.float64)), 0.0, 1.0)
+    return curve.inverse(a)
+
+
+@dataclass(frozen=True)
+class ToneChoice:
+    """What the tone calibration chose for one layer.
+
+    Attributes:
+        density: ``(H, W)`` open-area tone in [0, 1] for the stippler's ``density=`` hook.
+        spray_time: Spray time A to simulate (and spray) this layer with.
+        n_dots: Dot count the calibration implies (the stippler's automatic count
+            for ``density``); pass it as ``n_dots`` when ``stipple.dots`` is set.
+        predicted_rmse: Predicted layer RMSE with this choice.
+        predicted_rmse_linear: Predicted layer RMSE with the linear tone at ``cfg.spray_time``.
+        max_opacity: Darkest mean opacity reachable with this choice.
+    """
+
+    density: np.ndarray
+    spray_time: float
+    n_dots: int
+    predicted_rmse: float
+    predicted_rmse_linear: float
+    max_opacity: float
+
+    def summary(self) -> dict:
+        """Plain figures for the manifest."""
+        return {
+            "spray_time": round(self.spray_time, 4),
+            "n_dots": self.n_dots,
+            "predicted_rmse": round(self.predicted_rmse, 5),
+            "predicted_rmse_linear": round(self.predicted_rmse_linear, 5),
+            "max_opacity": round(self.max_opacity, 4),
+        }
+
+
+def choose_tone(
+    alpha: np.ndarray,
+    mm_per_px: float,
+    radius_mm: float,
+    web_mm: float,
+    cfg: SprayConfig,
+    *,
+    mode: Calibrate | str | None = None,
+    max_radius_mm: float | None = None,
+    spacing_factor: float = 1.15,
+    opacity_threshold: float = 0.0,
+) -> ToneChoice:
+    """Choose the density (and, with ``mode=spray_time``, the spray time) of one layer.
+
+    Args:
+        alpha: ``(H, W)`` target opacity in [0, 1].
+        mm_per_px: Pixel size of ``alpha`` in mm.
+        radius_mm: Hole radius in mm (smallest with variable radius).
+        web_mm: Minimum web in mm.
+        cfg: Spray settings.
+        mode: ``none`` (linear density at ``cfg.spray_time``), ``dots`` (calibrated
+            density at ``cfg.spray_time``) or ``spray_time`` (calibrated density at the
+            spray time with the lowest predicted RMSE). Defaults to ``cfg.calibrate``.
+        max_radius_mm: Largest hole radius in mm. Defaults to ``radius_mm``.
+        spacing_factor: ``stipple.auto_spacing_factor``. Defaults to 1.15.
+        opacity_threshold: The stippler puts no hole below this opacity.
+
+    Returns:
+        The :class:`ToneChoice`.
+    """
+    mode = Calibrate(cfg.calibrate if mode is None else mode)
+    a = np.clip(np.nan_to_num(np.asarray(alpha, dtype=np.float64)), 0.0, 1.0)
+    flat = a.ravel()
+    if flat.size > 200_000:
+        flat = flat[:: flat.size // 200_000 + 1]
+    allowed = flat >= opacity_threshold
+    r1 = radius_mm if max_radius_mm is None else float(max_radius_mm)
+
+    def curve(spray_time: float) -> ToneCurve:
+        return tone_response(
+            radius_mm, web_mm, cfg, spray_time=spray_time, max_radius_mm=r1, spacing_factor=spacing_factor
+        )
+
+    def mse(c: ToneCurve, t: np.ndarray) -> float:
+        return c.predicted_mse(flat, np.where(allowed, t, 0.0))
+
+    base = curve(cfg.spray_time)
+    linear_mse = mse(base, flat)
+    if mode == Calibrate.none:
+        best_a, best_curve, best_mse, density = cfg.spray_time, base, linear_mse, a
+    else:
+        candidates = [cfg.spray_time]
+        if mode == Calibrate.spray_time:
+            candidates = sorted({min(100.0, cfg.spray_time * f) for f in _A_FACTORS})
+        scored = []
+        for spray_time in candidates:
+            c = curve(spray_time)
+            scored.append((mse(c, c.inverse(flat)), spray_time, c))
+        best_mse, best_a, best_curve = min(scored, key=lambda s: s[0])
+        density = best_curve.inverse(a)
+    rho = packing_density(r1, web_mm, spacing_factor)
+    t_eff = np.where(a >= opacity_threshold, density, 0.0)
+    n_dots = int(round(rho * float(t_eff.sum()) * mm_per_px * mm_per_px))
+    return ToneChoice(
+        density=density,
+        spray_time=float(best_a),
+        n_dots=n_dots,
+        predicted_rmse=math.sqrt(best_mse),
+        predicted_rmse_linear=math.sqrt(linear_mse),
+        max_opacity=best_curve.max_opacity,
+    )
+
+
+def calibrated_tone_for(alpha: np.ndarray, mm_per_px: float, job_cfg) -> ToneChoice:
+    """:func:`choose_tone` with the hole sizes, web and spacing of a whole job config.
+
+    Args:
+        alpha: ``(H, W)`` target opacity in [0, 1].
+        mm_per_px: Pixel size of ``alpha`` in mm.
+        job_cfg: The :class:`~stencil_cad.config.JobConfig` (``stipple`` and ``spray``).
+
+    Returns:
+        The :class:`ToneChoice` (density, spray time, dot count).
+    """
+    st = job_cfg.stipple
+    return choose_tone(
+        alpha,
+        mm_per_px,
+        st.resolved_radius_mm,
+        st.resolved_web_mm,
+        job_cfg.spray,
+        max_radius_mm=st.resolved_max_radius_mm,
+        spacing_factor=st.auto_spacing_factor,
+        opacity_threshold=st.opacity_threshold,
+    )
+
+
+def calibrated_density_for(alpha: np.ndarray, mm_per_px: float, job_cfg) -> np.ndarray:
+    """The calibrated density of one layer for a job config (the pipeline's ``density=`` hook).
+
+    Args:
+        alpha: ``(H, W)`` target opacity in [0, 1].
+        mm_per_px: Pixel size of ``alpha`` in mm.
+        job_cfg: The :class:`~stencil_cad.config.JobConfig`.
+
+    Returns:
+        ``(H, W)`` open-area tone in [0, 1]. With ``spray.calibrate: spray_time`` the
+        matching spray time is in :func:`calibrated_tone_for`'s result.
+    """
+    return calibrated_tone_for(alpha, mm_per_px, job_cfg).density

@@ -1,0 +1,435 @@
+"""Soft layer decomposition: a primer plus L alpha-blended paint layers.
+
+The image Y is explained as a primer colour ``c_0`` under L paint layers
+composited with Porter-Duff *over* in spray order; the colours and opacity maps
+minimise the energy of Vavilala et al. 2015 (see :mod:`.energy`) by block
+coordinate descent (see :mod:`.solver`), started from K-means colours and
+nearest-colour opacities, on an image pyramid.
+
+Public API: :func:`decompose`, :func:`layers_to_npz`, :func:`layers_from_npz`,
+:func:`swatch`.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from collections.abc import Callable, Mapping
+
+import numpy as np
+
+from ..config.decompose import DecomposeConfig, LayerOrder, OpacitySource
+from ..model import Layers, Picture
+from . import energy, palette, solver
+from .solver import SolverSettings, State
+
+__all__ = ["decompose", "energy_of", "layers_from_npz", "layers_to_npz", "swatch"]
+
+log = logging.getLogger(__name__)
+
+# Longer side in px of the grid on which cans are chosen from a long palette
+# and candidate spray orders are compared: enough to see the image's colour
+# layout, small enough that dozens of trial solves take about a second.
+_TRIAL_SIZE_PX = 48
+_TRIAL_ITERATIONS = 15
+
+# A fixed palette whose best reconstruction is further than this from the
+# image (RMSE in 0-255 units) is reported as not reaching it.
+_FIXED_PALETTE_WARN_RMSE = 8.0
+
+
+def _settings(cfg: DecomposeConfig) -> SolverSettings:
+    return SolverSettings(
+        g_data=cfg.weights.data,
+        g_smooth=cfg.weights.smooth,
+        g_sparse=cfg.weights.sparse,
+        tolerance=cfg.tolerance,
+        max_iterations=cfg.max_iterations,
+        inner_tolerance=cfg.inner_tolerance,
+        inner_max_sweeps=cfg.inner_max_sweeps,
+    )
+
+
+def energy_of(layers: Layers, target: np.ndarray, cfg: DecomposeConfig) -> dict[str, float]:
+    """The energy of a decomposition against an image, term by term.
+
+    Args:
+        layers: The decomposition.
+        target: ``(H, W, 3)`` image in [0, 1] on the alphas' grid.
+        cfg: Supplies the weights.
+
+    Returns:
+        ``{"total", "data", "smooth", "sparse"}``; the three terms unweighted.
+    """
+    data, smooth, sparse = energy.energy_terms(
+        np.ascontiguousarray(target, dtype=np.float64),
+        np.asarray(layers.primer, dtype=np.float64),
+        np.ascontiguousarray(layers.colours, dtype=np.float64),
+        np.ascontiguousarray(layers.alphas, dtype=np.float64),
+    )
+    w = cfg.weights
+    return {
+        "total": w.data * data + w.smooth * smooth + w.sparse * sparse,
+        "data": data,
+        "smooth": smooth,
+        "sparse": sparse,
+    }
+
+
+def _rmse(composite: np.ndarray, target: np.ndarray) -> tuple[float, list[float]]:
+    err = (composite - target) ** 2
+    per = np.sqrt(err.reshape(-1, 3).mean(axis=0)) * 255.0
+    return float(np.sqrt(err.mean()) * 255.0), [float(v) for v in per]
+
+
+def _source(picture: Picture, cfg: DecomposeConfig) -> str:
+    src = cfg.opacity_source
+    if src is OpacitySource.alpha:
+        if picture.alpha is None:
+            raise ValueError("decompose.opacity_source: 'alpha' needs an image with an alpha channel (RGBA)")
+        return "alpha"
+    if src is OpacitySource.auto and picture.grey:
+        return "grey"
+    return "rgb"
+
+
+def _single_layer(picture: Picture, cfg: DecomposeConfig, source: str, t0: float) -> Layers:
+    """One layer whose opacity is given by the input: grey darkness or the alpha channel."""
+    warnings: list[str] = []
+    rgb = np.clip(np.asarray(picture.rgb, dtype=np.float64), 0.0, 1.0)
+    primer = np.array(cfg.primer_rgb() or (1.0, 1.0, 1.0))
+    pal = cfg.palette_rgb()
+    if pal is not None:
+        paint = np.array(pal[0])
+        if len(pal) > 1:
+            warnings.append(f"opacity source '{source}' makes one layer: only the first can {cfg.palette[0]} is used")
+    elif source == "alpha":
+        a = np.asarray(picture.alpha, dtype=np.float64)
+        paint = (rgb * a[..., None]).reshape(-1, 3).sum(axis=0) / a.sum() if a.sum() > 0 else np.zeros(3)
+    else:
+        paint = np.zeros(3)
+    if source == "alpha":
+        alpha = np.clip(np.asarray(picture.alpha, dtype=np.float64), 0.0, 1.0)
+        target = (1.0 - alpha[..., None]) * primer + alpha[..., None] * rgb
+    else:
+        # Least-squares opacity on the segment primer -> paint: darkness for white/black.
+        target = rgb
+        d = paint - primer
+        dd = float(d @ d)
+        if dd <= 0.0:
+            warnings.append("paint and primer are the same colour: the opacity map is empty")
+            alpha = np.zeros(rgb.shape[:2])
+        else:
+            alpha = np.clip(((rgb - primer) @ d) / dd, 0.0, 1.0)
+    alpha = np.nan_to_num(alpha, nan=0.0)
+    alphas = alpha[None].astype(np.float64)
+    colours = np.clip(paint, 0.0, 1.0)[None, :]
+    primer = np.clip(primer, 0.0, 1.0)
+    comp = energy.composite_nb(primer, colours, np.ascontiguousarray(alphas))
+    rmse, per = _rmse(comp, target)
+    for w in warnings:
+        log.warning(w)
+    info = {
+        "source": source,
+        "rmse": rmse,
+        "rmse_channels": per,
+        "iterations": 0,
+        "warnings": warnings,
+        "seconds": time.perf_counter() - t0,
+    }
+    return Layers(primer=primer, colours=colours, alphas=alphas, mm_per_px=picture.mm_per_px, info=info)
+
+
+def _orders(primer_fixed: bool, colours: np.ndarray, shares: np.ndarray | None, mode: LayerOrder) -> list[np.ndarray]:
+    """Candidate spray orders (index arrays into ``colours``, primer first unless fixed)."""
+    lum = palette.luminance(colours)
+    light = np.argsort(-lum, kind="stable")
+    cands = []
+    if mode is LayerOrder.given:
+        cands.append(np.arange(colours.shape[0]))
+    else:
+        cands.append(light)
+        if mode is LayerOrder.auto:
+            cands.append(light[::-1])
+            if shares is not None:
+                by_share = np.argsort(-shares, kind="stable")
+                cands.append(by_share)
+                if not primer_fixed:
+                    rest = np.array([i for i in by_share if i != light[0]], dtype=np.int64)
+                    cands.append(np.concatenate([[light[0]], rest]))
+    unique: list[np.ndarray] = []
+    for c in cands:
+        if not any(np.array_equal(c, u) for u in unique):
+            unique.append(np.asarray(c, dtype=np.int64))
+    return unique
+
+
+def _state(target: np.ndarray, primer: np.ndarray, colours: np.ndarray, free: np.ndarray) -> State:
+    alphas = palette.hard_alphas(target, primer, colours)
+    return State(
+        target=target,
+        primer=primer.astype(np.float64).copy(),
+        colours=np.ascontiguousarray(colours, dtype=np.float64),
+        alphas=np.ascontiguousarray(alphas),
+        free=free.copy(),
+    )
+
+
+def _select_cans(target: np.ndarray, cans: np.ndarray, primer: np.ndarray, primer_free: bool, n: int, s: SolverSettings) -> np.ndarray:
+    """Greedy forward choice of ``n`` cans that reach the lowest energy on a small grid."""
+    chosen: list[int] = []
+    remaining = list(range(cans.shape[0]))
+    free = np.zeros(n + 1, dtype=bool)
+    free[0] = primer_free
+    for k in range(n):
+        best, best_e = remaining[0], np.inf
+        for idx in remaining:
+            sel = np.array(chosen + [idx])
+            order = sel[np.argsort(-palette.luminance(cans[sel]), kind="stable")]
+            st = _state(target, primer, cans[order], free[: k + 2])
+            solver.iterate(st, s, _TRIAL_ITERATIONS, s.tolerance)
+            if st.trace[-1] < best_e:
+                best, best_e = idx, st.trace[-1]
+        chosen.append(best)
+        remaining.remove(best)
+    return np.array(sorted(chosen), dtype=np.int64)
+
+
+def decompose(
+    picture: Picture,
+    cfg: DecomposeConfig,
+    rng: np.random.Generator,
+    progress: Callable[[int, float], None] | None = None,
+) -> Layers:
+    """Decompose a picture into a primer and L paint layers.
+
+    Args:
+        picture: The input on the working grid.
+        cfg: The ``decompose`` config section.
+        rng: Random generator (K-means sampling and seeding).
+        progress: Optional ``progress(iteration, energy)`` called after every
+            solver iteration (iterations count across pyramid levels).
+
+    Returns:
+        Layers in spray order. ``info`` holds ``rmse`` (0-255 units, RMS over
+        pixels and channels), ``rmse_channels`` (R, G, B), ``iterations``,
+        ``warnings``, ``seconds``, ``energy`` (total and unweighted terms at the
+        finest level), ``levels`` (per pyramid level: shape, iterations, start
+        and end energy), ``order`` and ``source``. ``energy_trace`` is the
+        energy at the finest level, starting value first, then one per
+        iteration.
+
+    Raises:
+        ValueError: ``opacity_source`` is 'alpha' and the picture has no alpha.
+    """
+    t0 = time.perf_counter()
+    source = _source(picture, cfg)
+    if source != "rgb":
+        return _single_layer(picture, cfg, source, t0)
+    warnings: list[str] = []
+    s = _settings(cfg)
+    target = np.ascontiguousarray(np.clip(np.nan_to_num(picture.rgb, nan=0.0), 0.0, 1.0), dtype=np.float64)
+    full_shape = target.shape[:2]
+    pixels = target.reshape(-1, 3)
+    shapes = solver.pyramid_shapes(full_shape, cfg.coarse_size_px)
+    trial_shape = solver.pyramid_shapes(full_shape, _TRIAL_SIZE_PX)[0]
+    trial_target = solver.downsample(target, trial_shape)
+
+    fixed_primer = cfg.primer_rgb()
+    primer_free = fixed_primer is None
+    fixed_palette = cfg.palette_rgb()
+    n_layers = cfg.layers
+    order_info: dict = {}
+    if fixed_palette is None:
+        k = n_layers + int(primer_free)
+        distinct = palette.distinct_colours(pixels, k)
+        if distinct < k:
+            n_layers = max(distinct - int(primer_free), 1)
+            warnings.append(
+                f"the image has only {distinct} distinct colour(s): using {n_layers} layer(s) instead of {cfg.layers}"
+            )
+            k = min(n_layers + int(primer_free), distinct)
+        centres, shares = palette.kmeans(pixels, k, rng)
+        if centres.shape[0] < n_layers + int(primer_free):
+            # One colour, primer solved: paint and primer start equal.
+            centres = np.vstack([centres, centres[:1]])
+            shares = np.append(shares, 0.0)
+        free = np.ones(n_layers + 1, dtype=bool)
+        free[0] = primer_free
+        candidates = []
+        for order in _orders(not primer_free, centres, shares, cfg.order):
+            if primer_free:
+                candidates.append((centres[order[0]], centres[order[1:]], order))
+            else:
+                candidates.append((np.array(fixed_primer), centres[order], order))
+    else:
+        cans = np.array(fixed_palette)
+        if primer_free:
+            # Start the primer at the K-means centre farthest from every can.
+            centres, _ = palette.kmeans(pixels, min(len(cans) + 1, palette.distinct_colours(pixels, 64)), rng)
+            far = np.min(np.sum((centres[:, None, :] - cans[None, :, :]) ** 2, axis=2), axis=1)
+            primer0 = centres[int(np.argmax(far))]
+        else:
+            primer0 = np.array(fixed_primer)
+        chosen = np.arange(len(cans))
+        if len(cans) > n_layers:
+            chosen = _select_cans(trial_target, cans, primer0, primer_free, n_layers, s)
+            order_info["cans_chosen"] = [cfg.palette[i] for i in chosen]
+        n_layers = len(chosen)
+        free = np.zeros(n_layers + 1, dtype=bool)
+        free[0] = primer_free
+        candidates = [(primer0, cans[chosen[o]], chosen[o]) for o in _orders(True, cans[chosen], None, cfg.order)]
+
+    # Compare candidate spray orders by the energy a short solve reaches.
+    best = candidates[0]
+    if len(candidates) > 1:
+        trial_e = []
+        for p0, c0, _ in candidates:
+            st = _state(trial_target, p0, c0, free)
+            solver.iterate(st, s, _TRIAL_ITERATIONS, s.tolerance)
+            trial_e.append(st.trace[-1])
+        best = candidates[int(np.argmin(trial_e))]
+        order_info["trial_energies"] = [float(e) for e in trial_e]
+
+    levels_used = shapes if cfg.coarse_to_fine else [full_shape]
+    state: State | None = None
+    levels = []
+    counter = [0]
+
+    def report(e: float) -> None:
+        counter[0] += 1
+        if progress is not None:
+            progress(counter[0], float(e))
+
+    for shape in levels_used:
+        level_target = solver.downsample(target, shape)
+        if state is None:
+            state = _state(level_target, best[0], best[1], free)
+        else:
+            state = State(
+                target=level_target,
+                primer=state.primer,
+                colours=state.colours,
+                alphas=np.ascontiguousarray(solver.upsample_alphas(state.alphas, shape)),
+                free=free,
+            )
+        its = solver.iterate(state, s, cfg.max_iterations, cfg.tolerance, report)
+        levels.append(
+            {
+                "shape": [int(shape[0]), int(shape[1])],
+                "iterations": int(its),
+                "energy_start": float(state.trace[0]),
+                "energy_end": float(state.trace[-1]),
+                "mean_sweeps": float(np.mean(state.sweeps)) if state.sweeps else 0.0,
+            }
+        )
+    assert state is not None
+    alphas = np.clip(np.nan_to_num(state.alphas, nan=0.0), 0.0, 1.0)
+    colours = np.clip(np.nan_to_num(state.colours, nan=0.0), 0.0, 1.0)
+    primer = np.clip(np.nan_to_num(state.primer, nan=1.0), 0.0, 1.0)
+    comp = energy.composite_nb(primer, colours, alphas)
+    rmse, per = _rmse(comp, target)
+    if fixed_palette is not None and rmse > _FIXED_PALETTE_WARN_RMSE:
+        warnings.append(
+            f"the fixed palette reaches the image only to RMSE {rmse:.1f} (0-255 units): "
+            "some image colours lie outside what these cans can mix"
+        )
+    data, smooth, sparse = energy.energy_terms(target, primer, colours, alphas)
+    for w in warnings:
+        log.warning(w)
+    info = {
+        "source": source,
+        "rmse": rmse,
+        "rmse_channels": per,
+        "iterations": int(sum(lv["iterations"] for lv in levels)),
+        "warnings": warnings,
+        "seconds": time.perf_counter() - t0,
+        "energy": {
+            "total": float(s.g_data * data + s.g_smooth * smooth + s.g_sparse * sparse),
+            "data": float(data),
+            "smooth": float(smooth),
+            "sparse": float(sparse),
+        },
+        "levels": levels,
+        "order": [int(i) for i in best[2]],
+        **order_info,
+    }
+    return Layers(
+        primer=primer,
+        colours=colours,
+        alphas=alphas,
+        mm_per_px=picture.mm_per_px,
+        energy_trace=tuple(float(e) for e in state.trace),
+        iterations=int(info["iterations"]),
+        info=info,
+    )
+
+
+def layers_to_npz(layers: Layers) -> dict[str, np.ndarray]:
+    """Arrays to save a decomposition with ``np.savez_compressed``.
+
+    Keys: ``primer`` (3,), ``colours`` (L, 3), ``alphas`` (L, H, W) float32,
+    ``mm_per_px`` (), ``energy_trace`` (n,), ``iterations`` (), ``info_json``
+    (a 0-d string array holding ``info`` as JSON). Loads without pickle.
+    """
+    return {
+        "primer": np.asarray(layers.primer, dtype=np.float64),
+        "colours": np.asarray(layers.colours, dtype=np.float64),
+        "alphas": np.asarray(layers.alphas, dtype=np.float32),
+        "mm_per_px": np.asarray(layers.mm_per_px, dtype=np.float64),
+        "energy_trace": np.asarray(layers.energy_trace, dtype=np.float64),
+        "iterations": np.asarray(layers.iterations, dtype=np.int64),
+        "info_json": np.asarray(json.dumps(layers.info, default=_json_default)),
+    }
+
+
+def _json_default(obj: object) -> object:
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    return str(obj)
+
+
+def layers_from_npz(mapping: Mapping[str, np.ndarray]) -> Layers:
+    """Inverse of :func:`layers_to_npz` (accepts the mapping ``np.load`` returns).
+
+    Raises:
+        ValueError: A required key is missing or the shapes disagree.
+    """
+    for key in ("primer", "colours", "alphas"):
+        if key not in mapping:
+            raise ValueError(f"layers NPZ has no {key!r} array")
+    primer = np.asarray(mapping["primer"], dtype=np.float64).reshape(3)
+    colours = np.asarray(mapping["colours"], dtype=np.float64)
+    alphas = np.asarray(mapping["alphas"], dtype=np.float64)
+    if colours.ndim != 2 or colours.shape[1] != 3 or alphas.ndim != 3 or alphas.shape[0] != colours.shape[0]:
+        raise ValueError(f"layers NPZ: colours {colours.shape} and alphas {alphas.shape} do not match (L, 3) and (L, H, W)")
+    info = json.loads(str(mapping["info_json"])) if "info_json" in mapping else {}
+    return Layers(
+        primer=primer,
+        colours=colours,
+        alphas=alphas,
+        mm_per_px=float(mapping["mm_per_px"]) if "mm_per_px" in mapping else 1.0,
+        energy_trace=tuple(float(e) for e in np.asarray(mapping.get("energy_trace", ()))),
+        iterations=int(mapping["iterations"]) if "iterations" in mapping else 0,
+        info=info,
+    )
+
+
+def swatch(layers: Layers, size_px: int = 64) -> np.ndarray:
+    """The primer and the paints in spray order as a row of squares.
+
+    Args:
+        layers: The decomposition.
+        size_px: Side of each square in px. Defaults to 64 px.
+
+    Returns:
+        ``(size_px, size_px * (L + 1), 3)`` uint8 image, primer leftmost.
+    """
+    size_px = max(int(size_px), 1)
+    allc = np.vstack([np.asarray(layers.primer)[None, :], np.asarray(layers.colours).reshape(-1, 3)])
+    allc = np.clip(np.nan_to_num(allc, nan=0.0), 0.0, 1.0)
+    row = np.repeat(np.rint(allc * 255.0).astype(np.uint8), size_px, axis=0)
+    return np.ascontiguousarray(np.broadcast_to(row[None, :, :], (size_px, row.shape[0], 3)))

@@ -1,0 +1,364 @@
+"""Tests of the spray simulator, scores, previews and tone calibration against analytic oracles."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from pydantic import ValidationError
+
+from stencil_cad import calibrate as cal
+from stencil_cad import simulate as sim
+from stencil_cad.config.spray import Calibrate, SprayConfig
+from stencil_cad.frames import px_to_mm
+from stencil_cad.model import DotSet, Layers, composite
+
+
+def _analytic(xy, r, shape, s, a, h):
+    """Brute-force oracle written independently of the library: the paper's formula per pixel."""
+    rows, cols = np.mgrid[0 : shape[0], 0 : shape[1]]
+    px = (cols + 0.5) * s
+    py = (shape[0] - rows - 0.5) * s
+    trans = np.ones(shape)
+    for (x, y), ri in zip(xy, np.broadcast_to(r, (len(xy),)), strict=True):
+        sig2 = ri * ri * (1 + h) / 4
+        n = a * np.exp(-((px - x) ** 2 + (py - y) ** 2) / (2 * sig2))
+        trans *= 1 - np.minimum(n, 1)
+    return 1 - trans
+
+
+def _dense_holes(rng, extent_mm, margin_mm, r_lo=0.5, r_hi=0.9, web=0.5):
+    """Jittered hexagonal holes at the minimum web, reaching past the raster on every side."""
+    d = 2 * r_hi + web
+    xs, ys = np.meshgrid(
+        np.arange(-margin_mm, extent_mm + margin_mm, d),
+        np.arange(-margin_mm, extent_mm + margin_mm, d * math.sqrt(3) / 2),
+    )
+    xs = xs + (np.arange(xs.shape[0])[:, None] % 2) * d / 2
+    xy = np.column_stack([xs.ravel(), ys.ravel()]) + rng.normal(0, 0.05, (xs.size, 2))
+    return xy, rng.uniform(r_lo, r_hi, len(xy))
+
+
+# --------------------------------------------------------------------------- model
+
+
+def test_sigma_formula():
+    assert sim.dot_sigma_mm(1.0, 3.0) == pytest.approx(1.0)
+    assert sim.dot_sigma_mm(0.5, 0.0) == pytest.approx(0.25)
+
+
+@pytest.mark.parametrize("exact", [True, False])
+@pytest.mark.parametrize("a", [0.5, 2.0])
+def test_single_hole_matches_formula(exact, a):
+    cfg = SprayConfig(spray_time=a, nozzle_height=7.0)
+    xy = np.array([[3.13, 2.71]])
+    got = sim.spray_opacity(xy, 0.6, (60, 70), 0.1, cfg, exact=exact)
+    want = _analytic(xy, 0.6, (60, 70), 0.1, a, 7.0)
+    assert got.shape == (60, 70)
+    assert np.abs(got - want).max() <= (1e-12 if exact else 1e-3)
+    if a > 1:
+        assert got.max() == 1.0  # the clamp: transmittance exactly 0 at the centre
+
+
+def test_two_holes_of_different_radii_multiply():
+    cfg = SprayConfig(spray_time=0.8, nozzle_height=2.0)
+    xy = np.array([[2.0, 2.0], [3.0, 2.5]])
+    r = np.array([0.5, 1.2])
+    got = sim.spray_opacity(xy, r, (50, 50), 0.1, cfg, exact=True)
+    want = _analytic(xy, r, (50, 50), 0.1, 0.8, 2.0)
+    np.testing.assert_allclose(got, want, atol=1e-12)
+
+
+@pytest.mark.parametrize("exact", [True, False])
+def test_frame_peak_at_pixel_centre(exact):
+    cfg = SprayConfig(spray_time=0.5)
+    shape = (40, 30)
+    xy = px_to_mm(np.array([[7, 21]]), shape[0], 0.25)
+    got = sim.spray_opacity(xy, 0.5, shape, 0.25, cfg, exact=exact)
+    assert np.unravel_index(np.argmax(got), shape) == (7, 21)
+    assert got[7, 21] == pytest.approx(0.5, abs=1e-6)
+
+
+@pytest.mark.parametrize("a", [0.5, 1.0, 2.0])
+@pytest.mark.parametrize("h", [2.0, 7.0, 15.0])
+def test_fast_matches_exact(a, h):
+    """Issue requirement: |fast - exact| <= 1e-3 for A in {0.5, 1, 2}, h in {2, 7, 15}."""
+    rng = np.random.default_rng(int(a * 10 + h))
+    cfg = SprayConfig(spray_time=a, nozzle_height=h)
+    xy, r = _dense_holes(rng, 10.0, 9.0)
+    # Densely packed on the left (where tails pile up), sparse on the right (where they show).
+    keep = (xy[:, 0] < 3.0) | (rng.uniform(size=len(xy)) < 0.04)
+    xy, r = xy[keep], r[keep]
+    fast = sim.spray_opacity(xy, r, (100, 100), 0.1, cfg)
+    exact = sim.spray_opacity(xy, r, (100, 100), 0.1, cfg, exact=True)
+    err = np.abs(fast - exact).max()
+    assert err <= 1e-3
+    # Saturated and pale pixels both occur, so the check is not vacuous.
+    assert exact.min() < 0.5 and exact.max() > 0.9 * min(a, 1.0)
+
+
+def test_fast_error_bound_holds_for_sparse_pale_layer():
+    rng = np.random.default_rng(5)
+    cfg = SprayConfig(spray_time=2.0, nozzle_height=15.0, max_error=1e-3)
+    xy = rng.uniform(-5, 15, (150, 2))
+    fast = sim.spray_opacity(xy, 0.5, (100, 100), 0.1, cfg)
+    exact = sim.spray_opacity(xy, 0.5, (100, 100), 0.1, cfg, exact=True)
+    assert np.abs(fast - exact).max() <= 1e-3
+
+
+def test_crop_equals_full_raster():
+    rng = np.random.default_rng(2)
+    cfg = SprayConfig()
+    xy, r = _dense_holes(rng, 8.0, 3.0)
+    full = sim.spray_opacity(xy, r, (80, 80), 0.1, cfg)
+    part = sim.spray_opacity(xy, r, (80, 80), 0.1, cfg, crop=(10, 50, 20, 70))
+    np.testing.assert_allclose(part, full[10:50, 20:70], atol=1e-6)
+    ex_full = sim.spray_opacity(xy, r, (80, 80), 0.1, cfg, exact=True)
+    ex_part = sim.spray_opacity(xy, r, (80, 80), 0.1, cfg, exact=True, crop=(10, 50, 20, 70))
+    np.testing.assert_allclose(ex_part, ex_full[10:50, 20:70], atol=1e-12)
+
+
+def test_holes_far_outside_leave_raster_empty():
+    cfg = SprayConfig()
+    xy = np.array([[-50.0, 5.0], [5.0, 80.0]])
+    assert sim.spray_opacity(xy, 1.0, (20, 20), 0.5, cfg).max() == 0.0
+
+
+@pytest.mark.parametrize("exact", [True, False])
+def test_no_holes_gives_empty_layer(exact):
+    out = sim.spray_opacity(np.zeros((0, 2)), np.zeros(0), (12, 9), 0.5, SprayConfig(), exact=exact)
+    assert out.shape == (12, 9) and not out.any()
+
+
+# --------------------------------------------------------------------------- config and bad input
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"spray_time": 0.0},
+        {"spray_time": -1.0},
+        {"nozzle_height": -0.1},
+        {"sweep_factors": (0.5, 0.0)},
+        {"px_per_mm": 0},
+    ],
+)
+def test_config_rejects_bad_values(kwargs):
+    with pytest.raises(ValidationError):
+        SprayConfig(**kwargs)
+
+
+def test_config_rejects_unknown_key():
+    with pytest.raises(ValidationError):
+        SprayConfig(spraytime=1.0)
+
+
+def test_bad_runtime_parameters_raise():
+    with pytest.raises(ValueError, match="spray_time"):
+        sim.spray_opacity(np.zeros((1, 2)), 1.0, (4, 4), 1.0, SprayConfig(), spray_time=0.0)
+    with pytest.raises(ValueError, match="radius"):
+        sim.spray_opacity(np.zeros((1, 2)), 0.0, (4, 4), 1.0, SprayConfig())
+
+
+# --------------------------------------------------------------------------- hard-stencil masks
+
+
+def test_mask_interior_and_closed():
+    cfg = SprayConfig(spray_time=1.0, nozzle_height=7.0)
+    mask = np.zeros((200, 200), bool)
+    mask[20:180, 20:180] = True
+    out = sim.spray_mask(mask, 0.1, cfg)
+    assert out[100, 100] == pytest.approx(1 - math.exp(-4.0), abs=1e-6)
+    assert not sim.spray_mask(np.zeros((10, 10), bool), 0.1, cfg).any()
+
+
+def test_mask_disc_sprays_the_dot_models_paint():
+    """A disc cut-out of the reference radius deposits the same paint (and spread) as one hole."""
+    a, h, r, s = 0.01, 7.0, 1.0, 0.05
+    cfg = SprayConfig(spray_time=a, nozzle_height=h, mask_reference_radius_mm=r)
+    shape = (400, 400)
+    rows, cols = np.mgrid[0:400, 0:400]
+    centre = (10.0, 10.0)
+    xy = px_to_mm(np.column_stack([rows.ravel(), cols.ravel()]), 400, s).reshape(400, 400, 2)
+    d2 = (xy[..., 0] - centre[0]) ** 2 + (xy[..., 1] - centre[1]) ** 2
+    mask_out = sim.spray_mask(d2 <= r * r, s, cfg)
+    dot_out = sim.spray_opacity(np.array([centre]), r, shape, s, cfg, exact=True)
+    paint_mask = -np.log1p(-mask_out)
+    paint_dot = -np.log1p(-dot_out)
+    assert paint_mask.sum() == pytest.approx(paint_dot.sum(), rel=0.02)
+    var_mask = (paint_mask * d2).sum() / paint_mask.sum()
+    var_dot = (paint_dot * d2).sum() / paint_dot.sum()
+    assert var_mask == pytest.approx(var_dot, rel=0.03)
+
+
+def test_mask_without_spread_is_sharp():
+    cfg = SprayConfig(nozzle_height=0.0)
+    mask = np.zeros((10, 10), bool)
+    mask[3:6, 3:6] = True
+    out = sim.spray_mask(mask, 0.5, cfg)
+    assert not out[~mask].any() and np.allclose(out[mask], 1 - math.exp(-0.5))
+
+
+# --------------------------------------------------------------------------- simulate
+
+
+def _layers(shape=(40, 60), s=0.5):
+    alphas = np.zeros((2, *shape))
+    alphas[0, :, : shape[1] // 2] = 0.6
+    return Layers(
+        primer=np.array([1.0, 1.0, 1.0]),
+        colours=np.array([[0.9, 0.1, 0.1], [0.1, 0.1, 0.8]]),
+        alphas=alphas,
+        mm_per_px=s,
+    )
+
+
+def test_simulate_composite_and_empty_layer():
+    layers = _layers()
+    rng = np.random.default_rng(0)
+    dots = DotSet(xy_mm=rng.uniform(0, 15, (40, 2)), r_mm=np.full(40, 0.6))
+    empty = DotSet(xy_mm=np.zeros((0, 2)), r_mm=np.zeros(0))
+    cfg = SprayConfig(px_per_mm=4.0)
+    res = sim.simulate(layers, [dots, empty], cfg)
+    assert res.alphas.shape == (2, 80, 120)
+    assert res.mm_per_px == 0.25
+    assert not res.alphas[1].any()
+    assert res.layer_rmse[1] == 0.0
+    np.testing.assert_allclose(res.composite, composite(layers.primer, layers.colours, res.alphas))
+    direct = sim.spray_opacity(dots.xy_mm, dots.r_mm, (80, 120), 0.25, cfg)
+    np.testing.assert_allclose(res.alphas[0], direct)
+    with pytest.raises(ValueError, match="one DotSet per layer"):
+        sim.simulate(layers, [dots], cfg)
+
+
+def test_simulate_per_layer_spray_time():
+    layers = _layers()
+    xy = np.array([[5.0, 5.0]])
+    cfg = SprayConfig(px_per_mm=2.0)
+    timed = DotSet(xy_mm=xy, r_mm=np.array([1.0]), report={"spray_time": 0.25})
+    plain = DotSet(xy_mm=xy, r_mm=np.array([1.0]))
+    res = sim.simulate(layers, [timed, plain], cfg)
+    assert res.alphas[0].max() == pytest.approx(0.25 * res.alphas[1].max(), rel=1e-3)
+    res2 = sim.simulate(layers, [plain, plain], cfg, spray_times=[0.25, 1.0], time_factor=2.0)
+    np.testing.assert_allclose(
+        res2.alphas[0], sim.spray_opacity(xy, 1.0, (80, 120), 0.5, cfg, spray_time=0.5)
+    )
+
+
+def test_simulate_layer_rmse_is_against_blurred_target():
+    layers = _layers()
+    empty = DotSet(xy_mm=np.zeros((0, 2)), r_mm=np.zeros(0))
+    res = sim.simulate(layers, [empty, empty], SprayConfig(), grid_mm_per_px=0.5)
+    target = sim.target_on_grid(layers.alphas[0], (40, 60), res.info["blur_sigma_mm"][0], 0.5)
+    assert res.layer_rmse[0] == pytest.approx(math.sqrt(np.mean(target**2)))
+    assert 0.3 < res.layer_rmse[0] < 0.6 * math.sqrt(0.5) + 0.05
+
+
+# --------------------------------------------------------------------------- scores and previews
+
+
+def test_score_identical_and_known_shift():
+    rng = np.random.default_rng(1)
+    img = rng.uniform(0, 1, (32, 32, 3))
+    s = sim.score(img, img)
+    assert s["de2000_mean"] == 0.0 and s["ssim"] == pytest.approx(1.0) and math.isinf(s["psnr"])
+    grey = np.full((16, 16, 3), 0.5)
+    lighter = np.full((16, 16, 3), 0.6)
+    s = sim.score(grey, lighter)
+    assert s["psnr"] == pytest.approx(20.0, abs=1e-9)  # MSE = 0.01
+    from skimage.color import deltaE_ciede2000, rgb2lab
+
+    de = deltaE_ciede2000(rgb2lab(grey[:1, :1]), rgb2lab(lighter[:1, :1]))[0, 0]
+    assert s["de2000_mean"] == pytest.approx(de) and s["de2000_p95"] == pytest.approx(de)
+
+
+def test_score_resamples_reference():
+    ref = np.full((64, 64, 3), 0.3)
+    s = sim.score(ref, np.full((32, 32, 3), 0.3))
+    assert s["de2000_mean"] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_preview_layout():
+    img = np.full((20, 30, 3), 0.4)
+    out = sim.preview(np.full((40, 60, 3), 0.4), img, img)
+    assert out.dtype == np.uint8 and out.shape == (20, 4 * 30 + 12, 3)
+    black = np.round(sim.colour_map(np.zeros(1), 20.0)[0] * 255).astype(np.uint8)
+    assert (out[:, 3 * 30 + 12 :] == black).all()  # no error: the bottom of the ramp
+    assert (out[:, 30:34] == 255).all()
+
+
+def test_sweep_panels():
+    layers = _layers()
+    dots = DotSet(xy_mm=np.array([[10.0, 10.0]]), r_mm=np.array([1.0]))
+    empty = DotSet(xy_mm=np.zeros((0, 2)), r_mm=np.zeros(0))
+    img = sim.sweep(layers, [dots, empty], SprayConfig(px_per_mm=2.0))
+    assert img.dtype == np.uint8 and img.shape == (40, 3 * 60 + 8, 3)
+    # Longer spray, darker red at the hole's edge: panels differ in order.
+    centre = [img[20, k * 64 + 24] for k in range(3)]
+    assert int(centre[0][1]) > int(centre[1][1]) > int(centre[2][1])
+
+
+# --------------------------------------------------------------------------- calibration
+
+
+def test_tone_curve_sparse_limit():
+    """At low tone the holes are isolated: mean opacity = holes per mm^2 x A 2 pi sigma^2 (A <= 1)."""
+    cfg = SprayConfig(spray_time=0.5, nozzle_height=7.0)
+    curve = cal.tone_response(1.0, 0.8, cfg)
+    t = curve.t[1]
+    lam = cal.packing_density(1.0, 0.8) * t
+    sigma = sim.dot_sigma_mm(1.0, 7.0)
+    assert curve.mean[1] == pytest.approx(lam * 0.5 * 2 * math.pi * sigma**2, rel=0.05)
+    assert curve.mean[0] == 0.0 and np.all(np.diff(curve.mean) >= 0)
+
+
+def test_calibrated_density_inverts_response_and_saturates():
+    cfg = SprayConfig(spray_time=1.0)
+    curve = cal.tone_response(0.5, 0.5, cfg)
+    alpha = np.linspace(0, 1, 101)[None, :]
+    d = cal.calibrated_density(alpha, 0.5, 0.5, 0.5, cfg)
+    assert d.shape == alpha.shape and d.min() >= 0 and d.max() <= 1
+    reach = alpha <= curve.max_opacity - 1e-3
+    np.testing.assert_allclose(curve.opacity(d[reach]), alpha[reach], atol=2e-3)
+    assert np.all(d[alpha > curve.max_opacity] == 1.0)
+
+
+def test_choose_tone_beats_linear_prediction():
+    cfg = SprayConfig(spray_time=1.0)
+    alpha = np.tile(np.linspace(0.0, 1.0, 64), (16, 1))
+    dots = cal.choose_tone(alpha, 0.5, 1.0, 0.8, cfg, mode=Calibrate.dots)
+    timed = cal.choose_tone(alpha, 0.5, 1.0, 0.8, cfg, mode=Calibrate.spray_time)
+    none = cal.choose_tone(alpha, 0.5, 1.0, 0.8, cfg, mode=Calibrate.none)
+    assert none.predicted_rmse == pytest.approx(none.predicted_rmse_linear)
+    np.testing.assert_array_equal(none.density, alpha)
+    assert dots.predicted_rmse < dots.predicted_rmse_linear
+    assert timed.predicted_rmse <= dots.predicted_rmse
+    assert dots.n_dots > 0
+
+
+@pytest.mark.slow
+def test_calibrated_stipple_sprays_closer_than_linear():
+    """End to end with the real stippler on a ramp: the calibrated tone has the lower layer RMSE."""
+    from stencil_cad.config.stipple import StippleConfig
+    from stencil_cad.stipple import stipple_layer
+
+    s = 0.5
+    alpha = np.tile(np.linspace(0.0, 1.0, 160), (60, 1))
+    layers = Layers(primer=np.ones(3), colours=np.zeros((1, 3)), alphas=alpha[None], mm_per_px=s)
+    spray = SprayConfig(calibrate=Calibrate.dots)
+    st = StippleConfig(process="sla", edge_margin_mm=0.0)
+    lin = stipple_layer(alpha, s, st, np.random.default_rng(0))
+    choice = cal.choose_tone(
+        alpha, s, st.resolved_radius_mm, st.resolved_web_mm, spray, spacing_factor=st.auto_spacing_factor
+    )
+    calibrated = stipple_layer(
+        alpha,
+        s,
+        st.model_copy(update={"tone": "calibrated"}),
+        np.random.default_rng(0),
+        density=choice.density,
+    )
+    r_lin = sim.simulate(layers, [lin], spray).layer_rmse[0]
+    r_cal = sim.simulate(layers, [calibrated], spray).layer_rmse[0]
+    assert r_cal < r_lin
