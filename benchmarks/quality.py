@@ -90,6 +90,7 @@ def run(cases=None):
         t0 = time.perf_counter()
         rng = np.random.default_rng(cfg.seed)
         layers = f["decompose"](pic, cfg.decompose, rng)
+        t_decompose = time.perf_counter() - t0
         dotsets = []
         for alpha in layers.alphas:
             density = None
@@ -98,6 +99,7 @@ def run(cases=None):
 
                 density = simulate.calibrated_density_for(alpha, layers.mm_per_px, cfg)
             dotsets.append(f["stipple_layer"](alpha, layers.mm_per_px, cfg.stipple, rng, density=density))
+        t_stipple = time.perf_counter() - t0 - t_decompose
         sim = f["simulate"](layers, dotsets, cfg.spray)
         soft = f["score"](pic.rgb, sim.composite)
         soft_seconds = time.perf_counter() - t0
@@ -142,6 +144,9 @@ def run(cases=None):
             "picture_px": list(pic.shape),
             "sim_px": list(shape),
             "soft_seconds": round(soft_seconds, 3),
+            "decompose_seconds": round(t_decompose, 3),
+            "stipple_seconds": round(t_stipple, 3),
+            "soft_simulate_seconds": round(soft_seconds - t_decompose - t_stipple, 3),
             "hard_seconds": round(hard_seconds, 3),
             "seconds": round(time.perf_counter() - t_all, 3),
         }

@@ -9,6 +9,8 @@ Cases:
   (all 14,000 holes) and ``exact_seconds`` is that time scaled by area (x 400).
   ``max_abs_error`` compares the fast and the exact opacity on that crop.
 * ``2000px-14k-A2h15`` — the same with A = 2, h = 15 (the widest windows).
+* ``2000px-14k-A0.5h2`` — the same with A = 0.5, h = 2: mid tones (mean opacity about
+  0.3), where truncation errors are not hidden by saturation.
 * ``example`` — simulate + sweep of the bundled example (150 mm, default config,
   layers from the real decomposition, dots from the real stippler).
 * ``calibration`` — one row per image (the bundled example at the default config; the
@@ -27,7 +29,7 @@ import numpy as np
 from stencil_cad import simulate as sim
 from stencil_cad.config.spray import SprayConfig
 
-CASES = ["2000px-14k", "2000px-14k-A2h15", "example", "calibration"]
+CASES = ["2000px-14k", "2000px-14k-A2h15", "2000px-14k-A0.5h2", "example", "calibration"]
 
 
 def _speed_case(name: str, spray_time: float, nozzle_height: float) -> dict:
@@ -201,6 +203,8 @@ def run(cases=None):
         yield _speed_case("2000px-14k", 1.0, 7.0)
     if "2000px-14k-A2h15" in want:
         yield _speed_case("2000px-14k-A2h15", 2.0, 15.0)
+    if "2000px-14k-A0.5h2" in want:
+        yield _speed_case("2000px-14k-A0.5h2", 0.5, 2.0)
     if "example" in want:
         yield _example_case()
     if "calibration" in want:

@@ -13,12 +13,16 @@ How. For the stippler's pattern at open-area tone ``t`` (hole radius
 at ``auto_spacing_factor (2 r1 + web)``, exactly as :mod:`stencil_cad.stipple`
 does), a small jittered hexagonal patch is sprayed with the simulator and its
 mean opacity ``m(t)`` and variance ``v(t)`` are measured: the *tone response*.
-In the sparse limit ``m(t) ~ 1 - exp(-lambda(t) K)`` with
-``K = ∫ -ln(1 - min(N, 1)) dA`` (Campbell's theorem), which the measurement
-refines for overlap, clamping and texture. The calibrated density is the
+For holes placed as a Poisson process of density ``lambda`` the mean is exact:
+``m = 1 - exp(-lambda ∫ min(N, 1) dA)`` (the probability generating functional
+of the Poisson process applied to ``1 - I = prod (1 - min(N_i, 1))``); the
+optical depth ``-ln(1 - m)`` grows linearly with hole density. A relaxed
+stipple is more regular than Poisson, so the patch measurement replaces the
+formula (they agree in the sparse limit, see tests/test_simulate.py). The calibrated density is the
 inverse ``t(alpha) = m^-1(alpha)``, clipped to ``t <= 1`` where the minimum web
 saturates it (no denser packing is possible). With ``spray.calibrate:
-spray_time`` the spray time A of each layer is chosen from a geometric grid to
+spray_time`` the spray time A of each layer is chosen from a geometric grid
+(``spray_time x 2^(k/2)``, k = -6..6, i.e. 0.125x to 8x) to
 minimise the predicted layer MSE ``mean((m(t(alpha)) - alpha)^2 + v(t(alpha)))``
 over the layer's opacities: a low A needs more holes than the web allows in dark
 areas, a high A makes a coarse, clamped texture.
@@ -57,7 +61,7 @@ _CELLS = 10
 #: relaxed weighted-Voronoi stipple is locally hexagonal with small disorder).
 _JITTER = 0.08
 #: Spray-time multipliers tried by ``calibrate: spray_time``.
-_A_FACTORS = tuple(2.0 ** (k / 2.0) for k in range(-4, 7))
+_A_FACTORS = tuple(2.0 ** (k / 2.0) for k in range(-6, 7))
 
 
 def packing_density(max_radius_mm: float, web_mm: float, spacing_factor: float = 1.15) -> float:
@@ -329,7 +333,9 @@ def choose_tone(
         density = best_curve.inverse(a)
     rho = packing_density(r1, web_mm, spacing_factor)
     t_eff = np.where(a >= opacity_threshold, density, 0.0)
-    n_dots = int(round(rho * float(t_eff.sum()) * mm_per_px * mm_per_px))
+    # Holes per pixel as the stippler counts them: lambda(t) = rho_pack t (r1 / r(t))^2.
+    r_of_t = radius_mm + (r1 - radius_mm) * np.sqrt(t_eff)
+    n_dots = int(round(rho * float((t_eff * (r1 / r_of_t) ** 2).sum()) * mm_per_px * mm_per_px))
     return ToneChoice(
         density=density,
         spray_time=float(best_a),

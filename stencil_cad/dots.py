@@ -301,8 +301,9 @@ def enforce_rules(
 
     In order: non-finite dots are dropped; radii below the floor are raised;
     pairs whose centres are closer than the larger radius (holes that would
-    fuse) are merged into one hole at their area-weighted centre; web, edge and
-    keep-out violations are nudged apart (each dot moves at most
+    fuse) are merged into one hole at their area-weighted centre; pairs whose
+    web is short by more than ``2 max_nudge_mm`` lose their more crowded dot;
+    web, edge and keep-out violations are nudged apart (each dot moves at most
     ``max_nudge_mm`` in total); dots still outside the margin box or a keep-out
     are removed; remaining web violations are resolved by removing the more
     crowded dot of each pair, worst pair first. The result always passes
@@ -370,10 +371,15 @@ def enforce_rules(
     # is within this reach at the start: find the candidates once, not every sweep.
     candidates = _pairs_within(start, 2.0 * float(r.max(initial=0.0)) + target_web + 2.0 * max_nudge_mm)
     active = np.ones(len(xy), dtype=bool)
-    for _ in range(nudge_rounds):
+    for sweep in range(nudge_rounds):
         live = candidates[active[candidates[:, 0]] | active[candidates[:, 1]]]
         pairs, webs = _short_pairs(xy, r, target_web, live)
-        before = xy.copy()
+        # The first sweep also brings every dot inside the margin box and out of keep-outs;
+        # later sweeps only touch the dots of violating pairs.
+        idx = np.arange(len(xy)) if sweep == 0 else np.unique(pairs)
+        if len(idx) == 0:
+            break
+        before = xy[idx]
         if len(pairs):
             i, j = pairs[:, 0], pairs[:, 1]
             delta = xy[i] - xy[j]
@@ -384,18 +390,22 @@ def enforce_rules(
             n = len(xy)
             xy[:, 0] += np.bincount(i, push[:, 0], n) - np.bincount(j, push[:, 0], n)
             xy[:, 1] += np.bincount(i, push[:, 1], n) - np.bincount(j, push[:, 1], n)
-        _clamp_to_box(xy, r, rules)
-        _push_out_of_keepouts(xy, r, rules)
+        sub, rs = xy[idx], r[idx]
+        _clamp_to_box(sub, rs, rules)
+        _push_out_of_keepouts(sub, rs, rules)
         # Cap the total displacement so nudging never redraws the distribution.
-        off = xy - start
+        off = sub - start[idx]
         dist = np.hypot(off[:, 0], off[:, 1])
         far = dist > max_nudge_mm
         if far.any():
-            xy[far] = start[far] + off[far] * (max_nudge_mm / dist[far])[:, None]
+            sub[far] = start[idx][far] + off[far] * (max_nudge_mm / dist[far])[:, None]
+        xy[idx] = sub
         # Only dots that moved can have made new conflicts; stuck ones are left to removal.
-        active = (xy != before).any(axis=1)
-        if not active.any():
+        moved = idx[(sub != before).any(axis=1)]
+        if len(moved) == 0:
             break
+        active[:] = False
+        active[moved] = True
     report["nudged"] = int((np.hypot(*(xy - start).T) > 1e-9).sum())
 
     edge_out = _edge_excess(xy, r, rules) > 0

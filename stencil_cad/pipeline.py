@@ -10,7 +10,7 @@ import contextlib
 import logging
 import platform
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -127,41 +127,56 @@ def read_layers(folder: Path) -> Layers:
         raise UserError(f"{path}: not a readable decomposition ({exc}); re-run `stencil-cad decompose`") from None
 
 
+SPRAY_JSON = "spray.json"
+
+
 def stage_stipple(run: Run, layers: Layers, picture_mm: tuple[float, float]) -> list[DotSet]:
-    """Stipple every layer's opacity into holes, enforce the design rules, save CSV + previews."""
+    """Stipple every layer's opacity into holes, enforce the design rules, save CSV + previews.
+
+    With ``stipple.tone: calibrated`` the density comes from the spray response
+    (:mod:`stencil_cad.calibrate`), and with ``spray.calibrate: spray_time`` each layer also
+    gets its own spray time, saved in ``spray.json`` and in the dots' report.
+    """
+    from dataclasses import replace
+
     from . import dots as dots_mod
     from . import stipple
 
     width_mm, height_mm = picture_mm
+    cfg = run.cfg
+    calibrated = getattr(cfg.stipple.tone, "value", cfg.stipple.tone) == "calibrated"
     sets: list[DotSet] = []
+    tones: list[dict] = []
     with run.stage("stipple"):
-        density_for = _density_hook(run, layers)
         with run.bar(layers.count, "stipple") as bar:
-            for i, alpha in enumerate(layers.alphas):
-                density = density_for(i, alpha) if density_for else None
-                ds = stipple.stipple_layer(alpha, layers.mm_per_px, run.cfg.stipple, run.rng, density=density)
+            for alpha in layers.alphas:
+                density = None
+                spray_time = cfg.spray.spray_time
+                if calibrated:
+                    from . import calibrate
+
+                    choice = calibrate.calibrated_tone_for(alpha, layers.mm_per_px, cfg)
+                    density = choice.density
+                    if getattr(cfg.spray.calibrate, "value", cfg.spray.calibrate) == "spray_time":
+                        spray_time = float(choice.spray_time)
+                    tones.append(choice.summary())
+                ds = stipple.stipple_layer(alpha, layers.mm_per_px, cfg.stipple, run.rng, density=density)
+                ds = replace(ds, report={**ds.report, "spray_time": spray_time})
                 sets.append(ds)
                 bar.update(1)
         for i, ds in enumerate(sets):
             run.out.write_text(dots_name(i), dots_mod.dots_to_csv(ds))
             run.out.write_png(f"{layer_stem(i)}_dots.png", dots_mod.dots_preview(ds, width_mm, height_mm))
+        run.out.write_json(
+            SPRAY_JSON,
+            {"spray_times": [ds.report["spray_time"] for ds in sets], "nozzle_height": cfg.spray.nozzle_height},
+        )
     run.figures["stipple"] = [
         {"layer": i + 1, "dots": len(ds), **_plain(ds.report)} for i, ds in enumerate(sets)
     ]
+    if tones:
+        run.figures["tone_calibration"] = tones
     return sets
-
-
-def _density_hook(run: Run, layers: Layers) -> Callable | None:
-    """The calibrated tone curve, when the config asks for it."""
-    tone = getattr(run.cfg.stipple, "tone", None)
-    if tone is None or getattr(tone, "value", tone) != "calibrated":
-        return None
-    from . import simulate
-
-    def density(i: int, alpha: np.ndarray) -> np.ndarray:
-        return simulate.calibrated_density_for(alpha, layers.mm_per_px, run.cfg)
-
-    return density
 
 
 def read_dots(folder: Path, count: int | None = None) -> list[DotSet]:
@@ -179,6 +194,17 @@ def read_dots(folder: Path, count: int | None = None) -> list[DotSet]:
             out.append(dots_mod.dots_from_csv(f.read_text(encoding="utf-8")))
         except ValueError as exc:
             raise UserError(f"{f}: {exc}") from None
+    spray = folder / SPRAY_JSON
+    if spray.exists():
+        import json
+        from dataclasses import replace
+
+        try:
+            times = json.loads(spray.read_text())["spray_times"]
+        except (ValueError, KeyError, TypeError):
+            raise UserError(f"{spray}: not a valid spray-time file; delete it to use spray.spray_time") from None
+        if len(times) == len(out):
+            out = [replace(ds, report={**ds.report, "spray_time": float(t)}) for ds, t in zip(out, times, strict=True)]
     return out
 
 
@@ -252,7 +278,11 @@ def stage_simulate(run: Run, picture: Picture | None, layers: Layers, dotsets: l
             "preview.png", simulate.preview(ref, _resample(layers.composite(), sim.composite.shape[:2]), sim.composite)
         )
         run.out.write_png("sweep.png", simulate.sweep(layers, dotsets, run.cfg.spray))
-    run.figures["simulate"] = {**_plain(scores), "layer_rmse": [float(x) for x in sim.layer_rmse]}
+    run.figures["simulate"] = {
+        **_plain(scores),
+        "layer_rmse": [float(x) for x in sim.layer_rmse],
+        **{k: v for k, v in _plain(sim.info).items() if k not in scores},
+    }
     return scores
 
 

@@ -7,6 +7,8 @@ import logging
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as hst
 from pydantic import ValidationError
 from scipy.optimize import linear_sum_assignment, lsq_linear
 
@@ -84,7 +86,9 @@ def test_energy_terms_match_numpy_reference():
     got = energy.energy_terms(target, primer, colours, alphas)
     _, want = reference_energy(target, primer, colours, alphas, 1, 1, 1)
     np.testing.assert_allclose(got, want, rtol=1e-12)
-    np.testing.assert_allclose(energy.composite_nb(primer, colours, alphas), composite(primer, colours, alphas), atol=1e-14)
+    np.testing.assert_allclose(
+        energy.composite_nb(primer, colours, alphas), composite(primer, colours, alphas), atol=1e-14
+    )
 
 
 def test_layer_qp_is_solved_to_optimality():
@@ -108,7 +112,9 @@ def test_layer_qp_is_solved_to_optimality():
     below = composite(primer, colours[:layer], alphas[:layer])
     total = alphas.sum(axis=0)
     a = alphas[layer].copy()
-    energy.solve_layer(target, below, trans[layer], above[layer], colours[layer], a, total, gd, gs, gp, 1.6, 1e-13, 100000)
+    energy.solve_layer(
+        target, below, trans[layer], above[layer], colours[layer], a, total, gd, gs, gp, 1.6, 1e-13, 100000
+    )
 
     lo, hi = alphas.copy(), alphas.copy()
     lo[layer], hi[layer] = 0.0, 1.0
@@ -142,7 +148,9 @@ def test_colour_step_matches_bounded_least_squares():
     h, w, n_layers = 12, 10, 3
     target = rng.random((h, w, 3))
     alphas = rng.random((n_layers, h, w))
-    st = solver_mod.State(target, np.full(3, 0.5), np.full((n_layers, 3), 0.5), alphas, np.ones(n_layers + 1, bool))
+    st = solver_mod.State(
+        target, np.full(3, 0.5), np.full((n_layers, 3), 0.5), alphas, np.ones(n_layers + 1, bool)
+    )
     solver_mod.colour_step(st)
     # Independent oracle: build W explicitly and solve per channel.
     weights = np.empty((h * w, n_layers + 1))
@@ -174,14 +182,18 @@ def test_synthetic_is_reproduced(synthetic):
 def test_energy_never_increases(synthetic):
     img, _ = synthetic
     # Start far from the answer (light-to-dark, no pyramid) so there are many iterations to check.
-    cfg = DecomposeConfig(layers=3, coarse_to_fine=False, tolerance=1e-6, max_iterations=40, order="light_to_dark")
+    cfg = DecomposeConfig(
+        layers=3, coarse_to_fine=False, tolerance=1e-6, max_iterations=40, order="light_to_dark"
+    )
     layers = decompose(Picture(rgb=img, mm_per_px=0.5), cfg, np.random.default_rng(1))
     trace = np.array(layers.energy_trace)
     assert trace.size >= 10
     assert np.all(np.diff(trace) <= 1e-12 * trace[:-1])
     # The trace is the energy of the paper, and ends at the returned layers' energy.
     e = energy_of(layers, img, cfg)
-    want, _ = reference_energy(img, layers.primer, layers.colours, layers.alphas, 1.0, cfg.weights.smooth, cfg.weights.sparse)
+    want, _ = reference_energy(
+        img, layers.primer, layers.colours, layers.alphas, 1.0, cfg.weights.smooth, cfg.weights.sparse
+    )
     assert e["total"] == pytest.approx(want, rel=1e-9)
     assert trace[-1] == pytest.approx(want, rel=1e-9)
 
@@ -189,7 +201,11 @@ def test_energy_never_increases(synthetic):
 def test_energy_never_increases_without_extrapolation(synthetic):
     img, _ = synthetic
     st = solver_mod.State(
-        np.ascontiguousarray(img), PRIMER * 0.9, np.clip(PAINTS + 0.1, 0, 1), np.full((3, 64, 64), 0.3), np.ones(4, bool)
+        np.ascontiguousarray(img),
+        PRIMER * 0.9,
+        np.clip(PAINTS + 0.1, 0, 1),
+        np.full((3, 64, 64), 0.3),
+        np.ones(4, bool),
     )
     s = solver_mod.SolverSettings(1.0, 1e-3, 3e-4, 0.0, 20, 1e-4, 100)
     solver_mod.iterate(st, s, 20, 0.0, extrapolate=False)
@@ -225,7 +241,9 @@ def test_few_distinct_colours_gives_fewer_layers_and_a_warning(caplog):
     img[:, :15] = [1.0, 1.0, 1.0]
     img[:, 15:] = [0.8, 0.1, 0.1]
     with caplog.at_level(logging.WARNING):
-        layers = decompose(Picture(rgb=img, mm_per_px=1.0), DecomposeConfig(layers=4), np.random.default_rng(0))
+        layers = decompose(
+            Picture(rgb=img, mm_per_px=1.0), DecomposeConfig(layers=4), np.random.default_rng(0)
+        )
     assert layers.count == 1
     assert layers.info["warnings"] and "distinct" in layers.info["warnings"][0]
     assert "distinct" in caplog.text
@@ -283,7 +301,9 @@ def test_fixed_palette_with_free_primer_moves_only_the_primer(synthetic):
     hexes = ["#{:02x}{:02x}{:02x}".format(*np.rint(c * 255).astype(int)) for c in PAINTS]
     cfg = DecomposeConfig(palette=hexes)
     layers = decompose(Picture(rgb=img, mm_per_px=1.0), cfg, np.random.default_rng(0))
-    np.testing.assert_allclose(np.sort(layers.colours, axis=0), np.sort(np.array([colour_to_rgb(h) for h in hexes]), axis=0))
+    np.testing.assert_allclose(
+        np.sort(layers.colours, axis=0), np.sort(np.array([colour_to_rgb(h) for h in hexes]), axis=0)
+    )
     assert np.abs(layers.primer - PRIMER).max() * 255 <= 3.0
 
 
@@ -315,7 +335,9 @@ def test_alpha_channel_as_opacity():
     # auto ignores the alpha of a colour image; alpha without an alpha channel is an error.
     assert decompose(pic, DecomposeConfig(layers=1), np.random.default_rng(0)).info["source"] == "rgb"
     with pytest.raises(ValueError, match="alpha"):
-        decompose(Picture(rgb=rgb, mm_per_px=1.0), DecomposeConfig(opacity_source="alpha"), np.random.default_rng(0))
+        decompose(
+            Picture(rgb=rgb, mm_per_px=1.0), DecomposeConfig(opacity_source="alpha"), np.random.default_rng(0)
+        )
 
 
 def test_deterministic_for_a_seed(synthetic):
@@ -331,7 +353,10 @@ def test_progress_callback_and_info(synthetic):
     img, _ = synthetic
     seen = []
     layers = decompose(
-        Picture(rgb=img, mm_per_px=1.0), DecomposeConfig(layers=3), np.random.default_rng(0), progress=lambda i, e: seen.append((i, e))
+        Picture(rgb=img, mm_per_px=1.0),
+        DecomposeConfig(layers=3),
+        np.random.default_rng(0),
+        progress=lambda i, e: seen.append((i, e)),
     )
     assert [i for i, _ in seen] == list(range(1, len(seen) + 1))
     assert len(seen) == layers.iterations == layers.info["iterations"]
@@ -343,7 +368,11 @@ def test_progress_callback_and_info(synthetic):
 
 def test_npz_round_trip(synthetic):
     img, _ = synthetic
-    layers = decompose(Picture(rgb=img, mm_per_px=0.25), DecomposeConfig(layers=3, max_iterations=3), np.random.default_rng(0))
+    layers = decompose(
+        Picture(rgb=img, mm_per_px=0.25),
+        DecomposeConfig(layers=3, max_iterations=3),
+        np.random.default_rng(0),
+    )
     buf = io.BytesIO()
     np.savez_compressed(buf, **layers_to_npz(layers))
     buf.seek(0)
@@ -382,15 +411,15 @@ def astronaut256():
     return np.clip(resize(data.astronaut() / 255.0, (256, 256), anti_aliasing=True), 0, 1)
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("n_layers, limit", [(4, 3.0), (6, 1.5)])
 def test_astronaut_rmse(astronaut256, n_layers, limit):
-    layers = decompose(Picture(rgb=astronaut256, mm_per_px=0.5), DecomposeConfig(layers=n_layers), np.random.default_rng(0))
+    layers = decompose(
+        Picture(rgb=astronaut256, mm_per_px=0.5), DecomposeConfig(layers=n_layers), np.random.default_rng(0)
+    )
     assert layers.info["rmse"] <= limit
-    assert max(layers.info["rmse_channels"]) <= limit * 1.5
+    assert max(layers.info["rmse_channels"]) <= limit  # every channel, not just on average
 
 
-@pytest.mark.slow
 def test_astronaut_fixed_kmeans_palette_stalls(astronaut256):
     from stencil_cad.decompose import palette
 
@@ -400,3 +429,33 @@ def test_astronaut_fixed_kmeans_palette_stalls(astronaut256):
     cfg = DecomposeConfig(layers=4, primer=hexes[0], palette=hexes[1:], order="given")
     fixed = decompose(Picture(rgb=astronaut256, mm_per_px=0.5), cfg, np.random.default_rng(0))
     assert fixed.info["rmse"] > 6.0
+
+
+@settings(max_examples=15, deadline=None)
+@given(
+    seed=hst.integers(0, 10_000),
+    h=hst.integers(1, 24),
+    w=hst.integers(1, 24),
+    n_layers=hst.integers(1, 5),
+    fixed=hst.booleans(),
+    order=hst.sampled_from(["auto", "light_to_dark"]),
+    levels=hst.integers(1, 6),
+)
+def test_any_small_image_gives_valid_layers(seed, h, w, n_layers, fixed, order, levels):
+    rng = np.random.default_rng(seed)
+    # Posterised noise: between 1 and `levels`**3 distinct colours.
+    img = np.floor(rng.random((h, w, 3)) * levels) / max(levels - 1, 1)
+    kwargs = {"layers": n_layers, "order": order, "max_iterations": 8}
+    if fixed:
+        kwargs["palette"] = [
+            "#{:02x}{:02x}{:02x}".format(*rng.integers(0, 256, 3)) for _ in range(n_layers + 1)
+        ]
+    layers = decompose(Picture(rgb=np.clip(img, 0, 1), mm_per_px=1.0), DecomposeConfig(**kwargs), rng)
+    assert 1 <= layers.count <= n_layers
+    assert layers.alphas.shape == (layers.count, h, w)
+    for arr in (layers.alphas, layers.colours, layers.primer):
+        assert np.isfinite(arr).all()
+        assert arr.min() >= 0.0 and arr.max() <= 1.0
+    trace = np.array(layers.energy_trace)
+    assert np.all(np.diff(trace) <= 1e-12 * np.abs(trace[:-1]) + 1e-15)
+    assert layers.info["rmse"] == pytest.approx(rmse255(layers.composite(), img), rel=1e-9, abs=1e-9)

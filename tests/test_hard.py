@@ -121,7 +121,7 @@ def test_bridge_below_process_minimum_is_rejected():
 def test_expansion_move_is_the_best_move_brute_force():
     rng = np.random.default_rng(1)
     h, w, k = 3, 3, 3
-    for _ in range(20):
+    for _ in range(8):
         unary = rng.random((h, w, k)) * 10
         f = rng.integers(0, k, (h, w))
         wgt = float(rng.random() * 5)

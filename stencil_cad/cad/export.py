@@ -60,11 +60,15 @@ class _Step:
 
     def points(self, xyz: np.ndarray) -> np.ndarray:
         s = _f(xyz)
-        return self.many([f"CARTESIAN_POINT('',({x},{y},{z}))" for x, y, z in zip(s[0::3], s[1::3], s[2::3])])
+        return self.many(
+            [f"CARTESIAN_POINT('',({x},{y},{z}))" for x, y, z in zip(s[0::3], s[1::3], s[2::3], strict=True)]
+        )
 
     def directions(self, xyz: np.ndarray) -> np.ndarray:
         s = _f(xyz)
-        return self.many([f"DIRECTION('',({x},{y},{z}))" for x, y, z in zip(s[0::3], s[1::3], s[2::3])])
+        return self.many(
+            [f"DIRECTION('',({x},{y},{z}))" for x, y, z in zip(s[0::3], s[1::3], s[2::3], strict=True)]
+        )
 
 
 def _oe(edges: np.ndarray, forward: bool) -> list[str]:
@@ -116,16 +120,28 @@ def _write_polygon_rings(w: _Step, rings: list[_Ring], dz: int, faces: list) -> 
     vz = w.many([f"VECTOR('',#{dz},{h})" for h in hs])
     lv = w.many([f"LINE('',#{p},#{v})" for p, v in zip(p0.tolist(), vz.tolist(), strict=True)])
     eb = w.many(
-        [f"EDGE_CURVE('',#{a},#{b},#{c},.T.)" for a, b, c in zip(vb.tolist(), vb[nxt].tolist(), lb.tolist(), strict=True)]
+        [
+            f"EDGE_CURVE('',#{a},#{b},#{c},.T.)"
+            for a, b, c in zip(vb.tolist(), vb[nxt].tolist(), lb.tolist(), strict=True)
+        ]
     )
     et = w.many(
-        [f"EDGE_CURVE('',#{a},#{b},#{c},.T.)" for a, b, c in zip(vt.tolist(), vt[nxt].tolist(), lt.tolist(), strict=True)]
+        [
+            f"EDGE_CURVE('',#{a},#{b},#{c},.T.)"
+            for a, b, c in zip(vt.tolist(), vt[nxt].tolist(), lt.tolist(), strict=True)
+        ]
     )
     ev = w.many(
-        [f"EDGE_CURVE('',#{a},#{b},#{c},.T.)" for a, b, c in zip(vb.tolist(), vt.tolist(), lv.tolist(), strict=True)]
+        [
+            f"EDGE_CURVE('',#{a},#{b},#{c},.T.)"
+            for a, b, c in zip(vb.tolist(), vt.tolist(), lv.tolist(), strict=True)
+        ]
     )
     ax = w.many(
-        [f"AXIS2_PLACEMENT_3D('',#{p},#{a},#{b})" for p, a, b in zip(p0.tolist(), dn.tolist(), du.tolist(), strict=True)]
+        [
+            f"AXIS2_PLACEMENT_3D('',#{p},#{a},#{b})"
+            for p, a, b in zip(p0.tolist(), dn.tolist(), du.tolist(), strict=True)
+        ]
     )
     pl = w.many([f"PLANE('',#{a})" for a in ax.tolist()])
     o1 = w.many(_oe(eb, True))
@@ -140,14 +156,18 @@ def _write_polygon_rings(w: _Step, rings: list[_Ring], dz: int, faces: list) -> 
     )
     bounds = w.many([f"FACE_OUTER_BOUND('',#{lp},.T.)" for lp in loops.tolist()])
     faces.extend(
-        w.many([f"ADVANCED_FACE('',(#{b}),#{p},.T.)" for b, p in zip(bounds.tolist(), pl.tolist(), strict=True)]).tolist()
+        w.many(
+            [f"ADVANCED_FACE('',(#{b}),#{p},.T.)" for b, p in zip(bounds.tolist(), pl.tolist(), strict=True)]
+        ).tolist()
     )
     for k, r in enumerate(rings):
         r.eb = eb[starts[k] : starts[k + 1]]
         r.et = et[starts[k] : starts[k + 1]]
 
 
-def _write_circle_rings(w: _Step, xy: np.ndarray, rad: np.ndarray, z0: float, z1: float, ids: dict, faces: list):
+def _write_circle_rings(
+    w: _Step, xy: np.ndarray, rad: np.ndarray, z0: float, z1: float, ids: dict, faces: list
+):
     """Round through holes: two circles about -z, a seam line and a cylindrical face each.
 
     Returns:
@@ -174,7 +194,10 @@ def _write_circle_rings(w: _Step, xy: np.ndarray, rad: np.ndarray, z0: float, z1
     vec = ids["vz"][(z0, z1)]
     ls = w.many([f"LINE('',#{p},#{vec})" for p in p0.tolist()])
     ev = w.many(
-        [f"EDGE_CURVE('',#{a},#{b},#{c},.T.)" for a, b, c in zip(vb.tolist(), vt.tolist(), ls.tolist(), strict=True)]
+        [
+            f"EDGE_CURVE('',#{a},#{b},#{c},.T.)"
+            for a, b, c in zip(vb.tolist(), vt.tolist(), ls.tolist(), strict=True)
+        ]
     )
     ac = w.many([f"AXIS2_PLACEMENT_3D('',#{p},#{dz},#{dx})" for p in c0.tolist()])
     cyl = w.many([f"CYLINDRICAL_SURFACE('',#{a},{r})" for a, r in zip(ac.tolist(), rs, strict=True)])
@@ -191,7 +214,9 @@ def _write_circle_rings(w: _Step, xy: np.ndarray, rad: np.ndarray, z0: float, z1
     bounds = w.many([f"FACE_OUTER_BOUND('',#{lp},.T.)" for lp in loops.tolist()])
     # The material is outside the cylinder: the face's normal points to the axis (.F.).
     faces.extend(
-        w.many([f"ADVANCED_FACE('',(#{b}),#{c},.F.)" for b, c in zip(bounds.tolist(), cyl.tolist(), strict=True)]).tolist()
+        w.many(
+            [f"ADVANCED_FACE('',(#{b}),#{c},.F.)" for b, c in zip(bounds.tolist(), cyl.tolist(), strict=True)]
+        ).tolist()
     )
     return eb, et
 
@@ -216,7 +241,9 @@ def _plane_face(w: _Step, z: float, up: bool, bounds: list[int], ids: dict) -> i
     pt = w.points(np.array([[0.0, 0.0, z]]))[0]
     ax = w.one(f"AXIS2_PLACEMENT_3D('',#{pt},#{ids['dz']},#{ids['dx']})")
     pl = w.one(f"PLANE('',#{ax})")
-    return w.one("ADVANCED_FACE('',(" + ",".join(f"#{b}" for b in bounds) + f"),#{pl},{'.T.' if up else '.F.'})")
+    return w.one(
+        "ADVANCED_FACE('',(" + ",".join(f"#{b}" for b in bounds) + f"),#{pl},{'.T.' if up else '.F.'})"
+    )
 
 
 def step_text(geom: PlateGeometry, name: str = "stencil_plate") -> str:
@@ -246,12 +273,10 @@ def step_text(geom: PlateGeometry, name: str = "stencil_plate") -> str:
         w.one(body)
     rep_line = len(w.lines)
     w.one("ADVANCED_BREP_SHAPE_REPRESENTATION('',(#11,#15),#CTX)")  # #10, context filled in below
-    o = w.points(np.zeros((1, 3)))[0]  # 11
-    dz = w.one("DIRECTION('',(0.,0.,1.))")
-    dx = w.one("DIRECTION('',(1.,0.,0.))")
-    assert o == 11 and dz == 12 and dx == 13
-    w.lines[-3] = "#11=AXIS2_PLACEMENT_3D('',#14,#12,#13);"
-    w.one("CARTESIAN_POINT('',(0.,0.,0.))")  # 14
+    w.one("AXIS2_PLACEMENT_3D('',#12,#13,#14)")  # 11
+    w.one("CARTESIAN_POINT('',(0.,0.,0.))")  # 12
+    dz = w.one("DIRECTION('',(0.,0.,1.))")  # 13
+    dx = w.one("DIRECTION('',(1.,0.,0.))")  # 14
     msb_line = len(w.lines)
     w.one("MANIFOLD_SOLID_BREP('',#SHELL)")  # 15
     dzn = w.one("DIRECTION('',(0.,0.,-1.))")
@@ -289,7 +314,13 @@ def step_text(geom: PlateGeometry, name: str = "stencil_plate") -> str:
     all_poly = [out_ring, *hole_rings] + [r for g in glyph_rings for r in (g[0], *g[1])]
     _write_polygon_rings(w, all_poly, dz, faces)
     ceb, cet = _write_circle_rings(
-        w, np.asarray(geom.circles_xy, dtype=np.float64).reshape(-1, 2), np.asarray(geom.circles_r), 0.0, t, ids, faces
+        w,
+        np.asarray(geom.circles_xy, dtype=np.float64).reshape(-1, 2),
+        np.asarray(geom.circles_r),
+        0.0,
+        t,
+        ids,
+        faces,
     )
 
     # Bottom (facing -z): every ring's bottom edges, reversed.
@@ -434,7 +465,9 @@ def occt_mesh(part, tolerance_mm: float) -> TriMesh:
             ids = []
             for i in range(1, tri.NbTriangles() + 1):
                 a, b, c = tri.Triangle(i).Get()
-                ids.append((a - 1, b - 1, c - 1) if face.Orientation() != TopAbs_REVERSED else (a - 1, c - 1, b - 1))
+                ids.append(
+                    (a - 1, b - 1, c - 1) if face.Orientation() != TopAbs_REVERSED else (a - 1, c - 1, b - 1)
+                )
             verts.append(np.asarray(pts, dtype=np.float64))
             faces.append(np.asarray(ids, dtype=np.int64) + offset)
             offset += len(pts)
@@ -443,4 +476,4 @@ def occt_mesh(part, tolerance_mm: float) -> TriMesh:
     f = np.concatenate(faces)
     # Merge coincident nodes (faces share edge discretisations exactly).
     _, first, inv = np.unique(np.round(v, 9), axis=0, return_index=True, return_inverse=True)
-    return TriMesh(v[first], first.argsort().argsort()[inv.reshape(-1)][f] if False else inv.reshape(-1)[f], {"mesher": "occt"})
+    return TriMesh(v[first], inv.reshape(-1)[f], {"mesher": "occt"})

@@ -123,7 +123,9 @@ class PlateGeometry:
     @property
     def hole_area(self) -> float:
         """Total area of the through holes in mm² (exact circles)."""
-        return float(math.pi * np.sum(np.square(self.circles_r)) + sum(polygon_area(p) for p in self.polygons))
+        return float(
+            math.pi * np.sum(np.square(self.circles_r)) + sum(polygon_area(p) for p in self.polygons)
+        )
 
     @property
     def glyph_area(self) -> float:
@@ -236,7 +238,50 @@ def _ring_edges(ring_id: np.ndarray) -> np.ndarray:
     return nxt
 
 
-def _triangulate(points: np.ndarray, ring_id: np.ndarray, left: np.ndarray, right: np.ndarray, extra: np.ndarray):
+def _split(points, ring_id, left, right, split):
+    """Insert the midpoint of each ring edge flagged in ``split`` (same straight edge)."""
+    nxt = _ring_edges(ring_id)
+    reps = np.where(split, 2, 1)
+    new_pts = np.repeat(points, reps, axis=0)
+    pos = np.cumsum(reps) - 1
+    new_pts[pos[split]] = 0.5 * (points[split] + points[nxt[split]])
+    return new_pts, np.repeat(ring_id, reps), np.repeat(left, reps), np.repeat(right, reps)
+
+
+def _gabriel(points, ring_id, left, right, extra, rounds: int = 8, neighbours_count: bool = True):
+    """Split ring edges until no other vertex lies in any edge's diametral disc.
+
+    An edge whose diametral disc holds no other vertex (a Gabriel edge) is an edge
+    of every Delaunay triangulation of the set, so after this pass the
+    triangulation contains every ring edge without recovery rounds (each of
+    which would cost a whole triangulation). Found with a k-d tree: a vertex
+    inside the disc is nearer the edge's midpoint than its two end points are.
+    """
+    from scipy.spatial import cKDTree
+
+    for _ in range(rounds):
+        nxt = _ring_edges(ring_id)
+        allp = np.concatenate([points, extra]) if len(extra) else points
+        mid = 0.5 * (points + points[nxt])
+        half = 0.5 * np.linalg.norm(points[nxt] - points, axis=1)
+        dist, idx = cKDTree(allp).query(mid, k=5)
+        prev = np.empty_like(nxt)
+        prev[nxt] = np.arange(len(points))
+        # Letters have sharp corners, where a ring's own neighbours sit inside the disc and
+        # splitting would never end; there the neighbours do not count (recovery catches the rest).
+        own = (idx == np.arange(len(points))[:, None]) | (idx == nxt[:, None])
+        if not neighbours_count:
+            own |= (idx == prev[:, None]) | (idx == nxt[nxt][:, None])
+        bad = ((dist < half[:, None] * (1.0 - 1e-9)) & ~own).any(axis=1)
+        if not bad.any():
+            break
+        points, ring_id, left, right = _split(points, ring_id, left, right, bad)
+    return points, ring_id, left, right
+
+
+def _triangulate(
+    points: np.ndarray, ring_id: np.ndarray, left: np.ndarray, right: np.ndarray, extra: np.ndarray
+):
     """Constrained triangulation of flat rings, with a region label per triangle.
 
     Args:
@@ -284,13 +329,8 @@ def _triangulate(points: np.ndarray, ring_id: np.ndarray, left: np.ndarray, righ
             )
         # Split each missing edge at its midpoint (on the same straight edge, so the polygon
         # does not change) and triangulate again: a conforming Delaunay triangulation.
+        points, ring_id, left, right = _split(points, ring_id, left, right, ~present)
         split = ~present
-        reps = np.where(split, 2, 1)
-        new_pts = np.repeat(points, reps, axis=0)
-        pos = np.cumsum(reps) - 1
-        new_pts[pos[split]] = 0.5 * (points[split] + points[nxt[split]])
-        ring_id, left, right = np.repeat(ring_id, reps), np.repeat(left, reps), np.repeat(right, reps)
-        points = new_pts
         log.debug("mesh: recovering %d ring edges (round %d)", int(split.sum()), rounds + 1)
 
     # Which side of a ring edge each triangle lies on, hence its label.
@@ -341,16 +381,25 @@ def _walls(bottom: np.ndarray, top: np.ndarray, ring_id: np.ndarray) -> np.ndarr
     return np.concatenate([np.stack([b0, b1, t1], axis=1), np.stack([b0, t1, t0], axis=1)])
 
 
-#: Region labels of the triangulation.
-VOID, SHEET, GLYPH = 0, 1, 2
+#: Region labels of the triangulations.
+VOID, SHEET, GLYPH, BOX = 0, 1, 2, 3
+
+
+def _flat(rings: list[np.ndarray], lr: list[tuple[int, int]]):
+    pts = np.concatenate(rings) if rings else np.zeros((0, 2))
+    rid = np.repeat(np.arange(len(rings)), [len(r) for r in rings])
+    left = np.repeat([a for a, _ in lr], [len(r) for r in rings]).astype(np.int64)
+    right = np.repeat([b for _, b in lr], [len(r) for r in rings]).astype(np.int64)
+    return pts, rid, left, right
 
 
 def plate_mesh(geom: PlateGeometry, tolerance_mm: float = 0.02) -> TriMesh:
     """Triangle mesh of a plate: closed, consistently wound, outward facing.
 
-    One triangulation covers the outline, every hole and the label's glyph rings.
-    Regions: the sheet (bottom at z = 0, top at the thickness), the glyphs (bottom
-    at 0, their far face at the thickness plus the relief) and the holes (void).
+    Two triangulations: the sheet (outline, every hole, and the label box as a
+    ring of its own) and, inside the label box, the letters. The sheet's bottom
+    covers the box too; its top stops at the box, where the letters' mesh takes
+    over. The box ring's edges are short enough to be edges of both.
 
     Args:
         geom: The plate.
@@ -364,67 +413,89 @@ def plate_mesh(geom: PlateGeometry, tolerance_mm: float = 0.02) -> TriMesh:
         MeshError: When rings overlap or an edge cannot be recovered.
     """
     t = float(geom.thickness_mm)
-    relief = float(geom.relief_mm) if geom.glyphs else 0.0
-    rings: list[np.ndarray] = []
-    lr: list[tuple[int, int]] = []
-    rings.append(_subdivide(_ccw(geom.outline), MAX_RING_EDGE_MM))
-    lr.append((SHEET, VOID))
+    relief = float(geom.relief_mm) if geom.glyphs and geom.label_box is not None else 0.0
+    rings: list[np.ndarray] = [_subdivide(_ccw(geom.outline), MAX_RING_EDGE_MM)]
+    lr: list[tuple[int, int]] = [(SHEET, VOID)]
     for poly in geom.polygons:
         rings.append(_subdivide(_cw(np.asarray(poly, dtype=np.float64)), MAX_RING_EDGE_MM))
         lr.append((SHEET, VOID))
     if relief != 0.0:
-        for outer, inner in geom.glyphs:
-            rings.append(_ccw(np.asarray(outer, dtype=np.float64)))
-            lr.append((GLYPH, SHEET))
-            for i in inner:
-                rings.append(_cw(np.asarray(i, dtype=np.float64)))
-                lr.append((GLYPH, SHEET))
+        x0, y0, x1, y1 = geom.label_box
+        gpts = np.concatenate([np.asarray(o) for o, _ in geom.glyphs])
+        clear = min(
+            gpts[:, 0].min() - x0, x1 - gpts[:, 0].max(), gpts[:, 1].min() - y0, y1 - gpts[:, 1].max()
+        )
+        if clear <= 0:
+            raise MeshError(f"the label's letters reach outside the label box (clearance {clear:.3f} mm)")
+        box = np.array([[x0, y0], [x0, y1], [x1, y1], [x1, y0]], dtype=np.float64)  # clockwise
+        rings.append(_subdivide(box, min(MAX_RING_EDGE_MM, clear)))
+        lr.append((SHEET, BOX))
     nfixed = len(rings)
-    pts = list(rings)
-    rid = [np.full(len(r), i) for i, r in enumerate(rings)]
-    lefts = [np.full(len(r), a) for r, (a, _) in zip(rings, lr, strict=True)]
-    rights = [np.full(len(r), b) for r, (_, b) in zip(rings, lr, strict=True)]
+    points, rid, left, right = _flat(rings, lr)
     cxy = np.asarray(geom.circles_xy, dtype=np.float64).reshape(-1, 2)
     cr = np.asarray(geom.circles_r, dtype=np.float64).reshape(-1)
     if len(cr):
         cpts, cid, _ = _circle_rings(cxy, cr, tolerance_mm)
-        pts.append(cpts)
-        rid.append(cid + nfixed)
-        lefts.append(np.full(len(cpts), SHEET))
-        rights.append(np.full(len(cpts), VOID))
-    points = np.concatenate(pts)
+        points = np.concatenate([points, cpts])
+        rid = np.concatenate([rid, cid + nfixed])
+        left = np.concatenate([left, np.full(len(cpts), SHEET)])
+        right = np.concatenate([right, np.full(len(cpts), VOID)])
     n_before = len(points)
-    points, ring_id, left, right, tri, lab = _triangulate(
-        points, np.concatenate(rid), np.concatenate(lefts), np.concatenate(rights), cxy
-    )
+    points, rid, left, right = _gabriel(points, rid, left, right, cxy)
+    n_gabriel = len(points)
+    points, rid, left, right, tri, lab = _triangulate(points, rid, left, right, cxy)
     nvp = len(points) + len(cxy)
     allp = np.concatenate([points, cxy]) if len(cxy) else points
-    # Vertex layers: 0 at z = 0, 1 at z = t, 2 at the relief's far face (glyph rings only).
+    # Vertex layers: the sheet's points at z = 0 and z = t.
     layers = [np.column_stack([allp, np.zeros(nvp)]), np.column_stack([allp, np.full(nvp, t)])]
-    faces = [tri[(lab == SHEET) | (lab == GLYPH)][:, [0, 2, 1]], tri[lab == SHEET] + nvp]
+    faces = [tri[(lab == SHEET) | (lab == BOX)][:, [0, 2, 1]], tri[lab == SHEET] + nvp]
     through = np.flatnonzero(right == VOID)
-    faces.append(_walls(through, through + nvp, ring_id[through]))
+    faces.append(_walls(through, through + nvp, rid[through]))
+    info = {"gabriel_splits": int(n_gabriel - n_before), "recovered_edges": int(len(points) - n_gabriel)}
+
     if relief != 0.0:
-        layers.append(np.column_stack([allp, np.full(nvp, t + relief)]))
-        faces.append(tri[lab == GLYPH] + 2 * nvp)
-        g = np.flatnonzero(left == GLYPH)
+        bidx = np.flatnonzero(right == BOX)[::-1]  # the box ring after any splits, now counter-clockwise
+        grings: list[np.ndarray] = [points[bidx]]
+        glr: list[tuple[int, int]] = [(SHEET, VOID)]
+        for outer, inner in geom.glyphs:
+            grings.append(_ccw(np.asarray(outer, dtype=np.float64)))
+            glr.append((GLYPH, SHEET))
+            for i in inner:
+                grings.append(_cw(np.asarray(i, dtype=np.float64)))
+                glr.append((GLYPH, SHEET))
+        gp, grid, gl, gr = _flat(grings, glr)
+        nb = len(bidx)
+        gp, grid, gl, gr = _gabriel(gp, grid, gl, gr, np.zeros((0, 2)), neighbours_count=False)
+        gp, grid, gl, gr, gtri, glab = _triangulate(gp, grid, gl, gr, np.zeros((0, 2)))
+        if int((grid == 0).sum()) != nb:
+            raise MeshError("the label box's edges were split inside the label; letters too close to the box")
+        ng = len(gp)
+        base = 2 * nvp
+        # Ids: the box ring maps onto the sheet's top; glyph points get a top and a far layer.
+        top_id = np.concatenate([bidx + nvp, base + np.arange(nb, ng)])
+        far_id = np.concatenate([bidx + nvp, base + ng + np.arange(nb, ng)])
+        layers.append(np.column_stack([gp, np.full(ng, t)]))
+        layers.append(np.column_stack([gp, np.full(ng, t + relief)]))
+        faces.append(top_id[gtri[glab == SHEET]])
+        faces.append(far_id[gtri[glab == GLYPH]])
+        g = np.flatnonzero(gl == GLYPH)
         if relief > 0:  # emboss: the glyph is material, on the left of its rings
-            faces.append(_walls(g + nvp, g + 2 * nvp, ring_id[g]))
+            faces.append(_walls(top_id[g], far_id[g], grid[g]))
         else:  # engrave: the sheet is on the right, so the wall runs from the floor up, reversed
-            faces.append(_walls(g + 2 * nvp, g + nvp, ring_id[g])[:, [0, 2, 1]])
+            faces.append(_walls(far_id[g], top_id[g], grid[g])[:, [0, 2, 1]])
+        info["label_points"] = int(ng)
     vertices = np.concatenate(layers)
     f = np.concatenate(faces).astype(np.int64)
     # Drop vertices no triangle uses (hole centres, unused layer copies) and renumber.
     used = np.zeros(len(vertices), dtype=bool)
     used[f.reshape(-1)] = True
     remap = np.cumsum(used) - 1
-    info = {
-        "vertices": int(used.sum()),
-        "triangles": int(len(f)),
-        "ring_vertices": int(n_before),
-        "recovered_edges": int(len(points) - n_before),
-        "tolerance_mm": float(tolerance_mm),
-    }
+    info.update(
+        vertices=int(used.sum()),
+        triangles=int(len(f)),
+        ring_vertices=int(n_before),
+        tolerance_mm=float(tolerance_mm),
+    )
     return TriMesh(vertices[used], remap[f], info)
 
 

@@ -153,9 +153,27 @@ class PlateModel:
         wrapped = _unwrap(shape)
         if wrapped.IsSame(self.part.wrapped):
             return self
-        from build123d import Part
+        return PlateModel(part=as_part(wrapped), geometry=None, label=self.label, info=dict(self.info))
 
-        return PlateModel(part=Part(wrapped), geometry=None, label=self.label, info=dict(self.info))
+
+def as_part(shape):
+    """A build123d ``Part`` around an OCCT shape (a bare solid is put in a compound first).
+
+    ``Part(TopoDS_Solid)`` reports a volume of 0 in build123d 0.12: a Part is a compound.
+    """
+    from build123d import Part
+    from OCP.BRep import BRep_Builder
+    from OCP.TopAbs import TopAbs_COMPOUND
+    from OCP.TopoDS import TopoDS_Compound
+
+    shape = _unwrap(shape)
+    if shape.ShapeType() != TopAbs_COMPOUND:
+        comp = TopoDS_Compound()
+        builder = BRep_Builder()
+        builder.MakeCompound(comp)
+        builder.Add(comp, shape)
+        shape = comp
+    return Part(shape)
 
 
 def _unwrap(shape):
@@ -333,7 +351,14 @@ def _rings_cross(glyphs: list) -> bool:
     ends = np.searchsorted(lo[:, 0], hi[:, 0], side="right")
     counts = ends - np.arange(n) - 1
     i = np.repeat(np.arange(n), np.maximum(counts, 0))
-    j = i + 1 + (np.arange(len(i)) - np.repeat(np.cumsum(np.maximum(counts, 0)) - np.maximum(counts, 0), np.maximum(counts, 0)))
+    j = (
+        i
+        + 1
+        + (
+            np.arange(len(i))
+            - np.repeat(np.cumsum(np.maximum(counts, 0)) - np.maximum(counts, 0), np.maximum(counts, 0))
+        )
+    )
     yo = (lo[i, 1] <= hi[j, 1]) & (lo[j, 1] <= hi[i, 1])
     i, j = i[yo], j[yo]
     same = ring_key[i] == ring_key[j]
@@ -460,7 +485,9 @@ def make_solid(geom: PlateGeometry):
     mf = BRepBuilderAPI_MakeFace(gp_Pln(gp_Pnt(0, 0, 0), gp_Dir(0, 0, 1)), _polygon_wire(outline, 0.0), True)
     down = gp_Dir(0, 0, -1)
     # Holes run clockwise seen from +z: circles about -z, polygons reversed.
-    for (x, y), r in zip(np.asarray(geom.circles_xy).tolist(), np.asarray(geom.circles_r).tolist(), strict=True):
+    for (x, y), r in zip(
+        np.asarray(geom.circles_xy).tolist(), np.asarray(geom.circles_r).tolist(), strict=True
+    ):
         edge = BRepBuilderAPI_MakeEdge(gp_Circ(gp_Ax2(gp_Pnt(x, y, 0.0), down), r)).Edge()
         mf.Add(BRepBuilderAPI_MakeWire(edge).Wire())
     for poly in geom.polygons:
@@ -582,8 +609,6 @@ def perforated_plate(
     Returns:
         The plate model.
     """
-    from build123d import Part
-
     t0 = time.perf_counter()
     outline = np.asarray(outline, dtype=np.float64)
     mode = getattr(label_mode, "value", label_mode)
@@ -628,12 +653,10 @@ def perforated_plate(
         "label": linfo,
         "seconds": {"label": round(t1 - t0, 3), "solid": round(t2 - t1, 3)},
     }
-    return PlateModel(part=Part(solid), geometry=geom, label=label, info=info)
+    return PlateModel(part=as_part(solid), geometry=geom, label=label, info=info)
 
 
 def with_geometry(model: PlateModel, **changes) -> PlateModel:
     """A copy of a model with its description changed and the solid rebuilt (for tiles)."""
-    from build123d import Part
-
     geom = replace(model.geometry, **changes)
-    return PlateModel(part=Part(make_solid(geom)), geometry=geom, label=model.label, info={})
+    return PlateModel(part=as_part(make_solid(geom)), geometry=geom, label=model.label, info={})

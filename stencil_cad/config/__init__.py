@@ -108,6 +108,7 @@ class JobConfig(StrictModel):
 
     @model_validator(mode="after")
     def _cross_checks(self) -> JobConfig:
+        self.wall.check_plate(self.plate.outline, self.plate.thickness_mm)
         return self
 
 

@@ -73,8 +73,12 @@ class OpacitySource(str, enum.Enum):
 class EnergyWeights(StrictModel):
     """Weights of the three energy terms (Vavilala 2015, eq. 1).
 
-    Colours and opacities are in [0, 1]; every term is a plain sum over pixels,
-    so the weights are dimensionless and independent of image size.
+    Colours and opacities are in [0, 1] and every term is a plain sum over
+    pixels, so the weights are dimensionless. The paper gives no values; the
+    defaults were chosen on scikit-image's astronaut photo, where they give a
+    composite RMSE of about 1.7 (L = 4) and 0.6 (L = 6) in 0-255 units at
+    256 x 256 px, against targets of 3 and 1.5; smooth = sparse = 1e-3 gave
+    2.8 at L = 4.
     """
 
     data: float = Field(
@@ -87,22 +91,22 @@ class EnergyWeights(StrictModel):
         ),
     )
     smooth: float = Field(
-        1e-3,
+        5e-4,
         ge=0.0,
         le=1e6,
         description=(
             "gamma_smooth: weight of the 8-neighbour opacity smoothness term "
             "sum_l sum_p sum_{n in N8(p)} (alpha_l(p) - alpha_l(n))^2. Range [0, 1e6]. Larger values give "
-            "smoother, easier-to-stipple opacity maps and a blurrier reconstruction."
+            "smoother, easier-to-stipple opacity maps and a blurrier reconstruction. Defaults to 5e-4."
         ),
     )
     sparse: float = Field(
-        3e-4,
+        2e-4,
         ge=0.0,
         le=1e6,
         description=(
             "gamma_sparse: weight of the sparsity term sum_p (1 - sum_l alpha_l(p))^2, which favours "
-            "about one full coat of paint per pixel. Range [0, 1e6]."
+            "about one full coat of paint per pixel. Range [0, 1e6]. Defaults to 2e-4."
         ),
     )
 
@@ -126,27 +130,31 @@ class DecomposeConfig(StrictModel):
         description="Energy weights gamma_data, gamma_smooth, gamma_sparse (dimensionless).",
     )
     tolerance: float = Field(
-        2e-3,
+        1e-2,
         gt=0.0,
         lt=1.0,
         description=(
-            "Stop when one solver iteration lowers the energy by less than this fraction of it. "
-            "Range (0, 1)."
+            "Stop when one solver iteration lowers the energy by less than this fraction of it. Range (0, 1). "
+            "Pyramid levels with at most 1/16 of the finest level's pixels use a quarter of it (they are "
+            "cheap, and a better start saves fine iterations). Defaults to 0.01."
         ),
     )
     max_iterations: int = Field(
         200,
         ge=1,
         le=10000,
-        description="Most solver iterations at the finest level (each: all opacity maps, then all colours). Range [1, 10000].",
+        description=(
+            "Most solver iterations per pyramid level (each: all opacity maps, then all colours). "
+            "Range [1, 10000]."
+        ),
     )
     inner_tolerance: float = Field(
-        1e-4,
+        1e-3,
         gt=0.0,
         lt=1.0,
         description=(
             "One layer's opacity QP counts as solved when a projected SOR sweep changes no opacity by "
-            "more than this (opacity units). Range (0, 1)."
+            "more than this (opacity units; 1e-3 is a quarter of an 8-bit level). Range (0, 1)."
         ),
     )
     inner_max_sweeps: int = Field(

@@ -48,7 +48,10 @@ def format_validation_error(exc: ValidationError, source: str = "config") -> str
             continue
         value = err.get("input")
         shown = "" if kind == "missing" or isinstance(value, dict) else f", got {value!r}"
-        lines.append(f"{source}: {loc}: {msg}{shown}")
+        if loc == "(top level)":
+            lines.append(f"{source}: {msg}")
+        else:
+            lines.append(f"{source}: {loc}: {msg}{shown}")
     return "\n".join(lines)
 
 

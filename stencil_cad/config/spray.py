@@ -69,7 +69,7 @@ class SprayConfig(StrictModel):
         ),
     )
     calibrate: Calibrate = Field(
-        Calibrate.dots,
+        Calibrate.spray_time,
         description=(
             "Used when stipple.tone is calibrated. Choices: none (keep the paper's linear density, "
             "density proportional to opacity), dots (keep spray_time and derive the hole density and count "

@@ -34,6 +34,10 @@ log = logging.getLogger(__name__)
 _TRIAL_SIZE_PX = 48
 _TRIAL_ITERATIONS = 15
 
+# Pyramid levels with at most 1/16 of the finest level's pixels stop at this
+# multiple of the tolerance (measured: same time, lower final energy).
+_COARSE_TOLERANCE_FACTOR = 0.25
+
 # A fixed palette whose best reconstruction is further than this from the
 # image (RMSE in 0-255 units) is reported as not reaching it.
 _FIXED_PALETTE_WARN_RMSE = 8.0
@@ -103,7 +107,9 @@ def _single_layer(picture: Picture, cfg: DecomposeConfig, source: str, t0: float
     if pal is not None:
         paint = np.array(pal[0])
         if len(pal) > 1:
-            warnings.append(f"opacity source '{source}' makes one layer: only the first can {cfg.palette[0]} is used")
+            warnings.append(
+                f"opacity source '{source}' makes one layer: only the first can {cfg.palette[0]} is used"
+            )
     elif source == "alpha":
         a = np.asarray(picture.alpha, dtype=np.float64)
         paint = (rgb * a[..., None]).reshape(-1, 3).sum(axis=0) / a.sum() if a.sum() > 0 else np.zeros(3)
@@ -141,7 +147,9 @@ def _single_layer(picture: Picture, cfg: DecomposeConfig, source: str, t0: float
     return Layers(primer=primer, colours=colours, alphas=alphas, mm_per_px=picture.mm_per_px, info=info)
 
 
-def _orders(primer_fixed: bool, colours: np.ndarray, shares: np.ndarray | None, mode: LayerOrder) -> list[np.ndarray]:
+def _orders(
+    primer_fixed: bool, colours: np.ndarray, shares: np.ndarray | None, mode: LayerOrder
+) -> list[np.ndarray]:
     """Candidate spray orders (index arrays into ``colours``, primer first unless fixed)."""
     lum = palette.luminance(colours)
     light = np.argsort(-lum, kind="stable")
@@ -176,7 +184,9 @@ def _state(target: np.ndarray, primer: np.ndarray, colours: np.ndarray, free: np
     )
 
 
-def _select_cans(target: np.ndarray, cans: np.ndarray, primer: np.ndarray, primer_free: bool, n: int, s: SolverSettings) -> np.ndarray:
+def _select_cans(
+    target: np.ndarray, cans: np.ndarray, primer: np.ndarray, primer_free: bool, n: int, s: SolverSettings
+) -> np.ndarray:
     """Greedy forward choice of ``n`` cans that reach the lowest energy on a small grid."""
     chosen: list[int] = []
     remaining = list(range(cans.shape[0]))
@@ -216,7 +226,10 @@ def decompose(
         pixels and channels), ``rmse_channels`` (R, G, B), ``iterations``,
         ``warnings``, ``seconds``, ``energy`` (total and unweighted terms at the
         finest level), ``levels`` (per pyramid level: shape, iterations, start
-        and end energy), ``order`` and ``source``. ``energy_trace`` is the
+        and end energy), ``order`` (for a palette list: the list index of each
+        paint, in spray order; for 'auto': K-means cluster indices, primer
+        first), ``cans_chosen`` (when a palette list is longer than
+        ``layers``) and ``source`` ('rgb', 'grey' or 'alpha'). ``energy_trace`` is the
         energy at the finest level, starting value first, then one per
         iteration.
 
@@ -279,7 +292,9 @@ def decompose(
         n_layers = len(chosen)
         free = np.zeros(n_layers + 1, dtype=bool)
         free[0] = primer_free
-        candidates = [(primer0, cans[chosen[o]], chosen[o]) for o in _orders(True, cans[chosen], None, cfg.order)]
+        candidates = [
+            (primer0, cans[chosen[o]], chosen[o]) for o in _orders(True, cans[chosen], None, cfg.order)
+        ]
 
     # Compare candidate spray orders by the energy a short solve reaches.
     best = candidates[0]
@@ -302,7 +317,8 @@ def decompose(
         if progress is not None:
             progress(counter[0], float(e))
 
-    for shape in levels_used:
+    for level, shape in enumerate(levels_used):
+        finest = level == len(levels_used) - 1
         level_target = solver.downsample(target, shape)
         if state is None:
             state = _state(level_target, best[0], best[1], free)
@@ -314,7 +330,11 @@ def decompose(
                 alphas=np.ascontiguousarray(solver.upsample_alphas(state.alphas, shape)),
                 free=free,
             )
-        its = solver.iterate(state, s, cfg.max_iterations, cfg.tolerance, report)
+        # Levels far coarser than the finest cost little per iteration, and the
+        # better the start they hand on, the fewer expensive fine iterations.
+        cheap = shape[0] * shape[1] * 16 <= full_shape[0] * full_shape[1]
+        tol = cfg.tolerance * _COARSE_TOLERANCE_FACTOR if cheap and not finest else cfg.tolerance
+        its = solver.iterate(state, s, cfg.max_iterations, tol, report)
         levels.append(
             {
                 "shape": [int(shape[0]), int(shape[1])],
@@ -405,7 +425,9 @@ def layers_from_npz(mapping: Mapping[str, np.ndarray]) -> Layers:
     colours = np.asarray(mapping["colours"], dtype=np.float64)
     alphas = np.asarray(mapping["alphas"], dtype=np.float64)
     if colours.ndim != 2 or colours.shape[1] != 3 or alphas.ndim != 3 or alphas.shape[0] != colours.shape[0]:
-        raise ValueError(f"layers NPZ: colours {colours.shape} and alphas {alphas.shape} do not match (L, 3) and (L, H, W)")
+        raise ValueError(
+            f"layers NPZ: colours {colours.shape} and alphas {alphas.shape} do not match (L, 3) and (L, H, W)"
+        )
     info = json.loads(str(mapping["info_json"])) if "info_json" in mapping else {}
     return Layers(
         primer=primer,

@@ -159,12 +159,28 @@ def suffix_products(colours, alphas, trans, above):
 TILE = 32
 
 
+@numba.njit(cache=True, inline="always")
+def _update_border_pixel(alpha, base, gain, keep, i, j):
+    """The projected SOR step of a pixel on the image border (fewer neighbours)."""
+    h, w = alpha.shape
+    nb = 0.0
+    for ii in range(max(i - 1, 0), min(i + 1, h - 1) + 1):
+        for jj in range(max(j - 1, 0), min(j + 1, w - 1) + 1):
+            if ii != i or jj != j:
+                nb += alpha[ii, jj]
+    old = alpha[i, j]
+    new = min(max(keep * old + base[i, j] + gain[i, j] * nb, 0.0), 1.0)
+    alpha[i, j] = new
+    return abs(new - old)
+
+
 @numba.njit(cache=True)
 def _sweep_tile(alpha, base, gain, keep, i_lo, i_hi, j_lo, j_hi):
     """One projected SOR pass over rows [i_lo, i_hi) x cols [j_lo, j_hi).
 
     The over-relaxed exact coordinate step is precomputed as
-    ``new = keep * old + base + gain * (sum of the 8 neighbours)``, clipped.
+    ``new = keep * old + base + gain * (sum of the 8 neighbours)``, clipped,
+    with ``keep = 1 - omega``.
 
     Returns:
         The largest change of an opacity in the tile.
@@ -172,39 +188,33 @@ def _sweep_tile(alpha, base, gain, keep, i_lo, i_hi, j_lo, j_hi):
     h, w = alpha.shape
     change = 0.0
     for i in range(i_lo, i_hi):
-        interior_row = 0 < i < h - 1
-        for j in range(j_lo, j_hi):
-            if interior_row and 0 < j < w - 1:
-                nb = (
-                    alpha[i - 1, j - 1]
-                    + alpha[i - 1, j]
-                    + alpha[i - 1, j + 1]
-                    + alpha[i, j + 1]
-                    + alpha[i + 1, j - 1]
-                    + alpha[i + 1, j]
-                    + alpha[i + 1, j + 1]
-                ) + alpha[i, j - 1]
-            else:
-                nb = 0.0
-                for ii in range(max(i - 1, 0), min(i + 1, h - 1) + 1):
-                    for jj in range(max(j - 1, 0), min(j + 1, w - 1) + 1):
-                        if ii != i or jj != j:
-                            nb += alpha[ii, jj]
-            old = alpha[i, j]
-            new = keep[i, j] * old + base[i, j] + gain[i, j] * nb
-            if new < 0.0:
-                new = 0.0
-            elif new > 1.0:
-                new = 1.0
-            alpha[i, j] = new
-            diff = abs(new - old)
-            if diff > change:
-                change = diff
+        if i == 0 or i == h - 1:
+            for j in range(j_lo, j_hi):
+                change = max(change, _update_border_pixel(alpha, base, gain, keep, i, j))
+            continue
+        if j_lo == 0:
+            change = max(change, _update_border_pixel(alpha, base, gain, keep, i, 0))
+        up = alpha[i - 1]
+        mid = alpha[i]
+        dn = alpha[i + 1]
+        bi = base[i]
+        gi = gain[i]
+        # Interior pixels: a tight loop (row views, no border tests).
+        for j in range(max(j_lo, 1), min(j_hi, w - 1)):
+            nb = (up[j - 1] + up[j] + up[j + 1] + mid[j + 1] + dn[j - 1] + dn[j] + dn[j + 1]) + mid[j - 1]
+            old = mid[j]
+            new = min(max(keep * old + bi[j] + gi[j] * nb, 0.0), 1.0)
+            mid[j] = new
+            change = max(change, abs(new - old))
+        if j_hi == w and w > 1:
+            change = max(change, _update_border_pixel(alpha, base, gain, keep, i, w - 1))
     return change
 
 
 @numba.njit(cache=True)
-def solve_layer(target, below, trans, above, colour, alpha, total, g_data, g_smooth, g_sparse, omega, tol, max_sweeps):
+def solve_layer(
+    target, below, trans, above, colour, alpha, total, g_data, g_smooth, g_sparse, omega, tol, max_sweeps
+):
     """Solve one layer's opacity QP by projected SOR, in place.
 
     Minimises over ``alpha`` in [0, 1]^(H x W), everything else fixed::
@@ -237,7 +247,7 @@ def solve_layer(target, below, trans, above, colour, alpha, total, g_data, g_smo
     h, w = alpha.shape
     base = np.empty((h, w))
     gain = np.empty((h, w))
-    keep = np.empty((h, w))
+    keep = 1.0 - omega
     two_s = 2.0 * g_smooth
     for i in range(h):
         for j in range(w):
@@ -258,12 +268,10 @@ def solve_layer(target, below, trans, above, colour, alpha, total, g_data, g_smo
                 # Exact 1-D minimiser (num + 2 g_smooth nb) / den, over-relaxed.
                 base[i, j] = omega * num / den
                 gain[i, j] = omega * two_s / den
-                keep[i, j] = 1.0 - omega
             else:
-                # No term depends on this pixel: leave it where it is.
-                base[i, j] = 0.0
+                # No term depends on this pixel: the step maps it onto itself.
+                base[i, j] = omega * alpha[i, j]
                 gain[i, j] = 0.0
-                keep[i, j] = 1.0
     nti = (h + TILE - 1) // TILE
     ntj = (w + TILE - 1) // TILE
     active = np.ones((nti, ntj), dtype=np.bool_)

@@ -32,7 +32,9 @@ def distinct_colours(pixels: np.ndarray, limit: int) -> int:
     return int(min(np.unique(codes).size, limit))
 
 
-def kmeans(pixels: np.ndarray, k: int, rng: np.random.Generator, iterations: int = 30) -> tuple[np.ndarray, np.ndarray]:
+def kmeans(
+    pixels: np.ndarray, k: int, rng: np.random.Generator, iterations: int = 30
+) -> tuple[np.ndarray, np.ndarray]:
     """K-means with k-means++ seeding on a random sample of the pixels.
 
     Args:

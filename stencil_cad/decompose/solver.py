@@ -139,9 +139,10 @@ def iterate(
     trial_alphas = np.empty_like(state.alphas)
     prev = total_energy(state, s)
     state.trace.append(prev)
-    it = 0
+    done = 0
     beta = _BETA_START
-    for it in range(1, max_iterations + 1):
+    for _ in range(max_iterations):
+        done += 1
         prev_alphas[...] = state.alphas
         prev_primer, prev_colours = state.primer.copy(), state.colours.copy()
         state.colours = np.ascontiguousarray(state.colours)
@@ -192,7 +193,7 @@ def iterate(
         if prev - e <= tolerance * max(abs(prev), 1e-300):
             break
         prev = e
-    return it
+    return done
 
 
 # Extrapolation factor: grows while the extrapolated point keeps lowering the

@@ -18,7 +18,14 @@ from ..config.hard import HardConfig, SprayOrder
 from ..model import CutLayer, Picture
 from .segment import hex_to_rgb
 from .segment import segment as segment_image
-from .topology import CHEAP, mask_to_polygons, polygon_sheet_check, process_layer, rasterise_polygons
+from .topology import (
+    CHEAP,
+    bridge_footprint,
+    mask_to_polygons,
+    polygon_sheet_check,
+    process_layer,
+    rasterise_polygons,
+)
 
 log = logging.getLogger(__name__)
 
@@ -194,6 +201,8 @@ def make_hard_stencils(
         "regions_dropped": total("regions_dropped"),
         "trimmed_px": total("trimmed_px"),
         "bridge_width_mm": bridge_mm,
+        # Bridges are drawn one working pixel wider than asked (see topology.bridge_footprint).
+        "bridge_drawn_mm": float(bridge_footprint(bridge_px).shape[0] * s),
         "min_feature_mm": float(min_feature_mm),
         "min_region_px": float(min_px),
         "painted_changed_px": int(np.count_nonzero(painted != labels)),

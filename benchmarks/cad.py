@@ -1,0 +1,183 @@
+"""CAD benchmark: build, check and write stencil plates (`python -m benchmarks cad`).
+
+Cases (each runs in a fresh Python process so that ``peak_mb`` is its own):
+
+* ``plate-14k``: a 200 x 200 mm picture with 14,000 holes, built, checked and
+  written as STEP + STL + DXF (DXF through ``stencil_cad.dxf`` when present).
+  Target: ≤ 15 s in all (``target_seconds``). The one-off import of
+  build123d/OCP is reported apart (``import_seconds``).
+* ``stl-2k``: the STL of a 2,000-hole plate, ours against build123d's
+  ``export_stl`` at its defaults on the same Part, side by side (the baseline
+  takes minutes). Target: speedup ≥ 100.
+* ``plate-50k``: 50,000 holes at the same density (a 375 x 375 mm picture).
+  Targets: ≤ 4x the plate-14k time of the same run, peak memory ≤ 4 GB.
+
+Each row: ``bench``, ``case``, ``seconds`` (wall), ``cpu_seconds`` (this
+process; the machine is shared, so wall time is noisy), ``baseline_seconds``,
+``speedup``, ``peak_mb``, ``steps`` (per-step wall seconds) and the checks.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+CASES = ["plate-14k", "stl-2k", "plate-50k"]
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def jittered_dots(n: int, pitch: float = 1.68, seed: int = 0):
+    """``n`` holes on a jittered grid: radii 0.5-0.6 mm, webs ≥ 0.1 mm; picture side in mm."""
+    from stencil_cad.model import DotSet
+
+    rng = np.random.default_rng(seed)
+    k = int(np.ceil(np.sqrt(n)))
+    side = k * pitch
+    ij = np.stack(np.meshgrid(np.arange(k), np.arange(k)), -1).reshape(-1, 2)[:n]
+    xy = (ij + 0.5) * pitch + rng.uniform(-0.1, 0.1, (n, 2)) * pitch
+    r = rng.uniform(0.5, 0.6, n)
+    return DotSet(xy, r), side
+
+
+def _plate_case(n: int, name: str) -> dict:
+    t_imp = time.perf_counter()
+    from stencil_cad import cad
+    from stencil_cad.config import JobConfig
+
+    import_s = time.perf_counter() - t_imp
+    dots, side = jittered_dots(n)
+    cfg = JobConfig()
+    steps = {}
+    cpu0 = time.process_time()
+    t0 = time.perf_counter()
+    label = cad.LabelInfo(layer=1, layers=4, colour="#1A2B3C", job="bench")
+    model = cad.build_plate(dots, side, side, cfg.plate, label)
+    steps["build"] = time.perf_counter() - t0
+    t = time.perf_counter()
+    report = cad.check_plate(model, dots, tolerance_mm=cfg.export.stl_tolerance_mm)
+    steps["check"] = time.perf_counter() - t
+    with tempfile.TemporaryDirectory() as tmp:
+        t = time.perf_counter()
+        cad.write_step(model, Path(tmp) / "p.step")
+        steps["step"] = time.perf_counter() - t
+        t = time.perf_counter()
+        cad.write_stl(model, Path(tmp) / "p.stl", cfg.export.stl_tolerance_mm)
+        steps["stl"] = time.perf_counter() - t
+        try:
+            from stencil_cad import dxf, outline
+
+            t = time.perf_counter()
+            ring = outline.plate_outline(side, side, cfg.plate.outline)
+            dxf.write_dxf(Path(tmp) / "p.dxf", ring, circles_xy_r=np.column_stack([dots.xy_mm, dots.r_mm]))
+            steps["dxf"] = time.perf_counter() - t
+        except ImportError:
+            steps["dxf"] = None
+        sizes = {p.suffix[1:]: p.stat().st_size for p in Path(tmp).iterdir()}
+    seconds = time.perf_counter() - t0
+    return {
+        "bench": "cad",
+        "case": name,
+        "holes": n,
+        "picture_mm": round(side, 2),
+        "seconds": round(seconds, 3),
+        "cpu_seconds": round(time.process_time() - cpu0, 3),
+        "baseline_seconds": None,
+        "speedup": None,
+        "target_seconds": 15.0 if name == "plate-14k" else None,
+        "import_seconds": round(import_s, 3),
+        "steps": {k: (None if v is None else round(v, 3)) for k, v in steps.items()},
+        "check_steps": report["seconds"],
+        "valid": report["valid"],
+        "valid_method": report["valid_method"],
+        "rel_error": report["rel_error"],
+        "mesh_rel_error": report["mesh"]["rel_error"],
+        "mesh_genus": report["mesh"]["genus"],
+        "triangles": report["mesh"]["triangles"],
+        "file_bytes": sizes,
+        "peak_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
+    }
+
+
+def _stl_case() -> dict:
+    from build123d import export_stl
+
+    from stencil_cad import cad
+    from stencil_cad.config import JobConfig
+
+    dots, side = jittered_dots(2000, pitch=4.4)
+    dots = type(dots)(dots.xy_mm, np.random.default_rng(1).uniform(0.5, 1.6, len(dots)))
+    cfg = JobConfig()
+    model = cad.build_plate(dots, side, side, cfg.plate, cad.LabelInfo(1, 1, "black", "bench"))
+    with tempfile.TemporaryDirectory() as tmp:
+        cpu0 = time.process_time()
+        t = time.perf_counter()
+        cad.write_stl(model, Path(tmp) / "ours.stl", cfg.export.stl_tolerance_mm)
+        ours = time.perf_counter() - t
+        ours_cpu = time.process_time() - cpu0
+        cpu0 = time.process_time()
+        t = time.perf_counter()
+        export_stl(model.part, str(Path(tmp) / "base.stl"))
+        base = time.perf_counter() - t
+        base_cpu = time.process_time() - cpu0
+        sizes = {p.name: p.stat().st_size for p in Path(tmp).iterdir()}
+    return {
+        "bench": "cad",
+        "case": "stl-2k",
+        "holes": len(dots),
+        "seconds": round(ours, 3),
+        "cpu_seconds": round(ours_cpu, 3),
+        "baseline_seconds": round(base, 3),
+        "baseline_cpu_seconds": round(base_cpu, 3),
+        "speedup": round(base / ours, 1),
+        "cpu_speedup": round(base_cpu / ours_cpu, 1),
+        "target_speedup": 100.0,
+        "steps": {"ours_stl": round(ours, 3), "build123d_export_stl": round(base, 3)},
+        "file_bytes": sizes,
+        "peak_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
+    }
+
+
+def _one(case: str) -> dict:
+    if case == "plate-14k":
+        return _plate_case(14000, case)
+    if case == "plate-50k":
+        return _plate_case(50000, case)
+    if case == "stl-2k":
+        return _stl_case()
+    raise ValueError(f"unknown case {case!r}; choose from {', '.join(CASES)}")
+
+
+def run(cases=None):
+    """Yield one result dict per case, each measured in a fresh process."""
+    todo = CASES if not cases else [c for c in CASES if c in cases]
+    done = {}
+    for case in todo:
+        env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+        res = subprocess.run(
+            [sys.executable, "-m", "benchmarks.cad", case], capture_output=True, text=True, cwd=ROOT, env=env
+        )
+        lines = [ln for ln in res.stdout.splitlines() if ln.startswith("{")]
+        if res.returncode != 0 or not lines:
+            yield {"bench": "cad", "case": case, "seconds": None, "error": (res.stderr or res.stdout)[-2000:]}
+            continue
+        row = json.loads(lines[-1])
+        if case == "plate-50k" and "plate-14k" in done and done["plate-14k"]["seconds"]:
+            row["baseline_seconds"] = done["plate-14k"]["seconds"]
+            row["ratio_to_14k"] = round(row["seconds"] / done["plate-14k"]["seconds"], 2)
+            row["target_ratio"] = 4.0
+        if case == "plate-50k":
+            row["target_peak_mb"] = 4096
+        done[case] = row
+        yield row
+
+
+if __name__ == "__main__":
+    print(json.dumps(_one(sys.argv[1])), flush=True)

@@ -1,0 +1,162 @@
+"""Editable plate templates: plain Python files with module-level parameters and ``build(...)``.
+
+A template is loaded fresh for each plate (like CadQuery's ``cqgi``): its
+UPPER_CASE module-level constants are its parameters; values from the config
+replace them before ``build`` runs, and a value for a name the template does not
+define is an error. ``build(holes, outline, label_area, label)`` returns a
+:class:`~stencil_cad.cad.plate.PlateModel`, or any build123d / CadQuery shape
+(exported through OCCT's writers, which are slow on big plates).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import logging
+import sys
+from pathlib import Path
+from types import ModuleType
+
+from .plate import PlateBuildError, PlateModel, _unwrap, as_part
+
+log = logging.getLogger(__name__)
+
+__all__ = ["builtin_template", "config_overrides", "load_template", "run_template", "template_parameters"]
+
+#: Config field of ``plate`` → template parameter it sets.
+CONFIG_PARAMS = {
+    "thickness_mm": "THICKNESS_MM",
+    "label": "LABEL",
+    "label_depth_mm": "LABEL_DEPTH_MM",
+    "label_height_mm": "LABEL_HEIGHT_MM",
+    "label_min_height_mm": "LABEL_MIN_HEIGHT_MM",
+    "label_font": "LABEL_FONT",
+    "label_tolerance_mm": "LABEL_TOLERANCE_MM",
+}
+
+_SIMPLE = (bool, int, float, str)
+
+
+def builtin_template(name: str = "plate.py") -> Path:
+    """Path of a bundled template (``templates/`` beside the package, or inside it)."""
+    here = Path(__file__).resolve()
+    for folder in (here.parents[2] / "templates", here.parents[1] / "templates"):
+        if (folder / name).is_file():
+            return folder / name
+    raise FileNotFoundError(f"bundled template {name} not found next to the stencil_cad package")
+
+
+def load_template(path: str | Path) -> ModuleType:
+    """Execute a template file into a fresh module.
+
+    Args:
+        path: The template's ``.py`` file.
+
+    Returns:
+        The module.
+
+    Raises:
+        PlateBuildError: When the file is missing, fails to run or has no ``build``.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise PlateBuildError(f"plate template {path} does not exist")
+    name = f"stencil_cad_template_{abs(hash(str(path.resolve())))}"
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    try:
+        spec.loader.exec_module(module)
+    except Exception as exc:
+        raise PlateBuildError(f"plate template {path} failed to load: {type(exc).__name__}: {exc}") from exc
+    finally:
+        sys.modules.pop(name, None)
+    if not callable(getattr(module, "build", None)):
+        raise PlateBuildError(
+            f"plate template {path} has no build(holes, outline, label_area, label) function"
+        )
+    return module
+
+
+def template_parameters(module: ModuleType) -> dict:
+    """A template's parameters: its UPPER_CASE module-level constants of simple type."""
+    return {
+        k: v
+        for k, v in vars(module).items()
+        if k.isupper() and not k.startswith("_") and isinstance(v, _SIMPLE)
+    }
+
+
+def config_overrides(cfg) -> dict:
+    """Template parameter values from a ``plate`` config section.
+
+    Every mapped field is passed for the built-in template; for a user's template
+    only the fields the config sets explicitly, so the file's own values stand
+    otherwise. ``template_params`` come last.
+    """
+    fields = (
+        CONFIG_PARAMS
+        if cfg.template is None
+        else {k: v for k, v in CONFIG_PARAMS.items() if k in cfg.model_fields_set}
+    )
+    out = {}
+    for field, name in fields.items():
+        value = getattr(cfg, field)
+        out[name] = getattr(value, "value", value)
+    out.update(cfg.template_params)
+    return out
+
+
+def run_template(
+    path: str | Path, holes, outline, label_area, label, overrides: dict, strict: set | None = None
+):
+    """Load a template, set its parameters and call its ``build``.
+
+    Args:
+        path: The template file.
+        holes: A DotSet or CutLayer.
+        outline: ``(M, 2)`` plate outline ring in mm.
+        label_area: ``(x0, y0, x1, y1)`` mm, the label's free rectangle.
+        label: :class:`~stencil_cad.cad.plate.LabelInfo` or None.
+        overrides: Parameter values by name.
+        strict: Names that must exist in the template (the ``template_params``);
+            other overrides the template does not define are skipped.
+
+    Returns:
+        A :class:`~stencil_cad.cad.plate.PlateModel`.
+
+    Raises:
+        PlateBuildError: On an unknown parameter, a value of the wrong type, or a
+            ``build`` that returns something that is not a shape.
+    """
+    module = load_template(path)
+    params = template_parameters(module)
+    strict = set(overrides) if strict is None else strict
+    unknown = sorted(k for k in strict if k not in params)
+    if unknown:
+        raise PlateBuildError(
+            f"plate.template_params: unknown parameter(s) {', '.join(unknown)} for template {path}; "
+            f"it defines: {', '.join(sorted(params)) or 'none'}"
+        )
+    for k, v in overrides.items():
+        if k not in params:
+            continue
+        old = params[k]
+        ok = isinstance(v, type(old)) or (
+            isinstance(old, float) and isinstance(v, int) and not isinstance(v, bool)
+        )
+        if not ok:
+            raise PlateBuildError(
+                f"template parameter {k} must be a {type(old).__name__} like its default {old!r}, got {v!r}"
+            )
+        setattr(module, k, float(v) if isinstance(old, float) else v)
+    result = module.build(holes, outline, label_area, label)
+    if isinstance(result, PlateModel):
+        return result
+    try:
+        wrapped = _unwrap(result)
+    except Exception as exc:  # pragma: no cover - defensive
+        raise PlateBuildError(
+            f"template {path} build() returned {type(result).__name__}, not a shape"
+        ) from exc
+    if not hasattr(wrapped, "ShapeType"):
+        raise PlateBuildError(f"template {path} build() returned {type(result).__name__}, not a shape")
+    return PlateModel(part=as_part(wrapped), geometry=None, label=label, info={"template": str(path)})

@@ -1,0 +1,52 @@
+"""Stencil plate template (CadQuery). Needs the ``cadquery`` extra: ``pip install stencil_cad[cadquery]``.
+
+The same parameters and ``build`` as ``templates/plate.py`` (see its docstring), with the
+solid handed to CadQuery: build123d and CadQuery 2.8 both run on OCP 7.9, so shapes pass
+between them through ``.wrapped``. Point the config at this file (or a copy) with
+``plate.template``.
+"""
+
+import cadquery as cq
+
+from stencil_cad.cad.plate import perforated_plate
+
+#: Plate thickness in mm. Range [0.4, 20].
+THICKNESS_MM = 1.2
+#: Label on the top face: "engrave", "emboss" or "none".
+LABEL = "engrave"
+#: Depth of an engraved label / height of an embossed one, in mm.
+LABEL_DEPTH_MM = 0.4
+#: Font size of the label in mm; shrinks to fit the label area.
+LABEL_HEIGHT_MM = 4.0
+#: Smallest font size in mm the label may shrink to.
+LABEL_MIN_HEIGHT_MM = 2.0
+#: Font family of the label.
+LABEL_FONT = "DejaVu Sans"
+#: Chord error of the letters' polygons in mm.
+LABEL_TOLERANCE_MM = 0.01
+
+
+def build(holes, outline, label_area, label):
+    """Build one stencil plate as a CadQuery solid; see ``templates/plate.py``."""
+    plate = perforated_plate(
+        holes,
+        outline,
+        label_area,
+        label,
+        thickness_mm=THICKNESS_MM,
+        label_mode=LABEL,
+        label_depth_mm=LABEL_DEPTH_MM,
+        label_height_mm=LABEL_HEIGHT_MM,
+        label_min_height_mm=LABEL_MIN_HEIGHT_MM,
+        label_font=LABEL_FONT,
+        label_tolerance_mm=LABEL_TOLERANCE_MM,
+    )
+    solid = cq.Workplane("XY").add(cq.Solid(plate.part.wrapped))
+    # Edit here with CadQuery. For example, a 3 mm hanging hole in the top-left corner:
+    #
+    #   x, y = outline[:, 0].min() + 5, outline[:, 1].max() - 5
+    #   solid = solid.cut(cq.Workplane("XY").center(x, y).circle(1.5).extrude(THICKNESS_MM))
+    #
+    # An unchanged solid keeps the fast STEP writer and mesher; an edited one is exported
+    # through OCCT.
+    return plate.with_part(solid)
