@@ -30,7 +30,9 @@ def run(cases=None):
         peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
         row = {"bench": "e2e", "case": "example", "seconds": round(seconds, 2), "peak_mb": round(peak_mb, 1)}
         if proc.returncode != 0:
-            row["error"] = proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else f"exit {proc.returncode}"
+            row["error"] = (
+                proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else f"exit {proc.returncode}"
+            )
             yield row
             return
         manifest = json.loads((out / "manifest.json").read_text())

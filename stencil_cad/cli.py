@@ -32,7 +32,9 @@ def _parser() -> argparse.ArgumentParser:
         sp.add_argument("--force", action="store_true", help="replace files in a non-empty output folder")
         sp.add_argument("--seed", type=int, help="random seed (overrides the config's `seed`)")
         if with_from:
-            sp.add_argument("--from", dest="src", type=Path, help="folder with the saved intermediates (default: --out)")
+            sp.add_argument(
+                "--from", dest="src", type=Path, help="folder with the saved intermediates (default: --out)"
+            )
         g = sp.add_mutually_exclusive_group()
         g.add_argument("-v", "--verbose", action="store_true", help="log each step; show tracebacks")
         g.add_argument("-q", "--quiet", action="store_true", help="no progress bars or summary")
@@ -44,7 +46,9 @@ def _parser() -> argparse.ArgumentParser:
     job_args(sub.add_parser("simulate", help="spray saved dots in simulation and score the result"), True)
     job_args(sub.add_parser("hard", help="hard-stencil mode: flat colours, cut-outs held by bridges"))
     sp = sub.add_parser("init", help="write a commented config file")
-    sp.add_argument("path", nargs="?", type=Path, default=Path("stencil.yaml"), help="where (default: stencil.yaml)")
+    sp.add_argument(
+        "path", nargs="?", type=Path, default=Path("stencil.yaml"), help="where (default: stencil.yaml)"
+    )
     sp.add_argument("--force", action="store_true", help="replace an existing file")
     sub.add_parser("schema", help="print the config's JSON Schema (for editor completion)")
     return p
@@ -61,7 +65,9 @@ def main(argv: list[str] | None = None) -> int:
     quiet = getattr(args, "quiet", False)
     logging.basicConfig(
         level=logging.DEBUG if verbose else (logging.ERROR if quiet else logging.WARNING),
-        format="%(levelname)s %(name)s: %(message)s" if verbose else "stencil-cad: %(levelname)s: %(message)s",
+        format="%(levelname)s %(name)s: %(message)s"
+        if verbose
+        else "stencil-cad: %(levelname)s: %(message)s",
         stream=sys.stderr,
     )
     if verbose:
@@ -120,6 +126,11 @@ def _load_job(args):
         folder = src or args.out
         if folder is not None and (folder / "config.yaml").exists():
             config_path = folder / "config.yaml"
+    if config_path is None and args.image is None and args.command in ("run", "decompose", "hard"):
+        # No config and no image: the bundled example job.
+        from .imaging import example_config_path
+
+        config_path = example_config_path()
     if config_path is not None:
         cfg = cfg_io.load_config(config_path)
     else:

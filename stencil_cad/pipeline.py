@@ -85,11 +85,12 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
     from . import decompose as dec
 
     with run.stage("decompose"):
-        with run.bar(run.cfg.decompose.max_iterations, "decompose") as bar:
+        # Iterations run per pyramid level, so the total is not known in advance.
+        with run.bar(None, "decompose") as bar:
 
             def progress(iteration: int, energy: float) -> None:
                 bar.update(1)
-                bar.set_postfix(energy=f"{energy:.4g}")
+                bar.set_postfix(energy=f"{energy:.4g}", refresh=False)
 
             layers = dec.decompose(picture, run.cfg.decompose, run.rng, progress=progress)
         out = run.out
@@ -108,8 +109,6 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
         "iterations": layers.iterations,
         **{k: v for k, v in info.items() if isinstance(v, (int, float, str, list))},
     }
-    for w in info.get("warnings", []) or []:
-        log.warning("decompose: %s", w)
     return layers
 
 
@@ -124,7 +123,9 @@ def read_layers(folder: Path) -> Layers:
         with np.load(path) as data:
             return dec.layers_from_npz(dict(data))
     except (OSError, ValueError, KeyError) as exc:
-        raise UserError(f"{path}: not a readable decomposition ({exc}); re-run `stencil-cad decompose`") from None
+        raise UserError(
+            f"{path}: not a readable decomposition ({exc}); re-run `stencil-cad decompose`"
+        ) from None
 
 
 SPRAY_JSON = "spray.json"
@@ -169,7 +170,10 @@ def stage_stipple(run: Run, layers: Layers, picture_mm: tuple[float, float]) -> 
             run.out.write_png(f"{layer_stem(i)}_dots.png", dots_mod.dots_preview(ds, width_mm, height_mm))
         run.out.write_json(
             SPRAY_JSON,
-            {"spray_times": [ds.report["spray_time"] for ds in sets], "nozzle_height": cfg.spray.nozzle_height},
+            {
+                "spray_times": [ds.report["spray_time"] for ds in sets],
+                "nozzle_height": cfg.spray.nozzle_height,
+            },
         )
     run.figures["stipple"] = [
         {"layer": i + 1, "dots": len(ds), **_plain(ds.report)} for i, ds in enumerate(sets)
@@ -185,7 +189,9 @@ def read_dots(folder: Path, count: int | None = None) -> list[DotSet]:
 
     files = sorted(folder.glob("layer_*_dots.csv"))
     if not files:
-        raise UserError(f"no layer_NN_dots.csv in {folder} (run `stencil-cad stipple` first, or pass --from DIR)")
+        raise UserError(
+            f"no layer_NN_dots.csv in {folder} (run `stencil-cad stipple` first, or pass --from DIR)"
+        )
     if count is not None and len(files) != count:
         raise UserError(f"{folder} has {len(files)} dots files but the decomposition has {count} layers")
     out = []
@@ -202,15 +208,20 @@ def read_dots(folder: Path, count: int | None = None) -> list[DotSet]:
         try:
             times = json.loads(spray.read_text())["spray_times"]
         except (ValueError, KeyError, TypeError):
-            raise UserError(f"{spray}: not a valid spray-time file; delete it to use spray.spray_time") from None
+            raise UserError(
+                f"{spray}: not a valid spray-time file; delete it to use spray.spray_time"
+            ) from None
         if len(times) == len(out):
-            out = [replace(ds, report={**ds.report, "spray_time": float(t)}) for ds, t in zip(out, times, strict=True)]
+            out = [
+                replace(ds, report={**ds.report, "spray_time": float(t)})
+                for ds, t in zip(out, times, strict=True)
+            ]
     return out
 
 
 def stage_build(run: Run, layers: Layers, holes: list, picture_mm: tuple[float, float]) -> None:
     """Build, check and export one plate per layer and the wall(s)."""
-    from . import cad, dxf, outline
+    from . import cad, outline
     from .cad import wall as wall_mod
 
     cfg = run.cfg
@@ -242,16 +253,18 @@ def stage_build(run: Run, layers: Layers, holes: list, picture_mm: tuple[float, 
                 results.append({"layer": i + 1, **_plain(check)})
                 bar.update(1)
         walls = []
-        for height in wall_mod.wall_heights(cfg.wall):
-            wm = wall_mod.build_wall(width_mm, height_mm, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, height)
-            suffix = "" if len(cfg.wall.heights_mm) == 1 else f"_{height:g}mm"
-            with run.out.open_path(f"wall{suffix}.step") as p:
-                wall_mod.write_wall_step(wm, p)
-            with run.out.open_path(f"wall{suffix}.stl") as p:
-                wall_mod.write_wall_stl(wm, p, exp.stl_tolerance_mm)
-            walls.append({"height_mm": height, **_plain(getattr(wm, "report", {}) or {})})
+        heights = wall_mod.wall_heights(cfg.wall)
+        for standoff in heights:
+            wm = wall_mod.build_wall(
+                width_mm, height_mm, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, standoff
+            )
+            stem = "wall" if len(heights) == 1 else wm.name
+            with run.out.open_path(f"{stem}.step") as p:
+                wall_mod.wall_step(wm, p)
+            with run.out.open_path(f"{stem}.stl") as p:
+                wall_mod.wall_stl(wm, p, exp.stl_tolerance_mm)
+            walls.append({"file": f"{stem}.step", "standoff_mm": standoff, **wall_mod.check_wall(wm)})
     run.figures["build"] = {"plates": results, "walls": walls}
-    del dxf
 
 
 def _write_layer_dxf(path: Path, ring: np.ndarray, holes, stem: str, exp) -> None:
@@ -275,7 +288,8 @@ def stage_simulate(run: Run, picture: Picture | None, layers: Layers, dotsets: l
         scores = simulate.score(ref, sim.composite)
         run.out.write_png("simulated.png", sim.composite)
         run.out.write_png(
-            "preview.png", simulate.preview(ref, _resample(layers.composite(), sim.composite.shape[:2]), sim.composite)
+            "preview.png",
+            simulate.preview(ref, _resample(layers.composite(), sim.composite.shape[:2]), sim.composite),
         )
         run.out.write_png("sweep.png", simulate.sweep(layers, dotsets, run.cfg.spray))
     run.figures["simulate"] = {
@@ -406,7 +420,9 @@ def check_dots(cfg: JobConfig, dotsets: list[DotSet], picture_mm: tuple[float, f
 def _process_rules(cfg: JobConfig) -> dict:
     from . import dots as dots_mod
 
-    rules = dots_mod.rules_from_config(cfg.stipple, cfg.size.width_mm, cfg.size.height_mm or cfg.size.width_mm)
+    rules = dots_mod.rules_from_config(
+        cfg.stipple, cfg.size.width_mm, cfg.size.height_mm or cfg.size.width_mm
+    )
     return {"min_feature_mm": 2 * rules.hole_min_r_mm, "bridge_min_mm": max(rules.web_mm, 1.0)}
 
 

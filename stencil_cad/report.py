@@ -26,7 +26,11 @@ def summary(run, files: list[Path], out_path: Path) -> str:
         rmse = dec.get("rmse")
         lines.append(
             f"  layers    {dec['layers']} on primer {dec['primer']}: {' '.join(dec['colours'])}"
-            + (f"  (composite RMSE {_fmt(rmse)} /255, {dec['iterations']} iterations)" if rmse is not None else "")
+            + (
+                f"  (composite RMSE {_fmt(rmse)} /255, {dec['iterations']} iterations)"
+                if rmse is not None
+                else ""
+            )
         )
     for row in f.get("stipple", []):
         lines.append(
@@ -35,7 +39,10 @@ def summary(run, files: list[Path], out_path: Path) -> str:
         )
     hard = f.get("hard")
     if hard:
-        lines.append("  hard      " + ", ".join(f"{k} {_fmt(v)}" for k, v in hard.items() if not isinstance(v, (list, dict))))
+        lines.append(
+            "  hard      "
+            + ", ".join(f"{k} {_fmt(v)}" for k, v in hard.items() if not isinstance(v, (list, dict)))
+        )
     build = f.get("build")
     if build:
         ok = all(p.get("valid", False) for p in build["plates"])
@@ -44,7 +51,14 @@ def summary(run, files: list[Path], out_path: Path) -> str:
                 f"  plate {p['layer']:02d}  {'valid' if p.get('valid') else 'INVALID'}, {p.get('n_solids', '?')} solid, "
                 f"holes {p.get('hole_count', '?')}, volume error {_fmt(p.get('rel_error'))}"
             )
-        lines.append(f"  walls     {', '.join(_fmt(w['height_mm']) + ' mm' for w in build['walls'])}")
+        lines.append(
+            "  walls     "
+            + ", ".join(
+                f"{w['file']} (stand-off {w['standoff_mm']:g} mm, {'valid' if w.get('valid') else 'INVALID'})"
+                for w in build["walls"]
+            )
+        )
+        ok = ok and all(w.get("valid", False) for w in build["walls"])
         lines.append(f"  checks    {'all solids valid' if ok else 'SOME SOLIDS FAILED — see manifest.json'}")
     sim = f.get("simulate")
     if sim:

@@ -257,6 +257,7 @@ def build_command(
 
     Raises:
         SlicerNotFoundError: The slicer (or Cura's printer definitions) is missing.
+        ValueError: Several meshes for a CuraEngine profile.
     """
     prof = get_profile(profile)
     exe = _require(prof.slicer, executable)
@@ -276,14 +277,16 @@ def build_command(
             cmd += ["--merge", "--dont-arrange", f"--center={_bed_centre(prof, overrides)}"]
         cmd += ["--output", str(output), *models]
         return cmd
+    if len(models) > 1:
+        # `center_object` (needed: CuraEngine drops geometry below z = 0 otherwise) centres
+        # every mesh on its own, which would stack the tiles on top of each other.
+        raise ValueError("CuraEngine centres each mesh on the bed; slice tiles with PrusaSlicer")
     # CuraEngine: `-j` loads our definition, which inherits fdmprinter from the search path.
     cmd = [exe, "slice", "-v", "-j", str(prof.path)]
     for key, value in overrides.items():
         cmd += ["-s", _format_override(key, value)]
     cmd += list(extra_args)
-    cmd += ["-o", str(output)]
-    for m in models:
-        cmd += ["-l", m]
+    cmd += ["-o", str(output), "-l", models[0]]
     return cmd
 
 

@@ -11,7 +11,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def test_default_yaml_is_the_shipped_template():
     shipped = (ROOT / "templates" / "default.yaml").read_text(encoding="utf-8")
-    assert shipped == default_yaml(), "regenerate with: python -m stencil_cad init templates/default.yaml --force"
+    assert shipped == default_yaml(), (
+        "regenerate with: python -m stencil_cad init templates/default.yaml --force"
+    )
 
 
 def test_default_yaml_round_trips(tmp_path):
@@ -95,7 +97,9 @@ def test_relative_image_is_taken_from_config_folder(tmp_path):
 
 def test_config_is_frozen():
     cfg = JobConfig()
-    with pytest.raises(Exception):
+    from pydantic import ValidationError
+
+    with pytest.raises(ValidationError):
         cfg.seed = 3
 
 

@@ -125,13 +125,13 @@ def test_build_command_tiles_keep_positions_and_centre_on_bed():
 
 
 def test_build_command_cura():
-    cmd = sl.build_command(
-        ["a.stl", "b.stl"], "p.gcode", "cura_fdm", executable="CE", overrides={"machine_width": 300}
-    )
+    cmd = sl.build_command("a.stl", "p.gcode", "cura_fdm", executable="CE", overrides={"machine_width": 300})
     assert cmd[:2] == ["CE", "slice"]
     assert cmd[cmd.index("-j") + 1] == str(sl.PROFILES["cura_fdm"].path)
     assert ["-s", "machine_width=300"] == cmd[cmd.index("-s") : cmd.index("-s") + 2]
-    assert cmd[-4:] == ["-l", "a.stl", "-l", "b.stl"]
+    assert cmd[-4:] == ["-o", "p.gcode", "-l", "a.stl"]
+    with pytest.raises(ValueError, match="PrusaSlicer"):
+        sl.build_command(["a.stl", "b.stl"], "p.gcode", "cura_fdm", executable="CE")
 
 
 def test_parse_messages_prusa_and_cura():

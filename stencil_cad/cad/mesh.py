@@ -238,6 +238,14 @@ def _ring_edges(ring_id: np.ndarray) -> np.ndarray:
     return nxt
 
 
+def _member(keys: np.ndarray, sorted_keys: np.ndarray) -> np.ndarray:
+    """``np.isin`` for a sorted haystack (binary search; np.isin re-sorts both sides)."""
+    if len(sorted_keys) == 0:
+        return np.zeros(len(keys), dtype=bool)
+    pos = np.minimum(np.searchsorted(sorted_keys, keys), len(sorted_keys) - 1)
+    return sorted_keys[pos] == keys
+
+
 def _split(points, ring_id, left, right, split):
     """Insert the midpoint of each ring edge flagged in ``split`` (same straight edge)."""
     nxt = _ring_edges(ring_id)
@@ -264,7 +272,7 @@ def _gabriel(points, ring_id, left, right, extra, rounds: int = 8, neighbours_co
         allp = np.concatenate([points, extra]) if len(extra) else points
         mid = 0.5 * (points + points[nxt])
         half = 0.5 * np.linalg.norm(points[nxt] - points, axis=1)
-        dist, idx = cKDTree(allp).query(mid, k=5)
+        dist, idx = cKDTree(allp).query(mid, k=3 if neighbours_count else 5)
         prev = np.empty_like(nxt)
         prev[nxt] = np.arange(len(points))
         # Letters have sharp corners, where a ring's own neighbours sit inside the disc and
@@ -318,7 +326,8 @@ def _triangulate(
         e0 = tri.reshape(-1)
         e1 = tri[:, [1, 2, 0]].reshape(-1)
         tkey_u = np.minimum(e0, e1) * nv + np.maximum(e0, e1)
-        present = np.isin(ukey, tkey_u)
+        tsorted = np.sort(tkey_u)
+        present = _member(ukey, tsorted)
         if present.all():
             break
         if rounds == MAX_RECOVERY_ROUNDS:
@@ -355,7 +364,7 @@ def _triangulate(
     o = np.argsort(tkey_u, kind="stable")
     ks = tkey_u[o]
     same = np.flatnonzero(ks[1:] == ks[:-1])
-    same = same[~np.isin(ks[same], ukey)]
+    same = same[~_member(ks[same], np.sort(ukey))]
     t1, t2 = tid[o[same]], tid[o[same + 1]]
     graph = coo_matrix((np.ones(len(t1), dtype=np.int8), (t1, t2)), shape=(ntri, ntri))
     ncomp, comp = connected_components(graph, directed=False)
@@ -518,11 +527,11 @@ def mesh_checks(mesh: TriMesh) -> dict:
     nv = len(v)
     e0 = f.reshape(-1)
     e1 = f[:, [1, 2, 0]].reshape(-1)
-    directed = e0 * nv + e1
-    undirected = np.minimum(e0, e1) * nv + np.maximum(e0, e1)
-    _, ucount = np.unique(undirected, return_counts=True)
-    dsorted = np.sort(directed)
-    dup_directed = bool((dsorted[1:] == dsorted[:-1]).any())
+    directed = np.sort(e0 * nv + e1)
+    undirected = np.sort(np.minimum(e0, e1) * nv + np.maximum(e0, e1))
+    starts = np.flatnonzero(np.r_[True, undirected[1:] != undirected[:-1]])
+    ucount = np.diff(np.r_[starts, len(undirected)])
+    dup_directed = bool((directed[1:] == directed[:-1]).any())
     watertight = bool((ucount == 2).all())
     consistent = watertight and not dup_directed
     n_edges = len(ucount)

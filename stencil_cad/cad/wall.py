@@ -311,3 +311,50 @@ def wall_stl(
     """
     if not bd.export_stl(model.part, str(path), tolerance=tolerance_mm, angular_tolerance=angular_tolerance):
         raise OSError(f"STL export failed: {path}")
+
+
+class WallCheckError(RuntimeError):
+    """A built wall failed its checks (not one valid solid, or the volume is off)."""
+
+
+def check_wall(model: WallModel, rel_tol: float = 1e-6) -> dict:
+    """Check a wall against its analytic oracle.
+
+    The wall has a few dozen faces, so the full ``BRepCheck_Analyzer`` is cheap here.
+
+    Args:
+        model: The wall.
+        rel_tol: Largest relative volume error. Defaults to 1e-6.
+
+    Returns:
+        ``n_solids``, ``valid``, ``volume``, ``analytic_volume``, ``rel_error``, ``bbox``.
+
+    Raises:
+        WallCheckError: Naming the failed check.
+    """
+    solids = model.part.solids()
+    volume = sum(s.volume for s in solids)
+    rel = abs(volume - model.volume_mm3) / model.volume_mm3
+    bb = model.part.bounding_box()
+    bbox = (bb.min.X, bb.min.Y, bb.min.Z, bb.max.X, bb.max.Y, bb.max.Z)
+    is_valid = model.part.is_valid
+    is_valid = bool(is_valid() if callable(is_valid) else is_valid)
+    valid = len(solids) == 1 and is_valid
+    out = {
+        "n_solids": len(solids),
+        "valid": bool(valid),
+        "volume": round(volume, 4),
+        "analytic_volume": round(model.volume_mm3, 4),
+        "rel_error": rel,
+        "bbox": [round(v, 4) for v in bbox],
+    }
+    if not valid:
+        raise WallCheckError(f"wall {model.name}: {len(solids)} solids, valid={is_valid}")
+    if rel > rel_tol:
+        raise WallCheckError(
+            f"wall {model.name}: volume {volume:.4f} mm³ differs from the analytic {model.volume_mm3:.4f} mm³ "
+            f"by {rel:.2e} (relative), above {rel_tol:g}"
+        )
+    if any(abs(a - b) > 1e-3 for a, b in zip(bbox, model.bbox, strict=True)):
+        raise WallCheckError(f"wall {model.name}: bounding box {bbox} differs from the expected {model.bbox}")
+    return out

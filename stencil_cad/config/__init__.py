@@ -112,7 +112,9 @@ class JobConfig(StrictModel):
         return self
 
 
-def parse_overrides(cfg: JobConfig, image: Path | None = None, seed: int | None = None, hard: bool = False) -> JobConfig:
+def parse_overrides(
+    cfg: JobConfig, image: Path | None = None, seed: int | None = None, hard: bool = False
+) -> JobConfig:
     """Apply command-line overrides, validating them like config values.
 
     Args:

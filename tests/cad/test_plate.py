@@ -63,6 +63,16 @@ def test_plain_plate_matches_analytic_oracle(plain):
     assert rep["mesh"]["genus"] == len(dots)
 
 
+@pytest.mark.parametrize("mode", ["none", "engrave", "emboss"])
+def test_flux_volume_equals_gprop(mode):
+    from stencil_cad.cad.validate import _volume, topology_checks
+
+    m = cad.build_plate(grid_dots(pitch=4.0), W, H, cfg(label=LabelMode(mode)), LABEL)
+    topo = topology_checks(m.part.wrapped)
+    assert topo["flux_volume"] == pytest.approx(_volume(m.part.wrapped), rel=1e-9)
+    assert topo["flux_volume"] == pytest.approx(m.analytic_volume, rel=1e-9)
+
+
 def test_plate_grows_up_from_z0(plain):
     # build123d faces can face -z; the plate must sit on z = 0 and grow up.
     _, model = plain
@@ -169,6 +179,8 @@ def test_tile_check_path_is_used_above_the_limit():
     model = cad.build_plate(dots, W, H, cfg(full_check_max_holes=10), LABEL)
     rep = cad.check_plate(model, dots)
     assert rep["valid"] and "tiles" in rep["valid_method"]
+    assert rep["volume_method"].startswith("divergence")
+    assert rep["volume"] == pytest.approx(model.analytic_volume, rel=1e-9)
     assert {t["tile"] for t in rep["tiles"]} >= {"label", "centre"}
     assert all(t["valid"] and t["holes"] > 0 for t in rep["tiles"] if t["tile"] != "label")
 
