@@ -62,6 +62,8 @@ class OutputDir:
             )
         self._stage: Path | None = None
         self.files: list[str] = []
+        # The tool's own record of the folder; stage commands update it in place.
+        self.replaceable = {MANIFEST}
 
     @property
     def stage(self) -> Path:
@@ -76,7 +78,7 @@ class OutputDir:
         if name in self.files:
             raise OutputError(f"internal: {name} written twice in one run")
         final = self.path / name
-        if final.exists() and not self.force:
+        if final.exists() and not self.force and name not in self.replaceable:
             raise OutputError(f"{final} already exists (use --force to replace it)")
 
     @contextlib.contextmanager

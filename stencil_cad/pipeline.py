@@ -55,6 +55,15 @@ class Run:
         if self.rng is None:
             self.rng = np.random.default_rng(self.cfg.seed)
 
+    def rng_for(self, stage: str, index: int = 0) -> np.random.Generator:
+        """An independent generator per stage and layer, derived from the seed.
+
+        A stage command re-run on saved intermediates therefore gives the same result as
+        the same stage inside a whole run.
+        """
+        key = (sum(ord(c) * 31**k for k, c in enumerate(stage)) % (2**31), index)
+        return np.random.default_rng(np.random.SeedSequence(self.cfg.seed, spawn_key=key))
+
     @contextlib.contextmanager
     def stage(self, name: str) -> Iterator[None]:
         """Time a stage."""
@@ -92,9 +101,13 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
                 bar.update(1)
                 bar.set_postfix(energy=f"{energy:.4g}", refresh=False)
 
-            layers = dec.decompose(picture, run.cfg.decompose, run.rng, progress=progress)
+            layers = dec.decompose(picture, run.cfg.decompose, run.rng_for("decompose"), progress=progress)
         out = run.out
-        out.write_npz(LAYERS_NPZ, dec.layers_to_npz(layers))
+        saved = dec.layers_to_npz(layers)
+        out.write_npz(LAYERS_NPZ, saved)
+        # Go on with exactly what was saved (float32 opacities), so a stage command run later
+        # on layers.npz gives the same dots as this run.
+        layers = dec.layers_from_npz(saved)
         for i, a in enumerate(layers.alphas):
             out.write_png(f"{layer_stem(i)}_opacity.png", 1.0 - a)
         out.write_png("swatch.png", dec.swatch(layers))
@@ -150,7 +163,7 @@ def stage_stipple(run: Run, layers: Layers, picture_mm: tuple[float, float]) -> 
     tones: list[dict] = []
     with run.stage("stipple"):
         with run.bar(layers.count, "stipple") as bar:
-            for alpha in layers.alphas:
+            for i, alpha in enumerate(layers.alphas):
                 density = None
                 spray_time = cfg.spray.spray_time
                 if calibrated:
@@ -161,7 +174,9 @@ def stage_stipple(run: Run, layers: Layers, picture_mm: tuple[float, float]) -> 
                     if getattr(cfg.spray.calibrate, "value", cfg.spray.calibrate) == "spray_time":
                         spray_time = float(choice.spray_time)
                     tones.append(choice.summary())
-                ds = stipple.stipple_layer(alpha, layers.mm_per_px, cfg.stipple, run.rng, density=density)
+                ds = stipple.stipple_layer(
+                    alpha, layers.mm_per_px, cfg.stipple, run.rng_for("stipple", i), density=density
+                )
                 ds = replace(ds, report={**ds.report, "spray_time": spray_time})
                 sets.append(ds)
                 bar.update(1)
@@ -328,8 +343,36 @@ def finish(run: Run, command: str) -> list[Path]:
         **run.figures,
         "files": run.out.file_table(),
     }
+    old_path = run.out.path / MANIFEST
+    if command != "run" and command != "hard" and old_path.exists():
+        manifest = _merge_manifest(old_path, manifest, run.out)
     run.out.write_json(MANIFEST, manifest)
     return run.out.commit()
+
+
+def _merge_manifest(old_path: Path, new: dict, out: OutputDir) -> dict:
+    """A stage command adds its figures and files to the folder's existing manifest."""
+    import json
+
+    try:
+        old = json.loads(old_path.read_text())
+    except (OSError, ValueError):
+        return new
+    if not isinstance(old, dict):
+        return new
+    merged = {**old, **{k: v for k, v in new.items() if k not in ("seconds", "files")}}
+    merged["command"] = f"{old.get('command', '?')} + {new['command']}"
+    merged["seconds"] = {**old.get("seconds", {}), **new["seconds"]}
+    written = {row["name"] for row in new["files"]}
+    kept = [
+        row
+        for row in old.get("files", [])
+        if isinstance(row, dict)
+        and row.get("name") not in written
+        and (out.path / str(row.get("name"))).is_file()
+    ]
+    merged["files"] = kept + new["files"]
+    return merged
 
 
 def _versions() -> dict:
@@ -378,7 +421,7 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
     with run.stage("segment"):
         rules = _process_rules(cfg)
         hard = hardstencil.make_hard_stencils(
-            picture, cfg.hard, rules["min_feature_mm"], rules["bridge_min_mm"], run.rng
+            picture, cfg.hard, rules["min_feature_mm"], rules["bridge_min_mm"], run.rng_for("hard")
         )
         run.out.write_png("segmentation.png", hard.palette[hard.labels])
     run.figures["hard"] = _plain(hard.report)

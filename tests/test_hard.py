@@ -74,7 +74,7 @@ def shape_rings(h=170, w=170):
 
 def fine_sheet_pieces(polygons, shape, s, bridge_mm, f=4):
     """Pieces of sheet, traced from the polygons at f x the resolution, joined only by
-    necks at least ``bridge_mm`` wide, counting those big enough to hold a disc one
+    necks a ``bridge_mm`` disc slides through, counting those big enough to hold a disc one
     working pixel wider than a bridge (smaller specks are allowed to hang on thinner
     necks). A good stencil gives 1: the frame's piece."""
     h, w = shape
@@ -83,8 +83,9 @@ def fine_sheet_pieces(polygons, shape, s, bridge_mm, f=4):
     big = footprint((bridge_mm / s + 1) * f)
     pad = big.shape[0] + 2
     sheet = np.pad(~fine, pad, constant_values=True)
-    lab, n = ndi.label(ndi.binary_opening(sheet, fb))
-    has_core = np.bincount(lab[ndi.binary_erosion(sheet, big)], minlength=n + 1) > 0
+    # Pieces between which a bridge-wide disc can slide: components of its free centres.
+    lab, n = ndi.label(ndi.binary_erosion(sheet, fb, border_value=1))
+    has_core = np.bincount(lab[ndi.binary_erosion(sheet, big, border_value=1)], minlength=n + 1) > 0
     has_core[0] = False
     return int(has_core.sum())
 
@@ -194,11 +195,11 @@ def test_shapes_make_one_solid_sheet_held_by_bridges(name, mask, islands):
     assert layer["polygon_holes"] == 0 and layer["polygon_sheet_components"] == 1
     assert layer["polygon_held_components"] == 1
     assert fine_sheet_pieces(res.cut_layers[0].polygons, cut.shape, S, 1.0) == 1
-    # Each bridge is at least the minimum width: the islands (ink-free centres) are joined to the
-    # frame through the sheet opened by a bridge-wide disc.
+    # Each bridge is at least the minimum width: a bridge-wide disc slides from the middle of
+    # every island to the frame.
     fb = footprint(1.0 / S)
     sheet = np.pad(~cut, 4, constant_values=True)
-    lab = ndi.label(ndi.binary_opening(sheet, fb))[0]
+    lab = ndi.label(ndi.binary_erosion(sheet, fb, border_value=1))[0]
     holes = ndi.binary_fill_holes(mask) & ~mask
     hl, hn = ndi.label(holes)
     for i in range(1, hn + 1):

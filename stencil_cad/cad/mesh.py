@@ -11,17 +11,22 @@ fastest settings 463 s at 14,000). Here the perforated face is triangulated in
 O(n log n): a Delaunay triangulation (Qhull) of every ring vertex plus each
 hole's centre, then
 
-* every ring edge is checked to be an edge of the triangulation (a constrained
-  triangulation); a missing one is split at its midpoint and the triangulation
+* ring edges that another vertex encroaches on (a vertex inside the edge's
+  diametral disc) are split at their midpoints first: such "Gabriel" edges are
+  edges of every Delaunay triangulation, so no ring edge goes missing;
+* every ring edge is still checked to be an edge of the triangulation (a
+  constrained triangulation); a missing one is split and the triangulation
   redone (conforming Delaunay), a few rounds at most;
 * triangles are grouped into connected regions that do not cross a ring edge;
-  each region is material when it lies on the left of the ring edges that bound
-  it (rings are stored with the material on their left), and a region that sees
-  a ring edge from both sides proves an edge is missing.
+  each ring says which region lies on its left and on its right (sheet, void,
+  label box, letter), and a region that gets two different answers proves
+  that rings cross or an edge is missing.
 
 The label box (a rectangle in the border that holds the letters) is a ring of
-its own: inside it the bottom keeps the Delaunay triangles while the top is
-re-triangulated around the letters with earcut (small polygons only).
+its own: inside it the bottom keeps the sheet's triangles, while the top is a
+second, small triangulation of the box ring and the letters' rings (letters
+have sharp corners, so their edges are recovered there, cheaply, not in the
+big one).
 
 Round holes become polygons that keep the hole's exact area (the spray flow
 through a hole follows its area), with as few sides as keep the polygon within

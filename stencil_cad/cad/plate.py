@@ -217,7 +217,7 @@ def check_holes(holes, width_mm: float, height_mm: float, min_web_mm: float, rul
             rules = DesignRules(
                 hole_min_r_mm=HOLE_FLOOR_MM,
                 web_mm=min_web_mm,
-                edge_margin_mm=0.0,
+                edge_margin_mm=min_web_mm,
                 width_mm=width_mm,
                 height_mm=height_mm,
             )
@@ -241,6 +241,12 @@ def check_holes(holes, width_mm: float, height_mm: float, min_web_mm: float, rul
                 )
             if len(outer) < 3 or abs(polygon_area(outer)) <= 0:
                 bad.append(f"polygon {i}: degenerate ({len(outer)} vertices)")
+        if (
+            not bad
+            and holes.polygons
+            and _rings_cross([(np.asarray(p[0], dtype=np.float64), []) for p in holes.polygons])
+        ):
+            bad.append("cut-out polygons cross each other or themselves")
         if bad:
             raise PlateBuildError(
                 f"{len(bad)} cut-out problem(s); first:\n  " + "\n  ".join(bad[:5]),
@@ -349,16 +355,10 @@ def _rings_cross(glyphs: list) -> bool:
     ring_key, idx, rlen = ring_key[order], idx[order], rlen[order]
     n = len(a)
     ends = np.searchsorted(lo[:, 0], hi[:, 0], side="right")
-    counts = ends - np.arange(n) - 1
-    i = np.repeat(np.arange(n), np.maximum(counts, 0))
-    j = (
-        i
-        + 1
-        + (
-            np.arange(len(i))
-            - np.repeat(np.cumsum(np.maximum(counts, 0)) - np.maximum(counts, 0), np.maximum(counts, 0))
-        )
-    )
+    counts = np.maximum(ends - np.arange(n) - 1, 0)  # partners j in (i, ends)
+    i = np.repeat(np.arange(n), counts)
+    first = np.repeat(np.cumsum(counts) - counts, counts)
+    j = i + 1 + (np.arange(len(i)) - first)
     yo = (lo[i, 1] <= hi[j, 1]) & (lo[j, 1] <= hi[i, 1])
     i, j = i[yo], j[yo]
     same = ring_key[i] == ring_key[j]

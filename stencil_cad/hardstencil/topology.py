@@ -6,16 +6,20 @@ solid: 4-connected on the raster (so the cut-outs are 8-connected, and the
 cut-out polygons are traced with diagonal pixels joined, which gives the same
 topology).
 
-"Held" is measured with the bridge width: the *robust sheet* is the opening of
-the sheet by a disc as wide as a bridge, i.e. every place a bridge-wide disc of
-sheet fits. A part of the sheet whose robust core is not connected to the frame
-is an island (the middle of an "O", or a part hanging on a neck thinner than a
-bridge). Islands are joined by a minimum spanning tree over the robust
-components (Mehlhorn's construction: one geodesic distance transform from all
-components at once, candidate edges where the fronts meet), and each tree edge
-becomes a bridge: its path dilated by the bridge disc and taken out of the cut.
-A dilation by a disc is open under that disc, so after bridging the robust sheet
-is one component by construction; :func:`sheet_check` verifies it.
+"Held" is measured with the bridge width: the *free centres* of the sheet are
+the places where a bridge-wide disc of sheet fits (the erosion of the sheet by
+the disc), and two parts of the sheet are held together when such a disc can
+slide from one to the other (their free centres are connected). A part whose
+free centres are not connected to the frame's is an island (the middle of an
+"O", or a part hanging on a neck thinner than a bridge). Connectivity of the
+*opening* would not do: the narrow tips of two discs poking into a short neck
+from both sides touch even when no disc passes. Islands are joined by a minimum
+spanning tree over the free-centre components (Mehlhorn's construction: one
+geodesic distance transform from all components at once, candidate edges where
+the fronts meet), and each tree edge becomes a bridge: its path dilated by the
+bridge disc and taken out of the cut. Every pixel of such a path is then a free
+centre, so after bridging the free centres are one component by construction;
+:func:`sheet_check` verifies it.
 """
 
 from __future__ import annotations
@@ -42,6 +46,8 @@ EIGHT = ndi.generate_binary_structure(2, 2)
 # or over cut that a later layer paints anyway: small, so paths prefer them, but
 # not zero, so they stay short.
 CHEAP = 0.1
+# Bridging rounds before giving up (a warning then reports the pieces); one or two suffice.
+MAX_BRIDGE_ROUNDS = 4
 # Cap of the polygon simplification, in px: traced edges pass 0.354 px (half a diagonal)
 # from the nearest pixel centre, so a smaller tolerance never moves an edge across one.
 MAX_TOLERANCE_PX = 0.3
@@ -78,6 +84,11 @@ def bridge_footprint(bridge_px: float) -> np.ndarray:
     return footprint(bridge_px + 1.0)
 
 
+def _free_centres(sheet: np.ndarray, fp: np.ndarray) -> np.ndarray:
+    """Where a disc ``fp`` of sheet fits: the erosion, with sheet beyond the array."""
+    return ndi.binary_erosion(sheet, fp, border_value=1)
+
+
 def _components(mask: np.ndarray) -> tuple[np.ndarray, int, int]:
     """4-connected components of a padded sheet mask and the id of the frame's one."""
     comp, n = ndi.label(mask, structure=FOUR)
@@ -85,7 +96,7 @@ def _components(mask: np.ndarray) -> tuple[np.ndarray, int, int]:
 
 
 def _drop_loose(cut: np.ndarray, robust: np.ndarray) -> tuple[np.ndarray, int]:
-    """Cut away sheet pieces with no bridge-wide core that are not attached to the frame.
+    """Cut away sheet pieces with no free centre that are not attached to the frame.
 
     Such pieces are too small to be held by a bridge; they become part of the cut.
     """
@@ -105,11 +116,11 @@ def _drop_loose(cut: np.ndarray, robust: np.ndarray) -> tuple[np.ndarray, int]:
 def _bridges(
     cut: np.ndarray, robust: np.ndarray, cost: np.ndarray, fb: np.ndarray
 ) -> tuple[np.ndarray, dict]:
-    """Carve bridges so that every robust sheet component joins the frame's one.
+    """Carve bridges so that every free-centre component joins the frame's one.
 
     Args:
         cut: Padded cut mask.
-        robust: Padded robust sheet (opening of the sheet by ``fb``).
+        robust: Padded free centres (erosion of the sheet by ``fb``).
         cost: Padded cost per pixel of running a bridge there (> 0).
         fb: Bridge footprint.
 
@@ -121,7 +132,7 @@ def _bridges(
     if n <= 1:
         return cut, {"islands": 0, "bridges": 0, "bridge_px": 0}
     h, w = cut.shape
-    # Fronts start on the rim of each robust component; the inside is a barrier, which
+    # Fronts start on the rim of each free-centre component; the inside is a barrier, which
     # keeps the start list (looped over in Python by MCP) short.
     rim = robust & ~ndi.binary_erosion(robust, structure=FOUR, border_value=1)
     costs = np.where(robust, CHEAP, cost).astype(np.float64)
@@ -200,7 +211,7 @@ def process_layer(
     Returns:
         The ``(H, W)`` bool cut mask and a report with ``islands_cut_as_later``,
         ``regions_widened``, ``regions_dropped``, ``trimmed_px``, ``islands_dropped``,
-        ``islands``, ``bridges``, ``bridge_px``, ``sheet_components``,
+        ``islands``, ``bridges``, ``bridge_px``, ``bridge_rounds``, ``sheet_components``,
         ``robust_components``.
     """
     fm = footprint(min_feature_px)
@@ -247,58 +258,72 @@ def process_layer(
     rep["regions_dropped"] = int(rn - np.count_nonzero(survived[1:]))
     trimmed = int(np.count_nonzero(before & ~cut))
 
-    robust = ndi.binary_opening(~cut, fb)
-    cut, dropped1 = _drop_loose(cut, robust)
-    robust = ndi.binary_opening(~cut, fb)
-    cut, brep = _bridges(cut, robust, cost_p, fb)
-    rep.update(brep)
-    # Bridges can leave cut slivers along their sides; trimming only adds sheet.
-    trimmed_after = cut & ~ndi.binary_opening(cut, fm)
-    cut = cut & ~trimmed_after
-    robust = ndi.binary_opening(~cut, fb)
-    cut, dropped2 = _drop_loose(cut, robust)
-    rep["trimmed_px"] = trimmed + int(np.count_nonzero(trimmed_after))
-    rep["islands_dropped"] = dropped1 + dropped2
+    # Bridging adds sheet, and new sheet can make new places where a disc fits that
+    # touch the rest only through a narrower overlap; a further round bridges those too
+    # (they are next to a bridge, so their bridges are a pixel or two long).
+    islands = bridges = carved = dropped = rounds = 0
+    trimmed_after = 0
+    for rounds in range(MAX_BRIDGE_ROUNDS + 1):
+        cut, n_loose = _drop_loose(cut, _free_centres(~cut, fb))
+        dropped += n_loose
+        robust = _free_centres(~cut, fb)
+        if rounds == MAX_BRIDGE_ROUNDS or ndi.label(robust, structure=FOUR)[1] <= 1:
+            break
+        cut, brep = _bridges(cut, robust, cost_p, fb)
+        islands += brep["islands"] if rounds == 0 else 0
+        bridges += brep["bridges"]
+        carved += brep["bridge_px"]
+        # Bridges can leave cut slivers along their sides; trimming only adds sheet.
+        sliver = cut & ~ndi.binary_opening(cut, fm)
+        trimmed_after += int(np.count_nonzero(sliver))
+        cut = cut & ~sliver
+    rep.update({"islands": islands, "bridges": bridges, "bridge_px": carved, "bridge_rounds": rounds})
+    rep["trimmed_px"] = trimmed + trimmed_after
+    rep["islands_dropped"] = dropped
     out = cut[pad:-pad, pad:-pad]
     rep.update(sheet_check(out, bridge_px))
     return out, rep
 
 
 def sheet_check(cut: np.ndarray, bridge_px: float) -> dict:
-    """Count the sheet's pieces: raw (4-connected) and robust (bridge-wide).
+    """Count the sheet's pieces: raw (4-connected) and held (free-centre components).
 
     Args:
         cut: ``(H, W)`` bool cut mask (the frame around it is sheet).
         bridge_px: Bridge width in pixels.
 
     Returns:
-        ``sheet_components`` and ``robust_components``; both are 1 for a good stencil.
+        ``sheet_components`` and ``robust_components`` (pieces a bridge-wide disc
+        cannot slide between); both are 1 for a good stencil.
     """
     fb = bridge_footprint(bridge_px)
     pad = fb.shape[0] + 2
     sheet = ~np.pad(np.asarray(cut, dtype=bool), pad)
     n_raw = ndi.label(sheet, structure=FOUR)[1]
-    n_rob = ndi.label(ndi.binary_opening(sheet, fb), structure=FOUR)[1]
+    n_rob = ndi.label(_free_centres(sheet, fb), structure=FOUR)[1]
     return {"sheet_components": int(n_raw), "robust_components": int(n_rob)}
 
 
 def polygon_sheet_check(
-    polygons: list, shape: tuple[int, int], mm_per_px: float, bridge_mm: float, factor: int = 2
+    polygons: list, shape: tuple[int, int], mm_per_px: float, bridge_mm: float, factor: int = 4
 ) -> dict:
     """Confirm on the polygons that the sheet is one solid held by bridge-wide necks.
 
-    The polygons are rasterised at ``factor`` times the working resolution; the
-    sheet (frame included) is opened by a disc as wide as a bridge, and the pieces
-    that hold a disc one working pixel wider than a bridge are counted (smaller
-    specks of sheet may hang on thinner necks; they are parts of the image, not
-    islands). A good stencil gives one piece: the frame's.
+    The polygons are rasterised at ``factor`` times the working resolution, and a
+    Euclidean distance transform gives the free centres of a disc exactly (no
+    digital disc): a bridge-wide disc fits at a fine pixel whose centre is at least
+    its radius plus half a fine pixel from every cut pixel's centre. The sheet is
+    split into the pieces between which such a disc cannot slide (components of
+    its free centres), and the pieces that hold a disc one working pixel wider are
+    counted (smaller specks of sheet may hang on thinner necks; they are parts of
+    the image, not islands). A good stencil gives one piece: the frame's.
 
     Args:
         polygons: As returned by :func:`mask_to_polygons`.
         shape: ``(H, W)`` of the working grid.
         mm_per_px: Pixel size of the working grid in mm.
         bridge_mm: Bridge width in mm.
-        factor: Supersampling factor. Defaults to 2.
+        factor: Supersampling factor. Defaults to 4.
 
     Returns:
         ``polygon_sheet_components`` (4-connected pieces of the traced sheet) and
@@ -306,13 +331,16 @@ def polygon_sheet_check(
     """
     h, w = shape
     fine = rasterise_polygons(polygons, (h * factor, w * factor), mm_per_px / factor)
-    fb = footprint(bridge_mm / mm_per_px * factor)
-    big = footprint((bridge_mm / mm_per_px + 1.0) * factor)
-    pad = big.shape[0] + 2
+    r = 0.5 * bridge_mm / mm_per_px * factor
+    r_big = r + 0.5 * factor
+    pad = int(math.ceil(2 * r_big)) + 2
     sheet = np.pad(~fine, pad, constant_values=True)
     n_raw = ndi.label(sheet, structure=FOUR)[1]
-    lab, n = ndi.label(ndi.binary_opening(sheet, fb), structure=FOUR)
-    held = np.bincount(lab[ndi.binary_erosion(sheet, big)], minlength=n + 1) > 0
+    if not fine.any():
+        return {"polygon_sheet_components": int(n_raw), "polygon_held_components": 1}
+    dist = ndi.distance_transform_edt(sheet)
+    lab, n = ndi.label(dist >= r + 0.5, structure=FOUR)
+    held = np.bincount(lab[dist >= r_big + 0.5], minlength=n + 1) > 0
     held[0] = False
     return {"polygon_sheet_components": int(n_raw), "polygon_held_components": int(np.count_nonzero(held))}
 
