@@ -41,9 +41,10 @@ def jittered_dots(n: int, pitch: float = 1.68, seed: int = 0):
 
     rng = np.random.default_rng(seed)
     k = int(np.ceil(np.sqrt(n)))
-    side = k * pitch
+    edge = 0.3  # mm of sheet between the outermost holes and the picture's edge
+    side = k * pitch + 2 * edge
     ij = np.stack(np.meshgrid(np.arange(k), np.arange(k)), -1).reshape(-1, 2)[:n]
-    xy = (ij + 0.5) * pitch + rng.uniform(-0.1, 0.1, (n, 2)) * pitch
+    xy = edge + (ij + 0.5) * pitch + rng.uniform(-0.1, 0.1, (n, 2)) * pitch
     r = rng.uniform(0.5, 0.6, n)
     return DotSet(xy, r), side
 
@@ -128,7 +129,7 @@ def _stl_case():
     from stencil_cad.config.cad import LabelMode
 
     dots, side = jittered_dots(2000, pitch=4.4)
-    dots = type(dots)(dots.xy_mm, np.random.default_rng(1).uniform(0.5, 1.6, len(dots)))
+    dots = type(dots)(dots.xy_mm, np.random.default_rng(1).uniform(0.5, 0.8, len(dots)))
     cfg = JobConfig()
     # A plain perforated plate (no label), as in the measurement the issue quotes.
     plate_cfg = cfg.plate.model_copy(update={"label": LabelMode.none})
@@ -220,7 +221,7 @@ def run(cases=None):
         if case == "stl-2k":
             first = next((r for r in lines if r.get("part") == "ours"), None)
             base_time = elapsed - (first["seconds"] if first else 0.0)
-            yield _merge_stl(lines, base_time, None if code == 0 else (err or out)[-2000:])
+            yield _merge_stl(lines, base_time, None if code == 0 else f"exit code {code}: {err[-1500:]}")
             continue
         if code != 0 or not lines:
             yield {"bench": "cad", "case": case, "seconds": None, "error": (err or out)[-2000:]}

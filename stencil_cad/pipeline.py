@@ -253,8 +253,12 @@ def stage_build(run: Run, layers: Layers, holes: list, picture_mm: tuple[float, 
                     colour=_hex(layers.colours[i]),
                     job=cfg.name,
                 )
-                model = cad.build_plate(h, width_mm, height_mm, cfg.plate, label)
-                check = cad.check_plate(model, h)
+                try:
+                    model = cad.build_plate(h, width_mm, height_mm, cfg.plate, label)
+                except ValueError as exc:
+                    # Holes that break the rules, a label that cannot fit, a bad template.
+                    raise UserError(f"{layer_stem(i)}: {exc}") from exc
+                check = cad.check_plate(model, h, tolerance_mm=exp.stl_tolerance_mm)
                 stem = layer_stem(i)
                 if exp.step:
                     with run.out.open_path(f"{stem}.step") as p:
@@ -262,6 +266,9 @@ def stage_build(run: Run, layers: Layers, holes: list, picture_mm: tuple[float, 
                 if exp.stl:
                     with run.out.open_path(f"{stem}.stl") as p:
                         cad.write_stl(model, p, exp.stl_tolerance_mm)
+                if exp.three_mf:
+                    with run.out.open_path(f"{stem}.3mf") as p:
+                        cad.write_3mf(model, p, exp.stl_tolerance_mm)
                 if exp.dxf:
                     with run.out.open_path(f"{stem}.dxf") as p:
                         _write_layer_dxf(p, ring, h, stem, exp)
@@ -420,11 +427,17 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
     size = (picture.width_mm, picture.height_mm)
     with run.stage("segment"):
         rules = _process_rules(cfg)
-        hard = hardstencil.make_hard_stencils(
-            picture, cfg.hard, rules["min_feature_mm"], rules["bridge_min_mm"], run.rng_for("hard")
-        )
+        try:
+            hard = hardstencil.make_hard_stencils(
+                picture, cfg.hard, rules["min_feature_mm"], rules["bridge_min_mm"], run.rng_for("hard")
+            )
+        except ValueError as exc:
+            raise UserError(f"hard mode: {exc}") from exc
         run.out.write_png("segmentation.png", hard.palette[hard.labels])
     run.figures["hard"] = _plain(hard.report)
+    run.figures["hard"]["warnings"] = [str(w) for w in hard.report.get("warnings", [])]
+    for w in run.figures["hard"]["warnings"]:
+        log.warning("hard mode: %s", w)
     layers = Layers(
         primer=hard.primer,
         colours=np.array([cl.colour for cl in hard.cut_layers]).reshape(-1, 3),
@@ -433,13 +446,10 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
     )
     stage_build(run, layers, hard.cut_layers, size)
     with run.stage("simulate"):
-        sim_alphas = np.stack([simulate.spray_mask(m, picture.mm_per_px, cfg.spray) for m in hard.cut_masks])
-        from .model import composite
-
-        comp = composite(hard.primer, layers.colours, sim_alphas)
+        _, comp = hardstencil.simulate_hard(hard, cfg.spray)
         scores = simulate.score(picture.rgb, comp)
         run.out.write_png("simulated.png", comp)
-        run.out.write_png("preview.png", simulate.preview(picture.rgb, hard.palette[hard.labels], comp))
+        run.out.write_png("preview.png", simulate.preview(picture.rgb, hardstencil.render_ideal(hard), comp))
     run.figures["simulate"] = _plain(scores)
     return finish(run, "hard")
 

@@ -11,7 +11,7 @@ from stencil_cad.cli import main
 SMALL = """\
 name: small
 size:
-  width_mm: 60
+  width_mm: 40
   px_per_mm: 2
 decompose:
   layers: 2

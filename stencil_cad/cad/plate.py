@@ -406,30 +406,41 @@ def label_glyphs(
     """
     x0, y0, x1, y1 = (float(v) for v in area)
     aw, ah = x1 - x0, y1 - y0
-    text = label_text(label)
-    size = float(height_mm)
-    pad = 0.0
-    for _ in range(4):
-        pad = max(0.3, 0.1 * size)
-        glyphs = _text_glyphs(text, size, font, tolerance_mm)
-        allp = np.concatenate([g[0] for g in glyphs]) if glyphs else np.zeros((1, 2))
-        tlo, thi = allp.min(axis=0), allp.max(axis=0)
-        cap = 0.72 * size
-        arrow_w, gap = 0.7 * cap, 0.5 * size
-        need_w = arrow_w + gap + (thi[0] - tlo[0]) + 2 * pad
-        need_h = max(thi[1], cap) - min(tlo[1], 0.0) + 2 * pad
-        scale = min(aw / need_w, ah / need_h, 1.0)
-        if scale >= 1.0:
+    # Shorter labels before giving up: a small plate still gets its layer number and order.
+    candidates = [label_text(label)]
+    for shorter in (replace(label, job=""), replace(label, job="", colour="")):
+        if label_text(shorter) not in candidates:
+            candidates.append(label_text(shorter))
+    candidates.append(f"L{label.layer}/{label.layers}")
+    fitted = None
+    for text in candidates:
+        size = float(height_mm)
+        pad = 0.0
+        for _ in range(4):
+            pad = max(0.3, 0.1 * size)
+            glyphs = _text_glyphs(text, size, font, tolerance_mm)
+            allp = np.concatenate([g[0] for g in glyphs]) if glyphs else np.zeros((1, 2))
+            tlo, thi = allp.min(axis=0), allp.max(axis=0)
+            cap = 0.72 * size
+            arrow_w, gap = 0.7 * cap, 0.5 * size
+            need_w = arrow_w + gap + (thi[0] - tlo[0]) + 2 * pad
+            need_h = max(thi[1], cap) - min(tlo[1], 0.0) + 2 * pad
+            scale = min(aw / need_w, ah / need_h, 1.0)
+            if scale >= 1.0:
+                fitted = text
+                break
+            size = size * scale * 0.98
+            if size < min_height_mm:
+                break
+        if fitted is not None:
             break
-        size = size * scale * 0.98
-        if size < min_height_mm:
-            raise PlateBuildError(
-                f"the label {text!r} does not fit the label area {aw:.1f} x {ah:.1f} mm at the smallest font "
-                f"size {min_height_mm} mm (plate.label_min_height_mm); widen plate.outline.margin_mm, shorten "
-                "the job name, or set plate.label: none"
-            )
-    else:
-        raise PlateBuildError(f"could not fit the label {text!r} into {aw:.1f} x {ah:.1f} mm")
+    if fitted is None:
+        raise PlateBuildError(
+            f"even the shortest label {candidates[-1]!r} does not fit the label area {aw:.1f} x {ah:.1f} mm at "
+            f"the smallest font size {min_height_mm} mm (plate.label_min_height_mm); widen "
+            "plate.outline.margin_mm, lower plate.label_min_height_mm, or set plate.label: none"
+        )
+    text = fitted
     # Vertical placement: centre the text's ink (and the arrow) in the area.
     ink_lo, ink_hi = min(tlo[1], 0.0), max(thi[1], cap)
     dy = y0 + 0.5 * (ah - (ink_hi - ink_lo)) - ink_lo

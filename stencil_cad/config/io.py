@@ -113,6 +113,9 @@ def load_config(path: Path | str):
     cfg = parse_config(data, source=str(path))
     if cfg.image is not None and not cfg.image.is_absolute():
         cfg = cfg.model_copy(update={"image": (path.parent / cfg.image)})
+    if cfg.plate.template is not None and not cfg.plate.template.is_absolute():
+        plate = cfg.plate.model_copy(update={"template": path.parent / cfg.plate.template})
+        cfg = cfg.model_copy(update={"plate": plate})
     return cfg
 
 

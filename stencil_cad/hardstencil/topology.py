@@ -18,8 +18,10 @@ spanning tree over the free-centre components (Mehlhorn's construction: one
 geodesic distance transform from all components at once, candidate edges where
 the fronts meet), and each tree edge becomes a bridge: its path dilated by the
 bridge disc and taken out of the cut. Every pixel of such a path is then a free
-centre, so after bridging the free centres are one component by construction;
-:func:`sheet_check` verifies it.
+centre, so every island bridged is joined to the frame; the new sheet can make a
+few new free centres that touch the rest only through an overlap of discs, and a
+further round bridges those. :func:`sheet_check` verifies the raster and
+:func:`polygon_sheet_check` the traced polygons.
 """
 
 from __future__ import annotations
