@@ -235,6 +235,8 @@ def run(cases: list[str] | None = None):
             } | info
             if res.ok and prof.technology is sl.Technology.FFF:
                 row["gcode"] = sl.gcode_summary(out)
+                xy, _, _ = hole_centres(n)
+                row |= gcode_coverage(out, xy, width, height)
             elif res.ok:
                 row["sla_layers"] = sl.sla_layer_count(out)
             if n == 250 and res.ok and res.cpu_seconds:
@@ -301,3 +303,111 @@ def _laser_case(name: str, n: int, tmpdir: Path) -> dict:
             row["ok"] = row["ok"] and features == n + 1
     path.unlink(missing_ok=True)
     return row
+
+
+def _layer_paths(gcode: Path, layer_index: int) -> list[tuple[np.ndarray, float]]:
+    """Extrusion polylines ``(points (K, 2) mm, width mm)`` of one layer, skirt and custom code left out.
+
+    Reads PrusaSlicer (``;LAYER_CHANGE``, ``;WIDTH:``, ``;TYPE:``) and CuraEngine
+    (``;LAYER:``, ``;TYPE:``; width 0.4 mm) G-code, relative or absolute E.
+    """
+    import re
+
+    num = re.compile(r"([XYE])(-?[\d.]+)")
+    layer, width, skip, relative = -1, 0.4, False, False
+    x = y = e_last = 0.0
+    paths: list[tuple[list, float]] = []
+    current = None
+    with gcode.open(errors="replace") as fh:
+        for line in fh:
+            if line.startswith((";LAYER_CHANGE", ";LAYER:")):
+                layer += 1
+                current = None
+                if layer > layer_index:
+                    break
+            elif line.startswith(";WIDTH:"):
+                width, current = float(line[7:]), None
+            elif line.startswith(";TYPE:"):
+                kind = line[6:].strip().lower()
+                skip, current = kind.startswith(("skirt", "custom")), None
+            elif line.startswith("M83"):
+                relative = True
+            elif line.startswith("M82"):
+                relative = False
+            elif line.startswith("G92"):
+                m = re.search(r"E(-?[\d.]+)", line)
+                e_last = float(m.group(1)) if m else e_last
+            elif line.startswith(("G1 ", "G0 ")):
+                vals = dict(num.findall(line.split(";", 1)[0]))
+                nx, ny = float(vals.get("X", x)), float(vals.get("Y", y))
+                extruding = False
+                if "E" in vals:
+                    e = float(vals["E"])
+                    extruding = (e if relative else e - e_last) > 0 and ("X" in vals or "Y" in vals)
+                    e_last = e_last if relative else e
+                if extruding and layer == layer_index and not skip:
+                    if current is None:
+                        current = ([(x, y)], width)
+                        paths.append(current)
+                    current[0].append((nx, ny))
+                else:
+                    current = None
+                x, y = nx, ny
+    return [(np.asarray(p, dtype=float), w) for p, w in paths]
+
+
+def gcode_coverage(
+    gcode: Path, xy: np.ndarray, width: float, height: float, layer_index: int = 2, px: float = 0.05
+) -> dict:
+    """How well one layer's extrusion covers the plate: the print-quality side of a profile.
+
+    Draws every extrusion of layer ``layer_index`` (0-based; layer 3 by default, an
+    inner solid layer) at its width on a ``px`` mm raster, and the plate's exact sheet
+    (outline minus round holes). The G-code is aligned to the plate by the centre of
+    its extrusions' bounding box (slicers centre the plate on the bed).
+
+    Returns:
+        ``coverage``: share of the sheet covered by extrusion; ``hole_spill``: share
+        of the hole area covered (holes printed too small); ``voids``: uncovered
+        sheet blobs larger than 0.04 mm² (pin holes paint could pass through).
+    """
+    from PIL import Image, ImageDraw
+    from scipy import ndimage
+
+    paths = _layer_paths(gcode, layer_index)
+    if not paths:
+        return {"coverage": None}
+    pts = np.concatenate([p for p, _ in paths])
+    shift = (pts.min(axis=0) + pts.max(axis=0)) / 2 - np.array([width / 2, height / 2])
+    w_px, h_px = int(np.ceil(width / px)), int(np.ceil(height / px))
+
+    def to_px(p: np.ndarray) -> list[tuple[float, float]]:
+        q = p / px
+        return list(zip(q[:, 0].tolist(), (h_px - q[:, 1]).tolist(), strict=True))
+
+    ext = Image.new("1", (w_px, h_px), 0)
+    draw = ImageDraw.Draw(ext)
+    for p, w in paths:
+        q = to_px(p - shift)
+        lw = max(1, int(round(w / px)))
+        draw.line(q, fill=1, width=lw, joint="curve")
+        for cx, cy in (q[0], q[-1]):
+            draw.ellipse([cx - lw / 2, cy - lw / 2, cx + lw / 2, cy + lw / 2], fill=1)
+    holes = Image.new("1", (w_px, h_px), 0)
+    draw = ImageDraw.Draw(holes)
+    rr = RADIUS_MM / px
+    for cx, cy in to_px(xy):
+        draw.ellipse([cx - rr, cy - rr, cx + rr, cy + rr], fill=1)
+    ext_a = np.asarray(ext, dtype=bool)
+    hole_a = np.asarray(holes, dtype=bool)
+    sheet = ~hole_a
+    # The outline's own pixel rounding is not a defect: leave a 2-pixel frame out.
+    sheet[:2] = sheet[-2:] = False
+    sheet[:, :2] = sheet[:, -2:] = False
+    labels, _ = ndimage.label(sheet & ~ext_a)
+    areas = np.bincount(labels.ravel())[1:] * px * px
+    return {
+        "coverage": round(float((ext_a & sheet).sum() / sheet.sum()), 4),
+        "hole_spill": round(float((ext_a & hole_a).sum() / max(1, hole_a.sum())), 4),
+        "voids": int((areas > 0.04).sum()),
+    }

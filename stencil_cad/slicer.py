@@ -623,12 +623,14 @@ def gcode_summary(gcode: str | os.PathLike) -> dict[str, float | int | str]:
 
     Returns:
         ``{"layers": int, "extrusion_moves": int, "bytes": int}`` plus
-        ``"print_time"`` and ``"filament_mm"`` when the slicer wrote them
-        (PrusaSlicer ``; estimated printing time`` / Cura ``;TIME:``).
+        ``"print_time"`` (PrusaSlicer's ``; estimated printing time``, or
+        CuraEngine's last ``;TIME_ELAPSED:``) and ``"filament_mm"``
+        (PrusaSlicer) when the file holds them.
     """
     path = Path(gcode)
     layers = 0
     moves = 0
+    elapsed = None
     summary: dict[str, float | int | str] = {"bytes": path.stat().st_size}
     with path.open(errors="replace") as fh:
         for line in fh:
@@ -638,14 +640,14 @@ def gcode_summary(gcode: str | os.PathLike) -> dict[str, float | int | str]:
                 layers += 1
             elif line.startswith("; estimated printing time (normal mode)"):
                 summary["print_time"] = line.split("=", 1)[1].strip()
-            elif line.startswith(";TIME:"):
-                summary["print_time"] = f"{int(float(line[6:]))} s"
+            elif line.startswith(";TIME_ELAPSED:"):
+                # CuraEngine's command line leaves placeholders in its header (";TIME:6666");
+                # the elapsed time after the last layer is the real estimate.
+                elapsed = float(line[14:])
             elif line.startswith("; filament used [mm]"):
                 summary["filament_mm"] = float(line.split("=", 1)[1].split(",")[0])
-            elif line.startswith(";Filament used:"):
-                summary["filament_mm"] = 1000.0 * float(
-                    line.split(":", 1)[1].strip().rstrip("m").split(",")[0]
-                )
+    if elapsed is not None and "print_time" not in summary:
+        summary["print_time"] = f"{int(elapsed) // 3600}h {int(elapsed) % 3600 // 60}m {int(elapsed) % 60}s"
     summary["layers"] = layers
     summary["extrusion_moves"] = moves
     return summary
@@ -940,7 +942,7 @@ def split_into_tiles(
         holes_per_tile: Target holes per tile when ``grid`` is None. Defaults
             to :data:`HOLES_PER_TILE`.
         grid: Explicit ``(nx, ny)`` tile counts; overrides ``holes_per_tile``.
-        overlap_mm: How far each tile reaches past a seam into its neighbour,
+        overlap_mm: Width of the strip two neighbouring tiles share at a seam,
             in mm, for a stronger weld (0 = tiles touch exactly). Defaults to 0 mm.
 
     Returns:
