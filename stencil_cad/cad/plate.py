@@ -321,11 +321,30 @@ def _arrow(width: float, height: float) -> np.ndarray:
     )
 
 
+DEFAULT_FONT = "DejaVu Sans"
+
+
+def _bundled_font() -> str | None:
+    from importlib import resources
+
+    path = resources.files("stencil_cad") / "data" / "DejaVuSans-Bold.ttf"
+    return str(path) if path.is_file() else None
+
+
 def _text_glyphs(text: str, size: float, font: str, tol: float) -> list:
     """Glyph polygons of a text line, baseline at y = 0, starting at x = 0."""
     from build123d import Align, FontStyle, Text
 
-    sketch = Text(text, font_size=size, font=font, font_style=FontStyle.BOLD, align=(Align.MIN, Align.MIN))
+    # The default font ships with the package, so labels do not depend on the system's fonts.
+    font_path = _bundled_font() if font == DEFAULT_FONT else None
+    sketch = Text(
+        text,
+        font_size=size,
+        font=font,
+        font_path=font_path,
+        font_style=FontStyle.BOLD,
+        align=(Align.MIN, Align.MIN),
+    )
     glyphs = []
     for f in sketch.faces():
         outer, inner = _face_rings(f.wrapped, tol)
