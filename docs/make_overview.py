@@ -13,6 +13,7 @@ from PIL import Image, ImageDraw
 
 
 def main(folder: str) -> None:
+    """Compose the picture from the files of the run in `folder`."""
     out = Path(folder)
     preview = np.asarray(Image.open(out / "preview.png").convert("RGB"))
     w = preview.shape[1] // 4
