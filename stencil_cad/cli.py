@@ -62,9 +62,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     verbose = getattr(args, "verbose", False)
-    quiet = getattr(args, "quiet", False)
     logging.basicConfig(
-        level=logging.DEBUG if verbose else (logging.ERROR if quiet else logging.WARNING),
+        level=logging.DEBUG if verbose else logging.WARNING,
         format="%(levelname)s %(name)s: %(message)s"
         if verbose
         else "stencil-cad: %(levelname)s: %(message)s",
@@ -72,6 +71,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     if verbose:
         logging.getLogger("stencil_cad").setLevel(logging.DEBUG)
+        # Third-party debug chatter (image decoders, font parsing) drowns our own steps.
+        for noisy in ("PIL", "fontTools", "numba", "matplotlib", "ezdxf"):
+            logging.getLogger(noisy).setLevel(logging.WARNING)
     try:
         return _dispatch(args)
     except UserError as exc:
@@ -105,9 +107,12 @@ def _dispatch(args) -> int:
         return 0
     if args.command == "init":
         path: Path = args.path
+        if path.is_dir():
+            raise OutputError(f"{path} is a folder; give a file path such as {path / 'stencil.yaml'}")
+        if not path.parent.is_dir():
+            raise OutputError(f"folder {path.parent} does not exist (create it first, or give another path)")
         if path.exists() and not args.force:
             raise OutputError(f"{path} already exists (use --force to replace it, or give another path)")
-        path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(f".{path.name}.tmp")
         tmp.write_text(cfg_io.default_yaml(), encoding="utf-8")
         tmp.replace(path)
@@ -176,7 +181,15 @@ def _job(args) -> int:
             files = pipeline.finish(run, "decompose")
         else:
             layers = pipeline.read_layers(src)
+            out.check_free(pipeline.stage_outputs(cfg, args.command, layers.count))
             size = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
+            if abs(size[0] - cfg.size.width_mm) > 0.01 * cfg.size.width_mm:
+                log.warning(
+                    "the saved layers are %.4g mm wide but the config says size.width_mm %.4g; the saved "
+                    "layers' size is used (re-run `stencil-cad decompose` to change it)",
+                    size[0],
+                    cfg.size.width_mm,
+                )
             if args.command == "stipple":
                 pipeline.stage_stipple(run, layers, size)
             else:

@@ -96,10 +96,6 @@ def _to_arrays(im: Image.Image) -> tuple[np.ndarray, np.ndarray | None, bool]:
             rgb = np.asarray(im.convert("RGB"), dtype=np.float64) / 255.0
     if alpha is not None and np.all(alpha >= 1.0):
         alpha = None
-    if alpha is not None:
-        # Transparent areas are bare surface: flatten them onto white so the colour
-        # decomposition does not fit paint to the hidden RGB values there.
-        rgb = rgb * alpha[..., None] + (1.0 - alpha[..., None])
     return rgb, alpha, grey
 
 

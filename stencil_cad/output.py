@@ -74,6 +74,15 @@ class OutputDir:
             self._stage = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.partial-", dir=parent))
         return self._stage
 
+    def check_free(self, names: list[str]) -> None:
+        """Refuse up front (before any work) if a file this command will write already exists.
+
+        Raises:
+            OutputError: Naming the first such file.
+        """
+        for name in names:
+            self._check_new(name)
+
     def _check_new(self, name: str) -> None:
         if name in self.files:
             raise OutputError(f"internal: {name} written twice in one run")

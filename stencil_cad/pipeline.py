@@ -76,17 +76,29 @@ class Run:
         """A progress bar on stderr (silent with -q)."""
         from tqdm.auto import tqdm
 
-        return tqdm(total=total, desc=desc, disable=self.quiet, leave=False, unit="it", dynamic_ncols=True)
+        # disable=None: no bar when stderr is not a terminal (logs, CI).
+        return tqdm(total=total, desc=desc, disable=True if self.quiet else None, leave=False, unit="it")
 
 
 # --------------------------------------------------------------------------- stages
 
 
 def load_picture(cfg: JobConfig) -> Picture:
-    """Load the configured image (or the bundled example) onto the working grid."""
+    """Load the configured image (or the bundled example) onto the working grid.
+
+    Transparent areas are flattened onto white (bare surface) unless the decomposition
+    takes its opacity from the alpha channel, where the paint is the image's own colour.
+    """
+    from dataclasses import replace
+
     from .imaging import load_picture as _load
 
-    return _load(cfg.image, cfg.size.width_mm, cfg.size.height_mm, cfg.size.px_per_mm)
+    pic = _load(cfg.image, cfg.size.width_mm, cfg.size.height_mm, cfg.size.px_per_mm)
+    source = getattr(cfg.decompose.opacity_source, "value", cfg.decompose.opacity_source)
+    if pic.alpha is not None and source != "alpha":
+        a = pic.alpha[..., None]
+        pic = replace(pic, rgb=pic.rgb * a + (1.0 - a))
+    return pic
 
 
 def stage_decompose(run: Run, picture: Picture) -> Layers:
@@ -101,7 +113,13 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
                 bar.update(1)
                 bar.set_postfix(energy=f"{energy:.4g}", refresh=False)
 
-            layers = dec.decompose(picture, run.cfg.decompose, run.rng_for("decompose"), progress=progress)
+            try:
+                layers = dec.decompose(
+                    picture, run.cfg.decompose, run.rng_for("decompose"), progress=progress
+                )
+            except ValueError as exc:
+                # A config that does not suit this image (e.g. opacity_source: alpha on RGB).
+                raise UserError(f"{exc} (change the decompose section or use another image)") from exc
         out = run.out
         saved = dec.layers_to_npz(layers)
         out.write_npz(LAYERS_NPZ, saved)
@@ -132,10 +150,12 @@ def read_layers(folder: Path) -> Layers:
     path = folder / LAYERS_NPZ
     if not path.exists():
         raise UserError(f"{path} not found (run `stencil-cad decompose` first, or pass --from DIR)")
+    import zipfile
+
     try:
         with np.load(path) as data:
             return dec.layers_from_npz(dict(data))
-    except (OSError, ValueError, KeyError) as exc:
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
         raise UserError(
             f"{path}: not a readable decomposition ({exc}); re-run `stencil-cad decompose`"
         ) from None
@@ -193,6 +213,15 @@ def stage_stipple(run: Run, layers: Layers, picture_mm: tuple[float, float]) -> 
     run.figures["stipple"] = [
         {"layer": i + 1, "dots": len(ds), **_plain(ds.report)} for i, ds in enumerate(sets)
     ]
+    for i, ds in enumerate(sets):
+        if len(ds) == 0:
+            removed = {k: v for k, v in ds.report.items() if k.startswith("removed_") and v}
+            log.warning(
+                "%s has no holes (%s): its plate sprays nothing; lower stipple.edge_margin_mm or "
+                "stipple.opacity_threshold, enlarge the picture, or use fewer decompose.layers",
+                layer_stem(i),
+                ", ".join(f"{k} {v}" for k, v in removed.items()) or "no ink above the opacity threshold",
+            )
     if tones:
         run.figures["tone_calibration"] = tones
     return sets
@@ -336,6 +365,11 @@ def _resample(img: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
 def save_config(run: Run) -> None:
     """Write the resolved config beside the results, so stage commands can re-read it."""
     data = run.cfg.model_dump(mode="json")
+    # Absolute paths, so the copy runs from anywhere.
+    if run.cfg.image is not None:
+        data["image"] = str(Path(run.cfg.image).resolve())
+    if run.cfg.plate.template is not None:
+        data["plate"]["template"] = str(Path(run.cfg.plate.template).resolve())
     run.out.write_text(CONFIG_COPY, yaml.safe_dump(data, sort_keys=False))
 
 
@@ -433,11 +467,14 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
             )
         except ValueError as exc:
             raise UserError(f"hard mode: {exc}") from exc
+        if hard.count == 0:
+            raise UserError(
+                "hard mode: the image has a single flat colour, so there is nothing to cut "
+                "(prime the surface with it, or use an image with more colours)"
+            )
         run.out.write_png("segmentation.png", hard.palette[hard.labels])
     run.figures["hard"] = _plain(hard.report)
     run.figures["hard"]["warnings"] = [str(w) for w in hard.report.get("warnings", [])]
-    for w in run.figures["hard"]["warnings"]:
-        log.warning("hard mode: %s", w)
     layers = Layers(
         primer=hard.primer,
         colours=np.array([cl.colour for cl in hard.cut_layers]).reshape(-1, 3),
@@ -452,6 +489,30 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
         run.out.write_png("preview.png", simulate.preview(picture.rgb, hardstencil.render_ideal(hard), comp))
     run.figures["simulate"] = _plain(scores)
     return finish(run, "hard")
+
+
+def stage_outputs(cfg: JobConfig, command: str, count: int) -> list[str]:
+    """Names a stage command will write, so it can refuse before doing the work."""
+    if command == "stipple":
+        return [n for i in range(count) for n in (dots_name(i), f"{layer_stem(i)}_dots.png")] + [SPRAY_JSON]
+    if command == "build":
+        exts = [
+            e
+            for e, on in (
+                (".step", cfg.export.step),
+                (".stl", cfg.export.stl),
+                (".dxf", cfg.export.dxf),
+                (".3mf", cfg.export.three_mf),
+            )
+            if on
+        ]
+        names = [layer_stem(i) + e for i in range(count) for e in exts]
+        heights = sorted(set(cfg.wall.standoff_mm))
+        stems = ["wall"] if len(heights) == 1 else [f"wall_{h:g}mm" for h in heights]
+        return names + [s + e for s in stems for e in (".step", ".stl")]
+    if command == "simulate":
+        return ["simulated.png", "preview.png", "sweep.png"]
+    return []
 
 
 def check_dots(cfg: JobConfig, dotsets: list[DotSet], picture_mm: tuple[float, float]) -> None:

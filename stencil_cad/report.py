@@ -6,6 +6,8 @@ from pathlib import Path
 
 
 def _fmt(v, digits: int = 3) -> str:
+    if v is None:
+        return "–"
     if isinstance(v, float):
         return f"{v:.{digits}g}"
     return str(v)

@@ -140,3 +140,45 @@ def test_traceback_only_with_verbose(tmp_path):
         text=True,
     )
     assert r.returncode == 2 and "Traceback" in r.stderr
+
+
+def test_init_into_a_folder_is_refused_cleanly(tmp_path, capsys):
+    d = tmp_path / "folder"
+    d.mkdir()
+    code, _, err = _run(["init", str(d), "--force"], capsys)
+    assert code == 2 and "is a folder" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["folder"]
+
+
+def test_hard_mode_on_a_flat_image_is_a_clear_error(tmp_path, capsys):
+    p = tmp_path / "flat.png"
+    Image.fromarray(np.full((320, 320, 3), (30, 120, 200), np.uint8)).save(p)
+    out = tmp_path / "out"
+    code, _, err = _run(["hard", "--image", str(p), "--out", str(out), "-q"], capsys)
+    _assert_clean_failure(code, err, tmp_path, out, "single flat colour")
+
+
+def test_alpha_source_on_rgb_image_is_a_user_error(tmp_path, capsys, cfg_file):
+    p = tmp_path / "rgb.png"
+    Image.fromarray(np.full((120, 120, 3), 100, np.uint8)).save(p)
+    cfg = cfg_file(f"image: {p}\nsize: {{width_mm: 60}}\ndecompose: {{opacity_source: alpha}}\n")
+    out = tmp_path / "out"
+    code, _, err = _run(["decompose", str(cfg), "--out", str(out), "-q"], capsys)
+    _assert_clean_failure(code, err, tmp_path, out, "alpha")
+
+
+def test_alpha_source_keeps_the_image_colour(tmp_path, capsys, cfg_file):
+    from stencil_cad.config.io import load_config
+    from stencil_cad.pipeline import load_picture
+
+    a = np.zeros((120, 120, 4), np.uint8)
+    a[..., 0] = 200
+    a[..., 3] = np.linspace(0, 255, 120).astype(np.uint8)[None, :]
+    p = tmp_path / "rgba.png"
+    Image.fromarray(a, "RGBA").save(p)
+    pic = load_picture(
+        load_config(cfg_file(f"image: {p}\nsize: {{width_mm: 60}}\ndecompose: {{opacity_source: alpha}}\n"))
+    )
+    assert np.allclose(pic.rgb[..., 0], 200 / 255, atol=1e-6) and np.allclose(pic.rgb[..., 1], 0, atol=1e-6)
+    flat = load_picture(load_config(cfg_file(f"image: {p}\nsize: {{width_mm: 60}}\n")))
+    assert flat.rgb[60, 0, 1] > 0.95  # transparent → white surface

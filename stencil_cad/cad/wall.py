@@ -158,6 +158,15 @@ class Wall(bd.BasePartObject):
         if fw <= 0:
             return None
         m, c, t = outline.margin_mm, wall.clearance_mm, wall.wall_thickness_mm
+        if fw > 0.5 * width_mm:
+            # On pictures under about 13 mm wide the slot's analytic volume stopped matching the
+            # B-rep (measured); a slot wider than half the picture is no use anyway, so leave it out.
+            log.warning(
+                "wall.finger_slot_mm (%.3g mm) left out: it needs a picture at least twice as wide (%.3g mm)",
+                fw,
+                width_mm,
+            )
+            return None
         x0, x1 = 0.5 * (width_mm - fw), 0.5 * (width_mm + fw)
         if x0 < -m + outline.corner_radius_mm:
             raise ValueError(

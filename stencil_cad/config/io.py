@@ -116,6 +116,11 @@ def load_config(path: Path | str):
     if cfg.plate.template is not None and not cfg.plate.template.is_absolute():
         plate = cfg.plate.model_copy(update={"template": path.parent / cfg.plate.template})
         cfg = cfg.model_copy(update={"plate": plate})
+    if cfg.plate.template is not None and not cfg.plate.template.is_file():
+        raise ConfigError(
+            f"{path}: plate.template: file not found: {cfg.plate.template} (copy templates/plate.py there, "
+            "or remove the key to use the built-in template)"
+        )
     return cfg
 
 
