@@ -24,6 +24,10 @@ class Picture:
             alpha channel (RGBA input) or None.
         grey: True when the source had a single channel.
         source: Where the picture came from (a path or "bundled example").
+        distinct_colours: Number of distinct 8-bit colours of the source file
+            BEFORE resampling (resampling blends edges into new colours),
+            counted up to a cap (a value at the cap means "at least"), or None
+            when unknown.
     """
 
     rgb: np.ndarray
@@ -31,6 +35,7 @@ class Picture:
     alpha: np.ndarray | None = None
     grey: bool = False
     source: str = ""
+    distinct_colours: int | None = None
 
     @property
     def shape(self) -> tuple[int, int]:

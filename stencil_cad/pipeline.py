@@ -119,7 +119,7 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
                 )
             except ValueError as exc:
                 # A config that does not suit this image (e.g. opacity_source: alpha on RGB).
-                raise UserError(f"{exc} (change the decompose section or use another image)") from exc
+                raise UserError(str(exc)) from exc
         out = run.out
         saved = dec.layers_to_npz(layers)
         out.write_npz(LAYERS_NPZ, saved)

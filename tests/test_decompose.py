@@ -251,19 +251,127 @@ def test_few_distinct_colours_gives_fewer_layers_and_a_warning(caplog):
     assert layers.info["rmse"] < 0.5
 
 
-def test_single_colour_image_never_nan():
-    img = np.full((16, 16, 3), 0.3)
-    layers = decompose(Picture(rgb=img, mm_per_px=1.0), DecomposeConfig(layers=3), np.random.default_rng(0))
+@pytest.mark.parametrize("value", [0.3, 1.0])
+def test_flat_image_is_an_error_naming_the_primer(value):
+    img = np.full((16, 16, 3), value)
+    hexc = "#{0:02x}{0:02x}{0:02x}".format(round(value * 255))
+    with pytest.raises(ValueError, match=f"one flat colour: prime the surface with {hexc}"):
+        decompose(Picture(rgb=img, mm_per_px=1.0), DecomposeConfig(layers=3), np.random.default_rng(0))
+    # Grey input: a flat white is no ink either (a flat mid-grey is a valid 50 % layer).
+    with pytest.raises(ValueError, match="one flat colour"):
+        decompose(
+            Picture(rgb=np.ones((8, 8, 3)), mm_per_px=1.0, grey=True),
+            DecomposeConfig(),
+            np.random.default_rng(0),
+        )
+    grey = decompose(
+        Picture(rgb=np.full((8, 8, 3), 0.5), mm_per_px=1.0, grey=True),
+        DecomposeConfig(),
+        np.random.default_rng(0),
+    )
+    np.testing.assert_allclose(grey.alphas, 0.5)
+
+
+def test_no_useful_can_is_an_error_that_is_not_about_flatness():
+    img = np.zeros((12, 12, 3))
+    img[..., 2] = np.linspace(0.3, 1.0, 12)[None, :]  # blues; a yellow can only lightens towards yellow
+    cfg = DecomposeConfig(palette=["#ffff00"], primer="#000000")
+    with pytest.raises(ValueError, match="no paint layer carries ink") as err:
+        decompose(Picture(rgb=img, mm_per_px=1.0), cfg, np.random.default_rng(0))
+    assert "flat" not in str(err.value)
+
+
+def test_flat_image_on_a_fixed_other_primer_is_one_full_layer():
+    img = np.zeros((16, 16, 3))
+    img[...] = [0.1, 0.2, 0.7]
+    layers = decompose(
+        Picture(rgb=img, mm_per_px=1.0), DecomposeConfig(layers=3, primer="#ffffff"), np.random.default_rng(0)
+    )
     assert layers.count == 1
-    for arr in (layers.alphas, layers.colours, layers.primer):
-        assert np.isfinite(arr).all()
-    assert layers.info["rmse"] < 0.5
+    np.testing.assert_allclose(layers.colours[0], [0.1, 0.2, 0.7], atol=2 / 255)
+    assert layers.alphas.min() > 0.95
+    assert layers.info["rmse"] < 1.0
+
+
+def _dE(a, b):
+    from skimage.color import deltaE_ciede2000, rgb2lab
+
+    a, b = (np.asarray(c, dtype=np.float64).reshape(1, 1, 3) for c in (a, b))
+    return float(deltaE_ciede2000(rgb2lab(a), rgb2lab(b))[0, 0])
+
+
+def _red_square_on_white(n: int = 240) -> np.ndarray:
+    img = np.ones((n, n, 3))
+    img[n // 4 : 3 * n // 4, n // 4 : 3 * n // 4] = [200 / 255, 0.0, 0.0]
+    return img
+
+
+def test_resampled_two_colour_image_gets_one_layer_from_the_source_count(tmp_path):
+    from PIL import Image
+
+    from stencil_cad.imaging import load_picture
+
+    path = tmp_path / "red.png"
+    Image.fromarray(np.rint(_red_square_on_white() * 255).astype(np.uint8)).save(path)
+    pic = load_picture(path, 60.0, None, 2.0)  # 240 px -> 120 px: the edges blend
+    assert pic.shape == (120, 120)
+    assert pic.distinct_colours == 2
+    assert len(np.unique(np.rint(pic.rgb * 255).reshape(-1, 3), axis=0)) > 4
+    layers = decompose(pic, DecomposeConfig(layers=4), np.random.default_rng(0))
+    assert layers.count == 1
+    assert any("2 distinct" in w for w in layers.info["warnings"])
+    assert _dE(layers.primer, [1, 1, 1]) < 1.0
+    assert _dE(layers.colours[0], [200 / 255, 0, 0]) < 1.0
+    assert layers.info["rmse"] < 1.0
+
+
+def test_near_duplicate_paints_are_merged():
+    from skimage.transform import resize
+
+    # Without the source count the blended edge colours pass the distinct-colour
+    # check, and the solve returns twins of the red and a white on white.
+    img = np.clip(resize(_red_square_on_white(), (120, 120, 3), order=1, anti_aliasing=True), 0, 1)
+    layers = decompose(Picture(rgb=img, mm_per_px=1.0), DecomposeConfig(layers=4), np.random.default_rng(0))
+    allc = np.vstack([layers.primer[None], layers.colours])
+    for i in range(len(allc)):
+        for j in range(i + 1, len(allc)):
+            assert _dE(allc[i], allc[j]) >= 2.0
+    assert np.all(layers.alphas.reshape(layers.count, -1).max(axis=1) >= 0.05)
+    assert layers.count < 4 and any("dropped" in w for w in layers.info["warnings"])
+    assert layers.info["rmse"] < 1.0
+    assert layers.alphas.shape[0] == layers.colours.shape[0] == len(layers.info["order"]) - 1
+    # min_delta_e 0 and min_opacity 0 switch the merging off.
+    keep = DecomposeConfig(layers=4, min_delta_e=0.0, min_opacity=0.0)
+    assert decompose(Picture(rgb=img, mm_per_px=1.0), keep, np.random.default_rng(0)).count == 4
+
+
+@pytest.mark.parametrize("background", ["white", "red"])
+def test_two_colours_one_layer_primes_the_larger_area(background):
+    red, white = np.array([0.8, 0.0, 0.0]), np.array([1.0, 1.0, 1.0])
+    bg, ink = (white, red) if background == "white" else (red, white)
+    img = np.empty((96, 96, 3))
+    img[...] = bg
+    img[24:72, 24:72] = ink  # the ink covers 25 %
+    layers = decompose(
+        Picture(rgb=img, mm_per_px=1.0, distinct_colours=2),
+        DecomposeConfig(layers=1),
+        np.random.default_rng(0),
+    )
+    np.testing.assert_allclose(layers.primer, bg, atol=2 / 255)
+    np.testing.assert_allclose(layers.colours[0], ink, atol=2 / 255)
+    assert layers.alphas.mean() == pytest.approx(0.25, abs=0.02)
 
 
 def test_fixed_palette_out_of_reach_still_solves():
     img = np.zeros((24, 24, 3))
     img[..., 2] = np.linspace(0.2, 1.0, 24)[None, :]  # blues
+    # The yellow can sprays nothing here: by default its empty layer is dropped.
     cfg = DecomposeConfig(palette=["#ff0000", "#ffff00"], primer="#ffffff")
+    layers = decompose(Picture(rgb=img, mm_per_px=1.0), cfg, np.random.default_rng(0))
+    assert layers.count == 1 and any("#ffff00 never reaches" in w for w in layers.info["warnings"])
+    np.testing.assert_allclose(layers.colours, [[1, 0, 0]])
+    assert layers.info["order"] == [0]
+    cfg = DecomposeConfig(palette=["#ff0000", "#ffff00"], primer="#ffffff", min_opacity=0.0)
     layers = decompose(Picture(rgb=img, mm_per_px=1.0), cfg, np.random.default_rng(0))
     assert layers.count == 2
     np.testing.assert_allclose(layers.colours, [[1, 0, 0], [1, 1, 0]])
@@ -333,7 +441,10 @@ def test_alpha_channel_as_opacity():
     np.testing.assert_allclose(layers.alphas[0], a)
     np.testing.assert_allclose(layers.colours[0], [0.8, 0, 0], atol=1e-12)
     # auto ignores the alpha of a colour image; alpha without an alpha channel is an error.
-    assert decompose(pic, DecomposeConfig(layers=1), np.random.default_rng(0)).info["source"] == "rgb"
+    rgb2 = rgb.copy()
+    rgb2[:, :7] = 1.0
+    pic2 = Picture(rgb=rgb2, mm_per_px=1.0, alpha=a)
+    assert decompose(pic2, DecomposeConfig(layers=1), np.random.default_rng(0)).info["source"] == "rgb"
     with pytest.raises(ValueError, match="alpha"):
         decompose(
             Picture(rgb=rgb, mm_per_px=1.0), DecomposeConfig(opacity_source="alpha"), np.random.default_rng(0)
@@ -450,7 +561,14 @@ def test_any_small_image_gives_valid_layers(seed, h, w, n_layers, fixed, order, 
         kwargs["palette"] = [
             "#{:02x}{:02x}{:02x}".format(*rng.integers(0, 256, 3)) for _ in range(n_layers + 1)
         ]
-    layers = decompose(Picture(rgb=np.clip(img, 0, 1), mm_per_px=1.0), DecomposeConfig(**kwargs), rng)
+    pic = Picture(rgb=np.clip(img, 0, 1), mm_per_px=1.0)
+    try:
+        layers = decompose(pic, DecomposeConfig(**kwargs), rng)
+    except ValueError as exc:
+        # Only an image without ink for any layer may be refused.
+        assert "one flat colour" in str(exc)
+        assert len(np.unique(img.reshape(-1, 3), axis=0)) <= 2 or fixed
+        return
     assert 1 <= layers.count <= n_layers
     assert layers.alphas.shape == (layers.count, h, w)
     for arr in (layers.alphas, layers.colours, layers.primer):
@@ -459,3 +577,44 @@ def test_any_small_image_gives_valid_layers(seed, h, w, n_layers, fixed, order, 
     trace = np.array(layers.energy_trace)
     assert np.all(np.diff(trace) <= 1e-12 * np.abs(trace[:-1]) + 1e-15)
     assert layers.info["rmse"] == pytest.approx(rmse255(layers.composite(), img), rel=1e-9, abs=1e-9)
+
+
+def test_redundant_layer_rules():
+    from stencil_cad.decompose import _redundant_layer
+
+    cfg = DecomposeConfig()
+    primer = np.array([1.0, 1.0, 1.0])
+    alphas = np.zeros((2, 4, 4))
+    alphas[0, :2] = 1.0
+    alphas[1, 2:3] = 1.0  # less paint than layer 0
+    twins = np.array([[200, 0, 0], [198, 0, 0]]) / 255.0  # Delta E00 about 0.4
+    assert _redundant_layer(primer, twins, alphas, cfg)[0] == 1
+    assert _redundant_layer(primer, twins, alphas[::-1].copy(), cfg)[0] == 0
+    apart = np.array([[200, 0, 0], [0, 0, 200]]) / 255.0
+    assert _redundant_layer(primer, apart, alphas, cfg) is None
+    # A paint within 2 of the primer goes, whatever its opacity.
+    near_primer = np.array([[200, 0, 0], [253, 253, 253]]) / 255.0
+    assert _redundant_layer(primer, near_primer, np.ones((2, 4, 4)), cfg)[0] == 1
+    # A layer never reaching min_opacity goes.
+    faint = alphas.copy()
+    faint[1] = 0.04
+    idx, reason = _redundant_layer(primer, apart, faint, cfg)
+    assert idx == 1 and "opacity" in reason
+    # 0 switches both rules off.
+    off = DecomposeConfig(min_delta_e=0.0, min_opacity=0.0)
+    assert _redundant_layer(primer, near_primer, faint, off) is None
+
+
+def test_source_colour_count_sees_a_transparent_edge(tmp_path):
+    from PIL import Image
+
+    from stencil_cad.imaging import load_picture
+
+    # One RGB colour everywhere, but an alpha ramp: flattened onto white it is many colours.
+    rgba = np.zeros((64, 64, 4), dtype=np.uint8)
+    rgba[..., 0] = 200
+    rgba[..., 3] = np.linspace(0, 255, 64).astype(np.uint8)[None, :]
+    path = tmp_path / "ramp.png"
+    Image.fromarray(rgba).save(path)
+    pic = load_picture(path, 32.0, None, 2.0)
+    assert pic.distinct_colours >= 64

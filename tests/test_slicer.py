@@ -357,3 +357,18 @@ def test_cura_fdm_profile_slices(plate, tmp_path):
     summary = sl.gcode_summary(res.output)
     assert summary["layers"] == 6
     assert summary["extrusion_moves"] > 1000
+
+
+def test_benchmark_plates_respect_the_web():
+    from scipy.spatial import cKDTree
+
+    from benchmarks import slicer as bench
+
+    for n in (250, 4000):
+        xy, w, h = bench.hole_centres(n)
+        assert len(xy) == n
+        d, _ = cKDTree(xy).query(xy, k=2)
+        # Jitter never brings two r = 1 mm holes closer than a 0.5 mm web.
+        assert d[:, 1].min() >= 2 * bench.RADIUS_MM + 0.5
+        assert xy.min() >= bench.MARGIN_MM + bench.RADIUS_MM - 1e-9
+        assert xy[:, 0].max() <= w - bench.MARGIN_MM - bench.RADIUS_MM + 1e-9

@@ -194,6 +194,27 @@ class DecomposeConfig(StrictModel):
             "alpha channel is the opacity of one layer; needs an RGBA image)."
         ),
     )
+    min_delta_e: float = Field(
+        2.0,
+        ge=0.0,
+        le=50.0,
+        description=(
+            "Smallest colour difference (CIEDE2000 Delta E, sRGB under D65) kept between two paints and "
+            "between a paint and the primer. Range [0, 50]; 0 keeps every layer. After the solve, a paint "
+            "closer than this to the primer is dropped, and of two paints closer than this to each other "
+            "the one with less paint is dropped (merged into the other); the rest is then re-solved, with "
+            "a warning. About 2.3 is a just-noticeable difference. Defaults to 2.0."
+        ),
+    )
+    min_opacity: float = Field(
+        0.05,
+        ge=0.0,
+        lt=1.0,
+        description=(
+            "A layer whose opacity stays below this everywhere sprays no visible ink and is dropped (with "
+            "a warning). Opacity units, range [0, 1); 0 keeps every layer. Defaults to 0.05."
+        ),
+    )
     coarse_to_fine: bool = Field(
         True,
         description=(

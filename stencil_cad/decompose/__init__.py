@@ -42,6 +42,77 @@ _COARSE_TOLERANCE_FACTOR = 0.25
 # image (RMSE in 0-255 units) is reported as not reaching it.
 _FIXED_PALETTE_WARN_RMSE = 8.0
 
+# Candidate spray orders whose short trial solves reconstruct the image equally
+# well (trial RMSE within this many 0-255 levels of the best) are told apart by
+# how much paint they spray, not by energy: the sparsity term rewards covering
+# bare primer with paint, so on a two-colour image it prefers a red primer with
+# white sprayed over the large white background to a white primer with red
+# only where the ink is.
+_ORDER_TIE_RMSE = 0.5
+
+
+def _hex(c: np.ndarray) -> str:
+    return "#{:02x}{:02x}{:02x}".format(*np.rint(np.clip(c, 0.0, 1.0) * 255.0).astype(int))
+
+
+def _delta_e(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """CIEDE2000 colour difference between sRGB colours ``(..., 3)`` in [0, 1] (D65)."""
+    from skimage.color import deltaE_ciede2000, rgb2lab
+
+    a, b = np.broadcast_arrays(np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64))
+    la = rgb2lab(np.clip(a, 0.0, 1.0).reshape(-1, 1, 3))
+    lb = rgb2lab(np.clip(b, 0.0, 1.0).reshape(-1, 1, 3))
+    return deltaE_ciede2000(la, lb).reshape(a.shape[:-1])
+
+
+def _flat_error(colour: np.ndarray) -> ValueError:
+    return ValueError(
+        f"the image is one flat colour: prime the surface with {_hex(colour)}; there is nothing to stencil"
+    )
+
+
+def _redundant_layer(
+    primer: np.ndarray, colours: np.ndarray, alphas: np.ndarray, cfg: DecomposeConfig
+) -> tuple[int, str] | None:
+    """The first layer that adds nothing, with the reason, or None.
+
+    A layer adds nothing when its opacity stays below ``cfg.min_opacity``,
+    when its paint is within ``cfg.min_delta_e`` of the primer, or when its
+    paint is within ``cfg.min_delta_e`` of another paint (then the one with
+    less paint goes; the other is re-solved to cover its pixels).
+    """
+    n = colours.shape[0]
+    if n == 0:
+        return None
+    peak = alphas.reshape(n, -1).max(axis=1)
+    for i in range(n):
+        if peak[i] < cfg.min_opacity:
+            return (
+                i,
+                f"paint {_hex(colours[i])} never reaches opacity {cfg.min_opacity:g} (max {peak[i]:.3f})",
+            )
+    if cfg.min_delta_e <= 0.0:
+        return None
+    to_primer = _delta_e(colours, primer[None, :])
+    for i in range(n):
+        if to_primer[i] < cfg.min_delta_e:
+            return i, (
+                f"paint {_hex(colours[i])} is within Delta E {to_primer[i]:.2f} of the primer "
+                f"{_hex(primer)} (min_delta_e {cfg.min_delta_e:g})"
+            )
+    if n > 1:
+        pair = _delta_e(colours[:, None, :], colours[None, :, :])
+        pair[np.tri(n, dtype=bool)] = np.inf
+        i, j = np.unravel_index(int(np.argmin(pair)), pair.shape)
+        if pair[i, j] < cfg.min_delta_e:
+            mass = alphas.reshape(n, -1).sum(axis=1)
+            drop, keep = (i, j) if mass[i] < mass[j] else (j, i)
+            return int(drop), (
+                f"paints {_hex(colours[drop])} and {_hex(colours[keep])} are within Delta E "
+                f"{pair[i, j]:.2f} (min_delta_e {cfg.min_delta_e:g}): merged into {_hex(colours[keep])}"
+            )
+    return None
+
 
 def _settings(cfg: DecomposeConfig) -> SolverSettings:
     return SolverSettings(
@@ -129,6 +200,9 @@ def _single_layer(picture: Picture, cfg: DecomposeConfig, source: str, t0: float
         else:
             alpha = np.clip(((rgb - primer) @ d) / dd, 0.0, 1.0)
     alpha = np.nan_to_num(alpha, nan=0.0)
+    if alpha.size and alpha.max() < cfg.min_opacity:
+        # No ink anywhere: the primer alone is the picture.
+        raise _flat_error(primer if source != "alpha" else rgb.reshape(-1, 3).mean(axis=0))
     alphas = alpha[None].astype(np.float64)
     colours = np.clip(paint, 0.0, 1.0)[None, :]
     primer = np.clip(primer, 0.0, 1.0)
@@ -230,11 +304,25 @@ def decompose(
         paint, in spray order; for 'auto': K-means cluster indices, primer
         first), ``cans_chosen`` (when a palette list is longer than
         ``layers``) and ``source`` ('rgb', 'grey' or 'alpha'). ``energy_trace`` is the
-        energy at the finest level, starting value first, then one per
-        iteration.
+        energy at the finest level (of the last re-solve when layers were
+        dropped), starting value first, then one per iteration.
+
+        Fewer layers than ``cfg.layers`` come back, each with a warning, when
+        the image has fewer distinct colours than primer + layers (counted on
+        ``picture.distinct_colours``, the source file before resampling, when
+        known), and when a solved layer adds nothing: its opacity stays below
+        ``cfg.min_opacity``, or its paint is within ``cfg.min_delta_e``
+        (CIEDE2000) of the primer or of another paint.
+
+        Of spray orders whose trial solves reconstruct the image equally well,
+        the one spraying the least paint is taken, then the lightest primer: a
+        two-colour image gets the colour covering most of the area as primer and
+        paint only where the ink is.
 
     Raises:
-        ValueError: ``opacity_source`` is 'alpha' and the picture has no alpha.
+        ValueError: ``opacity_source`` is 'alpha' and the picture has no alpha;
+            or the image is one flat colour (no layer carries ink; the message
+            names the primer colour).
     """
     t0 = time.perf_counter()
     source = _source(picture, cfg)
@@ -257,6 +345,9 @@ def decompose(
     if fixed_palette is None:
         k = n_layers + int(primer_free)
         distinct = palette.distinct_colours(pixels, k)
+        if picture.distinct_colours is not None:
+            # Resampling blends edges into colours the source does not have.
+            distinct = min(distinct, max(int(picture.distinct_colours), 1))
         if distinct < k:
             n_layers = max(distinct - int(primer_free), 1)
             warnings.append(
@@ -280,7 +371,10 @@ def decompose(
         cans = np.array(fixed_palette)
         if primer_free:
             # Start the primer at the K-means centre farthest from every can.
-            centres, _ = palette.kmeans(pixels, min(len(cans) + 1, palette.distinct_colours(pixels, 64)), rng)
+            n_distinct = palette.distinct_colours(pixels, 64)
+            if picture.distinct_colours is not None:
+                n_distinct = min(n_distinct, max(int(picture.distinct_colours), 1))
+            centres, _ = palette.kmeans(pixels, min(len(cans) + 1, n_distinct), rng)
             far = np.min(np.sum((centres[:, None, :] - cans[None, :, :]) ** 2, axis=2), axis=1)
             primer0 = centres[int(np.argmax(far))]
         else:
@@ -299,13 +393,32 @@ def decompose(
     # Compare candidate spray orders by the energy a short solve reaches.
     best = candidates[0]
     if len(candidates) > 1:
-        trial_e = []
+        trial_e, trial_rmse, trial_paint = [], [], []
         for p0, c0, _ in candidates:
             st = _state(trial_target, p0, c0, free)
             solver.iterate(st, s, _TRIAL_ITERATIONS, s.tolerance)
             trial_e.append(st.trace[-1])
-        best = candidates[int(np.argmin(trial_e))]
+            d, _, _ = energy.energy_terms(st.target, st.primer, st.colours, st.alphas)
+            trial_rmse.append(float(np.sqrt(d / st.target.size) * 255.0))
+            trial_paint.append(float(st.alphas.sum(axis=0).mean()))
+        pick = int(np.argmin(trial_e))
+        # Equally faithful orders: the one spraying the least paint (mean total
+        # opacity, to 0.01) wins, so the primer is the colour covering most of
+        # the area; then the lightest primer; then the lowest energy.
+        ties = [i for i in range(len(candidates)) if trial_rmse[i] <= trial_rmse[pick] + _ORDER_TIE_RMSE]
+        if len(ties) > 1:
+            pick = min(
+                ties,
+                key=lambda i: (
+                    round(trial_paint[i], 2),
+                    -round(float(palette.luminance(candidates[i][0])), 3),
+                    trial_e[i],
+                ),
+            )
+        best = candidates[pick]
         order_info["trial_energies"] = [float(e) for e in trial_e]
+        order_info["trial_rmse"] = trial_rmse
+        order_info["trial_paint"] = trial_paint
 
     levels_used = shapes if cfg.coarse_to_fine else [full_shape]
     state: State | None = None
@@ -345,6 +458,54 @@ def decompose(
             }
         )
     assert state is not None
+    # Drop layers that add nothing (no ink, the primer's colour, or a twin of
+    # another paint) one at a time, re-solving the rest on the finest grid.
+    order_kept = [int(i) for i in best[2]]
+    order_offset = 1 if (fixed_palette is None and primer_free) else 0
+    dropped = []
+    n_solved = int(state.colours.shape[0])
+    while True:
+        found = _redundant_layer(state.primer, state.colours, state.alphas, cfg)
+        if found is None:
+            break
+        idx, reason = found
+        dropped.append(reason)
+        keep = np.array([i for i in range(state.colours.shape[0]) if i != idx], dtype=np.int64)
+        del order_kept[order_offset + idx]
+        if keep.size == 0:
+            for w in warnings + dropped:
+                log.warning(w)
+            if palette.distinct_colours(pixels, 2) > 1 and (picture.distinct_colours or 2) > 1:
+                raise ValueError(
+                    f"no paint layer carries ink (all {n_solved} were dropped as redundant): the best "
+                    f"this decompose section finds is the primer {_hex(state.primer)} alone; check "
+                    "decompose.palette, min_opacity and min_delta_e"
+                )
+            raise _flat_error(state.primer)
+        free = np.concatenate([free[:1], free[1:][keep]])
+        state = State(
+            target=state.target,
+            primer=state.primer,
+            colours=np.ascontiguousarray(state.colours[keep]),
+            alphas=np.ascontiguousarray(state.alphas[keep]),
+            free=free,
+        )
+        its = solver.iterate(state, s, cfg.max_iterations, cfg.tolerance, report)
+        levels.append(
+            {
+                "shape": [int(state.target.shape[0]), int(state.target.shape[1])],
+                "iterations": int(its),
+                "energy_start": float(state.trace[0]),
+                "energy_end": float(state.trace[-1]),
+                "mean_sweeps": float(np.mean(state.sweeps)) if state.sweeps else 0.0,
+                "after_drop": reason,
+            }
+        )
+    if dropped:
+        warnings.extend(dropped)
+        warnings.append(
+            f"{len(dropped)} redundant layer(s) dropped: {state.colours.shape[0]} of {n_solved} layer(s) left"
+        )
     alphas = np.clip(np.nan_to_num(state.alphas, nan=0.0), 0.0, 1.0)
     colours = np.clip(np.nan_to_num(state.colours, nan=0.0), 0.0, 1.0)
     primer = np.clip(np.nan_to_num(state.primer, nan=1.0), 0.0, 1.0)
@@ -372,7 +533,7 @@ def decompose(
             "sparse": float(sparse),
         },
         "levels": levels,
-        "order": [int(i) for i in best[2]],
+        "order": order_kept,
         **order_info,
     }
     return Layers(
