@@ -45,6 +45,21 @@ def _parser() -> argparse.ArgumentParser:
     job_args(sub.add_parser("build", help="build plates and wall from saved dots (STEP, STL, DXF)"), True)
     job_args(sub.add_parser("simulate", help="spray saved dots in simulation and score the result"), True)
     job_args(sub.add_parser("hard", help="hard-stencil mode: flat colours, cut-outs held by bridges"))
+    sp = sub.add_parser("slice", help="slice exported plate STLs with a shipped print profile")
+    sp.add_argument("stl", nargs="+", type=Path, help="plate STL files (e.g. output/example/layer_01.stl)")
+    sp.add_argument(
+        "--profile",
+        default="prusa_fdm",
+        choices=["prusa_fdm", "prusa_sla", "cura_fdm"],
+        help="print profile from templates/ (default: prusa_fdm, tiled above ~450 holes)",
+    )
+    sp.add_argument(
+        "--timeout", type=float, default=900.0, help="seconds per plate before giving up (default 900)"
+    )
+    sp.add_argument("--force", action="store_true", help="replace existing G-code / .sl1 files")
+    sp.add_argument(
+        "-v", "--verbose", action="store_true", help="show the slicer's log on failure; tracebacks"
+    )
     sp = sub.add_parser("init", help="write a commented config file")
     sp.add_argument(
         "path", nargs="?", type=Path, default=Path("stencil.yaml"), help="where (default: stencil.yaml)"
@@ -105,6 +120,8 @@ def _dispatch(args) -> int:
     if args.command == "schema":
         print(json.dumps(cfg_io.json_schema(), indent=2))
         return 0
+    if args.command == "slice":
+        return _slice(args)
     if args.command == "init":
         path: Path = args.path
         if path.is_dir():
@@ -119,6 +136,39 @@ def _dispatch(args) -> int:
         print(f"wrote {path}; edit it, then: stencil-cad run {path}")
         return 0
     return _job(args)
+
+
+def _slice(args) -> int:
+    from . import slicer
+
+    prof = slicer.get_profile(args.profile)
+    jobs = []
+    for stl in args.stl:
+        if not stl.is_file():
+            raise UserError(f"STL not found: {stl} (run `stencil-cad run` first, or check the path)")
+        out = stl.with_suffix(prof.suffix)
+        if out.exists() and not args.force:
+            raise OutputError(f"{out} already exists (use --force to replace it)")
+        jobs.append((stl, out))
+    failed = 0
+    for stl, out in jobs:
+        tmp = out.with_name(f".{out.name}.partial{prof.suffix}")
+        try:
+            result = slicer.slice_plate(stl, tmp, prof, timeout_s=args.timeout)
+        except slicer.SlicerNotFoundError as exc:
+            tmp.unlink(missing_ok=True)
+            raise UserError(f"{exc}") from None
+        if result.ok:
+            tmp.replace(out)
+            print(f"{out}: {result.output_bytes} bytes in {result.seconds:.1f} s ({args.profile})")
+        else:
+            tmp.unlink(missing_ok=True)
+            failed += 1
+            why = "timed out" if result.timed_out else "; ".join(result.errors) or f"exit {result.returncode}"
+            print(f"stencil-cad: error: slicing {stl} failed: {why}", file=sys.stderr)
+            if args.verbose:
+                print(result.log, file=sys.stderr)
+    return 1 if failed else 0
 
 
 def _load_job(args):

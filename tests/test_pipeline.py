@@ -159,3 +159,19 @@ def test_interrupted_run_leaves_nothing(tmp_path, monkeypatch):
     cfg.write_text(SMALL)
     assert main(["run", str(cfg), "--out", str(tmp_path / "o"), "-q"]) == 130
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.yaml"]
+
+
+@pytest.mark.slow
+def test_slice_command_writes_gcode(small_run, tmp_path, capsys):
+    import shutil
+
+    if shutil.which("prusa-slicer") is None:
+        pytest.skip("prusa-slicer not installed (.ci/run installs it)")
+    _, _, out = small_run
+    stl = tmp_path / "layer_01.stl"
+    stl.write_bytes((out / "layer_01.stl").read_bytes())
+    assert main(["slice", str(stl)]) == 0
+    gcode = tmp_path / "layer_01.gcode"
+    assert gcode.stat().st_size > 10_000
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["layer_01.gcode", "layer_01.stl"]
+    assert main(["slice", str(stl)]) == 2  # no silent overwrite
