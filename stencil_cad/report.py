@@ -38,6 +38,7 @@ def summary(run, files: list[Path], out_path: Path) -> str:
         lines.append(
             f"  layer {row['layer']:02d}  {row['dots']:6d} holes  smallest web {_fmt(row.get('min_web_mm'))} mm"
             f"  removed {row.get('removed', 0)}  merged {row.get('merged', 0)}  nudged {row.get('nudged', 0)}"
+            + (f"  spray time {_fmt(row['spray_time'])}" if row.get("spray_time") is not None else "")
         )
     hard = f.get("hard")
     if hard:
