@@ -107,3 +107,8 @@ def test_json_schema_forbids_extra_keys():
     schema = json_schema()
     assert schema["additionalProperties"] is False
     assert "size" in schema["properties"]
+
+
+def test_booleans_are_not_numbers():
+    with pytest.raises(ConfigError, match=r"size\.width_mm: must be a number"):
+        parse_config({"size": {"width_mm": True}})

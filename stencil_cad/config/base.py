@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
-from pydantic import BaseModel, ConfigDict
+import types
+import typing
+
+from pydantic import BaseModel, ConfigDict, ValidationInfo, field_validator
 
 
 class StrictModel(BaseModel):
@@ -20,3 +23,18 @@ class StrictModel(BaseModel):
         validate_default=True,
         use_enum_values=False,
     )
+
+    @field_validator("*", mode="before")
+    @classmethod
+    def _no_bools_as_numbers(cls, value, info: ValidationInfo):
+        """Reject ``true``/``false`` where a number is expected (pydantic would read them as 1/0)."""
+        if isinstance(value, bool) and info.field_name is not None:
+            ann = cls.model_fields[info.field_name].annotation
+            args = (
+                typing.get_args(ann)
+                if isinstance(ann, types.UnionType) or typing.get_origin(ann) is typing.Union
+                else (ann,)
+            )
+            if bool not in args and any(a in (int, float) for a in args):
+                raise ValueError("must be a number, not a true/false value")
+        return value

@@ -47,7 +47,7 @@ def format_validation_error(exc: ValidationError, source: str = "config") -> str
             lines.append(f"{source}: {loc}: {msg}")
             continue
         value = err.get("input")
-        shown = "" if kind == "missing" or isinstance(value, dict) else f", got {value!r}"
+        shown = "" if kind == "missing" or isinstance(value, dict) or "got " in msg else f", got {value!r}"
         if loc == "(top level)":
             lines.append(f"{source}: {msg}")
         else:
