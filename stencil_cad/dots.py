@@ -160,6 +160,11 @@ def _push_out_of_keepouts(xy: np.ndarray, r: np.ndarray, rules: DesignRules) -> 
         ex0, ex1 = x0 - grow, x1 + grow
         ey0, ey1 = y0 - grow, y1 + grow
         inside = (xy[:, 0] > ex0) & (xy[:, 0] < ex1) & (xy[:, 1] > ey0) & (xy[:, 1] < ey1)
+        # The rule measures the true distance to the rectangle (round at its corners): a dot in
+        # the square corner of the grown box but clear of the rounded one is not in violation.
+        dx = np.maximum(np.maximum(x0 - xy[:, 0], xy[:, 0] - x1), 0.0)
+        dy = np.maximum(np.maximum(y0 - xy[:, 1], xy[:, 1] - y1), 0.0)
+        inside &= np.hypot(dx, dy) < grow
         if not inside.any():
             continue
         p = xy[inside]
