@@ -105,10 +105,13 @@ def test_label_glyph_area_close_to_the_font_outline():
 
     model = cad.build_plate(grid_dots(pitch=4.0), W, H, cfg(), LABEL)
     info = model.info["label"]
+    from stencil_cad.cad.plate import _bundled_font
+
     text = Text(
         info["text"],
         font_size=info["font_size_mm"],
         font=info["font"],
+        font_path=_bundled_font(),
         font_style=FontStyle.BOLD,
         align=(Align.MIN, Align.MIN),
     )
