@@ -15,8 +15,9 @@ the same minimum feature and bridge width, and the same spray config):
   (``stencil_cad/data/example.yaml``: SLA holes, calibrated tone, nozzle height 15,
   a spray time chosen per layer). The spray-time choice only exists for stippled
   layers; hard cut-outs are sprayed at ``spray.spray_time`` as the hard pipeline does.
+* ``sla-calibrated-h7``: the same at nozzle height 7, where hard stencils keep sharper edges.
 
-Case names are ``<image>-<settings>``; ``--case astronaut`` runs both settings of one image.
+Case names are ``<image>-<settings>``; ``--case astronaut`` runs every setting of one image.
 The soft side runs the pipeline's own stage functions (:func:`stencil_cad.pipeline.stage_decompose`,
 :func:`~stencil_cad.pipeline.stage_stipple`) with an output that writes nothing; the
 hard side calls the same functions as ``pipeline.run_hard`` without the CAD.
@@ -33,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 IMAGES = ("astronaut", "coffee", "chelsea")
-SETTINGS = ("fdm-linear", "sla-calibrated")
+SETTINGS = ("fdm-linear", "sla-calibrated", "sla-calibrated-h7")
 CASES = tuple(f"{image}-{s}" for image in IMAGES for s in SETTINGS)
 
 
@@ -93,6 +94,12 @@ def _configs() -> dict:
         "sla-calibrated": parse_config(
             {"stipple": dict(example["stipple"]), "spray": dict(example["spray"])},
             source="quality sla-calibrated (stencil_cad/data/example.yaml)",
+        ),
+        # The nozzle height decides the comparison: the example's h = 15 blends the dots but
+        # blurs the hard cut-outs' edges, so this case sprays both from h = 7.
+        "sla-calibrated-h7": parse_config(
+            {"stipple": dict(example["stipple"]), "spray": {**example["spray"], "nozzle_height": 7.0}},
+            source="quality sla-calibrated-h7",
         ),
     }
 
