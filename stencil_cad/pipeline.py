@@ -18,6 +18,7 @@ import numpy as np
 import yaml
 
 from . import __version__
+from .colour import to_hex
 from .config import JobConfig, Mode
 from .errors import UserError
 from .model import DotSet, Layers, Picture
@@ -135,8 +136,8 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
     info = dict(layers.info)
     run.figures["decompose"] = {
         "layers": layers.count,
-        "primer": _hex(layers.primer),
-        "colours": [_hex(c) for c in layers.colours],
+        "primer": to_hex(layers.primer),
+        "colours": [to_hex(c) for c in layers.colours],
         "iterations": layers.iterations,
         **{k: v for k, v in info.items() if isinstance(v, (int, float, str, list))},
     }
@@ -279,7 +280,7 @@ def stage_build(run: Run, layers: Layers, holes: list, picture_mm: tuple[float, 
                 label = cad.LabelInfo(
                     layer=i + 1,
                     layers=len(holes),
-                    colour=_hex(layers.colours[i]),
+                    colour=to_hex(layers.colours[i]),
                     job=cfg.name,
                 )
                 try:
@@ -541,11 +542,6 @@ def _process_rules(cfg: JobConfig) -> dict:
 
 
 # --------------------------------------------------------------------------- helpers
-
-
-def _hex(c) -> str:
-    c = np.clip(np.asarray(c, dtype=float), 0, 1)
-    return "#" + "".join(f"{round(v * 255):02x}" for v in c)
 
 
 def _plain(d) -> dict:

@@ -3,13 +3,11 @@
 from __future__ import annotations
 
 import enum
-import re
 
 from pydantic import Field, field_validator, model_validator
 
+from ..colour import parse_colour
 from .base import StrictModel
-
-_HEX = re.compile(r"^#?[0-9A-Fa-f]{6}$")
 
 
 class SprayOrder(str, enum.Enum):
@@ -134,10 +132,7 @@ class HardConfig(StrictModel):
             return v
         if not 2 <= len(v) <= 16:
             raise ValueError(f"palette needs 2 to 16 colours, got {len(v)}")
-        for c in v:
-            if not _HEX.match(c):
-                raise ValueError(f"palette entry {c!r} is not a hex colour '#rrggbb'")
-        return v
+        return [parse_colour(c) for c in v]
 
     @model_validator(mode="after")
     def _cross_checks(self) -> HardConfig:

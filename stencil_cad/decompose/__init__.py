@@ -19,6 +19,7 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
+from ..colour import to_hex
 from ..config.decompose import DecomposeConfig, LayerOrder, OpacitySource
 from ..model import Layers, Picture
 from . import energy, palette, solver
@@ -51,10 +52,6 @@ _FIXED_PALETTE_WARN_RMSE = 8.0
 _ORDER_TIE_RMSE = 0.5
 
 
-def _hex(c: np.ndarray) -> str:
-    return "#{:02x}{:02x}{:02x}".format(*np.rint(np.clip(c, 0.0, 1.0) * 255.0).astype(int))
-
-
 def _delta_e(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """CIEDE2000 colour difference between sRGB colours ``(..., 3)`` in [0, 1] (D65)."""
     from skimage.color import deltaE_ciede2000, rgb2lab
@@ -67,7 +64,7 @@ def _delta_e(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def _flat_error(colour: np.ndarray) -> ValueError:
     return ValueError(
-        f"the image is one flat colour: prime the surface with {_hex(colour)}; there is nothing to stencil"
+        f"the image is one flat colour: prime the surface with {to_hex(colour)}; there is nothing to stencil"
     )
 
 
@@ -89,7 +86,7 @@ def _redundant_layer(
         if peak[i] < cfg.min_opacity:
             return (
                 i,
-                f"paint {_hex(colours[i])} never reaches opacity {cfg.min_opacity:g} (max {peak[i]:.3f})",
+                f"paint {to_hex(colours[i])} never reaches opacity {cfg.min_opacity:g} (max {peak[i]:.3f})",
             )
     if cfg.min_delta_e <= 0.0:
         return None
@@ -97,8 +94,8 @@ def _redundant_layer(
     for i in range(n):
         if to_primer[i] < cfg.min_delta_e:
             return i, (
-                f"paint {_hex(colours[i])} is within Delta E {to_primer[i]:.2f} of the primer "
-                f"{_hex(primer)} (min_delta_e {cfg.min_delta_e:g})"
+                f"paint {to_hex(colours[i])} is within Delta E {to_primer[i]:.2f} of the primer "
+                f"{to_hex(primer)} (min_delta_e {cfg.min_delta_e:g})"
             )
     if n > 1:
         pair = _delta_e(colours[:, None, :], colours[None, :, :])
@@ -108,8 +105,8 @@ def _redundant_layer(
             mass = alphas.reshape(n, -1).sum(axis=1)
             drop, keep = (i, j) if mass[i] < mass[j] else (j, i)
             return int(drop), (
-                f"paints {_hex(colours[drop])} and {_hex(colours[keep])} are within Delta E "
-                f"{pair[i, j]:.2f} (min_delta_e {cfg.min_delta_e:g}): merged into {_hex(colours[keep])}"
+                f"paints {to_hex(colours[drop])} and {to_hex(colours[keep])} are within Delta E "
+                f"{pair[i, j]:.2f} (min_delta_e {cfg.min_delta_e:g}): merged into {to_hex(colours[keep])}"
             )
     return None
 
@@ -478,7 +475,7 @@ def decompose(
             if palette.distinct_colours(pixels, 2) > 1 and (picture.distinct_colours or 2) > 1:
                 raise ValueError(
                     f"no paint layer carries ink (all {n_solved} were dropped as redundant): the best "
-                    f"this decompose section finds is the primer {_hex(state.primer)} alone; check "
+                    f"this decompose section finds is the primer {to_hex(state.primer)} alone; check "
                     "decompose.palette, min_opacity and min_delta_e"
                 )
             raise _flat_error(state.primer)

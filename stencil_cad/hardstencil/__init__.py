@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from skimage.color import rgb2lab
 
+from ..colour import to_hex
 from ..config.hard import HardConfig, SprayOrder
 from ..model import CutLayer, Picture
 from .segment import hex_to_rgb
@@ -167,7 +168,9 @@ def make_hard_stencils(
         rep["palette_index"] = j
         rep["cut_area_mm2"] = float(np.count_nonzero(cut) * s * s)
         if not cut.any():
-            warnings.append(f"colour {j} ({_hex(palette[j])}) has nothing left to cut; its layer is skipped")
+            warnings.append(
+                f"colour {j} ({to_hex(palette[j])}) has nothing left to cut; its layer is skipped"
+            )
             per_layer.append(rep)
             continue
         pieces = (rep["sheet_components"], rep["robust_components"], rep["polygon_held_components"])
@@ -209,7 +212,7 @@ def make_hard_stencils(
         "transparent_px": transparent,
         "sweeps": seg["sweeps"],
         "energy": seg["energy"],
-        "palette": [_hex(c) for c in palette],
+        "palette": [to_hex(c) for c in palette],
         "seconds": {"segment": round(t_segment, 3), "layers": round(t_layers, 3)},
         "per_layer": per_layer,
         "warnings": warnings,
@@ -255,8 +258,3 @@ def simulate_hard(result: HardResult, spray_cfg) -> tuple[np.ndarray, np.ndarray
     )
     comp = np.clip(composite(result.primer, result.colours, alphas), 0.0, 1.0)
     return alphas, comp
-
-
-def _hex(c) -> str:
-    c = np.clip(np.asarray(c, dtype=float), 0, 1)
-    return "#" + "".join(f"{round(v * 255):02x}" for v in c)

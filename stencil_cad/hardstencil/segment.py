@@ -249,7 +249,9 @@ def _adjacent_pairs(comp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def hex_to_rgb(colours: list[str]) -> np.ndarray:
     """``(K, 3)`` float in [0, 1] from hex strings '#rrggbb'."""
-    return np.array([[int(c.lstrip("#")[i : i + 2], 16) / 255.0 for i in (0, 2, 4)] for c in colours])
+    from ..colour import colour_to_rgb
+
+    return np.array([colour_to_rgb(c) for c in colours], dtype=np.float64).reshape(-1, 3)
 
 
 def segment(
