@@ -756,19 +756,11 @@ def read_stl(path: str | os.PathLike) -> np.ndarray:
 
 
 def write_stl(path: str | os.PathLike, triangles: np.ndarray) -> None:
-    """Write ``(F, 3, 3)`` triangle corners (mm) as a binary STL with computed normals."""
-    tri = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
-    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    length = np.linalg.norm(normals, axis=1, keepdims=True)
-    normals = np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
-    rec = np.zeros(len(tri), _STL_DTYPE)
-    rec["normal"] = normals
-    rec["v"] = tri
-    header = b"stencil_cad tile".ljust(80, b" ")
-    with open(path, "wb") as fh:
-        fh.write(header)
-        fh.write(np.uint32(len(tri)).tobytes())
-        fh.write(rec.tobytes())
+    """Write ``(F, 3, 3)`` triangle corners (mm) as a binary STL, with the plate mesher's writer."""
+    from .cad.mesh import TriMesh, stl_bytes
+
+    verts, faces = _indexed(np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3))
+    Path(path).write_bytes(stl_bytes(TriMesh(verts, faces), name="stencil_cad tile"))
 
 
 def _indexed(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
