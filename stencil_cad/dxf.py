@@ -357,6 +357,21 @@ def write_dxf(
     return write_dxf_stencils(path, [st], kerf_mm=kerf_mm, deterministic=deterministic)
 
 
+def stencil_for(holes, outline_ring: np.ndarray, layer_name: str) -> DxfStencil:
+    """The DXF description of one layer's plate: round holes (a DotSet) or cut-outs (a CutLayer).
+
+    Args:
+        holes: Anything with ``xy_mm`` and ``r_mm`` (round holes) or with ``polygons``.
+        outline_ring: The plate outline ring.
+        layer_name: DXF layer name.
+    """
+    if hasattr(holes, "r_mm"):
+        return DxfStencil(
+            outline_ring=outline_ring, circles_xy_r=(holes.xy_mm, holes.r_mm), layer_name=layer_name
+        )
+    return DxfStencil(outline_ring=outline_ring, polygons=holes.polygons, layer_name=layer_name)
+
+
 def dxf_from_dots(
     path: str | Path,
     dotsets: Sequence,
@@ -379,14 +394,7 @@ def dxf_from_dots(
         layer_prefix: Prefix of the layer names. Defaults to ``"STENCIL_"``.
         deterministic: Fixed dates and GUIDs.
     """
-    stencils = [
-        DxfStencil(
-            outline_ring=outline_ring,
-            circles_xy_r=(ds.xy_mm, ds.r_mm),
-            layer_name=f"{layer_prefix}{i + 1:02d}",
-        )
-        for i, ds in enumerate(dotsets)
-    ]
+    stencils = [stencil_for(ds, outline_ring, f"{layer_prefix}{i + 1:02d}") for i, ds in enumerate(dotsets)]
     return write_dxf_stencils(path, stencils, kerf_mm=kerf_mm, arrange=arrange, deterministic=deterministic)
 
 
@@ -413,7 +421,6 @@ def dxf_from_cut_layers(
         deterministic: Fixed dates and GUIDs.
     """
     stencils = [
-        DxfStencil(outline_ring=outline_ring, polygons=cl.polygons, layer_name=f"{layer_prefix}{i + 1:02d}")
-        for i, cl in enumerate(cut_layers)
+        stencil_for(cl, outline_ring, f"{layer_prefix}{i + 1:02d}") for i, cl in enumerate(cut_layers)
     ]
     return write_dxf_stencils(path, stencils, kerf_mm=kerf_mm, arrange=arrange, deterministic=deterministic)

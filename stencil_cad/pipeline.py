@@ -266,7 +266,7 @@ def read_dots(folder: Path, count: int | None = None) -> list[DotSet]:
 
 def stage_build(run: Run, layers: Layers, holes: list, picture_mm: tuple[float, float]) -> None:
     """Build, check and export one plate per layer and the wall(s)."""
-    from . import cad, outline
+    from . import cad, dxf, outline
     from .cad import wall as wall_mod
 
     cfg = run.cfg
@@ -299,10 +299,15 @@ def stage_build(run: Run, layers: Layers, holes: list, picture_mm: tuple[float, 
                 if exp.three_mf:
                     with run.out.open_path(f"{stem}.3mf") as p:
                         cad.write_3mf(model, p, exp.stl_tolerance_mm)
+                dxf_info = {}
                 if exp.dxf:
                     with run.out.open_path(f"{stem}.dxf") as p:
-                        _write_layer_dxf(p, ring, h, stem, exp)
-                results.append({"layer": i + 1, **_plain(check)})
+                        info = dxf.write_dxf_stencils(
+                            p, [dxf.stencil_for(h, ring, stem.upper())], kerf_mm=exp.dxf_kerf_mm
+                        )
+                    # Laser software wants +X/+Y: the drawing is shifted by this much from the picture frame.
+                    dxf_info = {"dxf_offset_mm": [round(float(v), 4) for v in info.offset_mm]}
+                results.append({"layer": i + 1, **_plain(check), **dxf_info})
                 bar.update(1)
         walls = []
         heights = wall_mod.wall_heights(cfg.wall)
@@ -317,16 +322,6 @@ def stage_build(run: Run, layers: Layers, holes: list, picture_mm: tuple[float, 
                 wall_mod.wall_stl(wm, p, exp.stl_tolerance_mm)
             walls.append({"file": f"{stem}.step", "standoff_mm": standoff, **wall_mod.check_wall(wm)})
     run.figures["build"] = {"plates": results, "walls": walls}
-
-
-def _write_layer_dxf(path: Path, ring: np.ndarray, holes, stem: str, exp) -> None:
-    from . import dxf
-
-    if isinstance(holes, DotSet):
-        circles = np.column_stack([holes.xy_mm, holes.r_mm])
-        dxf.write_dxf(path, ring, circles_xy_r=circles, layer_name=stem.upper(), kerf_mm=exp.dxf_kerf_mm)
-    else:
-        dxf.write_dxf(path, ring, polygons=holes.polygons, layer_name=stem.upper(), kerf_mm=exp.dxf_kerf_mm)
 
 
 def stage_simulate(run: Run, picture: Picture | None, layers: Layers, dotsets: list[DotSet]) -> dict:
