@@ -144,10 +144,30 @@ def _write_polygon_rings(w: _Step, rings: list[_Ring], dz: int, faces: list) -> 
         ]
     )
     pl = w.many([f"PLANE('',#{a})" for a in ax.tolist()])
-    o1 = w.many(_oe(eb, True))
-    o2 = w.many(_oe(ev[nxt], True))
-    o3 = w.many(_oe(et, False))
-    o4 = w.many(_oe(ev, False))
+    faces.extend(_side_faces(w, eb, ev[nxt], et, ev, pl, ".T."))
+    for k, r in enumerate(rings):
+        r.eb = eb[starts[k] : starts[k + 1]]
+        r.et = et[starts[k] : starts[k + 1]]
+
+
+def _side_faces(
+    w: _Step,
+    bottom: np.ndarray,
+    up: np.ndarray,
+    top: np.ndarray,
+    down: np.ndarray,
+    surfaces: np.ndarray,
+    sense: str,
+) -> list:
+    """One four-edge side face per entry: bottom edge, rising edge, top edge reversed, falling edge reversed.
+
+    Returns:
+        The new ADVANCED_FACE ids.
+    """
+    o1 = w.many(_oe(bottom, True))
+    o2 = w.many(_oe(up, True))
+    o3 = w.many(_oe(top, False))
+    o4 = w.many(_oe(down, False))
     loops = w.many(
         [
             f"EDGE_LOOP('',(#{a},#{b},#{c},#{d}))"
@@ -155,14 +175,12 @@ def _write_polygon_rings(w: _Step, rings: list[_Ring], dz: int, faces: list) -> 
         ]
     )
     bounds = w.many([f"FACE_OUTER_BOUND('',#{lp},.T.)" for lp in loops.tolist()])
-    faces.extend(
-        w.many(
-            [f"ADVANCED_FACE('',(#{b}),#{p},.T.)" for b, p in zip(bounds.tolist(), pl.tolist(), strict=True)]
-        ).tolist()
-    )
-    for k, r in enumerate(rings):
-        r.eb = eb[starts[k] : starts[k + 1]]
-        r.et = et[starts[k] : starts[k + 1]]
+    return w.many(
+        [
+            f"ADVANCED_FACE('',(#{b}),#{p},{sense})"
+            for b, p in zip(bounds.tolist(), surfaces.tolist(), strict=True)
+        ]
+    ).tolist()
 
 
 def _write_circle_rings(
@@ -201,23 +219,8 @@ def _write_circle_rings(
     )
     ac = w.many([f"AXIS2_PLACEMENT_3D('',#{p},#{dz},#{dx})" for p in c0.tolist()])
     cyl = w.many([f"CYLINDRICAL_SURFACE('',#{a},{r})" for a, r in zip(ac.tolist(), rs, strict=True)])
-    o1 = w.many(_oe(eb, True))
-    o2 = w.many(_oe(ev, True))
-    o3 = w.many(_oe(et, False))
-    o4 = w.many(_oe(ev, False))
-    loops = w.many(
-        [
-            f"EDGE_LOOP('',(#{a},#{b},#{c},#{d}))"
-            for a, b, c, d in zip(o1.tolist(), o2.tolist(), o3.tolist(), o4.tolist(), strict=True)
-        ]
-    )
-    bounds = w.many([f"FACE_OUTER_BOUND('',#{lp},.T.)" for lp in loops.tolist()])
     # The material is outside the cylinder: the face's normal points to the axis (.F.).
-    faces.extend(
-        w.many(
-            [f"ADVANCED_FACE('',(#{b}),#{c},.F.)" for b, c in zip(bounds.tolist(), cyl.tolist(), strict=True)]
-        ).tolist()
-    )
+    faces.extend(_side_faces(w, eb, ev, et, ev, cyl, ".F."))
     return eb, et
 
 
