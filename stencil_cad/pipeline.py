@@ -35,6 +35,12 @@ def dots_name(i: int) -> str:
     return f"layer_{i + 1:02d}_dots.csv"
 
 
+def wall_stems(standoffs_mm: list[float]) -> list[str]:
+    """File stems of the walls: ``wall`` for one stand-off height, ``wall_10mm`` … for several."""
+    heights = sorted(set(standoffs_mm))
+    return ["wall"] if len(heights) == 1 else [f"wall_{h:g}mm" for h in heights]
+
+
 def layer_stem(i: int) -> str:
     """Stem of layer ``i``'s files (0-based index, 1-based in the name)."""
     return f"layer_{i + 1:02d}"
@@ -47,14 +53,9 @@ class Run:
     cfg: JobConfig
     out: OutputDir
     quiet: bool = False
-    rng: np.random.Generator | None = None
     times: dict = field(default_factory=dict)
     figures: dict = field(default_factory=dict)
     summary: list = field(default_factory=list)
-
-    def __post_init__(self) -> None:
-        if self.rng is None:
-            self.rng = np.random.default_rng(self.cfg.seed)
 
     def rng_for(self, stage: str, index: int = 0) -> np.random.Generator:
         """An independent generator per stage and layer, derived from the seed.
@@ -62,7 +63,9 @@ class Run:
         A stage command re-run on saved intermediates therefore gives the same result as
         the same stage inside a whole run.
         """
-        key = (sum(ord(c) * 31**k for k, c in enumerate(stage)) % (2**31), index)
+        import zlib
+
+        key = (zlib.crc32(stage.encode()), index)
         return np.random.default_rng(np.random.SeedSequence(self.cfg.seed, spawn_key=key))
 
     @contextlib.contextmanager
@@ -311,11 +314,10 @@ def stage_build(run: Run, layers: Layers, holes: list, picture_mm: tuple[float, 
                 bar.update(1)
         walls = []
         heights = wall_mod.wall_heights(cfg.wall)
-        for standoff in heights:
+        for standoff, stem in zip(heights, wall_stems(heights), strict=True):
             wm = wall_mod.build_wall(
                 width_mm, height_mm, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, standoff
             )
-            stem = "wall" if len(heights) == 1 else wm.name
             with run.out.open_path(f"{stem}.step") as p:
                 wall_mod.wall_step(wm, p)
             with run.out.open_path(f"{stem}.stl") as p:
@@ -503,9 +505,7 @@ def stage_outputs(cfg: JobConfig, command: str, count: int) -> list[str]:
             if on
         ]
         names = [layer_stem(i) + e for i in range(count) for e in exts]
-        heights = sorted(set(cfg.wall.standoff_mm))
-        stems = ["wall"] if len(heights) == 1 else [f"wall_{h:g}mm" for h in heights]
-        return names + [s + e for s in stems for e in (".step", ".stl")]
+        return names + [s + e for s in wall_stems(cfg.wall.standoff_mm) for e in (".step", ".stl")]
     if command == "simulate":
         return ["simulated.png", "preview.png", "sweep.png"]
     return []
