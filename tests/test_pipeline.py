@@ -163,10 +163,9 @@ def test_interrupted_run_leaves_nothing(tmp_path, monkeypatch):
 
 @pytest.mark.slow
 def test_slice_command_writes_gcode(small_run, tmp_path, capsys):
-    import shutil
+    from readers import need
 
-    if shutil.which("prusa-slicer") is None:
-        pytest.skip("prusa-slicer not installed (.ci/run installs it)")
+    need("prusa-slicer")
     _, _, out = small_run
     stl = tmp_path / "layer_01.stl"
     stl.write_bytes((out / "layer_01.stl").read_bytes())

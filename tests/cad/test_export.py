@@ -4,15 +4,15 @@ import json
 import math
 import os
 import re
-import shutil
 import struct
-import subprocess
 import textwrap
 
 import numpy as np
 import pytest
 
 pytest.importorskip("build123d")
+
+from readers import need, run  # noqa: E402
 
 from stencil_cad import cad  # noqa: E402
 from stencil_cad.cad.validate import brep_valid, topology_checks  # noqa: E402
@@ -151,19 +151,6 @@ def test_edited_solid_exports_through_occt(tmp_path):
 
 
 # ----------------------------------------------------------------------------- independent readers (slow)
-
-
-def need(program):
-    path = shutil.which(program)
-    if path is None:
-        if os.environ.get("CI"):
-            pytest.fail(f"{program} is not installed; CI must install it")
-        pytest.skip(f"{program} is not installed")
-    return path
-
-
-def run(args, timeout=600, **kw):
-    return subprocess.run(args, capture_output=True, text=True, timeout=timeout, **kw)
 
 
 @pytest.fixture(scope="module")

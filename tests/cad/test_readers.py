@@ -8,14 +8,14 @@ fails it in CI (``CI`` set), where the packages must be installed.
 import json
 import os
 import re
-import shutil
-import subprocess
 import textwrap
 
 import numpy as np
 import pytest
 
 bd = pytest.importorskip("build123d")
+
+from readers import need, run  # noqa: E402
 
 from stencil_cad.cad.wall import build_wall, wall_step, wall_stl  # noqa: E402
 from stencil_cad.config.cad import WallConfig  # noqa: E402
@@ -26,19 +26,6 @@ from stencil_cad.outline import plate_outline  # noqa: E402
 pytestmark = pytest.mark.slow
 
 W, H, T = 60.0, 45.0, 1.2
-
-
-def need(program):
-    path = shutil.which(program)
-    if path is None:
-        if os.environ.get("CI"):
-            pytest.fail(f"{program} is not installed; CI must install it")
-        pytest.skip(f"{program} is not installed")
-    return path
-
-
-def run(args, timeout=300, **kw):
-    return subprocess.run(args, capture_output=True, text=True, timeout=timeout, **kw)
 
 
 @pytest.fixture(scope="module")

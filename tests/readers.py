@@ -1,0 +1,22 @@
+"""Running the independent readers (slicers, admesh, FreeCAD, GDAL, dime) from tests."""
+
+import os
+import shutil
+import subprocess
+
+import pytest
+
+
+def need(program):
+    """Path of ``program``; skip the test without it, but fail under CI, which must install it."""
+    path = shutil.which(program)
+    if path is None:
+        if os.environ.get("CI"):
+            pytest.fail(f"{program} is not installed; CI must install it")
+        pytest.skip(f"{program} is not installed")
+    return path
+
+
+def run(args, timeout=600, **kw):
+    """Run a reader and capture its text output."""
+    return subprocess.run(args, capture_output=True, text=True, timeout=timeout, **kw)
