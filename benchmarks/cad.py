@@ -3,7 +3,7 @@
 Cases (each runs in a fresh Python process so that ``peak_mb`` is its own):
 
 * ``plate-14k``: a 200 x 200 mm picture with 14,000 holes, built, checked and
-  written as STEP + STL + DXF (DXF through ``stencil_cad.dxf`` when present).
+  written as STEP + STL + DXF (DXF through ``stencil_cad.exchange.dxf`` when present).
   Target: ≤ 15 s in all (``target_seconds``). One-off costs a job pays once
   (imports of build123d/OCP, numba's cache, font loading, by building a
   900-hole plate) are reported apart (``warmup_seconds``).
@@ -84,7 +84,8 @@ def _plate_case(n: int, name: str) -> dict:
         steps["stl"] = time.perf_counter() - t
         cpu["stl"] = time.process_time() - c
         try:
-            from stencil_cad import dxf, outline
+            from stencil_cad import outline
+            from stencil_cad.exchange import dxf
 
             t, c = time.perf_counter(), time.process_time()
             ring = outline.plate_outline(side, side, cfg.plate.outline)

@@ -7,7 +7,7 @@ user + system time, robust when other jobs share the machine), ``slicer``,
 
 Plates: ``W x H x 1.2 mm`` with ``N`` round holes (r = 1 mm) on a jittered hex
 grid of 2.8 mm pitch (webs about 0.8 mm), so the plate area grows with ``N``.
-They are meshed with the project's own mesher (``stencil_cad.cad.mesh``); when
+They are meshed with the project's own mesher (``stencil_cad.exchange.mesh``); when
 it cannot be imported, a manifold3d fallback (24-segment holes) is used and
 every row says ``"mesher": "manifold3d-fallback"``.
 
@@ -35,7 +35,8 @@ from pathlib import Path
 
 import numpy as np
 
-from stencil_cad import slicer as sl
+from stencil_cad import slicing as sl
+from stencil_cad.exchange.mesh import write_triangles_stl
 
 HOLES = (250, 1000, 4000, 14000)
 PITCH_MM = 2.8
@@ -91,7 +92,8 @@ def write_plate(n: int, path: Path) -> dict:
     xy, width, height = hole_centres(n)
     start = time.perf_counter()
     try:
-        from stencil_cad.cad.mesh import PlateGeometry, plate_mesh, stl_bytes
+        from stencil_cad.exchange.mesh import plate_mesh, stl_bytes
+        from stencil_cad.model import PlateGeometry
 
         outline = np.array([[0.0, 0.0], [width, 0.0], [width, height], [0.0, height]])
         geom = PlateGeometry(
@@ -104,7 +106,7 @@ def write_plate(n: int, path: Path) -> dict:
         )
         mesh = plate_mesh(geom)
         path.write_bytes(stl_bytes(mesh))
-        mesher, facets = "stencil_cad.cad.mesh", int(len(mesh.faces))
+        mesher, facets = "stencil_cad.exchange.mesh", int(len(mesh.faces))
     except ImportError:
         import manifold3d as m3d
 
@@ -113,7 +115,7 @@ def write_plate(n: int, path: Path) -> dict:
         holes = m3d.CrossSection.compose([circle.translate([float(a), float(b)]) for a, b in xy])
         mesh = m3d.Manifold.extrude(sheet - holes, THICKNESS_MM).to_mesh()
         corners = np.asarray(mesh.vert_properties, dtype=np.float64)[:, :3][np.asarray(mesh.tri_verts)]
-        sl.write_stl(path, corners)
+        write_triangles_stl(path, corners)
         mesher, facets = "manifold3d-fallback", int(len(mesh.tri_verts))
     return {
         "mesher": mesher,
@@ -263,9 +265,9 @@ def _laser_case(name: str, n: int, tmpdir: Path) -> dict:
         "profile": "laser_dxf",
     }
     try:
-        from stencil_cad.dxf import write_dxf
+        from stencil_cad.exchange.dxf import write_dxf
     except ImportError as exc:
-        return row | {"seconds": None, "ok": False, "skipped": f"stencil_cad.dxf: {exc}"}
+        return row | {"seconds": None, "ok": False, "skipped": f"stencil_cad.exchange.dxf: {exc}"}
     path = tmpdir / f"{name}.dxf"
     outline = np.array([[0.0, 0.0], [width, 0.0], [width, height], [0.0, height]])
     circles = np.c_[xy, np.full(n, RADIUS_MM)]

@@ -145,7 +145,7 @@ def _example_case() -> dict:
 
 
 def _calibration_row(image: str, cfg, pic, layers) -> dict:
-    from stencil_cad.calibrate import calibrated_tone_for
+    from stencil_cad.simulate.tone import calibrated_tone_for
 
     t0 = time.perf_counter()
     lin = _stipple_all(layers, cfg)

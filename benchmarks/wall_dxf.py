@@ -1,7 +1,7 @@
 """Wall build/export and laser-DXF write timings.
 
 Cases:
-    dxf_14000: write 14,000 circles + outline with :func:`stencil_cad.dxf.write_dxf`; the
+    dxf_14000: write 14,000 circles + outline with :func:`stencil_cad.exchange.dxf.write_dxf`; the
         baseline, measured in the same run, adds every circle through ezdxf (``add_circle``
         + ``saveas``), which is what the writer avoids.
     wall_150: build the default wall for a 150 x 150 mm picture, export STEP and STL,
@@ -23,7 +23,7 @@ def _dxf_case(tmp: Path) -> dict:
     import ezdxf
 
     from stencil_cad.config.outline import OutlineConfig
-    from stencil_cad.dxf import write_dxf
+    from stencil_cad.exchange.dxf import write_dxf
     from stencil_cad.outline import plate_outline
 
     rng = np.random.default_rng(0)

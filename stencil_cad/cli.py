@@ -6,11 +6,10 @@ import argparse
 import json
 import logging
 import sys
-import time
 from pathlib import Path
 
 from . import __version__
-from .errors import ConfigError, OutputError, UserError
+from .errors import ConfigError, UserError
 
 log = logging.getLogger("stencil_cad")
 
@@ -123,46 +122,24 @@ def _dispatch(args) -> int:
     if args.command == "slice":
         return _slice(args)
     if args.command == "init":
-        path: Path = args.path
-        if path.is_dir():
-            raise OutputError(f"{path} is a folder; give a file path such as {path / 'stencil.yaml'}")
-        if not path.parent.is_dir():
-            raise OutputError(f"folder {path.parent} does not exist (create it first, or give another path)")
-        if path.exists() and not args.force:
-            raise OutputError(f"{path} already exists (use --force to replace it, or give another path)")
-        tmp = path.with_name(f".{path.name}.tmp")
-        tmp.write_text(cfg_io.default_yaml(), encoding="utf-8")
-        tmp.replace(path)
-        print(f"wrote {path}; edit it, then: stencil-cad run {path}")
+        from . import pipeline
+
+        pipeline.write_default_config(args.path, force=args.force)
+        print(f"wrote {args.path}; edit it, then: stencil-cad run {args.path}")
         return 0
     return _job(args)
 
 
 def _slice(args) -> int:
-    from . import slicer
+    from . import pipeline
 
-    prof = slicer.get_profile(args.profile)
-    jobs = []
-    for stl in args.stl:
-        if not stl.is_file():
-            raise UserError(f"STL not found: {stl} (run `stencil-cad run` first, or check the path)")
-        out = stl.with_suffix(prof.suffix)
-        if out.exists() and not args.force:
-            raise OutputError(f"{out} already exists (use --force to replace it)")
-        jobs.append((stl, out))
     failed = 0
-    for stl, out in jobs:
-        tmp = out.with_name(f".{out.name}.partial{prof.suffix}")
-        try:
-            result = slicer.slice_plate(stl, tmp, prof, timeout_s=args.timeout)
-        except slicer.SlicerNotFoundError as exc:
-            tmp.unlink(missing_ok=True)
-            raise UserError(f"{exc}") from None
+    for stl, out, result in pipeline.slice_plates(
+        args.stl, args.profile, force=args.force, timeout_s=args.timeout
+    ):
         if result.ok:
-            tmp.replace(out)
             print(f"{out}: {result.output_bytes} bytes in {result.seconds:.1f} s ({args.profile})")
         else:
-            tmp.unlink(missing_ok=True)
             failed += 1
             why = "timed out" if result.timed_out else "; ".join(result.errors) or f"exit {result.returncode}"
             print(f"stencil-cad: error: slicing {stl} failed: {why}", file=sys.stderr)
@@ -202,58 +179,12 @@ def _load_job(args):
 
 def _job(args) -> int:
     from . import pipeline, report
-    from .output import OutputDir
 
     cfg, out_path = _load_job(args)
-    stage_cmd = args.command in ("stipple", "build", "simulate")
-    src = (args.src or out_path) if stage_cmd else None
-    # Check the input before any output folder is touched.
-    picture = None
-    t_load = time.perf_counter()
-    if args.command in ("run", "decompose", "hard", "simulate"):
-        try:
-            picture = pipeline.load_picture(cfg)
-        except UserError:
-            # `simulate` can score against the decomposition when the image is gone.
-            if args.command != "simulate":
-                raise
-    load_s = time.perf_counter() - t_load
-    out = OutputDir(out_path, force=args.force, allow_existing=stage_cmd)
-    run = pipeline.Run(cfg=cfg, out=out, quiet=args.quiet)
-    run.times["load"] = round(load_s, 3)
-    t0 = time.perf_counter() - load_s
-    try:
-        if args.command in ("run", "hard"):
-            files = pipeline.run_all(run, picture)
-        elif args.command == "decompose":
-            pipeline.save_config(run)
-            pipeline.stage_decompose(run, picture)
-            files = pipeline.finish(run, "decompose")
-        else:
-            layers = pipeline.read_layers(src)
-            out.check_free(pipeline.stage_outputs(cfg, args.command, layers.count))
-            size = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
-            if abs(size[0] - cfg.size.width_mm) > 0.01 * cfg.size.width_mm:
-                log.warning(
-                    "the saved layers are %.4g mm wide but the config says size.width_mm %.4g; the saved "
-                    "layers' size is used (re-run `stencil-cad decompose` to change it)",
-                    size[0],
-                    cfg.size.width_mm,
-                )
-            if args.command == "stipple":
-                pipeline.stage_stipple(run, layers, size)
-            else:
-                dotsets = pipeline.read_dots(src, layers.count)
-                if args.command == "build":
-                    pipeline.check_dots(cfg, dotsets, size)
-                    pipeline.stage_build(run, layers, dotsets, size)
-                else:
-                    pipeline.stage_simulate(run, picture, layers, dotsets)
-            files = pipeline.finish(run, args.command)
-    except BaseException:
-        out.abort()
-        raise
-    run.times["total"] = round(time.perf_counter() - t0, 3)
+    src = (args.src or out_path) if args.command in pipeline.STAGE_COMMANDS else None
+    run, files = pipeline.run_command(
+        args.command, cfg, out_path, src=src, force=args.force, quiet=args.quiet
+    )
     if not args.quiet:
         print(report.summary(run, files, out_path))
     return 0

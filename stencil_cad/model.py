@@ -1,5 +1,8 @@
 """Small frozen value objects passed between the pipeline stages.
 
+Image → :class:`Picture` → :class:`Layers` → :class:`DotSet` (soft) or
+:class:`CutLayer` (hard) → :class:`PlateGeometry` → :class:`TriMesh`, STEP, DXF.
+
 Arrays follow one convention: images are ``(row, col)`` with the origin at the
 top-left pixel; geometry is ``(x, y)`` in millimetres with y up and the origin at
 the bottom-left corner of the picture area. Only :mod:`stencil_cad.frames`
@@ -8,9 +11,12 @@ converts between the two.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from .geometry import polygon_area
 
 
 @dataclass(frozen=True)
@@ -145,3 +151,86 @@ class CutLayer:
     polygons: list
     colour: np.ndarray
     report: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class PlateGeometry:
+    """A plate as plain arrays, in the picture frame (mm, y up), z from 0 up.
+
+    Attributes:
+        width_mm: Picture width in mm (the picture area is ``[0, w] x [0, h]``).
+        height_mm: Picture height in mm.
+        thickness_mm: Plate thickness in mm.
+        outline: ``(M, 2)`` ring, counter-clockwise: the plate's outer boundary.
+        circles_xy: ``(N, 2)`` round hole centres in mm.
+        circles_r: ``(N,)`` round hole radii in mm.
+        polygons: Polygon cut-outs (hard stencils), each an ``(K, 2)`` ring,
+            counter-clockwise.
+        glyphs: The label's letters and up-arrow, each ``(outer, inners)``:
+            ``outer`` a counter-clockwise ring, ``inners`` clockwise rings.
+        relief_mm: Label relief in mm: negative engraves the glyphs that deep
+            into the top face, positive embosses them that high, 0 for none.
+        label_box: ``(x0, y0, x1, y1)`` mm, a rectangle inside the plate and
+            clear of every hole that contains all glyphs, or None.
+    """
+
+    width_mm: float
+    height_mm: float
+    thickness_mm: float
+    outline: np.ndarray
+    circles_xy: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    circles_r: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    polygons: tuple = ()
+    glyphs: tuple = ()
+    relief_mm: float = 0.0
+    label_box: tuple | None = None
+
+    @property
+    def hole_count(self) -> int:
+        """Number of through holes (round and polygonal)."""
+        return int(len(self.circles_r) + len(self.polygons))
+
+    @property
+    def outline_area(self) -> float:
+        """Area of the outline in mm²."""
+        return polygon_area(self.outline)
+
+    @property
+    def hole_area(self) -> float:
+        """Total area of the through holes in mm² (exact circles)."""
+        return float(
+            math.pi * np.sum(np.square(self.circles_r)) + sum(polygon_area(p) for p in self.polygons)
+        )
+
+    @property
+    def glyph_area(self) -> float:
+        """Total area of the label's glyphs in mm²."""
+        return float(sum(polygon_area(o) + sum(polygon_area(i) for i in inn) for o, inn in self.glyphs))
+
+    @property
+    def volume(self) -> float:
+        """Analytic volume in mm³: (outline − holes) × thickness + glyphs × relief."""
+        return (self.outline_area - self.hole_area) * self.thickness_mm + self.glyph_area * self.relief_mm
+
+    @property
+    def bbox(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """``((xmin, ymin, zmin), (xmax, ymax, zmax))`` in mm."""
+        lo = self.outline.min(axis=0)
+        hi = self.outline.max(axis=0)
+        top = self.thickness_mm + max(self.relief_mm, 0.0)
+        return (float(lo[0]), float(lo[1]), 0.0), (float(hi[0]), float(hi[1]), float(top))
+
+
+@dataclass(frozen=True)
+class TriMesh:
+    """An indexed triangle mesh, triangles counter-clockwise seen from outside.
+
+    Attributes:
+        vertices: ``(V, 3)`` float64 in mm.
+        faces: ``(F, 3)`` int64 vertex indices.
+        info: Figures from the mesher (vertices, recovery rounds, timings).
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    info: dict = field(default_factory=dict)

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import OutputError
+from .exchange.png import png_bytes
 
 log = logging.getLogger(__name__)
 
@@ -127,14 +128,7 @@ class OutputDir:
 
     def write_png(self, name: str, image: np.ndarray) -> None:
         """Write a PNG from a uint8 array, or a float array in [0, 1]."""
-        from PIL import Image
-
-        a = np.asarray(image)
-        if a.dtype != np.uint8:
-            a = (np.clip(a, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
-        buf = io.BytesIO()
-        Image.fromarray(a).save(buf, format="PNG", optimize=False)
-        self.write_bytes(name, buf.getvalue())
+        self.write_bytes(name, png_bytes(image))
 
     def write_npz(self, name: str, arrays: dict) -> None:
         """Write a compressed NPZ."""

@@ -13,6 +13,7 @@ import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import yaml
@@ -20,9 +21,12 @@ import yaml
 from . import __version__
 from .colour import to_hex
 from .config import JobConfig, Mode
-from .errors import UserError
+from .errors import OutputError, UserError
 from .model import DotSet, Layers, Picture
 from .output import MANIFEST, OutputDir
+
+if TYPE_CHECKING:
+    from .slicing import SliceResult
 
 log = logging.getLogger(__name__)
 
@@ -108,6 +112,8 @@ def load_picture(cfg: JobConfig) -> Picture:
 def stage_decompose(run: Run, picture: Picture) -> Layers:
     """Decompose the picture into a primer and paint layers, and save them."""
     from . import decompose as dec
+    from .exchange.layers_npz import layers_from_npz, layers_to_npz
+    from .simulate.previews import swatch
 
     with run.stage("decompose"):
         # Iterations run per pyramid level, so the total is not known in advance.
@@ -125,14 +131,14 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
                 # A config that does not suit this image (e.g. opacity_source: alpha on RGB).
                 raise UserError(str(exc)) from exc
         out = run.out
-        saved = dec.layers_to_npz(layers)
+        saved = layers_to_npz(layers)
         out.write_npz(LAYERS_NPZ, saved)
         # Go on with exactly what was saved (float32 opacities), so a stage command run later
         # on layers.npz gives the same dots as this run.
-        layers = dec.layers_from_npz(saved)
+        layers = layers_from_npz(saved)
         for i, a in enumerate(layers.alphas):
             out.write_png(f"{layer_stem(i)}_opacity.png", 1.0 - a)
-        out.write_png("swatch.png", dec.swatch(layers))
+        out.write_png("swatch.png", swatch(layers))
         out.write_png("composite.png", layers.composite())
         trace = "iteration,energy\n" + "".join(f"{k},{e:.10g}\n" for k, e in enumerate(layers.energy_trace))
         out.write_text("energy.csv", trace)
@@ -149,7 +155,7 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
 
 def read_layers(folder: Path) -> Layers:
     """Read the decomposition a previous `decompose` or `run` saved."""
-    from . import decompose as dec
+    from .exchange.layers_npz import layers_from_npz
 
     path = folder / LAYERS_NPZ
     if not path.exists():
@@ -158,7 +164,7 @@ def read_layers(folder: Path) -> Layers:
 
     try:
         with np.load(path) as data:
-            return dec.layers_from_npz(dict(data))
+            return layers_from_npz(dict(data))
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
         raise UserError(
             f"{path}: not a readable decomposition ({exc}); re-run `stencil-cad decompose`"
@@ -172,13 +178,14 @@ def stage_stipple(run: Run, layers: Layers, picture_mm: tuple[float, float]) -> 
     """Stipple every layer's opacity into holes, enforce the design rules, save CSV + previews.
 
     With ``stipple.tone: calibrated`` the density comes from the spray response
-    (:mod:`stencil_cad.calibrate`), and with ``spray.calibrate: spray_time`` each layer also
+    (:mod:`stencil_cad.simulate.tone`), and with ``spray.calibrate: spray_time`` each layer also
     gets its own spray time, saved in ``spray.json`` and in the dots' report.
     """
     from dataclasses import replace
 
-    from . import dots as dots_mod
     from . import stipple
+    from .exchange.dots_csv import dots_to_csv
+    from .simulate.previews import dots_preview
 
     width_mm, height_mm = picture_mm
     cfg = run.cfg
@@ -191,9 +198,9 @@ def stage_stipple(run: Run, layers: Layers, picture_mm: tuple[float, float]) -> 
                 density = None
                 spray_time = cfg.spray.spray_time
                 if calibrated:
-                    from . import calibrate
+                    from .simulate import tone
 
-                    choice = calibrate.calibrated_tone_for(alpha, layers.mm_per_px, cfg)
+                    choice = tone.calibrated_tone_for(alpha, layers.mm_per_px, cfg)
                     density = choice.density
                     if getattr(cfg.spray.calibrate, "value", cfg.spray.calibrate) == "spray_time":
                         spray_time = float(choice.spray_time)
@@ -205,8 +212,8 @@ def stage_stipple(run: Run, layers: Layers, picture_mm: tuple[float, float]) -> 
                 sets.append(ds)
                 bar.update(1)
         for i, ds in enumerate(sets):
-            run.out.write_text(dots_name(i), dots_mod.dots_to_csv(ds))
-            run.out.write_png(f"{layer_stem(i)}_dots.png", dots_mod.dots_preview(ds, width_mm, height_mm))
+            run.out.write_text(dots_name(i), dots_to_csv(ds))
+            run.out.write_png(f"{layer_stem(i)}_dots.png", dots_preview(ds, width_mm, height_mm))
         run.out.write_json(
             SPRAY_JSON,
             {
@@ -233,7 +240,7 @@ def stage_stipple(run: Run, layers: Layers, picture_mm: tuple[float, float]) -> 
 
 def read_dots(folder: Path, count: int | None = None) -> list[DotSet]:
     """Read the dots CSV files of a folder, in layer order."""
-    from . import dots as dots_mod
+    from .exchange.dots_csv import dots_from_csv
 
     files = sorted(folder.glob("layer_*_dots.csv"))
     if not files:
@@ -245,7 +252,7 @@ def read_dots(folder: Path, count: int | None = None) -> list[DotSet]:
     out = []
     for f in files:
         try:
-            out.append(dots_mod.dots_from_csv(f.read_text(encoding="utf-8")))
+            out.append(dots_from_csv(f.read_text(encoding="utf-8")))
         except ValueError as exc:
             raise UserError(f"{f}: {exc}") from None
     spray = folder / SPRAY_JSON
@@ -269,8 +276,9 @@ def read_dots(folder: Path, count: int | None = None) -> list[DotSet]:
 
 def stage_build(run: Run, layers: Layers, holes: list, picture_mm: tuple[float, float]) -> None:
     """Build, check and export one plate per layer and the wall(s)."""
-    from . import cad, dxf, outline
+    from . import cad, outline
     from .cad import wall as wall_mod
+    from .exchange import dxf
 
     cfg = run.cfg
     width_mm, height_mm = picture_mm
@@ -517,22 +525,20 @@ def check_dots(cfg: JobConfig, dotsets: list[DotSet], picture_mm: tuple[float, f
     Raises:
         UserError: Naming the file's layer and the first offending dots.
     """
-    from . import dots as dots_mod
+    from .stipple import rules as rules_mod
 
-    rules = dots_mod.rules_from_config(cfg.stipple, *picture_mm)
+    rules = rules_mod.rules_from_config(cfg.stipple, *picture_mm)
     for i, ds in enumerate(dotsets):
         try:
-            dots_mod.check_rules(ds.xy_mm, ds.r_mm, rules)
+            rules_mod.check_rules(ds.xy_mm, ds.r_mm, rules)
         except ValueError as exc:
             raise UserError(f"{dots_name(i)}: {exc}") from None
 
 
 def _process_rules(cfg: JobConfig) -> dict:
-    from . import dots as dots_mod
+    from .stipple.rules import rules_from_config
 
-    rules = dots_mod.rules_from_config(
-        cfg.stipple, cfg.size.width_mm, cfg.size.height_mm or cfg.size.width_mm
-    )
+    rules = rules_from_config(cfg.stipple, cfg.size.width_mm, cfg.size.height_mm or cfg.size.width_mm)
     return {"min_feature_mm": 2 * rules.hole_min_r_mm, "bridge_min_mm": max(rules.web_mm, 1.0)}
 
 
@@ -554,3 +560,154 @@ def _plain(d) -> dict:
         elif isinstance(v, dict):
             out[k] = _plain(v)
     return out
+
+
+# --------------------------------------------------------------------------- the commands
+
+#: Commands that run one stage on the intermediates a previous command saved.
+STAGE_COMMANDS = ("stipple", "build", "simulate")
+
+
+def run_command(
+    command: str,
+    cfg: JobConfig,
+    out_path: Path,
+    *,
+    src: Path | None = None,
+    force: bool = False,
+    quiet: bool = False,
+) -> tuple[Run, list[Path]]:
+    """Run one command of the command line: ``run``, ``hard``, ``decompose`` or a stage command.
+
+    The input is checked before any output folder is touched; on any failure nothing
+    is written (the staged files are discarded).
+
+    Args:
+        command: ``run``, ``hard``, ``decompose``, ``stipple``, ``build`` or ``simulate``.
+        cfg: The resolved job config.
+        out_path: The output folder.
+        src: Folder whose intermediates a stage command reads. Defaults to ``out_path``.
+        force: Replace a non-empty output folder.
+        quiet: No progress bars.
+
+    Returns:
+        ``(run, files)``: the run's state (figures, timings) and the files written.
+    """
+    stage_cmd = command in STAGE_COMMANDS
+    src = (src or out_path) if stage_cmd else None
+    picture = None
+    t_load = time.perf_counter()
+    if command in ("run", "decompose", "hard", "simulate"):
+        try:
+            picture = load_picture(cfg)
+        except UserError:
+            # `simulate` can score against the decomposition when the image is gone.
+            if command != "simulate":
+                raise
+    load_s = time.perf_counter() - t_load
+    out = OutputDir(out_path, force=force, allow_existing=stage_cmd)
+    run = Run(cfg=cfg, out=out, quiet=quiet)
+    run.times["load"] = round(load_s, 3)
+    t0 = time.perf_counter() - load_s
+    try:
+        if command in ("run", "hard"):
+            files = run_all(run, picture)
+        elif command == "decompose":
+            save_config(run)
+            stage_decompose(run, picture)
+            files = finish(run, "decompose")
+        else:
+            files = _run_stage_command(run, command, src, picture)
+    except BaseException:
+        out.abort()
+        raise
+    run.times["total"] = round(time.perf_counter() - t0, 3)
+    return run, files
+
+
+def _run_stage_command(run: Run, command: str, src: Path, picture: Picture | None) -> list[Path]:
+    cfg = run.cfg
+    layers = read_layers(src)
+    run.out.check_free(stage_outputs(cfg, command, layers.count))
+    size = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
+    if abs(size[0] - cfg.size.width_mm) > 0.01 * cfg.size.width_mm:
+        log.warning(
+            "the saved layers are %.4g mm wide but the config says size.width_mm %.4g; the saved "
+            "layers' size is used (re-run `stencil-cad decompose` to change it)",
+            size[0],
+            cfg.size.width_mm,
+        )
+    if command == "stipple":
+        stage_stipple(run, layers, size)
+    else:
+        dotsets = read_dots(src, layers.count)
+        if command == "build":
+            check_dots(cfg, dotsets, size)
+            stage_build(run, layers, dotsets, size)
+        else:
+            stage_simulate(run, picture, layers, dotsets)
+    return finish(run, command)
+
+
+def slice_plates(
+    stls: list[Path], profile: str, *, force: bool = False, timeout_s: float = 600.0
+) -> Iterator[tuple[Path, Path, SliceResult]]:
+    """Slice exported plates with a shipped profile, each beside its STL.
+
+    Every STL is checked, and every output name found free (or ``force``), before the
+    first slice runs; a failed slice leaves no output file.
+
+    Args:
+        stls: The plates' STL files.
+        profile: A shipped profile name (``prusa_fdm``, ``prusa_sla``, ``cura_fdm``).
+        force: Replace existing outputs.
+        timeout_s: Seconds before a slicer run is killed. Defaults to 600 s.
+
+    Yields:
+        ``(stl, output, result)`` per plate, in order, as each slice finishes.
+
+    Raises:
+        UserError: An STL is missing, an output exists, or the slicer is not installed.
+    """
+    from . import slicing
+
+    prof = slicing.get_profile(profile)
+    jobs = []
+    for stl in stls:
+        if not stl.is_file():
+            raise UserError(f"STL not found: {stl} (run `stencil-cad run` first, or check the path)")
+        out = stl.with_suffix(prof.suffix)
+        if out.exists() and not force:
+            raise OutputError(f"{out} already exists (use --force to replace it)")
+        jobs.append((stl, out))
+    for stl, out in jobs:
+        tmp = out.with_name(f".{out.name}.partial{prof.suffix}")
+        try:
+            result = slicing.slice_plate(stl, tmp, prof, timeout_s=timeout_s)
+        except slicing.SlicerNotFoundError as exc:
+            tmp.unlink(missing_ok=True)
+            raise UserError(f"{exc}") from None
+        if result.ok:
+            tmp.replace(out)
+        else:
+            tmp.unlink(missing_ok=True)
+        yield stl, out, result
+
+
+def write_default_config(path: Path, *, force: bool = False) -> None:
+    """Write the commented default config (every key, its unit, range and default) to ``path``.
+
+    Raises:
+        OutputError: ``path`` is a folder, its folder does not exist, or it exists and not ``force``.
+    """
+    from .config import io as cfg_io
+
+    if path.is_dir():
+        raise OutputError(f"{path} is a folder; give a file path such as {path / 'stencil.yaml'}")
+    if not path.parent.is_dir():
+        raise OutputError(f"folder {path.parent} does not exist (create it first, or give another path)")
+    if path.exists() and not force:
+        raise OutputError(f"{path} already exists (use --force to replace it, or give another path)")
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(cfg_io.default_yaml(), encoding="utf-8")
+    tmp.replace(path)

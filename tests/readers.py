@@ -18,5 +18,9 @@ def need(program):
 
 
 def run(args, timeout=600, **kw):
-    """Run a reader and capture its text output."""
-    return subprocess.run(args, capture_output=True, text=True, timeout=timeout, **kw)
+    """Run a reader and capture its text output.
+
+    Undecodable bytes are replaced: admesh prints the 80-byte STL header as a C string and
+    runs on into the facet count, whose bytes need not be UTF-8.
+    """
+    return subprocess.run(args, capture_output=True, text=True, errors="replace", timeout=timeout, **kw)

@@ -13,14 +13,9 @@ from pydantic import ValidationError
 from scipy.optimize import linear_sum_assignment, lsq_linear
 
 from stencil_cad.config.decompose import MAX_LAYERS, DecomposeConfig, colour_to_rgb
-from stencil_cad.decompose import (
-    decompose,
-    energy,
-    energy_of,
-    layers_from_npz,
-    layers_to_npz,
-    swatch,
-)
+from stencil_cad.decompose import decompose, energy, energy_of
+from stencil_cad.exchange.layers_npz import layers_from_npz, layers_to_npz
+from stencil_cad.simulate.previews import swatch
 from stencil_cad.decompose import solver as solver_mod
 from stencil_cad.model import Layers, Picture, composite
 
@@ -580,7 +575,7 @@ def test_any_small_image_gives_valid_layers(seed, h, w, n_layers, fixed, order, 
 
 
 def test_redundant_layer_rules():
-    from stencil_cad.decompose import _redundant_layer
+    from stencil_cad.decompose.decomposition import _redundant_layer
 
     cfg = DecomposeConfig()
     primer = np.array([1.0, 1.0, 1.0])

@@ -1,4 +1,4 @@
-"""Design rules, their enforcement, dot CSV I/O and previews (stencil_cad.dots)."""
+"""Design rules and their enforcement (stencil_cad.stipple.rules), dot CSV I/O and previews."""
 
 from __future__ import annotations
 
@@ -12,19 +12,18 @@ from pydantic import ValidationError
 
 from stencil_cad.config import StippleConfig
 from stencil_cad.config.stipple import PROCESS_PRESETS, Process
-from stencil_cad.dots import (
+from stencil_cad.exchange.dots_csv import DotFileError, dots_from_csv, dots_to_csv
+from stencil_cad.model import DotSet
+from stencil_cad.simulate.previews import dots_preview
+from stencil_cad.stipple.rules import (
     DesignRules,
     DotRuleError,
     check_rules,
-    dots_from_csv,
-    dots_preview,
-    dots_to_csv,
     enforce_rules,
     min_web,
     rule_violations,
     rules_from_config,
 )
-from stencil_cad.model import DotSet
 
 RULES = DesignRules(hole_min_r_mm=1.0, web_mm=0.8, edge_margin_mm=3.0, width_mm=100.0, height_mm=80.0)
 
@@ -278,7 +277,7 @@ def test_csv_empty_set():
     ],
 )
 def test_csv_errors(text, needle):
-    with pytest.raises(DotRuleError) as err:
+    with pytest.raises(DotFileError) as err:
         dots_from_csv(text)
     assert needle in str(err.value)
 

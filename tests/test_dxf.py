@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from stencil_cad.config.outline import OutlineConfig
-from stencil_cad.dxf import (
+from stencil_cad.exchange.dxf import (
     DxfStencil,
     dxf_from_cut_layers,
     dxf_from_dots,

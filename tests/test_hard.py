@@ -326,7 +326,7 @@ def test_flat_colour_image_is_reproduced():
 
 
 def test_flat_colour_image_through_the_spray_model():
-    simulate = pytest.importorskip("stencil_cad.simulate")
+    from stencil_cad import simulate
     from stencil_cad.config.spray import SprayConfig
     from stencil_cad.hardstencil import simulate_hard
 

@@ -10,11 +10,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from pydantic import ValidationError
 
-from stencil_cad import calibrate as cal
 from stencil_cad import simulate as sim
 from stencil_cad.config.spray import Calibrate, SprayConfig
 from stencil_cad.frames import px_to_mm
 from stencil_cad.model import DotSet, Layers, composite
+from stencil_cad.simulate import tone as cal
 
 
 def _analytic(xy, r, shape, s, a, h):

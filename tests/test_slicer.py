@@ -10,7 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from stencil_cad import slicer as sl
+from stencil_cad import slicing as sl
+from stencil_cad.exchange.mesh import plate_mesh, read_stl, stl_bytes, write_triangles_stl
+from stencil_cad.geometry import mesh_genus
+from stencil_cad.model import PlateGeometry
 
 # ----------------------------------------------------------------------------- helpers
 
@@ -44,12 +47,11 @@ def signed_volume(tri: np.ndarray) -> float:
 
 def small_plate(path: Path, n_side: int = 5, r: float = 1.0, pitch: float = 3.0, t: float = 1.2):
     """Write an exported n_side² hole plate with the project's own mesher; return (holes, volume)."""
-    mesh_mod = pytest.importorskip("stencil_cad.cad.mesh")
     margin = 3.0
     g = np.arange(n_side) * pitch + margin + r
     xy = np.stack(np.meshgrid(g, g), -1).reshape(-1, 2)
     w = h = float(g[-1] + r + margin)
-    geom = mesh_mod.PlateGeometry(
+    geom = PlateGeometry(
         width_mm=w,
         height_mm=h,
         thickness_mm=t,
@@ -57,8 +59,8 @@ def small_plate(path: Path, n_side: int = 5, r: float = 1.0, pitch: float = 3.0,
         circles_xy=xy,
         circles_r=np.full(len(xy), r),
     )
-    mesh = mesh_mod.plate_mesh(geom)
-    path.write_bytes(mesh_mod.stl_bytes(mesh))
+    mesh = plate_mesh(geom)
+    path.write_bytes(stl_bytes(mesh))
     return len(xy), geom.volume, (w, h, t)
 
 
@@ -174,14 +176,14 @@ def test_parse_info():
 def test_genus_of_torus_and_box(tmp_path):
     ring = square_ring_plate()
     assert signed_volume(ring) == pytest.approx((9 - 1) * 1.2)
-    assert sl.mesh_genus(ring) == 1
+    assert mesh_genus(ring) == 1
     # Two disjoint rings: genus adds up.
     two = np.concatenate([ring, ring + np.array([10.0, 0, 0])])
-    assert sl.mesh_genus(two) == 2
+    assert mesh_genus(two) == 2
     # STL round trip keeps the triangles (float32 in the file).
     path = tmp_path / "ring.stl"
-    sl.write_stl(path, ring)
-    back = sl.read_stl(path)
+    write_triangles_stl(path, ring)
+    back = read_stl(path)
     np.testing.assert_allclose(back, ring, atol=1e-6)
     ascii_path = tmp_path / "ring_ascii.stl"
     lines = ["solid r"]
@@ -194,7 +196,7 @@ def test_genus_of_torus_and_box(tmp_path):
             "endfacet",
         ]
     ascii_path.write_text("\n".join(lines + ["endsolid r"]))
-    np.testing.assert_allclose(sl.read_stl(ascii_path), ring)
+    np.testing.assert_allclose(read_stl(ascii_path), ring)
 
 
 @pytest.mark.parametrize(
@@ -220,7 +222,7 @@ def test_choose_seam_avoids_slivers():
 
 def test_hole_boxes_find_the_holes(tmp_path):
     holes, _, _ = small_plate(tmp_path / "p.stl", n_side=3, pitch=3.0)
-    centres, half = sl.hole_boxes(sl.read_stl(tmp_path / "p.stl"))
+    centres, half = sl.hole_boxes(read_stl(tmp_path / "p.stl"))
     assert len(centres) == holes
     g = np.arange(3) * 3.0 + 4.0
     expected = np.stack(np.meshgrid(g, g), -1).reshape(-1, 2)
@@ -230,18 +232,17 @@ def test_hole_boxes_find_the_holes(tmp_path):
 
 
 def test_split_into_tiles_conserves_volume(tmp_path):
-    pytest.importorskip("manifold3d")
     # 4 x 4 square plate holes: a grid of genus-1 rings side by side, merged into one plate.
     holes, volume, (w, h, t) = small_plate(tmp_path / "plate.stl", n_side=4, pitch=3.2)
     tiles = sl.split_into_tiles(tmp_path / "plate.stl", tmp_path, grid=(2, 2))
     assert len(tiles) == 4
-    parts = [sl.read_stl(p) for p in tiles]
+    parts = [read_stl(p) for p in tiles]
     total = sum(signed_volume(p) for p in parts)
-    whole = signed_volume(sl.read_stl(tmp_path / "plate.stl"))
+    whole = signed_volume(read_stl(tmp_path / "plate.stl"))
     assert total == pytest.approx(whole, rel=1e-5)
     assert whole == pytest.approx(volume, rel=2e-3)
     # The middle of a 4 x 4 grid clears the holes by 0.6 mm (> SEAM_CLEARANCE_MM): seams stay there.
-    assert sum(sl.mesh_genus(p) for p in parts) == holes
+    assert sum(mesh_genus(p) for p in parts) == holes
     for p in parts:
         lo, hi = p.reshape(-1, 3).min(0), p.reshape(-1, 3).max(0)
         assert hi[0] - lo[0] == pytest.approx(w / 2, abs=1e-4) and hi[1] - lo[1] == pytest.approx(
@@ -273,7 +274,7 @@ def test_exported_plate_is_a_clean_mesh(plate):
     assert info.manifold and info.open_edges == 0 and info.parts == 1
     assert info.volume_mm3 == pytest.approx(volume, rel=2e-3)
     assert info.size_mm == pytest.approx(size, abs=1e-3)
-    assert sl.mesh_genus(sl.read_stl(path)) == holes
+    assert mesh_genus(read_stl(path)) == holes
 
 
 @pytest.mark.slow
@@ -292,7 +293,6 @@ def test_prusa_fdm_profile_slices(plate, tmp_path):
 @pytest.mark.slow
 @needs_prusa
 def test_prusa_fdm_tiles_slice_as_one_plate(plate, tmp_path):
-    pytest.importorskip("manifold3d")
     path, *_ = plate
     tiles = sl.split_into_tiles(path, tmp_path, grid=(2, 1))
     assert len(tiles) == 2

@@ -11,7 +11,6 @@ from hypothesis import strategies as st
 from scipy.spatial import cKDTree
 
 from stencil_cad.config import StippleConfig
-from stencil_cad.dots import check_rules, rules_from_config
 from stencil_cad.frames import mm_to_px
 from stencil_cad.stipple import (
     HEX_G,
@@ -26,6 +25,7 @@ from stencil_cad.stipple import (
     tone_map,
     voronoi_pass,
 )
+from stencil_cad.stipple.rules import check_rules, rules_from_config
 
 SLA = StippleConfig(process="sla", edge_margin_mm=0.0)
 

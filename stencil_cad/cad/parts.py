@@ -11,8 +11,8 @@ from __future__ import annotations
 import build123d as bd
 
 from ..config.cad import PlateConfig
-from . import build_plate
 from .plate import LabelInfo, PlateModel
+from .template import build_plate
 from .wall import Wall
 
 __all__ = ["StencilPlate", "Wall"]

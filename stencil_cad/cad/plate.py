@@ -29,8 +29,9 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..model import CutLayer, DotSet
-from .mesh import PlateGeometry, TriMesh, plate_mesh, polygon_area
+from ..exchange.mesh import plate_mesh
+from ..geometry import polygon_area
+from ..model import CutLayer, DotSet, PlateGeometry, TriMesh
 
 log = logging.getLogger(__name__)
 
@@ -133,7 +134,7 @@ class PlateModel:
             if self.geometry is not None:
                 self._meshes[key] = plate_mesh(self.geometry, tolerance_mm)
             else:
-                from .export import occt_mesh
+                from .writers import occt_mesh
 
                 self._meshes[key] = occt_mesh(self.part, tolerance_mm)
             self.info.setdefault("mesh_seconds", {})[str(key)] = round(time.perf_counter() - t0, 3)
@@ -205,13 +206,13 @@ def check_holes(holes, width_mm: float, height_mm: float, min_web_mm: float, rul
         width_mm: Picture width in mm.
         height_mm: Picture height in mm.
         min_web_mm: Smallest web in mm between holes and to the picture edge.
-        rules: Optional stricter :class:`stencil_cad.dots.DesignRules` (the job's rules).
+        rules: Optional stricter :class:`stencil_cad.stipple.rules.DesignRules` (the job's rules).
 
     Raises:
         PlateBuildError: Listing the first offending dots or polygons.
     """
     if isinstance(holes, DotSet):
-        from ..dots import DesignRules, DotRuleError, check_rules
+        from ..stipple.rules import DesignRules, DotRuleError, check_rules
 
         if rules is None:
             rules = DesignRules(

@@ -13,14 +13,25 @@ from __future__ import annotations
 import importlib.util
 import logging
 import sys
+import time
+from dataclasses import replace
 from pathlib import Path
 from types import ModuleType
 
-from .plate import PlateBuildError, PlateModel, _unwrap, as_part
+from .. import outline as outline_mod
+from ..model import PlateGeometry
+from .plate import LabelInfo, PlateBuildError, PlateModel, _unwrap, as_part, check_holes
 
 log = logging.getLogger(__name__)
 
-__all__ = ["builtin_template", "config_overrides", "load_template", "run_template", "template_parameters"]
+__all__ = [
+    "build_plate",
+    "builtin_template",
+    "config_overrides",
+    "load_template",
+    "run_template",
+    "template_parameters",
+]
 
 #: Config field of ``plate`` → template parameter it sets.
 CONFIG_PARAMS = {
@@ -160,3 +171,49 @@ def run_template(
     if not hasattr(wrapped, "ShapeType"):
         raise PlateBuildError(f"template {path} build() returned {type(result).__name__}, not a shape")
     return PlateModel(part=as_part(wrapped), geometry=None, label=label, info={"template": str(path)})
+
+
+def build_plate(
+    holes, width_mm: float, height_mm: float, cfg, label: LabelInfo | None, *, rules=None
+) -> PlateModel:
+    """Build one layer's plate: check the holes again, then run the plate template.
+
+    Args:
+        holes: A :class:`~stencil_cad.model.DotSet` (round holes) or a
+            :class:`~stencil_cad.model.CutLayer` (polygon cut-outs, hard mode).
+        width_mm: Picture width in mm (the picture area is ``[0, w] x [0, h]``).
+        height_mm: Picture height in mm.
+        cfg: The ``plate`` config section (:class:`~stencil_cad.config.PlateConfig`).
+        label: What the label says, or None for no label.
+        rules: Optional :class:`~stencil_cad.stipple.rules.DesignRules` to re-check the dots
+            with (the job's process rules); by default the plate's own floor:
+            radius ≥ 0.5 mm, web ≥ ``cfg.min_web_mm``, inside the picture.
+
+    Returns:
+        The plate model (build123d Part, description, analytic volume).
+
+    Raises:
+        PlateBuildError: Bad dots (listing the first offenders), a label that does not
+            fit, or a template problem. Nothing is built in that case.
+    """
+    t0 = time.perf_counter()
+    check_holes(holes, width_mm, height_mm, cfg.min_web_mm, rules)
+    t1 = time.perf_counter()
+    ring = outline_mod.plate_outline(width_mm, height_mm, cfg.outline)
+    area = outline_mod.label_region(width_mm, height_mm, cfg.outline)
+    path = cfg.template if cfg.template is not None else builtin_template()
+    model = run_template(
+        path, holes, ring, area, label, config_overrides(cfg), strict=set(cfg.template_params)
+    )
+    if model.geometry is not None:
+        model.geometry = _with_size(model.geometry, width_mm, height_mm)
+    model.info["full_check_max_holes"] = cfg.full_check_max_holes
+    model.info["template"] = str(path)
+    secs = model.info.setdefault("seconds", {})
+    secs["check_holes"] = round(t1 - t0, 3)
+    secs["build"] = round(time.perf_counter() - t0, 3)
+    return model
+
+
+def _with_size(geom: PlateGeometry, width_mm: float, height_mm: float) -> PlateGeometry:
+    return replace(geom, width_mm=float(width_mm), height_mm=float(height_mm))

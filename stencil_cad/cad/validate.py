@@ -28,7 +28,8 @@ import time
 
 import numpy as np
 
-from .mesh import PlateGeometry, mesh_checks
+from ..exchange.mesh import mesh_checks
+from ..model import PlateGeometry
 
 log = logging.getLogger(__name__)
 

@@ -6,16 +6,14 @@ minimise the energy of Vavilala et al. 2015 (see :mod:`.energy`) by block
 coordinate descent (see :mod:`.solver`), started from K-means colours and
 nearest-colour opacities, on an image pyramid.
 
-Public API: :func:`decompose`, :func:`layers_to_npz`, :func:`layers_from_npz`,
-:func:`swatch`.
+Public API: :func:`decompose`, :func:`energy_of`.
 """
 
 from __future__ import annotations
 
-import json
 import logging
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 
 import numpy as np
 
@@ -25,7 +23,7 @@ from ..model import Layers, Picture
 from . import energy, palette, solver
 from .solver import SolverSettings, State
 
-__all__ = ["decompose", "energy_of", "layers_from_npz", "layers_to_npz", "swatch"]
+__all__ = ["decompose", "energy_of"]
 
 log = logging.getLogger(__name__)
 
@@ -542,74 +540,3 @@ def decompose(
         iterations=int(info["iterations"]),
         info=info,
     )
-
-
-def layers_to_npz(layers: Layers) -> dict[str, np.ndarray]:
-    """Arrays to save a decomposition with ``np.savez_compressed``.
-
-    Keys: ``primer`` (3,), ``colours`` (L, 3), ``alphas`` (L, H, W) float32,
-    ``mm_per_px`` (), ``energy_trace`` (n,), ``iterations`` (), ``info_json``
-    (a 0-d string array holding ``info`` as JSON). Loads without pickle.
-    """
-    return {
-        "primer": np.asarray(layers.primer, dtype=np.float64),
-        "colours": np.asarray(layers.colours, dtype=np.float64),
-        "alphas": np.asarray(layers.alphas, dtype=np.float32),
-        "mm_per_px": np.asarray(layers.mm_per_px, dtype=np.float64),
-        "energy_trace": np.asarray(layers.energy_trace, dtype=np.float64),
-        "iterations": np.asarray(layers.iterations, dtype=np.int64),
-        "info_json": np.asarray(json.dumps(layers.info, default=_json_default)),
-    }
-
-
-def _json_default(obj: object) -> object:
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    return str(obj)
-
-
-def layers_from_npz(mapping: Mapping[str, np.ndarray]) -> Layers:
-    """Inverse of :func:`layers_to_npz` (accepts the mapping ``np.load`` returns).
-
-    Raises:
-        ValueError: A required key is missing or the shapes disagree.
-    """
-    for key in ("primer", "colours", "alphas"):
-        if key not in mapping:
-            raise ValueError(f"layers NPZ has no {key!r} array")
-    primer = np.asarray(mapping["primer"], dtype=np.float64).reshape(3)
-    colours = np.asarray(mapping["colours"], dtype=np.float64)
-    alphas = np.asarray(mapping["alphas"], dtype=np.float64)
-    if colours.ndim != 2 or colours.shape[1] != 3 or alphas.ndim != 3 or alphas.shape[0] != colours.shape[0]:
-        raise ValueError(
-            f"layers NPZ: colours {colours.shape} and alphas {alphas.shape} do not match (L, 3) and (L, H, W)"
-        )
-    info = json.loads(str(mapping["info_json"])) if "info_json" in mapping else {}
-    return Layers(
-        primer=primer,
-        colours=colours,
-        alphas=alphas,
-        mm_per_px=float(mapping["mm_per_px"]) if "mm_per_px" in mapping else 1.0,
-        energy_trace=tuple(float(e) for e in np.asarray(mapping.get("energy_trace", ()))),
-        iterations=int(mapping["iterations"]) if "iterations" in mapping else 0,
-        info=info,
-    )
-
-
-def swatch(layers: Layers, size_px: int = 64) -> np.ndarray:
-    """The primer and the paints in spray order as a row of squares.
-
-    Args:
-        layers: The decomposition.
-        size_px: Side of each square in px. Defaults to 64 px.
-
-    Returns:
-        ``(size_px, size_px * (L + 1), 3)`` uint8 image, primer leftmost.
-    """
-    size_px = max(int(size_px), 1)
-    allc = np.vstack([np.asarray(layers.primer)[None, :], np.asarray(layers.colours).reshape(-1, 3)])
-    allc = np.clip(np.nan_to_num(allc, nan=0.0), 0.0, 1.0)
-    row = np.repeat(np.rint(allc * 255.0).astype(np.uint8), size_px, axis=0)
-    return np.ascontiguousarray(np.broadcast_to(row[None, :, :], (size_px, row.shape[0], 3)))

@@ -1,9 +1,9 @@
-"""Kernel-free description of a plate and its fast triangle mesh (STL, 3MF).
+"""The plate's fast triangle mesh and its files (STL, 3MF), kernel-free.
 
 A stencil plate is a perforated polygon extruded from ``z = 0`` to the thickness,
 plus a shallow relief (an engraved or embossed label) on its top face.
-:class:`PlateGeometry` describes it with plain arrays; the OCCT solid, the STEP
-writer and the mesher all start from this one description.
+:class:`~stencil_cad.model.PlateGeometry` describes it with plain arrays; the OCCT
+solid, the STEP writer and this mesher all start from that one description.
 
 Why not OCCT's mesher: tessellating one planar face with thousands of holes is
 superlinear in OCCT (default ``export_stl`` took 271 s at 2,000 holes, the
@@ -37,28 +37,31 @@ from __future__ import annotations
 
 import io
 import logging
-import math
+import os
+import re
 import struct
 import zipfile
-from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import Delaunay
 
+from ..geometry import index_triangles, polygon_area
+from ..model import PlateGeometry, TriMesh
+
 log = logging.getLogger(__name__)
 
 __all__ = [
     "MeshError",
-    "PlateGeometry",
-    "TriMesh",
     "circle_segments",
     "mesh_checks",
     "plate_mesh",
-    "polygon_area",
+    "read_stl",
     "stl_bytes",
     "threemf_bytes",
+    "write_triangles_stl",
 ]
 
 #: Longest edge in mm of the outline, label box and cut-out rings in the triangulation.
@@ -75,95 +78,6 @@ MIN_SIDES, MAX_SIDES = 8, 512
 
 class MeshError(RuntimeError):
     """The mesher could not produce a closed, consistently wound mesh."""
-
-
-def polygon_area(ring: np.ndarray) -> float:
-    """Signed area in mm² of a ring (positive when counter-clockwise), shoelace formula."""
-    x, y = ring[:, 0], ring[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
-
-
-@dataclass(frozen=True)
-class PlateGeometry:
-    """A plate as plain arrays, in the picture frame (mm, y up), z from 0 up.
-
-    Attributes:
-        width_mm: Picture width in mm (the picture area is ``[0, w] x [0, h]``).
-        height_mm: Picture height in mm.
-        thickness_mm: Plate thickness in mm.
-        outline: ``(M, 2)`` ring, counter-clockwise: the plate's outer boundary.
-        circles_xy: ``(N, 2)`` round hole centres in mm.
-        circles_r: ``(N,)`` round hole radii in mm.
-        polygons: Polygon cut-outs (hard stencils), each an ``(K, 2)`` ring,
-            counter-clockwise.
-        glyphs: The label's letters and up-arrow, each ``(outer, inners)``:
-            ``outer`` a counter-clockwise ring, ``inners`` clockwise rings.
-        relief_mm: Label relief in mm: negative engraves the glyphs that deep
-            into the top face, positive embosses them that high, 0 for none.
-        label_box: ``(x0, y0, x1, y1)`` mm, a rectangle inside the plate and
-            clear of every hole that contains all glyphs, or None.
-    """
-
-    width_mm: float
-    height_mm: float
-    thickness_mm: float
-    outline: np.ndarray
-    circles_xy: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
-    circles_r: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    polygons: tuple = ()
-    glyphs: tuple = ()
-    relief_mm: float = 0.0
-    label_box: tuple | None = None
-
-    @property
-    def hole_count(self) -> int:
-        """Number of through holes (round and polygonal)."""
-        return int(len(self.circles_r) + len(self.polygons))
-
-    @property
-    def outline_area(self) -> float:
-        """Area of the outline in mm²."""
-        return polygon_area(self.outline)
-
-    @property
-    def hole_area(self) -> float:
-        """Total area of the through holes in mm² (exact circles)."""
-        return float(
-            math.pi * np.sum(np.square(self.circles_r)) + sum(polygon_area(p) for p in self.polygons)
-        )
-
-    @property
-    def glyph_area(self) -> float:
-        """Total area of the label's glyphs in mm²."""
-        return float(sum(polygon_area(o) + sum(polygon_area(i) for i in inn) for o, inn in self.glyphs))
-
-    @property
-    def volume(self) -> float:
-        """Analytic volume in mm³: (outline − holes) × thickness + glyphs × relief."""
-        return (self.outline_area - self.hole_area) * self.thickness_mm + self.glyph_area * self.relief_mm
-
-    @property
-    def bbox(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
-        """``((xmin, ymin, zmin), (xmax, ymax, zmax))`` in mm."""
-        lo = self.outline.min(axis=0)
-        hi = self.outline.max(axis=0)
-        top = self.thickness_mm + max(self.relief_mm, 0.0)
-        return (float(lo[0]), float(lo[1]), 0.0), (float(hi[0]), float(hi[1]), float(top))
-
-
-@dataclass(frozen=True)
-class TriMesh:
-    """An indexed triangle mesh, triangles counter-clockwise seen from outside.
-
-    Attributes:
-        vertices: ``(V, 3)`` float64 in mm.
-        faces: ``(F, 3)`` int64 vertex indices.
-        info: Figures from the mesher (vertices, recovery rounds, timings).
-    """
-
-    vertices: np.ndarray
-    faces: np.ndarray
-    info: dict = field(default_factory=dict)
 
 
 # ----------------------------------------------------------------------------- rings
@@ -641,3 +555,35 @@ def threemf_bytes(mesh: TriMesh, name: str = "stencil plate") -> bytes:
             info.compress_type = zipfile.ZIP_DEFLATED
             z.writestr(info, text)
     return buf.getvalue()
+
+
+# ----------------------------------------------------------------------------- triangle soups
+
+_STL_DTYPE = np.dtype([("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")])
+
+
+def read_stl(path: str | os.PathLike) -> np.ndarray:
+    """Read a binary or ASCII STL.
+
+    Returns:
+        ``(F, 3, 3)`` ndarray of float64: the corners of each triangle in mm.
+
+    Raises:
+        ValueError: When the file is not an STL.
+    """
+    data = Path(path).read_bytes()
+    if len(data) >= 84:
+        count = int(np.frombuffer(data, "<u4", 1, 80)[0])
+        if 84 + 50 * count == len(data):
+            return np.frombuffer(data, _STL_DTYPE, count, 84)["v"].astype(np.float64)
+    text = data.decode("ascii", errors="replace")
+    if "vertex" not in text:
+        raise ValueError(f"{path}: not an STL file")
+    nums = re.findall(r"vertex\s+(\S+)\s+(\S+)\s+(\S+)", text)
+    return np.asarray(nums, dtype=np.float64).reshape(-1, 3, 3)
+
+
+def write_triangles_stl(path: str | os.PathLike, triangles: np.ndarray) -> None:
+    """Write ``(F, 3, 3)`` triangle corners (mm) as a binary STL, with the plate mesher's writer."""
+    verts, faces = index_triangles(np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3))
+    Path(path).write_bytes(stl_bytes(TriMesh(verts, faces), name="stencil_cad tile"))

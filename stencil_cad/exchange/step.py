@@ -1,8 +1,8 @@
-"""Plate exporters: STEP (exact circles, one solid), binary STL and 3MF.
+"""The plate as STEP text (AP214, exact circles, one solid), without the CAD kernel.
 
-STEP: OCCT's STEP writer is quadratic in the holes of one face (measured here:
+OCCT's STEP writer is quadratic in the holes of one face (measured here:
 transfer of a 1,000-hole plate 10.6 s, 14,000 holes 710 s), so plates described
-by a :class:`~stencil_cad.cad.mesh.PlateGeometry` are written by a small linear
+by a :class:`~stencil_cad.model.PlateGeometry` are written by a small linear
 AP214 writer of our own. The B-rep it writes uses only planes, cylinders, lines
 and circles: each through hole is one cylindrical face bounded by two circles
 and a seam line; each polygon edge (outline, cut-outs, letters) one planar side
@@ -12,22 +12,18 @@ tests read these files back with OCCT and compare them with the solid built in
 :mod:`stencil_cad.cad.plate` (volume, faces, validity).
 
 Shapes that did not come from a description (a template's own solid) go
-through OCCT's writer and mesher instead, which is only fast for small plates.
+through OCCT's writer instead (:mod:`stencil_cad.cad.writers`), which is only
+fast for small plates.
 """
 
 from __future__ import annotations
 
-import logging
-import os
-from pathlib import Path
-
 import numpy as np
 
-from .mesh import PlateGeometry, TriMesh, polygon_area, stl_bytes, threemf_bytes
+from ..geometry import polygon_area
+from ..model import PlateGeometry
 
-log = logging.getLogger(__name__)
-
-__all__ = ["occt_mesh", "step_text", "write_3mf", "write_step", "write_stl"]
+__all__ = ["STEP_TIMESTAMP", "step_text"]
 
 #: Fixed timestamp in the STEP header, so the same plate gives the same file.
 STEP_TIMESTAMP = "2026-01-01T00:00:00"
@@ -375,108 +371,3 @@ def step_text(geom: PlateGeometry, name: str = "stencil_plate") -> str:
         "FILE_SCHEMA(('AUTOMOTIVE_DESIGN { 1 0 10303 214 1 1 1 1 }'));\nENDSEC;\nDATA;\n"
     )
     return header + "\n".join(w.lines) + "\nENDSEC;\nEND-ISO-10303-21;\n"
-
-
-# ----------------------------------------------------------------------------- public writers
-
-
-def _name(model) -> str:
-    label = getattr(model, "label", None)
-    if label is None:
-        return "stencil_plate"
-    job = label.job or "stencil"
-    return f"{job} layer {label.layer} of {label.layers}"
-
-
-def write_step(model, path: str | os.PathLike) -> None:
-    """Write a plate as STEP (AP214, mm): one manifold solid with exact circles.
-
-    Args:
-        model: A :class:`~stencil_cad.cad.plate.PlateModel`.
-        path: Where to write (the caller renames it into place).
-    """
-    path = Path(path)
-    if getattr(model, "geometry", None) is not None:
-        path.write_text(step_text(model.geometry, _name(model)), encoding="ascii")
-        return
-    from OCP.IFSelect import IFSelect_RetDone
-    from OCP.Interface import Interface_Static
-    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
-
-    writer = STEPControl_Writer()
-    Interface_Static.SetCVal_s("write.step.unit", "MM")
-    writer.Transfer(model.part.wrapped, STEPControl_AsIs)
-    if writer.Write(str(path)) != IFSelect_RetDone:
-        raise OSError(f"OCCT could not write {path}")
-
-
-def write_stl(model, path: str | os.PathLike, tolerance_mm: float = 0.02) -> None:
-    """Write a plate as binary STL: closed, consistently wound, facing out.
-
-    Args:
-        model: A :class:`~stencil_cad.cad.plate.PlateModel`.
-        path: Where to write.
-        tolerance_mm: Largest distance in mm between a round hole and its polygon.
-            Defaults to 0.02 mm.
-    """
-    Path(path).write_bytes(stl_bytes(model.mesh(tolerance_mm), _name(model)))
-
-
-def write_3mf(model, path: str | os.PathLike, tolerance_mm: float = 0.02) -> None:
-    """Write a plate as 3MF (one mesh object, mm); the same mesh as the STL.
-
-    Args:
-        model: A :class:`~stencil_cad.cad.plate.PlateModel`.
-        path: Where to write.
-        tolerance_mm: Largest distance in mm between a round hole and its polygon.
-            Defaults to 0.02 mm.
-    """
-    Path(path).write_bytes(threemf_bytes(model.mesh(tolerance_mm), _name(model)))
-
-
-def occt_mesh(part, tolerance_mm: float) -> TriMesh:
-    """Mesh any OCCT shape with BRepMesh and merge it into one indexed mesh (slow on big plates).
-
-    Args:
-        part: A build123d shape (or anything with ``.wrapped``).
-        tolerance_mm: Linear deflection in mm.
-
-    Returns:
-        The mesh, vertices merged per shared B-rep vertex/edge node.
-    """
-    from OCP.BRep import BRep_Tool
-    from OCP.BRepMesh import BRepMesh_IncrementalMesh
-    from OCP.TopAbs import TopAbs_FACE, TopAbs_REVERSED
-    from OCP.TopExp import TopExp_Explorer
-    from OCP.TopLoc import TopLoc_Location
-    from OCP.TopoDS import TopoDS
-
-    shape = part.wrapped if hasattr(part, "wrapped") else part
-    BRepMesh_IncrementalMesh(shape, tolerance_mm, False, 0.5, True)
-    verts, faces, offset = [], [], 0
-    exp = TopExp_Explorer(shape, TopAbs_FACE)
-    while exp.More():
-        face = TopoDS.Face_s(exp.Current())
-        loc = TopLoc_Location()
-        tri = BRep_Tool.Triangulation_s(face, loc)
-        if tri is not None:
-            trsf = loc.Transformation()
-            pts = []
-            for i in range(1, tri.NbNodes() + 1):
-                p = tri.Node(i).Transformed(trsf)
-                pts.append((p.X(), p.Y(), p.Z()))
-            ids = []
-            for i in range(1, tri.NbTriangles() + 1):
-                a, b, c = tri.Triangle(i).Get()
-                ids.append(
-                    (a - 1, b - 1, c - 1) if face.Orientation() != TopAbs_REVERSED else (a - 1, c - 1, b - 1)
-                )
-            verts.append(np.asarray(pts, dtype=np.float64))
-            faces.append(np.asarray(ids, dtype=np.int64) + offset)
-            offset += len(pts)
-        exp.Next()
-    v = np.concatenate(verts)
-    f = np.concatenate(faces)
-    # Merge coincident nodes (faces share edge discretisations exactly).
-    _, first, inv = np.unique(np.round(v, 9), axis=0, return_index=True, return_inverse=True)
-    return TriMesh(v[first], inv.reshape(-1)[f], {"mesher": "occt"})

@@ -1,4 +1,4 @@
-"""Hard stencils: flat-colour segmentation, one cut stencil per colour, islands held by bridges.
+"""The hard-stencil stage: flat-colour segmentation, one cut stencil per colour, islands held by bridges.
 
 The paper's baseline (Vavilala 2015, after Jain et al. 2015). The lightest colour
 is the primer (the surface colour), so K colours give K - 1 cut stencils; they are
@@ -16,7 +16,8 @@ from skimage.color import rgb2lab
 
 from ..colour import to_hex
 from ..config.hard import HardConfig, SprayOrder
-from ..model import CutLayer, Picture
+from ..model import CutLayer, Picture, composite
+from ..simulate.spray import spray_mask
 from .segment import hex_to_rgb
 from .segment import segment as segment_image
 from .topology import (
@@ -250,9 +251,6 @@ def simulate_hard(result: HardResult, spray_cfg) -> tuple[np.ndarray, np.ndarray
         ``(alphas, composite)``: ``(L, H, W)`` simulated opacities and the
         ``(H, W, 3)`` composite in [0, 1].
     """
-    from ..model import composite
-    from ..simulate import spray_mask
-
     alphas = np.stack([spray_mask(m, result.mm_per_px, spray_cfg) for m in result.cut_masks]).reshape(
         result.count, *result.labels.shape
     )

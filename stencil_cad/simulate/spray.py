@@ -1,4 +1,4 @@
-"""Spray simulation: per-layer opacity, full-colour composite, scores and previews.
+"""The spray model: per-layer opacity through the holes and the full-colour composite.
 
 The spray model is Vavilala & Forsyth's (2015): hole ``i`` of radius ``r_i`` at
 ``p_i`` leaves the Gaussian
@@ -39,24 +39,22 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from .config.spray import SprayConfig
-from .frames import mm_to_px
-from .model import DotSet, Layers, composite
+from ..config.spray import SprayConfig
+from ..frames import mm_to_px
+from ..model import DotSet, Layers, composite
 
 log = logging.getLogger(__name__)
 
 __all__ = [
     "SimResult",
-    "calibrated_density",
-    "calibrated_density_for",
-    "calibrated_tone_for",
     "dot_sigma_mm",
-    "preview",
-    "score",
+    "layer_rmse",
+    "resample",
+    "sim_shape",
     "simulate",
     "spray_mask",
     "spray_opacity",
-    "sweep",
+    "target_on_grid",
 ]
 
 # Rows per band of the parallel splat: small enough to balance 2+ threads, large
@@ -545,170 +543,3 @@ def simulate(
         "shape": list(shape),
     }
     return SimResult(alphas=alphas, composite=comp, layer_rmse=tuple(rmse), mm_per_px=g, info=info)
-
-
-def score(reference_rgb: np.ndarray, simulated_rgb: np.ndarray) -> dict:
-    """Scores of a simulated spray against the input.
-
-    The reference is resampled here to the simulated image's grid when the shapes
-    differ (bilinear, anti-aliased); pass it already on that grid to control it.
-
-    Args:
-        reference_rgb: ``(H, W, 3)`` sRGB in [0, 1], the input picture.
-        simulated_rgb: ``(H', W', 3)`` sRGB in [0, 1], the simulated spray.
-
-    Returns:
-        ``de2000_mean``, ``de2000_p95`` (CIEDE2000), ``psnr`` (dB, data range 1) and
-        ``ssim`` (on RGB, data range 1).
-    """
-    from skimage.color import deltaE_ciede2000, rgb2lab
-    from skimage.metrics import structural_similarity
-
-    sim = np.clip(np.asarray(simulated_rgb, dtype=np.float64), 0.0, 1.0)
-    ref = resample(np.clip(np.asarray(reference_rgb, dtype=np.float64), 0.0, 1.0), sim.shape[:2])
-    de = deltaE_ciede2000(rgb2lab(ref), rgb2lab(sim))
-    small = min(sim.shape[:2])
-    win = min(7, small if small % 2 else small - 1)
-    if win >= 3:
-        ssim = float(structural_similarity(ref, sim, data_range=1.0, channel_axis=2, win_size=win))
-    else:
-        ssim = float("nan")
-    return {
-        "de2000_mean": float(np.mean(de)),
-        "de2000_p95": float(np.percentile(de, 95)),
-        "psnr": _psnr(ref, sim),
-        "ssim": ssim,
-    }
-
-
-def _psnr(ref: np.ndarray, sim: np.ndarray) -> float:
-    # skimage's peak_signal_noise_ratio, without its divide-by-zero warning for identical images.
-    mse = float(np.mean((ref - sim) ** 2))
-    return math.inf if mse == 0.0 else 10.0 * math.log10(1.0 / mse)
-
-
-def delta_e_map(reference_rgb: np.ndarray, simulated_rgb: np.ndarray) -> np.ndarray:
-    """Per-pixel CIEDE2000 between two images (reference resampled to the simulated grid)."""
-    from skimage.color import deltaE_ciede2000, rgb2lab
-
-    sim = np.clip(np.asarray(simulated_rgb, dtype=np.float64), 0.0, 1.0)
-    ref = resample(np.clip(np.asarray(reference_rgb, dtype=np.float64), 0.0, 1.0), sim.shape[:2])
-    return deltaE_ciede2000(rgb2lab(ref), rgb2lab(sim))
-
-
-# Control points of a perceptually ordered black-purple-orange-yellow ramp (inferno-like).
-_RAMP = np.array(
-    [
-        [0.0, 0.0, 0.02],
-        [0.26, 0.04, 0.41],
-        [0.58, 0.15, 0.40],
-        [0.87, 0.32, 0.23],
-        [0.99, 0.64, 0.04],
-        [0.99, 1.0, 0.64],
-    ]
-)
-
-
-def colour_map(values: np.ndarray, vmax: float) -> np.ndarray:
-    """Map non-negative values to RGB in [0, 1] on an inferno-like ramp; ``vmax`` and above are the top colour."""
-    t = np.clip(np.asarray(values, dtype=np.float64) / vmax, 0.0, 1.0) * (len(_RAMP) - 1)
-    i = np.minimum(t.astype(np.int64), len(_RAMP) - 2)
-    f = (t - i)[..., None]
-    return _RAMP[i] * (1.0 - f) + _RAMP[i + 1] * f
-
-
-def _to_u8(img: np.ndarray) -> np.ndarray:
-    return (np.clip(img, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
-
-
-def _hstack(panels: list[np.ndarray], gap: int = 4) -> np.ndarray:
-    h = max(p.shape[0] for p in panels)
-    spacer = np.full((h, gap, 3), 255, dtype=np.uint8)
-    row = []
-    for k, p in enumerate(panels):
-        if p.shape[0] < h:
-            p = np.concatenate([p, np.full((h - p.shape[0], p.shape[1], 3), 255, np.uint8)], axis=0)
-        if k:
-            row.append(spacer)
-        row.append(p)
-    return np.concatenate(row, axis=1)
-
-
-def preview(
-    input_rgb: np.ndarray,
-    decomposition_rgb: np.ndarray,
-    simulated_rgb: np.ndarray,
-    de_max: float = 30.0,
-) -> np.ndarray:
-    """Side-by-side preview: input | decomposition composite | simulated spray | error map.
-
-    The first two are resampled to the simulated image's grid. The error map is the
-    per-pixel CIEDE2000 between input and simulated spray on an inferno-like ramp
-    from 0 (black) to ``de_max`` (pale yellow).
-
-    Args:
-        input_rgb: ``(H, W, 3)`` input picture in [0, 1].
-        decomposition_rgb: ``(H, W, 3)`` composite of the decomposition in [0, 1].
-        simulated_rgb: ``(H, W, 3)`` simulated spray in [0, 1].
-        de_max: ΔE2000 shown at the top of the ramp. Defaults to 30.
-
-    Returns:
-        ``(H, 4 W + 12, 3)`` uint8 image.
-    """
-    sim = np.clip(np.asarray(simulated_rgb, dtype=np.float64), 0.0, 1.0)
-    shape = sim.shape[:2]
-    inp = resample(input_rgb, shape)
-    dec = resample(decomposition_rgb, shape)
-    err = colour_map(delta_e_map(inp, sim), de_max)
-    return _hstack([_to_u8(inp), _to_u8(dec), _to_u8(sim), _to_u8(err)])
-
-
-def sweep(
-    layers: Layers,
-    dotsets: list[DotSet],
-    cfg: SprayConfig,
-    grid_mm_per_px: float | None = None,
-    *,
-    spray_times: list[float] | None = None,
-    factors: tuple[float, ...] | None = None,
-) -> np.ndarray:
-    """Spray-time sweep as in the paper's figure: the simulated spray at A x each factor.
-
-    Args:
-        layers: The decomposition.
-        dotsets: One DotSet per layer.
-        cfg: Spray settings (``sweep_factors`` unless ``factors`` is given).
-        grid_mm_per_px: Simulation pixel size in mm. Defaults to ``1 / cfg.px_per_mm``.
-        spray_times: Per-layer spray times before the factor. Defaults as in :func:`simulate`.
-        factors: Spray-time multipliers. Defaults to ``cfg.sweep_factors`` (0.5, 1, 2).
-
-    Returns:
-        ``(H, k W + 4 (k - 1), 3)`` uint8 image, one panel per factor, left to right.
-    """
-    factors = tuple(cfg.sweep_factors if factors is None else factors)
-    panels = []
-    for f in factors:
-        res = simulate(layers, dotsets, cfg, grid_mm_per_px, spray_times=spray_times, time_factor=f)
-        panels.append(_to_u8(res.composite))
-    return _hstack(panels)
-
-
-def calibrated_density(alpha, mm_per_px, radius_mm, web_mm, cfg, **kwargs):
-    """The stippler's calibrated density; see :func:`stencil_cad.calibrate.calibrated_density`."""
-    from .calibrate import calibrated_density as _cd
-
-    return _cd(alpha, mm_per_px, radius_mm, web_mm, cfg, **kwargs)
-
-
-def calibrated_tone_for(alpha, mm_per_px, job_cfg):
-    """Density, spray time and dot count of one layer; see :func:`stencil_cad.calibrate.calibrated_tone_for`."""
-    from .calibrate import calibrated_tone_for as _ctf
-
-    return _ctf(alpha, mm_per_px, job_cfg)
-
-
-def calibrated_density_for(alpha, mm_per_px, job_cfg):
-    """The pipeline's density hook; see :func:`stencil_cad.calibrate.calibrated_density_for`."""
-    from .calibrate import calibrated_density_for as _cdf
-
-    return _cdf(alpha, mm_per_px, job_cfg)

@@ -37,8 +37,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config.spray import Calibrate, SprayConfig
-from .simulate import dot_sigma_mm, spray_opacity
+from ..config.spray import Calibrate, SprayConfig
+from .spray import dot_sigma_mm, spray_opacity
 
 log = logging.getLogger(__name__)
 

@@ -1,7 +1,7 @@
 """Run a real slicer on an exported stencil plate (kernel-free).
 
 A maker's next step after ``stencil-cad run`` is a slicer, so the project ships
-slicer profiles in ``templates/`` and this module finds the slicer binary,
+slicer profiles in ``templates/`` (:mod:`.profiles`) and this module finds the slicer binary,
 builds the command line for a shipped profile, runs it with a timeout and
 reports what the slicer said. It never imports the CAD kernel.
 
@@ -19,7 +19,6 @@ Profiles (see :data:`PROFILES` and ``docs/printing.md``):
 
 from __future__ import annotations
 
-import enum
 import logging
 import os
 import re
@@ -32,6 +31,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from ..exchange.mesh import read_stl
+from ..geometry import mesh_genus
+from .profiles import Profile, Slicer, Technology, get_profile, templates_dir
+from .tiling import HOLES_PER_TILE, split_into_tiles
 
 log = logging.getLogger(__name__)
 
@@ -50,116 +54,8 @@ _CURA_DEFINITION_DIRS = (
 )
 
 
-class Slicer(str, enum.Enum):
-    """Slicer programs a shipped profile can drive."""
-
-    PRUSA = "prusa-slicer"
-    CURA = "CuraEngine"
-
-
-class Technology(str, enum.Enum):
-    """Printer technology of a profile: ``fff`` (filament) or ``sla`` (resin)."""
-
-    FFF = "fff"
-    SLA = "sla"
-
-
-@dataclass(frozen=True)
-class Profile:
-    """One print profile shipped in ``templates/``.
-
-    Attributes:
-        name: Key in :data:`PROFILES`, e.g. ``"prusa_fdm"``.
-        slicer: Program that reads the profile.
-        technology: ``fff`` writes G-code, ``sla`` writes a zip of PNG layers.
-        filename: File name inside the templates folder.
-        suffix: Suffix of the slicer's output file (``.gcode`` or ``.sl1``).
-        layer_height_mm: Layer height the profile slices at, in mm.
-        description: One line for ``--help`` texts and the manifest.
-    """
-
-    name: str
-    slicer: Slicer
-    technology: Technology
-    filename: str
-    suffix: str
-    layer_height_mm: float
-    description: str
-
-    @property
-    def path(self) -> Path:
-        """Absolute path of the profile file (see :func:`templates_dir`)."""
-        return templates_dir() / self.filename
-
-
-PROFILES: dict[str, Profile] = {
-    p.name: p
-    for p in (
-        Profile(
-            "prusa_fdm",
-            Slicer.PRUSA,
-            Technology.FFF,
-            "prusa_fdm.ini",
-            ".gcode",
-            0.2,
-            "PrusaSlicer FDM, 0.4 mm nozzle, 0.2 mm layers, tuned for plates with thousands of holes",
-        ),
-        Profile(
-            "prusa_sla",
-            Slicer.PRUSA,
-            Technology.SLA,
-            "prusa_sla.ini",
-            ".sl1",
-            0.1,
-            "PrusaSlicer SLA/MSLA resin, 0.1 mm layers, flat on the plate, no supports",
-        ),
-        Profile(
-            "cura_fdm",
-            Slicer.CURA,
-            Technology.FFF,
-            "cura_fdm.def.json",
-            ".gcode",
-            0.2,
-            "CuraEngine FDM, 0.4 mm nozzle, 0.2 mm layers",
-        ),
-    )
-}
-
-
 class SlicerNotFoundError(RuntimeError):
     """The slicer program (or CuraEngine's printer definitions) is not installed."""
-
-
-def templates_dir() -> Path:
-    """Folder holding the shipped profiles.
-
-    Looks for ``templates/`` next to the package (a source checkout or an
-    editable install) and then for ``stencil_cad/templates`` (a wheel).
-
-    Returns:
-        The first folder that holds ``prusa_fdm.ini``, else the checkout's
-        ``templates/`` path.
-    """
-    here = Path(__file__).resolve().parent
-    candidates = (here.parent / "templates", here / "templates")
-    for folder in candidates:
-        if (folder / "prusa_fdm.ini").is_file():
-            return folder
-    return candidates[0]
-
-
-def get_profile(profile: str | Profile) -> Profile:
-    """Return the :class:`Profile` for a name or pass a profile through.
-
-    Raises:
-        ValueError: For an unknown name; the message lists the choices.
-    """
-    if isinstance(profile, Profile):
-        return profile
-    try:
-        return PROFILES[profile]
-    except KeyError:
-        raise ValueError(f"unknown slicer profile {profile!r}; choose from {', '.join(PROFILES)}") from None
 
 
 def find_slicer(slicer: Slicer | str = Slicer.PRUSA) -> Path | None:
@@ -721,274 +617,6 @@ def _run_checked(cmd: list[str], timeout_s: float, expected: Path) -> None:
     errors, _ = parse_messages(proc.stdout + "\n" + proc.stderr, proc.returncode)
     if proc.returncode != 0 or errors or not expected.is_file():
         raise RuntimeError(f"{' '.join(cmd[:3])} ... failed (exit {proc.returncode}): {'; '.join(errors)}")
-
-
-# --------------------------------------------------------------------------------------------
-# Tiling: one object per tile keeps the slicer's per-object work linear in the hole count.
-# --------------------------------------------------------------------------------------------
-
-#: Holes per tile that keep PrusaSlicer in its linear regime (measured: 250 holes per object
-#: sliced at the same cost per hole as 4,000 holes in 16 objects).
-HOLES_PER_TILE = 300
-
-_STL_DTYPE = np.dtype([("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")])
-
-
-def read_stl(path: str | os.PathLike) -> np.ndarray:
-    """Read a binary or ASCII STL.
-
-    Returns:
-        ``(F, 3, 3)`` ndarray of float64: the corners of each triangle in mm.
-
-    Raises:
-        ValueError: When the file is not an STL.
-    """
-    data = Path(path).read_bytes()
-    if len(data) >= 84:
-        count = int(np.frombuffer(data, "<u4", 1, 80)[0])
-        if 84 + 50 * count == len(data):
-            return np.frombuffer(data, _STL_DTYPE, count, 84)["v"].astype(np.float64)
-    text = data.decode("ascii", errors="replace")
-    if "vertex" not in text:
-        raise ValueError(f"{path}: not an STL file")
-    nums = re.findall(r"vertex\s+(\S+)\s+(\S+)\s+(\S+)", text)
-    return np.asarray(nums, dtype=np.float64).reshape(-1, 3, 3)
-
-
-def write_stl(path: str | os.PathLike, triangles: np.ndarray) -> None:
-    """Write ``(F, 3, 3)`` triangle corners (mm) as a binary STL, with the plate mesher's writer."""
-    from .cad.mesh import TriMesh, stl_bytes
-
-    verts, faces = _indexed(np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3))
-    Path(path).write_bytes(stl_bytes(TriMesh(verts, faces), name="stencil_cad tile"))
-
-
-def _indexed(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    flat = np.asarray(triangles, dtype=np.float64).reshape(-1, 3)
-    # A lexsort and a run-length pass merge exact duplicates ~5x faster than np.unique(axis=0).
-    order = np.lexsort(flat.T[::-1])
-    ordered = flat[order]
-    new = np.ones(len(flat), dtype=bool)
-    new[1:] = np.any(ordered[1:] != ordered[:-1], axis=1)
-    inverse = np.empty(len(flat), dtype=np.int64)
-    inverse[order] = np.cumsum(new) - 1
-    return ordered[new], inverse.reshape(-1, 3)
-
-
-def mesh_genus(triangles: np.ndarray) -> int:
-    """Genus of a closed triangle mesh from its Euler characteristic, V - E + F = 2 - 2g.
-
-    For a perforated plate made of one shell the genus is its hole count.
-
-    Args:
-        triangles: ``(F, 3, 3)`` triangle corners of a closed mesh; coincident
-            corners are merged exactly.
-
-    Returns:
-        The genus (summed over shells as ``shells - chi / 2``). Meaningless for
-        an open mesh: check it with :func:`inspect_mesh` first.
-    """
-    verts, faces = _indexed(np.asarray(triangles, dtype=np.float64))
-    # In a closed 2-manifold every edge borders exactly two triangles: E = 3F / 2.
-    chi = len(verts) - 3 * len(faces) / 2 + len(faces)
-    shells = _count_shells(faces, len(verts))
-    return int(round(shells - chi / 2))
-
-
-def _count_shells(faces: np.ndarray, n_verts: int) -> int:
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    rows = np.concatenate([faces[:, 0], faces[:, 1]])
-    cols = np.concatenate([faces[:, 1], faces[:, 2]])
-    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n_verts, n_verts))
-    used = np.zeros(n_verts, bool)
-    used[faces.ravel()] = True
-    n, labels = connected_components(graph, directed=False)
-    return int(len(np.unique(labels[used])))
-
-
-def tile_grid(
-    size_xy: tuple[float, float], holes: int, holes_per_tile: int = HOLES_PER_TILE
-) -> tuple[int, int]:
-    """Choose ``(nx, ny)`` tiles so each holds about ``holes_per_tile`` holes and is close to square.
-
-    Args:
-        size_xy: Plate size ``(width, height)`` in mm.
-        holes: Hole count of the plate.
-        holes_per_tile: Target holes per tile. Defaults to :data:`HOLES_PER_TILE`.
-
-    Returns:
-        Tile counts along x and y, each at least 1.
-    """
-    width, height = (max(float(v), 1e-9) for v in size_xy)
-    tiles = max(1, int(np.ceil(holes / max(1, holes_per_tile))))
-    nx = max(1, int(round(np.sqrt(tiles * width / height))))
-    ny = max(1, int(np.ceil(tiles / nx)))
-    return nx, ny
-
-
-#: Material narrower than this next to a seam is a sliver the slicer drops (about one extrusion width), mm.
-SEAM_CLEARANCE_MM = 0.5
-
-
-def hole_boxes(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Centres and half-sizes of the through holes of a flat plate mesh.
-
-    Every hole's wall is a ring of vertical triangles; the ring whose box is the
-    largest is the plate's outer wall and is left out.
-
-    Args:
-        triangles: ``(F, 3, 3)`` triangle corners in mm, plate lying flat.
-
-    Returns:
-        ``(centres, half_sizes)``: two ``(N, 2)`` arrays in mm (bounding-box centre
-        and half extent in x and y of each hole).
-    """
-    tri = np.asarray(triangles, dtype=np.float64)
-    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    length = np.linalg.norm(normal, axis=1)
-    wall = np.abs(normal[:, 2]) < 1e-3 * np.maximum(length, 1e-300)
-    if not wall.any():
-        return np.zeros((0, 2)), np.zeros((0, 2))
-    verts, faces = _indexed(tri[wall])
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    rows = np.concatenate([faces[:, 0], faces[:, 1]])
-    cols = np.concatenate([faces[:, 1], faces[:, 2]])
-    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(verts), len(verts)))
-    n, labels = connected_components(graph, directed=False)
-    lo = np.full((n, 2), np.inf)
-    hi = np.full((n, 2), -np.inf)
-    np.minimum.at(lo, labels, verts[:, :2])
-    np.maximum.at(hi, labels, verts[:, :2])
-    size = hi - lo
-    keep = np.ones(n, dtype=bool)
-    keep[np.argmax(size[:, 0] * size[:, 1])] = False
-    return ((lo + hi) / 2)[keep], (size / 2)[keep]
-
-
-def choose_seam(
-    nominal: float,
-    centres: np.ndarray,
-    half: np.ndarray,
-    window: float,
-    clearance: float = SEAM_CLEARANCE_MM,
-    step: float = 0.05,
-) -> float:
-    """Place a straight seam near ``nominal`` where it leaves no slivers.
-
-    A seam is good next to a hole when it crosses the hole near its middle
-    (the cut web pieces stay wide) or misses it by more than ``clearance``; in
-    between it leaves a strip narrower than an extrusion, which the slicer
-    drops and which would print as a slit along the seam.
-
-    Args:
-        nominal: Seam coordinate wanted (x for a vertical seam), in mm.
-        centres: ``(N,)`` hole centres along the same axis, in mm.
-        half: ``(N,)`` hole half-sizes along that axis, in mm.
-        window: How far the seam may move from ``nominal``, in mm.
-        clearance: Narrowest strip kept between a seam and a hole, in mm.
-            Defaults to :data:`SEAM_CLEARANCE_MM`.
-        step: Search step in mm. Defaults to 0.05 mm.
-
-    Returns:
-        The seam coordinate with the fewest bad holes (the nearest to
-        ``nominal`` among equals).
-    """
-    k = int(np.floor(window / step))
-    candidates = nominal + step * np.arange(-k, k + 1)
-    near = np.abs(centres - nominal) < window + half + clearance
-    c, h = centres[near], half[near]
-    if len(c) == 0:
-        return float(nominal)
-    d = np.abs(c[None, :] - candidates[:, None])
-    bad = ((d > 0.5 * h[None, :]) & (d < h[None, :] + clearance)).sum(axis=1)
-    score = bad + np.abs(candidates - nominal) / (4 * window + 1e-9)
-    return float(candidates[np.argmin(score)])
-
-
-def split_into_tiles(
-    model: str | os.PathLike,
-    out_dir: str | os.PathLike,
-    *,
-    holes_per_tile: int = HOLES_PER_TILE,
-    grid: tuple[int, int] | None = None,
-    overlap_mm: float = 0.0,
-) -> list[Path]:
-    """Cut a flat plate mesh into touching rectangular tiles, one STL per tile.
-
-    Sliced as separate objects that keep their positions (``--merge
-    --dont-arrange``), the tiles print side by side and fuse into one plate,
-    while the slicer's per-object work stays small: PrusaSlicer's cost per
-    object grows faster than its hole count, so tiles make the total linear.
-    Each seam is moved (up to 3 mm) to where it crosses holes through their
-    middle or clears them by :data:`SEAM_CLEARANCE_MM` (see
-    :func:`choose_seam`), so no strip too narrow to print runs along it.
-    Needs ``manifold3d`` for the watertight cut.
-
-    Args:
-        model: Closed plate mesh (STL), lying flat.
-        out_dir: Existing folder for ``tile_<i>_<j>.stl``.
-        holes_per_tile: Target holes per tile when ``grid`` is None. Defaults
-            to :data:`HOLES_PER_TILE`.
-        grid: Explicit ``(nx, ny)`` tile counts; overrides ``holes_per_tile``.
-        overlap_mm: Width of the strip two neighbouring tiles share at a seam,
-            in mm, for a stronger weld (0 = tiles touch exactly). Defaults to 0 mm.
-
-    Returns:
-        Paths of the written tiles (a single path when one tile suffices).
-
-    Raises:
-        ImportError: ``manifold3d`` is not installed.
-        ValueError: The mesh is not a closed manifold.
-    """
-    import manifold3d as m3d
-
-    tri = read_stl(model)
-    verts, faces = _indexed(tri)
-    lo, hi = verts.min(axis=0), verts.max(axis=0)
-    if grid is None:
-        grid = tile_grid((hi[0] - lo[0], hi[1] - lo[1]), mesh_genus(tri), holes_per_tile)
-    nx, ny = (max(1, int(g)) for g in grid)
-    out_dir = Path(out_dir)
-    if nx * ny == 1:
-        dest = out_dir / "tile_0_0.stl"
-        write_stl(dest, tri)
-        return [dest]
-    solid = m3d.Manifold(
-        m3d.Mesh(vert_properties=verts.astype(np.float32), tri_verts=faces.astype(np.uint32))
-    )
-    if solid.status() != m3d.Error.NoError or solid.is_empty():
-        raise ValueError(f"{model}: not a closed manifold mesh ({solid.status()})")
-    xs = np.linspace(lo[0], hi[0], nx + 1)
-    ys = np.linspace(lo[1], hi[1], ny + 1)
-    if nx > 1 or ny > 1:
-        centres, half = hole_boxes(tri)
-        for axis, cuts in ((0, xs), (1, ys)):
-            pitch = cuts[1] - cuts[0] if len(cuts) > 2 else 0.0
-            for k in range(1, len(cuts) - 1):
-                cuts[k] = choose_seam(cuts[k], centres[:, axis], half[:, axis], window=min(3.0, pitch / 4))
-    pad = 1.0 + overlap_mm
-    paths: list[Path] = []
-    for i in range(nx):
-        for j in range(ny):
-            # Outer edges get a margin so the box never grazes the plate's own boundary faces.
-            x0 = xs[i] - (pad if i == 0 else overlap_mm / 2)
-            x1 = xs[i + 1] + (pad if i == nx - 1 else overlap_mm / 2)
-            y0 = ys[j] - (pad if j == 0 else overlap_mm / 2)
-            y1 = ys[j + 1] + (pad if j == ny - 1 else overlap_mm / 2)
-            box = m3d.Manifold.cube([x1 - x0, y1 - y0, hi[2] - lo[2] + 2.0]).translate([x0, y0, lo[2] - 1.0])
-            piece = (solid ^ box).to_mesh()
-            if len(piece.tri_verts) == 0:
-                continue
-            corners = np.asarray(piece.vert_properties, dtype=np.float64)[:, :3][np.asarray(piece.tri_verts)]
-            dest = out_dir / f"tile_{i}_{j}.stl"
-            write_stl(dest, corners)
-            paths.append(dest)
-    log.info("split %s into %d x %d tiles", model, nx, ny)
-    return paths
 
 
 def slice_plate(

@@ -37,10 +37,10 @@ import numba
 import numpy as np
 from scipy import ndimage
 
-from .config.stipple import StippleConfig, Tone
-from .dots import DesignRules, _keepout_clearance, enforce_rules, rules_from_config
-from .frames import px_to_mm
-from .model import DotSet
+from ..config.stipple import StippleConfig, Tone
+from ..frames import px_to_mm
+from ..model import DotSet
+from .rules import DesignRules, _keepout_clearance, enforce_rules, rules_from_config
 
 log = logging.getLogger(__name__)
 

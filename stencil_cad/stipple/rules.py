@@ -1,4 +1,4 @@
-"""Hole design rules, their enforcement and checking, dot CSV I/O and previews.
+"""Hole design rules, their enforcement and checking.
 
 A soft-stencil layer is a set of circular holes (centres ``xy`` in picture mm,
 radii ``r`` in mm). The rules every hole set must satisfy before any CAD:
@@ -16,8 +16,6 @@ what it did; :func:`check_rules` only checks and raises :class:`DotRuleError`.
 
 from __future__ import annotations
 
-import csv
-import io
 import logging
 import math
 from dataclasses import dataclass, field
@@ -26,8 +24,7 @@ import numba
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .config.stipple import HOLE_FLOOR_MM, StippleConfig
-from .model import DotSet
+from ..config.stipple import HOLE_FLOOR_MM, StippleConfig
 
 log = logging.getLogger(__name__)
 
@@ -38,11 +35,9 @@ NUDGE_SLACK_MM = 2e-3
 #: Default tolerance of :func:`check_rules` in mm (covers CSV rounding).
 CHECK_TOL_MM = 1e-3
 
-CSV_HEADER = ("x_mm", "y_mm", "r_mm")
-
 
 class DotRuleError(ValueError):
-    """A dot set breaks a design rule, or a dot file cannot be read."""
+    """A dot set breaks a design rule."""
 
 
 @dataclass(frozen=True)
@@ -538,109 +533,3 @@ def check_rules(
             f"{total} design-rule violation(s) among {len(np.asarray(r).reshape(-1))} dots; first:\n  "
             + "\n  ".join(lines)
         )
-
-
-def dots_to_csv(dotset: DotSet) -> str:
-    """Format a dot set as CSV text with header ``x_mm,y_mm,r_mm`` (4 decimals, mm).
-
-    Args:
-        dotset: The holes.
-
-    Returns:
-        The CSV text, one hole per line, Unix line ends.
-    """
-    buf = io.StringIO()
-    buf.write(",".join(CSV_HEADER) + "\n")
-    if len(dotset):
-        data = np.column_stack([np.asarray(dotset.xy_mm).reshape(-1, 2), np.asarray(dotset.r_mm)])
-        np.savetxt(buf, data, fmt="%.4f", delimiter=",")
-    return buf.getvalue()
-
-
-def dots_from_csv(text: str) -> DotSet:
-    """Parse CSV text written by :func:`dots_to_csv` (or by hand).
-
-    Args:
-        text: CSV with header ``x_mm,y_mm,r_mm`` then one hole per line. Blank
-            lines are ignored.
-
-    Returns:
-        The dot set (``report`` holds ``{"source": "csv"}``).
-
-    Raises:
-        DotRuleError: on a wrong header, a wrong column count, a value that is
-            not a finite number, or a radius below 0.5 mm; the message names
-            the line.
-    """
-    rows = [(n, row) for n, row in enumerate(csv.reader(io.StringIO(text)), start=1) if row and any(row)]
-    if not rows:
-        raise DotRuleError("dot CSV is empty: expected the header 'x_mm,y_mm,r_mm'")
-    n0, header = rows[0]
-    if tuple(h.strip().lstrip("\ufeff") for h in header) != CSV_HEADER:
-        raise DotRuleError(f"dot CSV line {n0}: header must be 'x_mm,y_mm,r_mm', got {','.join(header)!r}")
-    values = np.empty((len(rows) - 1, 3))
-    for k, (n, row) in enumerate(rows[1:]):
-        if len(row) != 3:
-            raise DotRuleError(f"dot CSV line {n}: expected 3 values (x_mm, y_mm, r_mm), got {len(row)}")
-        for c, cell in enumerate(row):
-            try:
-                v = float(cell)
-            except ValueError:
-                raise DotRuleError(
-                    f"dot CSV line {n}: {CSV_HEADER[c]} is not a number: {cell.strip()!r}"
-                ) from None
-            if not math.isfinite(v):
-                raise DotRuleError(f"dot CSV line {n}: {CSV_HEADER[c]} is not finite: {cell.strip()!r}")
-            values[k, c] = v
-        if values[k, 2] < HOLE_FLOOR_MM:
-            raise DotRuleError(f"dot CSV line {n}: r_mm must be ≥ {HOLE_FLOOR_MM} mm, got {values[k, 2]:g}")
-    return DotSet(xy_mm=values[:, :2].copy(), r_mm=values[:, 2].copy(), report={"source": "csv"})
-
-
-@numba.njit(cache=True)
-def _raster_discs(img, xy, r, px_per_mm):  # pragma: no cover - compiled
-    """Darken ``img`` with anti-aliased discs (min blend)."""
-    h, w = img.shape
-    for k in range(xy.shape[0]):
-        cx = xy[k, 0] * px_per_mm
-        cy = h - xy[k, 1] * px_per_mm  # row coordinate of the centre, in px (rows grow downwards)
-        rr = r[k] * px_per_mm
-        c0 = max(int(math.floor(cx - rr - 1.0)), 0)
-        c1 = min(int(math.ceil(cx + rr + 1.0)), w - 1)
-        r0 = max(int(math.floor(cy - rr - 1.0)), 0)
-        r1 = min(int(math.ceil(cy + rr + 1.0)), h - 1)
-        for row in range(r0, r1 + 1):
-            dy = row + 0.5 - cy
-            for col in range(c0, c1 + 1):
-                dx = col + 0.5 - cx
-                # Signed distance to the circle, in px: coverage ramps over one pixel.
-                s = math.sqrt(dx * dx + dy * dy) - rr
-                cover = min(max(0.5 - s, 0.0), 1.0)
-                v = 255.0 * (1.0 - cover)
-                if v < img[row, col]:
-                    img[row, col] = v
-
-
-def dots_preview(dotset: DotSet, width_mm: float, height_mm: float, px_per_mm: float = 4) -> np.ndarray:
-    """Draw the holes black on white.
-
-    Args:
-        dotset: The holes, in picture mm.
-        width_mm: Picture-area width in mm.
-        height_mm: Picture-area height in mm.
-        px_per_mm: Preview resolution in pixels per mm. Defaults to 4.
-
-    Returns:
-        ``(H, W)`` uint8 image, row 0 at the top (y = height_mm), holes 0,
-        material 255, anti-aliased edges.
-    """
-    h = max(int(round(height_mm * px_per_mm)), 1)
-    w = max(int(round(width_mm * px_per_mm)), 1)
-    img = np.full((h, w), 255.0, dtype=np.float32)
-    if len(dotset):
-        # Scale so the image spans exactly the picture area even after rounding.
-        sx = w / width_mm
-        sy = h / height_mm
-        xy = np.asarray(dotset.xy_mm, dtype=np.float64).reshape(-1, 2) * np.array([sx, sy]) / sx
-        _raster_discs(img, np.ascontiguousarray(xy), np.asarray(dotset.r_mm, dtype=np.float64), float(sx))
-    return np.round(img).astype(np.uint8)

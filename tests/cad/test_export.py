@@ -9,17 +9,15 @@ import textwrap
 
 import numpy as np
 import pytest
+from readers import need, run
 
-pytest.importorskip("build123d")
-
-from readers import need, run  # noqa: E402
-
-from stencil_cad import cad  # noqa: E402
-from stencil_cad.cad.validate import brep_valid, topology_checks  # noqa: E402
-from stencil_cad.config import PlateConfig  # noqa: E402
-from stencil_cad.config.cad import LabelMode  # noqa: E402
-from stencil_cad.model import DotSet  # noqa: E402
-from stencil_cad.outline import plate_outline  # noqa: E402
+from stencil_cad import cad
+from stencil_cad.cad.validate import brep_valid, topology_checks
+from stencil_cad.config import PlateConfig
+from stencil_cad.config.cad import LabelMode
+from stencil_cad.exchange.mesh import mesh_checks
+from stencil_cad.model import DotSet, TriMesh
+from stencil_cad.outline import plate_outline
 
 W, H = 40.0, 30.0
 LABEL = cad.LabelInfo(layer=1, layers=2, colour="red", job="export")
@@ -82,7 +80,8 @@ def test_step_is_deterministic(tmp_path):
 
 
 def test_stl_is_binary_watertight_and_right_volume(plate, tmp_path):
-    trimesh = pytest.importorskip("trimesh")
+    import trimesh
+
     d, model = plate
     path = tmp_path / "p.stl"
     cad.write_stl(model, path, 0.02)
@@ -124,7 +123,7 @@ def test_3mf_reads_back(plate, tmp_path):
     v = np.array([p.Coordinates[0:3] for p in obj.GetVertices()], dtype=np.float64)
     f = np.array([t.Indices[0:3] for t in obj.GetTriangleIndices()], dtype=np.int64)
     assert not it.MoveNext()  # one object
-    mc = cad.mesh_checks(cad.TriMesh(v, f))
+    mc = mesh_checks(TriMesh(v, f))
     assert mc["watertight"] and mc["consistent_winding"] and mc["components"] == 1
     assert mc["volume"] == pytest.approx(model.analytic_volume, rel=1e-3)
 

@@ -7,17 +7,15 @@ import textwrap
 import numpy as np
 import pytest
 
-pytest.importorskip("build123d")
-
-from stencil_cad import cad  # noqa: E402
-from stencil_cad.cad.mesh import circle_segments, mesh_checks, plate_mesh  # noqa: E402
-from stencil_cad.cad.plate import PlateBuildError, perforated_plate  # noqa: E402
-from stencil_cad.cad.template import builtin_template, load_template, template_parameters  # noqa: E402
-from stencil_cad.cad.validate import PlateCheckError, brep_valid  # noqa: E402
-from stencil_cad.config import PlateConfig  # noqa: E402
-from stencil_cad.config.cad import LabelMode  # noqa: E402
-from stencil_cad.model import CutLayer, DotSet  # noqa: E402
-from stencil_cad.outline import label_region, plate_outline  # noqa: E402
+from stencil_cad import cad
+from stencil_cad.cad.plate import PlateBuildError, perforated_plate
+from stencil_cad.cad.template import builtin_template, load_template, template_parameters
+from stencil_cad.cad.validate import PlateCheckError, brep_valid
+from stencil_cad.config import PlateConfig
+from stencil_cad.config.cad import LabelMode
+from stencil_cad.exchange.mesh import circle_segments, mesh_checks, plate_mesh
+from stencil_cad.model import CutLayer, DotSet
+from stencil_cad.outline import label_region, plate_outline
 
 W, H = 40.0, 30.0
 LABEL = cad.LabelInfo(layer=2, layers=3, colour="#1a2b3c", job="test")
@@ -264,7 +262,8 @@ def test_mesh_of_nearly_touching_holes_is_closed():
 
 
 def test_mesh_detects_overlapping_holes():
-    from stencil_cad.cad.mesh import MeshError, PlateGeometry
+    from stencil_cad.exchange.mesh import MeshError
+    from stencil_cad.model import PlateGeometry
 
     ring = np.array([[0, 0], [10, 0], [10, 10], [0, 10]], float)
     g = PlateGeometry(10, 10, 1.0, ring, np.array([[5.0, 5.0], [5.8, 5.0]]), np.array([0.5, 0.5]))

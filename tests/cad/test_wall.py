@@ -1,16 +1,15 @@
 import math
 
+import build123d as bd
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-bd = pytest.importorskip("build123d")
-
-from stencil_cad.cad.wall import Wall, build_wall, wall_heights, wall_step, wall_stl  # noqa: E402
-from stencil_cad.config.cad import WallConfig  # noqa: E402
-from stencil_cad.config.outline import KeyTab, OutlineConfig, Side  # noqa: E402
-from stencil_cad.outline import (  # noqa: E402
+from stencil_cad.cad.wall import Wall, build_wall, wall_heights, wall_step, wall_stl
+from stencil_cad.config.cad import WallConfig
+from stencil_cad.config.outline import KeyTab, OutlineConfig, Side
+from stencil_cad.outline import (
     fits,
     min_clearance,
     path_area,
@@ -218,7 +217,8 @@ def test_tabs_too_close_for_shaped_rim_fall_back_to_plain_rim():
 
 
 def test_step_and_stl_round_trip(default_wall, tmp_path):
-    trimesh = pytest.importorskip("trimesh")
+    import trimesh
+
     wall_step(default_wall, tmp_path / "w.step")
     wall_stl(default_wall, tmp_path / "w.stl", tolerance_mm=0.01)
     back = bd.import_step(tmp_path / "w.step")

@@ -1,0 +1,70 @@
+"""Compare the files of two runs byte for byte: a refactoring must not change a maker's files.
+
+Usage::
+
+    stencil-cad run --out BEFORE          # on the commit before the change
+    python -m benchmarks.compare_outputs BEFORE            # runs the example now, compares
+    python -m benchmarks.compare_outputs BEFORE --out AFTER   # compares two existing folders
+
+Prints one JSON line per file (name, size, SHA-256 on each side, same or not) and a
+last summary line; exits 1 when any compared file differs or is missing on one side.
+The compared kinds are the maker's files (CSV, STL, STEP, PNG by default, ``--ext``
+to change); the manifest holds timings and is never compared.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+DEFAULT_EXTS = (".csv", ".stl", ".step", ".png")
+
+
+def _sha(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def compare(before: Path, after: Path, exts: tuple[str, ...] = DEFAULT_EXTS) -> list[dict]:
+    """One row per file name with a compared suffix in either folder."""
+    names = sorted({p.name for d in (before, after) for p in d.iterdir() if p.suffix.lower() in exts})
+    rows = []
+    for name in names:
+        a, b = before / name, after / name
+        row: dict = {"file": name}
+        for side, p in (("before", a), ("after", b)):
+            row[side] = {"bytes": p.stat().st_size, "sha256": _sha(p)[:16]} if p.is_file() else None
+        row["same"] = a.is_file() and b.is_file() and a.read_bytes() == b.read_bytes()
+        rows.append(row)
+    return rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.compare_outputs", description=__doc__)
+    parser.add_argument("before", type=Path, help="output folder of the earlier run")
+    parser.add_argument(
+        "--out", type=Path, help="output folder of the later run (default: run the example now)"
+    )
+    parser.add_argument("--ext", action="append", help="file suffix to compare (repeatable)")
+    args = parser.parse_args(argv)
+    exts = tuple(e if e.startswith(".") else f".{e}" for e in args.ext) if args.ext else DEFAULT_EXTS
+    with tempfile.TemporaryDirectory(prefix="stencil_compare_") as tmp:
+        after = args.out
+        if after is None:
+            after = Path(tmp) / "example"
+            cmd = [sys.executable, "-m", "stencil_cad", "run", "--out", str(after), "-q"]
+            subprocess.run(cmd, check=True)
+        rows = compare(args.before, after, exts)
+    for row in rows:
+        print(json.dumps(row))
+    differ = [r["file"] for r in rows if not r["same"]]
+    print(json.dumps({"compared": len(rows), "identical": len(rows) - len(differ), "differ": differ}))
+    return 1 if differ or not rows else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,57 @@
+"""Spray simulation: the spray model, the tone calibration, scores and previews.
+
+:mod:`.spray` is the spray model (opacity through the holes, the composite),
+:mod:`.tone` calibrates the stippler's density against it, :mod:`.scores` compares
+the result with the input and :mod:`.previews` draws the preview images.
+"""
+
+from .previews import colour_map, dots_preview, preview, swatch, sweep
+from .scores import delta_e_map, score
+from .spray import (
+    SimResult,
+    dot_sigma_mm,
+    layer_rmse,
+    resample,
+    sim_shape,
+    simulate,
+    spray_mask,
+    spray_opacity,
+    target_on_grid,
+)
+from .tone import (
+    ToneChoice,
+    ToneCurve,
+    calibrated_density,
+    calibrated_density_for,
+    calibrated_tone_for,
+    choose_tone,
+    packing_density,
+    tone_response,
+)
+
+__all__ = [
+    "SimResult",
+    "ToneChoice",
+    "ToneCurve",
+    "calibrated_density",
+    "calibrated_density_for",
+    "calibrated_tone_for",
+    "choose_tone",
+    "colour_map",
+    "delta_e_map",
+    "dot_sigma_mm",
+    "dots_preview",
+    "layer_rmse",
+    "packing_density",
+    "preview",
+    "resample",
+    "score",
+    "sim_shape",
+    "simulate",
+    "spray_mask",
+    "spray_opacity",
+    "swatch",
+    "sweep",
+    "target_on_grid",
+    "tone_response",
+]

@@ -1,0 +1,61 @@
+"""Stippling: one layer's opacity into round holes, under the printable design rules.
+
+:mod:`.relax` places the holes (weighted centroidal Voronoi relaxation) and
+:mod:`.rules` enforces and checks the hole floor, web, margin and keep-outs.
+"""
+
+from .relax import (
+    HEX_G,
+    MAX_GRID_PX,
+    OMEGA,
+    PX_PER_DOT,
+    auto_dot_count,
+    bucket_size,
+    cvt_energy,
+    cvt_optimum,
+    e_norm,
+    importance_sample,
+    lloyd,
+    refine_factor,
+    stipple_layer,
+    tone_map,
+    voronoi_pass,
+)
+from .rules import (
+    CHECK_TOL_MM,
+    NUDGE_SLACK_MM,
+    DesignRules,
+    DotRuleError,
+    check_rules,
+    enforce_rules,
+    min_web,
+    rule_violations,
+    rules_from_config,
+)
+
+__all__ = [
+    "CHECK_TOL_MM",
+    "HEX_G",
+    "MAX_GRID_PX",
+    "NUDGE_SLACK_MM",
+    "OMEGA",
+    "PX_PER_DOT",
+    "DesignRules",
+    "DotRuleError",
+    "auto_dot_count",
+    "bucket_size",
+    "check_rules",
+    "cvt_energy",
+    "cvt_optimum",
+    "e_norm",
+    "enforce_rules",
+    "importance_sample",
+    "lloyd",
+    "min_web",
+    "refine_factor",
+    "rule_violations",
+    "rules_from_config",
+    "stipple_layer",
+    "tone_map",
+    "voronoi_pass",
+]
