@@ -14,10 +14,10 @@ from scipy.optimize import linear_sum_assignment, lsq_linear
 
 from stencil_cad.config.decompose import MAX_LAYERS, DecomposeConfig, colour_to_rgb
 from stencil_cad.decompose import decompose, energy, energy_of
-from stencil_cad.exchange.layers_npz import layers_from_npz, layers_to_npz
-from stencil_cad.simulate.previews import swatch
 from stencil_cad.decompose import solver as solver_mod
+from stencil_cad.exchange.layers_npz import layers_from_npz, layers_to_npz
 from stencil_cad.model import Layers, Picture, composite
+from stencil_cad.simulate.previews import swatch
 
 # Ground truth of the synthetic test. The colours lie on the faces of the RGB
 # cube, as saturated paints do: with colours strictly inside the cube the
