@@ -30,6 +30,19 @@ def _parser() -> argparse.ArgumentParser:
         sp.add_argument("--out", type=Path, help="output folder (default: output/<name>, or output/example)")
         sp.add_argument("--force", action="store_true", help="replace files in a non-empty output folder")
         sp.add_argument("--seed", type=int, help="random seed (overrides the config's `seed`)")
+        sp.add_argument(
+            "--workers",
+            type=int,
+            metavar="N",
+            help="local Dask cluster of N worker processes; 0: in this process (default: one per core, "
+            "for big jobs only; overrides compute.workers)",
+        )
+        sp.add_argument(
+            "--scheduler",
+            metavar="ADDRESS",
+            help="run the tasks on the Dask cluster whose scheduler is at ADDRESS, e.g. tcp://host:8786 "
+            "(overrides compute.scheduler)",
+        )
         if with_from:
             sp.add_argument(
                 "--from", dest="src", type=Path, help="folder with the saved intermediates (default: --out)"
@@ -179,11 +192,13 @@ def _load_job(args):
 
 def _job(args) -> int:
     from . import pipeline, report
+    from .config.compute import with_command_line
 
     cfg, out_path = _load_job(args)
+    where = with_command_line(cfg.compute, args.workers, args.scheduler)
     src = (args.src or out_path) if args.command in pipeline.STAGE_COMMANDS else None
     run, files = pipeline.run_command(
-        args.command, cfg, out_path, src=src, force=args.force, quiet=args.quiet
+        args.command, cfg, out_path, src=src, force=args.force, quiet=args.quiet, where=where
     )
     if not args.quiet:
         print(report.summary(run, files, out_path))

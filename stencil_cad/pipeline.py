@@ -20,12 +20,13 @@ import yaml
 
 from . import __version__
 from .colour import to_hex
-from .config import JobConfig, Mode
+from .config import ComputeConfig, JobConfig, Mode
 from .errors import OutputError, UserError
 from .model import DotSet, Layers, Picture
 from .output import MANIFEST, OutputDir
 
 if TYPE_CHECKING:
+    from .compute import Executor
     from .slicing import SliceResult
 
 log = logging.getLogger(__name__)
@@ -57,6 +58,7 @@ class Run:
     cfg: JobConfig
     out: OutputDir
     quiet: bool = False
+    executor: Executor | None = None
     times: dict = field(default_factory=dict)
     figures: dict = field(default_factory=dict)
     summary: list = field(default_factory=list)
@@ -79,6 +81,17 @@ class Run:
         t0 = time.perf_counter()
         yield
         self.times[name] = round(self.times.get(name, 0.0) + time.perf_counter() - t0, 3)
+
+    @property
+    def tasks(self) -> Executor:
+        """Where tile tasks run: the executor :func:`computing` opened, else this process."""
+        if self.executor is None:
+            from . import compute
+
+            self.executor = compute.Executor(
+                compute.Plan("in_process", reason="no cluster opened"), self.quiet
+            )
+        return self.executor
 
     def bar(self, total: int | None, desc: str):
         """A progress bar on stderr (silent with -q)."""
@@ -111,6 +124,8 @@ def load_picture(cfg: JobConfig) -> Picture:
 
 def stage_decompose(run: Run, picture: Picture) -> Layers:
     """Decompose the picture into a primer and paint layers, and save them."""
+    from dataclasses import replace
+
     from . import decompose as dec
     from .exchange.layers_npz import layers_from_npz, layers_to_npz
     from .simulate.previews import swatch
@@ -124,14 +139,19 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
                 bar.set_postfix(energy=f"{energy:.4g}", refresh=False)
 
             try:
-                layers = dec.decompose(
-                    picture, run.cfg.decompose, run.rng_for("decompose"), progress=progress
-                )
+                tiles = _decompose_tiles(run, picture)
+                if tiles is None:
+                    layers = dec.decompose(
+                        picture, run.cfg.decompose, run.rng_for("decompose"), progress=progress
+                    )
+                else:
+                    layers = _decompose_tiled(run, picture, tiles, progress)
             except ValueError as exc:
                 # A config that does not suit this image (e.g. opacity_source: alpha on RGB).
                 raise UserError(str(exc)) from exc
         out = run.out
-        saved = layers_to_npz(layers)
+        # Timings go to the manifest only, so the same job writes the same bytes.
+        saved = layers_to_npz(replace(layers, info={k: v for k, v in layers.info.items() if k != "seconds"}))
         out.write_npz(LAYERS_NPZ, saved)
         # Go on with exactly what was saved (float32 opacities), so a stage command run later
         # on layers.npz gives the same dots as this run.
@@ -151,6 +171,67 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
         **{k: v for k, v in info.items() if isinstance(v, (int, float, str, list))},
     }
     return layers
+
+
+def _decompose_tiles(run: Run, picture: Picture):
+    """The decomposition's tiles for a big picture (None: solved whole), checked against the memory per task."""
+    from . import compute
+    from .decompose import tiled
+
+    cfg = run.cfg
+    if not tiled.applies(picture, cfg.decompose):
+        return None
+    n = cfg.decompose.layers
+    tiles = tiled.plan(picture.shape, n, cfg.compute.memory_per_task_bytes)
+    if tiles is None:
+        return None
+    side = tiles.tile_px + 2 * tiles.halo_px
+    compute.check_fits(
+        f"a decomposition tile of {side} x {side} px with {n} layers",
+        tiled.tile_bytes(tiles.tile_px, n),
+        cfg.compute,
+    )
+    ch, cw = tiles.coarse_shape
+    compute.check_fits(
+        f"the colour solve on {ch} x {cw} px with {n} layers", tiled.whole_bytes((ch, cw), n), cfg.compute
+    )
+    return tiles
+
+
+def _decompose_tiled(run: Run, picture: Picture, tiles, progress) -> Layers:
+    """Colours on a small copy of the picture, then the opacities tile by tile as tasks."""
+    from . import decompose as dec
+    from .decompose import tiled
+
+    cfg = run.cfg.decompose
+    coarse = dec.decompose(
+        tiled.coarse_picture(picture, tiles), cfg, run.rng_for("decompose"), progress=progress
+    )
+    results = run.tasks.map(
+        tiled.solve_tile, tiled.tasks(picture, coarse, tiles, cfg), "decompose tiles", count=tiles.count
+    )
+    return tiled.assemble(coarse, tiles, results, picture.mm_per_px)
+
+
+@contextlib.contextmanager
+def computing(run: Run, picture_px: int, where: ComputeConfig | None = None) -> Iterator[None]:
+    """Open the job's executor (this process, or a Dask cluster: see :mod:`stencil_cad.compute`).
+
+    Args:
+        run: The command's state.
+        picture_px: Pixels of the working picture (small jobs stay in this process).
+        where: The ``compute`` section with the command line applied; defaults to the config's.
+    """
+    from . import compute
+
+    with compute.executor(where or run.cfg.compute, picture_px, run.quiet) as ex:
+        run.executor = ex
+        run.figures["compute"] = ex.plan.summary()
+        try:
+            yield
+        finally:
+            run.figures["compute"]["tasks"] = ex.tasks
+            run.executor = None
 
 
 def read_layers(folder: Path) -> Layers:
@@ -314,7 +395,11 @@ def stage_build(run: Run, layers: Layers, holes: list, picture_mm: tuple[float, 
                 if exp.dxf:
                     with run.out.open_path(f"{stem}.dxf") as p:
                         info = dxf.write_dxf_stencils(
-                            p, [dxf.stencil_for(h, ring, stem.upper())], kerf_mm=exp.dxf_kerf_mm
+                            p,
+                            [dxf.stencil_for(h, ring, stem.upper())],
+                            kerf_mm=exp.dxf_kerf_mm,
+                            # Fixed dates and GUIDs: the same job writes the same bytes, wherever it ran.
+                            deterministic=True,
                         )
                     # Laser software wants +X/+Y: the drawing is shifted by this much from the picture frame.
                     dxf_info = {"dxf_offset_mm": [round(float(v), 4) for v in info.offset_mm]}
@@ -576,6 +661,7 @@ def run_command(
     src: Path | None = None,
     force: bool = False,
     quiet: bool = False,
+    where: ComputeConfig | None = None,
 ) -> tuple[Run, list[Path]]:
     """Run one command of the command line: ``run``, ``hard``, ``decompose`` or a stage command.
 
@@ -589,6 +675,8 @@ def run_command(
         src: Folder whose intermediates a stage command reads. Defaults to ``out_path``.
         force: Replace a non-empty output folder.
         quiet: No progress bars.
+        where: Where the tasks run: the ``compute`` section with ``--workers`` /
+            ``--scheduler`` applied. Defaults to the config's.
 
     Returns:
         ``(run, files)``: the run's state (figures, timings) and the files written.
@@ -610,12 +698,14 @@ def run_command(
     run.times["load"] = round(load_s, 3)
     t0 = time.perf_counter() - load_s
     try:
-        if command in ("run", "hard"):
-            files = run_all(run, picture)
-        elif command == "decompose":
-            save_config(run)
-            stage_decompose(run, picture)
-            files = finish(run, "decompose")
+        if command in ("run", "hard", "decompose"):
+            with computing(run, picture.shape[0] * picture.shape[1], where):
+                if command == "decompose":
+                    save_config(run)
+                    stage_decompose(run, picture)
+                    files = finish(run, "decompose")
+                else:
+                    files = run_all(run, picture)
         else:
             files = _run_stage_command(run, command, src, picture)
     except BaseException:

@@ -13,12 +13,14 @@ from pydantic import Field, model_validator
 
 from .base import StrictModel
 from .cad import ExportConfig, PlateConfig, WallConfig
+from .compute import ComputeConfig
 from .decompose import DecomposeConfig
 from .hard import HardConfig
 from .spray import SprayConfig
 from .stipple import StippleConfig
 
 __all__ = [
+    "ComputeConfig",
     "DecomposeConfig",
     "ExportConfig",
     "HardConfig",
@@ -105,6 +107,10 @@ class JobConfig(StrictModel):
     spray: SprayConfig = Field(default_factory=SprayConfig, description="Spray simulation.")
     hard: HardConfig = Field(default_factory=HardConfig, description="Hard-stencil mode.")
     export: ExportConfig = Field(default_factory=ExportConfig, description="Output files.")
+    compute: ComputeConfig = Field(
+        default_factory=ComputeConfig,
+        description="Where the work runs: this process, a local Dask cluster or a remote one.",
+    )
 
     @model_validator(mode="after")
     def _cross_checks(self) -> JobConfig:

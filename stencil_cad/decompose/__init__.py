@@ -1,6 +1,6 @@
 """Soft layer decomposition: a primer plus L alpha-blended paint layers.
 
-:mod:`.decomposition` runs the stage, :mod:`.energy` holds the paper's energy and
+:mod:`.decomposition` runs the stage, :mod:`.tiled` splits big pictures into tiles, :mod:`.energy` holds the paper's energy and
 its compiled kernels, :mod:`.solver` the block-coordinate descent, :mod:`.palette`
 the K-means start and the luminance order.
 """

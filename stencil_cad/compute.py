@@ -1,0 +1,370 @@
+"""Where the tasks of a job run: in this process, or on a Dask cluster (local or remote).
+
+The only module that imports Dask. Stages never import it: they offer pure task functions
+over small inputs (a tile and its halo), and :mod:`stencil_cad.pipeline` hands those to
+:meth:`Executor.map`, which returns the results in task order whatever ran them. The
+result of a job therefore does not depend on where it ran: in this process, on a local
+cluster of any size or on a remote one, the same config gives byte-identical files.
+
+When a local cluster starts (see :func:`plan`):
+
+- ``compute.scheduler`` (or ``--scheduler``) set: connect to that scheduler;
+- ``compute.workers`` (or ``--workers``) 0: in this process; N >= 1: a local cluster of N
+  single-threaded worker processes;
+- ``compute.workers`` null (the default): one worker per core, but only when the working
+  picture has more than ``compute.dask_above_mpx`` megapixels. Smaller jobs run in this
+  process and pay no start-up cost (Dask's import and worker start take about 2 s here,
+  each worker then loads the compiled kernels again).
+
+Tasks are submitted a few per worker at a time and their results collected as they finish,
+so neither the workers nor this process ever hold every tile's inputs at once. One
+progress bar counts every task of the job.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from .config.compute import ComputeConfig
+from .errors import UserError
+
+log = logging.getLogger(__name__)
+
+# Memory a worker process needs before its first task (Python, numpy, numba and the
+# compiled kernels, Dask itself), in bytes; measured about 0.35 GB here, rounded up.
+WORKER_BASE_BYTES = int(0.6e9)
+
+# How long to wait for a remote scheduler to answer.
+CONNECT_TIMEOUT = "15s"
+
+# Tasks kept in flight per worker: one running, one queued so a worker never waits for
+# the next input, and no more, so inputs waiting on workers stay bounded.
+IN_FLIGHT_PER_WORKER = 2
+
+# Environment of local worker processes: each worker runs one task on one core, so the
+# compiled kernels and BLAS must not start a thread per core inside every worker too.
+_WORKER_ENV = {
+    "NUMBA_NUM_THREADS": "1",
+    "OMP_NUM_THREADS": "1",
+    "OPENBLAS_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+}
+
+
+def cores() -> int:
+    """Cores this process may use (the affinity mask where the OS has one)."""
+    try:
+        return max(len(os.sched_getaffinity(0)), 1)
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(os.cpu_count() or 1, 1)
+
+
+@dataclass(frozen=True)
+class Plan:
+    """Where a job runs.
+
+    Attributes:
+        kind: ``"in_process"``, ``"local"`` (a local cluster) or ``"remote"``.
+        workers: Worker processes of a local cluster (0 otherwise).
+        address: Scheduler address of a remote cluster, or None.
+        reason: Why, in words, for the log and the manifest.
+    """
+
+    kind: str
+    workers: int = 0
+    address: str | None = None
+    reason: str = ""
+
+    def summary(self) -> dict:
+        """For the manifest."""
+        return {"kind": self.kind, "workers": self.workers, "address": self.address, "reason": self.reason}
+
+
+def plan(cfg: ComputeConfig, picture_px: int) -> Plan:
+    """Decide where a job runs, before any work.
+
+    Args:
+        cfg: The ``compute`` section.
+        picture_px: Pixels of the working picture (H x W).
+
+    Returns:
+        The plan; nothing is started yet.
+    """
+    if cfg.scheduler is not None:
+        return Plan("remote", address=cfg.scheduler, reason="compute.scheduler is set")
+    if cfg.workers == 0:
+        return Plan("in_process", reason="compute.workers is 0")
+    if cfg.workers is not None:
+        return Plan("local", workers=int(cfg.workers), reason=f"compute.workers is {cfg.workers}")
+    mpx = picture_px / 1e6
+    if mpx <= cfg.dask_above_mpx:
+        return Plan(
+            "in_process",
+            reason=f"the picture has {mpx:.3g} MP, not more than compute.dask_above_mpx {cfg.dask_above_mpx:g}",
+        )
+    n = cores()
+    return Plan(
+        "local",
+        workers=n,
+        reason=f"the picture has {mpx:.3g} MP, more than compute.dask_above_mpx {cfg.dask_above_mpx:g}",
+    )
+
+
+class TaskMemoryError(UserError):
+    """A task cannot fit ``compute.memory_per_task``."""
+
+
+def check_fits(what: str, need_bytes: float, cfg: ComputeConfig) -> None:
+    """Stop before any work when one task needs more than ``compute.memory_per_task``.
+
+    Args:
+        what: The task, in words ("a decomposition tile of 320 x 320 px, 4 layers").
+        need_bytes: Its estimated peak in bytes.
+        cfg: The ``compute`` section.
+
+    Raises:
+        TaskMemoryError: Naming the task, what it needs and the setting to change.
+    """
+    if need_bytes > cfg.memory_per_task_bytes:
+        raise TaskMemoryError(
+            f"compute.memory_per_task: {what} needs about {need_bytes / 1e9:.2f} GB, more than the "
+            f"{cfg.memory_per_task:g} GB allowed; raise compute.memory_per_task to at least "
+            f"{_round_up_gb(need_bytes)} GB (or make the picture smaller)"
+        )
+
+
+def _round_up_gb(n_bytes: float) -> str:
+    import math
+
+    return f"{math.ceil(n_bytes / 1e8) / 10:g}"
+
+
+class Executor:
+    """Runs task functions in this process; :class:`DaskExecutor` runs them on a cluster.
+
+    Args:
+        plan: Where the job runs.
+        quiet: No progress bar.
+    """
+
+    def __init__(self, plan: Plan, quiet: bool = False):
+        self.plan = plan
+        self.quiet = quiet
+        self._bar = None
+        self.tasks = 0
+
+    @property
+    def workers(self) -> int:
+        """Processes running tasks (1 for this process)."""
+        return 1
+
+    def _progress(self, n: int, desc: str):
+        """The job's one progress bar, grown by ``n`` tasks."""
+        if self._bar is None:
+            from tqdm.auto import tqdm
+
+            # disable=None: no bar when stderr is not a terminal (logs, CI).
+            self._bar = tqdm(
+                total=0, desc="tasks", disable=True if self.quiet else None, leave=False, unit="task"
+            )
+        self._bar.total += n
+        self._bar.set_description(desc, refresh=False)
+        self._bar.refresh()
+        self.tasks += n
+        return self._bar
+
+    def map(
+        self, fn: Callable[[Any], Any], items: Iterable[Any], desc: str, count: int | None = None
+    ) -> Iterator:
+        """Apply ``fn`` to every item; yield the results in item order.
+
+        Args:
+            fn: A module-level function (a cluster imports it by name).
+            items: Its arguments, one per task; consumed lazily.
+            desc: What the tasks do, for the progress bar.
+            count: Number of items, when ``items`` has no length.
+
+        Yields:
+            ``fn(item)`` for each item, in order.
+        """
+        items = list(items) if count is None and not isinstance(items, Sequence) else items
+        bar = self._progress(count if count is not None else len(items), desc)  # type: ignore[arg-type]
+        for item in items:
+            result = fn(item)
+            bar.update(1)
+            yield result
+
+    def close(self) -> None:
+        """Stop the progress bar (and the cluster)."""
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+
+class DaskExecutor(Executor):
+    """Runs task functions on a Dask cluster: a local one it started, or a remote one.
+
+    Args:
+        plan: ``kind`` ``"local"`` or ``"remote"``.
+        cfg: The ``compute`` section (memory per task).
+        quiet: No progress bar.
+
+    Raises:
+        UserError: The scheduler cannot be reached, or its workers have less memory than
+            ``compute.memory_per_task``.
+    """
+
+    def __init__(self, plan: Plan, cfg: ComputeConfig, quiet: bool = False):
+        super().__init__(plan, quiet)
+        from distributed import Client, LocalCluster
+
+        self._cluster = None
+        self._maps = 0
+        _quiet_dask_logs()
+        if plan.kind == "local":
+            # No dashboard (no port to bind), worker chatter only on real trouble.
+            self._cluster = LocalCluster(
+                n_workers=plan.workers,
+                threads_per_worker=1,
+                processes=True,
+                memory_limit=cfg.memory_per_task_bytes + WORKER_BASE_BYTES,
+                scheduler_kwargs={"dashboard": False},
+                host="127.0.0.1",
+                silence_logs=logging.ERROR,
+                env=dict(_WORKER_ENV),
+            )
+            self.client = Client(self._cluster, set_as_default=False)
+        else:
+            try:
+                self.client = Client(plan.address, timeout=CONNECT_TIMEOUT, set_as_default=False)
+            except (OSError, TimeoutError) as exc:
+                raise UserError(
+                    f"compute.scheduler: cannot reach the Dask scheduler at {plan.address} ({exc}); start "
+                    "it with `dask scheduler` and workers with `dask worker ADDRESS`, or drop --scheduler"
+                ) from None
+            self._check_remote(cfg)
+
+    def _check_remote(self, cfg: ComputeConfig) -> None:
+        info = self.client.scheduler_info()
+        workers = info.get("workers", {})
+        if not workers:
+            self.client.close()
+            raise UserError(
+                f"compute.scheduler: the scheduler at {self.plan.address} has no workers; start some with "
+                f"`dask worker {self.plan.address}`"
+            )
+        limits = [w.get("memory_limit") or 0 for w in workers.values()]
+        small = [m for m in limits if 0 < m < cfg.memory_per_task_bytes]
+        if len(small) == len(limits):
+            self.client.close()
+            raise UserError(
+                f"compute.memory_per_task: {cfg.memory_per_task:g} GB per task, but the workers at "
+                f"{self.plan.address} are limited to {max(small) / 1e9:.2f} GB; lower "
+                "compute.memory_per_task or start workers with a larger --memory-limit"
+            )
+
+    @property
+    def workers(self) -> int:
+        """Worker processes of the cluster (at the time of asking)."""
+        return max(len(self.client.scheduler_info().get("workers", {})), 1)
+
+    def map(
+        self, fn: Callable[[Any], Any], items: Iterable[Any], desc: str, count: int | None = None
+    ) -> Iterator:
+        """Apply ``fn`` to every item on the cluster; yield the results in item order.
+
+        At most :data:`IN_FLIGHT_PER_WORKER` tasks per worker are in flight; results are
+        yielded in order as soon as every earlier one has arrived.
+        """
+        from distributed import as_completed
+
+        items = list(items) if count is None and not isinstance(items, Sequence) else items
+        total = count if count is not None else len(items)  # type: ignore[arg-type]
+        bar = self._progress(total, desc)
+        window = max(self.workers * IN_FLIGHT_PER_WORKER, 1)
+        self._maps += 1
+        tag = f"{desc.replace(' ', '_')}-{self._maps}"
+        source = iter(enumerate(items))
+        pending: dict = {}
+        done: dict[int, Any] = {}
+        next_out = 0
+        ac = as_completed(loop=self.client.loop)
+
+        def submit() -> bool:
+            try:
+                i, item = next(source)
+            except StopIteration:
+                return False
+            fut = self.client.submit(fn, item, pure=False, key=f"{tag}-{i}")
+            pending[fut] = i
+            ac.add(fut)
+            return True
+
+        for _ in range(window):
+            if not submit():
+                break
+        try:
+            for fut in ac:
+                i = pending.pop(fut)
+                done[i] = self._result(fut, desc)
+                fut.release()
+                bar.update(1)
+                submit()
+                while next_out in done:
+                    yield done.pop(next_out)
+                    next_out += 1
+        finally:
+            for fut in pending:
+                fut.cancel()
+
+    def _result(self, fut, desc: str) -> Any:
+        from distributed import KilledWorker
+
+        try:
+            return fut.result()
+        except KilledWorker:
+            raise UserError(
+                f"{desc}: a worker died running a task (most often it ran out of memory: each worker may use "
+                "compute.memory_per_task plus its start-up size); raise compute.memory_per_task or use fewer, "
+                "larger workers"
+            ) from None
+
+    def close(self) -> None:
+        """Stop the progress bar, the client and a cluster this executor started."""
+        super().close()
+        with contextlib.suppress(Exception):
+            self.client.close()
+        if self._cluster is not None:
+            with contextlib.suppress(Exception):
+                self._cluster.close()
+            self._cluster = None
+
+
+def _quiet_dask_logs() -> None:
+    """Dask's own INFO lines (cluster start, slow event loops) are noise to a user; -v keeps them."""
+    level = logging.DEBUG if logging.getLogger("stencil_cad").isEnabledFor(logging.DEBUG) else logging.ERROR
+    for name in ("distributed", "tornado"):
+        logging.getLogger(name).setLevel(level)
+
+
+@contextlib.contextmanager
+def executor(cfg: ComputeConfig, picture_px: int, quiet: bool = False) -> Iterator[Executor]:
+    """The executor for a job: in this process, or a cluster started (and stopped) here.
+
+    Args:
+        cfg: The ``compute`` section.
+        picture_px: Pixels of the working picture, for :func:`plan`.
+        quiet: No progress bar.
+    """
+    p = plan(cfg, picture_px)
+    log.info("compute: %s (%s)", p.kind, p.reason)
+    ex: Executor = Executor(p, quiet) if p.kind == "in_process" else DaskExecutor(p, cfg, quiet)
+    try:
+        yield ex
+    finally:
+        ex.close()

@@ -1,0 +1,106 @@
+import logging
+
+import numpy as np
+import pytest
+
+from stencil_cad import compute
+from stencil_cad.cli import main
+from stencil_cad.config import JobConfig
+from stencil_cad.config.compute import ComputeConfig, parse_memory, with_command_line
+from stencil_cad.config.io import parse_config
+from stencil_cad.errors import ConfigError, UserError
+
+
+def test_memory_sizes_parse():
+    assert parse_memory(2) == 2e9
+    assert parse_memory("1.5 GB") == 1.5e9
+    assert parse_memory("512MB") == 512e6
+    assert parse_memory("4 GiB") == 4 * 2**30
+    with pytest.raises(ValueError, match="size such as"):
+        parse_memory("lots")
+    cfg = parse_config({"compute": {"memory_per_task": "512 MB"}})
+    assert cfg.compute.memory_per_task == pytest.approx(0.512)
+    assert cfg.compute.memory_per_task_bytes == 512_000_000
+
+
+def test_bad_compute_values_name_the_key():
+    with pytest.raises(ConfigError, match=r"compute\.scheduler: .*tcp://HOST:8786"):
+        parse_config({"compute": {"scheduler": "localhost:8786"}})
+    with pytest.raises(ConfigError, match=r"compute\.memory_per_task"):
+        parse_config({"compute": {"memory_per_task": "much"}})
+    with pytest.raises(ConfigError, match=r"compute\.workers"):
+        parse_config({"compute": {"workers": -1}})
+    with pytest.raises(ConfigError, match=r"^--workers: "):
+        with_command_line(ComputeConfig(), -2, None)
+
+
+def test_small_jobs_stay_in_process_big_ones_start_a_cluster(monkeypatch):
+    monkeypatch.setattr(compute, "cores", lambda: 3)
+    cfg = JobConfig().compute
+    small = compute.plan(cfg, 2_000_000)
+    assert small.kind == "in_process" and "not more than" in small.reason
+    big = compute.plan(cfg, 10_000_000)
+    assert (big.kind, big.workers) == ("local", 3)
+    assert compute.plan(ComputeConfig(workers=0), 10**9).kind == "in_process"
+    assert compute.plan(ComputeConfig(workers=2), 10).workers == 2
+    remote = compute.plan(ComputeConfig(workers=2, scheduler="tcp://10.1.2.3:8786"), 10)
+    assert (remote.kind, remote.address) == ("remote", "tcp://10.1.2.3:8786")
+
+
+def test_a_task_that_cannot_fit_is_refused_with_its_need():
+    cfg = ComputeConfig(memory_per_task=0.1)
+    compute.check_fits("a tile", 0.09e9, cfg)
+    with pytest.raises(
+        compute.TaskMemoryError,
+        match=r"a tile needs about 0\.25 GB, more than the 0\.1 GB .* at least 0\.3 GB",
+    ):
+        compute.check_fits("a tile", 0.25e9, cfg)
+
+
+def test_memory_per_task_too_small_for_a_decomposition_tile_exits_2(tmp_path, capsys):
+    cfg = tmp_path / "job.yaml"
+    cfg.write_text("compute:\n  memory_per_task: 0.001\n")
+    image = tmp_path / "img.png"
+    from PIL import Image
+
+    rng = np.random.default_rng(0)
+    Image.fromarray((rng.random((400, 600, 3)) * 255).astype(np.uint8)).save(image)
+    out = tmp_path / "out"
+    code = main(["run", str(cfg), "--image", str(image), "--out", str(out), "-q", "--workers", "0"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert (
+        "compute.memory_per_task: a decomposition tile of" in err and "raise compute.memory_per_task" in err
+    )
+    assert not out.exists()
+
+
+def test_unreachable_scheduler_is_a_clear_error(monkeypatch):
+    monkeypatch.setattr(compute, "CONNECT_TIMEOUT", "1s")
+    with pytest.raises(
+        UserError, match=r"cannot reach the Dask scheduler at tcp://127\.0\.0\.1:9.*dask scheduler"
+    ):
+        with compute.executor(ComputeConfig(scheduler="tcp://127.0.0.1:9"), 10):
+            pass
+
+
+def _square(x):
+    return x * x
+
+
+def test_in_process_map_keeps_order_and_counts_tasks():
+    ex = compute.Executor(compute.Plan("in_process"), quiet=True)
+    assert list(ex.map(_square, range(5), "squares")) == [0, 1, 4, 9, 16]
+    assert list(ex.map(_square, iter(range(3)), "more", count=3)) == [0, 1, 4]
+    assert ex.tasks == 8
+    ex.close()
+
+
+@pytest.mark.slow
+def test_local_cluster_map_matches_in_process():
+    logging.getLogger("stencil_cad").setLevel(logging.WARNING)
+    with compute.executor(ComputeConfig(workers=2), 10, quiet=True) as ex:
+        assert isinstance(ex, compute.DaskExecutor) and ex.workers == 2
+        # More tasks than the in-flight window, so submission refills as results arrive.
+        assert list(ex.map(_square, range(23), "squares")) == [i * i for i in range(23)]
+        assert ex.tasks == 23
