@@ -170,6 +170,8 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
         "iterations": layers.iterations,
         **{k: v for k, v in info.items() if isinstance(v, (int, float, str, list))},
     }
+    if "tiled" in info:
+        run.figures["decompose"]["tiled"] = _plain(info["tiled"])
     return layers
 
 
@@ -230,7 +232,6 @@ def computing(run: Run, picture_px: int, where: ComputeConfig | None = None) -> 
         try:
             yield
         finally:
-            run.figures["compute"]["tasks"] = ex.tasks
             run.executor = None
 
 
@@ -466,6 +467,8 @@ def save_config(run: Run) -> None:
 
 def finish(run: Run, command: str) -> list[Path]:
     """Write the manifest and move every file into place."""
+    if run.executor is not None and "compute" in run.figures:
+        run.figures["compute"]["tasks"] = run.executor.tasks
     manifest = {
         "command": command,
         "stencil_cad": __version__,

@@ -69,6 +69,14 @@ def summary(run, files: list[Path], out_path: Path) -> str:
             f"  spray     ΔE2000 mean {_fmt(sim.get('de2000_mean'))}, p95 {_fmt(sim.get('de2000_p95'))}, "
             f"PSNR {_fmt(sim.get('psnr'))} dB, SSIM {_fmt(sim.get('ssim'))}"
         )
+    where = f.get("compute")
+    if where and where.get("kind") != "in_process":
+        place = (
+            f"local cluster of {where['workers']} workers"
+            if where["kind"] == "local"
+            else f"cluster at {where['address']}"
+        )
+        lines.append(f"  compute   {place}, {where.get('tasks', 0)} tasks")
     times = ", ".join(f"{k} {v:.1f} s" for k, v in run.times.items())
     lines.append(f"  time      {times}")
     names = sorted(p.name for p in files)

@@ -104,3 +104,32 @@ def test_local_cluster_map_matches_in_process():
         # More tasks than the in-flight window, so submission refills as results arrive.
         assert list(ex.map(_square, range(23), "squares")) == [i * i for i in range(23)]
         assert ex.tasks == 23
+
+
+def _files(folder):
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir()) if p.name != "manifest.json"}
+
+
+@pytest.mark.slow
+def test_tiled_decomposition_on_two_workers_writes_the_in_process_bytes(tmp_path, monkeypatch):
+    """The bundled example's decomposition, forced into 128 px tiles, on a local cluster of two
+    workers and in this process: every file byte for byte the same."""
+    import json
+
+    from stencil_cad.decompose import tiled
+
+    monkeypatch.setattr(tiled, "WHOLE_MAX_PX", 0)
+    monkeypatch.setattr(tiled, "COARSE_PX", 128)
+    monkeypatch.setattr(tiled, "TILE_PX", 128)
+    outs = {}
+    for workers in ("0", "2"):
+        out = tmp_path / f"w{workers}"
+        assert main(["decompose", "--out", str(out), "-q", "--workers", workers]) == 0
+        outs[workers] = out
+    manifests = {w: json.loads((o / "manifest.json").read_text()) for w, o in outs.items()}
+    assert manifests["0"]["compute"]["kind"] == "in_process"
+    assert manifests["2"]["compute"] == {**manifests["2"]["compute"], "kind": "local", "workers": 2}
+    assert manifests["2"]["compute"]["tasks"] == manifests["2"]["decompose"]["tiled"]["tiles"] >= 6
+    assert _files(outs["0"]) == _files(outs["2"])
+    rows = {w: {r["name"]: r["sha256"] for r in m["files"]} for w, m in manifests.items()}
+    assert rows["0"] == rows["2"]
