@@ -21,6 +21,7 @@ import yaml
 from . import __version__
 from .colour import to_hex
 from .config import ComputeConfig, JobConfig, Mode
+from .config.spray import SprayModel
 from .errors import OutputError, UserError
 from .model import DotSet, Layers, Picture
 from .output import MANIFEST, OutputDir
@@ -278,7 +279,7 @@ def stage_stipple(run: Run, layers: Layers, picture_mm: tuple[float, float]) -> 
         with run.bar(layers.count, "stipple") as bar:
             for i, alpha in enumerate(layers.alphas):
                 density = None
-                spray_time = cfg.spray.spray_time
+                spray_time = cfg.spray.amount
                 if calibrated:
                     from .simulate import tone
 
@@ -300,6 +301,7 @@ def stage_stipple(run: Run, layers: Layers, picture_mm: tuple[float, float]) -> 
             SPRAY_JSON,
             {
                 "spray_times": [ds.report["spray_time"] for ds in sets],
+                "unit": cfg.spray.amount_unit,
                 "nozzle_height": cfg.spray.nozzle_height,
             },
         )
@@ -420,12 +422,29 @@ def stage_build(run: Run, layers: Layers, holes: list, picture_mm: tuple[float, 
     run.figures["build"] = {"plates": results, "walls": walls}
 
 
-def stage_simulate(run: Run, picture: Picture | None, layers: Layers, dotsets: list[DotSet]) -> dict:
-    """Spray every plate in simulation, composite, score against the input, save previews."""
-    from . import simulate
+def simulated_stems(cfg: JobConfig) -> list[str]:
+    """Extra simulated pictures, one per wall, when the physical model sees several stand-offs."""
+    heights = cfg.wall.heights()
+    if cfg.spray.model != SprayModel.physical or len(heights) == 1:
+        return []
+    return [f"simulated_{stem}.png" for stem in wall_stems(heights)]
 
+
+def stage_simulate(run: Run, picture: Picture | None, layers: Layers, dotsets: list[DotSet]) -> dict:
+    """Spray every plate in simulation, composite, score against the input, save previews.
+
+    Under the physical model every wall height gets its own simulation and score
+    (``simulated_wall_10mm.png`` …); the main pictures and scores are those of the design
+    stand-off (``wall.standoff_mm[0]``), which the tone calibration designed the dots for.
+    """
+    from . import simulate
+    from .simulate.physical import SprayGeometry
+
+    cfg = run.cfg
+    physical = cfg.spray.model == SprayModel.physical
+    design = SprayGeometry.of_job(cfg) if physical else None
     with run.stage("simulate"):
-        sim = simulate.simulate(layers, dotsets, run.cfg.spray)
+        sim = simulate.simulate(layers, dotsets, cfg.spray, geometry=design)
         reference = picture.rgb if picture is not None else layers.composite()
         ref = _resample(reference, sim.composite.shape[:2])
         scores = simulate.score(ref, sim.composite)
@@ -434,13 +453,75 @@ def stage_simulate(run: Run, picture: Picture | None, layers: Layers, dotsets: l
             "preview.png",
             simulate.preview(ref, _resample(layers.composite(), sim.composite.shape[:2]), sim.composite),
         )
-        run.out.write_png("sweep.png", simulate.sweep(layers, dotsets, run.cfg.spray))
+        run.out.write_png("sweep.png", simulate.sweep(layers, dotsets, cfg.spray, geometry=design))
+        per_wall = []
+        stems = simulated_stems(cfg)
+        for h, name in zip(cfg.wall.heights() if stems else [], stems, strict=True):
+            if h == design.standoff_mm:
+                other, other_scores = sim, scores
+            else:
+                other = simulate.simulate(layers, dotsets, cfg.spray, geometry=SprayGeometry.of_job(cfg, h))
+                other_scores = simulate.score(ref, other.composite)
+            run.out.write_png(name, other.composite)
+            per_wall.append(
+                {
+                    "standoff_mm": h,
+                    "file": name,
+                    "blur_sigma_mm": other.info["blur_sigma_mm"],
+                    **_plain(other_scores),
+                }
+            )
     run.figures["simulate"] = {
         **_plain(scores),
         "layer_rmse": [float(x) for x in sim.layer_rmse],
         **{k: v for k, v in _plain(sim.info).items() if k not in scores},
     }
+    if per_wall:
+        run.figures["simulate"]["walls"] = per_wall
+    run.figures["spraying"] = spraying_steps(cfg, layers, dotsets)
     return scores
+
+
+def spraying_steps(cfg: JobConfig, layers: Layers, dotsets: list[DotSet]) -> list[dict]:
+    """What the hand does for each layer, in the maker's units (physical model) or the model's.
+
+    Args:
+        cfg: The job config.
+        layers: The decomposition (for the paint colours).
+        dotsets: The layers' holes (their ``report["spray_time"]`` is the layer's amount).
+
+    Returns:
+        One dict per layer: ``layer``, ``paint``, and ``passes``, ``can_distance_mm``,
+        ``pass_speed_m_s`` (physical) or ``spray_time`` (paper), and ``text``.
+    """
+    sp = cfg.spray
+    out = []
+    for i, ds in enumerate(dotsets):
+        amount = float(ds.report.get("spray_time", sp.amount))
+        paint = to_hex(layers.colours[i])
+        if sp.model == SprayModel.physical:
+            n = round(amount, 2)
+            text = (
+                f"spray layer {i + 1} ({paint}) from {sp.can_distance_mm:g} mm, {n:g} "
+                f"pass{'' if n == 1 else 'es'} at about {sp.pass_speed_m_s:g} m/s"
+            )
+            out.append(
+                {
+                    "layer": i + 1,
+                    "paint": paint,
+                    "passes": n,
+                    "can_distance_mm": sp.can_distance_mm,
+                    "pass_speed_m_s": sp.pass_speed_m_s,
+                    "text": text,
+                }
+            )
+        else:
+            text = (
+                f"spray layer {i + 1} ({paint}) for spray time {amount:.3g} (paper model units; "
+                "spray.model: physical gives passes and distances)"
+            )
+            out.append({"layer": i + 1, "paint": paint, "spray_time": round(amount, 4), "text": text})
+    return out
 
 
 def _resample(img: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
@@ -577,7 +658,10 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
     )
     stage_build(run, layers, hard.cut_layers, size)
     with run.stage("simulate"):
-        _, comp = hardstencil.simulate_hard(hard, cfg.spray)
+        from .simulate.physical import SprayGeometry
+
+        geometry = SprayGeometry.of_job(cfg) if cfg.spray.model == SprayModel.physical else None
+        _, comp = hardstencil.simulate_hard(hard, cfg.spray, geometry=geometry)
         scores = simulate.score(picture.rgb, comp)
         run.out.write_png("simulated.png", comp)
         run.out.write_png("preview.png", simulate.preview(picture.rgb, hardstencil.render_ideal(hard), comp))
@@ -603,7 +687,7 @@ def stage_outputs(cfg: JobConfig, command: str, count: int) -> list[str]:
         names = [layer_stem(i) + e for i in range(count) for e in exts]
         return names + [s + e for s in wall_stems(cfg.wall.standoff_mm) for e in (".step", ".stl")]
     if command == "simulate":
-        return ["simulated.png", "preview.png", "sweep.png"]
+        return ["simulated.png", "preview.png", "sweep.png", *simulated_stems(cfg)]
     return []
 
 

@@ -38,7 +38,11 @@ def summary(run, files: list[Path], out_path: Path) -> str:
         lines.append(
             f"  layer {row['layer']:02d}  {row['dots']:6d} holes  smallest web {_fmt(row.get('min_web_mm'))} mm"
             f"  removed {row.get('removed', 0)}  merged {row.get('merged', 0)}  nudged {row.get('nudged', 0)}"
-            + (f"  spray time {_fmt(row['spray_time'])}" if row.get("spray_time") is not None else "")
+            + (
+                f"  {run.cfg.spray.amount_unit} {_fmt(row['spray_time'])}"
+                if row.get("spray_time") is not None
+                else ""
+            )
         )
     hard = f.get("hard")
     if hard:
@@ -77,6 +81,13 @@ def summary(run, files: list[Path], out_path: Path) -> str:
             else f"cluster at {where['address']}"
         )
         lines.append(f"  compute   {place}, {where.get('tasks', 0)} tasks")
+    for w in (sim or {}).get("walls", []):
+        lines.append(
+            f"  wall {w['standoff_mm']:g} mm  ΔE2000 mean {_fmt(w.get('de2000_mean'))}, "
+            f"PSNR {_fmt(w.get('psnr'))} dB, SSIM {_fmt(w.get('ssim'))}  ({w['file']})"
+        )
+    for step in f.get("spraying", []):
+        lines.append(f"  {step['text']}")
     times = ", ".join(f"{k} {v:.1f} s" for k, v in run.times.items())
     lines.append(f"  time      {times}")
     names = sorted(p.name for p in files)

@@ -116,12 +116,76 @@ def load_config(path: Path | str):
     if cfg.plate.template is not None and not cfg.plate.template.is_absolute():
         plate = cfg.plate.model_copy(update={"template": path.parent / cfg.plate.template})
         cfg = cfg.model_copy(update={"plate": plate})
+    if cfg.spray.profile is not None:
+        cfg = with_profile(cfg, path.parent, raw_can=(data.get("spray") or {}).get("can"), source=str(path))
     if cfg.plate.template is not None and not cfg.plate.template.is_file():
         raise ConfigError(
             f"{path}: plate.template: file not found: {cfg.plate.template} (copy templates/plate.py there, "
             "or remove the key to use the built-in template)"
         )
     return cfg
+
+
+def load_profile(path: Path | str):
+    """Read a spray profile (the file `stencil-cad calibrate` writes) into :class:`CanConstants`.
+
+    Raises:
+        ConfigError: Missing or unreadable file, or invalid content (with the key's path).
+    """
+    from .spray import CanConstants
+
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(
+            f"spray profile not found: {path} (write one with `stencil-cad calibrate PHOTO --card card.json`)"
+        )
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, yaml.YAMLError) as exc:
+        raise ConfigError(f"{path}: not a readable spray profile ({type(exc).__name__})") from None
+    if not isinstance(data, dict):
+        raise ConfigError(
+            f"{path}: a spray profile is a mapping of keys to values (see `stencil-cad calibrate`)"
+        )
+    try:
+        return CanConstants.model_validate(data)
+    except ValidationError as exc:
+        raise ConfigError(format_validation_error(exc, str(path))) from None
+
+
+def with_profile(cfg, folder: Path, raw_can: Any = None, source: str = "config"):
+    """Resolve ``spray.profile`` (relative to ``folder``) and put its constants into ``spray.can``.
+
+    Args:
+        cfg: The validated job config.
+        folder: Folder a relative profile path is taken from (the config file's).
+        raw_can: The ``spray.can`` mapping as written in the file, if any: it must not
+            contradict the profile.
+        source: Name of the config, for messages.
+
+    Returns:
+        The config with ``spray.profile`` absolute and ``spray.can`` from the file.
+
+    Raises:
+        ConfigError: The profile cannot be read, or ``spray.can`` says something else.
+    """
+    prof = cfg.spray.profile
+    if not prof.is_absolute():
+        prof = folder / prof
+    can = load_profile(prof)
+    if raw_can is not None:
+        from .spray import CanConstants
+
+        try:
+            written = CanConstants.model_validate(raw_can)
+        except ValidationError:
+            written = None
+        if written != can:
+            raise ConfigError(
+                f"{source}: spray.can and spray.profile both set and they differ: remove spray.can "
+                "(the profile's constants are used) or remove spray.profile"
+            )
+    return cfg.model_copy(update={"spray": cfg.spray.model_copy(update={"profile": prof, "can": can})})
 
 
 def _yaml_scalar(value: Any) -> str:

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import enum
+from pathlib import Path
+from typing import Any
 
 from pydantic import Field, field_validator
 
@@ -17,21 +19,154 @@ class Calibrate(str, enum.Enum):
     spray_time = "spray_time"
 
 
+class SprayModel(str, enum.Enum):
+    """Which spray model the simulator and the tone calibration use."""
+
+    paper = "paper"
+    physical = "physical"
+
+
+class CanConstants(StrictModel):
+    """What one can, cap and paint do under a stencil: the constants the calibration card measures.
+
+    A spray profile file (``stencil-cad calibrate`` writes one) holds exactly these keys.
+    """
+
+    spread_k: float = Field(
+        0.12,
+        ge=0.0,
+        le=1.0,
+        description=(
+            "Angular spread of the spray, tan of its sigma: a plate held g mm off the surface blurs every "
+            "hole by a Gaussian of sigma = spread_k * g mm (whatever the hole's size). Caps run from about "
+            "0.05 (skinny) to 0.2 (fat). Range [0, 1]."
+        ),
+    )
+    bleed_sigma_mm: float = Field(
+        0.25,
+        ge=0.01,
+        le=10.0,
+        description=(
+            "Spread in mm that the paint has even with no gap (wetting, bleeding under the plate, droplet "
+            "size): sigma^2 = bleed_sigma_mm^2 + (spread_k * g)^2. Range [0.01, 10]."
+        ),
+    )
+    deposit_per_pass: float = Field(
+        0.7,
+        gt=0.0,
+        le=20.0,
+        description=(
+            "Optical depth one pass leaves on open surface at distance_mm and speed_m_s: after n passes an "
+            "open area has opacity 1 - exp(-n * deposit_per_pass) (0.7: 50 % after one pass, 75 % after two). "
+            "Range (0, 20]."
+        ),
+    )
+    distance_mm: float = Field(
+        200.0,
+        ge=20.0,
+        le=2000.0,
+        description=(
+            "Can distance from the plate in mm at which deposit_per_pass was measured. The deposit of a "
+            "sweeping fan falls as 1 / distance. Range [20, 2000]."
+        ),
+    )
+    speed_m_s: float = Field(
+        0.5,
+        ge=0.02,
+        le=10.0,
+        description=(
+            "Sweep speed in m/s at which deposit_per_pass was measured; the deposit falls as 1 / speed. "
+            "Range [0.02, 10]."
+        ),
+    )
+    standoff_mm: float | None = Field(
+        None,
+        ge=0.0,
+        le=300.0,
+        description=(
+            "Stand-off in mm of the card the constants were measured with (a record; the model carries "
+            "them to other stand-offs). null: not measured (the defaults are priors from the literature)."
+        ),
+    )
+    paint: str = Field(
+        "unmeasured",
+        max_length=200,
+        description="Can, cap and paint these constants describe (free text, a record).",
+    )
+    fit: dict[str, Any] = Field(
+        default_factory=dict,
+        description="Figures of the photo fit that measured these constants (residual, photo, date): a record.",
+    )
+
+
 class SprayConfig(StrictModel):
     """Settings of the spray simulation and of the tone calibration.
 
-    The spray model is the paper's: a hole of radius r at p_i leaves the
+    Two models (``model``). The paper's: a hole of radius r at p_i leaves the
     Gaussian N_i(p) = A exp(-|p - p_i|^2 / (2 sigma_i^2)) with
     sigma_i^2 = r^2 (1 + h) / 4, and the layer's opacity is
-    I = 1 - prod_i (1 - min(N_i, 1)).
+    I = 1 - prod_i (1 - min(N_i, 1)). The physical one works in what the maker
+    controls (stand-off, can distance, passes; see
+    :mod:`stencil_cad.simulate.physical`): dose E = n d sum_i T_i (disc(r_i) * G_sigma)(x - c_i),
+    sigma^2 = sigma_0^2 + (k g)^2, opacity 1 - exp(-E).
     """
+
+    model: SprayModel = Field(
+        SprayModel.paper,
+        description=(
+            "Spray model. Choices: paper (Vavilala 2015: each hole a Gaussian of sigma = r sqrt(1 + h) / 2, "
+            "amount spray_time, in model units; the wall's stand-off is not modelled), physical (the maker's "
+            "units: every wall.standoff_mm gets its own blur, the can's distance and passes set the dose, "
+            "the constants come from spray.can or a measured spray.profile)."
+        ),
+    )
+    passes: float = Field(
+        2.0,
+        gt=0.0,
+        le=50.0,
+        description=(
+            "Physical model: passes of the can over the stencil per layer, sweeping at can_distance_mm and "
+            "pass_speed_m_s. The tone calibration (spray.calibrate: spray_time) chooses whole passes per "
+            "layer, starting here. Range (0, 50]."
+        ),
+    )
+    can_distance_mm: float = Field(
+        200.0,
+        ge=50.0,
+        le=1000.0,
+        description=(
+            "Physical model: distance in mm from the can's nozzle to the plate while spraying (cans are held "
+            "150-400 mm away). Range [50, 1000]."
+        ),
+    )
+    pass_speed_m_s: float = Field(
+        0.5,
+        ge=0.05,
+        le=5.0,
+        description="Physical model: sweep speed of the can in m/s during a pass. Range [0.05, 5].",
+    )
+    can: CanConstants = Field(
+        default_factory=CanConstants,
+        description=(
+            "Physical model: the can's constants (spread, bleed, deposit per pass). Replaced by the file's "
+            "values when spray.profile is set."
+        ),
+    )
+    profile: Path | None = Field(
+        None,
+        description=(
+            "Physical model: a spray profile YAML written by `stencil-cad calibrate` from a photo of the "
+            "sprayed calibration card (`stencil-cad card`); its constants replace spray.can. A relative path "
+            "is taken from the config file's folder. null: use spray.can."
+        ),
+    )
 
     spray_time: float = Field(
         1.0,
         gt=0.0,
         le=100.0,
         description=(
-            "Spray time A: the peak paint density one hole deposits (dimensionless; 1 = a hole's centre just "
+            "Paper model: spray time A, the peak paint density one hole deposits (dimensionless; 1 = a hole's centre just "
             "reaches full cover). Range (0, 100]. The tone calibration may choose it per layer "
             "(spray.calibrate: spray_time); this is then the starting value."
         ),
@@ -41,7 +176,7 @@ class SprayConfig(StrictModel):
         ge=0.0,
         le=1000.0,
         description=(
-            "Nozzle height h of the paper, dimensionless: the extra spread of the paint as a multiple of the "
+            "Paper model: nozzle height h, dimensionless: the extra spread of the paint as a multiple of the "
             "hole's own spread. A hole of radius r sprays a Gaussian dot of sigma = r * sqrt(1 + h) / 2 "
             "(r^2 / 4 is the variance of a uniform disc, so h = 0 puts the paint exactly under the hole and "
             "the dot's variance grows linearly with h, i.e. with the nozzle's distance). To fit it to a real "
@@ -96,6 +231,16 @@ class SprayConfig(StrictModel):
             "dot model's sigma that comes from the nozzle. Range (0, 20]."
         ),
     )
+
+    @property
+    def amount(self) -> float:
+        """The base amount of paint per layer in the model's unit: passes (physical) or spray time A (paper)."""
+        return self.passes if self.model is SprayModel.physical else self.spray_time
+
+    @property
+    def amount_unit(self) -> str:
+        """``passes`` or ``spray time``."""
+        return "passes" if self.model is SprayModel.physical else "spray time"
 
     @field_validator("sweep_factors")
     @classmethod

@@ -240,19 +240,20 @@ def render_ideal(result: HardResult) -> np.ndarray:
     return result.palette[result.painted]
 
 
-def simulate_hard(result: HardResult, spray_cfg) -> tuple[np.ndarray, np.ndarray]:
+def simulate_hard(result: HardResult, spray_cfg, *, geometry=None) -> tuple[np.ndarray, np.ndarray]:
     """Spray every cut layer with the simulator's spray model and composite.
 
     Args:
         result: The hard stencils.
         spray_cfg: A :class:`~stencil_cad.config.spray.SprayConfig`.
+        geometry: Stand-off and plate thickness (physical spray model only).
 
     Returns:
         ``(alphas, composite)``: ``(L, H, W)`` simulated opacities and the
         ``(H, W, 3)`` composite in [0, 1].
     """
-    alphas = np.stack([spray_mask(m, result.mm_per_px, spray_cfg) for m in result.cut_masks]).reshape(
-        result.count, *result.labels.shape
-    )
+    alphas = np.stack(
+        [spray_mask(m, result.mm_per_px, spray_cfg, geometry=geometry) for m in result.cut_masks]
+    ).reshape(result.count, *result.labels.shape)
     comp = np.clip(composite(result.primer, result.colours, alphas), 0.0, 1.0)
     return alphas, comp

@@ -1,6 +1,7 @@
 """Spray simulation: the spray model, the tone calibration, scores and previews.
 
 :mod:`.spray` is the spray model (opacity through the holes, the composite),
+:mod:`.physical` the physical model in the maker's units (stand-off, distance, passes),
 :mod:`.tone` calibrates the stippler's density against it, :mod:`.scores` compares
 the result with the input and :mod:`.previews` draws the preview images.
 """
@@ -10,6 +11,7 @@ from .scores import delta_e_map, score
 from .spray import (
     SimResult,
     dot_sigma_mm,
+    hole_kernels,
     layer_rmse,
     resample,
     sim_shape,
@@ -41,6 +43,7 @@ __all__ = [
     "delta_e_map",
     "dot_sigma_mm",
     "dots_preview",
+    "hole_kernels",
     "layer_rmse",
     "packing_density",
     "preview",

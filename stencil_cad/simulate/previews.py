@@ -90,6 +90,7 @@ def sweep(
     *,
     spray_times: list[float] | None = None,
     factors: tuple[float, ...] | None = None,
+    geometry=None,
 ) -> np.ndarray:
     """Spray-time sweep as in the paper's figure: the simulated spray at A x each factor.
 
@@ -100,6 +101,7 @@ def sweep(
         grid_mm_per_px: Simulation pixel size in mm. Defaults to ``1 / cfg.px_per_mm``.
         spray_times: Per-layer spray times before the factor. Defaults as in :func:`simulate`.
         factors: Spray-time multipliers. Defaults to ``cfg.sweep_factors`` (0.5, 1, 2).
+        geometry: Stand-off and plate thickness (physical model).
 
     Returns:
         ``(H, k W + 4 (k - 1), 3)`` uint8 image, one panel per factor, left to right.
@@ -107,7 +109,9 @@ def sweep(
     factors = tuple(cfg.sweep_factors if factors is None else factors)
     panels = []
     for f in factors:
-        res = simulate(layers, dotsets, cfg, grid_mm_per_px, spray_times=spray_times, time_factor=f)
+        res = simulate(
+            layers, dotsets, cfg, grid_mm_per_px, spray_times=spray_times, time_factor=f, geometry=geometry
+        )
         panels.append(_to_u8(res.composite))
     return _hstack(panels)
 

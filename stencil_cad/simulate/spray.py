@@ -24,6 +24,10 @@ Two evaluations of the same model are provided:
   shell of equidistant holes just beyond the cut can hold several times that,
   so ``tol = max_error / (8 max(1, n_eff))``.
 
+``spray.model: physical`` replaces this model by the one in :mod:`stencil_cad.simulate.physical`
+(stand-off, can distance, passes); every public function here dispatches on it, and takes the
+plate's ``geometry`` (stand-off, thickness) for it.
+
 The optical depth ``-ln(1 - I)`` used by the tone calibration is additive over
 holes; where a hole clamps (N >= 1) it is infinite, so the calibration works on
 mean opacities, never on summed depths, and needs no cap.
@@ -39,7 +43,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from ..config.spray import SprayConfig
+from ..config.spray import SprayConfig, SprayModel
 from ..frames import mm_to_px
 from ..model import DotSet, Layers, composite
 
@@ -48,6 +52,7 @@ log = logging.getLogger(__name__)
 __all__ = [
     "SimResult",
     "dot_sigma_mm",
+    "hole_kernels",
     "layer_rmse",
     "resample",
     "sim_shape",
@@ -180,12 +185,9 @@ def _effective_overlap(xy_px: np.ndarray, sigma_px: np.ndarray) -> float:
 
 
 def _prepare(xy_mm, r_mm, shape_hw, mm_per_px, spray_time, nozzle_height):
-    xy_mm = np.asarray(xy_mm, dtype=np.float64).reshape(-1, 2)
-    r_mm = np.broadcast_to(np.asarray(r_mm, dtype=np.float64), (xy_mm.shape[0],))
-    if np.any(r_mm <= 0.0) or not np.all(np.isfinite(r_mm)):
-        raise ValueError("every hole radius must be a finite value > 0 mm")
-    if not np.all(np.isfinite(xy_mm)):
-        raise ValueError("hole centres must be finite")
+    from .physical import holes_array
+
+    xy_mm, r_mm = holes_array(xy_mm, r_mm)
     if not mm_per_px > 0.0:
         raise ValueError(f"mm_per_px must be > 0, got {mm_per_px}")
     _check_params(spray_time, nozzle_height)
@@ -297,8 +299,12 @@ def spray_opacity(
     *,
     spray_time: float | None = None,
     crop: tuple[int, int, int, int] | None = None,
+    geometry=None,
 ) -> np.ndarray:
     """The opacity one stencil sprays: ``I = 1 - prod_i (1 - min(N_i, 1))``.
+
+    Under ``spray.model: physical`` the opacity is
+    :func:`stencil_cad.simulate.physical.physical_opacity`'s and ``spray_time`` counts passes.
 
     Args:
         xy_mm: ``(N, 2)`` hole centres in mm (picture frame, y up; see
@@ -313,14 +319,23 @@ def spray_opacity(
         spray_time: Overrides ``cfg.spray_time`` (used by sweeps and calibration).
         crop: ``(row0, row1, col0, col1)``: compute only this window of the
             raster (same values as the full computation, cropped).
+        geometry: :class:`~stencil_cad.simulate.physical.SprayGeometry` (stand-off and plate
+            thickness); needed by the physical model, ignored by the paper's.
 
     Returns:
         ``(H, W)`` (or the crop's shape) ndarray of float in [0, 1].
 
     Raises:
-        ValueError: A ≤ 0, h < 0, a radius ≤ 0 or a bad crop.
+        ValueError: A ≤ 0, h < 0, a radius ≤ 0, a bad crop, or no geometry for the
+            physical model.
     """
-    a = cfg.spray_time if spray_time is None else float(spray_time)
+    a = cfg.amount if spray_time is None else float(spray_time)
+    if cfg.model is SprayModel.physical:
+        from .physical import physical_opacity
+
+        return physical_opacity(
+            xy_mm, r_mm, shape_hw, mm_per_px, cfg, _need(geometry), a, exact=exact, crop=crop
+        )
     rc, sigma_px = _prepare(xy_mm, r_mm, shape_hw, mm_per_px, a, cfg.nozzle_height)
     bounds = _crop_bounds(shape_hw, crop)
     if exact:
@@ -338,6 +353,7 @@ def spray_mask(
     *,
     spray_time: float | None = None,
     reference_radius_mm: float | None = None,
+    geometry=None,
 ) -> np.ndarray:
     """Spray through a hard-stencil cut-out given as a raster of its open area.
 
@@ -362,13 +378,19 @@ def spray_mask(
         cfg: Spray settings.
         spray_time: Overrides ``cfg.spray_time``.
         reference_radius_mm: Overrides ``cfg.mask_reference_radius_mm``.
+        geometry: Stand-off and plate thickness (physical model only, where the
+            cut-out is blurred by the stand-off's sigma instead).
 
     Returns:
         ``(H, W)`` ndarray of float in [0, 1] on the mask's grid.
     """
     from scipy.ndimage import gaussian_filter
 
-    a = cfg.spray_time if spray_time is None else float(spray_time)
+    a = cfg.amount if spray_time is None else float(spray_time)
+    if cfg.model is SprayModel.physical:
+        from .physical import physical_mask_opacity
+
+        return physical_mask_opacity(mask, mm_per_px, cfg, _need(geometry), a)
     _check_params(a, cfg.nozzle_height)
     m = np.asarray(mask, dtype=np.float64)
     if m.ndim != 2:
@@ -457,9 +479,49 @@ def layer_rmse(target: np.ndarray, simulated: np.ndarray) -> float:
     return float(np.sqrt(np.mean((np.asarray(target) - np.asarray(simulated)) ** 2)))
 
 
-def _blur_mm_for(dots: DotSet, cfg: SprayConfig, fallback_r_mm: float) -> float:
+def _need(geometry):
+    if geometry is None:
+        raise ValueError("spray.model physical needs the plate's geometry (stand-off and thickness)")
+    return geometry
+
+
+def _blur_mm_for(dots: DotSet, cfg: SprayConfig, fallback_r_mm: float, geometry=None) -> float:
     r = float(np.median(dots.r_mm)) if len(dots) else fallback_r_mm
+    if cfg.model is SprayModel.physical:
+        sigma, *_ = hole_kernels(r, cfg, cfg.amount, geometry=_need(geometry))
+        return float(sigma)
     return float(dot_sigma_mm(r, cfg.nozzle_height))
+
+
+def hole_kernels(r_mm, spray_cfg: SprayConfig, layer_spray_time: float, *, geometry=None):
+    """Every hole's deposit as one Gaussian, for refinement: the per-hole contract of both models.
+
+    Hole ``i`` deposits ``N_i(p) = peak_i exp(-|p - c_i|^2 / (2 sigma_i^2))`` and the layer's
+    opacity combines them as ``combine`` says: ``"product"``, ``1 - prod_i (1 - min(N_i, 1))``
+    (the paper's model, ``peak = A``, ``sigma = r sqrt(1 + h) / 2``), or ``"exp"``,
+    ``1 - exp(-sum_i N_i)`` (the physical model, ``beta`` folded into ``peak``; a Gaussian of the
+    disc-blur's variance and integral, whose error is given in
+    :func:`stencil_cad.simulate.physical.physical_hole_kernels`).
+
+    Args:
+        r_mm: Hole radii in mm (array or scalar).
+        spray_cfg: Spray settings.
+        layer_spray_time: The layer's amount: spray time A (paper) or passes (physical).
+        geometry: Stand-off and plate thickness; needed by the physical model.
+
+    Returns:
+        ``(sigma_mm, peak, dsigma_dr, dpeak_dr, combine)``: arrays shaped like ``r_mm`` (mm,
+        dimensionless, mm per mm, per mm) and ``"product"`` or ``"exp"``.
+    """
+    r = np.asarray(r_mm, dtype=np.float64)
+    if spray_cfg.model is SprayModel.physical:
+        from .physical import physical_hole_kernels
+
+        sigma, peak, ds, dp = physical_hole_kernels(r, spray_cfg, float(layer_spray_time), _need(geometry))
+        return sigma, peak, ds, dp, "exp"
+    _check_params(float(layer_spray_time), spray_cfg.nozzle_height)
+    f = math.sqrt(1.0 + spray_cfg.nozzle_height) / 2.0
+    return r * f, np.full_like(r, float(layer_spray_time)), np.full_like(r, f), np.zeros_like(r), "product"
 
 
 def simulate(
@@ -470,6 +532,7 @@ def simulate(
     *,
     spray_times: list[float] | None = None,
     time_factor: float = 1.0,
+    geometry=None,
 ) -> SimResult:
     """Spray every layer's stencil, composite the colours and score each layer's tone.
 
@@ -488,6 +551,8 @@ def simulate(
             Defaults to each DotSet's ``report["spray_time"]`` when present (where the
             pipeline may record the calibration's choice), else ``cfg.spray_time``.
         time_factor: Multiplies every spray time (the sweep uses 0.5, 1, 2). Defaults to 1.
+        geometry: Stand-off and plate thickness (:class:`~stencil_cad.simulate.physical.SprayGeometry`);
+            needed by the physical model, whose spray times are passes.
 
     Returns:
         The :class:`SimResult`.
@@ -502,12 +567,15 @@ def simulate(
     if not g > 0:
         raise ValueError(f"grid_mm_per_px must be > 0, got {g}")
     if spray_times is None:
-        spray_times = [float(d.report.get("spray_time", cfg.spray_time)) for d in dotsets]
+        spray_times = [float(d.report.get("spray_time", cfg.amount)) for d in dotsets]
     if len(spray_times) != layers.count:
         raise ValueError(f"need one spray time per layer: {layers.count} layers, {len(spray_times)} times")
     shape = sim_shape(layers.alphas.shape[1:], layers.mm_per_px, g)
     r_min = min((float(d.r_mm.min()) for d in dotsets if len(d)), default=None)
-    if r_min is not None and dot_sigma_mm(r_min, cfg.nozzle_height) < 0.5 * g:
+    physical = cfg.model is SprayModel.physical
+    if physical:
+        _need(geometry)
+    elif r_min is not None and dot_sigma_mm(r_min, cfg.nozzle_height) < 0.5 * g:
         log.warning(
             "spray dots (sigma %.3f mm) are under half a simulation pixel (%.3f mm): raise spray.px_per_mm",
             float(dot_sigma_mm(r_min, cfg.nozzle_height)),
@@ -523,11 +591,11 @@ def simulate(
         a = float(spray_times[i]) * time_factor
         t0 = time.perf_counter()
         if len(dots):
-            alphas[i] = spray_opacity(dots.xy_mm, dots.r_mm, shape, g, cfg, spray_time=a)
-        else:
+            alphas[i] = spray_opacity(dots.xy_mm, dots.r_mm, shape, g, cfg, spray_time=a, geometry=geometry)
+        elif not physical:
             _check_params(a, cfg.nozzle_height)
         seconds.append(round(time.perf_counter() - t0, 4))
-        b = _blur_mm_for(dots, cfg, fallback_r)
+        b = _blur_mm_for(dots, cfg, fallback_r, geometry)
         target = target_on_grid(layers.alphas[i], shape, b, g)
         rmse.append(layer_rmse(target, alphas[i]))
         tone_rmse.append(layer_rmse(target, gaussian_filter(alphas[i], b / g, mode="nearest")))
@@ -536,7 +604,11 @@ def simulate(
     info = {
         "holes": [len(d) for d in dotsets],
         "spray_time": [float(t) * time_factor for t in spray_times],
-        "nozzle_height": cfg.nozzle_height,
+        **(
+            {"model": "physical", "standoff_mm": geometry.standoff_mm}
+            if physical
+            else {"nozzle_height": cfg.nozzle_height}
+        ),
         "blur_sigma_mm": blur,
         "layer_tone_rmse": [round(x, 5) for x in tone_rmse],
         "seconds": seconds,

@@ -25,7 +25,9 @@ spray_time`` the spray time A of each layer is chosen from a geometric grid
 (``spray_time x 2^(k/2)``, k = -6..6, i.e. 0.125x to 8x) to
 minimise the predicted layer MSE ``mean((m(t(alpha)) - alpha)^2 + v(t(alpha)))``
 over the layer's opacities: a low A needs more holes than the web allows in dark
-areas, a high A makes a coarse, clamped texture.
+areas, a high A makes a coarse, clamped texture. Under ``spray.model: physical`` the
+same measurement runs on the physical model at the job's design stand-off, and the free
+amount is whole passes of the can (1 to 12) instead of A.
 """
 
 from __future__ import annotations
@@ -37,8 +39,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config.spray import Calibrate, SprayConfig
-from .spray import dot_sigma_mm, spray_opacity
+from ..config.spray import Calibrate, SprayConfig, SprayModel
+from .spray import hole_kernels, spray_opacity
 
 log = logging.getLogger(__name__)
 
@@ -62,6 +64,8 @@ _CELLS = 10
 _JITTER = 0.08
 #: Spray-time multipliers tried by ``calibrate: spray_time``.
 _A_FACTORS = tuple(2.0 ** (k / 2.0) for k in range(-6, 7))
+#: Passes tried by ``calibrate: spray_time`` under the physical model (a hand sprays whole passes).
+_PASSES = tuple(float(n) for n in range(1, 13))
 
 
 def packing_density(max_radius_mm: float, web_mm: float, spacing_factor: float = 1.15) -> float:
@@ -132,6 +136,11 @@ def _hex_patch(spacing: float, width: float, margin: float, rng: np.random.Gener
     return xy + rng.normal(0.0, _JITTER * spacing, xy.shape)
 
 
+def _model_key(cfg: SprayConfig) -> str:
+    """What the spray response depends on, hashable (the records in ``can`` are left out)."""
+    return cfg.model_dump_json(exclude={"profile": True, "can": {"fit", "paint", "standoff_mm"}})
+
+
 @functools.lru_cache(maxsize=256)
 def _response(
     radius_mm: float,
@@ -139,10 +148,11 @@ def _response(
     web_mm: float,
     spacing_factor: float,
     spray_time: float,
-    nozzle_height: float,
-    max_error: float,
+    cfg_key: str,
+    geometry,
 ) -> ToneCurve:
-    cfg = SprayConfig(spray_time=spray_time, nozzle_height=nozzle_height, max_error=max_error)
+    cfg = SprayConfig.model_validate_json(cfg_key)
+    physical = cfg.model is SprayModel.physical
     rho_pack = packing_density(max_radius_mm, web_mm, spacing_factor)
     rng = np.random.default_rng(20150901)
     mean = np.zeros(_T_SAMPLES.size)
@@ -153,15 +163,16 @@ def _response(
         r = radius_mm + (max_radius_mm - radius_mm) * math.sqrt(t)
         lam = rho_pack * t * (max_radius_mm / r) ** 2
         spacing = math.sqrt(2.0 / (math.sqrt(3.0) * lam))
-        sigma = float(dot_sigma_mm(r, nozzle_height))
+        sigma = float(hole_kernels(r, cfg, spray_time, geometry=geometry)[0])
         width = _CELLS * spacing
         px = min(sigma / 2.0, spacing / 4.0)
         n_px = int(math.ceil(width / px))
         px = width / n_px
         # Holes beyond the patch edge up to the fast path's reach, so the patch has no border.
-        margin = sigma * math.sqrt(2.0 * math.log(max(spray_time, 1.0) * 1e6)) + spacing
+        reach = 5.0 if physical else math.sqrt(2.0 * math.log(max(spray_time, 1.0) * 1e6))
+        margin = sigma * reach + spacing
         xy = _hex_patch(spacing, width, margin, rng)
-        opacity = spray_opacity(xy, r, (n_px, n_px), px, cfg)
+        opacity = spray_opacity(xy, r, (n_px, n_px), px, cfg, spray_time=spray_time, geometry=geometry)
         mean[k] = float(opacity.mean())
         var[k] = float(opacity.var())
     mean = np.maximum.accumulate(mean)
@@ -176,6 +187,7 @@ def tone_response(
     spray_time: float | None = None,
     max_radius_mm: float | None = None,
     spacing_factor: float = 1.15,
+    geometry=None,
 ) -> ToneCurve:
     """Measure (once, then cached) the tone response of the stippler's pattern.
 
@@ -186,15 +198,16 @@ def tone_response(
         spray_time: Spray time A. Defaults to ``cfg.spray_time``.
         max_radius_mm: Largest hole radius r1 in mm. Defaults to ``radius_mm``.
         spacing_factor: ``stipple.auto_spacing_factor``. Defaults to 1.15.
+        geometry: Stand-off and plate thickness (physical model).
 
     Returns:
         The :class:`ToneCurve`.
     """
-    a = cfg.spray_time if spray_time is None else float(spray_time)
+    a = cfg.amount if spray_time is None else float(spray_time)
     r1 = radius_mm if max_radius_mm is None else float(max_radius_mm)
-    return _response(
-        float(radius_mm), r1, float(web_mm), float(spacing_factor), a, cfg.nozzle_height, cfg.max_error
-    )
+    if cfg.model is not SprayModel.physical:
+        geometry = None
+    return _response(float(radius_mm), r1, float(web_mm), float(spacing_factor), a, _model_key(cfg), geometry)
 
 
 def calibrated_density(
@@ -207,6 +220,7 @@ def calibrated_density(
     spray_time: float | None = None,
     max_radius_mm: float | None = None,
     spacing_factor: float = 1.15,
+    geometry=None,
 ) -> np.ndarray:
     """The stippling density that sprays ``alpha`` (the stippler's ``density=`` hook).
 
@@ -220,6 +234,7 @@ def calibrated_density(
         spray_time: Spray time A. Defaults to ``cfg.spray_time``.
         max_radius_mm: Largest hole radius in mm. Defaults to ``radius_mm``.
         spacing_factor: ``stipple.auto_spacing_factor``. Defaults to 1.15.
+        geometry: Stand-off and plate thickness (physical model).
 
     Returns:
         ``(H, W)`` open-area tone in [0, 1], 1 = the densest pattern the web allows
@@ -234,6 +249,7 @@ def calibrated_density(
         spray_time=spray_time,
         max_radius_mm=max_radius_mm,
         spacing_factor=spacing_factor,
+        geometry=geometry,
     )
     a = np.clip(np.nan_to_num(np.asarray(alpha, dtype=np.float64)), 0.0, 1.0)
     return curve.inverse(a)
@@ -282,6 +298,7 @@ def choose_tone(
     max_radius_mm: float | None = None,
     spacing_factor: float = 1.15,
     opacity_threshold: float = 0.0,
+    geometry=None,
 ) -> ToneChoice:
     """Choose the density (and, with ``mode=spray_time``, the spray time) of one layer.
 
@@ -297,6 +314,7 @@ def choose_tone(
         max_radius_mm: Largest hole radius in mm. Defaults to ``radius_mm``.
         spacing_factor: ``stipple.auto_spacing_factor``. Defaults to 1.15.
         opacity_threshold: The stippler puts no hole below this opacity.
+        geometry: Stand-off and plate thickness (physical model, whose amount is passes).
 
     Returns:
         The :class:`ToneChoice`.
@@ -311,19 +329,27 @@ def choose_tone(
 
     def curve(spray_time: float) -> ToneCurve:
         return tone_response(
-            radius_mm, web_mm, cfg, spray_time=spray_time, max_radius_mm=r1, spacing_factor=spacing_factor
+            radius_mm,
+            web_mm,
+            cfg,
+            spray_time=spray_time,
+            max_radius_mm=r1,
+            spacing_factor=spacing_factor,
+            geometry=geometry,
         )
 
     def mse(c: ToneCurve, t: np.ndarray) -> float:
         return c.predicted_mse(flat, np.where(allowed, t, 0.0))
 
-    base = curve(cfg.spray_time)
+    base = curve(cfg.amount)
     linear_mse = mse(base, flat)
     if mode == Calibrate.none:
-        best_a, best_curve, best_mse, density = cfg.spray_time, base, linear_mse, a
+        best_a, best_curve, best_mse, density = cfg.amount, base, linear_mse, a
     else:
-        candidates = [cfg.spray_time]
-        if mode == Calibrate.spray_time:
+        candidates = [cfg.amount]
+        if mode == Calibrate.spray_time and cfg.model is SprayModel.physical:
+            candidates = sorted({*_PASSES, cfg.amount})
+        elif mode == Calibrate.spray_time:
             candidates = sorted({min(100.0, cfg.spray_time * f) for f in _A_FACTORS})
         scored = []
         for spray_time in candidates:
@@ -357,6 +383,8 @@ def calibrated_tone_for(alpha: np.ndarray, mm_per_px: float, job_cfg) -> ToneCho
     Returns:
         The :class:`ToneChoice` (density, spray time, dot count).
     """
+    from .physical import SprayGeometry
+
     st = job_cfg.stipple
     return choose_tone(
         alpha,
@@ -367,6 +395,7 @@ def calibrated_tone_for(alpha: np.ndarray, mm_per_px: float, job_cfg) -> ToneCho
         max_radius_mm=st.resolved_max_radius_mm,
         spacing_factor=st.auto_spacing_factor,
         opacity_threshold=st.opacity_threshold,
+        geometry=SprayGeometry.of_job(job_cfg),
     )
 
 
