@@ -1,7 +1,11 @@
 """End to end: `stencil-cad run` on the bundled example, in a child process.
 
-Prints seconds (wall clock of the whole command, imports included), the child's peak
-resident memory, and the stage times and figures from the manifest it wrote.
+Prints seconds (wall clock of the whole command, imports included), CPU seconds, the
+child's peak resident memory, and the stage times and figures from the manifest it wrote.
+Case ``example`` is the bundled job as shipped (refinement on); ``example-norefine`` is
+the same job with ``refine.enabled: false``. Both run in the same call, so their ratio is
+measured on the same machine state; the ``example`` row carries the ratios (on a shared
+machine, compare CPU seconds and run the benchmark several times for medians).
 """
 
 from __future__ import annotations
@@ -14,33 +18,78 @@ import tempfile
 import time
 from pathlib import Path
 
+CASES = ("example-norefine", "example")
+
+
+def _config(tmp: Path, refine: bool) -> Path:
+    import yaml
+
+    data_dir = Path(__file__).resolve().parents[1] / "stencil_cad" / "data"
+    cfg = yaml.safe_load((data_dir / "example.yaml").read_text())
+    cfg["image"] = str(data_dir / cfg["image"])
+    cfg.setdefault("refine", {})["enabled"] = refine
+    path = tmp / f"example_refine_{refine}.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    return path
+
+
+def _one(case: str, tmp: Path) -> dict:
+    out = tmp / case
+    cfg = _config(tmp, case == "example")
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    # RUSAGE_CHILDREN's peak is the largest child so far, so each child reports its own peak.
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import resource, sys; from stencil_cad.cli import main; rc = main(sys.argv[1:]); "
+            "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr); sys.exit(rc)",
+            "run",
+            str(cfg),
+            "--out",
+            str(out),
+            "-q",
+        ],
+        capture_output=True,
+        text=True,
+    )
+    seconds = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    lines = proc.stderr.strip().splitlines()
+    peak_mb = float(lines[-1]) / 1024.0 if lines and lines[-1].strip().isdigit() else float("nan")
+    row = {
+        "bench": "e2e",
+        "case": case,
+        "seconds": round(seconds, 2),
+        "cpu_seconds": round(cpu, 2),
+        "peak_mb": round(peak_mb, 1),
+    }
+    if proc.returncode != 0:
+        row["error"] = lines[-1] if lines else f"exit {proc.returncode}"
+        return row
+    manifest = json.loads((out / "manifest.json").read_text())
+    row["stage_seconds"] = manifest.get("seconds", {})
+    row["dots"] = [r["dots"] for r in manifest.get("stipple", [])]
+    row["files"] = len(manifest.get("files", []))
+    sim = manifest.get("simulate", {})
+    for k in ("de2000_mean", "de2000_p95", "psnr", "ssim", "view_distance_m", "scielab", "scielab_2x"):
+        if k in sim:
+            row[k] = sim[k]
+    return row
+
 
 def run(cases=None):
-    if cases and "example" not in cases:
-        return
+    wanted = [c for c in CASES if not cases or c in cases or "example" in cases]
+    rows = {}
     with tempfile.TemporaryDirectory() as tmp:
-        out = Path(tmp) / "example"
-        t0 = time.perf_counter()
-        proc = subprocess.run(
-            [sys.executable, "-m", "stencil_cad", "run", "--out", str(out), "-q"],
-            capture_output=True,
-            text=True,
-        )
-        seconds = time.perf_counter() - t0
-        peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
-        row = {"bench": "e2e", "case": "example", "seconds": round(seconds, 2), "peak_mb": round(peak_mb, 1)}
-        if proc.returncode != 0:
-            row["error"] = (
-                proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else f"exit {proc.returncode}"
-            )
-            yield row
-            return
-        manifest = json.loads((out / "manifest.json").read_text())
-        row["stage_seconds"] = manifest.get("seconds", {})
-        row["dots"] = [r["dots"] for r in manifest.get("stipple", [])]
-        row["files"] = len(manifest.get("files", []))
-        sim = manifest.get("simulate", {})
-        for k in ("de2000_mean", "de2000_p95", "psnr", "ssim"):
-            if k in sim:
-                row[k] = sim[k]
-        yield row
+        for case in wanted:
+            rows[case] = _one(case, Path(tmp))
+            if case == "example" and "example-norefine" in rows:
+                base = rows["example-norefine"]
+                row = rows[case]
+                for key in ("seconds", "cpu_seconds", "peak_mb"):
+                    if base.get(key):
+                        row[f"{key}_ratio_vs_norefine"] = round(row[key] / base[key], 3)
+            yield rows[case]

@@ -257,12 +257,16 @@ def read_layers(folder: Path) -> Layers:
 SPRAY_JSON = "spray.json"
 
 
-def stage_stipple(run: Run, layers: Layers, picture_mm: tuple[float, float]) -> list[DotSet]:
-    """Stipple every layer's opacity into holes, enforce the design rules, save CSV + previews.
+def stage_stipple(
+    run: Run, layers: Layers, picture_mm: tuple[float, float], picture: Picture | None = None
+) -> list[DotSet]:
+    """Stipple every layer's opacity into holes, enforce the design rules, refine, save CSV + previews.
 
     With ``stipple.tone: calibrated`` the density comes from the spray response
     (:mod:`stencil_cad.simulate.tone`), and with ``spray.calibrate: spray_time`` each layer also
-    gets its own spray time, saved in ``spray.json`` and in the dots' report.
+    gets its own spray time, saved in ``spray.json`` and in the dots' report. With
+    ``refine.enabled`` the holes are then refined against the spray model
+    (:func:`stage_refine`) towards ``picture`` (the decomposition's composite without one).
     """
     from dataclasses import replace
 
@@ -294,6 +298,9 @@ def stage_stipple(run: Run, layers: Layers, picture_mm: tuple[float, float]) -> 
                 ds = replace(ds, report={**ds.report, "spray_time": spray_time})
                 sets.append(ds)
                 bar.update(1)
+    if cfg.refine.enabled:
+        sets = stage_refine(run, layers, sets, picture_mm, picture)
+    with run.stage("stipple"):
         for i, ds in enumerate(sets):
             run.out.write_text(dots_name(i), dots_to_csv(ds))
             run.out.write_png(f"{layer_stem(i)}_dots.png", dots_preview(ds, width_mm, height_mm))
@@ -320,6 +327,64 @@ def stage_stipple(run: Run, layers: Layers, picture_mm: tuple[float, float]) -> 
     if tones:
         run.figures["tone_calibration"] = tones
     return sets
+
+
+def stage_refine(
+    run: Run,
+    layers: Layers,
+    dotsets: list[DotSet],
+    picture_mm: tuple[float, float],
+    picture: Picture | None = None,
+) -> list[DotSet]:
+    """Refine every layer's holes against the spray model so the composite matches the picture.
+
+    The objective lives on the simulation grid, its eye filter is the viewer's at
+    ``view.distance_m``, and the holes keep the stipple rules (the largest radius is
+    ``refine.max_radius_factor`` times the hole floor).
+    """
+    from .simulate import scielab, spray
+    from .simulate.physical import SprayGeometry
+    from .stipple import refine
+    from .stipple.rules import rules_from_config
+
+    cfg = run.cfg
+    grid = 1.0 / cfg.spray.px_per_mm
+    shape = spray.sim_shape(layers.alphas.shape[1:], layers.mm_per_px, grid)
+    reference = picture.rgb if picture is not None else layers.composite()
+    target = spray.resample(np.clip(reference, 0.0, 1.0), shape)
+    rules = rules_from_config(cfg.stipple, *picture_mm)
+    rc = cfg.refine
+    settings = refine.RefineSettings(
+        iterations=rc.iterations,
+        step_mm=rc.step_mm,
+        radius_step_mm=rc.radius_step_mm,
+        max_radius_mm=max(rc.max_radius_factor * rules.hole_min_r_mm, cfg.stipple.resolved_max_radius_mm),
+        add_remove_every=rc.add_remove_every,
+        eye_sigma_mm=scielab.smallest_sigma_mm(cfg.view.distance_m),
+    )
+
+    geometry = SprayGeometry.of_job(cfg) if cfg.spray.model == SprayModel.physical else None
+
+    def kernels(r_mm: np.ndarray, spray_time: float) -> tuple:
+        return spray.hole_kernels(r_mm, cfg.spray, spray_time, geometry=geometry)
+
+    times = [float(ds.report.get("spray_time", cfg.spray.amount)) for ds in dotsets]
+    with run.stage("refine"):
+        with run.bar(rc.iterations, "refine") as bar:
+            out, report = refine.refine_dots(
+                target,
+                grid,
+                layers.primer,
+                layers.colours,
+                dotsets,
+                [rules] * layers.count,
+                kernels,
+                times,
+                settings,
+                progress=lambda it, total: bar.update(1),
+            )
+    run.figures["refine"] = _plain(report)
+    return out
 
 
 def read_dots(folder: Path, count: int | None = None) -> list[DotSet]:
@@ -447,11 +512,16 @@ def stage_simulate(run: Run, picture: Picture | None, layers: Layers, dotsets: l
         sim = simulate.simulate(layers, dotsets, cfg.spray, geometry=design)
         reference = picture.rgb if picture is not None else layers.composite()
         ref = _resample(reference, sim.composite.shape[:2])
-        scores = simulate.score(ref, sim.composite)
+        scores = _scores(run, ref, sim.composite, sim.mm_per_px)
         run.out.write_png("simulated.png", sim.composite)
         run.out.write_png(
             "preview.png",
-            simulate.preview(ref, _resample(layers.composite(), sim.composite.shape[:2]), sim.composite),
+            simulate.preview(
+                ref,
+                _resample(layers.composite(), sim.composite.shape[:2]),
+                sim.composite,
+                text=_score_line(scores),
+            ),
         )
         run.out.write_png("sweep.png", simulate.sweep(layers, dotsets, cfg.spray, geometry=design))
         per_wall = []
@@ -473,6 +543,7 @@ def stage_simulate(run: Run, picture: Picture | None, layers: Layers, dotsets: l
             )
     run.figures["simulate"] = {
         **_plain(scores),
+        **_dot_visibility(run, layers, dotsets),
         "layer_rmse": [float(x) for x in sim.layer_rmse],
         **{k: v for k, v in _plain(sim.info).items() if k not in scores},
     }
@@ -522,6 +593,49 @@ def spraying_steps(cfg: JobConfig, layers: Layers, dotsets: list[DotSet]) -> lis
             )
             out.append({"layer": i + 1, "paint": paint, "spray_time": round(amount, 4), "text": text})
     return out
+
+
+def _scores(run: Run, reference: np.ndarray, sprayed: np.ndarray, mm_per_px: float) -> dict:
+    """Pixel scores and S-CIELAB at the viewing distance and twice it, on one grid."""
+    from . import simulate
+    from .simulate import scielab
+
+    scores = simulate.score(reference, sprayed)
+    scores.update(scielab.view_scores(reference, sprayed, mm_per_px, run.cfg.view.distance_m))
+    return scores
+
+
+def _dot_visibility(run: Run, layers: Layers, dotsets: list[DotSet]) -> dict:
+    """From how far the smallest holes in the most contrasting paint blend (see :mod:`.simulate.visibility`)."""
+    from .simulate.physical import SprayGeometry
+    from .simulate.visibility import blend_distance_m
+
+    cfg = run.cfg
+    if layers.count == 0:
+        return {}
+    lum = np.array([0.2126, 0.7152, 0.0722])
+    k = int(np.argmax(np.abs((layers.colours - layers.primer) @ lum)))
+    r = cfg.stipple.resolved_hole_min_r_mm
+    a = float(dotsets[k].report.get("spray_time", cfg.spray.amount))
+    d = blend_distance_m(
+        r,
+        cfg.stipple.resolved_web_mm,
+        cfg.spray,
+        a,
+        layers.colours[k],
+        layers.primer,
+        cfg.stipple.auto_spacing_factor,
+        geometry=SprayGeometry.of_job(cfg) if cfg.spray.model == SprayModel.physical else None,
+    )
+    return {"dots_blend_m": d, "dots_blend_layer": k + 1, "dots_hole_r_mm": r}
+
+
+def _score_line(scores: dict) -> str:
+    d = scores["view_distance_m"]
+    return (
+        f"input | decomposition | simulated spray | ΔE2000 map    ΔE2000 {scores['de2000_mean']:.2f}   "
+        f"S-CIELAB at {d:g} m {scores['scielab']:.2f}, at {2 * d:g} m {scores['scielab_2x']:.2f}"
+    )
 
 
 def _resample(img: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
@@ -622,7 +736,7 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
     if cfg.mode == Mode.hard:
         return run_hard(run, picture)
     layers = stage_decompose(run, picture)
-    dotsets = stage_stipple(run, layers, size)
+    dotsets = stage_stipple(run, layers, size, picture)
     stage_build(run, layers, dotsets, size)
     stage_simulate(run, picture, layers, dotsets)
     return finish(run, "run")
@@ -662,9 +776,12 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
 
         geometry = SprayGeometry.of_job(cfg) if cfg.spray.model == SprayModel.physical else None
         _, comp = hardstencil.simulate_hard(hard, cfg.spray, geometry=geometry)
-        scores = simulate.score(picture.rgb, comp)
+        scores = _scores(run, picture.rgb, comp, picture.mm_per_px)
         run.out.write_png("simulated.png", comp)
-        run.out.write_png("preview.png", simulate.preview(picture.rgb, hardstencil.render_ideal(hard), comp))
+        run.out.write_png(
+            "preview.png",
+            simulate.preview(picture.rgb, hardstencil.render_ideal(hard), comp, text=_score_line(scores)),
+        )
     run.figures["simulate"] = _plain(scores)
     return finish(run, "hard")
 
@@ -772,12 +889,12 @@ def run_command(
     src = (src or out_path) if stage_cmd else None
     picture = None
     t_load = time.perf_counter()
-    if command in ("run", "decompose", "hard", "simulate"):
+    if command in ("run", "decompose", "hard", "simulate", "stipple"):
         try:
             picture = load_picture(cfg)
         except UserError:
-            # `simulate` can score against the decomposition when the image is gone.
-            if command != "simulate":
+            # `simulate` scores, and `stipple` refines, against the decomposition when the image is gone.
+            if command not in ("simulate", "stipple"):
                 raise
     load_s = time.perf_counter() - t_load
     out = OutputDir(out_path, force=force, allow_existing=stage_cmd)
@@ -815,7 +932,7 @@ def _run_stage_command(run: Run, command: str, src: Path, picture: Picture | Non
             cfg.size.width_mm,
         )
     if command == "stipple":
-        stage_stipple(run, layers, size)
+        stage_stipple(run, layers, size, picture)
     else:
         dotsets = read_dots(src, layers.count)
         if command == "build":

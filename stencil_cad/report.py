@@ -73,6 +73,13 @@ def summary(run, files: list[Path], out_path: Path) -> str:
             f"  spray     ΔE2000 mean {_fmt(sim.get('de2000_mean'))}, p95 {_fmt(sim.get('de2000_p95'))}, "
             f"PSNR {_fmt(sim.get('psnr'))} dB, SSIM {_fmt(sim.get('ssim'))}"
         )
+        if sim.get("scielab") is not None:
+            d = sim["view_distance_m"]
+            lines.append(
+                f"  seen      S-CIELAB ΔE {_fmt(sim['scielab'])} at {d:g} m, {_fmt(sim['scielab_2x'])} at {2 * d:g} m"
+                " (what a viewer sees; pixel ΔE2000 above scores every dot)"
+            )
+            lines.append("  dots      " + _dots_advice(run, sim, d))
     where = f.get("compute")
     if where and where.get("kind") != "in_process":
         place = (
@@ -93,6 +100,24 @@ def summary(run, files: list[Path], out_path: Path) -> str:
     names = sorted(p.name for p in files)
     lines.append("  files     " + _wrap(names))
     return "\n".join(lines)
+
+
+def _dots_advice(run, sim: dict, distance_m: float) -> str:
+    """Plain words: do the smallest holes show as dots from the viewing distance, and from how far they blend."""
+    hole = 2.0 * sim.get("dots_hole_r_mm", 0.0)
+    blend = sim.get("dots_blend_m")
+    pic = run.figures.get("picture", {})
+    size = f"this {pic['width_mm']:g} mm picture" if pic else "the picture"
+    process = getattr(run.cfg.stipple.process, "value", run.cfg.stipple.process)
+    finer = " — or use resin or laser holes (stipple.process: sla or laser)" if process == "fdm" else ""
+    if blend is None:
+        return f"at {distance_m:g} m the {hole:g} mm holes show as dots, and still do from 64 m{finer}"
+    if blend > distance_m:
+        return (
+            f"at {distance_m:g} m the {hole:g} mm holes show as dots; {size} reads as continuous tone "
+            f"from about {blend:.1f} m{finer}"
+        )
+    return f"from {distance_m:g} m the {hole:g} mm holes blend into continuous tone (they do from about {blend:.1f} m)"
 
 
 def _wrap(names: list[str], width: int = 100) -> str:

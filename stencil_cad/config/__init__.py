@@ -16,8 +16,10 @@ from .cad import ExportConfig, PlateConfig, WallConfig
 from .compute import ComputeConfig
 from .decompose import DecomposeConfig
 from .hard import HardConfig
+from .refine import RefineConfig
 from .spray import SprayConfig
 from .stipple import StippleConfig
+from .view import ViewConfig
 
 __all__ = [
     "ComputeConfig",
@@ -27,10 +29,12 @@ __all__ = [
     "JobConfig",
     "Mode",
     "PlateConfig",
+    "RefineConfig",
     "SizeConfig",
     "SprayConfig",
     "StippleConfig",
     "StrictModel",
+    "ViewConfig",
     "WallConfig",
     "parse_overrides",
 ]
@@ -102,9 +106,13 @@ class JobConfig(StrictModel):
     stipple: StippleConfig = Field(
         default_factory=StippleConfig, description="Stippling and hole design rules."
     )
+    refine: RefineConfig = Field(
+        default_factory=RefineConfig, description="Refinement of the holes against the spray model."
+    )
     plate: PlateConfig = Field(default_factory=PlateConfig, description="The stencil plate.")
     wall: WallConfig = Field(default_factory=WallConfig, description="The interlocking wall.")
     spray: SprayConfig = Field(default_factory=SprayConfig, description="Spray simulation.")
+    view: ViewConfig = Field(default_factory=ViewConfig, description="Viewing distance of the picture.")
     hard: HardConfig = Field(default_factory=HardConfig, description="Hard-stencil mode.")
     export: ExportConfig = Field(default_factory=ExportConfig, description="Output files.")
     compute: ComputeConfig = Field(

@@ -53,11 +53,33 @@ def _hstack(panels: list[np.ndarray], gap: int = 4) -> np.ndarray:
     return np.concatenate(row, axis=1)
 
 
+def caption(image: np.ndarray, text: str) -> np.ndarray:
+    """Add a white strip with one line of text under an RGB uint8 image.
+
+    Args:
+        image: ``(H, W, 3)`` uint8.
+        text: The line (scores, settings).
+
+    Returns:
+        ``(H + strip, W, 3)`` uint8.
+    """
+    from importlib.resources import files
+
+    from PIL import Image, ImageDraw, ImageFont
+
+    size = int(np.clip(image.shape[1] // 90, 10, 28))
+    font = ImageFont.truetype(str(files("stencil_cad") / "data" / "DejaVuSans-Bold.ttf"), size)
+    strip = Image.new("RGB", (image.shape[1], int(size * 1.8)), (255, 255, 255))
+    ImageDraw.Draw(strip).text((size // 2, size // 3), text, fill=(0, 0, 0), font=font)
+    return np.concatenate([image, np.asarray(strip, dtype=np.uint8)], axis=0)
+
+
 def preview(
     input_rgb: np.ndarray,
     decomposition_rgb: np.ndarray,
     simulated_rgb: np.ndarray,
     de_max: float = 30.0,
+    text: str | None = None,
 ) -> np.ndarray:
     """Side-by-side preview: input | decomposition composite | simulated spray | error map.
 
@@ -70,16 +92,18 @@ def preview(
         decomposition_rgb: ``(H, W, 3)`` composite of the decomposition in [0, 1].
         simulated_rgb: ``(H, W, 3)`` simulated spray in [0, 1].
         de_max: ΔE2000 shown at the top of the ramp. Defaults to 30.
+        text: A line (the scores) written in a strip under the panels, or None.
 
     Returns:
-        ``(H, 4 W + 12, 3)`` uint8 image.
+        ``(H, 4 W + 12, 3)`` uint8 image (taller by the strip with ``text``).
     """
     sim = np.clip(np.asarray(simulated_rgb, dtype=np.float64), 0.0, 1.0)
     shape = sim.shape[:2]
     inp = resample(input_rgb, shape)
     dec = resample(decomposition_rgb, shape)
     err = colour_map(delta_e_map(inp, sim), de_max)
-    return _hstack([_to_u8(inp), _to_u8(dec), _to_u8(sim), _to_u8(err)])
+    out = _hstack([_to_u8(inp), _to_u8(dec), _to_u8(sim), _to_u8(err)])
+    return out if text is None else caption(out, text)
 
 
 def sweep(

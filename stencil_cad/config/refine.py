@@ -1,0 +1,56 @@
+"""Config section `refine`: model-based refinement of the stippled holes (owned by the stipple stage)."""
+
+from __future__ import annotations
+
+from pydantic import Field
+
+from .base import StrictModel
+
+
+class RefineConfig(StrictModel):
+    """Settings of the refinement that moves and resizes holes against the spray model."""
+
+    enabled: bool = Field(
+        True,
+        description=(
+            "Refine the stippled holes against the spray model so the sprayed composite of all layers, seen "
+            "from view.distance_m, matches the input (centres and radii move, holes are added or removed "
+            "where that pays off; the design rules hold at every step). false keeps the stippler's holes."
+        ),
+    )
+    iterations: int = Field(
+        30,
+        ge=1,
+        le=1000,
+        description="Gradient steps of the refinement. Range [1, 1000].",
+    )
+    step_mm: float = Field(
+        0.05,
+        gt=0.0,
+        le=1.0,
+        description="Largest move of a hole centre per step at the start, in mm (decays to a fifth). Range (0, 1].",
+    )
+    radius_step_mm: float = Field(
+        0.02,
+        ge=0.0,
+        le=0.5,
+        description="Largest change of a hole radius per step at the start, in mm; 0 keeps the radii. Range [0, 0.5].",
+    )
+    max_radius_factor: float = Field(
+        2.0,
+        ge=1.0,
+        le=4.0,
+        description=(
+            "Largest hole radius as a multiple of the hole floor (stipple.hole_min_r_mm or the process "
+            "preset), or the stippler's largest radius if that is larger. Range [1, 4]."
+        ),
+    )
+    add_remove_every: int = Field(
+        10,
+        ge=0,
+        le=1000,
+        description=(
+            "Every this many steps, remove holes whose removal lowers the composite error and add floor-size "
+            "holes where one would; 0 never adds or removes. Range [0, 1000]."
+        ),
+    )

@@ -1,0 +1,117 @@
+"""Hole refinement against the spray model: exact gradient, rules held, error lowered."""
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from stencil_cad.config.spray import SprayConfig
+from stencil_cad.model import DotSet
+from stencil_cad.simulate import spray_opacity
+from stencil_cad.simulate.spray import hole_kernels
+from stencil_cad.stipple import refine
+from stencil_cad.stipple.refine import RefineSettings, refine_dots
+from stencil_cad.stipple.rules import DesignRules, check_rules, enforce_rules
+
+CFG = SprayConfig(nozzle_height=7.0)
+PRIMER = np.array([1.0, 1.0, 1.0])
+INK = np.array([[0.1, 0.1, 0.2]])
+
+
+def _kernels(cfg=CFG):
+    return lambda r, a: hole_kernels(r, cfg, a)
+
+
+def test_transmittance_matches_the_simulator():
+    rng = np.random.default_rng(3)
+    xy = rng.uniform(3, 27, (40, 2))
+    r = rng.uniform(0.5, 1.0, 40)
+    pitch, shape = 0.25, (120, 120)
+    layer = refine._Layer(x=xy[:, 0], y=xy[:, 1], r=r, rules=None, spray_time=0.8, rmax=1.0)
+    rows, cols, sig, peak, _, _, exp_mode = refine._kernels_px(layer, _kernels(), pitch, shape[0])
+    t = refine._transmittance(*shape, rows, cols, sig, peak, exp_mode)
+    exact = spray_opacity(xy, r, shape, pitch, CFG, exact=True, spray_time=0.8)
+    assert np.max(np.abs((1.0 - t) - exact)) < 2e-3
+
+
+@pytest.mark.parametrize("eye_mm", [0.0, 0.4])
+def test_gradient_is_exact(eye_mm):
+    rng = np.random.default_rng(5)
+    pitch, shape = 0.25, (64, 64)
+    colours = np.array([[0.8, 0.2, 0.1], [0.1, 0.1, 0.3]])
+    target = rng.uniform(0.2, 0.9, (*shape, 3))
+    state = []
+    for _ in range(2):
+        xy = rng.uniform(3, 13, (12, 2))
+        r = rng.uniform(0.5, 1.0, 12)
+        state.append(refine._Layer(x=xy[:, 0], y=xy[:, 1], r=r, rules=None, spray_time=0.9, rmax=1.0))
+    kern = _kernels()
+
+    def energy():
+        trans, before, comp = refine._forward(state, kern, pitch, shape, PRIMER, colours)
+        return refine._residual_gradient(comp, target, eye_mm / pitch)
+
+    trans, before, comp = refine._forward(state, kern, pitch, shape, PRIMER, colours)
+    _, dedc = refine._residual_gradient(comp, target, eye_mm / pitch)
+    grads = refine._hole_grads(state, kern, pitch, shape[0], trans, before, colours, dedc)
+    eps = 1e-5
+    for k, layer in enumerate(state):
+        for i in (0, 5, 11):
+            for j, arr in enumerate((layer.x, layer.y, layer.r)):
+                arr[i] += eps
+                ep, _ = energy()
+                arr[i] -= 2 * eps
+                em, _ = energy()
+                arr[i] += eps
+                fd = (ep - em) / (2 * eps)
+                assert grads[k][i, j] == pytest.approx(fd, rel=2e-3, abs=1e-6)
+
+
+def _rules(w=30.0, h=30.0, keepouts=()):
+    return DesignRules(
+        hole_min_r_mm=0.5, web_mm=0.5, edge_margin_mm=2.0, width_mm=w, height_mm=h, keepouts=keepouts
+    )
+
+
+def _refine(xy, r, rules, target, iterations=12, every=4):
+    ds = DotSet(xy_mm=xy, r_mm=r, report={})
+    s = RefineSettings(iterations=iterations, max_radius_mm=1.0, add_remove_every=every, eye_sigma_mm=0.3)
+    return refine_dots(target, 0.25, PRIMER, INK, [ds], [rules], _kernels(), [0.8], s)
+
+
+def test_refinement_lowers_the_composite_error_on_a_ramp():
+    rules = _rules()
+    shape = (120, 120)
+    ramp = np.linspace(1.0, 0.3, shape[1])[None, :, None] * np.ones((*shape, 3))
+    rng = np.random.default_rng(0)
+    xy, r, _ = enforce_rules(rng.uniform(2.5, 27.5, (150, 2)), np.full(150, 0.5), rules)
+    out, rep = _refine(xy, r, rules, ramp)
+    assert rep["objective_end"] < 0.8 * rep["objective_start"]
+    check_rules(out[0].xy_mm, out[0].r_mm, rules)
+    assert out[0].report["refine_added"] + out[0].report["refine_removed"] > 0
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    seed=st.integers(0, 2**31 - 1),
+    n=st.integers(0, 160),
+    keepout=st.booleans(),
+)
+def test_refined_dots_always_pass_the_rules(seed, n, keepout):
+    rng = np.random.default_rng(seed)
+    keepouts = ((10.0, 10.0, 16.0, 14.0),) if keepout else ()
+    rules = _rules(keepouts=keepouts)
+    shape = (120, 120)
+    # A random smooth density as target: a few Gaussian blobs of ink.
+    yy, xx = np.mgrid[: shape[0], : shape[1]] * 0.25
+    dark = np.zeros(shape)
+    for _ in range(3):
+        cx, cy, s = rng.uniform(0, 30), rng.uniform(0, 30), rng.uniform(2, 10)
+        dark += rng.uniform(0.2, 1.0) * np.exp(-((xx - cx) ** 2 + (yy - cy) ** 2) / (2 * s * s))
+    alpha = np.clip(dark, 0, 1)[..., None]
+    target = PRIMER * (1 - alpha) + INK[0] * alpha
+    xy, r, _ = enforce_rules(rng.uniform(0, 30, (n, 2)), rng.uniform(0.5, 1.0, n), rules)
+    out, rep = _refine(xy, r, rules, target, iterations=8, every=3)
+    check_rules(out[0].xy_mm, out[0].r_mm, rules)
+    assert np.all(out[0].r_mm <= 1.0 + 1e-12)
+    assert rep["objective_end"] <= rep["objective_start"] + 1e-9

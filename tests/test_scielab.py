@@ -1,0 +1,90 @@
+"""S-CIELAB: sanity checks of the viewing-distance score."""
+
+import numpy as np
+import pytest
+
+from stencil_cad.simulate.scielab import (
+    samples_per_degree,
+    scielab,
+    scielab_filter,
+    scielab_map,
+    smallest_sigma_mm,
+    view_scores,
+)
+
+
+def _checkerboard(n: int, period: int) -> np.ndarray:
+    y, x = np.mgrid[:n, :n]
+    c = ((x // period + y // period) % 2).astype(np.float64)
+    return np.repeat(c[..., None], 3, axis=2)
+
+
+def _mid_grey() -> float:
+    # sRGB value of half the white's linear light: what a fine black/white checkerboard blends to.
+    return 1.055 * 0.5 ** (1 / 2.4) - 0.055
+
+
+def test_identical_images_score_zero():
+    rng = np.random.default_rng(0)
+    img = rng.random((64, 80, 3))
+    assert scielab(img, img, 0.25, 1.0) == pytest.approx(0.0, abs=1e-9)
+
+
+def test_flat_field_is_preserved():
+    img = np.full((50, 60, 3), [0.2, 0.5, 0.7])
+    from skimage.color import rgb2xyz
+
+    out = scielab_filter(img, 0.25, 1.0)
+    assert np.allclose(out, rgb2xyz(img), atol=1e-9)
+
+
+def test_fine_checkerboard_vanishes_with_distance_coarse_does_not():
+    fine = _checkerboard(240, 1)
+    coarse = _checkerboard(240, 40)
+    grey = np.full_like(fine, _mid_grey())
+    near_fine = scielab(fine, grey, 0.25, 0.25)
+    far_fine = scielab(fine, grey, 0.25, 4.0)
+    far_coarse = scielab(coarse, grey, 0.25, 4.0)
+    assert near_fine > 3.0  # 0.25 mm squares are visible from 25 cm
+    assert far_fine < 0.05  # and gone from 4 m
+    assert far_coarse > 10.0  # 10 mm squares are still seen from 4 m
+    # Monotone in distance.
+    scores = [scielab(fine, grey, 0.25, d) for d in (0.25, 0.5, 1.0)]
+    assert scores[0] > scores[1] > scores[2]
+
+
+def test_mm_aware_same_angle_same_score():
+    # Twice the pixel pitch seen from twice the distance is the same picture on the retina.
+    rng = np.random.default_rng(1)
+    a = rng.random((96, 96, 3))
+    b = np.clip(a + rng.normal(0, 0.1, a.shape), 0, 1)
+    assert scielab(a, b, 0.25, 1.0) == pytest.approx(scielab(a, b, 0.5, 2.0), rel=1e-6)
+
+
+def test_upsamples_when_grid_is_coarse():
+    img = np.zeros((20, 30, 3))
+    # 2 mm pixels from 1 m: the narrowest kernel (sigma ≈ 0.37 mm) is far below a pixel.
+    assert scielab_filter(img, 2.0, 1.0).shape[0] > 20
+    assert scielab_map(img, img, 0.25, 1.0).shape == (20, 30)
+
+
+def test_helpers():
+    assert samples_per_degree(0.25, 1.0) == pytest.approx(69.8, abs=0.1)
+    assert smallest_sigma_mm(2.0) == pytest.approx(1.745 / 2.3548, rel=1e-3)
+    s = view_scores(np.zeros((8, 8, 3)), np.zeros((8, 8, 3)), 0.25, 1.5)
+    assert s == {"view_distance_m": 1.5, "scielab": 0.0, "scielab_2x": 0.0}
+    with pytest.raises(ValueError):
+        samples_per_degree(0.0, 1.0)
+    with pytest.raises(ValueError):
+        scielab_map(np.zeros((4, 4, 3)), np.zeros((4, 5, 3)), 0.25, 1.0)
+
+
+def test_smaller_holes_blend_from_nearer():
+    from stencil_cad.config.spray import SprayConfig
+    from stencil_cad.simulate.visibility import blend_distance_m
+
+    black, white = np.zeros(3), np.ones(3)
+    fdm = blend_distance_m(1.0, 0.8, SprayConfig(nozzle_height=7.0), 1.0, black, white)
+    sla = blend_distance_m(0.5, 0.5, SprayConfig(nozzle_height=7.0), 1.0, black, white)
+    assert sla is not None and fdm is not None
+    assert 0.5 < sla < fdm < 16.0
