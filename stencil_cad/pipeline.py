@@ -298,6 +298,10 @@ def stage_stipple(
                 ds = replace(ds, report={**ds.report, "spray_time": spray_time})
                 sets.append(ds)
                 bar.update(1)
+    run.figures["dark_end"] = [
+        _dark_end(cfg, alpha, float(ds.report["spray_time"]))
+        for alpha, ds in zip(layers.alphas, sets, strict=True)
+    ]
     if cfg.refine.enabled:
         sets = stage_refine(run, layers, sets, picture_mm, picture)
     with run.stage("stipple"):
@@ -327,6 +331,40 @@ def stage_stipple(
     if tones:
         run.figures["tone_calibration"] = tones
     return sets
+
+
+def _dark_end(cfg: JobConfig, alpha: np.ndarray, spray_time: float) -> dict:
+    """How much of a layer is darker than its stencil can spray at its spray time.
+
+    The darkest mean opacity is that of the densest pattern the rules allow, with holes up to
+    the refinement's largest radius when it is on (the stippler's otherwise), measured with
+    the spray model (:func:`stencil_cad.simulate.tone.tone_response`).
+    """
+    from .simulate import tone
+    from .simulate.physical import SprayGeometry
+
+    st = cfg.stipple
+    floor = st.resolved_radius_mm
+    r1 = st.resolved_max_radius_mm
+    if cfg.refine.enabled:
+        r1 = max(r1, cfg.refine.max_radius_factor * st.resolved_hole_min_r_mm)
+    curve = tone.tone_response(
+        floor,
+        st.resolved_web_mm,
+        cfg.spray,
+        spray_time=spray_time,
+        max_radius_mm=r1,
+        spacing_factor=st.auto_spacing_factor,
+        geometry=SprayGeometry.of_job(cfg) if cfg.spray.model == SprayModel.physical else None,
+    )
+    top = curve.max_opacity
+    a = np.asarray(alpha, dtype=np.float64)
+    over = a > top + 1e-6
+    return {
+        "darkest_sprayable": round(top, 4),
+        "unreachable_share": round(float(over.mean()), 4),
+        "unreachable_by": round(float((a[over] - top).mean()), 4) if over.any() else 0.0,
+    }
 
 
 def stage_refine(

@@ -44,6 +44,13 @@ def summary(run, files: list[Path], out_path: Path) -> str:
                 else ""
             )
         )
+    for k, row in enumerate(f.get("dark_end", [])):
+        if row["unreachable_share"] >= 0.005:
+            lines.append(
+                f"  layer {k + 1:02d}  {100 * row['unreachable_share']:.0f} % of its pixels are darker than this "
+                f"stencil can spray (darkest {row['darkest_sprayable']:.2f}; short by {row['unreachable_by']:.2f} "
+                "on average)"
+            )
     hard = f.get("hard")
     if hard:
         lines.append(

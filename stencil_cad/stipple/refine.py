@@ -118,30 +118,51 @@ def _footprint(row, col, sig, a, h, w):  # pragma: no cover - compiled
     return r0, r1, c0, c1, k, ex
 
 
-@numba.njit(cache=True)
-def _transmittance(h, w, rows, cols, sig, peak, exp_mode):  # pragma: no cover - compiled
-    """``T = prod (1 - min(N_i, 1))`` (or ``exp(-sum N_i)``) on an ``(h, w)`` grid, px units."""
+#: Rows per band of the parallel transmittance (each band is written by one thread only).
+_BAND = 32
+
+
+@numba.njit(cache=True, parallel=True)
+def _transmittance_bands(
+    h, w, rows, cols, sig, peak, exp_mode, band_lo, band_hi
+):  # pragma: no cover - compiled
+    """``T`` by row bands; holes sorted by row, band ``b`` visits holes ``band_lo[b]:band_hi[b]``."""
     t = np.ones((h, w))
     s = np.zeros((h, w)) if exp_mode else t
-    for i in range(rows.shape[0]):
-        a = peak[i]
-        if a <= _TAIL:
-            continue
-        r0, r1, c0, c1, k, ex = _footprint(rows[i], cols[i], sig[i], a, h, w)
-        for r in range(r0, r1 + 1):
-            dy = r - rows[i]
-            ey = a * math.exp(-dy * dy * k)
-            for c in range(c0, c1 + 1):
-                n = ey * ex[c - c0]
-                if exp_mode:
-                    s[r, c] += n
-                else:
-                    t[r, c] *= max(1.0 - n, 0.0)
-    if exp_mode:
-        for r in range(h):
-            for c in range(w):
-                t[r, c] = math.exp(-s[r, c])
+    for b in numba.prange(band_lo.shape[0]):
+        lo = b * _BAND
+        hi = min(h, lo + _BAND) - 1
+        for i in range(band_lo[b], band_hi[b]):
+            a = peak[i]
+            if a <= _TAIL:
+                continue
+            r0, r1, c0, c1, k, ex = _footprint(rows[i], cols[i], sig[i], a, h, w)
+            for r in range(max(r0, lo), min(r1, hi) + 1):
+                dy = r - rows[i]
+                ey = a * math.exp(-dy * dy * k)
+                for c in range(c0, c1 + 1):
+                    n = ey * ex[c - c0]
+                    if exp_mode:
+                        s[r, c] += n
+                    else:
+                        t[r, c] *= max(1.0 - n, 0.0)
+        if exp_mode:
+            for r in range(lo, hi + 1):
+                for c in range(w):
+                    t[r, c] = math.exp(-s[r, c])
     return t
+
+
+def _transmittance(h, w, rows, cols, sig, peak, exp_mode):
+    """``T = prod (1 - min(N_i, 1))`` (or ``exp(-sum N_i)``) on an ``(h, w)`` grid, px units."""
+    order = np.argsort(rows, kind="stable")
+    rows, cols, sig, peak = rows[order], cols[order], sig[order], peak[order]
+    a = np.maximum(peak, _TAIL)
+    reach = float(np.max(sig * np.sqrt(2.0 * np.log(a / _TAIL)), initial=0.0)) + 1.0
+    top = np.arange(0, h, _BAND, dtype=np.float64)
+    band_lo = np.searchsorted(rows, top - reach, side="left").astype(np.int64)
+    band_hi = np.searchsorted(rows, top + _BAND + reach, side="right").astype(np.int64)
+    return _transmittance_bands(h, w, rows, cols, sig, peak, exp_mode, band_lo, band_hi)
 
 
 @numba.njit(cache=True, parallel=True)
