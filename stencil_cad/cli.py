@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import logging
+import signal
 import sys
+import threading
 from pathlib import Path
 
 from . import __version__
@@ -102,7 +105,8 @@ def main(argv: list[str] | None = None) -> int:
         for noisy in ("PIL", "fontTools", "numba", "matplotlib", "ezdxf"):
             logging.getLogger(noisy).setLevel(logging.WARNING)
     try:
-        return _dispatch(args)
+        with _signals_as_interrupts():
+            return _dispatch(args)
     except UserError as exc:
         if verbose:
             log.exception("failed")
@@ -112,9 +116,19 @@ def main(argv: list[str] | None = None) -> int:
         # Output piped into `head` and the like: not an error of ours.
         sys.stderr.close()
         return 0
-    except KeyboardInterrupt:
-        print("stencil-cad: interrupted; no partial outputs were kept", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        signum = exc.args[0] if exc.args and isinstance(exc.args[0], int) else signal.SIGINT
+        name = signal.Signals(signum).name
+        print(f"stencil-cad: interrupted ({name}); no partial outputs were kept", file=sys.stderr)
+        return 128 + int(signum)
+    except OSError as exc:
+        # An OS condition no more specific handler turned into a message: still the user's to fix.
+        from .output import os_error_message
+
+        if verbose:
+            log.exception("failed")
+        print(f"stencil-cad: error: {os_error_message(exc, 'cannot use', None)}", file=sys.stderr)
+        return 2
     except Exception as exc:  # noqa: BLE001 - the top level reports any failure cleanly
         if verbose:
             raise
@@ -124,6 +138,25 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 1
+
+
+@contextlib.contextmanager
+def _signals_as_interrupts():
+    """SIGTERM and SIGHUP (``timeout``, ``docker stop``, a closed terminal) act like Ctrl-C."""
+
+    def handler(signum, frame):
+        raise KeyboardInterrupt(signum)
+
+    old = {}
+    if threading.current_thread() is threading.main_thread():
+        for sig in (signal.SIGTERM, getattr(signal, "SIGHUP", None)):
+            if sig is not None:
+                old[sig] = signal.signal(sig, handler)
+    try:
+        yield
+    finally:
+        for sig, h in old.items():
+            signal.signal(sig, h)
 
 
 def _dispatch(args) -> int:

@@ -17,8 +17,20 @@ log = logging.getLogger(__name__)
 #: Largest upscaling accepted when the image has fewer pixels than the working grid.
 MAX_UPSCALE = 2.0
 
-# Decompression-bomb guard: Pillow's default limit, raised a little for large scans.
-Image.MAX_IMAGE_PIXELS = 200_000_000
+#: Largest image accepted, in pixels. Big files are decoded at reduced size (JPEG by
+#: DCT scaling, others streamed through libvips), so the limit guards time, not memory.
+MAX_PIXELS = 500_000_000
+
+#: Decode at reduced size to at least this multiple of the working grid (the resampling
+#: to the grid then still averages several source pixels per output pixel).
+DECODE_MARGIN = 2.0
+
+#: Above this many decoded bytes, a non-JPEG file is streamed through libvips: Pillow
+#: decodes a PNG whole (a 15000 x 15000 RGB PNG is 675 MB as uint8).
+STREAM_BYTES = 64 * 1024 * 1024
+
+# Our own limit replaces Pillow's, whose warnings and errors say nothing a maker can act on.
+Image.MAX_IMAGE_PIXELS = None
 
 
 def example_image_path() -> Path:
@@ -31,18 +43,24 @@ def example_config_path() -> Path:
     return Path(str(resources.files("stencil_cad") / "data" / "example.yaml"))
 
 
-def read_image(path: Path | str) -> tuple[np.ndarray, np.ndarray | None, bool]:
-    """Read an image file into float arrays.
+def read_image(
+    path: Path | str, min_size: tuple[int, int] | None = None
+) -> tuple[np.ndarray, np.ndarray | None, bool]:
+    """Read an image file into float arrays, decoded at reduced size when it is large.
 
     Args:
         path: Image file (any format Pillow reads).
+        min_size: ``(width, height)`` in px the caller needs at least; the file is decoded
+            at the smallest size no smaller than this (JPEG draft mode, libvips shrink-on-load
+            for other large files, then Pillow's ``reduce``). None decodes at full size.
 
     Returns:
         ``(rgb, alpha, grey)``: rgb ``(H, W, 3)`` float in [0, 1]; alpha ``(H, W)`` float in
         [0, 1] or None; grey True when the file has a single colour channel.
 
     Raises:
-        ImageError: The file is missing, not an image, truncated or empty.
+        ImageError: The file is missing, unreadable, not an image, truncated, too large,
+            empty, or has non-finite pixel values.
     """
     path = Path(path)
     if not path.exists():
@@ -51,21 +69,103 @@ def read_image(path: Path | str) -> tuple[np.ndarray, np.ndarray | None, bool]:
         raise ImageError(f"image path is a folder, not a file: {path} (give an image file)")
     try:
         with Image.open(path) as im:
+            w, h = im.size
+            if w < 1 or h < 1:
+                raise ImageError(f"image is empty: {path}")
+            if w * h > MAX_PIXELS:
+                raise ImageError(
+                    f"image too large: {path} is {w} × {h} px ({w * h / 1e6:.0f} MP), more than the "
+                    f"{MAX_PIXELS / 1e6:.0f} MP stencil-cad reads; downscale it"
+                    + (f" (this job needs only about {min_size[0]} × {min_size[1]} px)" if min_size else "")
+                )
+            # Before EXIF rotation the sides may swap: bound by the short side against the long need.
+            k = _reduce_factor((min(w, h),) * 2, (max(min_size),) * 2 if min_size else None)
+            big = w * h * len(im.getbands()) * (2 if im.mode.startswith("I;16") else 1) > STREAM_BYTES
+            if k > 1 and big and im.format != "JPEG":
+                return _read_streamed(path, (w, h), k)
+            if k > 1 and im.format == "JPEG":
+                im.draft("RGB" if im.mode not in ("L", "1") else im.mode, (w // k, h // k))
             im.load()
             im = ImageOps.exif_transpose(im)
+            k = _reduce_factor(im.size, min_size)
+            if k > 1:
+                if im.mode in ("P", "1", "I;16", "I;16B", "I;16L", "CMYK"):
+                    im = im.convert(
+                        "RGBA"
+                        if "transparency" in im.info
+                        else ("I" if im.mode.startswith("I;16") else "RGB")
+                    )
+                im = im.reduce(k)
     except UnidentifiedImageError:
         raise ImageError(f"not an image Pillow can read: {path} (use PNG, JPEG, TIFF, BMP or WebP)") from None
-    except (OSError, SyntaxError, ValueError) as exc:
+    except PermissionError:
+        raise ImageError(
+            f"cannot read image {path}: permission denied (fix the file's permissions, or copy it)"
+        ) from None
+    except OSError as exc:
+        if exc.errno is not None:
+            raise ImageError(f"cannot read image {path}: {exc.strerror} (check the file)") from None
         raise ImageError(
             f"cannot read image {path}: {exc} (the file may be truncated; re-export it)"
         ) from None
-    except Image.DecompressionBombError:
-        raise ImageError(
-            f"image too large: {path} (more than {Image.MAX_IMAGE_PIXELS} pixels; downscale it)"
-        ) from None
+    except (SyntaxError, ValueError) as exc:
+        raise ImageError(f"cannot read image {path}: {exc} (the file may be damaged; re-export it)") from None
     if im.width < 1 or im.height < 1:
         raise ImageError(f"image is empty: {path}")
-    return _to_arrays(im)
+    return _checked(_to_arrays(im), path)
+
+
+def _reduce_factor(size: tuple[int, int], min_size: tuple[int, int] | None) -> int:
+    """Largest integer k so that size / k stays at least min_size × DECODE_MARGIN."""
+    if min_size is None:
+        return 1
+    kw = size[0] / max(1.0, DECODE_MARGIN * min_size[0])
+    kh = size[1] / max(1.0, DECODE_MARGIN * min_size[1])
+    return max(1, int(min(kw, kh)))
+
+
+def _read_streamed(path: Path, size: tuple[int, int], k: int):
+    """Decode a large non-JPEG file shrunk by ``k`` while streaming (libvips), never whole."""
+    import pyvips
+
+    w, h = size
+    try:
+        img = pyvips.Image.thumbnail(
+            str(path), max(1, w // k), height=max(1, h // k), size="force", linear=False
+        )
+        fmt = {"uchar": np.uint8, "ushort": np.uint16, "float": np.float32, "double": np.float64}.get(
+            img.format
+        )
+        if fmt is None:
+            img = img.cast("float")
+            fmt = np.float32
+        a = np.ndarray(buffer=img.write_to_memory(), dtype=fmt, shape=(img.height, img.width, img.bands))
+    except pyvips.Error as exc:
+        first = str(exc).strip().splitlines()[0][:200] if str(exc).strip() else "decode failed"
+        raise ImageError(
+            f"cannot read image {path}: {first} (the file may be truncated; re-export it)"
+        ) from None
+    top = {np.uint8: 255.0, np.uint16: 65535.0}.get(fmt, 1.0)
+    bands = a.shape[2]
+    grey = bands in (1, 2)
+    colour = a[..., :1] if grey else a[..., :3]
+    alpha = a[..., -1].astype(np.float64) / top if bands in (2, 4) else None
+    rgb = np.clip(colour.astype(np.float64) / top, 0.0, 1.0)
+    if grey:
+        rgb = np.repeat(rgb, 3, axis=2)
+    if alpha is not None and np.all(alpha >= 1.0):
+        alpha = None
+    return _checked((rgb, alpha, grey), path)
+
+
+def _checked(arrays, path: Path):
+    rgb, alpha, grey = arrays
+    if not np.all(np.isfinite(rgb)) or (alpha is not None and not np.all(np.isfinite(alpha))):
+        raise ImageError(
+            f"image {path} has NaN or infinite pixel values (a float image with holes?); "
+            "re-export it as an 8- or 16-bit PNG or TIFF"
+        )
+    return rgb, alpha, grey
 
 
 def _to_arrays(im: Image.Image) -> tuple[np.ndarray, np.ndarray | None, bool]:
@@ -74,6 +174,8 @@ def _to_arrays(im: Image.Image) -> tuple[np.ndarray, np.ndarray | None, bool]:
     grey = mode in ("1", "L", "LA", "I", "I;16", "I;16B", "I;16L", "F")
     if mode in ("I", "I;16", "I;16B", "I;16L", "F"):
         a = np.asarray(im, dtype=np.float64)
+        if not np.all(np.isfinite(a)):
+            return a[..., None].repeat(3, axis=2), None, True  # refused by _checked
         top = 65535.0 if a.max() > 255 else 255.0
         if mode == "F":
             top = max(1.0, float(a.max()))
@@ -213,7 +315,10 @@ def load_picture(
         The picture on a grid of ``round(width_mm * px_per_mm)`` columns.
     """
     source = "bundled example" if path is None else str(path)
-    rgb, alpha, grey = read_image(example_image_path() if path is None else path)
+    need = (max(1, round(width_mm * px_per_mm)), max(1, round((height_mm or width_mm) * px_per_mm)))
+    if height_mm is None:
+        need = (need[0], 1)  # the height follows the image's aspect: only the width binds
+    rgb, alpha, grey = read_image(example_image_path() if path is None else path, min_size=need)
     # Counted before resampling, which blends edges into colours the file does not have.
     # With an alpha channel the colours flattened onto white count too (the pipeline
     # flattens transparent areas so); an overcount only costs the check, an undercount

@@ -24,7 +24,7 @@ from .config import ComputeConfig, JobConfig, Mode
 from .config.spray import SprayModel
 from .errors import OutputError, UserError
 from .model import DotSet, Layers, Picture
-from .output import MANIFEST, OutputDir
+from .output import MANIFEST, OutputDir, manifest_header
 
 if TYPE_CHECKING:
     from .compute import Executor
@@ -63,6 +63,8 @@ class Run:
     times: dict = field(default_factory=dict)
     figures: dict = field(default_factory=dict)
     summary: list = field(default_factory=list)
+    #: The plate template in use: ``{"path", "sha256", "builtin"}`` (None before it is checked).
+    template: dict | None = None
 
     def rng_for(self, stage: str, index: int = 0) -> np.random.Generator:
         """An independent generator per stage and layer, derived from the seed.
@@ -274,6 +276,7 @@ def stage_stipple(
     from .exchange.dots_csv import dots_to_csv
     from .simulate.previews import dots_preview
 
+    bound_dots(run, picture_mm)
     width_mm, height_mm = picture_mm
     cfg = run.cfg
     calibrated = getattr(cfg.stipple.tone, "value", cfg.stipple.tone) == "calibrated"
@@ -687,6 +690,51 @@ def _resample(img: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
 # --------------------------------------------------------------------------- commands
 
 
+def check_template(run: Run) -> None:
+    """Load and check the plate template before the first stage; record path and SHA-256.
+
+    Raises:
+        UserError: The template is not a Python file, fails to load, or has bad parameters.
+    """
+    from . import cad
+
+    try:
+        run.template = cad.check_plate_template(run.cfg.plate)
+    except ValueError as exc:
+        raise UserError(f"plate.template: {exc}") from None
+    if not run.template["builtin"]:
+        log.info("plate template %s is Python code and runs with your rights", run.template["path"])
+
+
+def bound_dots(run: Run, picture_mm: tuple[float, float]) -> None:
+    """Cap ``stipple.dots`` at the most holes that fit the picture under the design rules.
+
+    Too many dots cost memory and time in the relaxation and are then removed by the
+    rules anyway; the cap is named in a warning.
+    """
+    from .bounds import max_dots
+
+    cfg = run.cfg
+    if cfg.stipple.dots is None:
+        return
+    most = max_dots(cfg.stipple, *picture_mm)
+    if cfg.stipple.dots > most:
+        log.warning(
+            "stipple.dots %d cannot fit: at most %d holes of radius %g mm with %g mm webs fit in %.4g × %.4g mm; "
+            "using %d (set stipple.dots ≤ %d, or null to derive it from the picture)",
+            cfg.stipple.dots,
+            most,
+            cfg.stipple.resolved_hole_min_r_mm,
+            cfg.stipple.resolved_web_mm,
+            picture_mm[0],
+            picture_mm[1],
+            most,
+            most,
+        )
+        stipple = cfg.stipple.model_copy(update={"dots": most})
+        run.cfg = cfg.model_copy(update={"stipple": stipple})
+
+
 def save_config(run: Run) -> None:
     """Write the resolved config beside the results, so stage commands can re-read it."""
     data = run.cfg.model_dump(mode="json")
@@ -703,6 +751,7 @@ def finish(run: Run, command: str) -> list[Path]:
     if run.executor is not None and "compute" in run.figures:
         run.figures["compute"]["tasks"] = run.executor.tasks
     manifest = {
+        **manifest_header(),
         "command": command,
         "stencil_cad": __version__,
         "versions": _versions(),
@@ -711,6 +760,8 @@ def finish(run: Run, command: str) -> list[Path]:
         **run.figures,
         "files": run.out.file_table(),
     }
+    if run.template is not None:
+        manifest["template"] = run.template
     old_path = run.out.path / MANIFEST
     if command != "run" and command != "hard" and old_path.exists():
         manifest = _merge_manifest(old_path, manifest, run.out)
@@ -729,6 +780,7 @@ def _merge_manifest(old_path: Path, new: dict, out: OutputDir) -> dict:
     if not isinstance(old, dict):
         return new
     merged = {**old, **{k: v for k, v in new.items() if k not in ("seconds", "files")}}
+    merged.update(manifest_header())
     merged["command"] = f"{old.get('command', '?')} + {new['command']}"
     merged["seconds"] = {**old.get("seconds", {}), **new["seconds"]}
     written = {row["name"] for row in new["files"]}
@@ -758,10 +810,12 @@ def _versions() -> dict:
 
 def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
     """The whole job: every stage in order."""
-    cfg = run.cfg
     if picture is None:
         with run.stage("load"):
-            picture = load_picture(cfg)
+            picture = load_picture(run.cfg)
+    if run.template is None:
+        check_template(run)
+    cfg = run.cfg
     save_config(run)
     size = (picture.width_mm, picture.height_mm)
     run.figures["picture"] = {
@@ -773,6 +827,7 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
     }
     if cfg.mode == Mode.hard:
         return run_hard(run, picture)
+    bound_dots(run, size)
     layers = stage_decompose(run, picture)
     dotsets = stage_stipple(run, layers, size, picture)
     stage_build(run, layers, dotsets, size)
@@ -822,6 +877,37 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
         )
     run.figures["simulate"] = _plain(scores)
     return finish(run, "hard")
+
+
+#: Files a whole run writes besides the ``layer_NN*`` and ``wall*`` files.
+RUN_FILES = (
+    CONFIG_COPY,
+    LAYERS_NPZ,
+    SPRAY_JSON,
+    MANIFEST,
+    "swatch.png",
+    "composite.png",
+    "energy.csv",
+    "simulated.png",
+    "preview.png",
+    "sweep.png",
+    "segmentation.png",
+)
+
+
+def run_outputs(cfg: JobConfig, command: str) -> list[str]:
+    """Names and patterns of the files a whole run or `decompose` may write (checked before work)."""
+    if command == "decompose":
+        return [
+            CONFIG_COPY,
+            LAYERS_NPZ,
+            MANIFEST,
+            "swatch.png",
+            "composite.png",
+            "energy.csv",
+            "layer_*_opacity.png",
+        ]
+    return [*RUN_FILES, "layer_*", "wall*"]
 
 
 def stage_outputs(cfg: JobConfig, command: str, count: int) -> list[str]:
@@ -907,7 +993,8 @@ def run_command(
 ) -> tuple[Run, list[Path]]:
     """Run one command of the command line: ``run``, ``hard``, ``decompose`` or a stage command.
 
-    The input is checked before any output folder is touched; on any failure nothing
+    The template is loaded and checked, then the output folder is opened (created, locked,
+    probed for writing) before the image is read or any stage runs; on any failure nothing
     is written (the staged files are discarded).
 
     Args:
@@ -915,7 +1002,7 @@ def run_command(
         cfg: The resolved job config.
         out_path: The output folder.
         src: Folder whose intermediates a stage command reads. Defaults to ``out_path``.
-        force: Replace a non-empty output folder.
+        force: Replace the files stencil-cad wrote earlier in the folder (unchanged since).
         quiet: No progress bars.
         where: Where the tasks run: the ``compute`` section with ``--workers`` /
             ``--scheduler`` applied. Defaults to the config's.
@@ -925,21 +1012,26 @@ def run_command(
     """
     stage_cmd = command in STAGE_COMMANDS
     src = (src or out_path) if stage_cmd else None
-    picture = None
-    t_load = time.perf_counter()
-    if command in ("run", "decompose", "hard", "simulate", "stipple"):
-        try:
-            picture = load_picture(cfg)
-        except UserError:
-            # `simulate` scores, and `stipple` refines, against the decomposition when the image is gone.
-            if command not in ("simulate", "stipple"):
-                raise
-    load_s = time.perf_counter() - t_load
+    run = Run(cfg=cfg, out=None, quiet=quiet)  # type: ignore[arg-type]
+    # Everything that can be checked is checked before the first stage: the template (Python
+    # code, loaded now), the output folder (created, locked, probed for writing), the image.
+    if command in ("run", "hard", "build"):
+        check_template(run)
     out = OutputDir(out_path, force=force, allow_existing=stage_cmd)
-    run = Run(cfg=cfg, out=out, quiet=quiet)
-    run.times["load"] = round(load_s, 3)
-    t0 = time.perf_counter() - load_s
+    run.out = out
+    t0 = time.perf_counter()
     try:
+        if not stage_cmd:
+            out.check_free(run_outputs(cfg, command))
+        picture = None
+        if command in ("run", "decompose", "hard", "simulate", "stipple"):
+            try:
+                with run.stage("load"):
+                    picture = load_picture(cfg)
+            except UserError:
+                # `simulate` scores, and `stipple` refines, against the decomposition when the image is gone.
+                if command not in ("simulate", "stipple"):
+                    raise
         if command in ("run", "hard", "decompose"):
             with computing(run, picture.shape[0] * picture.shape[1], where):
                 if command == "decompose":

@@ -106,6 +106,20 @@ def summary(run, files: list[Path], out_path: Path) -> str:
     lines.append(f"  time      {times}")
     names = sorted(p.name for p in files)
     lines.append("  files     " + _wrap(names))
+    out = getattr(run, "out", None)
+    kept = list(getattr(out, "kept", []) or [])
+    if kept:
+        lines.append(
+            f"  kept      {len(kept)} file(s) stencil-cad did not write or that changed since it did: "
+            + _wrap(kept)
+        )
+    removed = list(getattr(out, "removed", []) or [])
+    if removed:
+        lines.append(
+            f"  removed   {len(removed)} file(s) of the earlier run not written again: " + _wrap(removed)
+        )
+    for warning in getattr(run, "warnings", []) or []:
+        lines.append(f"  warning   {warning}")
     return "\n".join(lines)
 
 

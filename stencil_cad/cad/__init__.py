@@ -16,7 +16,7 @@ from .plate import (
     make_solid,
     perforated_plate,
 )
-from .template import build_plate
+from .template import build_plate, check_plate_template
 from .validate import PlateCheckError, check_plate
 from .writers import write_3mf, write_step, write_stl
 
@@ -26,6 +26,7 @@ __all__ = [
     "PlateCheckError",
     "PlateModel",
     "build_plate",
+    "check_plate_template",
     "check_holes",
     "check_plate",
     "label_text",

@@ -27,6 +27,8 @@ log = logging.getLogger(__name__)
 __all__ = [
     "build_plate",
     "builtin_template",
+    "check_plate_template",
+    "check_template",
     "config_overrides",
     "load_template",
     "run_template",
@@ -71,13 +73,28 @@ def load_template(path: str | Path) -> ModuleType:
     path = Path(path)
     if not path.is_file():
         raise PlateBuildError(f"plate template {path} does not exist")
+    try:
+        source = path.read_bytes()
+    except OSError as exc:
+        raise PlateBuildError(f"plate template {path} cannot be read: {exc.strerror}") from None
+    if path.suffix != ".py" or b"\0" in source[:4096]:
+        raise PlateBuildError(
+            f"plate template {path} is not a Python file (a template is a .py file like templates/plate.py)"
+        )
     name = f"stencil_cad_template_{abs(hash(str(path.resolve())))}"
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     try:
         spec.loader.exec_module(module)
+    except SystemExit as exc:
+        raise PlateBuildError(
+            f"plate template {path} called sys.exit({exc.code!r}) while loading (a template defines "
+            "build(); it must not exit)"
+        ) from None
     except Exception as exc:
-        raise PlateBuildError(f"plate template {path} failed to load: {type(exc).__name__}: {exc}") from exc
+        raise PlateBuildError(
+            f"plate template {path} failed to load: {type(exc).__name__}: {str(exc)[:300]}"
+        ) from exc
     finally:
         sys.modules.pop(name, None)
     if not callable(getattr(module, "build", None)):
@@ -139,6 +156,50 @@ def run_template(
             ``build`` that returns something that is not a shape.
     """
     module = load_template(path)
+    _set_parameters(module, path, overrides, strict)
+    try:
+        result = module.build(holes, outline, label_area, label)
+    except SystemExit as exc:
+        raise PlateBuildError(
+            f"plate template {path}: build() called sys.exit({exc.code!r}) (it must return the plate)"
+        ) from None
+    if isinstance(result, PlateModel):
+        return result
+    try:
+        wrapped = _unwrap(result)
+    except Exception as exc:  # pragma: no cover - defensive
+        raise PlateBuildError(
+            f"template {path} build() returned {type(result).__name__}, not a shape"
+        ) from exc
+    if not hasattr(wrapped, "ShapeType"):
+        raise PlateBuildError(f"template {path} build() returned {type(result).__name__}, not a shape")
+    return PlateModel(part=as_part(wrapped), geometry=None, label=label, info={"template": str(path)})
+
+
+def check_template(path: str | Path, overrides: dict, strict: set) -> dict:
+    """Load a template and check its parameters without building (run before the first stage).
+
+    A template is Python code: loading it runs it with the user's rights.
+
+    Args:
+        path: The template file.
+        overrides: Parameter values by name (:func:`config_overrides`).
+        strict: Names that must exist in the template (the ``template_params``).
+
+    Returns:
+        ``{"path", "sha256"}`` of the file, for the manifest.
+
+    Raises:
+        PlateBuildError: Not a Python file, fails to load, no ``build``, or bad parameters.
+    """
+    import hashlib
+
+    module = load_template(path)
+    _set_parameters(module, path, overrides, strict)
+    return {"path": str(Path(path).resolve()), "sha256": hashlib.sha256(Path(path).read_bytes()).hexdigest()}
+
+
+def _set_parameters(module: ModuleType, path, overrides: dict, strict: set | None) -> None:
     params = template_parameters(module)
     strict = set(overrides) if strict is None else strict
     unknown = sorted(k for k in strict if k not in params)
@@ -156,21 +217,10 @@ def run_template(
         )
         if not ok:
             raise PlateBuildError(
-                f"template parameter {k} must be a {type(old).__name__} like its default {old!r}, got {v!r}"
+                f"template parameter {k} must be a {type(old).__name__} like its default {old!r}, "
+                f"got {_short(v)}"
             )
         setattr(module, k, float(v) if isinstance(old, float) else v)
-    result = module.build(holes, outline, label_area, label)
-    if isinstance(result, PlateModel):
-        return result
-    try:
-        wrapped = _unwrap(result)
-    except Exception as exc:  # pragma: no cover - defensive
-        raise PlateBuildError(
-            f"template {path} build() returned {type(result).__name__}, not a shape"
-        ) from exc
-    if not hasattr(wrapped, "ShapeType"):
-        raise PlateBuildError(f"template {path} build() returned {type(result).__name__}, not a shape")
-    return PlateModel(part=as_part(wrapped), geometry=None, label=label, info={"template": str(path)})
 
 
 def build_plate(
@@ -217,3 +267,25 @@ def build_plate(
 
 def _with_size(geom: PlateGeometry, width_mm: float, height_mm: float) -> PlateGeometry:
     return replace(geom, width_mm=float(width_mm), height_mm=float(height_mm))
+
+
+def check_plate_template(cfg) -> dict:
+    """Load the configured plate template and check its parameters, before any stage runs.
+
+    Args:
+        cfg: The ``plate`` config section.
+
+    Returns:
+        ``{"path", "sha256", "builtin"}`` for the manifest.
+
+    Raises:
+        PlateBuildError: Not a Python file, fails to load, no ``build``, or bad parameters.
+    """
+    path = cfg.template if cfg.template is not None else builtin_template()
+    info = check_template(path, config_overrides(cfg), strict=set(cfg.template_params))
+    return {**info, "builtin": cfg.template is None}
+
+
+def _short(value, limit: int = 200) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[:limit]}… ({len(text)} characters)"

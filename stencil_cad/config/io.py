@@ -12,6 +12,99 @@ from pydantic import BaseModel, ValidationError
 
 from ..errors import ConfigError
 
+#: Longest quotation of a bad value in an error message, in characters.
+QUOTE_CHARS = 200
+
+#: Most values a config may hold once YAML aliases are expanded (an alias bomb is a few
+#: lines that expand to billions).
+MAX_VALUES = 100_000
+
+
+def short_repr(value: Any, limit: int = QUOTE_CHARS) -> str:
+    """``repr`` of a value, cut to ``limit`` characters in bounded time (shared sub-trees too)."""
+    import reprlib
+
+    r = reprlib.Repr()
+    r.maxlevel, r.maxdict, r.maxlist, r.maxtuple, r.maxset = 3, 8, 8, 8, 8
+    r.maxstring, r.maxother, r.maxlong = limit, limit, limit
+    text = r.repr(value)
+    return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+class _StrictLoader(yaml.SafeLoader):
+    """PyYAML's safe loader that also refuses duplicate keys."""
+
+    def construct_mapping(self, node, deep=False):
+        if isinstance(node, yaml.MappingNode):
+            seen: dict = {}
+            for key_node, _ in node.value:
+                try:
+                    key = self.construct_object(key_node, deep=True)
+                    hash(key)
+                except (TypeError, yaml.YAMLError):
+                    continue
+                if key in seen:
+                    raise yaml.constructor.ConstructorError(
+                        None,
+                        None,
+                        f"duplicate key {short_repr(key)} (first at line {seen[key] + 1}; keep one of them)",
+                        key_node.start_mark,
+                    )
+                seen[key] = key_node.start_mark.line
+        return super().construct_mapping(node, deep=deep)
+
+
+def _count_values(data: Any, budget: int) -> int:
+    """Values in a loaded document counted with repetition, stopping past ``budget``."""
+    stack, n = [data], 0
+    while stack:
+        item = stack.pop()
+        n += 1
+        if n > budget:
+            return n
+        if isinstance(item, dict):
+            stack.extend(item.keys())
+            stack.extend(item.values())
+        elif isinstance(item, (list, tuple)):
+            stack.extend(item)
+    return n
+
+
+def parse_yaml(text: str, source: str) -> Any:
+    """Parse config YAML: safe types only, no duplicate keys, bounded size.
+
+    Raises:
+        ConfigError: Syntax error, unsupported tag, duplicate key or an expansion too large.
+    """
+    try:
+        data = yaml.load(text, Loader=_StrictLoader)  # noqa: S506 - a SafeLoader subclass
+    except yaml.constructor.ConstructorError as exc:
+        mark = exc.problem_mark
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = str(exc.problem or "")
+        if "could not determine a constructor for the tag" in problem:
+            tag = problem.split("tag", 1)[1].strip().strip("'")
+            tag = tag.replace("tag:yaml.org,2002:", "!!")
+            raise ConfigError(
+                f"{source}: unsupported tag {tag[:100]}{where} (a config is plain YAML: values, lists and "
+                "mappings; remove the tag)"
+            ) from None
+        raise ConfigError(f"{source}{where}: {problem[: QUOTE_CHARS * 2]}") from None
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise ConfigError(
+            f"{source}: YAML syntax error{where}: {str(problem)[:QUOTE_CHARS]} (fix the indentation or "
+            "quoting there)"
+        ) from None
+    if _count_values(data, MAX_VALUES) > MAX_VALUES:
+        raise ConfigError(
+            f"{source}: the config expands to more than {MAX_VALUES} values (YAML aliases nested too "
+            "deep?); write the values out"
+        )
+    return data
+
 
 def _format_loc(loc: tuple) -> str:
     parts: list[str] = []
@@ -47,7 +140,12 @@ def format_validation_error(exc: ValidationError, source: str = "config") -> str
             lines.append(f"{source}: {loc}: {msg}")
             continue
         value = err.get("input")
-        shown = "" if kind == "missing" or isinstance(value, dict) or "got " in msg else f", got {value!r}"
+        msg = msg if len(msg) <= 2 * QUOTE_CHARS else msg[: 2 * QUOTE_CHARS] + "…"
+        shown = (
+            ""
+            if kind == "missing" or isinstance(value, dict) or "got " in msg
+            else f", got {short_repr(value)}"
+        )
         if loc == "(top level)":
             lines.append(f"{source}: {msg}")
         else:
@@ -101,15 +199,11 @@ def load_config(path: Path | str):
         raise ConfigError(
             f"{path}: not a text file (a config is YAML text; see templates/default.yaml)"
         ) from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
-        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise ConfigError(
-            f"{path}: YAML syntax error{where}: {problem} (fix the indentation or quoting there)"
-        ) from None
+    except PermissionError:
+        raise ConfigError(f"cannot read config {path}: permission denied (fix its permissions)") from None
+    except OSError as exc:
+        raise ConfigError(f"cannot read config {path}: {exc.strerror or exc} (check the file)") from None
+    data = parse_yaml(text, str(path))
     cfg = parse_config(data, source=str(path))
     if cfg.image is not None and not cfg.image.is_absolute():
         cfg = cfg.model_copy(update={"image": (path.parent / cfg.image)})
@@ -122,6 +216,11 @@ def load_config(path: Path | str):
         raise ConfigError(
             f"{path}: plate.template: file not found: {cfg.plate.template} (copy templates/plate.py there, "
             "or remove the key to use the built-in template)"
+        )
+    if cfg.plate.template is not None and cfg.plate.template.suffix != ".py":
+        raise ConfigError(
+            f"{path}: plate.template: {cfg.plate.template} is not a Python file (a template is a .py file "
+            "like templates/plate.py; it is Python code and runs with your rights)"
         )
     return cfg
 
