@@ -185,10 +185,12 @@ def _slice(args) -> int:
     ):
         if result.ok:
             print(f"{out}: {result.output_bytes} bytes in {result.seconds:.1f} s ({args.profile})")
+            for w in result.warnings:
+                print(f"  warning   slicer: {w[:300]}")
         else:
             failed += 1
             why = "timed out" if result.timed_out else "; ".join(result.errors) or f"exit {result.returncode}"
-            print(f"stencil-cad: error: slicing {stl} failed: {why}", file=sys.stderr)
+            print(f"stencil-cad: error: slicing {stl} failed: {why[:500]}", file=sys.stderr)
             if args.verbose:
                 print(result.log, file=sys.stderr)
     return 1 if failed else 0

@@ -1093,14 +1093,39 @@ def slice_plates(
     Raises:
         UserError: An STL is missing, an output exists, or the slicer is not installed.
     """
+    import math
+
     from . import slicing
 
     prof = slicing.get_profile(profile)
+    if not (math.isfinite(timeout_s) and timeout_s > 0):
+        raise UserError(f"--timeout must be a positive number of seconds, got {timeout_s}")
+    bed = slicing.bed_size(prof)
     jobs = []
     for stl in stls:
         if not stl.is_file():
             raise UserError(f"STL not found: {stl} (run `stencil-cad run` first, or check the path)")
+        try:
+            size = slicing.stl_footprint(stl)
+        except ValueError:
+            raise UserError(f"{stl} is not an STL file (give a plate's layer_NN.stl)") from None
+        except OSError as exc:
+            raise UserError(f"cannot read {stl}: {exc.strerror} (check the file)") from None
+        if not (size[0] <= bed[0] + 1e-6 and size[1] <= bed[1] + 1e-6):
+            fits = [
+                f"{name} ({w:g} × {h:g} mm)"
+                for name, (w, h) in ((n, slicing.bed_size(n)) for n in slicing.PROFILES)
+                if size[0] <= w and size[1] <= h
+            ]
+            raise UserError(
+                f"{stl} is {size[0]:.1f} × {size[1]:.1f} mm but the {prof.name} bed is {bed[0]:g} × "
+                f"{bed[1]:g} mm: use a smaller picture (size.width_mm)"
+                + (f", another profile (--profile {' or '.join(fits)})" if fits else "")
+                + ", or a printer with a larger bed (copy the profile and edit its bed size)"
+            )
         out = stl.with_suffix(prof.suffix)
+        if out.is_dir():
+            raise OutputError(f"{out} is a folder where the sliced file goes (move it away)")
         if out.exists() and not force:
             raise OutputError(f"{out} already exists (use --force to replace it)")
         jobs.append((stl, out))
@@ -1111,6 +1136,9 @@ def slice_plates(
         except slicing.SlicerNotFoundError as exc:
             tmp.unlink(missing_ok=True)
             raise UserError(f"{exc}") from None
+        except BaseException:
+            tmp.unlink(missing_ok=True)
+            raise
         if result.ok:
             tmp.replace(out)
         else:

@@ -19,6 +19,7 @@ Profiles (see :data:`PROFILES` and ``docs/printing.md``):
 
 from __future__ import annotations
 
+import json
 import logging
 import os
 import re
@@ -184,6 +185,41 @@ def build_command(
     cmd += list(extra_args)
     cmd += ["-o", str(output), "-l", models[0]]
     return cmd
+
+
+def bed_size(profile: str | Profile) -> tuple[float, float]:
+    """Width and depth in mm of the printable area of a shipped profile.
+
+    PrusaSlicer profiles: the bounding box of ``bed_shape``; CuraEngine definitions:
+    ``machine_width`` × ``machine_depth``.
+    """
+    prof = get_profile(profile)
+    if prof.slicer is Slicer.CURA:
+        settings = json.loads(prof.path.read_text())["overrides"]
+        return float(settings["machine_width"]["default_value"]), float(
+            settings["machine_depth"]["default_value"]
+        )
+    for line in prof.path.read_text().splitlines():
+        key, _, value = line.partition("=")
+        if key.strip() == "bed_shape":
+            pts = np.array([[float(v) for v in p.split("x")] for p in value.strip().split(",")])
+            w, h = pts.max(axis=0) - pts.min(axis=0)
+            return float(w), float(h)
+    raise ValueError(f"profile {prof.name} has no bed_shape")
+
+
+def stl_footprint(path: str | os.PathLike) -> tuple[float, float]:
+    """Width and depth in mm of an STL's bounding box (x, y).
+
+    Raises:
+        ValueError: The file is not an STL, or is empty.
+    """
+    tri = read_stl(path)
+    if tri.size == 0:
+        raise ValueError(f"{path}: the STL has no triangles")
+    pts = tri.reshape(-1, 3)
+    w, h = pts[:, :2].max(axis=0) - pts[:, :2].min(axis=0)
+    return float(w), float(h)
 
 
 def _bed_centre(prof: Profile, overrides: Mapping[str, object]) -> str:
@@ -391,7 +427,7 @@ class SliceResult:
 
     @property
     def ok(self) -> bool:
-        """True when the run finished with exit 0, no error message and a non-empty output."""
+        """True when the run finished with exit 0 and a complete output (log lines are warnings)."""
         return (not self.timed_out) and self.returncode == 0 and not self.errors and self.output_bytes > 0
 
 
@@ -478,12 +514,18 @@ def slice_file(
     cpu = None if cpu0 is None or cpu1 is None else cpu1 - cpu0
     errors, warnings = parse_messages(text or "", returncode)
     size = output.stat().st_size if output.is_file() else 0
+    # Success is the exit code and a complete output, not the log's words: PrusaSlicer logs
+    # `[error]` lines on runs that exit 0 with complete G-code. Those become warnings.
+    incomplete = output_problem(output, prof) if returncode == 0 and not timed_out else None
+    if returncode == 0 and not timed_out and incomplete is None:
+        warnings = [*errors, *warnings]
+        errors = []
     if timed_out:
         errors.append(f"timed out after {timeout_s:.0f} s")
     elif returncode != 0 and not errors:
         errors.append(f"{prof.slicer.value} exited with status {returncode}")
-    elif returncode == 0 and size == 0:
-        errors.append(f"{prof.slicer.value} wrote no output to {output}")
+    elif incomplete is not None:
+        errors.append(incomplete)
     result = SliceResult(
         profile=prof.name,
         command=tuple(cmd),
@@ -506,6 +548,36 @@ def _kill_group(proc: subprocess.Popen) -> None:
         os.killpg(proc.pid, 9)
     except (AttributeError, ProcessLookupError, PermissionError):
         proc.kill()
+
+
+def output_problem(output: str | os.PathLike, profile: str | Profile) -> str | None:
+    """Why a slicer's output file is not complete, or None when it is.
+
+    G-code is complete when it holds the slicer's closing block (PrusaSlicer's
+    ``; prusaslicer_config = end``, CuraEngine's ``;End of Gcode``); an ``.sl1`` when it
+    is a readable zip with ``config.ini`` and at least one layer image.
+    """
+    prof = get_profile(profile)
+    path = Path(output)
+    if not path.is_file() or path.stat().st_size == 0:
+        return f"{prof.slicer.value} wrote no output to {path}"
+    if prof.technology is Technology.SLA:
+        try:
+            with zipfile.ZipFile(path) as zf:
+                names = zf.namelist()
+        except (OSError, zipfile.BadZipFile):
+            return f"{path} is not a complete .sl1 archive"
+        if "config.ini" not in names or sla_layer_count(path) == 0:
+            return f"{path} has no layers"
+        return None
+    with path.open("rb") as fh:
+        fh.seek(max(0, path.stat().st_size - 65536))
+        tail = fh.read().decode("ascii", errors="replace")
+    if prof.slicer is Slicer.PRUSA:
+        if "prusaslicer_config = end" in tail:
+            return None
+        return f"{path} is cut short (no closing configuration block)"
+    return None if ";End of Gcode" in tail or ";TIME_ELAPSED" in tail else f"{path} is cut short"
 
 
 def sla_layer_count(sl1: str | os.PathLike) -> int:
