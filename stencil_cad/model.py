@@ -172,6 +172,8 @@ class PlateGeometry:
             into the top face, positive embosses them that high, 0 for none.
         label_box: ``(x0, y0, x1, y1)`` mm, a rectangle inside the plate and
             clear of every hole that contains all glyphs, or None.
+        extra_holes: How many of the last round holes a template added (a hanging
+            hole, say) on top of the layer's own dots.
     """
 
     width_mm: float
@@ -184,6 +186,7 @@ class PlateGeometry:
     glyphs: tuple = ()
     relief_mm: float = 0.0
     label_box: tuple | None = None
+    extra_holes: int = 0
 
     @property
     def hole_count(self) -> int:

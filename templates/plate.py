@@ -1,5 +1,8 @@
 """Stencil plate template (build123d). Copy this file, edit it, and point the config at the copy.
 
+A template is Python code: stencil-cad runs it with your rights. Use only templates you wrote
+or trust, as you would any script; a shared config naming a template shares that code.
+
     plate:
       template: my_plate.py          # relative to the config file
       template_params:               # optional: values for the constants below
@@ -56,10 +59,16 @@ def build(holes, outline, label_area, label):
         label_font=LABEL_FONT,
         label_tolerance_mm=LABEL_TOLERANCE_MM,
     )
-    # Edit here with build123d. For example, a 3 mm hanging hole in the top-left corner of
-    # the border (plate.part is a build123d Part, z from 0 to THICKNESS_MM):
+    # Edit here. Extra round through-holes, e.g. a 3 mm hanging hole in the top-right corner
+    # of the border, stay in the plate's description and keep the fast writers and checks
+    # at any hole count:
     #
-    #   from build123d import Cylinder, Pos
-    #   x, y = outline[:, 0].min() + 5, outline[:, 1].max() - 5
-    #   return plate.with_part(plate.part - Pos(x, y, THICKNESS_MM / 2) * Cylinder(1.5, 2 * THICKNESS_MM))
+    #   x, y = outline[:, 0].max() - 6, outline[:, 1].max() - 5
+    #   return plate.with_holes([(x, y)], 1.5)
+    #
+    # Any other change with build123d (plate.part is a build123d Part, z from 0 to
+    # THICKNESS_MM) goes through OCCT's writers, slow above a few hundred holes:
+    #
+    #   from build123d import Box, Pos
+    #   return plate.with_part(plate.part + Pos(x, y, THICKNESS_MM) * Box(4, 4, 1))
     return plate

@@ -1,5 +1,7 @@
 """Stencil plate template (CadQuery). Needs the ``cadquery`` extra: ``pip install stencil_cad[cadquery]``.
 
+A template is Python code: stencil-cad runs it with your rights (see ``templates/plate.py``).
+
 The same parameters and ``build`` as ``templates/plate.py`` (see its docstring), with the
 solid handed to CadQuery: build123d and CadQuery 2.8 both run on OCP 7.9, so shapes pass
 between them through ``.wrapped``. Point the config at this file (or a copy) with
@@ -42,10 +44,16 @@ def build(holes, outline, label_area, label):
         label_tolerance_mm=LABEL_TOLERANCE_MM,
     )
     solid = cq.Workplane("XY").add(cq.Solid(plate.part.wrapped))
-    # Edit here with CadQuery. For example, a 3 mm hanging hole in the top-left corner:
+    # Edit here with CadQuery. A round hole (a 3 mm hanging hole)
+    # (top-right corner) is best added to the description, which keeps the fast writers at any
+    # hole count:
     #
-    #   x, y = outline[:, 0].min() + 5, outline[:, 1].max() - 5
-    #   solid = solid.cut(cq.Workplane("XY").center(x, y).circle(1.5).extrude(THICKNESS_MM))
+    #   x, y = outline[:, 0].max() - 6, outline[:, 1].max() - 5
+    #   return plate.with_holes([(x, y)], 1.5)
+    #
+    # Other changes edit the solid, e.g.
+    #
+    #   solid = solid.cut(cq.Workplane("XY").center(x, y).rect(4, 2).extrude(THICKNESS_MM))
     #
     # An unchanged solid keeps the fast STEP writer and mesher; an edited one is exported
     # through OCCT.

@@ -140,6 +140,61 @@ class PlateModel:
             self.info.setdefault("mesh_seconds", {})[str(key)] = round(time.perf_counter() - t0, 3)
         return self._meshes[key]
 
+    def with_holes(self, xy_mm, r_mm, web_mm: float = 1.0) -> PlateModel:
+        """This plate with extra round through-holes (a hanging hole, say), kept kernel-free.
+
+        The holes join the plate's description, so the plate keeps its fast STEP writer,
+        mesher and scalable checks however many dots it has (an OCCT boolean on the solid,
+        :meth:`with_part`, makes the whole plate go through OCCT's slow writers).
+
+        Args:
+            xy_mm: ``(K, 2)`` hole centres in mm, picture frame (or one ``(x, y)``).
+            r_mm: Radius in mm, one for all or ``(K,)``.
+            web_mm: Least material in mm to the plate's edge, other holes and the label.
+                Defaults to 1.0 mm.
+
+        Returns:
+            A new model.
+
+        Raises:
+            PlateBuildError: A hole is too small, leaves the plate, or comes closer than
+                ``web_mm`` to another hole, the plate's edge or the label.
+        """
+        if self.geometry is None:
+            raise PlateBuildError("with_holes needs the plate of perforated_plate (call it before with_part)")
+        geom = self.geometry
+        xy = np.asarray(xy_mm, dtype=np.float64).reshape(-1, 2)
+        r = np.broadcast_to(np.asarray(r_mm, dtype=np.float64), (len(xy),)).copy()
+        for (x, y), ri in zip(xy, r, strict=True):
+            where = f"extra hole at ({x:g}, {y:g}) mm, r {ri:g} mm"
+            if not ri >= HOLE_FLOOR_MM:
+                raise PlateBuildError(f"{where}: radius must be ≥ {HOLE_FLOOR_MM} mm")
+            ring = geom.outline
+            if not _point_in_ring(x, y, ring) or _ring_distance(x, y, ring) < ri + web_mm:
+                raise PlateBuildError(f"{where}: must lie inside the plate, ≥ {web_mm:g} mm from its edge")
+            if len(geom.circles_r):
+                gap = np.hypot(*(geom.circles_xy - (x, y)).T) - geom.circles_r - ri
+                if gap.min() < web_mm:
+                    raise PlateBuildError(
+                        f"{where}: only {gap.min():.3g} mm from another hole (< {web_mm:g} mm)"
+                    )
+            for poly in geom.polygons:
+                if _point_in_ring(x, y, poly) or _ring_distance(x, y, poly) < ri + web_mm:
+                    raise PlateBuildError(f"{where}: too close to a cut-out")
+            if geom.label_box is not None:
+                x0, y0, x1, y1 = geom.label_box
+                dx, dy = max(x0 - x, 0.0, x - x1), max(y0 - y, 0.0, y - y1)
+                if np.hypot(dx, dy) < ri + web_mm:
+                    raise PlateBuildError(f"{where}: too close to the label")
+        new = replace(
+            geom,
+            circles_xy=np.vstack([geom.circles_xy.reshape(-1, 2), xy]),
+            circles_r=np.concatenate([geom.circles_r.reshape(-1), r]),
+            extra_holes=geom.extra_holes + len(r),
+        )
+        info = {**self.info, "extra_holes": new.extra_holes}
+        return PlateModel(part=as_part(make_solid(new)), geometry=new, label=self.label, info=info)
+
     def with_part(self, shape) -> PlateModel:
         """This model with its solid replaced by an edited one.
 
@@ -155,6 +210,18 @@ class PlateModel:
         if wrapped.IsSame(self.part.wrapped):
             return self
         return PlateModel(part=as_part(wrapped), geometry=None, label=self.label, info=dict(self.info))
+
+
+def _point_in_ring(x: float, y: float, ring: np.ndarray) -> bool:
+    from ..outline import _inside
+
+    return bool(_inside(np.array([[x, y]]), ring)[0])
+
+
+def _ring_distance(x: float, y: float, ring: np.ndarray) -> float:
+    from ..outline import _point_ring_distance
+
+    return float(_point_ring_distance(np.array([[x, y]]), ring)[0])
 
 
 def as_part(shape):

@@ -171,6 +171,28 @@ def _volume(shape) -> float:
     return float(props.Mass())
 
 
+def _curved_area(shape) -> float:
+    """Total area in mm² of a shape's faces that are not planes."""
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GeomAbs import GeomAbs_Plane
+    from OCP.GProp import GProp_GProps
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    total = 0.0
+    exp = TopExp_Explorer(shape, TopAbs_FACE)
+    while exp.More():
+        face = TopoDS.Face_s(exp.Current())
+        if BRepAdaptor_Surface(face, False).GetType() != GeomAbs_Plane:
+            props = GProp_GProps()
+            BRepGProp.SurfaceProperties_s(face, props)
+            total += props.Mass()
+        exp.Next()
+    return total
+
+
 def _tiles(geom: PlateGeometry, n_holes: int) -> list[tuple[str, PlateGeometry]]:
     """Small plates cut from windows of a big plate's description, built by the same code."""
     from dataclasses import replace
@@ -326,11 +348,16 @@ def check_plate(
             if isinstance(dots, CutLayer)
             else None
         )
-        if holes is not None and n_in is not None and n_in != holes:
-            fails.append(f"the plate has {holes} holes but the input has {n_in}")
+        extra = geom.extra_holes if geom is not None else 0
+        if holes is not None and n_in is not None and n_in + extra != holes:
+            fails.append(
+                f"the plate has {holes} holes but the input has {n_in}"
+                + (f" and the template added {extra}" if extra else "")
+            )
         if isinstance(dots, DotSet) and geom is not None and len(dots):
-            same = np.array_equal(np.asarray(dots.xy_mm), geom.circles_xy) and np.array_equal(
-                np.asarray(dots.r_mm), geom.circles_r
+            n = len(geom.circles_r) - extra
+            same = np.array_equal(np.asarray(dots.xy_mm), geom.circles_xy[:n]) and np.array_equal(
+                np.asarray(dots.r_mm), geom.circles_r[:n]
             )
             if not same:
                 fails.append("the plate's holes are not the given dots")
@@ -368,6 +395,13 @@ def check_plate(
     sec["mesh_check"] = time.perf_counter() - t0
     mref = analytic if analytic is not None else volume
     mc["rel_error"] = abs(mc["volume"] - mref) / abs(mref)
+    # A mesh lies within the chord error of the surface, so its volume differs from the
+    # B-rep's by at most (area of the curved faces) × tolerance. The fast mesher's holes
+    # are built to the analytic area; OCCT's mesher (a template's own solid) is not.
+    allowed = MESH_RTOL
+    if geom is None:
+        allowed = max(MESH_RTOL, _curved_area(shape) * tolerance_mm / abs(mref))
+    mc["allowed_rel_error"] = allowed
     if not mc["watertight"]:
         fails.append("mesh is not watertight (an edge is not shared by exactly two triangles)")
     if not mc["consistent_winding"]:
@@ -378,7 +412,7 @@ def check_plate(
         fails.append(f"mesh genus {mc['genus']} differs from the hole count {holes}")
     if mc["degenerate"]:
         fails.append(f"mesh has {mc['degenerate']} zero-area triangles in float32")
-    if mc["rel_error"] > MESH_RTOL:
+    if mc["rel_error"] > allowed:
         fails.append(
             f"mesh volume {mc['volume']:.4f} mm³ differs from {mref:.4f} mm³ by {mc['rel_error']:.2e}"
         )

@@ -107,7 +107,9 @@ class PlateConfig(StrictModel):
         description=(
             "Plate template: a Python file with module-level parameters and build(...), like "
             "templates/plate.py (build123d) or templates/plate_cadquery.py (CadQuery, needs the cadquery "
-            "extra). A relative path is taken from the config file's folder. null: the built-in template."
+            "extra). A relative path is taken from the config file's folder. null: the built-in template. "
+            "A template is Python code and runs with your rights: use only templates you trust (a shared "
+            "config that names a template shares that code)."
         ),
     )
     template_params: dict[str, float | int | bool | str] = Field(
