@@ -12,7 +12,7 @@ import importlib
 import json
 import sys
 
-NAMES = ["decompose", "stipple", "spray", "cad", "wall_dxf", "quality", "refine", "slicer", "e2e"]
+NAMES = ["decompose", "stipple", "spray", "cad", "wall_dxf", "quality", "refine", "slicer", "e2e", "limits"]
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -73,6 +73,8 @@ def read_image(
             if w < 1 or h < 1:
                 raise ImageError(f"image is empty: {path}")
             if w * h > MAX_PIXELS:
+                if min_size is not None and min_size[1] <= 1:  # the height follows the image's aspect
+                    min_size = (min_size[0], max(1, round(min_size[0] * h / w)))
                 raise ImageError(
                     f"image too large: {path} is {w} × {h} px ({w * h / 1e6:.0f} MP), more than the "
                     f"{MAX_PIXELS / 1e6:.0f} MP stencil-cad reads; downscale it"

@@ -443,18 +443,29 @@ def read_dots(folder: Path, count: int | None = None) -> list[DotSet]:
     for f in files:
         try:
             out.append(dots_from_csv(f.read_text(encoding="utf-8")))
-        except ValueError as exc:
-            raise UserError(f"{f}: {exc}") from None
+        except (ValueError, UnicodeDecodeError) as exc:
+            raise UserError(f"{f}: {str(exc)[:300]}") from None
+        if len(out[-1]) == 0:
+            log.warning(
+                "%s has no holes: its plate will spray nothing (re-run `stencil-cad stipple`, or add rows "
+                "x_mm,y_mm,r_mm)",
+                f,
+            )
     spray = folder / SPRAY_JSON
     if spray.exists():
         import json
+        import math
         from dataclasses import replace
 
         try:
-            times = json.loads(spray.read_text())["spray_times"]
-        except (ValueError, KeyError, TypeError):
+            times = json.loads(spray.read_text(encoding="utf-8"))["spray_times"]
+            times = [float(t) for t in times]
+            if not all(math.isfinite(t) and t > 0 for t in times):
+                raise ValueError("spray times must be positive numbers")
+        except (ValueError, KeyError, TypeError, UnicodeDecodeError):
             raise UserError(
-                f"{spray}: not a valid spray-time file; delete it to use spray.spray_time"
+                f"{spray}: not a valid spray-time file (a list of positive numbers under spray_times); "
+                "fix it, or delete it to use spray.spray_time"
             ) from None
         if len(times) == len(out):
             out = [

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import textwrap
 from pathlib import Path
 from typing import Any
@@ -106,51 +107,70 @@ def parse_yaml(text: str, source: str) -> Any:
     return data
 
 
+_UNION_TAG = re.compile(
+    r"^(float|int|bool|str|none|enum|function-.*|union\[.*|nullable\[.*|list\[.*|tuple\[.*|dict\[.*|"
+    r"is-instance\[.*|literal\[.*|constrained-.*|lax-or-strict.*|json-or-python.*|chain\[.*|"
+    r"function-(after|before|wrap|plain)\[.*)$"
+)
+
+
 def _format_loc(loc: tuple) -> str:
     parts: list[str] = []
     for item in loc:
         if isinstance(item, int):
             parts.append(f"[{item}]")
-        elif item in ("function-after", "function-before") or str(item).startswith(("function-", "union[")):
-            continue
+        elif item in ("function-after", "function-before") or _UNION_TAG.match(str(item)):
+            continue  # pydantic's names of union branches and validators, not config keys
         else:
-            parts.append(("." if parts else "") + str(item))
+            text = str(item)
+            if not re.fullmatch(r"[A-Za-z0-9_\-]+", text):
+                text = short_repr(text, 40)  # a key with spaces or control characters, quoted
+            parts.append(("." if parts else "") + text)
     return "".join(parts) or "(top level)"
 
 
 def format_validation_error(exc: ValidationError, source: str = "config") -> str:
-    """Turn a pydantic error into one line per problem: dotted path, bad value, what is allowed.
+    """Turn a pydantic error into one line: dotted path, bad value, what is allowed.
+
+    The first problem is described in full; further problems (other keys) are counted and
+    named by path, so the message stays one line however many keys are wrong.
 
     Args:
         exc: The pydantic error.
         source: Name of the config file, for the message.
 
     Returns:
-        The message; its first line alone is enough to fix the first problem.
+        The one-line message.
     """
-    lines = []
+    first: dict[str, str] = {}
     for err in exc.errors(include_url=False):
         loc = _format_loc(tuple(err.get("loc", ())))
+        if loc in first:
+            continue  # a union reports each branch at the same place: the first says enough
         msg = err.get("msg", "invalid")
         if msg.startswith("Value error, "):
             msg = msg[len("Value error, ") :]
+        msg = " ".join(msg.split())
+        msg = msg if len(msg) <= 2 * QUOTE_CHARS else msg[: 2 * QUOTE_CHARS] + "…"
         kind = err.get("type", "")
         if kind == "extra_forbidden":
-            msg = "unknown key (check the spelling; `stencil-cad init` writes every valid key)"
-            lines.append(f"{source}: {loc}: {msg}")
+            first[loc] = (
+                f"{source}: {loc}: unknown key (check the spelling; `stencil-cad init` writes every valid key)"
+            )
             continue
         value = err.get("input")
-        msg = msg if len(msg) <= 2 * QUOTE_CHARS else msg[: 2 * QUOTE_CHARS] + "…"
         shown = (
             ""
             if kind == "missing" or isinstance(value, dict) or "got " in msg
             else f", got {short_repr(value)}"
         )
-        if loc == "(top level)":
-            lines.append(f"{source}: {msg}")
-        else:
-            lines.append(f"{source}: {loc}: {msg}{shown}")
-    return "\n".join(lines)
+        first[loc] = f"{source}: {msg}" if loc == "(top level)" else f"{source}: {loc}: {msg}{shown}"
+    lines = list(first.values())
+    if len(lines) > 1:
+        others = [loc for loc in first][1:]
+        more = ", ".join(others[:5]) + (", …" if len(others) > 5 else "")
+        return f"{lines[0]} (and {len(others)} more: {more})"
+    return lines[0] if lines else f"{source}: invalid config"
 
 
 def parse_config(data: Any, source: str = "config"):

@@ -158,6 +158,22 @@ def _iter_polygons(polygons) -> Iterator[tuple[np.ndarray, list[np.ndarray]]]:
             yield np.asarray(p, dtype=np.float64), []
 
 
+def _sorted_classes(doc) -> None:
+    """Write the CLASSES section in a fixed order.
+
+    ezdxf collects the required classes from a set, so their order (and the file's bytes)
+    changes with Python's string hashing from one process to the next.
+    """
+    section = doc.classes
+    export = section.export_dxf
+
+    def export_sorted(tagwriter):
+        section.classes = dict(sorted(section.classes.items()))
+        export(tagwriter)
+
+    section.export_dxf = export_sorted
+
+
 @contextlib.contextmanager
 def _fixed_metadata(on: bool):
     old = ezdxf.options.write_fixed_meta_data_for_testing
@@ -303,6 +319,8 @@ def write_dxf_stencils(
         handles.reset("%X" % (start + len(moved) - 1))
         blocks[handle] = _circle_text(hs, owner, layer, moved)
     stream = io.StringIO()
+    if deterministic:
+        _sorted_classes(doc)
     with _fixed_metadata(deterministic):
         doc.write(stream)
     text = stream.getvalue()
