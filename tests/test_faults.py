@@ -32,13 +32,9 @@ from stencil_cad.output import LOCK, STAGING_PREFIX, OutputDir
 
 SMALL = """\
 name: small
-size:
-  width_mm: 40
-  px_per_mm: 2
-decompose:
-  layers: 2
-stipple:
-  process: sla
+size: {width_mm: 40, px_per_mm: 2}
+decompose: {layers: 2}
+stipple: {process: sla}
 """
 
 
@@ -327,12 +323,18 @@ def test_large_images_are_decoded_at_reduced_size(tmp_path):
     assert rgb.shape[0] >= 120 and rgb.shape[1] >= 160
 
 
-def test_a_yaml_alias_bomb_fails_fast_with_a_short_message(tmp_path, capsys):
+def _alias_bomb(path: Path, levels: int) -> Path:
+    """Each level is a list of nine aliases of the one before: 9 ** levels strings."""
+    names = "abcdefghij"[:levels]
     lines = ['    A: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]']
-    for prev, name in zip("abcdefgh", "bcdefghi", strict=True):
+    for prev, name in zip(names, names[1:], strict=False):
         lines.append(f"    {name.upper()}: &{name} [" + ",".join([f"*{prev}"] * 9) + "]")
-    cfg = tmp_path / "bomb.yaml"
-    cfg.write_text("plate:\n  template_params:\n" + "\n".join(lines) + "\n")
+    path.write_text("plate:\n  template_params:\n" + "\n".join(lines) + "\n")
+    return path
+
+
+def test_a_yaml_alias_bomb_fails_fast_with_a_short_message(tmp_path, capsys):
+    cfg = _alias_bomb(tmp_path / "bomb.yaml", 9)
     t0 = time.perf_counter()
     code, _, err = _run(["run", cfg, "--out", tmp_path / "out"], capsys)
     line = _one_line_error(code, err, "expands to more than")
@@ -341,11 +343,7 @@ def test_a_yaml_alias_bomb_fails_fast_with_a_short_message(tmp_path, capsys):
 
 
 def test_a_bad_value_is_quoted_briefly(tmp_path, capsys):
-    lines = ['    A: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]']
-    for prev, name in zip("abc", "bcd", strict=True):
-        lines.append(f"    {name.upper()}: &{name} [" + ",".join([f"*{prev}"] * 9) + "]")
-    cfg = tmp_path / "long.yaml"
-    cfg.write_text("plate:\n  template_params:\n" + "\n".join(lines) + "\n")
+    cfg = _alias_bomb(tmp_path / "long.yaml", 4)
     code, _, err = _run(["run", cfg, "--out", tmp_path / "out"], capsys)
     line = _one_line_error(code, err, "plate.template_params.A", "(and 3 more")
     assert len(line) < 400 + len(str(cfg)), line
