@@ -121,7 +121,7 @@ def _case_lloyd(name: str, size: int, n: int, with_baseline: bool) -> dict:
 
 def _case_100k() -> dict:
     dark = _darkness(2048)
-    cfg = StippleConfig(process="sla", edge_margin_mm=1.0)
+    cfg = StippleConfig(process="sla", edge_margin_mm=1.0, tone="linear")
     stipple_layer(dark[:64, :64], 0.4, cfg, np.random.default_rng(0), n_dots=50)  # compile
     t0 = time.perf_counter()
     ds = stipple_layer(dark, 0.4, cfg, np.random.default_rng(0), n_dots=100_000)
@@ -150,7 +150,7 @@ def _case_example() -> dict:
         / 255
     )
     layers = [1.0 - rgb.mean(axis=2)] + [1.0 - rgb[..., c] for c in range(3)]
-    cfg = StippleConfig()
+    cfg = StippleConfig(tone="linear")
     stipple_layer(layers[0][:40, :40], 0.5, cfg, np.random.default_rng(0))  # compile
     rng = np.random.default_rng(0)
     t0 = time.perf_counter()

@@ -402,7 +402,9 @@ def stage_refine(
         max_radius_mm=max(rc.max_radius_factor * rules.hole_min_r_mm, cfg.stipple.resolved_max_radius_mm),
         add_remove_every=rc.add_remove_every,
         eye_sigma_mm=scielab.smallest_sigma_mm(cfg.view.distance_m),
+        layer_weight=rc.layer_weight,
     )
+    alpha_targets = np.stack([spray.resample(a, shape) for a in layers.alphas]) if layers.count else None
 
     geometry = SprayGeometry.of_job(cfg) if cfg.spray.model == SprayModel.physical else None
 
@@ -423,6 +425,7 @@ def stage_refine(
                 times,
                 settings,
                 progress=lambda it, total: bar.update(1),
+                alpha_targets=alpha_targets,
             )
     run.figures["refine"] = _plain(report)
     return out

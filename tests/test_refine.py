@@ -47,13 +47,15 @@ def test_gradient_is_exact(eye_mm):
         state.append(refine._Layer(x=xy[:, 0], y=xy[:, 1], r=r, rules=None, spray_time=0.9, rmax=1.0))
     kern = _kernels()
 
+    alphas = rng.uniform(0.0, 0.8, (2, *shape))
+
     def energy():
         trans, before, comp = refine._forward(state, kern, pitch, shape, PRIMER, colours)
-        return refine._residual_gradient(comp, target, eye_mm / pitch)
+        return refine._objective(trans, before, comp, target, alphas, 0.7, colours, eye_mm / pitch)
 
     trans, before, comp = refine._forward(state, kern, pitch, shape, PRIMER, colours)
-    _, dedc = refine._residual_gradient(comp, target, eye_mm / pitch)
-    grads = refine._hole_grads(state, kern, pitch, shape[0], trans, before, colours, dedc)
+    _, terms = refine._objective(trans, before, comp, target, alphas, 0.7, colours, eye_mm / pitch)
+    grads = refine._hole_grads(state, kern, pitch, shape[0], trans, terms)
     eps = 1e-5
     for k, layer in enumerate(state):
         for i in (0, 5, 11):

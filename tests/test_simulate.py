@@ -370,7 +370,7 @@ def test_calibrated_stipple_sprays_closer_than_linear():
     alpha = np.tile(np.linspace(0.0, 1.0, 160), (60, 1))
     layers = Layers(primer=np.ones(3), colours=np.zeros((1, 3)), alphas=alpha[None], mm_per_px=s)
     spray = SprayConfig(calibrate=Calibrate.dots)
-    stc = StippleConfig(process="sla", edge_margin_mm=0.0)
+    stc = StippleConfig(process="sla", edge_margin_mm=0.0, tone="linear")
     lin = stipple_layer(alpha, s, stc, np.random.default_rng(0))
     choice = cal.choose_tone(
         alpha, s, stc.resolved_radius_mm, stc.resolved_web_mm, spray, spacing_factor=stc.auto_spacing_factor

@@ -27,7 +27,7 @@ from stencil_cad.stipple import (
 )
 from stencil_cad.stipple.rules import check_rules, rules_from_config
 
-SLA = StippleConfig(process="sla", edge_margin_mm=0.0)
+SLA = StippleConfig(process="sla", edge_margin_mm=0.0, tone="linear")
 
 
 def rng(seed=0):
@@ -132,7 +132,7 @@ def test_over_relaxation_beats_plain_lloyd():
 
 def test_tone_map_threshold_and_density_hook():
     alpha = np.array([[0.0, 0.04, 0.05, 0.5, 1.0]])
-    t, mask = tone_map(alpha, StippleConfig())
+    t, mask = tone_map(alpha, StippleConfig(tone="linear"))
     np.testing.assert_array_equal(mask, [[False, False, True, True, True]])
     np.testing.assert_allclose(t, [[0, 0, 0.05, 0.5, 1.0]])
     dens = np.array([[4.0, 4.0, 2.0, 1.0, 0.0]])
@@ -141,7 +141,7 @@ def test_tone_map_threshold_and_density_hook():
     with pytest.raises(ValueError, match="calibrated"):
         tone_map(alpha, StippleConfig(tone="calibrated"))
     with pytest.raises(ValueError, match="shape"):
-        tone_map(alpha, StippleConfig(), density=np.ones((2, 2)))
+        tone_map(alpha, StippleConfig(tone="linear"), density=np.ones((2, 2)))
 
 
 def test_auto_dot_count_is_hexagonal_packing():
@@ -196,7 +196,7 @@ def test_density_ramp_gives_dots_proportional_to_ink():
 def test_same_seed_same_dots_and_rules_hold():
     g = rng(7)
     alpha = np.clip(g.random((60, 80)), 0, 1)
-    cfg = StippleConfig(process="laser", keepouts_mm=[(0.0, 0.0, 15.0, 8.0)])
+    cfg = StippleConfig(process="laser", keepouts_mm=[(0.0, 0.0, 15.0, 8.0)], tone="linear")
     a = stipple_layer(alpha, 0.5, cfg, rng(3))
     b = stipple_layer(alpha, 0.5, cfg, rng(3))
     c = stipple_layer(alpha, 0.5, cfg, rng(4))
@@ -234,7 +234,12 @@ def test_variable_radius_grows_with_density():
     w = 120
     alpha = np.tile(np.linspace(0.1, 1.0, w)[None, :], (w, 1))
     cfg = StippleConfig(
-        process="sla", edge_margin_mm=0.0, variable_radius=True, radius_mm=0.5, max_radius_mm=1.5
+        process="sla",
+        edge_margin_mm=0.0,
+        variable_radius=True,
+        radius_mm=0.5,
+        max_radius_mm=1.5,
+        tone="linear",
     )
     ds = stipple_layer(alpha, 0.5, cfg, rng(6))
     assert ds.r_mm.min() >= 0.5 and ds.r_mm.max() <= 1.5
@@ -300,7 +305,7 @@ def test_tiny_and_overfull_layers_still_obey_rules():
 def test_rules_hold_on_random_layers(seed, process, variable, h, w):
     g = rng(seed)
     alpha = np.clip(g.random((h, w)) * g.random() * 1.5, 0.0, 1.0)
-    cfg = StippleConfig(process=process, variable_radius=variable, max_iterations=15)
+    cfg = StippleConfig(process=process, variable_radius=variable, max_iterations=15, tone="linear")
     ds = stipple_layer(alpha, 0.5, cfg, g)
     check_rules(ds.xy_mm, ds.r_mm, rules_from_config(cfg, w * 0.5, h * 0.5), tol_mm=1e-9)
     assert ds.report["n_final"] == len(ds)

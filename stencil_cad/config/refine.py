@@ -45,6 +45,15 @@ class RefineConfig(StrictModel):
             "preset), or the stippler's largest radius if that is larger. Range [1, 4]."
         ),
     )
+    layer_weight: float = Field(
+        1.0,
+        ge=0.0,
+        le=100.0,
+        description=(
+            "Weight of each layer's own opacity error beside the error of the composite colour (0: the "
+            "composite alone; then one layer may drift from its target to make up for another). Range [0, 100]."
+        ),
+    )
     add_remove_every: int = Field(
         10,
         ge=0,

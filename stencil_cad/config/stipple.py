@@ -140,10 +140,11 @@ class StippleConfig(StrictModel):
         description="No hole where the layer opacity is below this value. Range [0, 1).",
     )
     tone: Tone = Field(
-        Tone.linear,
+        Tone.calibrated,
         description=(
-            "Opacity-to-density curve. Choices: linear (open area proportional to opacity, as in Secord "
-            "2002), calibrated (the density the spray simulator derives; the pipeline must supply it)."
+            "Opacity-to-density curve. Choices: calibrated (the density the spray simulator derives, the "
+            "best the tool knows), linear (open area proportional to opacity, as in Secord 2002 and the "
+            "paper)."
         ),
     )
     auto_spacing_factor: float = Field(

@@ -13,7 +13,9 @@ layer sprayed in order (Porter-Duff *over*) and ``C*(p)`` the input picture,
 
 where ``g`` is a Gaussian of the eye's narrowest (luminance) lobe at the viewing distance
 (:func:`stencil_cad.simulate.scielab.smallest_sigma_mm`): error finer than the eye resolves from
-there costs nothing. The composite is affine in each layer's opacity ``alpha_l``:
+there costs nothing. Each layer's own filtered opacity error ``sum_p (g * (alpha_l -
+alpha*_l))^2`` is added with a weight (``refine.layer_weight``): the composite alone
+lets one layer drift from its target to make up for another's colour. The composite is affine in each layer's opacity ``alpha_l``:
 ``dC/dalpha_l = (c_l - C_{l-1}) prod_{m > l} (1 - alpha_m)``, so ``dE/dalpha_l`` is one
 pass over the layers. Each layer's opacity follows the per-hole contract of
 :func:`stencil_cad.simulate.spray.hole_kernels` (Gaussian deposits ``N_i`` of width ``sigma_i``
@@ -89,6 +91,7 @@ class RefineSettings:
         max_radius_mm: Largest hole radius in mm (per layer the rules' floor is the smallest).
         add_remove_every: Add/remove moves every this many iterations (0: never).
         eye_sigma_mm: Standard deviation of the eye filter in the objective, mm (0: none).
+        layer_weight: Weight of each layer's own opacity error beside the composite's.
     """
 
     iterations: int = 60
@@ -97,6 +100,7 @@ class RefineSettings:
     max_radius_mm: float = 1.0
     add_remove_every: int = 15
     eye_sigma_mm: float = 0.0
+    layer_weight: float = 1.0
 
 
 # --------------------------------------------------------------------------- compiled kernels
@@ -503,25 +507,37 @@ def _forward(layers_state, kernels, pitch, shape, primer, colours):
     return trans, before, comp
 
 
-def _residual_gradient(comp, target, eye_px):
-    """``E`` and ``dE/dC`` of ``E = sum |g * (C - C*)|^2``."""
+def _residual_gradient(res, eye_px):
+    """``E`` and ``dE/dres`` of ``E = sum |g * res|^2`` (``res`` of shape (H, W) or (H, W, C))."""
     from scipy.ndimage import gaussian_filter
 
-    res = comp - target
-    if eye_px > 0:
-        # Zero padding keeps the filter self-adjoint, so g applied again is the exact gradient.
-        f = np.stack([gaussian_filter(res[..., c], eye_px, mode="constant") for c in range(3)], axis=-1)
-        grad = 2.0 * np.stack(
-            [gaussian_filter(f[..., c], eye_px, mode="constant") for c in range(3)], axis=-1
-        )
-    else:
-        f = res
-        grad = 2.0 * res
-    return float(np.sum(f * f)), grad
+    if eye_px <= 0:
+        return float(np.sum(res * res)), 2.0 * res
+    axes = (eye_px, eye_px, 0.0)[: res.ndim]
+    # Zero padding keeps the filter self-adjoint, so g applied again is the exact gradient.
+    f = gaussian_filter(res, axes, mode="constant")
+    return float(np.sum(f * f)), 2.0 * gaussian_filter(f, axes, mode="constant")
+
+
+def _objective(trans, before, comp, target, alpha_targets, layer_weight, colours, eye_px):
+    """``E`` and per layer ``(G, Q)``: ``G = dE/dalpha_l``, ``Q`` the curvature along it.
+
+    ``E`` is the composite's filtered squared error plus ``layer_weight`` times each layer's
+    filtered squared opacity error (so no layer is made worse to help another's colour).
+    """
+    e, dedc = _residual_gradient(comp - target, eye_px)
+    terms = _layer_terms(trans, before, colours, dedc)
+    if layer_weight > 0:
+        for k, t in enumerate(trans):
+            el, dl = _residual_gradient((1.0 - t) - alpha_targets[k], eye_px)
+            e += layer_weight * el
+            g, q = terms[k]
+            terms[k] = (g + layer_weight * dl, q + layer_weight)
+    return e, terms
 
 
 def _layer_terms(trans, before, colours, dedc):
-    """Per layer ``G = dE/dalpha`` and ``Q = |dC/dalpha|^2``."""
+    """Per layer ``G = dE/dalpha`` and ``Q = |dC/dalpha|^2`` of the composite error."""
     n = len(trans)
     suffix = [None] * n
     acc = np.ones_like(trans[0])
@@ -535,10 +551,10 @@ def _layer_terms(trans, before, colours, dedc):
     return out
 
 
-def _hole_grads(state, kernels, pitch, h, trans, before, colours, dedc) -> list[np.ndarray]:
+def _hole_grads(state, kernels, pitch, h, trans, terms) -> list[np.ndarray]:
     """Per layer ``(N, 3)`` gradient of the objective w.r.t. each hole's x, y (mm) and radius (mm)."""
     out = []
-    for layer, (g, _q), t in zip(state, _layer_terms(trans, before, colours, dedc), trans, strict=True):
+    for layer, (g, _q), t in zip(state, terms, trans, strict=True):
         grad = np.zeros((len(layer.x), 3))
         if len(layer.x):
             rows, cols, sig, peak, dsig, dpeak, exp_mode = _kernels_px(layer, kernels, pitch, h)
@@ -652,6 +668,7 @@ def refine_dots(
     spray_times: list[float],
     settings: RefineSettings,
     progress: Callable[[int, int], None] | None = None,
+    alpha_targets: np.ndarray | None = None,
 ) -> tuple[list[DotSet], dict]:
     """Move and resize every layer's holes so the sprayed composite matches the target.
 
@@ -667,6 +684,9 @@ def refine_dots(
         spray_times: Spray time of each layer.
         settings: Iterations, step sizes, largest radius, add/remove cadence, eye filter.
         progress: Called as ``progress(iteration, iterations)``.
+        alpha_targets: ``(L, H, W)`` target opacity of each layer on the grid, or None. With
+            it, each layer's own filtered opacity error is added to the objective, weighted
+            by ``settings.layer_weight``.
 
     Returns:
         ``(dotsets, report)``: the refined DotSets (each passes :func:`check_rules` of its
@@ -705,16 +725,19 @@ def refine_dots(
     eye_px = settings.eye_sigma_mm / mm_per_px
     npx = float(shape[0] * shape[1] * 3)
 
+    alpha_targets = None if alpha_targets is None else np.asarray(alpha_targets, dtype=np.float64)
+    lam = settings.layer_weight if alpha_targets is not None else 0.0
+
     def evaluate():
         trans, before, comp = _forward(state, kernels, mm_per_px, shape, primer, colours)
-        e, dedc = _residual_gradient(comp, target, eye_px)
-        return trans, before, e, dedc
+        e, terms = _objective(trans, before, comp, target, alpha_targets, lam, colours, eye_px)
+        return trans, e, terms
 
-    trans, before, e, dedc = evaluate()
+    trans, e, terms = evaluate()
     e_start = e
     iters = settings.iterations
     for it in range(1, iters + 1):
-        grads = _hole_grads(state, kernels, mm_per_px, h, trans, before, colours, dedc)
+        grads = _hole_grads(state, kernels, mm_per_px, h, trans, terms)
         # Linear decay of the step size to a fifth: large moves first, then polish.
         frac = 1.0 - 0.8 * (it - 1) / max(iters - 1, 1)
         for layer, grad in zip(state, grads, strict=True):
@@ -730,16 +753,16 @@ def refine_dots(
             layer.y = layer.y - frac * settings.step_mm * step[:, 1]
             layer.r = layer.r - frac * settings.radius_step_mm * step[:, 2]
             _project(layer, x0, y0, r0)
-        trans, before, e, dedc = evaluate()
+        trans, e, terms = evaluate()
         every = settings.add_remove_every
         if every and it % every == 0 and it < iters:
             for k, layer in enumerate(state):
-                g, q = _layer_terms(trans, before, colours, dedc)[k]
+                g, q = terms[k]
                 layer.removed += _remove_holes(layer, g, q, trans[k], kernels, mm_per_px, h)
-                trans, before, e, dedc = evaluate()
-                g, q = _layer_terms(trans, before, colours, dedc)[k]
+                trans, e, terms = evaluate()
+                g, q = terms[k]
                 layer.added += _add_holes(layer, g, q, trans[k], kernels, mm_per_px, shape)
-                trans, before, e, dedc = evaluate()
+                trans, e, terms = evaluate()
         if progress is not None:
             progress(it, iters)
     out = []
