@@ -300,8 +300,11 @@ class DaskExecutor(Executor):
                 i, item = next(source)
             except StopIteration:
                 return False
-            fut = self.client.submit(fn, item, pure=False, key=f"{tag}-{i}")
-            pending[fut] = i
+            # The inputs go to the cluster as data of their own, not inside the task graph
+            # (a decomposition tile is tens of MB); released with the result.
+            data = self.client.scatter(item, hash=False)
+            fut = self.client.submit(fn, data, pure=False, key=f"{tag}-{i}")
+            pending[fut] = (i, data)
             ac.add(fut)
             return True
 
@@ -310,9 +313,10 @@ class DaskExecutor(Executor):
                 break
         try:
             for fut in ac:
-                i = pending.pop(fut)
+                i, data = pending.pop(fut)
                 done[i] = self._result(fut, desc)
                 fut.release()
+                data.release()
                 bar.update(1)
                 submit()
                 while next_out in done:
