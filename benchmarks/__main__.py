@@ -12,7 +12,19 @@ import importlib
 import json
 import sys
 
-NAMES = ["decompose", "stipple", "spray", "cad", "wall_dxf", "quality", "refine", "slicer", "e2e", "limits"]
+NAMES = [
+    "decompose",
+    "stipple",
+    "spray",
+    "cad",
+    "wall_dxf",
+    "quality",
+    "refine",
+    "slicer",
+    "e2e",
+    "limits",
+    "calibrate",
+]
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -29,7 +29,15 @@ import numpy as np
 from stencil_cad import simulate as sim
 from stencil_cad.config.spray import SprayConfig
 
-CASES = ["2000px-14k", "2000px-14k-A2h15", "2000px-14k-A0.5h2", "example", "calibration"]
+CASES = [
+    "2000px-14k",
+    "2000px-14k-A2h15",
+    "2000px-14k-A0.5h2",
+    "example",
+    "calibration",
+    "standoff",
+    "physical-14k",
+]
 
 
 def _speed_case(name: str, spray_time: float, nozzle_height: float) -> dict:
@@ -202,6 +210,81 @@ def _calibration_case():
     yield _calibration_row("astronaut (200 mm, sla)", cfg, pic, layers)
 
 
+def _standoff_case():
+    from stencil_cad.config.io import load_config
+    from stencil_cad.imaging import example_config_path
+    from stencil_cad.simulate import calibrated_tone_for
+    from stencil_cad.simulate.physical import SprayGeometry
+
+    base = load_config(example_config_path())
+    cfg = base.model_copy(
+        update={
+            "wall": base.wall.model_copy(update={"standoff_mm": [6.0, 15.0]}),
+            "spray": base.spray.model_copy(update={"model": "physical"}),
+        }
+    )
+    pic, layers = _example_layers(cfg)
+    choices = [calibrated_tone_for(a, layers.mm_per_px, cfg) for a in layers.alphas]
+    dots = _stipple_all(layers, cfg, density_of=lambda i: choices[i].density)
+    passes = [c.spray_time for c in choices]
+    for g in (6.0, 15.0):
+        t0 = time.perf_counter()
+        res = sim.simulate(layers, dots, cfg.spray, spray_times=passes, geometry=SprayGeometry.of_job(cfg, g))
+        t = time.perf_counter() - t0
+        sc = sim.score(pic.rgb, res.composite)
+        yield {
+            "bench": "spray",
+            "case": "standoff",
+            "model": "physical",
+            "standoff_mm": g,
+            "seconds": round(t, 3),
+            "passes": passes,
+            "blur_sigma_mm": res.info["blur_sigma_mm"],
+            "de2000_mean": round(sc["de2000_mean"], 3),
+            "psnr": round(sc["psnr"], 3),
+            "ssim": round(sc["ssim"], 4),
+            "layer_rmse": [round(x, 4) for x in res.layer_rmse],
+        }
+    res = sim.simulate(layers, dots, base.spray)
+    sc = sim.score(pic.rgb, res.composite)
+    yield {
+        "bench": "spray",
+        "case": "standoff",
+        "model": "paper (same dots, spray time 1, h 15: no stand-off in the model)",
+        "de2000_mean": round(sc["de2000_mean"], 3),
+        "psnr": round(sc["psnr"], 3),
+    }
+
+
+def _physical_speed_case() -> dict:
+    from stencil_cad.simulate.physical import SprayGeometry
+
+    rng = np.random.default_rng(14000)
+    xy = rng.uniform(0.0, 200.0, (14_000, 2))
+    r = rng.uniform(0.5, 1.0, 14_000)
+    cfg = SprayConfig(model="physical", passes=2.0)
+    geo = SprayGeometry(10.0, 1.2)
+    sim.spray_opacity(xy, r, (2000, 2000), 0.1, cfg, geometry=geo)
+    runs = []
+    for _ in range(3):
+        t0 = time.perf_counter()
+        fast = sim.spray_opacity(xy, r, (2000, 2000), 0.1, cfg, geometry=geo)
+        runs.append(time.perf_counter() - t0)
+    crop = (970, 1030, 970, 1030)
+    t0 = time.perf_counter()
+    exact = sim.spray_opacity(xy, r, (2000, 2000), 0.1, cfg, geometry=geo, exact=True, crop=crop)
+    return {
+        "bench": "spray",
+        "case": "physical-14k",
+        "seconds": round(min(runs), 4),
+        "exact_crop_seconds": round(time.perf_counter() - t0, 2),
+        "max_abs_error": float(np.abs(fast[crop[0] : crop[1], crop[2] : crop[3]] - exact).max()),
+        "mean_opacity": round(float(fast.mean()), 4),
+        "holes": 14_000,
+        "pixels": [2000, 2000],
+    }
+
+
 def run(cases=None):
     want = CASES if not cases else cases
     for name in want:
@@ -217,3 +300,7 @@ def run(cases=None):
         yield _example_case()
     if "calibration" in want:
         yield from _calibration_case()
+    if "standoff" in want:
+        yield from _standoff_case()
+    if "physical-14k" in want:
+        yield _physical_speed_case()

@@ -9,6 +9,7 @@ import logging
 import signal
 import sys
 import threading
+import time
 from pathlib import Path
 
 from . import __version__
@@ -75,6 +76,51 @@ def _parser() -> argparse.ArgumentParser:
     sp.add_argument(
         "-v", "--verbose", action="store_true", help="show the slicer's log on failure; tracebacks"
     )
+    sp = sub.add_parser(
+        "card",
+        help="write the calibration card: a test plate, its wall(s), the sheet to spray it on, card.json",
+    )
+    sp.add_argument(
+        "config", nargs="?", type=Path, help="job config YAML whose holes, plate and wall the card uses"
+    )
+    sp.add_argument(
+        "--out", type=Path, default=Path("output") / "card", help="output folder (default: output/card)"
+    )
+    sp.add_argument(
+        "--standoff",
+        type=float,
+        action="append",
+        metavar="MM",
+        help="stand-off of a wall to measure (repeatable, up to 3; default: the job's, plus twice it if only one)",
+    )
+    sp.add_argument("--force", action="store_true", help="replace files in a non-empty output folder")
+    g = sp.add_mutually_exclusive_group()
+    g.add_argument("-v", "--verbose", action="store_true", help="log each step; show tracebacks")
+    g.add_argument("-q", "--quiet", action="store_true", help="no summary")
+    sp = sub.add_parser(
+        "calibrate", help="measure a can from a photo of the sprayed calibration card; write a spray profile"
+    )
+    sp.add_argument(
+        "photo", type=Path, help="photo (JPEG/PNG) of the sprayed card sheet, all markers in view"
+    )
+    sp.add_argument("--card", type=Path, required=True, help="the card.json that `stencil-cad card` wrote")
+    sp.add_argument("--passes", type=float, help="passes sprayed over the card (default: the card's, 4)")
+    sp.add_argument(
+        "--distance-mm",
+        type=float,
+        default=None,
+        help="can distance from the plate in mm (default: card.json's)",
+    )
+    sp.add_argument("--speed", type=float, default=None, help="sweep speed in m/s (default: card.json's)")
+    sp.add_argument("--paint", default="", help="can, cap and paint, recorded in the profile")
+    sp.add_argument(
+        "--out",
+        type=Path,
+        default=Path("spray_profile.yaml"),
+        help="profile to write (default: spray_profile.yaml)",
+    )
+    sp.add_argument("--force", action="store_true", help="replace an existing profile")
+    sp.add_argument("-v", "--verbose", action="store_true", help="log each step; show tracebacks")
     sp = sub.add_parser("init", help="write a commented config file")
     sp.add_argument(
         "path", nargs="?", type=Path, default=Path("stencil.yaml"), help="where (default: stencil.yaml)"
@@ -167,6 +213,10 @@ def _dispatch(args) -> int:
         return 0
     if args.command == "slice":
         return _slice(args)
+    if args.command == "card":
+        return _card(args)
+    if args.command == "calibrate":
+        return _calibrate(args)
     if args.command == "init":
         from . import pipeline
 
@@ -194,6 +244,58 @@ def _slice(args) -> int:
             if args.verbose:
                 print(result.log, file=sys.stderr)
     return 1 if failed else 0
+
+
+def _card(args) -> int:
+    from . import pipeline
+    from .config import io as cfg_io
+    from .output import OutputDir
+
+    cfg = cfg_io.load_config(args.config) if args.config is not None else cfg_io.parse_config({}, "defaults")
+    if args.standoff:
+        bad = [g for g in args.standoff if not 0.5 <= g <= 300.0]
+        if bad:
+            raise UserError(f"--standoff must be in [0.5, 300] mm, got {bad[0]:g}")
+        if len(set(args.standoff)) > 3:
+            raise UserError(f"the card takes at most 3 stand-offs, got {len(set(args.standoff))}")
+    out = OutputDir(args.out, force=args.force)
+    run = pipeline.Run(cfg=cfg, out=out, quiet=args.quiet)
+    t0 = time.perf_counter()
+    try:
+        files = pipeline.run_card(run, args.standoff)
+    except BaseException:
+        out.abort()
+        raise
+    if not args.quiet:
+        c = run.figures["card"]
+        ok = c["plate"].get("valid") and all(w.get("valid") for w in c["walls"])
+        print(
+            f"stencil-cad: calibration card → {args.out}/ ({len(files)} files, {time.perf_counter() - t0:.1f} s)\n"
+            f"  plate     {c['plate_mm'][0]:g} × {c['plate_mm'][1]:g} mm, {c['holes']} holes, "
+            f"{'valid' if ok else 'INVALID'}; walls at {', '.join(f'{g:g}' for g in c['standoffs_mm'])} mm\n"
+            f"  sheet     card_sheet.pdf, {c['sheet_mm'][0]:g} × {c['sheet_mm'][1]:g} mm: print at 100 %\n"
+            f"  then      spray the card {c['passes']} passes in each wall on the sheet, photograph it "
+            f"(README, 'Measuring your can') and run: stencil-cad calibrate PHOTO --card {args.out / 'card.json'}"
+        )
+    return 0
+
+
+def _calibrate(args) -> int:
+    from .testcard import fit
+
+    print(
+        fit.calibrate_command(
+            args.photo,
+            args.card,
+            args.out,
+            passes=args.passes,
+            distance_mm=args.distance_mm,
+            speed_m_s=args.speed,
+            paint=args.paint,
+            force=args.force,
+        )
+    )
+    return 0
 
 
 def _load_job(args):

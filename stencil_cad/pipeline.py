@@ -849,6 +849,105 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
     return finish(run, "run")
 
 
+CARD_JSON = "card.json"
+
+
+def card_stems(standoffs_mm: list[float]) -> list[str]:
+    """File stems of the card's walls: ``card_wall_6mm`` … (one per stand-off)."""
+    return [f"card_wall_{h:g}mm" for h in sorted(set(standoffs_mm))]
+
+
+def run_card(run: Run, standoffs_mm: list[float] | None = None) -> list[Path]:
+    """`stencil-cad card`: the calibration plate, a wall per stand-off, the sheet and ``card.json``.
+
+    The plate takes the job's hole radii, web, plate and key; it is built, checked and exported
+    exactly like a layer's plate, and its walls like the job's.
+    """
+    from dataclasses import replace
+
+    from . import cad, outline
+    from . import stipple as stipple_mod
+    from .cad import wall as wall_mod
+    from .exchange import dxf
+    from .testcard import layout as card_mod
+    from .testcard import sheet as sheet_mod
+
+    cfg = run.cfg
+    try:
+        card = card_mod.card_layout(cfg, standoffs_mm)
+    except ValueError as exc:
+        raise UserError(f"card: {exc}") from exc
+    w, h = card.width_mm, card.height_mm
+    exp = cfg.export
+    with run.stage("card"):
+        # The job's process rules, without its picture's keep-outs.
+        rules = replace(stipple_mod.rules_from_config(cfg.stipple, w, h), keepouts=())
+        label = cad.LabelInfo(layer=1, layers=1, colour="", job="CARD")
+        try:
+            model = cad.build_plate(card.dots, w, h, cfg.plate, label, rules=rules)
+        except ValueError as exc:
+            raise UserError(f"card plate: {exc}") from exc
+        check = cad.check_plate(model, card.dots, tolerance_mm=exp.stl_tolerance_mm)
+        with run.out.open_path("card_plate.step") as p:
+            cad.write_step(model, p)
+        with run.out.open_path("card_plate.stl") as p:
+            cad.write_stl(model, p, exp.stl_tolerance_mm)
+        ring = outline.plate_outline(w, h, cfg.plate.outline)
+        with run.out.open_path("card_plate.dxf") as p:
+            dxf.write_dxf_stencils(p, [dxf.stencil_for(card.dots, ring, "CARD")], kerf_mm=exp.dxf_kerf_mm)
+        walls = []
+        heights = [fp.standoff_mm for fp in card.footprints]
+        for g, stem in zip(heights, card_stems(heights), strict=True):
+            wm = wall_mod.build_wall(w, h, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, g)
+            with run.out.open_path(f"{stem}.step") as p:
+                wall_mod.wall_step(wm, p)
+            with run.out.open_path(f"{stem}.stl") as p:
+                wall_mod.wall_stl(wm, p, exp.stl_tolerance_mm)
+            walls.append({"file": f"{stem}.step", "standoff_mm": g, **wall_mod.check_wall(wm)})
+        run.out.write_png("card_sheet.png", sheet_mod.sheet_png(card))
+        run.out.write_bytes("card_sheet.pdf", sheet_mod.sheet_pdf(card))
+        sp = cfg.spray
+        run.out.write_json(
+            CARD_JSON,
+            card_mod.card_description(
+                card,
+                {
+                    "job": cfg.name,
+                    "spray": {
+                        "can_distance_mm": sp.can_distance_mm,
+                        "pass_speed_m_s": sp.pass_speed_m_s,
+                        "passes": card.passes,
+                    },
+                    "files": {
+                        "plate": "card_plate.step",
+                        "walls": [f"{s}.step" for s in card_stems(heights)],
+                        "sheet": "card_sheet.pdf",
+                    },
+                },
+            ),
+        )
+    size = ring.max(axis=0) - ring.min(axis=0)
+    run.figures["card"] = {
+        "holes": len(card.dots),
+        "plate_mm": [round(float(v), 2) for v in size],
+        "standoffs_mm": heights,
+        "features": [
+            {
+                "kind": f.kind,
+                "holes": len(f.index),
+                "r_mm": f.r_mm,
+                "open_fraction": round(f.open_fraction, 4),
+            }
+            for f in card.features
+        ],
+        "plate": _plain(check),
+        "walls": walls,
+        "sheet_mm": [round(v, 1) for v in card.sheet_mm],
+        "passes": card.passes,
+    }
+    return finish(run, "card")
+
+
 def run_hard(run: Run, picture: Picture) -> list[Path]:
     """Hard-stencil mode: segmentation, bridges, plates with polygon cut-outs, simulation."""
     from . import hardstencil, simulate

@@ -1,0 +1,683 @@
+"""Measure a can from a photo of the sprayed calibration card: the spray-profile fit.
+
+Not to be confused with the tone calibration of the simulator (:mod:`stencil_cad.calibrate`),
+which chooses hole densities for a model; this module measures the model's constants.
+
+Steps, per footprint (stand-off) of the card:
+
+1. **Fiducials**: the four ArUco markers printed in the band under the wall
+   (``cv2.aruco.ArucoDetector``) give 16 corners with known positions in mm; a homography
+   (``cv2.findHomography``) maps mm to photo pixels.
+2. **Rectify**: the footprint is resampled into the card's frame at :data:`FIT_PX_PER_MM`
+   (``cv2.warpPerspective``), and decoded from sRGB to linear light.
+3. **Flat-field**: ``I' = (I - D) / (F - D)``. ``F``, the unpainted white, is a quadratic
+   surface fitted (robustly) to the paper in the band and to the primer far from any hole;
+   ``D = b F`` with ``b`` the black patches' share of the white (printed black reflects light
+   in proportion to it). Paper becomes 1 and printed black 0.
+4. **Camera blur**: the printed patches' edges are sharp on paper, so their measured width is
+   the camera's (and the rectification's) blur; the model is blurred by it before comparison.
+5. **Fit**: the card is sprayed in simulation (:func:`stencil_cad.simulate.physical.physical_opacity`,
+   every hole of the window, the single-hole rows and the dose ladder) and
+   ``1 - c alpha`` compared with ``I'`` pixel by pixel over the picture area of every footprint
+   at once (``scipy.optimize.least_squares``). Free: ``spread_k``, ``bleed_sigma_mm`` (with two
+   or more stand-offs; with one it keeps its prior), ``deposit_per_pass``, the paint's contrast
+   ``c`` and each footprint's offset of the wall from its printed outline.
+
+The residual is reported as the RMS of ``I' - model`` over all fitted pixels, and per feature.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import scipy.fft
+
+from ..config.spray import CanConstants, SprayConfig
+from ..errors import UserError
+from .layout import MARKER_MM, CardLayout, Footprint, layout_from_description
+from .sheet import aruco_dictionary, srgb_decode
+
+log = logging.getLogger(__name__)
+
+__all__ = ["FIT_PX_PER_MM", "CardFit", "PhotoError", "calibrate_command", "fit_card", "read_photo"]
+
+#: Resolution the footprints are rectified to and fitted at (px per mm).
+FIT_PX_PER_MM = 8.0
+#: The photo must resolve at least this many px per mm on the card.
+MIN_PX_PER_MM = 5.0
+#: Share of clipped (saturated) pixels on a footprint above which the photo is refused.
+MAX_CLIPPED = 0.005
+
+
+class PhotoError(UserError):
+    """A photo the fit cannot read: the message names the problem and what to do."""
+
+
+@dataclass(frozen=True)
+class CardFit:
+    """The constants a photo gave, and how well the model fits it.
+
+    Attributes:
+        can: The fitted constants (spread_k, bleed_sigma_mm, deposit_per_pass, distance, speed).
+        contrast: The paint's contrast on the primer in the channel used, 1 - paint / primer.
+        channel: The colour channel fitted (0 = R, 1 = G, 2 = B): the one with the most contrast.
+        shifts_mm: Per footprint, the wall's fitted offset from its printed outline (mm).
+        residual_rms: RMS of the flat-fielded photo minus the model over the fitted pixels.
+        feature_residuals: RMS residual per feature kind (window, single, patch).
+        patch_tones: Per footprint, per dose-ladder patch: measured and fitted mean opacity.
+        camera_blur_mm: The photo's own blur measured on the printed patches.
+        px_per_mm: Resolution of the photo on the card (the coarsest footprint).
+        seconds: Time of the whole fit.
+        info: Other figures (markers found, grey-patch linearity, iterations).
+    """
+
+    can: CanConstants
+    contrast: float
+    channel: int
+    shifts_mm: tuple[tuple[float, float], ...]
+    residual_rms: float
+    feature_residuals: dict
+    patch_tones: list
+    camera_blur_mm: float
+    px_per_mm: float
+    seconds: float
+    info: dict = field(default_factory=dict)
+
+
+# ----------------------------------------------------------------------------- photo
+
+
+def read_photo(path: Path | str) -> np.ndarray:
+    """Read a photo as sRGB ``(H, W, 3)`` uint8 (EXIF orientation applied).
+
+    Raises:
+        PhotoError: Missing, unreadable or too small.
+    """
+    from PIL import Image, ImageOps, UnidentifiedImageError
+
+    path = Path(path)
+    if not path.is_file():
+        raise PhotoError(f"photo not found: {path}")
+    try:
+        with Image.open(path) as im:
+            im = ImageOps.exif_transpose(im)
+            rgb = np.asarray(im.convert("RGB"))
+    except (UnidentifiedImageError, OSError) as exc:
+        raise PhotoError(
+            f"{path}: not a readable image ({exc}); give a JPEG or PNG photo of the card sheet"
+        ) from None
+    if min(rgb.shape[:2]) < 800:
+        raise PhotoError(
+            f"{path}: photo too small ({rgb.shape[1]} × {rgb.shape[0]} px); take it at full camera resolution "
+            "(at least 2000 px across the sheet)"
+        )
+    return rgb
+
+
+def _detect(rgb: np.ndarray) -> dict[int, np.ndarray]:
+    import cv2
+
+    grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
+    params = cv2.aruco.DetectorParameters()
+    params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
+    det = cv2.aruco.ArucoDetector(aruco_dictionary(), params)
+    corners, ids, _ = det.detectMarkers(grey)
+    if ids is None:
+        return {}
+    return {int(i): c.reshape(4, 2).astype(np.float64) for i, c in zip(ids.ravel(), corners, strict=True)}
+
+
+def _homography(fp: Footprint, found: dict[int, np.ndarray]) -> tuple[np.ndarray, int, float]:
+    """The homography from picture mm to photo px, the markers it used and the px per mm."""
+    import cv2
+
+    obj, img, sides = [], [], []
+    corners_mm = fp.marker_corners()
+    for k, mid in enumerate(fp.marker_ids):
+        if mid in found:
+            obj.append(corners_mm[k])
+            img.append(found[mid])
+            c = found[mid]
+            sides.append(np.mean(np.linalg.norm(c - np.roll(c, 1, axis=0), axis=1)) / MARKER_MM)
+    if len(obj) < 2:
+        raise PhotoError(
+            f"fiducials not found: {len(obj)} of the 4 markers around the {fp.standoff_mm:g} mm footprint "
+            f"(ids {list(fp.marker_ids)}) are readable; photograph the whole sheet, flat, in focus and in even "
+            "light, with nothing covering the band where the wall stood"
+        )
+    H, _ = cv2.findHomography(np.concatenate(obj), np.concatenate(img), 0)
+    if H is None:
+        raise PhotoError(
+            "fiducials found but the perspective could not be solved; photograph the sheet again"
+        )
+    return H, len(obj), float(np.min(sides))
+
+
+def _rectify(
+    rgb: np.ndarray, H: np.ndarray, extent: tuple[float, float, float, float], ppm: float
+) -> np.ndarray:
+    """Resample the photo over ``extent = (x0, y0, x1, y1)`` mm at ``ppm``, row 0 at the top."""
+    import cv2
+
+    x0, y0, x1, y1 = extent
+    w, h = int(round((x1 - x0) * ppm)), int(round((y1 - y0) * ppm))
+    # Output pixel (col, row) → mm → photo px.
+    A = np.array([[1.0 / ppm, 0.0, x0 + 0.5 / ppm], [0.0, -1.0 / ppm, y1 - 0.5 / ppm], [0.0, 0.0, 1.0]])
+    M = H @ A
+    return cv2.warpPerspective(
+        rgb, M, (w, h), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE
+    )
+
+
+def _mm_grid(extent, shape, ppm):
+    x0, _, _, y1 = extent
+    rows, cols = np.mgrid[0 : shape[0], 0 : shape[1]]
+    return x0 + (cols + 0.5) / ppm, y1 - (rows + 0.5) / ppm
+
+
+def _poly(x, y, scale):
+    u, v = x / scale, y / scale
+    return np.stack([np.ones_like(u), u, v, u * u, u * v, v * v], axis=-1)
+
+
+@dataclass
+class _Footprint:
+    fp: Footprint
+    lin: np.ndarray  # flat-fielded, (h, w, 3), over the picture area
+    full: np.ndarray  # linear, over the extent
+    white: np.ndarray  # (h, w, 3) fitted white over the picture area
+    black_share: np.ndarray  # (3,)
+    grey: np.ndarray  # (3,) flat-fielded grey patches
+    blur_mm: float
+    markers: int
+    px_per_mm: float
+
+
+def _prepare_footprint(rgb: np.ndarray, layout: CardLayout, fp: Footprint, found, ppm: float) -> _Footprint:
+    from scipy.optimize import least_squares
+
+    H, n_markers, px_per_mm = _homography(fp, found)
+    if px_per_mm < MIN_PX_PER_MM:
+        raise PhotoError(
+            f"the card is too small in the photo: {px_per_mm:.1f} px per mm at the {fp.standoff_mm:g} mm footprint, "
+            f"need ≥ {MIN_PX_PER_MM:g}; move closer so the sheet fills the frame"
+        )
+    band = layout.band_mm[1]
+    W, Hc = layout.width_mm, layout.height_mm
+    extent = (-band + 0.5, -band + 0.5, W + band - 0.5, Hc + band - 0.5)
+    enc = _rectify(rgb, H, extent, ppm)
+    clipped = float(np.mean(np.any(enc >= 254, axis=-1)))
+    if clipped > MAX_CLIPPED:
+        raise PhotoError(
+            f"overexposed: {100 * clipped:.1f} % of the {fp.standoff_mm:g} mm footprint is clipped white; "
+            "lower the exposure (tap the sheet on the phone, or −1 EV) and avoid glare"
+        )
+    full = srgb_decode(enc.astype(np.float64) / 255.0)
+    xs, ys = _mm_grid(extent, full.shape[:2], ppm)
+    # White references: paper in the band, clear of markers, patches and the band's edges, and the
+    # primer inside the picture far from any hole.
+    in_pic = (xs > 0) & (xs < W) & (ys > 0) & (ys < Hc)
+    band_ok = (
+        ~in_pic & (xs > -band + 1.5) & (xs < W + band - 1.5) & (ys > -band + 1.5) & (ys < Hc + band - 1.5)
+    )
+    band_ok &= (xs < -1.0) | (xs > W + 1.0) | (ys < -1.0) | (ys > Hc + 1.0)
+    for m in fp.markers:
+        band_ok &= (np.abs(xs - m[0]) > MARKER_MM / 2 + 1.5) | (np.abs(ys - m[1]) > MARKER_MM / 2 + 1.5)
+    for _, x0, y0, x1, y1 in fp.flat_patches:
+        band_ok &= (xs < x0 - 1.0) | (xs > x1 + 1.0) | (ys < y0 - 1.0) | (ys > y1 + 1.0)
+    # Inside: farther than r + 3 mm + 0.25 g from every hole (beyond 3 sigma for k ≤ 0.08 ... 0.2 at
+    # small gaps); the robust loss below discounts any paint that still reaches there.
+    far = in_pic.copy()
+    for (hx, hy), hr in zip(layout.dots.xy_mm, layout.dots.r_mm, strict=True):
+        far &= (xs - hx) ** 2 + (ys - hy) ** 2 > (hr + 3.0 + 0.25 * fp.standoff_mm) ** 2
+    white_mask = band_ok | far
+    step = max(1, int(white_mask.sum() // 20000))
+    sel = np.flatnonzero(white_mask.ravel())[::step]
+    X = _poly(xs.ravel()[sel], ys.ravel()[sel], 100.0)
+    white = np.empty((*full.shape[:2], 3))
+    black = np.empty(3)
+    grey = np.empty(3)
+    Xall = _poly(xs, ys, 100.0)
+    for ch in range(3):
+        yv = full[..., ch].ravel()[sel]
+        c0 = np.linalg.lstsq(X, yv, rcond=None)[0]
+        res = least_squares(
+            lambda c, X=X, yv=yv: X @ c - yv, c0, loss="soft_l1", f_scale=0.01 * float(np.median(yv))
+        )
+        white[..., ch] = Xall @ res.x
+    ratio = full / np.maximum(white, 1e-6)
+    for ch in range(3):
+        vals_b, vals_g = [], []
+        for level, x0, y0, x1, y1 in fp.flat_patches:
+            m = (xs > x0 + 1.0) & (xs < x1 - 1.0) & (ys > y0 + 1.0) & (ys < y1 - 1.0)
+            if level == 0.0:
+                vals_b.append(ratio[..., ch][m])
+            elif 0.0 < level < 1.0:
+                vals_g.append(ratio[..., ch][m])
+        black[ch] = float(np.median(np.concatenate(vals_b)))
+        grey[ch] = float(np.median(np.concatenate(vals_g))) if vals_g else math.nan
+    if np.any(black > 0.6):
+        raise PhotoError(
+            "the black patches read almost as light as the paper: the photo is washed out (glare or "
+            "overexposure); photograph the sheet again without glare"
+        )
+    ff = (ratio - black) / (1.0 - black)
+    grey = (grey - black) / (1.0 - black)
+    blur = _edge_blur(ff, xs, ys, fp, ppm)
+    # Crop the picture area: rows from the top (y = Hc) down to y = 0, cols from x = 0.
+    r0 = int(round((extent[3] - Hc) * ppm))
+    c0 = int(round((0.0 - extent[0]) * ppm))
+    h, w = int(round(Hc * ppm)), int(round(W * ppm))
+    return _Footprint(
+        fp=fp,
+        lin=ff[r0 : r0 + h, c0 : c0 + w],
+        full=full,
+        white=white[r0 : r0 + h, c0 : c0 + w],
+        black_share=black,
+        grey=grey,
+        blur_mm=blur,
+        markers=n_markers,
+        px_per_mm=px_per_mm,
+    )
+
+
+def _edge_blur(ff: np.ndarray, xs: np.ndarray, ys: np.ndarray, fp: Footprint, ppm: float) -> float:
+    """Gaussian sigma (mm) of the printed black patches' left and right edges in the rectified photo."""
+    from scipy.optimize import least_squares
+    from scipy.special import erf
+
+    g = ff.mean(axis=-1)
+    sig = []
+    x_axis = xs[0]
+    for level, x0, y0, x1, y1 in fp.flat_patches:
+        if level != 0.0:
+            continue
+        rows = np.flatnonzero((ys[:, 0] > y0 + 1.5) & (ys[:, 0] < y1 - 1.5))
+        prof_all = g[rows].mean(axis=0)
+        for edge, sign in ((x0, -1.0), (x1, 1.0)):
+            m = np.abs(x_axis - edge) < 1.5
+            x, p = x_axis[m] - edge, prof_all[m]
+
+            def model(q, x=x, sign=sign):
+                lo, hi, s, d = q
+                return lo + (hi - lo) * 0.5 * (1.0 + erf(sign * (x - d) / (math.sqrt(2.0) * abs(s) + 1e-9)))
+
+            q0 = [float(p.min()), float(p.max()), 0.1, 0.0]
+            res = least_squares(lambda q, p=p, model=model: model(q) - p, q0)
+            sig.append(abs(res.x[2]))
+    # Rectification resamples bilinearly: its own variance of 1/6 px^2 is part of what was measured
+    # and is also part of the fitted image, so it stays in.
+    return float(np.median(sig)) if sig else 0.0
+
+
+# ----------------------------------------------------------------------------- fit
+
+
+class _SprayFFT:
+    """The physical model over one footprint's picture area, shifted and blurred in Fourier space.
+
+    :func:`stencil_cad.simulate.physical.physical_opacity` rasterises the holes and blurs them for every
+    call; the fit evaluates the model a few hundred times with only sigma, the plate's shading
+    and the wall's offset changing. Shifting all holes shifts the dose image, and the shading
+    depends on the radius alone, so the open area of each distinct radius is rasterised once
+    (with a margin that keeps the circular convolution from wrapping) and every evaluation is one
+    inverse FFT: ``dose = F^-1[sum_g T(r_g) A_g(f) exp(-2 pi^2 s^2 |f|^2) exp(-2 pi i f.shift)]``.
+    """
+
+    def __init__(self, layout: CardLayout, standoff_mm: float, shape: tuple[int, int], ppm: float):
+        from ..frames import mm_to_px
+        from ..simulate.physical import _raster_open_area
+
+        self.g, self.t, self.ppm, self.shape = standoff_mm, layout.plate_thickness_mm, ppm, shape
+        # Paint reaches 4 sigma beyond the picture (a tail of e^-8); sigma stays below 3 mm up to a
+        # 25 mm stand-off for caps up to k = 0.12, and a wider spread only wraps a negligible tail.
+        self.pad = int(math.ceil(max(12.0, 0.5 * standoff_mm) * ppm))
+        H, W = shape[0] + 2 * self.pad, shape[1] + 2 * self.pad
+        self.radii = np.unique(layout.dots.r_mm)
+        self.spectra = []
+        for rg in self.radii:
+            sel = layout.dots.r_mm == rg
+            rc = mm_to_px(layout.dots.xy_mm[sel], shape[0], 1.0 / ppm) + self.pad
+            area = np.zeros((H, W))
+            n = int(sel.sum())
+            _raster_open_area(area, rc[:, 0].copy(), rc[:, 1].copy(), np.full(n, rg * ppm), np.ones(n), 24.0)
+            self.spectra.append(scipy.fft.rfft2(area).astype(np.complex64))
+        self.fy = np.fft.fftfreq(H)[:, None]
+        self.fx = np.fft.rfftfreq(W)[None, :]
+        self.full = (H, W)
+
+    def opacity(self, cfg: SprayConfig, passes: float, dx_mm: float, dy_mm: float) -> np.ndarray:
+        from ..simulate.physical import dose_per_pass, plate_transmission, spread_sigma_mm
+
+        k = cfg.can.spread_k
+        trans = plate_transmission(self.radii, self.t, k)
+        spec = self.spectra[0] * np.float32(trans[0])
+        for w, a in zip(trans[1:], self.spectra[1:], strict=True):
+            spec += a * np.float32(w)
+        s_px2 = max((spread_sigma_mm(cfg, self.g) * self.ppm) ** 2 - 1.0 / 12.0, 0.0)
+        # Gaussian blur and shift are both separable in frequency. Holes move +dx in x (columns)
+        # and +dy in y, i.e. -dy in rows.
+        kx = np.exp(-2.0 * np.pi**2 * s_px2 * self.fx**2 - 2j * np.pi * self.fx * dx_mm * self.ppm)
+        ky = np.exp(-2.0 * np.pi**2 * s_px2 * self.fy**2 + 2j * np.pi * self.fy * dy_mm * self.ppm)
+        spec *= kx.astype(np.complex64)
+        spec *= ky.astype(np.complex64)
+        dose = scipy.fft.irfft2(spec, s=self.full, workers=-1)
+        dose = dose[self.pad : self.pad + self.shape[0], self.pad : self.pad + self.shape[1]]
+        return -np.expm1(-passes * dose_per_pass(cfg) * np.maximum(dose, 0.0))
+
+
+def _channel(fps: list[_Footprint], layout: CardLayout, ppm: float) -> int:
+    """The channel in which the window's centre is darkest relative to white."""
+    win = next(f for f in layout.features if f.kind == "window")
+    cx, cy = layout.dots.xy_mm[win.index[0]]
+    r = int(round((layout.height_mm - cy) * ppm))
+    c = int(round(cx * ppm))
+    k = int(round(2.0 * ppm))
+    depth = np.mean(
+        [1.0 - f.lin[r - k : r + k, c - k : c + k].reshape(-1, 3).mean(axis=0) for f in fps], axis=0
+    )
+    return int(np.argmax(depth))
+
+
+def _feature_masks(layout: CardLayout, shape, ppm) -> dict[str, np.ndarray]:
+    rows, cols = np.mgrid[0 : shape[0], 0 : shape[1]]
+    x = (cols + 0.5) / ppm
+    y = layout.height_mm - (rows + 0.5) / ppm
+    out = {}
+    for f in layout.features:
+        x0, y0, x1, y1 = f.box
+        m = (x >= x0 - 2) & (x <= x1 + 2) & (y >= y0 - 2) & (y <= y1 + 2)
+        out[f.kind] = out.get(f.kind, np.zeros(shape, bool)) | m
+    return out
+
+
+def fit_card(
+    rgb: np.ndarray,
+    layout: CardLayout,
+    passes: float,
+    *,
+    distance_mm: float = 200.0,
+    speed_m_s: float = 0.5,
+    prior: CanConstants | None = None,
+    ppm: float = FIT_PX_PER_MM,
+) -> CardFit:
+    """Fit the can's constants to a photo of the sprayed card.
+
+    Args:
+        rgb: ``(H, W, 3)`` uint8 sRGB photo (:func:`read_photo`).
+        layout: The card (from ``card.json``).
+        passes: Passes sprayed over the card in every footprint.
+        distance_mm: Can distance from the plate while spraying, mm.
+        speed_m_s: Sweep speed while spraying, m/s.
+        prior: Starting values (and the bleed floor kept with a single stand-off). Defaults to
+            :class:`CanConstants`' defaults.
+        ppm: Fit resolution in px per mm. Defaults to :data:`FIT_PX_PER_MM`.
+
+    Returns:
+        The :class:`CardFit`.
+
+    Raises:
+        PhotoError: The photo cannot be read as a card (named reason).
+    """
+    import cv2
+    from scipy.ndimage import gaussian_filter
+    from scipy.optimize import least_squares
+
+    t0 = time.perf_counter()
+    prior = prior or CanConstants()
+    found = _detect(rgb)
+    if not any(i in found for fp in layout.footprints for i in fp.marker_ids):
+        raise PhotoError(
+            "fiducials not found: no ArUco marker of this card is readable in the photo; photograph the whole "
+            "sheet, flat, in focus and in even light (see `Measuring your can` in the README)"
+        )
+    fps = [
+        _prepare_footprint(rgb, layout, fp, found, ppm)
+        for fp in layout.footprints
+        if any(i in found for i in fp.marker_ids)
+    ]
+    missing = [fp.standoff_mm for fp in layout.footprints if not any(i in found for i in fp.marker_ids)]
+    if missing:
+        log.warning("footprints %s mm not in the photo: fitting the others", missing)
+    ch = _channel(fps, layout, ppm)
+    shape = fps[0].lin.shape[:2]
+    obs = [f.lin[..., ch] for f in fps]
+    depth0 = [1.0 - float(np.percentile(o, 0.5)) for o in obs]
+    if max(depth0) < 0.08:
+        raise PhotoError(
+            "no paint found on the card: the window is as light as the primer; spray the card (see "
+            "`stencil-cad card`) and photograph the sprayed sheet"
+        )
+    blur_px = [f.blur_mm * ppm for f in fps]
+    many = len({f.fp.standoff_mm for f in fps}) >= 2
+    base = SprayConfig(model="physical", can_distance_mm=distance_mm, pass_speed_m_s=speed_m_s)
+    models = [_SprayFFT(layout, f.fp.standoff_mm, shape, ppm) for f in fps]
+    # The outermost 0.5 mm of the picture area touches the wall's inner face: left out.
+    mask = np.zeros(shape, bool)
+    e = int(round(0.5 * ppm))
+    mask[e:-e, e:-e] = True
+    # Every other pixel each way: the model is evaluated at full resolution (the blur must be
+    # resolved), the residuals on a quarter of the pixels still hold ~10^5 values per footprint.
+    fit_mask = mask.copy()
+    fit_mask[1::2, :] = False
+    fit_mask[:, 1::2] = False
+
+    def constants(q) -> CanConstants:
+        s0 = math.exp(q[0]) if many else prior.bleed_sigma_mm
+        return CanConstants(
+            spread_k=min(math.exp(q[1]), 1.0),
+            bleed_sigma_mm=min(max(s0, 0.01), 10.0),
+            deposit_per_pass=min(math.exp(q[2]), 20.0),
+            distance_mm=distance_mm,
+            speed_m_s=speed_m_s,
+        )
+
+    def predict(q, j) -> np.ndarray:
+        cfg = base.model_copy(update={"can": constants(q)})
+        alpha = models[j].opacity(cfg, passes, q[4 + 2 * j], q[5 + 2 * j])
+        img = 1.0 - q[3] * alpha
+        if blur_px[j] > 0.3:
+            img = gaussian_filter(img, blur_px[j], mode="nearest")
+        return img
+
+    def residuals(q) -> np.ndarray:
+        return np.concatenate([(predict(q, j) - obs[j])[fit_mask] for j in range(len(fps))])
+
+    # Start: the prior's spread; the deposit from the window's centre at a guessed contrast;
+    # each footprint's offset from phase correlation against the model at that start.
+    c_start = min(0.98, max(depth0) / 0.9 + 0.05)
+    a_c = min(max(depth0) / c_start, 0.98)
+    beta0 = -math.log(1.0 - a_c) / passes * (distance_mm / prior.distance_mm) * (speed_m_s / prior.speed_m_s)
+    q = [
+        math.log(max(prior.bleed_sigma_mm, 0.05)),
+        math.log(max(prior.spread_k, 0.02)),
+        math.log(max(beta0, 1e-3)),
+        c_start,
+    ]
+    q += [0.0, 0.0] * len(fps)
+    q = np.array(q, dtype=np.float64)
+    win = cv2.createHanningWindow(shape[::-1], cv2.CV_64F)
+    for j in range(len(fps)):
+        pred = 1.0 - predict(q, j)
+        (dx, dy), _ = cv2.phaseCorrelate(pred.astype(np.float64), (1.0 - obs[j]).astype(np.float64), win)
+        q[4 + 2 * j] = dx / ppm
+        q[5 + 2 * j] = -dy / ppm
+    lo = np.array([math.log(0.01), math.log(1e-3), math.log(1e-3), 0.05] + [-5.0] * (2 * len(fps)))
+    hi = np.array([math.log(10.0), math.log(1.0), math.log(20.0), 1.0] + [5.0] * (2 * len(fps)))
+    q = np.clip(q, lo + 1e-9, hi - 1e-9)
+    active = np.ones(q.size, bool)
+    active[0] = many
+    q_fixed = q.copy()
+
+    def res_active(qa):
+        qq = q_fixed.copy()
+        qq[active] = qa
+        return residuals(qq)
+
+    sol = least_squares(res_active, q[active], bounds=(lo[active], hi[active]), x_scale="jac", diff_step=1e-4)
+    q = q_fixed.copy()
+    q[active] = sol.x
+    can = constants(q)
+    res_all = [predict(q, j) - obs[j] for j in range(len(fps))]
+    rms = float(np.sqrt(np.mean(np.concatenate([rj[mask] for rj in res_all]) ** 2)))
+    feats = _feature_masks(layout, shape, ppm)
+    feature_rms = {
+        k: round(float(np.sqrt(np.mean(np.concatenate([rj[m & mask] for rj in res_all]) ** 2))), 5)
+        for k, m in feats.items()
+    }
+    cfg_fit = base.model_copy(update={"can": can})
+    tones = []
+    rows, cols = np.mgrid[0 : shape[0], 0 : shape[1]]
+    xg = (cols + 0.5) / ppm
+    yg = layout.height_mm - (rows + 0.5) / ppm
+    for j, f in enumerate(fps):
+        shift = q[4 + 2 * j : 6 + 2 * j]
+        alpha = models[j].opacity(cfg_fit, passes, shift[0], shift[1])
+        measured = (1.0 - obs[j]) / q[3]
+        for feat in layout.features:
+            if feat.kind != "patch":
+                continue
+            x0, y0, x1, y1 = feat.box
+            m = (
+                (xg >= x0 + shift[0] + 1)
+                & (xg <= x1 + shift[0] - 1)
+                & (yg >= y0 + shift[1] + 1)
+                & (yg <= y1 + shift[1] - 1)
+            )
+            tones.append(
+                {
+                    "standoff_mm": f.fp.standoff_mm,
+                    "open_fraction": feat.open_fraction,
+                    "measured": round(float(measured[m].mean()), 4),
+                    "fitted": round(float(alpha[m].mean()), 4),
+                }
+            )
+    return CardFit(
+        can=can,
+        contrast=float(q[3]),
+        channel=ch,
+        shifts_mm=tuple(
+            (round(float(q[4 + 2 * j]), 4), round(float(q[5 + 2 * j]), 4)) for j in range(len(fps))
+        ),
+        residual_rms=rms,
+        feature_residuals=feature_rms,
+        patch_tones=tones,
+        camera_blur_mm=float(np.median([f.blur_mm for f in fps])),
+        px_per_mm=float(min(f.px_per_mm for f in fps)),
+        seconds=time.perf_counter() - t0,
+        info={
+            "standoffs_mm": [f.fp.standoff_mm for f in fps],
+            "markers_found": [f.markers for f in fps],
+            "grey_patch": [round(float(f.grey[ch]), 4) for f in fps],
+            "black_share": [round(float(f.black_share[ch]), 4) for f in fps],
+            "bleed_fitted": many,
+            "evaluations": int(sol.nfev),
+            "status": str(sol.message),
+        },
+    )
+
+
+# ----------------------------------------------------------------------------- command
+
+
+def profile_yaml(fit: CardFit, paint: str, photo: str, passes: float) -> str:
+    """The spray profile file: the constants (the keys of ``spray.can``) and the fit's record."""
+    import yaml
+
+    can = fit.can.model_copy(
+        update={
+            "paint": paint or "unnamed",
+            "standoff_mm": float(fit.info["standoffs_mm"][0]),
+            "fit": {
+                "photo": photo,
+                "passes": passes,
+                "standoffs_mm": fit.info["standoffs_mm"],
+                "residual_rms": round(fit.residual_rms, 5),
+                "feature_residual_rms": fit.feature_residuals,
+                "paint_contrast": round(fit.contrast, 4),
+                "channel": "RGB"[fit.channel],
+                "wall_offsets_mm": [list(s) for s in fit.shifts_mm],
+                "camera_blur_mm": round(fit.camera_blur_mm, 4),
+                "photo_px_per_mm": round(fit.px_per_mm, 2),
+                "bleed_fitted": fit.info["bleed_fitted"],
+                "patch_tones": fit.patch_tones,
+                "seconds": round(fit.seconds, 2),
+            },
+        }
+    )
+    data = can.model_dump(mode="json")
+    for key in ("spread_k", "bleed_sigma_mm", "deposit_per_pass"):
+        data[key] = round(float(data[key]), 5)
+    head = (
+        "# stencil_cad spray profile, measured from a photo of the sprayed calibration card.\n"
+        "# Use it in a job config:  spray: {model: physical, profile: this_file.yaml}\n"
+    )
+    return head + yaml.safe_dump(data, sort_keys=False, allow_unicode=True)
+
+
+def calibrate_command(
+    photo: Path,
+    card: Path,
+    out: Path,
+    *,
+    passes: float | None = None,
+    distance_mm: float | None = None,
+    speed_m_s: float | None = None,
+    paint: str = "",
+    force: bool = False,
+) -> str:
+    """`stencil-cad calibrate PHOTO --card card.json`: fit the can and write the spray profile.
+
+    Returns:
+        The one-line report (constants, residual) for the command to print.
+
+    Raises:
+        UserError: Bad card file, unreadable photo (named reason), or an existing profile.
+    """
+    if out.exists() and not force:
+        raise UserError(f"{out} already exists (use --force to replace it, or give --out another path)")
+    if not out.parent.is_dir():
+        raise UserError(f"folder {out.parent} does not exist (create it first, or give --out another path)")
+    try:
+        desc = json.loads(Path(card).read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise UserError(
+            f"card description not found: {card} (write it with `stencil-cad card --out DIR`)"
+        ) from None
+    except (OSError, ValueError) as exc:
+        raise UserError(f"{card}: not a readable card description ({type(exc).__name__})") from None
+    try:
+        layout = layout_from_description(desc)
+    except ValueError as exc:
+        raise UserError(f"{card}: {exc}") from None
+    spray = desc.get("spray", {})
+    n = float(passes if passes is not None else spray.get("passes", layout.passes))
+    d = float(distance_mm if distance_mm is not None else spray.get("can_distance_mm", 200.0))
+    v = float(speed_m_s if speed_m_s is not None else spray.get("pass_speed_m_s", 0.5))
+    for name, val, lo, hi in (
+        ("--passes", n, 0.1, 50),
+        ("--distance-mm", d, 50, 1000),
+        ("--speed", v, 0.05, 5),
+    ):
+        if not lo <= val <= hi:
+            raise UserError(f"{name} must be in [{lo:g}, {hi:g}], got {val:g}")
+    rgb = read_photo(photo)
+    fit = fit_card(rgb, layout, n, distance_mm=d, speed_m_s=v)
+    text = profile_yaml(fit, paint, Path(photo).name, n)
+    tmp = out.with_name(f".{out.name}.tmp")
+    tmp.write_text(text, encoding="utf-8")
+    tmp.replace(out)
+    c = fit.can
+    return (
+        f"stencil-cad: {out}: spread_k {c.spread_k:.4f}, bleed {c.bleed_sigma_mm:.3f} mm"
+        f"{'' if fit.info['bleed_fitted'] else ' (kept: one stand-off)'}, deposit {c.deposit_per_pass:.4f} per pass "
+        f"at {d:g} mm and {v:g} m/s; residual RMS {fit.residual_rms:.4f} "
+        f"(window {fit.feature_residuals.get('window', float('nan')):.4f}, dots {fit.feature_residuals.get('single', float('nan')):.4f}, "
+        f"patches {fit.feature_residuals.get('patch', float('nan')):.4f}); {fit.seconds:.1f} s"
+    )
