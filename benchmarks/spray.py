@@ -27,7 +27,7 @@ import time
 import numpy as np
 
 from stencil_cad import simulate as sim
-from stencil_cad.config.spray import SprayConfig
+from stencil_cad.config.spray import SprayConfig, SprayModel
 
 CASES = [
     "2000px-14k",
@@ -220,7 +220,7 @@ def _standoff_case():
     cfg = base.model_copy(
         update={
             "wall": base.wall.model_copy(update={"standoff_mm": [6.0, 15.0]}),
-            "spray": base.spray.model_copy(update={"model": "physical"}),
+            "spray": base.spray.model_copy(update={"model": SprayModel.physical}),
         }
     )
     pic, layers = _example_layers(cfg)

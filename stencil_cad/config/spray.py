@@ -236,12 +236,12 @@ class SprayConfig(StrictModel):
     @property
     def amount(self) -> float:
         """The base amount of paint per layer in the model's unit: passes (physical) or spray time A (paper)."""
-        return self.passes if self.model is SprayModel.physical else self.spray_time
+        return self.passes if self.model == SprayModel.physical else self.spray_time
 
     @property
     def amount_unit(self) -> str:
         """``passes`` or ``spray time``."""
-        return "passes" if self.model is SprayModel.physical else "spray time"
+        return "passes" if self.model == SprayModel.physical else "spray time"
 
     @field_validator("sweep_factors")
     @classmethod

@@ -330,7 +330,7 @@ def spray_opacity(
             physical model.
     """
     a = cfg.amount if spray_time is None else float(spray_time)
-    if cfg.model is SprayModel.physical:
+    if cfg.model == SprayModel.physical:
         from .physical import physical_opacity
 
         return physical_opacity(
@@ -387,7 +387,7 @@ def spray_mask(
     from scipy.ndimage import gaussian_filter
 
     a = cfg.amount if spray_time is None else float(spray_time)
-    if cfg.model is SprayModel.physical:
+    if cfg.model == SprayModel.physical:
         from .physical import physical_mask_opacity
 
         return physical_mask_opacity(mask, mm_per_px, cfg, _need(geometry), a)
@@ -487,7 +487,7 @@ def _need(geometry):
 
 def _blur_mm_for(dots: DotSet, cfg: SprayConfig, fallback_r_mm: float, geometry=None) -> float:
     r = float(np.median(dots.r_mm)) if len(dots) else fallback_r_mm
-    if cfg.model is SprayModel.physical:
+    if cfg.model == SprayModel.physical:
         sigma, *_ = hole_kernels(r, cfg, cfg.amount, geometry=_need(geometry))
         return float(sigma)
     return float(dot_sigma_mm(r, cfg.nozzle_height))
@@ -514,7 +514,7 @@ def hole_kernels(r_mm, spray_cfg: SprayConfig, layer_spray_time: float, *, geome
         dimensionless, mm per mm, per mm) and ``"product"`` or ``"exp"``.
     """
     r = np.asarray(r_mm, dtype=np.float64)
-    if spray_cfg.model is SprayModel.physical:
+    if spray_cfg.model == SprayModel.physical:
         from .physical import physical_hole_kernels
 
         sigma, peak, ds, dp = physical_hole_kernels(r, spray_cfg, float(layer_spray_time), _need(geometry))
@@ -572,7 +572,7 @@ def simulate(
         raise ValueError(f"need one spray time per layer: {layers.count} layers, {len(spray_times)} times")
     shape = sim_shape(layers.alphas.shape[1:], layers.mm_per_px, g)
     r_min = min((float(d.r_mm.min()) for d in dotsets if len(d)), default=None)
-    physical = cfg.model is SprayModel.physical
+    physical = cfg.model == SprayModel.physical
     if physical:
         _need(geometry)
     elif r_min is not None and dot_sigma_mm(r_min, cfg.nozzle_height) < 0.5 * g:

@@ -152,7 +152,7 @@ def _response(
     geometry,
 ) -> ToneCurve:
     cfg = SprayConfig.model_validate_json(cfg_key)
-    physical = cfg.model is SprayModel.physical
+    physical = cfg.model == SprayModel.physical
     rho_pack = packing_density(max_radius_mm, web_mm, spacing_factor)
     rng = np.random.default_rng(20150901)
     mean = np.zeros(_T_SAMPLES.size)
@@ -205,7 +205,7 @@ def tone_response(
     """
     a = cfg.amount if spray_time is None else float(spray_time)
     r1 = radius_mm if max_radius_mm is None else float(max_radius_mm)
-    if cfg.model is not SprayModel.physical:
+    if cfg.model != SprayModel.physical:
         geometry = None
     return _response(float(radius_mm), r1, float(web_mm), float(spacing_factor), a, _model_key(cfg), geometry)
 
@@ -347,7 +347,7 @@ def choose_tone(
         best_a, best_curve, best_mse, density = cfg.amount, base, linear_mse, a
     else:
         candidates = [cfg.amount]
-        if mode == Calibrate.spray_time and cfg.model is SprayModel.physical:
+        if mode == Calibrate.spray_time and cfg.model == SprayModel.physical:
             candidates = sorted({*_PASSES, cfg.amount})
         elif mode == Calibrate.spray_time:
             candidates = sorted({min(100.0, cfg.spray_time * f) for f in _A_FACTORS})
