@@ -47,6 +47,7 @@ def _child(name: str) -> None:
 
     import numpy as np
 
+    from stencil_cad.colour import kmeans
     from stencil_cad.config.decompose import DecomposeConfig
     from stencil_cad.decompose import decompose, palette
     from stencil_cad.model import Picture
@@ -58,7 +59,7 @@ def _child(name: str) -> None:
     cfg = DecomposeConfig(layers=spec["layers"])
     if spec.get("fixed_kmeans"):
         # The K-means start of the automatic palette, held fixed.
-        centres, _ = palette.kmeans(img.reshape(-1, 3), spec["layers"] + 1, np.random.default_rng(0))
+        centres, _ = kmeans(img.reshape(-1, 3), spec["layers"] + 1, np.random.default_rng(0))
         centres = centres[np.argsort(-palette.luminance(centres))]
         hexes = ["#{:02x}{:02x}{:02x}".format(*np.rint(c * 255).astype(int)) for c in centres]
         cfg = DecomposeConfig(layers=spec["layers"], primer=hexes[0], palette=hexes[1:], order="given")

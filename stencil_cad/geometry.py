@@ -1,4 +1,4 @@
-"""Plane and mesh geometry shared by the stages: polygon area, ring orientation, genus.
+"""Plane and mesh geometry shared by the stages: polygon area, orientation, ring tests, genus.
 
 Rings are ``(N, 2)`` arrays of (x, y) in mm, not closed (the last vertex is not a
 copy of the first); counter-clockwise rings have positive area.
@@ -6,15 +6,133 @@ copy of the first); counter-clockwise rings have positive area.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+__all__ = [
+    "as_ccw",
+    "as_cw",
+    "genus",
+    "index_triangles",
+    "mesh_genus",
+    "point_ring_distance",
+    "points_in_ring",
+    "polygon_area",
+    "rings_cross",
+]
+
 
 def polygon_area(ring: np.ndarray) -> float:
     """Signed area in mm² of a ring (positive when counter-clockwise), shoelace formula."""
+    ring = np.asarray(ring, dtype=np.float64)
     x, y = ring[:, 0], ring[:, 1]
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+
+
+def as_ccw(ring: np.ndarray) -> np.ndarray:
+    """The ring, counter-clockwise (reversed when it is not)."""
+    ring = np.asarray(ring, dtype=np.float64)
+    return ring if polygon_area(ring) > 0 else ring[::-1]
+
+
+def as_cw(ring: np.ndarray) -> np.ndarray:
+    """The ring, clockwise (reversed when it is counter-clockwise)."""
+    ring = np.asarray(ring, dtype=np.float64)
+    return ring[::-1] if polygon_area(ring) > 0 else ring
+
+
+def _edges(ring: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    ring = np.asarray(ring, dtype=np.float64)
+    return ring, np.roll(ring, -1, axis=0)
+
+
+def points_in_ring(points: np.ndarray, ring: np.ndarray) -> np.ndarray:
+    """Even-odd point-in-polygon test, vectorised over points × edges.
+
+    Args:
+        points: ``(P, 2)`` points in mm.
+        ring: ``(N, 2)`` ring.
+
+    Returns:
+        ``(P,)`` bool, True inside.
+    """
+    a, b = _edges(ring)
+    px, py = points[:, 0:1], points[:, 1:2]
+    ay, by = a[None, :, 1], b[None, :, 1]
+    crosses = (ay > py) != (by > py)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xint = a[None, :, 0] + (py - ay) * (b[None, :, 0] - a[None, :, 0]) / (by - ay)
+    return (np.count_nonzero(crosses & (px < xint), axis=1) % 2) == 1
+
+
+def point_ring_distance(points: np.ndarray, ring: np.ndarray) -> np.ndarray:
+    """Distance in mm from each of ``(P, 2)`` points to the nearest edge of a ring."""
+    a, b = _edges(ring)
+    ab = b - a
+    ap = points[:, None, :] - a[None, :, :]
+    den = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
+    t = np.clip(np.einsum("pij,ij->pi", ap, ab) / den, 0.0, 1.0)
+    diff = ap - t[..., None] * ab[None]
+    return np.sqrt(np.min(np.einsum("pij,pij->pi", diff, diff), axis=1))
+
+
+def rings_cross(rings: Sequence[np.ndarray], *, touching: bool = True, within: bool = True) -> bool:
+    """Whether any two edges of a set of rings cross (a sweep along x, O(n log n + pairs)).
+
+    Neighbouring edges of one ring share a vertex and are never counted.
+
+    Args:
+        rings: ``(N_i, 2)`` rings.
+        touching: Count edges that touch (an end on the other edge, or collinear overlap)
+            as crossing; False counts only proper crossings. Defaults to True.
+        within: Also test the edges of one ring against each other (a ring that touches
+            or crosses itself); False tests only edges of different rings. Defaults to True.
+
+    Returns:
+        True when a counted pair of edges crosses.
+    """
+    rings = [np.asarray(r, dtype=np.float64) for r in rings]
+    if not rings:
+        return False
+    a = np.concatenate(rings)
+    b = np.concatenate([np.roll(r, -1, axis=0) for r in rings])
+    ring_key = np.concatenate([np.full(len(r), k) for k, r in enumerate(rings)])
+    idx = np.concatenate([np.arange(len(r)) for r in rings])
+    rlen = np.concatenate([np.full(len(r), len(r)) for r in rings])
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    # Sweep along x: candidate pairs whose x-ranges overlap, found by sorting.
+    order = np.argsort(lo[:, 0])
+    lo, hi, a, b = lo[order], hi[order], a[order], b[order]
+    ring_key, idx, rlen = ring_key[order], idx[order], rlen[order]
+    n = len(a)
+    ends = np.searchsorted(lo[:, 0], hi[:, 0], side="right")
+    counts = np.maximum(ends - np.arange(n) - 1, 0)  # partners j in (i, ends)
+    i = np.repeat(np.arange(n), counts)
+    first = np.repeat(np.cumsum(counts) - counts, counts)
+    j = i + 1 + (np.arange(len(i)) - first)
+    yo = (lo[i, 1] <= hi[j, 1]) & (lo[j, 1] <= hi[i, 1])
+    i, j = i[yo], j[yo]
+    same = ring_key[i] == ring_key[j]
+    drop = (
+        same
+        if not within
+        else same & ((np.abs(idx[i] - idx[j]) == 1) | (np.abs(idx[i] - idx[j]) == rlen[i] - 1))
+    )
+    i, j = i[~drop], j[~drop]
+
+    def orient(p, q, r):
+        return (q[:, 0] - p[:, 0]) * (r[:, 1] - p[:, 1]) - (q[:, 1] - p[:, 1]) * (r[:, 0] - p[:, 0])
+
+    d1 = orient(a[i], b[i], a[j])
+    d2 = orient(a[i], b[i], b[j])
+    d3 = orient(a[j], b[j], a[i])
+    d4 = orient(a[j], b[j], b[i])
+    if touching:
+        return bool(((d1 * d2 <= 0) & (d3 * d4 <= 0)).any())
+    return bool(((d1 * d2 < 0) & (d3 * d4 < 0)).any())
 
 
 def index_triangles(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -37,32 +155,41 @@ def index_triangles(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return ordered[new], inverse.reshape(-1, 3)
 
 
-def mesh_genus(triangles: np.ndarray) -> int:
-    """Genus of a closed triangle mesh from its Euler characteristic, V - E + F = 2 - 2g.
+def genus(faces: np.ndarray, n_vertices: int) -> tuple[int, int, int]:
+    """Euler characteristic, shells and genus of an indexed triangle mesh.
 
-    For a perforated plate made of one shell the genus is its hole count.
+    For each closed shell V - E + F = 2 - 2g, so the genus summed over the shells is
+    ``shells - chi / 2``. A perforated plate made of one shell has genus = hole count.
 
     Args:
-        triangles: ``(F, 3, 3)`` triangle corners of a closed mesh; coincident
-            corners are merged exactly.
+        faces: ``(F, 3)`` vertex indices.
+        n_vertices: Number of vertices V (unused vertices are not counted).
 
     Returns:
-        The genus (summed over shells as ``shells - chi / 2``). Meaningless for
-        an open mesh: check it with :func:`stencil_cad.slicing.inspect_mesh` first.
+        ``(chi, shells, genus)``. The genus is meaningless for an open mesh.
+    """
+    faces = np.asarray(faces, dtype=np.int64)
+    used = np.zeros(n_vertices, dtype=bool)
+    used[faces.ravel()] = True
+    e0 = faces.reshape(-1)
+    e1 = faces[:, [1, 2, 0]].reshape(-1)
+    n_edges = int(np.unique(np.minimum(e0, e1) * n_vertices + np.maximum(e0, e1)).size)
+    chi = int(np.count_nonzero(used)) - n_edges + len(faces)
+    graph = coo_matrix((np.ones(len(e0), dtype=np.int8), (e0, e1)), shape=(n_vertices, n_vertices))
+    _, labels = connected_components(graph, directed=False)
+    shells = int(np.unique(labels[used]).size)
+    return chi, shells, int(round(shells - chi / 2))
+
+
+def mesh_genus(triangles: np.ndarray) -> int:
+    """Genus of a closed triangle soup (coincident corners merged exactly); see :func:`genus`.
+
+    Args:
+        triangles: ``(F, 3, 3)`` triangle corners of a closed mesh.
+
+    Returns:
+        The genus summed over shells. Meaningless for an open mesh: check it with
+        :func:`stencil_cad.slicing.inspect_mesh` first.
     """
     verts, faces = index_triangles(np.asarray(triangles, dtype=np.float64))
-    # In a closed 2-manifold every edge borders exactly two triangles: E = 3F / 2.
-    chi = len(verts) - 3 * len(faces) / 2 + len(faces)
-    shells = _count_shells(faces, len(verts))
-    return int(round(shells - chi / 2))
-
-
-def _count_shells(faces: np.ndarray, n_verts: int) -> int:
-
-    rows = np.concatenate([faces[:, 0], faces[:, 1]])
-    cols = np.concatenate([faces[:, 1], faces[:, 2]])
-    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n_verts, n_verts))
-    used = np.zeros(n_verts, bool)
-    used[faces.ravel()] = True
-    n, labels = connected_components(graph, directed=False)
-    return int(len(np.unique(labels[used])))
+    return genus(faces, len(verts))[2]

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageOps, UnidentifiedImageError
 
+from .colour import distinct_colours
 from .errors import ImageError
 from .model import Picture
 
@@ -206,39 +207,6 @@ def _to_arrays(im: Image.Image) -> tuple[np.ndarray, np.ndarray | None, bool]:
 #: Distinct source colours are counted up to this many (more than any layer count needs).
 COLOUR_COUNT_CAP = 256
 
-# Pixels in the first and in later chunks when counting colours: a photo passes
-# the cap within the small first chunk; later chunks bound the memory of one
-# np.unique call.
-_COUNT_FIRST_CHUNK = 1 << 16
-_COUNT_CHUNK = 1 << 20
-
-
-def count_colours(rgb: np.ndarray, cap: int = COLOUR_COUNT_CAP) -> int:
-    """Number of distinct 8-bit colours in an image, counted up to ``cap``.
-
-    Chunks of pixels are counted in turn and the count stops once it passes
-    ``cap``, so a photo costs about one chunk and only few-colour images are
-    read to the end.
-
-    Args:
-        rgb: ``(H, W, 3)`` float in [0, 1].
-        cap: Stop counting past this many. Defaults to 256.
-
-    Returns:
-        ``min(distinct colours, cap)``.
-    """
-    flat = np.asarray(rgb).reshape(-1, 3)
-    seen = np.empty(0, dtype=np.int64)
-    start, size = 0, _COUNT_FIRST_CHUNK
-    while start < flat.shape[0]:
-        q = np.clip(np.rint(flat[start : start + size] * 255.0), 0, 255).astype(np.int64)
-        codes = (q[:, 0] << 16) | (q[:, 1] << 8) | q[:, 2]
-        seen = np.union1d(seen, codes)
-        if seen.size >= cap:
-            return cap
-        start, size = start + size, _COUNT_CHUNK
-    return int(seen.size)
-
 
 def fit_to_size(
     rgb: np.ndarray,
@@ -325,9 +293,11 @@ def load_picture(
     # With an alpha channel the colours flattened onto white count too (the pipeline
     # flattens transparent areas so); an overcount only costs the check, an undercount
     # would drop layers.
-    distinct = count_colours(rgb)
+    distinct = distinct_colours(rgb, COLOUR_COUNT_CAP)
     if alpha is not None:
-        distinct = max(distinct, count_colours(rgb * alpha[..., None] + (1.0 - alpha[..., None])))
+        distinct = max(
+            distinct, distinct_colours(rgb * alpha[..., None] + (1.0 - alpha[..., None]), COLOUR_COUNT_CAP)
+        )
     rgb, alpha, mm_per_px, _ = fit_to_size(rgb, alpha, width_mm, height_mm, px_per_mm)
     log.debug("loaded %s as %s px at %.4f mm/px", source, rgb.shape[:2], mm_per_px)
     return Picture(

@@ -118,7 +118,11 @@ def composite(primer: np.ndarray, colours: np.ndarray, alphas: np.ndarray) -> np
 
 @dataclass(frozen=True)
 class DotSet:
-    """The holes of one soft-stencil layer.
+    """The holes of one soft-stencil layer: round holes only.
+
+    Like :class:`CutLayer` it has ``xy_mm``, ``r_mm``, ``polygons`` and
+    ``hole_count``, so the plate builder, its checks and the DXF writer take either
+    (see :data:`Holes`) without asking which.
 
     Attributes:
         xy_mm: ``(N, 2)`` ndarray of float, hole centres in mm (x right, y up,
@@ -134,6 +138,16 @@ class DotSet:
 
     def __len__(self) -> int:
         return int(self.r_mm.shape[0])
+
+    @property
+    def polygons(self) -> tuple[()]:
+        """Polygon cut-outs: none (a soft layer has round holes only)."""
+        return ()
+
+    @property
+    def hole_count(self) -> int:
+        """Number of holes."""
+        return len(self)
 
 
 @dataclass(frozen=True)
@@ -151,6 +165,27 @@ class CutLayer:
     polygons: list
     colour: np.ndarray
     report: dict = field(default_factory=dict)
+
+    @property
+    def xy_mm(self) -> np.ndarray:
+        """Round hole centres: none, ``(0, 2)`` (a hard layer has polygon cut-outs only)."""
+        return np.zeros((0, 2))
+
+    @property
+    def r_mm(self) -> np.ndarray:
+        """Round hole radii: none, ``(0,)``."""
+        return np.zeros(0)
+
+    @property
+    def hole_count(self) -> int:
+        """Number of cut-outs."""
+        return len(self.polygons)
+
+
+#: The holes of one plate: round (a soft layer's :class:`DotSet`) or polygon cut-outs (a
+#: hard layer's :class:`CutLayer`). Both have ``xy_mm``, ``r_mm``, ``polygons`` and
+#: ``hole_count``; the one a layer does not use is empty.
+Holes = DotSet | CutLayer
 
 
 @dataclass(frozen=True)

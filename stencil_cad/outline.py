@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .config.outline import OutlineConfig, Side
+from .geometry import point_ring_distance, points_in_ring, polygon_area, rings_cross
 
 __all__ = [
     "Segment",
@@ -36,7 +37,6 @@ __all__ = [
     "path_ring",
     "plate_outline",
     "pocket_outline",
-    "polygon_area",
     "symmetries",
     "transform_ring",
 ]
@@ -247,12 +247,6 @@ def path_area(path: list[Segment]) -> float:
     return 0.5 * total
 
 
-def polygon_area(ring: np.ndarray) -> float:
-    """Signed area in mm² of a ring (positive when counter-clockwise), shoelace formula."""
-    x, y = np.asarray(ring, dtype=np.float64).T
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
-
-
 def offset_outline(width_mm: float, height_mm: float, cfg: OutlineConfig, offset_mm: float) -> np.ndarray:
     """The outline offset outward by ``offset_mm``, sampled with ``cfg.chord_tol_mm``.
 
@@ -316,50 +310,6 @@ def label_region(width_mm: float, height_mm: float, cfg: OutlineConfig) -> tuple
 # ---------------------------------------------------------------- fit geometry
 
 
-def _edges(ring: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    ring = np.asarray(ring, dtype=np.float64)
-    return ring, np.roll(ring, -1, axis=0)
-
-
-def _inside(points: np.ndarray, ring: np.ndarray) -> np.ndarray:
-    """Even-odd point-in-polygon test, vectorised over points × edges."""
-    a, b = _edges(ring)
-    px, py = points[:, 0:1], points[:, 1:2]
-    ay, by = a[None, :, 1], b[None, :, 1]
-    crosses = (ay > py) != (by > py)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        xint = a[None, :, 0] + (py - ay) * (b[None, :, 0] - a[None, :, 0]) / (by - ay)
-    return (np.count_nonzero(crosses & (px < xint), axis=1) % 2) == 1
-
-
-def _point_ring_distance(points: np.ndarray, ring: np.ndarray) -> np.ndarray:
-    """Distance from each point to the nearest edge of a ring."""
-    a, b = _edges(ring)
-    ab = b - a
-    ap = points[:, None, :] - a[None, :, :]
-    den = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
-    t = np.clip(np.einsum("pij,ij->pi", ap, ab) / den, 0.0, 1.0)
-    diff = ap - t[..., None] * ab[None]
-    return np.sqrt(np.min(np.einsum("pij,pij->pi", diff, diff), axis=1))
-
-
-def _rings_cross(r1: np.ndarray, r2: np.ndarray) -> bool:
-    """True if any edge of r1 properly intersects any edge of r2."""
-    a, b = _edges(r1)
-    c, d = _edges(r2)
-
-    def orient(p, q, r):
-        return (q[..., 0] - p[..., 0]) * (r[..., 1] - p[..., 1]) - (q[..., 1] - p[..., 1]) * (
-            r[..., 0] - p[..., 0]
-        )
-
-    A, B = a[:, None, :], b[:, None, :]
-    C, D = c[None, :, :], d[None, :, :]
-    o1, o2 = orient(A, B, C), orient(A, B, D)
-    o3, o4 = orient(C, D, A), orient(C, D, B)
-    return bool(np.any((o1 * o2 < 0) & (o3 * o4 < 0)))
-
-
 def min_clearance(plate_ring: np.ndarray, pocket_ring: np.ndarray) -> float:
     """Smallest gap in mm between a plate and the pocket it sits in.
 
@@ -374,17 +324,17 @@ def min_clearance(plate_ring: np.ndarray, pocket_ring: np.ndarray) -> float:
     """
     plate = np.asarray(plate_ring, dtype=np.float64)
     pocket = np.asarray(pocket_ring, dtype=np.float64)
-    out_plate = ~_inside(plate, pocket)
-    in_pocket = _inside(pocket, plate)
-    crossing = _rings_cross(plate, pocket)
+    out_plate = ~points_in_ring(plate, pocket)
+    in_pocket = points_in_ring(pocket, plate)
+    crossing = rings_cross([plate, pocket], touching=False, within=False)
     if out_plate.any() or in_pocket.any() or crossing:
         worst = 1e-12
         if out_plate.any():
-            worst = max(worst, float(_point_ring_distance(plate[out_plate], pocket).max()))
+            worst = max(worst, float(point_ring_distance(plate[out_plate], pocket).max()))
         if in_pocket.any():
-            worst = max(worst, float(_point_ring_distance(pocket[in_pocket], plate).max()))
+            worst = max(worst, float(point_ring_distance(pocket[in_pocket], plate).max()))
         return -worst
-    return float(min(_point_ring_distance(plate, pocket).min(), _point_ring_distance(pocket, plate).min()))
+    return float(min(point_ring_distance(plate, pocket).min(), point_ring_distance(pocket, plate).min()))
 
 
 def fits(

@@ -527,9 +527,10 @@ def test_astronaut_rmse(astronaut256, n_layers, limit):
 
 
 def test_astronaut_fixed_kmeans_palette_stalls(astronaut256):
+    from stencil_cad.colour import kmeans
     from stencil_cad.decompose import palette
 
-    centres, _ = palette.kmeans(astronaut256.reshape(-1, 3), 5, np.random.default_rng(0))
+    centres, _ = kmeans(astronaut256.reshape(-1, 3), 5, np.random.default_rng(0))
     centres = centres[np.argsort(-palette.luminance(centres))]
     hexes = ["#{:02x}{:02x}{:02x}".format(*np.rint(c * 255).astype(int)) for c in centres]
     cfg = DecomposeConfig(layers=4, primer=hexes[0], palette=hexes[1:], order="given")

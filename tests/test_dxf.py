@@ -7,14 +7,14 @@ import pytest
 from stencil_cad.config.outline import OutlineConfig
 from stencil_cad.exchange.dxf import (
     DxfStencil,
-    dxf_from_cut_layers,
-    dxf_from_dots,
+    dxf_from_layers,
     offset_ring,
     write_dxf,
     write_dxf_stencils,
 )
+from stencil_cad.geometry import polygon_area
 from stencil_cad.model import CutLayer, DotSet
-from stencil_cad.outline import plate_outline, polygon_area
+from stencil_cad.outline import plate_outline
 
 
 def random_circles(rng, n, w=150.0, h=150.0):
@@ -135,7 +135,7 @@ def test_deterministic_bytes(tmp_path, rng, ring):
 
 def test_layer_per_stencil_stacked_and_in_a_row(tmp_path, rng, ring):
     sets = [DotSet(xy_mm=rng.uniform(5, 145, (n, 2)), r_mm=np.full(n, 0.6)) for n in (30, 40, 50)]
-    info = dxf_from_dots(tmp_path / "s.dxf", sets, ring)
+    info = dxf_from_layers(tmp_path / "s.dxf", sets, ring)
     doc = read(tmp_path / "s.dxf")
     assert info.layers == ["STENCIL_01", "STENCIL_02", "STENCIL_03"]
     for name, ds in zip(info.layers, sets, strict=True):
@@ -147,7 +147,7 @@ def test_layer_per_stencil_stacked_and_in_a_row(tmp_path, rng, ring):
     outlines = [np.array(p.get_points("xy")) for p in doc.modelspace().query("LWPOLYLINE")]
     assert len(outlines) == 3 and all(np.array_equal(o, outlines[0]) for o in outlines)
 
-    info = dxf_from_dots(tmp_path / "r.dxf", sets, ring, arrange="row")
+    info = dxf_from_layers(tmp_path / "r.dxf", sets, ring, arrange="row")
     doc = read(tmp_path / "r.dxf")
     boxes = []
     for name in info.layers:
@@ -187,7 +187,7 @@ def test_cut_layers(tmp_path, ring):
         CutLayer(polygons=[(sq, [hole])], colour=np.zeros(3)),
         CutLayer(polygons=[(tri, []), (sq + 50, [])], colour=np.ones(3)),
     ]
-    info = dxf_from_cut_layers(tmp_path / "h.dxf", layers, ring, kerf_mm=0.1)
+    info = dxf_from_layers(tmp_path / "h.dxf", layers, ring, kerf_mm=0.1)
     doc = read(tmp_path / "h.dxf")
     assert info.polylines == [3, 3] and info.circles == [0, 0]
     for name, n in (("STENCIL_01", 3), ("STENCIL_02", 3)):

@@ -11,6 +11,7 @@ from scipy import ndimage as ndi
 from skimage.color import deltaE_ciede2000, rgb2lab
 
 from stencil_cad.config.hard import HardConfig, SprayOrder
+from stencil_cad.geometry import polygon_area
 from stencil_cad.hardstencil import make_hard_stencils, render_ideal
 from stencil_cad.hardstencil.segment import (
     _expand,
@@ -24,7 +25,6 @@ from stencil_cad.hardstencil.topology import (
     mask_to_polygons,
     process_layer,
     rasterise_polygons,
-    signed_area,
 )
 from stencil_cad.model import Picture
 
@@ -379,16 +379,16 @@ def test_polygons_round_trip_and_orientation():
         polys = mask_to_polygons(m, S, 0.0)
         assert np.array_equal(rasterise_polygons(polys, m.shape, S), m)
         for outer, holes in polys:
-            assert signed_area(outer) > 0
-            assert all(signed_area(hole) < 0 for hole in holes)
+            assert polygon_area(outer) > 0
+            assert all(polygon_area(hole) < 0 for hole in holes)
     ring = shape_o()
     polys = mask_to_polygons(ring, S, 0.1)
     assert len(polys) == 1 and len(polys[0][1]) == 1
     outer, (hole,) = polys[0]
-    assert signed_area(outer) - (-signed_area(hole)) == pytest.approx(
+    assert polygon_area(outer) - (-polygon_area(hole)) == pytest.approx(
         np.count_nonzero(ring) * S * S, rel=0.01
     )
-    assert signed_area(outer) == pytest.approx(math.pi * 20**2, rel=0.02)  # r = 40 px = 20 mm
+    assert polygon_area(outer) == pytest.approx(math.pi * 20**2, rel=0.02)  # r = 40 px = 20 mm
     # Simplified polygons stay within 0.3 px of the exact trace: no pixel centre changes side.
     assert np.array_equal(rasterise_polygons(polys, ring.shape, S), ring)
 

@@ -8,6 +8,7 @@ from pydantic import ValidationError
 
 from stencil_cad.config.cad import WallConfig
 from stencil_cad.config.outline import KeyTab, OutlineConfig, Side
+from stencil_cad.geometry import polygon_area
 from stencil_cad.outline import (
     check_key,
     fits,
@@ -19,7 +20,6 @@ from stencil_cad.outline import (
     path_area,
     plate_outline,
     pocket_outline,
-    polygon_area,
     symmetries,
     transform_ring,
 )

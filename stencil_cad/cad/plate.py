@@ -29,9 +29,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..config.stipple import HOLE_FLOOR_MM
 from ..exchange.mesh import plate_mesh
-from ..geometry import polygon_area
-from ..model import CutLayer, DotSet, PlateGeometry, TriMesh
+from ..geometry import as_ccw, as_cw, polygon_area, rings_cross
+from ..model import Holes, PlateGeometry, TriMesh
+from ..stipple.rules import DesignRules, DotRuleError, check_rules
 
 log = logging.getLogger(__name__)
 
@@ -44,9 +46,6 @@ __all__ = [
     "make_solid",
     "perforated_plate",
 ]
-
-#: Radius floor of a hole in mm, checked again here whatever the stipple settings.
-HOLE_FLOOR_MM = 0.5
 
 
 class PlateBuildError(ValueError):
@@ -265,8 +264,13 @@ def _unwrap(shape):
 # ----------------------------------------------------------------------------- input checks
 
 
-def check_holes(holes, width_mm: float, height_mm: float, min_web_mm: float, rules=None) -> None:
+def check_holes(
+    holes: Holes, width_mm: float, height_mm: float, min_web_mm: float, rules: DesignRules | None = None
+) -> None:
     """Check the holes again before any CAD: radius floor, overlap, picture edge.
+
+    Round holes are checked against the design rules, polygon cut-outs for islands,
+    extent, degeneracy and crossings (a layer has one kind or the other).
 
     Args:
         holes: A :class:`DotSet` or a :class:`CutLayer`.
@@ -278,9 +282,7 @@ def check_holes(holes, width_mm: float, height_mm: float, min_web_mm: float, rul
     Raises:
         PlateBuildError: Listing the first offending dots or polygons.
     """
-    if isinstance(holes, DotSet):
-        from ..stipple.rules import DesignRules, DotRuleError, check_rules
-
+    if len(holes.r_mm):
         if rules is None:
             rules = DesignRules(
                 hole_min_r_mm=HOLE_FLOOR_MM,
@@ -293,8 +295,7 @@ def check_holes(holes, width_mm: float, height_mm: float, min_web_mm: float, rul
             check_rules(holes.xy_mm, holes.r_mm, rules)
         except DotRuleError as exc:
             raise PlateBuildError(f"dots rejected by the plate: {exc}") from None
-        return
-    if isinstance(holes, CutLayer):
+    if holes.polygons:
         bad = []
         for i, poly in enumerate(holes.polygons):
             outer, inner = poly
@@ -309,18 +310,12 @@ def check_holes(holes, width_mm: float, height_mm: float, min_web_mm: float, rul
                 )
             if len(outer) < 3 or abs(polygon_area(outer)) <= 0:
                 bad.append(f"polygon {i}: degenerate ({len(outer)} vertices)")
-        if (
-            not bad
-            and holes.polygons
-            and _rings_cross([(np.asarray(p[0], dtype=np.float64), []) for p in holes.polygons])
-        ):
+        if not bad and holes.polygons and rings_cross([p[0] for p in holes.polygons]):
             bad.append("cut-out polygons cross each other or themselves")
         if bad:
             raise PlateBuildError(
                 f"{len(bad)} cut-out problem(s); first:\n  " + "\n  ".join(bad[:5]),
             )
-        return
-    raise TypeError(f"holes must be a DotSet or a CutLayer, got {type(holes).__name__}")
 
 
 # ----------------------------------------------------------------------------- label glyphs
@@ -357,9 +352,9 @@ def _face_rings(face, tol: float) -> tuple[np.ndarray, list[np.ndarray]]:
         ring = _clean_ring(np.asarray(pts, dtype=np.float64))
         if len(ring) >= 3:
             if wire.IsSame(outer_w):
-                rings_out = ring if polygon_area(ring) > 0 else ring[::-1]
+                rings_out = as_ccw(ring)
             else:
-                rings_in.append(ring if polygon_area(ring) < 0 else ring[::-1])
+                rings_in.append(as_cw(ring))
         exp.Next()
     return rings_out, rings_in
 
@@ -423,47 +418,6 @@ def _text_glyphs(text: str, size: float, font: str, tol: float) -> list:
     # in every process and on every worker.
     glyphs.sort(key=lambda g: (*np.round(g[0].min(axis=0), 6), *np.round(g[0].max(axis=0), 6)))
     return glyphs
-
-
-def _rings_cross(glyphs: list) -> bool:
-    """True if any two edges of the glyph rings properly cross or a ring touches itself."""
-    segs = []
-    for g, (outer, inner) in enumerate(glyphs):
-        for k, r in enumerate([outer, *inner]):
-            a = r
-            b = np.roll(r, -1, axis=0)
-            ids = np.arange(len(r))
-            segs.append((a, b, np.full(len(r), g), np.full(len(r), k), ids, len(r)))
-    a = np.concatenate([s[0] for s in segs])
-    b = np.concatenate([s[1] for s in segs])
-    ring_key = np.concatenate([s[2] * 1000 + s[3] for s in segs])
-    idx = np.concatenate([s[4] for s in segs])
-    rlen = np.concatenate([np.full(s[5], s[5]) for s in segs])
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-    # Sweep along x: candidate pairs whose x-ranges overlap, found by sorting.
-    order = np.argsort(lo[:, 0])
-    lo, hi, a, b = lo[order], hi[order], a[order], b[order]
-    ring_key, idx, rlen = ring_key[order], idx[order], rlen[order]
-    n = len(a)
-    ends = np.searchsorted(lo[:, 0], hi[:, 0], side="right")
-    counts = np.maximum(ends - np.arange(n) - 1, 0)  # partners j in (i, ends)
-    i = np.repeat(np.arange(n), counts)
-    first = np.repeat(np.cumsum(counts) - counts, counts)
-    j = i + 1 + (np.arange(len(i)) - first)
-    yo = (lo[i, 1] <= hi[j, 1]) & (lo[j, 1] <= hi[i, 1])
-    i, j = i[yo], j[yo]
-    same = ring_key[i] == ring_key[j]
-    adj = same & ((np.abs(idx[i] - idx[j]) == 1) | (np.abs(idx[i] - idx[j]) == rlen[i] - 1))
-    i, j = i[~adj], j[~adj]
-
-    def orient(p, q, r):
-        return (q[:, 0] - p[:, 0]) * (r[:, 1] - p[:, 1]) - (q[:, 1] - p[:, 1]) * (r[:, 0] - p[:, 0])
-
-    d1 = orient(a[i], b[i], a[j])
-    d2 = orient(a[i], b[i], b[j])
-    d3 = orient(a[j], b[j], a[i])
-    d4 = orient(a[j], b[j], b[i])
-    return bool(((d1 * d2 <= 0) & (d3 * d4 <= 0)).any())
 
 
 def label_glyphs(
@@ -539,7 +493,7 @@ def label_glyphs(
     arrow = _arrow(arrow_w, cap) + [dx, dy]
     shift = np.array([dx + arrow_w + gap - tlo[0], dy])
     placed = [(arrow, [])] + [(o + shift, [i + shift for i in inn]) for o, inn in glyphs]
-    if _rings_cross(placed):
+    if rings_cross([r for outer, inner in placed for r in (outer, *inner)]):
         raise PlateBuildError(
             f"the label's letters overlap or self-intersect at font size {size:.2f} mm with font {font!r}; "
             "choose another plate.label_font"
@@ -583,7 +537,7 @@ def make_solid(geom: PlateGeometry):
     from OCP.TopoDS import TopoDS, TopoDS_Compound, TopoDS_Shell, TopoDS_Solid
 
     t = float(geom.thickness_mm)
-    outline = geom.outline if polygon_area(geom.outline) > 0 else geom.outline[::-1]
+    outline = as_ccw(geom.outline)
     mf = BRepBuilderAPI_MakeFace(gp_Pln(gp_Pnt(0, 0, 0), gp_Dir(0, 0, 1)), _polygon_wire(outline, 0.0), True)
     down = gp_Dir(0, 0, -1)
     # Holes run clockwise seen from +z: circles about -z, polygons reversed.
@@ -594,7 +548,7 @@ def make_solid(geom: PlateGeometry):
         mf.Add(BRepBuilderAPI_MakeWire(edge).Wire())
     for poly in geom.polygons:
         ring = np.asarray(poly, dtype=np.float64)
-        ring = ring[::-1] if polygon_area(ring) > 0 else ring
+        ring = as_cw(ring)
         mf.Add(_polygon_wire(ring, 0.0))
     face = mf.Face()
     prism = BRepPrimAPI_MakePrism(face, gp_Vec(0, 0, t))
@@ -609,9 +563,9 @@ def make_solid(geom: PlateGeometry):
     builder.MakeCompound(comp)
     outer_wires, inner_wires, gfaces = [], [], []
     for outer, inner in geom.glyphs:
-        ow = _polygon_wire(_ccw(outer), t)
+        ow = _polygon_wire(as_ccw(outer), t)
         gm = BRepBuilderAPI_MakeFace(pln_top, ow, True)
-        iws = [_polygon_wire(_cw(i), t) for i in inner]
+        iws = [_polygon_wire(as_cw(i), t) for i in inner]
         for w in iws:
             gm.Add(w)
         gf = gm.Face()
@@ -660,16 +614,6 @@ def _first_solid(shape):
 
     exp = TopExp_Explorer(shape, TopAbs_SOLID)
     return exp.Current() if exp.More() else shape
-
-
-def _ccw(ring) -> np.ndarray:
-    ring = np.asarray(ring, dtype=np.float64)
-    return ring if polygon_area(ring) > 0 else ring[::-1]
-
-
-def _cw(ring) -> np.ndarray:
-    ring = np.asarray(ring, dtype=np.float64)
-    return ring[::-1] if polygon_area(ring) > 0 else ring
 
 
 # ----------------------------------------------------------------------------- the builder
@@ -727,19 +671,15 @@ def perforated_plate(
         )
         glyphs = tuple(glyphs)
     relief = 0.0 if not glyphs else (-label_depth_mm if mode == "engrave" else label_depth_mm)
-    if isinstance(holes, DotSet):
-        cxy = np.asarray(holes.xy_mm, dtype=np.float64).reshape(-1, 2)
-        cr = np.asarray(holes.r_mm, dtype=np.float64).reshape(-1)
-        polys = ()
-    else:
-        cxy, cr = np.zeros((0, 2)), np.zeros(0)
-        polys = tuple(_ccw(p[0]) for p in holes.polygons)
+    cxy = np.asarray(holes.xy_mm, dtype=np.float64).reshape(-1, 2)
+    cr = np.asarray(holes.r_mm, dtype=np.float64).reshape(-1)
+    polys = tuple(as_ccw(p[0]) for p in holes.polygons)
     lo, hi = outline.min(axis=0), outline.max(axis=0)
     geom = PlateGeometry(
         width_mm=float(width_mm if width_mm is not None else hi[0] - lo[0]),
         height_mm=float(height_mm if height_mm is not None else hi[1] - lo[1]),
         thickness_mm=float(thickness_mm),
-        outline=_ccw(outline),
+        outline=as_ccw(outline),
         circles_xy=cxy,
         circles_r=cr,
         polygons=polys,

@@ -270,8 +270,6 @@ def check_plate(
     Raises:
         PlateCheckError: Listing every failed check.
     """
-    from ..model import CutLayer, DotSet
-
     if tolerance_mm is None:
         tolerance_mm = 0.02
     if full_check_max_holes is None:
@@ -341,20 +339,14 @@ def check_plate(
                 f"(outline, {holes} holes, {letters} letters)"
             )
     if dots is not None:
-        n_in = (
-            len(dots)
-            if isinstance(dots, DotSet)
-            else len(dots.polygons)
-            if isinstance(dots, CutLayer)
-            else None
-        )
+        n_in = dots.hole_count
         extra = geom.extra_holes if geom is not None else 0
-        if holes is not None and n_in is not None and n_in + extra != holes:
+        if holes is not None and n_in + extra != holes:
             fails.append(
                 f"the plate has {holes} holes but the input has {n_in}"
                 + (f" and the template added {extra}" if extra else "")
             )
-        if isinstance(dots, DotSet) and geom is not None and len(dots):
+        if geom is not None and len(dots.r_mm):
             n = len(geom.circles_r) - extra
             same = np.array_equal(np.asarray(dots.xy_mm), geom.circles_xy[:n]) and np.array_equal(
                 np.asarray(dots.r_mm), geom.circles_r[:n]

@@ -17,7 +17,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..colour import to_hex
+from ..colour import distinct_colours, kmeans, to_hex
 from ..config.decompose import DecomposeConfig, LayerOrder, OpacitySource
 from ..model import Layers, Picture
 from . import energy, palette, solver
@@ -339,7 +339,7 @@ def decompose(
     order_info: dict = {}
     if fixed_palette is None:
         k = n_layers + int(primer_free)
-        distinct = palette.distinct_colours(pixels, k)
+        distinct = distinct_colours(pixels, k)
         if picture.distinct_colours is not None:
             # Resampling blends edges into colours the source does not have.
             distinct = min(distinct, max(int(picture.distinct_colours), 1))
@@ -349,7 +349,8 @@ def decompose(
                 f"the image has only {distinct} distinct colour(s): using {n_layers} layer(s) instead of {cfg.layers}"
             )
             k = min(n_layers + int(primer_free), distinct)
-        centres, shares = palette.kmeans(pixels, k, rng)
+        centres, shares = kmeans(pixels, k, rng)
+        centres = np.clip(centres, 0.0, 1.0)
         if centres.shape[0] < n_layers + int(primer_free):
             # One colour, primer solved: paint and primer start equal.
             centres = np.vstack([centres, centres[:1]])
@@ -366,10 +367,10 @@ def decompose(
         cans = np.array(fixed_palette)
         if primer_free:
             # Start the primer at the K-means centre farthest from every can.
-            n_distinct = palette.distinct_colours(pixels, 64)
+            n_distinct = distinct_colours(pixels, 64)
             if picture.distinct_colours is not None:
                 n_distinct = min(n_distinct, max(int(picture.distinct_colours), 1))
-            centres, _ = palette.kmeans(pixels, min(len(cans) + 1, n_distinct), rng)
+            centres = np.clip(kmeans(pixels, min(len(cans) + 1, n_distinct), rng)[0], 0.0, 1.0)
             far = np.min(np.sum((centres[:, None, :] - cans[None, :, :]) ** 2, axis=2), axis=1)
             primer0 = centres[int(np.argmax(far))]
         else:
@@ -470,7 +471,7 @@ def decompose(
         if keep.size == 0:
             for w in warnings + dropped:
                 log.warning(w)
-            if palette.distinct_colours(pixels, 2) > 1 and (picture.distinct_colours or 2) > 1:
+            if distinct_colours(pixels, 2) > 1 and (picture.distinct_colours or 2) > 1:
                 raise ValueError(
                     f"no paint layer carries ink (all {n_solved} were dropped as redundant): the best "
                     f"this decompose section finds is the primer {to_hex(state.primer)} alone; check "

@@ -24,11 +24,13 @@ import ezdxf
 import numpy as np
 from ezdxf import units
 
+from ..geometry import as_ccw, as_cw
+from ..model import Holes
+
 __all__ = [
     "DxfInfo",
     "DxfStencil",
-    "dxf_from_cut_layers",
-    "dxf_from_dots",
+    "dxf_from_layers",
     "offset_ring",
     "write_dxf",
     "write_dxf_stencils",
@@ -82,20 +84,13 @@ class DxfInfo:
     extra: dict = field(default_factory=dict)
 
 
-def _signed_area(ring: np.ndarray) -> float:
-    x, y = ring[:, 0], ring[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
-
-
 def _as_ring(ring, ccw: bool) -> np.ndarray:
     r = np.asarray(ring, dtype=np.float64).reshape(-1, 2)
     if len(r) > 1 and np.allclose(r[0], r[-1]):
         r = r[:-1]
     if len(r) < 3:
         raise ValueError(f"a ring needs at least 3 distinct vertices, got {len(r)}")
-    if (_signed_area(r) > 0) != ccw:
-        r = r[::-1]
-    return np.ascontiguousarray(r)
+    return np.ascontiguousarray(as_ccw(r) if ccw else as_cw(r))
 
 
 def offset_ring(ring: np.ndarray, delta_mm: float, miter_limit: float = 4.0) -> np.ndarray:
@@ -375,70 +370,45 @@ def write_dxf(
     return write_dxf_stencils(path, [st], kerf_mm=kerf_mm, deterministic=deterministic)
 
 
-def stencil_for(holes, outline_ring: np.ndarray, layer_name: str) -> DxfStencil:
+def stencil_for(holes: Holes, outline_ring: np.ndarray, layer_name: str) -> DxfStencil:
     """The DXF description of one layer's plate: round holes (a DotSet) or cut-outs (a CutLayer).
 
     Args:
-        holes: Anything with ``xy_mm`` and ``r_mm`` (round holes) or with ``polygons``.
+        holes: The layer's holes.
         outline_ring: The plate outline ring.
         layer_name: DXF layer name.
     """
-    if hasattr(holes, "r_mm"):
-        return DxfStencil(
-            outline_ring=outline_ring, circles_xy_r=(holes.xy_mm, holes.r_mm), layer_name=layer_name
-        )
-    return DxfStencil(outline_ring=outline_ring, polygons=holes.polygons, layer_name=layer_name)
+    return DxfStencil(
+        outline_ring=outline_ring,
+        circles_xy_r=(holes.xy_mm, holes.r_mm),
+        polygons=holes.polygons,
+        layer_name=layer_name,
+    )
 
 
-def dxf_from_dots(
+def dxf_from_layers(
     path: str | Path,
-    dotsets: Sequence,
+    layers: Sequence[Holes],
     outline_ring: np.ndarray,
     kerf_mm: float = 0.0,
     arrange: str = "stack",
     layer_prefix: str = "STENCIL_",
     deterministic: bool = False,
 ) -> DxfInfo:
-    """Write the DotSets of a soft job (one per layer, spray order) into one DXF.
+    """Write every layer of a job (spray order) into one DXF, one DXF layer per plate.
 
-    Layers are named ``STENCIL_01``, ``STENCIL_02``, ... in spray order.
+    Round holes are CIRCLEs, cut-outs closed LWPOLYLINEs (their islands too); layers
+    are named ``STENCIL_01``, ``STENCIL_02``, ... in spray order.
 
     Args:
         path: Output file.
-        dotsets: :class:`stencil_cad.model.DotSet` objects (anything with ``xy_mm`` and ``r_mm``).
+        layers: The :class:`~stencil_cad.model.DotSet` or :class:`~stencil_cad.model.CutLayer`
+            of each layer.
         outline_ring: The plate outline ring, shared by every layer.
         kerf_mm: Laser kerf in mm. Defaults to 0.
         arrange: ``"stack"`` or ``"row"``, see :func:`write_dxf_stencils`.
         layer_prefix: Prefix of the layer names. Defaults to ``"STENCIL_"``.
         deterministic: Fixed dates and GUIDs.
     """
-    stencils = [stencil_for(ds, outline_ring, f"{layer_prefix}{i + 1:02d}") for i, ds in enumerate(dotsets)]
-    return write_dxf_stencils(path, stencils, kerf_mm=kerf_mm, arrange=arrange, deterministic=deterministic)
-
-
-def dxf_from_cut_layers(
-    path: str | Path,
-    cut_layers: Sequence,
-    outline_ring: np.ndarray,
-    kerf_mm: float = 0.0,
-    arrange: str = "stack",
-    layer_prefix: str = "STENCIL_",
-    deterministic: bool = False,
-) -> DxfInfo:
-    """Write the CutLayers of a hard job (one per colour, spray order) into one DXF.
-
-    Each cut-out is a closed LWPOLYLINE (its islands too); layers are named ``STENCIL_01``, ...
-
-    Args:
-        path: Output file.
-        cut_layers: :class:`stencil_cad.model.CutLayer` objects (anything with ``polygons``).
-        outline_ring: The plate outline ring, shared by every layer.
-        kerf_mm: Laser kerf in mm. Defaults to 0.
-        arrange: ``"stack"`` or ``"row"``, see :func:`write_dxf_stencils`.
-        layer_prefix: Prefix of the layer names. Defaults to ``"STENCIL_"``.
-        deterministic: Fixed dates and GUIDs.
-    """
-    stencils = [
-        stencil_for(cl, outline_ring, f"{layer_prefix}{i + 1:02d}") for i, cl in enumerate(cut_layers)
-    ]
+    stencils = [stencil_for(h, outline_ring, f"{layer_prefix}{i + 1:02d}") for i, h in enumerate(layers)]
     return write_dxf_stencils(path, stencils, kerf_mm=kerf_mm, arrange=arrange, deterministic=deterministic)

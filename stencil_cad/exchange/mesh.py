@@ -48,7 +48,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import Delaunay
 
-from ..geometry import index_triangles, polygon_area
+from ..geometry import as_ccw, as_cw, genus, index_triangles
 from ..model import PlateGeometry, TriMesh
 
 log = logging.getLogger(__name__)
@@ -133,14 +133,6 @@ def _subdivide(ring: np.ndarray, max_len: float) -> np.ndarray:
     start = np.concatenate([[0], np.cumsum(pieces)[:-1]])
     t = (np.arange(int(pieces.sum())) - np.repeat(start, pieces)) / pieces[e]
     return ring[e] + t[:, None] * (nxt[e] - ring[e])
-
-
-def _ccw(ring: np.ndarray) -> np.ndarray:
-    return ring if polygon_area(ring) > 0 else ring[::-1]
-
-
-def _cw(ring: np.ndarray) -> np.ndarray:
-    return ring[::-1] if polygon_area(ring) > 0 else ring
 
 
 # ----------------------------------------------------------------------------- triangulation
@@ -342,10 +334,10 @@ def plate_mesh(geom: PlateGeometry, tolerance_mm: float = 0.02) -> TriMesh:
     """
     t = float(geom.thickness_mm)
     relief = float(geom.relief_mm) if geom.glyphs and geom.label_box is not None else 0.0
-    rings: list[np.ndarray] = [_subdivide(_ccw(geom.outline), MAX_RING_EDGE_MM)]
+    rings: list[np.ndarray] = [_subdivide(as_ccw(geom.outline), MAX_RING_EDGE_MM)]
     lr: list[tuple[int, int]] = [(SHEET, VOID)]
     for poly in geom.polygons:
-        rings.append(_subdivide(_cw(np.asarray(poly, dtype=np.float64)), MAX_RING_EDGE_MM))
+        rings.append(_subdivide(as_cw(np.asarray(poly, dtype=np.float64)), MAX_RING_EDGE_MM))
         lr.append((SHEET, VOID))
     if relief != 0.0:
         x0, y0, x1, y1 = geom.label_box
@@ -386,10 +378,10 @@ def plate_mesh(geom: PlateGeometry, tolerance_mm: float = 0.02) -> TriMesh:
         grings: list[np.ndarray] = [points[bidx]]
         glr: list[tuple[int, int]] = [(SHEET, VOID)]
         for outer, inner in geom.glyphs:
-            grings.append(_ccw(np.asarray(outer, dtype=np.float64)))
+            grings.append(as_ccw(np.asarray(outer, dtype=np.float64)))
             glr.append((GLYPH, SHEET))
             for i in inner:
-                grings.append(_cw(np.asarray(i, dtype=np.float64)))
+                grings.append(as_cw(np.asarray(i, dtype=np.float64)))
                 glr.append((GLYPH, SHEET))
         gp, grid, gl, gr = _flat(grings, glr)
         nb = len(bidx)
@@ -436,7 +428,7 @@ def mesh_checks(mesh: TriMesh) -> dict:
     Returns:
         A dict: ``watertight`` (every edge shared by exactly two triangles),
         ``consistent_winding`` (each shared edge used once in each direction),
-        ``components`` (connected parts), ``genus`` (from Euler's formula, for a
+        ``components`` (connected parts), ``genus`` (:func:`stencil_cad.geometry.genus`, for a
         single closed part), ``volume`` (mm³, divergence theorem), ``degenerate``
         (triangles of zero area after rounding to float32, as in the STL),
         ``triangles`` and ``vertices``.
@@ -453,11 +445,7 @@ def mesh_checks(mesh: TriMesh) -> dict:
     dup_directed = bool((directed[1:] == directed[:-1]).any())
     watertight = bool((ucount == 2).all())
     consistent = watertight and not dup_directed
-    n_edges = len(ucount)
-    graph = coo_matrix((np.ones(len(e0), dtype=np.int8), (e0, e1)), shape=(nv, nv))
-    ncomp, _ = connected_components(graph, directed=False)
-    chi = nv - n_edges + len(f)
-    genus = (2 * ncomp - chi) / 2.0
+    _, ncomp, g = genus(f, nv)
     a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
     volume = float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
     v32 = v.astype(np.float32).astype(np.float64)
@@ -467,7 +455,7 @@ def mesh_checks(mesh: TriMesh) -> dict:
         "watertight": watertight,
         "consistent_winding": consistent,
         "components": int(ncomp),
-        "genus": int(round(genus)) if ncomp == 1 else None,
+        "genus": g if ncomp == 1 else None,
         "volume": volume,
         "degenerate": int((area2 <= 0).sum()),
         "triangles": int(len(f)),

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry import polygon_area
+from ..geometry import as_ccw, as_cw
 from ..model import PlateGeometry
 
 __all__ = ["STEP_TIMESTAMP", "step_text"]
@@ -292,21 +292,21 @@ def step_text(geom: PlateGeometry, name: str = "stencil_plate") -> str:
         return ids["vz"][key]
 
     vz(0.0, t)
-    outline = geom.outline if polygon_area(geom.outline) > 0 else geom.outline[::-1]
+    outline = as_ccw(geom.outline)
     out_ring = _Ring(xy=np.asarray(outline, dtype=np.float64), z0=0.0, z1=t)
     hole_rings = []
     for p in geom.polygons:
         p = np.asarray(p, dtype=np.float64)
-        hole_rings.append(_Ring(xy=p[::-1] if polygon_area(p) > 0 else p, z0=0.0, z1=t))
+        hole_rings.append(_Ring(xy=as_cw(p), z0=0.0, z1=t))
     glyph_rings = []  # (outer ring, [inner rings]) with the material on the left
     if relief != 0.0:
         za, zb = (t + relief, t) if relief < 0 else (t, t + relief)
         vz(za, zb)
         for outer, inner in geom.glyphs:
             oc = np.asarray(outer, dtype=np.float64)
-            oc = oc if polygon_area(oc) > 0 else oc[::-1]
+            oc = as_ccw(oc)
             ic = [np.asarray(i, dtype=np.float64) for i in inner]
-            ic = [i[::-1] if polygon_area(i) > 0 else i for i in ic]
+            ic = [as_cw(i) for i in ic]
             if relief < 0:  # engraved: the sheet is outside the glyph
                 oc, ic = oc[::-1], [i[::-1] for i in ic]
             glyph_rings.append((_Ring(xy=oc, z0=za, z1=zb), [_Ring(xy=i, z0=za, z1=zb) for i in ic]))

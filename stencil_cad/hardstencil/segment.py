@@ -19,6 +19,8 @@ import numpy as np
 from scipy import ndimage as ndi
 from skimage.color import lab2rgb, rgb2lab
 
+from ..colour import colour_to_rgb, distinct_colours, kmeans
+
 log = logging.getLogger(__name__)
 
 # Edge structures for PyMaxflow: from each node to its right / lower neighbour.
@@ -26,56 +28,8 @@ _RIGHT = np.array([[0, 0, 0], [0, 0, 1], [0, 0, 0]])
 _DOWN = np.array([[0, 0, 0], [0, 0, 0], [0, 1, 0]])
 _FOUR = ndi.generate_binary_structure(2, 1)
 
-
-def distinct_colours(rgb: np.ndarray) -> int:
-    """Number of distinct 8-bit colours in an ``(H, W, 3)`` image in [0, 1]."""
-    q = np.clip(np.rint(np.asarray(rgb) * 255.0), 0, 255).astype(np.int64)
-    code = (q[..., 0] << 16) | (q[..., 1] << 8) | q[..., 2]
-    return int(np.unique(code).size)
-
-
-def kmeans(
-    x: np.ndarray, k: int, rng: np.random.Generator, iters: int = 30, sample: int = 20000
-) -> np.ndarray:
-    """K-means++ then Lloyd iterations on a random sample of the rows of ``x``.
-
-    Args:
-        x: ``(N, D)`` points.
-        k: Number of centres wanted.
-        rng: Random generator (sampling and seeding).
-        iters: Lloyd iterations. Defaults to 30.
-        sample: At most this many points are used. Defaults to 20000.
-
-    Returns:
-        ``(k', D)`` centres, ``k' <= k`` (duplicates and empty clusters removed).
-    """
-    x = np.asarray(x, dtype=np.float64)
-    if x.shape[0] > sample:
-        x = x[rng.choice(x.shape[0], sample, replace=False)]
-    n = x.shape[0]
-    centres = [x[rng.integers(n)]]
-    d2 = np.sum((x - centres[0]) ** 2, axis=1)
-    for _ in range(1, k):
-        total = d2.sum()
-        if total <= 1e-12:
-            break
-        c = x[rng.choice(n, p=d2 / total)]
-        centres.append(c)
-        d2 = np.minimum(d2, np.sum((x - c) ** 2, axis=1))
-    c = np.array(centres)
-    xx = np.sum(x * x, axis=1)[:, None]
-    for _ in range(iters):
-        dist = xx - 2.0 * (x @ c.T) + np.sum(c * c, axis=1)[None, :]
-        lab = np.argmin(dist, axis=1)
-        counts = np.bincount(lab, minlength=len(c))
-        keep = counts > 0
-        sums = np.stack([np.bincount(lab, weights=x[:, j], minlength=len(c)) for j in range(x.shape[1])], 1)
-        new = sums[keep] / counts[keep, None]
-        if new.shape == c.shape and np.allclose(new, c, atol=1e-6):
-            c = new
-            break
-        c = new
-    return c
+#: Pixels the hard mode's K-means samples (its Potts graph cut refines the labels after).
+HARD_KMEANS_SAMPLE = 20_000
 
 
 def data_costs(lab: np.ndarray, centres_lab: np.ndarray) -> np.ndarray:
@@ -249,8 +203,6 @@ def _adjacent_pairs(comp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def hex_to_rgb(colours: list[str]) -> np.ndarray:
     """``(K, 3)`` float in [0, 1] from hex strings '#rrggbb'."""
-    from ..colour import colour_to_rgb
-
     return np.array([colour_to_rgb(c) for c in colours], dtype=np.float64).reshape(-1, 3)
 
 
@@ -296,9 +248,7 @@ def segment(
         if n_distinct < k:
             warnings.append(f"the image has only {n_distinct} distinct colours; using {n_distinct}, not {k}")
             k = n_distinct
-        centres = kmeans(lab.reshape(-1, 3), k, rng)
-        if centres.shape[0] < k:
-            warnings.append(f"K-means found only {centres.shape[0]} distinct colours of the {k} asked")
+        centres = kmeans(lab.reshape(-1, 3), k, rng, sample=HARD_KMEANS_SAMPLE)[0]
     labels = np.argmin(data_costs(lab, centres), axis=2)
     merged = 0
     sweeps_run = []

@@ -39,6 +39,7 @@ from skimage.measure import find_contours, points_in_poly
 from skimage.morphology import skeletonize
 
 from ..frames import mm_to_px, px_to_mm
+from ..geometry import polygon_area
 
 log = logging.getLogger(__name__)
 
@@ -347,12 +348,6 @@ def polygon_sheet_check(
     return {"polygon_sheet_components": int(n_raw), "polygon_held_components": int(np.count_nonzero(held))}
 
 
-def signed_area(ring: np.ndarray) -> float:
-    """Signed area of a ring of (x, y) points; positive when counter-clockwise."""
-    x, y = ring[:, 0], ring[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
-
-
 @numba.njit(cache=True)
 def _douglas_peucker(points: np.ndarray, tol: float) -> np.ndarray:  # pragma: no cover - compiled
     """Douglas-Peucker: a bool mask of the vertices of an open polyline to keep (ends kept)."""
@@ -428,7 +423,7 @@ def mask_to_polygons(mask: np.ndarray, mm_per_px: float, tolerance_mm: float) ->
         if len(c) < 3:
             continue
         xy = px_to_mm(c, h, mm_per_px)
-        a = signed_area(xy)
+        a = polygon_area(xy)
         if a == 0.0:
             continue
         # find_contours runs clockwise (in x right, y up) around cut areas and the other
@@ -439,7 +434,7 @@ def mask_to_polygons(mask: np.ndarray, mm_per_px: float, tolerance_mm: float) ->
             holes.append(xy[::-1].copy())
     polys = [(o, []) for o in outers]
     if holes and outers:
-        areas = np.array([signed_area(o) for o in outers])
+        areas = np.array([polygon_area(o) for o in outers])
         for hole in holes:
             inside = [i for i, o in enumerate(outers) if points_in_poly(hole[:1], o)[0]]
             if not inside:

@@ -182,18 +182,6 @@ def test_cut_layer_with_crossing_polygons_raises():
         cad.build_plate(CutLayer([(a, []), (b, [])], np.zeros(3)), W, H, cfg(), LABEL)
 
 
-def test_ring_crossing_detector():
-    from stencil_cad.cad.plate import _rings_cross
-
-    sq = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
-    assert not _rings_cross([(sq, []), (sq + 2.0, [])])
-    assert not _rings_cross([(sq * 3, [sq[::-1] + 1.0])])  # a hole inside, clear of the outer ring
-    assert _rings_cross([(sq, []), (sq + 0.5, [])])
-    assert _rings_cross([(sq, []), (sq + [1.0, 0.0], [])])  # touching along an edge
-    bow = np.array([[0, 0], [1, 1], [1, 0], [0, 1]], float)  # a bow-tie crosses itself
-    assert _rings_cross([(bow, [])])
-
-
 def test_tile_check_path_is_used_above_the_limit():
     dots = grid_dots(pitch=2.5)
     model = cad.build_plate(dots, W, H, cfg(full_check_max_holes=10), LABEL)
