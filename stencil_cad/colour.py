@@ -7,6 +7,7 @@ K-means is where both the soft and the hard mode start from.
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -49,7 +50,7 @@ def colour_to_rgb(value: object) -> tuple[float, float, float]:
     return tuple(int(h[i : i + 2], 16) / 255.0 for i in (0, 2, 4))  # type: ignore[return-value]
 
 
-def to_hex(rgb) -> str:
+def to_hex(rgb: Sequence[float] | np.ndarray) -> str:
     """An RGB triple of floats in [0, 1] (clipped) as ``"#rrggbb"``."""
     return "#{:02x}{:02x}{:02x}".format(
         *np.rint(np.clip(np.asarray(rgb, dtype=float), 0.0, 1.0) * 255.0).astype(int)

@@ -155,7 +155,7 @@ class Executor:
     def __init__(self, plan: Plan, quiet: bool = False):
         self.plan = plan
         self.quiet = quiet
-        self._bar = None
+        self._bar: Any = None  # a tqdm bar (tqdm ships no type information)
         self.tasks = 0
 
     @property

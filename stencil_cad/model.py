@@ -220,7 +220,7 @@ class PlateGeometry:
     polygons: tuple = ()
     glyphs: tuple = ()
     relief_mm: float = 0.0
-    label_box: tuple | None = None
+    label_box: tuple[float, float, float, float] | None = None
     extra_holes: int = 0
 
     @property

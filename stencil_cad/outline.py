@@ -79,6 +79,11 @@ class Segment:
         return (self.centre[0] + self.radius * math.cos(a), self.centre[1] + self.radius * math.sin(a))
 
 
+def _pt(p: np.ndarray) -> tuple[float, float]:
+    """A point as a pair of Python floats."""
+    return float(p[0]), float(p[1])
+
+
 def _side_geometry(side: Side, x0: float, y0: float, x1: float, y1: float):
     """Start corner, unit direction, outward normal and angle (rad) of a side of a box."""
     if side is Side.bottom:
@@ -132,7 +137,7 @@ def outline_path(
     def add_line(p, q):
         p, q = np.asarray(p, float), np.asarray(q, float)
         if np.hypot(*(q - p)) > 1e-12:
-            segs.append(Segment(tuple(map(float, p)), tuple(map(float, q))))
+            segs.append(Segment(_pt(p), _pt(q)))
 
     def add_arc(c, r, a0, sweep):
         if r <= 1e-12:
@@ -140,9 +145,7 @@ def outline_path(
         c = np.asarray(c, float)
         p = c + r * np.array([math.cos(a0), math.sin(a0)])
         q = c + r * np.array([math.cos(a0 + sweep), math.sin(a0 + sweep)])
-        segs.append(
-            Segment(tuple(map(float, p)), tuple(map(float, q)), tuple(map(float, c)), float(r), a0, sweep)
-        )
+        segs.append(Segment(_pt(p), _pt(q), _pt(c), float(r), a0, sweep))
 
     for side in _SIDE_ORDER:
         s0, u, n, rot, length = _side_geometry(side, x0, y0, x1, y1)
@@ -219,7 +222,7 @@ def path_ring(path: list[Segment], chord_tol_mm: float) -> np.ndarray:
     """
     pts: list[np.ndarray] = []
     for s in path:
-        if s.is_arc:
+        if s.centre is not None:
             k = _arc_steps(s.radius, s.sweep, chord_tol_mm)
             a = s.angle0 + s.sweep * np.arange(k) / k
             pts.append(
@@ -236,7 +239,7 @@ def path_area(path: list[Segment]) -> float:
     """Exact area in mm² enclosed by a path of lines and arcs (Green's theorem)."""
     total = 0.0
     for s in path:
-        if s.is_arc:
+        if s.centre is not None:
             cx, cy = s.centre
             r, a0, a1 = s.radius, s.angle0, s.angle0 + s.sweep
             total += r * r * s.sweep + r * (

@@ -10,7 +10,7 @@ import contextlib
 import logging
 import platform
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -23,7 +23,7 @@ from .colour import to_hex
 from .config import ComputeConfig, JobConfig, Mode
 from .config.spray import SprayModel
 from .errors import OutputError, UserError
-from .model import DotSet, Layers, Picture
+from .model import DotSet, Holes, Layers, Picture
 from .output import MANIFEST, OutputDir, manifest_header
 
 if TYPE_CHECKING:
@@ -137,7 +137,7 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
         # Iterations run per pyramid level, so the total is not known in advance.
         with run.bar(None, "decompose") as bar:
 
-            def progress(iteration: int, energy: float) -> None:
+            def progress(_iteration: int, energy: float) -> None:
                 bar.update(1)
                 bar.set_postfix(energy=f"{energy:.4g}", refresh=False)
 
@@ -478,7 +478,7 @@ def read_dots(folder: Path, count: int | None = None) -> list[DotSet]:
     return out
 
 
-def stage_build(run: Run, layers: Layers, holes: list, picture_mm: tuple[float, float]) -> None:
+def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tuple[float, float]) -> None:
     """Build, check and export one plate per layer and the wall(s)."""
     from . import cad, outline
     from .cad import wall as wall_mod
@@ -812,7 +812,7 @@ def _merge_manifest(old_path: Path, new: dict, out: OutputDir) -> dict:
 def _versions() -> dict:
     from importlib.metadata import PackageNotFoundError, version
 
-    out = {"python": platform.python_version()}
+    out: dict[str, str | None] = {"python": platform.python_version()}
     for dist in ("build123d", "cadquery-ocp", "numpy", "scipy", "scikit-image", "ezdxf", "numba"):
         try:
             out[dist] = version(dist)
@@ -1071,9 +1071,9 @@ def _process_rules(cfg: JobConfig) -> dict:
 # --------------------------------------------------------------------------- helpers
 
 
-def _plain(d) -> dict:
+def _plain(d: Mapping[str, object] | None) -> dict[str, object]:
     """Keep the JSON-friendly scalars of a report dict."""
-    out = {}
+    out: dict[str, object] = {}
     for k, v in (d or {}).items():
         if isinstance(v, np.generic):
             v = v.item()
@@ -1083,7 +1083,7 @@ def _plain(d) -> dict:
             out[k] = v
         elif isinstance(v, (list, tuple)) and all(isinstance(x, (int, float, str, bool)) for x in v):
             out[k] = list(v)
-        elif isinstance(v, dict):
+        elif isinstance(v, Mapping):
             out[k] = _plain(v)
     return out
 
@@ -1146,6 +1146,7 @@ def run_command(
                 if command not in ("simulate", "stipple"):
                     raise
         if command in ("run", "hard", "decompose"):
+            assert picture is not None  # load_picture raised otherwise
             with computing(run, picture.shape[0] * picture.shape[1], where):
                 if command == "decompose":
                     save_config(run)
@@ -1154,7 +1155,7 @@ def run_command(
                 else:
                     files = run_all(run, picture)
         else:
-            files = _run_stage_command(run, command, src, picture)
+            files = _run_stage_command(run, command, src or out_path, picture)
     except BaseException:
         out.abort()
         raise

@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .pipeline import Run
 
 
 def _fmt(v, digits: int = 3) -> str:
@@ -13,7 +17,7 @@ def _fmt(v, digits: int = 3) -> str:
     return str(v)
 
 
-def summary(run, files: list[Path], out_path: Path) -> str:
+def summary(run: Run, files: list[Path], out_path: Path) -> str:
     """Files written, dots per layer, smallest web, validation, quality and time per stage."""
     f = run.figures
     lines = [f"stencil-cad: {run.cfg.name} → {out_path}/ ({len(files)} files)"]

@@ -2,7 +2,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from pydantic import ValidationError
 
@@ -292,10 +292,15 @@ def test_random_outlines(w, h, margin, corner, pos, clearance):
         ],
     )
     plate = plate_outline(w, h, cfg)
+    try:
+        grown = outline_path(w, h, cfg, clearance)
+    except ValueError as exc:
+        # Grown by the clearance, a tab near a corner can reach the corner's arc: that
+        # outline is refused (see test_tab_near_corner_is_rejected), not drawn.
+        assert "reaches a rounded corner" in str(exc)
+        assume(False)
     assert polygon_area(plate) == pytest.approx(analytic_area(w, h, cfg), rel=1e-4)
-    assert path_area(outline_path(w, h, cfg, clearance)) == pytest.approx(
-        analytic_area(w, h, cfg, clearance), rel=1e-12
-    )
+    assert path_area(grown) == pytest.approx(analytic_area(w, h, cfg, clearance), rel=1e-12)
     pocket = pocket_outline(w, h, cfg, clearance)
     assert fits(plate, pocket, clearance, tol_mm=2 * cfg.chord_tol_mm)
     rotated = transform_ring(plate, symmetries()["rot180"], (w / 2, h / 2))

@@ -11,7 +11,8 @@ from __future__ import annotations
 import build123d as bd
 
 from ..config.cad import PlateConfig
-from .plate import LabelInfo, PlateModel
+from ..model import PlateGeometry
+from .plate import LabelInfo, PlateBuildError, PlateModel
 from .template import build_plate
 from .wall import Wall
 
@@ -57,16 +58,27 @@ class StencilPlate(bd.BasePartObject):
         super().__init__(part=self.model.part, rotation=rotation, align=align, mode=mode)
 
     @property
+    def geometry(self) -> PlateGeometry:
+        """The plate's kernel-free description.
+
+        Raises:
+            PlateBuildError: The plate template returned a shape of its own, which has none.
+        """
+        if self.model.geometry is None:
+            raise PlateBuildError("the plate template returned its own shape: it has no plate description")
+        return self.model.geometry
+
+    @property
     def analytic_volume(self) -> float:
         """Volume in mm³ from the outline area, the holes and the label (the oracle)."""
-        return float(self.model.analytic_volume)
+        return float(self.geometry.volume)
 
     @property
     def hole_count(self) -> int:
         """Number of holes (cut-outs) in the plate."""
-        return int(self.model.hole_count)
+        return int(self.geometry.hole_count)
 
     @property
     def thickness_mm(self) -> float:
         """Plate thickness in mm."""
-        return float(self.model.geometry.thickness_mm)
+        return float(self.geometry.thickness_mm)

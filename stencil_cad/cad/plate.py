@@ -26,14 +26,19 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..config.stipple import HOLE_FLOOR_MM
 from ..exchange.mesh import plate_mesh
-from ..geometry import as_ccw, as_cw, polygon_area, rings_cross
+from ..geometry import as_ccw, as_cw, point_ring_distance, points_in_ring, polygon_area, rings_cross
 from ..model import Holes, PlateGeometry, TriMesh
 from ..stipple.rules import DesignRules, DotRuleError, check_rules
+
+if TYPE_CHECKING:
+    from build123d import Part
+    from OCP.TopoDS import TopoDS_Solid
 
 log = logging.getLogger(__name__)
 
@@ -101,7 +106,7 @@ class PlateModel:
         info: Figures for the manifest (timings, label text and size).
     """
 
-    part: object
+    part: Part
     geometry: PlateGeometry | None
     label: LabelInfo | None = None
     info: dict = field(default_factory=dict)
@@ -194,7 +199,7 @@ class PlateModel:
         info = {**self.info, "extra_holes": new.extra_holes}
         return PlateModel(part=as_part(make_solid(new)), geometry=new, label=self.label, info=info)
 
-    def with_part(self, shape) -> PlateModel:
+    def with_part(self, shape: object) -> PlateModel:
         """This model with its solid replaced by an edited one.
 
         Args:
@@ -212,18 +217,14 @@ class PlateModel:
 
 
 def _point_in_ring(x: float, y: float, ring: np.ndarray) -> bool:
-    from ..outline import _inside
-
-    return bool(_inside(np.array([[x, y]]), ring)[0])
+    return bool(points_in_ring(np.array([[x, y]]), ring)[0])
 
 
 def _ring_distance(x: float, y: float, ring: np.ndarray) -> float:
-    from ..outline import _point_ring_distance
-
-    return float(_point_ring_distance(np.array([[x, y]]), ring)[0])
+    return float(point_ring_distance(np.array([[x, y]]), ring)[0])
 
 
-def as_part(shape):
+def as_part(shape: object) -> Part:
     """A build123d ``Part`` around an OCCT shape (a bare solid is put in a compound first).
 
     ``Part(TopoDS_Solid)`` reports a volume of 0 in build123d 0.12: a Part is a compound.
@@ -233,14 +234,14 @@ def as_part(shape):
     from OCP.TopAbs import TopAbs_COMPOUND
     from OCP.TopoDS import TopoDS_Compound
 
-    shape = _unwrap(shape)
-    if shape.ShapeType() != TopAbs_COMPOUND:
+    wrapped = _unwrap(shape)
+    if wrapped.ShapeType() != TopAbs_COMPOUND:
         comp = TopoDS_Compound()
         builder = BRep_Builder()
         builder.MakeCompound(comp)
-        builder.Add(comp, shape)
-        shape = comp
-    return Part(shape)
+        builder.Add(comp, wrapped)
+        wrapped = comp
+    return Part(wrapped)
 
 
 def _unwrap(shape):
@@ -321,7 +322,7 @@ def check_holes(
 # ----------------------------------------------------------------------------- label glyphs
 
 
-def _face_rings(face, tol: float) -> tuple[np.ndarray, list[np.ndarray]]:
+def _face_rings(face, tol: float) -> tuple[np.ndarray | None, list[np.ndarray]]:
     """Polygon rings of a planar face's outer and inner wires (chord error ≤ tol)."""
     from OCP.BRepAdaptor import BRepAdaptor_Curve
     from OCP.BRepTools import BRepTools, BRepTools_WireExplorer
@@ -331,7 +332,8 @@ def _face_rings(face, tol: float) -> tuple[np.ndarray, list[np.ndarray]]:
     from OCP.TopoDS import TopoDS
 
     outer_w = BRepTools.OuterWire_s(face)
-    rings_out, rings_in = None, []
+    rings_out: np.ndarray | None = None
+    rings_in: list[np.ndarray] = []
     exp = TopExp_Explorer(face, TopAbs_WIRE)
     while exp.More():
         wire = TopoDS.Wire_s(exp.Current())
@@ -519,7 +521,7 @@ def _polygon_wire(ring: np.ndarray, z: float):
     return poly.Wire()
 
 
-def make_solid(geom: PlateGeometry):
+def make_solid(geom: PlateGeometry) -> TopoDS_Solid:
     """The OCCT solid of a plate description, in time linear in the hole count.
 
     Args:
@@ -620,7 +622,7 @@ def _first_solid(shape):
 
 
 def perforated_plate(
-    holes,
+    holes: Holes,
     outline: np.ndarray,
     label_area: tuple[float, float, float, float] | None,
     label: LabelInfo | None,
@@ -664,12 +666,14 @@ def perforated_plate(
         raise PlateBuildError(
             f"label depth must be ≤ thickness - 0.3 ({thickness_mm - 0.3:g} mm), got {label_depth_mm}"
         )
-    glyphs, box, linfo = (), None, {}
+    glyphs: tuple = ()
+    box: tuple[float, float, float, float] | None = None
+    linfo: dict = {}
     if label is not None and mode != "none" and label_area is not None:
-        glyphs, box, linfo = label_glyphs(
+        placed, box, linfo = label_glyphs(
             label, label_area, label_height_mm, label_min_height_mm, label_font, label_tolerance_mm
         )
-        glyphs = tuple(glyphs)
+        glyphs = tuple(placed)
     relief = 0.0 if not glyphs else (-label_depth_mm if mode == "engrave" else label_depth_mm)
     cxy = np.asarray(holes.xy_mm, dtype=np.float64).reshape(-1, 2)
     cr = np.asarray(holes.r_mm, dtype=np.float64).reshape(-1)
@@ -696,9 +700,3 @@ def perforated_plate(
         "seconds": {"label": round(t1 - t0, 3), "solid": round(t2 - t1, 3)},
     }
     return PlateModel(part=as_part(solid), geometry=geom, label=label, info=info)
-
-
-def with_geometry(model: PlateModel, **changes) -> PlateModel:
-    """A copy of a model with its description changed and the solid rebuilt (for tiles)."""
-    geom = replace(model.geometry, **changes)
-    return PlateModel(part=as_part(make_solid(geom)), geometry=geom, label=model.label, info={})

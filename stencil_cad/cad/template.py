@@ -18,8 +18,12 @@ from dataclasses import replace
 from pathlib import Path
 from types import ModuleType
 
+import numpy as np
+
 from .. import outline as outline_mod
-from ..model import PlateGeometry
+from ..config.cad import PlateConfig
+from ..model import Holes, PlateGeometry
+from ..stipple.rules import DesignRules
 from .plate import LabelInfo, PlateBuildError, PlateModel, _unwrap, as_part, check_holes
 
 log = logging.getLogger(__name__)
@@ -83,6 +87,8 @@ def load_template(path: str | Path) -> ModuleType:
         )
     name = f"stencil_cad_template_{abs(hash(str(path.resolve())))}"
     spec = importlib.util.spec_from_file_location(name, path)
+    if spec is None or spec.loader is None:
+        raise PlateBuildError(f"plate template {path} is not a Python file Python can load")
     module = importlib.util.module_from_spec(spec)
     try:
         spec.loader.exec_module(module)
@@ -113,7 +119,7 @@ def template_parameters(module: ModuleType) -> dict:
     }
 
 
-def config_overrides(cfg) -> dict:
+def config_overrides(cfg: PlateConfig) -> dict:
     """Template parameter values from a ``plate`` config section.
 
     Every mapped field is passed for the built-in template; for a user's template
@@ -134,8 +140,14 @@ def config_overrides(cfg) -> dict:
 
 
 def run_template(
-    path: str | Path, holes, outline, label_area, label, overrides: dict, strict: set | None = None
-):
+    path: str | Path,
+    holes: Holes,
+    outline: np.ndarray,
+    label_area: tuple[float, float, float, float] | None,
+    label: LabelInfo | None,
+    overrides: dict,
+    strict: set | None = None,
+) -> PlateModel:
     """Load a template, set its parameters and call its ``build``.
 
     Args:
@@ -224,7 +236,13 @@ def _set_parameters(module: ModuleType, path, overrides: dict, strict: set | Non
 
 
 def build_plate(
-    holes, width_mm: float, height_mm: float, cfg, label: LabelInfo | None, *, rules=None
+    holes: Holes,
+    width_mm: float,
+    height_mm: float,
+    cfg: PlateConfig,
+    label: LabelInfo | None,
+    *,
+    rules: DesignRules | None = None,
 ) -> PlateModel:
     """Build one layer's plate: check the holes again, then run the plate template.
 

@@ -29,7 +29,8 @@ import time
 import numpy as np
 
 from ..exchange.mesh import mesh_checks
-from ..model import PlateGeometry
+from ..model import Holes, PlateGeometry
+from .plate import PlateModel
 
 log = logging.getLogger(__name__)
 
@@ -201,7 +202,7 @@ def _tiles(geom: PlateGeometry, n_holes: int) -> list[tuple[str, PlateGeometry]]
     xy = np.asarray(geom.circles_xy).reshape(-1, 2)
     r = np.asarray(geom.circles_r).reshape(-1)
 
-    def window(name, cx, cy, half):
+    def window(name: str, cx: float, cy: float, half: float) -> None:
         x0, y0, x1, y1 = cx - half, cy - half, cx + half, cy + half
         inside = (xy[:, 0] - r > x0) & (xy[:, 0] + r < x1) & (xy[:, 1] - r > y0) & (xy[:, 1] + r < y1)
         polys = tuple(
@@ -224,8 +225,8 @@ def _tiles(geom: PlateGeometry, n_holes: int) -> list[tuple[str, PlateGeometry]]
         area = geom.width_mm * geom.height_mm
         half = 0.5 * np.sqrt(area * n_holes / max(len(r), 1))
         i = int(np.argmax(r))
-        window("largest-hole", *xy[i], half)
-        window("first-hole", *xy[0], half)
+        window("largest-hole", float(xy[i, 0]), float(xy[i, 1]), half)
+        window("first-hole", float(xy[0, 0]), float(xy[0, 1]), half)
         window("centre", 0.5 * geom.width_mm, 0.5 * geom.height_mm, half)
     elif geom.polygons:
         c = geom.polygons[0].mean(axis=0)
@@ -242,9 +243,103 @@ def _tiles(geom: PlateGeometry, n_holes: int) -> list[tuple[str, PlateGeometry]]
     return out
 
 
+def _topology_fails(topo: dict) -> list[str]:
+    """One solid with one closed, consistently oriented shell."""
+    fails = []
+    if topo["solids"] != 1 or topo["shells"] != 1:
+        fails.append(
+            f"expected exactly one solid with one shell, got {topo['solids']} solids, {topo['shells']} shells"
+        )
+    if topo["edges_not_two_faces"]:
+        fails.append(f"{topo['edges_not_two_faces']} edges do not bound exactly two faces (shell not closed)")
+    if topo["edges_misoriented"]:
+        fails.append(
+            f"{topo['edges_misoriented']} edges are not used once in each direction (shell misoriented)"
+        )
+    return fails
+
+
+def _bbox(shape) -> list[list[float]]:
+    """``[[xmin, ymin, zmin], [xmax, ymax, zmax]]`` in mm, OCCT's optimal bounding box."""
+    from OCP.Bnd import Bnd_Box
+    from OCP.BRepBndLib import BRepBndLib
+
+    box = Bnd_Box()
+    BRepBndLib.AddOptimal_s(shape, box, False, False)
+    return [list(box.CornerMin().Coord()), list(box.CornerMax().Coord())]
+
+
+def _hole_fails(geom: PlateGeometry | None, topo: dict, dots: Holes | None) -> list[str]:
+    """Hole faces and top-face bounds against the description, and the holes against the input."""
+    fails = []
+    holes = None
+    if geom is not None:
+        holes = geom.hole_count
+        n_cyl = topo["cylinders"]
+        if n_cyl != len(geom.circles_r):
+            fails.append(f"B-rep has {n_cyl} cylindrical hole faces, expected {len(geom.circles_r)}")
+        # The top face bounds the outline, every hole and (with a label) every letter.
+        letters = len(geom.glyphs) if geom.glyphs and geom.relief_mm != 0.0 else 0
+        if topo["max_face_wires"] != holes + 1 + letters:
+            fails.append(
+                f"the top face has {topo['max_face_wires']} bounds, expected {holes + 1 + letters} "
+                f"(outline, {holes} holes, {letters} letters)"
+            )
+    if dots is not None:
+        n_in = dots.hole_count
+        # Holes a template added (a hanging hole) come after the input's.
+        extra = geom.extra_holes if geom is not None else 0
+        if holes is not None and n_in + extra != holes:
+            fails.append(
+                f"the plate has {holes} holes but the input has {n_in}"
+                + (f" and the template added {extra}" if extra else "")
+            )
+        if geom is not None and len(dots.r_mm):
+            n = len(geom.circles_r) - extra
+            same = np.array_equal(np.asarray(dots.xy_mm), geom.circles_xy[:n]) and np.array_equal(
+                np.asarray(dots.r_mm), geom.circles_r[:n]
+            )
+            if not same:
+                fails.append("the plate's holes are not the given dots")
+    return fails
+
+
+def _check_tiles(geom: PlateGeometry, tile_holes: int) -> tuple[list[dict], list[str]]:
+    """OCCT's full check on tiles of the same construction: ``(per-tile figures, failures)``."""
+    from .plate import make_solid
+
+    tiles_info, fails = [], []
+    for name, tg in _tiles(geom, tile_holes):
+        ok = brep_valid(make_solid(tg))
+        tiles_info.append({"tile": name, "holes": tg.hole_count, "valid": ok})
+        if not ok:
+            fails.append(f"BRepCheck_Analyzer: tile {name!r} ({tg.hole_count} holes) is not valid")
+    return tiles_info, fails
+
+
+def _mesh_fails(mc: dict, holes: int | None, mref: float, allowed: float) -> list[str]:
+    """The mesh: watertight, consistently wound, one part, genus = holes, no slivers, its volume."""
+    fails = []
+    if not mc["watertight"]:
+        fails.append("mesh is not watertight (an edge is not shared by exactly two triangles)")
+    if not mc["consistent_winding"]:
+        fails.append("mesh winding is inconsistent")
+    if mc["components"] != 1:
+        fails.append(f"mesh has {mc['components']} parts, expected 1")
+    if holes is not None and mc["genus"] != holes:
+        fails.append(f"mesh genus {mc['genus']} differs from the hole count {holes}")
+    if mc["degenerate"]:
+        fails.append(f"mesh has {mc['degenerate']} zero-area triangles in float32")
+    if mc["rel_error"] > allowed:
+        fails.append(
+            f"mesh volume {mc['volume']:.4f} mm³ differs from {mref:.4f} mm³ by {mc['rel_error']:.2e}"
+        )
+    return fails
+
+
 def check_plate(
-    model,
-    dots=None,
+    model: PlateModel,
+    dots: Holes | None = None,
     tolerance_mm: float | None = None,
     full_check_max_holes: int | None = None,
     tile_holes: int = TILE_HOLES,
@@ -284,16 +379,7 @@ def check_plate(
     # covers orientation (same construction) and the closedness count runs in C++.
     topo = topology_checks(shape, orientation=not n_big)
     sec["topology"] = time.perf_counter() - t0
-    if topo["solids"] != 1 or topo["shells"] != 1:
-        fails.append(
-            f"expected exactly one solid with one shell, got {topo['solids']} solids, {topo['shells']} shells"
-        )
-    if topo["edges_not_two_faces"]:
-        fails.append(f"{topo['edges_not_two_faces']} edges do not bound exactly two faces (shell not closed)")
-    if topo["edges_misoriented"]:
-        fails.append(
-            f"{topo['edges_misoriented']} edges are not used once in each direction (shell misoriented)"
-        )
+    fails += _topology_fails(topo)
 
     t0 = time.perf_counter()
     # GProp's volume integrates every face (1.8 s at 14,000 holes); for a plate of horizontal
@@ -312,47 +398,15 @@ def check_plate(
             f"B-rep volume {volume:.6f} mm³ differs from the analytic {analytic:.6f} mm³ by {rel:.2e} (> {BREP_RTOL})"
         )
 
-    from OCP.Bnd import Bnd_Box
-    from OCP.BRepBndLib import BRepBndLib
-
-    box = Bnd_Box()
-    BRepBndLib.AddOptimal_s(shape, box, False, False)
-    bbox = [list(box.CornerMin().Coord()), list(box.CornerMax().Coord())]
+    bbox = _bbox(shape)
     if geom is not None:
         want = np.array(geom.bbox)
         if not np.allclose(np.array(bbox), want, atol=1e-5):
             fails.append(
                 f"bounding box {np.round(bbox, 4).tolist()} differs from the configured {want.round(4).tolist()}"
             )
-
-    holes = None
-    if geom is not None:
-        holes = geom.hole_count
-        n_cyl = topo["cylinders"]
-        if n_cyl != len(geom.circles_r):
-            fails.append(f"B-rep has {n_cyl} cylindrical hole faces, expected {len(geom.circles_r)}")
-        # The top face bounds the outline, every hole and (with a label) every letter.
-        letters = len(geom.glyphs) if geom.glyphs and geom.relief_mm != 0.0 else 0
-        if topo["max_face_wires"] != holes + 1 + letters:
-            fails.append(
-                f"the top face has {topo['max_face_wires']} bounds, expected {holes + 1 + letters} "
-                f"(outline, {holes} holes, {letters} letters)"
-            )
-    if dots is not None:
-        n_in = dots.hole_count
-        extra = geom.extra_holes if geom is not None else 0
-        if holes is not None and n_in + extra != holes:
-            fails.append(
-                f"the plate has {holes} holes but the input has {n_in}"
-                + (f" and the template added {extra}" if extra else "")
-            )
-        if geom is not None and len(dots.r_mm):
-            n = len(geom.circles_r) - extra
-            same = np.array_equal(np.asarray(dots.xy_mm), geom.circles_xy[:n]) and np.array_equal(
-                np.asarray(dots.r_mm), geom.circles_r[:n]
-            )
-            if not same:
-                fails.append("the plate's holes are not the given dots")
+    holes = None if geom is None else geom.hole_count
+    fails += _hole_fails(geom, topo, dots)
 
     # Full B-rep check: whole plate when small, tiles of the same construction when large.
     t0 = time.perf_counter()
@@ -362,16 +416,10 @@ def check_plate(
         method = "BRepCheck_Analyzer (whole plate)"
         if not valid:
             fails.append("BRepCheck_Analyzer: the B-rep is not valid")
-        tiles_info = []
+        tiles_info: list[dict] = []
     else:
-        from .plate import make_solid
-
-        tiles_info = []
-        for name, tg in _tiles(geom, tile_holes):
-            ok = brep_valid(make_solid(tg))
-            tiles_info.append({"tile": name, "holes": tg.hole_count, "valid": ok})
-            if not ok:
-                fails.append(f"BRepCheck_Analyzer: tile {name!r} ({tg.hole_count} holes) is not valid")
+        tiles_info, tile_fails = _check_tiles(geom, tile_holes)
+        fails += tile_fails
         valid = all(t["valid"] for t in tiles_info) and not fails
         method = (
             "construction + linear checks on the whole plate; BRepCheck_Analyzer on "
@@ -394,20 +442,7 @@ def check_plate(
     if geom is None:
         allowed = max(MESH_RTOL, _curved_area(shape) * tolerance_mm / abs(mref))
     mc["allowed_rel_error"] = allowed
-    if not mc["watertight"]:
-        fails.append("mesh is not watertight (an edge is not shared by exactly two triangles)")
-    if not mc["consistent_winding"]:
-        fails.append("mesh winding is inconsistent")
-    if mc["components"] != 1:
-        fails.append(f"mesh has {mc['components']} parts, expected 1")
-    if holes is not None and mc["genus"] != holes:
-        fails.append(f"mesh genus {mc['genus']} differs from the hole count {holes}")
-    if mc["degenerate"]:
-        fails.append(f"mesh has {mc['degenerate']} zero-area triangles in float32")
-    if mc["rel_error"] > allowed:
-        fails.append(
-            f"mesh volume {mc['volume']:.4f} mm³ differs from {mref:.4f} mm³ by {mc['rel_error']:.2e}"
-        )
+    fails += _mesh_fails(mc, holes, mref, allowed)
 
     report = {
         "n_solids": topo["solids"],

@@ -217,7 +217,6 @@ class WallModel:
         bbox: Expected bounding box ``(xmin, ymin, zmin, xmax, ymax, zmax)`` in mm.
         outer_ring: ``(M, 2)`` ring of the wall's outside (sampled).
         pocket_ring: ``(M, 2)`` ring of the pocket (sampled).
-        opening_ring: ``(4, 2)`` ring of the inner opening.
         ledge_mm: Smallest width in mm of the ledge the plate rests on.
     """
 
@@ -229,7 +228,6 @@ class WallModel:
     bbox: tuple[float, float, float, float, float, float]
     outer_ring: np.ndarray
     pocket_ring: np.ndarray
-    opening_ring: np.ndarray
     ledge_mm: float
 
     @property
@@ -286,7 +284,6 @@ def build_wall(
         bbox=bbox,
         outer_ring=outer,
         pocket_ring=pocket,
-        opening_ring=opening,
         ledge_mm=ledge,
     )
 

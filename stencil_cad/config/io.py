@@ -6,7 +6,7 @@ import json
 import re
 import textwrap
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import yaml
 from pydantic import BaseModel, ValidationError
@@ -113,6 +113,9 @@ _UNION_TAG = re.compile(
     r"function-(after|before|wrap|plain)\[.*)$"
 )
 
+if TYPE_CHECKING:
+    from . import JobConfig
+
 
 def _format_loc(loc: tuple) -> str:
     parts: list[str] = []
@@ -173,7 +176,7 @@ def format_validation_error(exc: ValidationError, source: str = "config") -> str
     return lines[0] if lines else f"{source}: invalid config"
 
 
-def parse_config(data: Any, source: str = "config"):
+def parse_config(data: Any, source: str = "config") -> JobConfig:
     """Validate a mapping into a :class:`JobConfig`.
 
     Raises:
@@ -194,7 +197,7 @@ def parse_config(data: Any, source: str = "config"):
         raise ConfigError(format_validation_error(exc, source)) from None
 
 
-def load_config(path: Path | str):
+def load_config(path: Path | str) -> JobConfig:
     """Read and validate a YAML config file.
 
     A relative ``image`` path is resolved against the config file's folder.

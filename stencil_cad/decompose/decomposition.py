@@ -98,7 +98,7 @@ def _redundant_layer(
     if n > 1:
         pair = _delta_e(colours[:, None, :], colours[None, :, :])
         pair[np.tri(n, dtype=bool)] = np.inf
-        i, j = np.unravel_index(int(np.argmin(pair)), pair.shape)
+        i, j = (int(v) for v in np.unravel_index(int(np.argmin(pair)), pair.shape))
         if pair[i, j] < cfg.min_delta_e:
             mass = alphas.reshape(n, -1).sum(axis=1)
             drop, keep = (i, j) if mass[i] < mass[j] else (j, i)
@@ -327,98 +327,12 @@ def decompose(
     s = _settings(cfg)
     target = np.ascontiguousarray(np.clip(np.nan_to_num(picture.rgb, nan=0.0), 0.0, 1.0), dtype=np.float64)
     full_shape = target.shape[:2]
-    pixels = target.reshape(-1, 3)
-    shapes = solver.pyramid_shapes(full_shape, cfg.coarse_size_px)
     trial_shape = solver.pyramid_shapes(full_shape, _TRIAL_SIZE_PX)[0]
     trial_target = solver.downsample(target, trial_shape)
-
-    fixed_primer = cfg.primer_rgb()
-    primer_free = fixed_primer is None
-    fixed_palette = cfg.palette_rgb()
-    n_layers = cfg.layers
     order_info: dict = {}
-    if fixed_palette is None:
-        k = n_layers + int(primer_free)
-        distinct = distinct_colours(pixels, k)
-        if picture.distinct_colours is not None:
-            # Resampling blends edges into colours the source does not have.
-            distinct = min(distinct, max(int(picture.distinct_colours), 1))
-        if distinct < k:
-            n_layers = max(distinct - int(primer_free), 1)
-            warnings.append(
-                f"the image has only {distinct} distinct colour(s): using {n_layers} layer(s) instead of {cfg.layers}"
-            )
-            k = min(n_layers + int(primer_free), distinct)
-        centres, shares = kmeans(pixels, k, rng)
-        centres = np.clip(centres, 0.0, 1.0)
-        if centres.shape[0] < n_layers + int(primer_free):
-            # One colour, primer solved: paint and primer start equal.
-            centres = np.vstack([centres, centres[:1]])
-            shares = np.append(shares, 0.0)
-        free = np.ones(n_layers + 1, dtype=bool)
-        free[0] = primer_free
-        candidates = []
-        for order in _orders(not primer_free, centres, shares, cfg.order):
-            if primer_free:
-                candidates.append((centres[order[0]], centres[order[1:]], order))
-            else:
-                candidates.append((np.array(fixed_primer), centres[order], order))
-    else:
-        cans = np.array(fixed_palette)
-        if primer_free:
-            # Start the primer at the K-means centre farthest from every can.
-            n_distinct = distinct_colours(pixels, 64)
-            if picture.distinct_colours is not None:
-                n_distinct = min(n_distinct, max(int(picture.distinct_colours), 1))
-            centres = np.clip(kmeans(pixels, min(len(cans) + 1, n_distinct), rng)[0], 0.0, 1.0)
-            far = np.min(np.sum((centres[:, None, :] - cans[None, :, :]) ** 2, axis=2), axis=1)
-            primer0 = centres[int(np.argmax(far))]
-        else:
-            primer0 = np.array(fixed_primer)
-        chosen = np.arange(len(cans))
-        if len(cans) > n_layers:
-            chosen = _select_cans(trial_target, cans, primer0, primer_free, n_layers, s)
-            order_info["cans_chosen"] = [cfg.palette[i] for i in chosen]
-        n_layers = len(chosen)
-        free = np.zeros(n_layers + 1, dtype=bool)
-        free[0] = primer_free
-        candidates = [
-            (primer0, cans[chosen[o]], chosen[o]) for o in _orders(True, cans[chosen], None, cfg.order)
-        ]
-
-    # Compare candidate spray orders by the energy a short solve reaches.
-    best = candidates[0]
-    if len(candidates) > 1:
-        trial_e, trial_rmse, trial_paint = [], [], []
-        for p0, c0, _ in candidates:
-            st = _state(trial_target, p0, c0, free)
-            solver.iterate(st, s, _TRIAL_ITERATIONS, s.tolerance)
-            trial_e.append(st.trace[-1])
-            d, _, _ = energy.energy_terms(st.target, st.primer, st.colours, st.alphas)
-            trial_rmse.append(float(np.sqrt(d / st.target.size) * 255.0))
-            trial_paint.append(float(st.alphas.sum(axis=0).mean()))
-        pick = int(np.argmin(trial_e))
-        # Equally faithful orders: the one spraying the least paint (mean total
-        # opacity, to 0.01) wins, so the primer is the colour covering most of
-        # the area; then the lightest primer; then the lowest energy.
-        ties = [i for i in range(len(candidates)) if trial_rmse[i] <= trial_rmse[pick] + _ORDER_TIE_RMSE]
-        if len(ties) > 1:
-            pick = min(
-                ties,
-                key=lambda i: (
-                    round(trial_paint[i], 2),
-                    -round(float(palette.luminance(candidates[i][0])), 3),
-                    trial_e[i],
-                ),
-            )
-        best = candidates[pick]
-        order_info["trial_energies"] = [float(e) for e in trial_e]
-        order_info["trial_rmse"] = trial_rmse
-        order_info["trial_paint"] = trial_paint
-
-    levels_used = shapes if cfg.coarse_to_fine else [full_shape]
-    state: State | None = None
-    levels = []
+    candidates, free = _start_candidates(picture, cfg, target, trial_target, s, rng, warnings, order_info)
+    best = _pick_order(candidates, free, trial_target, s, order_info)
+    levels: list[dict] = []
     counter = [0]
 
     def report(e: float) -> None:
@@ -426,82 +340,13 @@ def decompose(
         if progress is not None:
             progress(counter[0], float(e))
 
-    for level, shape in enumerate(levels_used):
-        finest = level == len(levels_used) - 1
-        level_target = solver.downsample(target, shape)
-        if state is None:
-            state = _state(level_target, best[0], best[1], free)
-        else:
-            state = State(
-                target=level_target,
-                primer=state.primer,
-                colours=state.colours,
-                alphas=np.ascontiguousarray(solver.upsample_alphas(state.alphas, shape)),
-                free=free,
-            )
-        # Levels far coarser than the finest cost little per iteration, and the
-        # better the start they hand on, the fewer expensive fine iterations.
-        cheap = shape[0] * shape[1] * 16 <= full_shape[0] * full_shape[1]
-        tol = cfg.tolerance * _COARSE_TOLERANCE_FACTOR if cheap and not finest else cfg.tolerance
-        its = solver.iterate(state, s, cfg.max_iterations, tol, report)
-        levels.append(
-            {
-                "shape": [int(shape[0]), int(shape[1])],
-                "iterations": int(its),
-                "energy_start": float(state.trace[0]),
-                "energy_end": float(state.trace[-1]),
-                "mean_sweeps": float(np.mean(state.sweeps)) if state.sweeps else 0.0,
-            }
-        )
-    assert state is not None
-    # Drop layers that add nothing (no ink, the primer's colour, or a twin of
-    # another paint) one at a time, re-solving the rest on the finest grid.
-    order_kept = [int(i) for i in best[2]]
-    order_offset = 1 if (fixed_palette is None and primer_free) else 0
-    dropped = []
-    n_solved = int(state.colours.shape[0])
-    while True:
-        found = _redundant_layer(state.primer, state.colours, state.alphas, cfg)
-        if found is None:
-            break
-        idx, reason = found
-        dropped.append(reason)
-        keep = np.array([i for i in range(state.colours.shape[0]) if i != idx], dtype=np.int64)
-        del order_kept[order_offset + idx]
-        if keep.size == 0:
-            for w in warnings + dropped:
-                log.warning(w)
-            if distinct_colours(pixels, 2) > 1 and (picture.distinct_colours or 2) > 1:
-                raise ValueError(
-                    f"no paint layer carries ink (all {n_solved} were dropped as redundant): the best "
-                    f"this decompose section finds is the primer {to_hex(state.primer)} alone; check "
-                    "decompose.palette, min_opacity and min_delta_e"
-                )
-            raise _flat_error(state.primer)
-        free = np.concatenate([free[:1], free[1:][keep]])
-        state = State(
-            target=state.target,
-            primer=state.primer,
-            colours=np.ascontiguousarray(state.colours[keep]),
-            alphas=np.ascontiguousarray(state.alphas[keep]),
-            free=free,
-        )
-        its = solver.iterate(state, s, cfg.max_iterations, cfg.tolerance, report)
-        levels.append(
-            {
-                "shape": [int(state.target.shape[0]), int(state.target.shape[1])],
-                "iterations": int(its),
-                "energy_start": float(state.trace[0]),
-                "energy_end": float(state.trace[-1]),
-                "mean_sweeps": float(np.mean(state.sweeps)) if state.sweeps else 0.0,
-                "after_drop": reason,
-            }
-        )
-    if dropped:
-        warnings.extend(dropped)
-        warnings.append(
-            f"{len(dropped)} redundant layer(s) dropped: {state.colours.shape[0]} of {n_solved} layer(s) left"
-        )
+    state = _solve_pyramid(target, best[0], best[1], free, cfg, s, report, levels)
+    fixed_palette = cfg.palette_rgb()
+    # The order list holds the primer's cluster first only when K-means chose the primer too.
+    order_offset = 1 if (fixed_palette is None and cfg.primer_rgb() is None) else 0
+    state, order_kept = _drop_redundant(
+        state, [int(i) for i in best[2]], order_offset, picture, cfg, s, report, levels, warnings
+    )
     alphas = np.clip(np.nan_to_num(state.alphas, nan=0.0), 0.0, 1.0)
     colours = np.clip(np.nan_to_num(state.colours, nan=0.0), 0.0, 1.0)
     primer = np.clip(np.nan_to_num(state.primer, nan=1.0), 0.0, 1.0)
@@ -541,3 +386,218 @@ def decompose(
         iterations=int(info["iterations"]),
         info=info,
     )
+
+
+def _start_candidates(
+    picture: Picture,
+    cfg: DecomposeConfig,
+    target: np.ndarray,
+    trial_target: np.ndarray,
+    s: SolverSettings,
+    rng: np.random.Generator,
+    warnings: list[str],
+    order_info: dict,
+) -> tuple[list[tuple[np.ndarray, np.ndarray, np.ndarray]], np.ndarray]:
+    """The start (primer, paints, order) of every spray order worth a trial, and which colours move.
+
+    K-means colours for an automatic palette (fewer when the image has fewer distinct
+    colours, with a warning); the chosen cans of a fixed palette otherwise.
+    """
+    pixels = target.reshape(-1, 3)
+    fixed_primer = cfg.primer_rgb()
+    primer_free = fixed_primer is None
+    fixed_palette = cfg.palette_rgb()
+    n_layers = cfg.layers
+    if fixed_palette is None:
+        k = n_layers + int(primer_free)
+        distinct = distinct_colours(pixels, k)
+        if picture.distinct_colours is not None:
+            # Resampling blends edges into colours the source does not have.
+            distinct = min(distinct, max(int(picture.distinct_colours), 1))
+        if distinct < k:
+            n_layers = max(distinct - int(primer_free), 1)
+            warnings.append(
+                f"the image has only {distinct} distinct colour(s): using {n_layers} layer(s) instead of {cfg.layers}"
+            )
+            k = min(n_layers + int(primer_free), distinct)
+        centres, shares = kmeans(pixels, k, rng)
+        centres = np.clip(centres, 0.0, 1.0)
+        if centres.shape[0] < n_layers + int(primer_free):
+            # One colour, primer solved: paint and primer start equal.
+            centres = np.vstack([centres, centres[:1]])
+            shares = np.append(shares, 0.0)
+        free = np.ones(n_layers + 1, dtype=bool)
+        free[0] = primer_free
+        candidates = []
+        for order in _orders(not primer_free, centres, shares, cfg.order):
+            if primer_free:
+                candidates.append((centres[order[0]], centres[order[1:]], order))
+            else:
+                candidates.append((np.array(fixed_primer), centres[order], order))
+        return candidates, free
+    cans = np.array(fixed_palette)
+    if primer_free:
+        # Start the primer at the K-means centre farthest from every can.
+        n_distinct = distinct_colours(pixels, 64)
+        if picture.distinct_colours is not None:
+            n_distinct = min(n_distinct, max(int(picture.distinct_colours), 1))
+        centres = np.clip(kmeans(pixels, min(len(cans) + 1, n_distinct), rng)[0], 0.0, 1.0)
+        far = np.min(np.sum((centres[:, None, :] - cans[None, :, :]) ** 2, axis=2), axis=1)
+        primer0 = centres[int(np.argmax(far))]
+    else:
+        primer0 = np.array(fixed_primer)
+    chosen = np.arange(len(cans))
+    if len(cans) > n_layers:
+        chosen = _select_cans(trial_target, cans, primer0, primer_free, n_layers, s)
+        order_info["cans_chosen"] = [cfg.palette[i] for i in chosen]
+    n_layers = len(chosen)
+    free = np.zeros(n_layers + 1, dtype=bool)
+    free[0] = primer_free
+    candidates = [(primer0, cans[chosen[o]], chosen[o]) for o in _orders(True, cans[chosen], None, cfg.order)]
+    return candidates, free
+
+
+def _pick_order(
+    candidates: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
+    free: np.ndarray,
+    trial_target: np.ndarray,
+    s: SolverSettings,
+    order_info: dict,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Compare candidate spray orders by the energy a short solve reaches; the best one."""
+    if len(candidates) == 1:
+        return candidates[0]
+    trial_e, trial_rmse, trial_paint = [], [], []
+    for p0, c0, _ in candidates:
+        st = _state(trial_target, p0, c0, free)
+        solver.iterate(st, s, _TRIAL_ITERATIONS, s.tolerance)
+        trial_e.append(st.trace[-1])
+        d, _, _ = energy.energy_terms(st.target, st.primer, st.colours, st.alphas)
+        trial_rmse.append(float(np.sqrt(d / st.target.size) * 255.0))
+        trial_paint.append(float(st.alphas.sum(axis=0).mean()))
+    pick = int(np.argmin(trial_e))
+    # Equally faithful orders: the one spraying the least paint (mean total
+    # opacity, to 0.01) wins, so the primer is the colour covering most of
+    # the area; then the lightest primer; then the lowest energy.
+    ties = [i for i in range(len(candidates)) if trial_rmse[i] <= trial_rmse[pick] + _ORDER_TIE_RMSE]
+    if len(ties) > 1:
+        pick = min(
+            ties,
+            key=lambda i: (
+                round(trial_paint[i], 2),
+                -round(float(palette.luminance(candidates[i][0])), 3),
+                trial_e[i],
+            ),
+        )
+    order_info["trial_energies"] = [float(e) for e in trial_e]
+    order_info["trial_rmse"] = trial_rmse
+    order_info["trial_paint"] = trial_paint
+    return candidates[pick]
+
+
+def _level_record(state: State, its: int, **extra: object) -> dict:
+    """What the manifest records of one solve: grid shape, iterations, start and end energy."""
+    return {
+        "shape": [int(state.target.shape[0]), int(state.target.shape[1])],
+        "iterations": int(its),
+        "energy_start": float(state.trace[0]),
+        "energy_end": float(state.trace[-1]),
+        "mean_sweeps": float(np.mean(state.sweeps)) if state.sweeps else 0.0,
+        **extra,
+    }
+
+
+def _solve_pyramid(
+    target: np.ndarray,
+    primer: np.ndarray,
+    colours: np.ndarray,
+    free: np.ndarray,
+    cfg: DecomposeConfig,
+    s: SolverSettings,
+    report: Callable[[float], None],
+    levels: list[dict],
+) -> State:
+    """Solve coarse to fine (or on the finest grid only), each level starting from the last."""
+    full_shape = target.shape[:2]
+    shapes = solver.pyramid_shapes(full_shape, cfg.coarse_size_px)
+    levels_used = shapes if cfg.coarse_to_fine else [full_shape]
+    state: State | None = None
+    for level, shape in enumerate(levels_used):
+        finest = level == len(levels_used) - 1
+        level_target = solver.downsample(target, shape)
+        if state is None:
+            state = _state(level_target, primer, colours, free)
+        else:
+            state = State(
+                target=level_target,
+                primer=state.primer,
+                colours=state.colours,
+                alphas=np.ascontiguousarray(solver.upsample_alphas(state.alphas, shape)),
+                free=free,
+            )
+        # Levels far coarser than the finest cost little per iteration, and the
+        # better the start they hand on, the fewer expensive fine iterations.
+        cheap = shape[0] * shape[1] * 16 <= full_shape[0] * full_shape[1]
+        tol = cfg.tolerance * _COARSE_TOLERANCE_FACTOR if cheap and not finest else cfg.tolerance
+        its = solver.iterate(state, s, cfg.max_iterations, tol, report)
+        levels.append(_level_record(state, its))
+    assert state is not None
+    return state
+
+
+def _drop_redundant(
+    state: State,
+    order_kept: list[int],
+    order_offset: int,
+    picture: Picture,
+    cfg: DecomposeConfig,
+    s: SolverSettings,
+    report: Callable[[float], None],
+    levels: list[dict],
+    warnings: list[str],
+) -> tuple[State, list[int]]:
+    """Drop the layers that add nothing (no ink, the primer's colour, a twin of another paint).
+
+    One at a time, re-solving the rest on the finest grid.
+
+    Raises:
+        ValueError: Every layer was dropped (a flat image, or a config that finds no ink).
+    """
+    dropped = []
+    n_solved = int(state.colours.shape[0])
+    free = state.free
+    while True:
+        found = _redundant_layer(state.primer, state.colours, state.alphas, cfg)
+        if found is None:
+            break
+        idx, reason = found
+        dropped.append(reason)
+        keep = np.array([i for i in range(state.colours.shape[0]) if i != idx], dtype=np.int64)
+        del order_kept[order_offset + idx]
+        if keep.size == 0:
+            for w in warnings + dropped:
+                log.warning(w)
+            rgb = np.clip(np.nan_to_num(picture.rgb, nan=0.0), 0.0, 1.0).reshape(-1, 3)
+            if distinct_colours(rgb, 2) > 1 and (picture.distinct_colours or 2) > 1:
+                raise ValueError(
+                    f"no paint layer carries ink (all {n_solved} were dropped as redundant): the best "
+                    f"this decompose section finds is the primer {to_hex(state.primer)} alone; check "
+                    "decompose.palette, min_opacity and min_delta_e"
+                )
+            raise _flat_error(state.primer)
+        free = np.concatenate([free[:1], free[1:][keep]])
+        state = State(
+            target=state.target,
+            primer=state.primer,
+            colours=np.ascontiguousarray(state.colours[keep]),
+            alphas=np.ascontiguousarray(state.alphas[keep]),
+            free=free,
+        )
+        its = solver.iterate(state, s, cfg.max_iterations, cfg.tolerance, report)
+        levels.append(_level_record(state, its, after_drop=reason))
+    if dropped:
+        warnings.extend(dropped)
+        warnings.append(
+            f"{len(dropped)} redundant layer(s) dropped: {state.colours.shape[0]} of {n_solved} layer(s) left"
+        )
+    return state, order_kept

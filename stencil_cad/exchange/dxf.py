@@ -47,7 +47,8 @@ class DxfStencil:
 
     Attributes:
         outline_ring: ``(M, 2)`` ring of the plate outline (any orientation).
-        circles_xy_r: ``(N, 3)`` array of (x, y, r) in mm, or None.
+        circles_xy_r: ``(N, 3)`` array of (x, y, r) in mm, or a pair ``(xy (N, 2), r (N,))``,
+            or None.
         polygons: Hard-mode cut-outs, or None. Each entry is a ring ``(K, 2)`` or a pair
             ``(outer, holes)`` as in :class:`stencil_cad.model.CutLayer` (holes are islands
             that stay as sheet).
@@ -55,7 +56,7 @@ class DxfStencil:
     """
 
     outline_ring: np.ndarray
-    circles_xy_r: np.ndarray | None = None
+    circles_xy_r: np.ndarray | tuple[np.ndarray, np.ndarray] | None = None
     polygons: Sequence | None = None
     layer_name: str = "STENCIL_01"
 
@@ -342,8 +343,8 @@ def write_dxf_stencils(
 def write_dxf(
     path: str | Path,
     outline_ring: np.ndarray,
-    circles_xy_r=None,
-    polygons=None,
+    circles_xy_r: np.ndarray | tuple[np.ndarray, np.ndarray] | None = None,
+    polygons: Sequence | None = None,
     layer_name: str = "STENCIL_01",
     kerf_mm: float = 0.0,
     deterministic: bool = False,

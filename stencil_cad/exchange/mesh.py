@@ -339,7 +339,7 @@ def plate_mesh(geom: PlateGeometry, tolerance_mm: float = 0.02) -> TriMesh:
     for poly in geom.polygons:
         rings.append(_subdivide(as_cw(np.asarray(poly, dtype=np.float64)), MAX_RING_EDGE_MM))
         lr.append((SHEET, VOID))
-    if relief != 0.0:
+    if relief != 0.0 and geom.label_box is not None:
         x0, y0, x1, y1 = geom.label_box
         gpts = np.concatenate([np.asarray(o) for o, _ in geom.glyphs])
         clear = min(
@@ -371,7 +371,10 @@ def plate_mesh(geom: PlateGeometry, tolerance_mm: float = 0.02) -> TriMesh:
     faces = [tri[(lab == SHEET) | (lab == BOX)][:, [0, 2, 1]], tri[lab == SHEET] + nvp]
     through = np.flatnonzero(right == VOID)
     faces.append(_walls(through, through + nvp, rid[through]))
-    info = {"gabriel_splits": int(n_gabriel - n_before), "recovered_edges": int(len(points) - n_gabriel)}
+    info: dict[str, int | float] = {
+        "gabriel_splits": int(n_gabriel - n_before),
+        "recovered_edges": int(len(points) - n_gabriel),
+    }
 
     if relief != 0.0:
         bidx = np.flatnonzero(right == BOX)[::-1]  # the box ring after any splits, now counter-clockwise

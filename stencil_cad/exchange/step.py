@@ -18,6 +18,8 @@ fast for small plates.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from ..geometry import as_ccw, as_cw
@@ -73,17 +75,16 @@ def _oe(edges: np.ndarray, forward: bool) -> list[str]:
 
 
 class _Ring:
-    """One ring of side faces: polygon or circle, material on its left, from z0 to z1.
+    """One polygon ring of side faces, material on its left, from z0 to z1.
 
     Attributes after writing: ``eb``/``et`` bottom and top edge ids in ring order
     (one id for a circle).
     """
 
-    def __init__(self, xy=None, circle=None, z0=0.0, z1=1.0):
+    def __init__(self, xy: np.ndarray, z0: float = 0.0, z1: float = 1.0):
         self.xy = xy
-        self.circle = circle  # (cx, cy, r)
         self.z0, self.z1 = float(z0), float(z1)
-        self.eb = self.et = None
+        self.eb = self.et = np.zeros(0, dtype=np.int64)
 
 
 def _write_polygon_rings(w: _Step, rings: list[_Ring], dz: int, faces: list) -> None:
@@ -245,6 +246,50 @@ def _plane_face(w: _Step, z: float, up: bool, bounds: list[int], ids: dict) -> i
     )
 
 
+def _glyph_top_bounds(
+    w: _Step, glyph_rings: list[tuple[_Ring, list[_Ring]]], relief: float, t: float, ids: dict, faces: list
+) -> list[int]:
+    """The letters' bounds in the top face; the islands inside letters get top faces of their own."""
+    bounds = []
+    for outer, inner in glyph_rings:
+        if relief < 0:
+            bounds.append(_loop(w, outer.et, True, False))
+            for r in inner:  # islands inside letters stay at the top
+                faces.append(_plane_face(w, t, True, [_loop(w, r.et, True, True)], ids))
+        else:
+            bounds.append(_loop(w, outer.eb, False, False))
+            for r in inner:
+                faces.append(_plane_face(w, t, True, [_loop(w, r.eb, False, True)], ids))
+    return bounds
+
+
+def _relief_far_faces(
+    w: _Step, glyph_rings: list[tuple[_Ring, list[_Ring]]], relief: float, t: float, ids: dict, faces: list
+) -> None:
+    """Far faces of the relief: an engraving's floor, an emboss's top; both face +z."""
+    for outer, inner in glyph_rings:
+        if relief < 0:
+            b = [_loop(w, outer.eb, False, True)] + [_loop(w, r.eb, False, False) for r in inner]
+        else:
+            b = [_loop(w, outer.et, True, True)] + [_loop(w, r.et, True, False) for r in inner]
+        faces.append(_plane_face(w, t + relief, True, b, ids))
+
+
+def _unit_context(w: _Step) -> int:
+    """Millimetres, radians, steradians and a 1e-7 mm uncertainty: the representation context."""
+    mm = w.one("( LENGTH_UNIT() NAMED_UNIT(*) SI_UNIT(.MILLI.,.METRE.) )")
+    rad = w.one("( NAMED_UNIT(*) PLANE_ANGLE_UNIT() SI_UNIT($,.RADIAN.) )")
+    sr = w.one("( NAMED_UNIT(*) SI_UNIT($,.STERADIAN.) SOLID_ANGLE_UNIT() )")
+    unc = w.one(
+        f"UNCERTAINTY_MEASURE_WITH_UNIT(LENGTH_MEASURE(1.E-07),#{mm},'distance_accuracy_value','confusion accuracy')"
+    )
+    return w.one(
+        f"( GEOMETRIC_REPRESENTATION_CONTEXT(3) GLOBAL_UNCERTAINTY_ASSIGNED_CONTEXT((#{unc})) "
+        f"GLOBAL_UNIT_ASSIGNED_CONTEXT((#{mm},#{rad},#{sr})) "
+        "REPRESENTATION_CONTEXT('Context #1','3D Context with UNIT and UNCERTAINTY') )"
+    )
+
+
 def step_text(geom: PlateGeometry, name: str = "stencil_plate") -> str:
     """The STEP AP214 text of a plate description (one manifold solid, mm).
 
@@ -279,7 +324,7 @@ def step_text(geom: PlateGeometry, name: str = "stencil_plate") -> str:
     msb_line = len(w.lines)
     w.one("MANIFOLD_SOLID_BREP('',#SHELL)")  # 15
     dzn = w.one("DIRECTION('',(0.,0.,-1.))")
-    ids = {"dz": dz, "dx": dx, "dzn": dzn, "vz": {}}
+    ids: dict[str, Any] = {"dz": dz, "dx": dx, "dzn": dzn, "vz": {}}
 
     t = float(geom.thickness_mm)
     relief = float(geom.relief_mm) if geom.glyphs else 0.0
@@ -331,38 +376,13 @@ def step_text(geom: PlateGeometry, name: str = "stencil_plate") -> str:
     bounds = [_loop(w, out_ring.et, True, True)]
     bounds += [_loop(w, r.et, True, False) for r in hole_rings]
     bounds += _loops_many(w, cet, True).tolist()
-    for outer, inner in glyph_rings:
-        if relief < 0:
-            bounds.append(_loop(w, outer.et, True, False))
-            for r in inner:  # islands inside letters stay at the top
-                faces.append(_plane_face(w, t, True, [_loop(w, r.et, True, True)], ids))
-        else:
-            bounds.append(_loop(w, outer.eb, False, False))
-            for r in inner:
-                faces.append(_plane_face(w, t, True, [_loop(w, r.eb, False, True)], ids))
+    bounds += _glyph_top_bounds(w, glyph_rings, relief, t, ids, faces)
     faces.append(_plane_face(w, t, True, bounds, ids))
-    # Far faces of the relief: an engraving's floor, an emboss's top; both face +z.
-    for outer, inner in glyph_rings:
-        if relief < 0:
-            b = [_loop(w, outer.eb, False, True)] + [_loop(w, r.eb, False, False) for r in inner]
-            faces.append(_plane_face(w, t + relief, True, b, ids))
-        else:
-            b = [_loop(w, outer.et, True, True)] + [_loop(w, r.et, True, False) for r in inner]
-            faces.append(_plane_face(w, t + relief, True, b, ids))
+    _relief_far_faces(w, glyph_rings, relief, t, ids, faces)
 
     shell = w.one("CLOSED_SHELL('',(" + ",".join(f"#{f}" for f in faces) + "))")
     w.lines[msb_line] = f"#15=MANIFOLD_SOLID_BREP('',#{shell});"
-    mm = w.one("( LENGTH_UNIT() NAMED_UNIT(*) SI_UNIT(.MILLI.,.METRE.) )")
-    rad = w.one("( NAMED_UNIT(*) PLANE_ANGLE_UNIT() SI_UNIT($,.RADIAN.) )")
-    sr = w.one("( NAMED_UNIT(*) SI_UNIT($,.STERADIAN.) SOLID_ANGLE_UNIT() )")
-    unc = w.one(
-        f"UNCERTAINTY_MEASURE_WITH_UNIT(LENGTH_MEASURE(1.E-07),#{mm},'distance_accuracy_value','confusion accuracy')"
-    )
-    ctx = w.one(
-        f"( GEOMETRIC_REPRESENTATION_CONTEXT(3) GLOBAL_UNCERTAINTY_ASSIGNED_CONTEXT((#{unc})) "
-        f"GLOBAL_UNIT_ASSIGNED_CONTEXT((#{mm},#{rad},#{sr})) "
-        "REPRESENTATION_CONTEXT('Context #1','3D Context with UNIT and UNCERTAINTY') )"
-    )
+    ctx = _unit_context(w)
     w.lines[rep_line] = f"#10=ADVANCED_BREP_SHAPE_REPRESENTATION('',(#11,#15),#{ctx});"
     w.one("PRODUCT_RELATED_PRODUCT_CATEGORY('part',$,(#7))")
     header = (

@@ -271,23 +271,23 @@ def segment(
             centres = centres.copy()
             centres[used] = sums[used] / counts[used, None]
     energy = potts_energy(data_costs(lab, centres), labels, smoothness)
-    used = np.flatnonzero(np.bincount(labels.ravel(), minlength=centres.shape[0]) > 0)
-    if used.size < centres.shape[0]:
+    present = np.flatnonzero(np.bincount(labels.ravel(), minlength=centres.shape[0]) > 0)
+    if present.size < centres.shape[0]:
         warnings.append(
-            f"{centres.shape[0] - used.size} of {centres.shape[0]} colours vanished in the segmentation "
-            f"(smoothness {smoothness}, smallest region {min_px:.0f} px); {used.size} remain"
+            f"{centres.shape[0] - present.size} of {centres.shape[0]} colours vanished in the segmentation "
+            f"(smoothness {smoothness}, smallest region {min_px:.0f} px); {present.size} remain"
         )
     remap = np.full(centres.shape[0], -1, dtype=np.intp)
-    remap[used] = np.arange(used.size)
+    remap[present] = np.arange(present.size)
     labels = remap[labels]
     if fixed:
-        colours = np.asarray(palette, dtype=np.float64).reshape(-1, 3)[used]
+        colours = np.asarray(palette, dtype=np.float64).reshape(-1, 3)[present]
     else:
-        colours = np.clip(lab2rgb(centres[used].reshape(1, -1, 3))[0], 0.0, 1.0)
+        colours = np.clip(lab2rgb(centres[present].reshape(1, -1, 3))[0], 0.0, 1.0)
     report = {
         "colours_requested": requested,
         "distinct_colours": n_distinct,
-        "colours_found": int(used.size),
+        "colours_found": int(present.size),
         "regions_merged": merged,
         "sweeps": sweeps_run,
         "energy": energy,

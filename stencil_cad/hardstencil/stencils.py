@@ -148,26 +148,16 @@ def make_hard_stencils(
     if k < 2:
         warnings.append("only one colour is left: the primer alone, no cut layers")
 
-    min_feature_px = min_feature_mm / s
     bridge_px = bridge_mm / s
     pal_lab = rgb2lab(palette.reshape(1, -1, 3))[0]
     painted = np.zeros((h, w), dtype=np.intp)
     masks, layers, idx, per_layer = [], [], [], []
     for j in range(1, k):
-        own = labels == j
-        later = labels > j
-        under = pal_lab[painted]
-        visible_de = np.linalg.norm(under - pal_lab[j], axis=-1)
-        cost = np.where(later, CHEAP, 1.0 + cfg.bridge_visibility_weight * visible_de / 100.0)
-        cut, rep = process_layer(own, later, cost, min_feature_px, bridge_px, cfg.union_cut)
-        polys = mask_to_polygons(cut, s, cfg.simplify_tolerance_mm)
-        back = rasterise_polygons(polys, (h, w), s)
-        rep["polygons"] = len(polys)
-        rep["polygon_holes"] = int(sum(len(p[1]) for p in polys))
-        rep["polygon_mismatch_px"] = int(np.count_nonzero(back != cut))
-        rep.update(polygon_sheet_check(polys, (h, w), s, bridge_mm))
+        # Bridges cost little where a later layer covers them, else by how much they show.
+        visible_de = np.linalg.norm(pal_lab[painted] - pal_lab[j], axis=-1)
+        cost = np.where(labels > j, CHEAP, 1.0 + cfg.bridge_visibility_weight * visible_de / 100.0)
+        cut, rep, polys = _cut_layer(labels == j, labels > j, cost, cfg, s, min_feature_mm, bridge_mm)
         rep["palette_index"] = j
-        rep["cut_area_mm2"] = float(np.count_nonzero(cut) * s * s)
         if not cut.any():
             warnings.append(
                 f"colour {j} ({to_hex(palette[j])}) has nothing left to cut; its layer is skipped"
@@ -187,37 +177,21 @@ def make_hard_stencils(
         layers.append(CutLayer(polygons=polys, colour=palette[j].copy(), report=rep))
 
     t_layers = time.perf_counter() - t0 - t_segment
-
-    def total(key: str) -> int:
-        return int(sum(r.get(key, 0) for r in per_layer))
-
-    report = {
-        "colours_requested": seg["colours_requested"],
-        "colours": int(k),
-        "layers": len(layers),
-        "distinct_colours": seg["distinct_colours"],
-        "regions_merged": seg["regions_merged"],
-        "islands_bridged": total("islands"),
-        "bridges": total("bridges"),
-        "islands_cut_as_later": total("islands_cut_as_later"),
-        "islands_dropped": total("islands_dropped"),
-        "regions_widened": total("regions_widened"),
-        "regions_dropped": total("regions_dropped"),
-        "trimmed_px": total("trimmed_px"),
-        "bridge_width_mm": bridge_mm,
+    report = _report(
+        seg,
+        palette,
+        per_layer,
+        warnings,
+        layers=len(layers),
+        bridge_width_mm=bridge_mm,
         # Bridges are drawn one working pixel wider than asked (see topology.bridge_footprint).
-        "bridge_drawn_mm": float(bridge_footprint(bridge_px).shape[0] * s),
-        "min_feature_mm": float(min_feature_mm),
-        "min_region_px": float(min_px),
-        "painted_changed_px": int(np.count_nonzero(painted != labels)),
-        "transparent_px": transparent,
-        "sweeps": seg["sweeps"],
-        "energy": seg["energy"],
-        "palette": [to_hex(c) for c in palette],
-        "seconds": {"segment": round(t_segment, 3), "layers": round(t_layers, 3)},
-        "per_layer": per_layer,
-        "warnings": warnings,
-    }
+        bridge_drawn_mm=float(bridge_footprint(bridge_px).shape[0] * s),
+        min_feature_mm=float(min_feature_mm),
+        min_region_px=float(min_px),
+        painted_changed_px=int(np.count_nonzero(painted != labels)),
+        transparent_px=transparent,
+        seconds={"segment": round(t_segment, 3), "layers": round(t_layers, 3)},
+    )
     for msg in warnings[len(seg["warnings"]) :]:
         log.warning(msg)
     cut_masks = np.array(masks, dtype=bool).reshape(len(masks), h, w)
@@ -233,6 +207,83 @@ def make_hard_stencils(
         mm_per_px=s,
         report=report,
     )
+
+
+def _cut_layer(
+    own: np.ndarray,
+    later: np.ndarray,
+    cost: np.ndarray,
+    cfg: HardConfig,
+    s: float,
+    min_feature_mm: float,
+    bridge_mm: float,
+) -> tuple[np.ndarray, dict, list]:
+    """One colour's cut mask (islands bridged), its polygons in mm and their checks.
+
+    Args:
+        own: ``(H, W)`` bool, where this colour is the top colour.
+        later: ``(H, W)`` bool, where a later (darker) colour covers.
+        cost: ``(H, W)`` cost of a bridge per pixel.
+        cfg: The ``hard`` config section.
+        s: Pixel size in mm.
+        min_feature_mm: Smallest cut feature in mm.
+        bridge_mm: Bridge width in mm.
+
+    Returns:
+        ``(cut, report, polygons)``.
+    """
+    shape = own.shape
+    cut, rep = process_layer(own, later, cost, min_feature_mm / s, bridge_mm / s, cfg.union_cut)
+    polys = mask_to_polygons(cut, s, cfg.simplify_tolerance_mm)
+    back = rasterise_polygons(polys, shape, s)
+    rep["polygons"] = len(polys)
+    rep["polygon_holes"] = int(sum(len(p[1]) for p in polys))
+    rep["polygon_mismatch_px"] = int(np.count_nonzero(back != cut))
+    rep.update(polygon_sheet_check(polys, shape, s, bridge_mm))
+    rep["cut_area_mm2"] = float(np.count_nonzero(cut) * s * s)
+    return cut, rep, polys
+
+
+def _report(
+    seg: dict, palette: np.ndarray, per_layer: list[dict], warnings: list[str], **figures: object
+) -> dict:
+    """The figures of a hard-stencil run for the manifest, in the manifest's order.
+
+    ``figures`` holds ``layers``, ``bridge_width_mm``, ``bridge_drawn_mm``,
+    ``min_feature_mm``, ``min_region_px``, ``painted_changed_px``, ``transparent_px``
+    and ``seconds``.
+    """
+
+    def total(key: str) -> int:
+        return int(sum(r.get(key, 0) for r in per_layer))
+
+    f = figures
+    return {
+        "colours_requested": seg["colours_requested"],
+        "colours": int(palette.shape[0]),
+        "layers": f["layers"],
+        "distinct_colours": seg["distinct_colours"],
+        "regions_merged": seg["regions_merged"],
+        "islands_bridged": total("islands"),
+        "bridges": total("bridges"),
+        "islands_cut_as_later": total("islands_cut_as_later"),
+        "islands_dropped": total("islands_dropped"),
+        "regions_widened": total("regions_widened"),
+        "regions_dropped": total("regions_dropped"),
+        "trimmed_px": total("trimmed_px"),
+        "bridge_width_mm": f["bridge_width_mm"],
+        "bridge_drawn_mm": f["bridge_drawn_mm"],
+        "min_feature_mm": f["min_feature_mm"],
+        "min_region_px": f["min_region_px"],
+        "painted_changed_px": f["painted_changed_px"],
+        "transparent_px": f["transparent_px"],
+        "sweeps": seg["sweeps"],
+        "energy": seg["energy"],
+        "palette": [to_hex(c) for c in palette],
+        "seconds": f["seconds"],
+        "per_layer": per_layer,
+        "warnings": warnings,
+    }
 
 
 def render_ideal(result: HardResult) -> np.ndarray:

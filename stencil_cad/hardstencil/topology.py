@@ -432,7 +432,7 @@ def mask_to_polygons(mask: np.ndarray, mm_per_px: float, tolerance_mm: float) ->
             outers.append(xy[::-1].copy())
         else:
             holes.append(xy[::-1].copy())
-    polys = [(o, []) for o in outers]
+    polys: list[tuple[np.ndarray, list[np.ndarray]]] = [(o, []) for o in outers]
     if holes and outers:
         areas = np.array([polygon_area(o) for o in outers])
         for hole in holes:

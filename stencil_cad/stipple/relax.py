@@ -198,7 +198,7 @@ def bucket_size(w: np.ndarray, n: int) -> int:
 
 def voronoi_pass(
     w: np.ndarray, seeds: np.ndarray, bsize: int | None = None, prev_label: np.ndarray | None = None
-):
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """One exact weighted-Voronoi pass on the pixel grid.
 
     Args:
@@ -218,9 +218,10 @@ def voronoi_pass(
     w = np.ascontiguousarray(w, dtype=np.float64)
     seeds = np.ascontiguousarray(seeds, dtype=np.float64).reshape(-1, 2)
     warm = prev_label is not None and prev_label.shape == w.shape
-    if warm and (prev_label.dtype != np.int64 or not prev_label.flags.c_contiguous):
-        prev_label = np.ascontiguousarray(prev_label, dtype=np.int64)
-    label = prev_label if warm else np.empty(w.shape, dtype=np.int64)
+    if prev_label is not None and warm:
+        label = np.ascontiguousarray(prev_label, dtype=np.int64)
+    else:
+        label = np.empty(w.shape, dtype=np.int64)
     dist2 = np.empty(w.shape, dtype=np.float64)
     if len(seeds) == 0:
         label[...] = -1

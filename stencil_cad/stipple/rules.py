@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numba
@@ -76,6 +77,12 @@ class DesignRules:
                 raise ValueError(f"keep-out {k} must have x1 > x0 and y1 > y0, got ({x0}, {y0}, {x1}, {y1})")
 
 
+def _rect(k: Sequence[float]) -> tuple[float, float, float, float]:
+    """A keep-out rectangle ``(x0, y0, x1, y1)`` in mm as Python floats."""
+    x0, y0, x1, y1 = (float(v) for v in k)
+    return x0, y0, x1, y1
+
+
 def rules_from_config(
     cfg: StippleConfig,
     width_mm: float,
@@ -101,7 +108,7 @@ def rules_from_config(
         edge_margin_mm=cfg.resolved_edge_margin_mm,
         width_mm=float(width_mm),
         height_mm=float(height_mm),
-        keepouts=tuple(tuple(k) for k in cfg.keepouts_mm) + tuple(tuple(k) for k in keepouts),
+        keepouts=tuple(_rect(k) for k in cfg.keepouts_mm) + tuple(_rect(k) for k in keepouts),
     )
 
 
@@ -290,58 +297,12 @@ def min_web(xy: np.ndarray, r: np.ndarray) -> float:
         reach = best + 2.0 * rmax + 1e-9
 
 
-def enforce_rules(
-    xy: np.ndarray,
-    r: np.ndarray,
-    rules: DesignRules,
-    max_nudge_mm: float | None = None,
-    nudge_rounds: int = 100,
-) -> tuple[np.ndarray, np.ndarray, dict]:
-    """Repair a hole set so that it satisfies the design rules.
-
-    In order: non-finite dots are dropped; radii below the floor are raised;
-    pairs whose centres are closer than the larger radius (holes that would
-    fuse) are merged into one hole at their area-weighted centre; pairs whose
-    web is short by more than ``2 max_nudge_mm`` lose their more crowded dot;
-    web, edge and keep-out violations are nudged apart (each dot moves at most
-    ``max_nudge_mm`` in total); dots still outside the margin box or a keep-out
-    are removed; remaining web violations are resolved by removing the more
-    crowded dot of each pair, worst pair first. The result always passes
-    :func:`check_rules`.
-
-    Args:
-        xy: ``(N, 2)`` hole centres in picture mm.
-        r: ``(N,)`` hole radii in mm.
-        rules: The design rules.
-        max_nudge_mm: Largest total move of one dot when nudging, in mm.
-            Defaults to 0.35 of the minimum centre spacing
-            ``2 hole_min_r + web`` (on the bundled example this resolved all
-            but a handful of conflicts; 0.25 left 1-3 % of the dots to removal).
-        nudge_rounds: Nudge sweeps (stopping early once nothing moves). Defaults to 100.
+def _merge_fused(xy: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """Merge holes that would fuse (both centres inside the larger hole), closest pairs first.
 
     Returns:
-        ``(xy, r, report)``: the repaired centres and radii (new arrays) and a
-        dict with ``n_in``, ``n_out``, ``raised``, ``merged``, ``nudged``,
-        ``removed`` (total) and ``removed_invalid``, ``removed_edge``,
-        ``removed_keepout``, ``removed_web``, and ``min_web_mm``.
+        ``(xy, r, merged)``: the surviving holes and how many merges were made.
     """
-    xy = np.array(xy, dtype=np.float64).reshape(-1, 2)
-    r = np.array(r, dtype=np.float64).reshape(-1)
-    if len(xy) != len(r):
-        raise ValueError(f"xy has {len(xy)} dots but r has {len(r)}")
-    report = {"n_in": int(len(r))}
-    if max_nudge_mm is None:
-        max_nudge_mm = 0.35 * (2.0 * rules.hole_min_r_mm + rules.web_mm)
-
-    finite = np.isfinite(xy).all(axis=1) & np.isfinite(r)
-    report["removed_invalid"] = int((~finite).sum())
-    xy, r = xy[finite], r[finite]
-
-    low = r < rules.hole_min_r_mm
-    report["raised"] = int(low.sum())
-    r[low] = rules.hole_min_r_mm
-
-    # Merge holes that would fuse: both centres inside the larger hole.
     merged = 0
     if len(xy) > 1:
         pairs = _pairs_within(xy, float(r.max()))
@@ -352,19 +313,15 @@ def enforce_rules(
             alive = np.ones(len(r), dtype=np.bool_)
             merged = int(_greedy_merge(np.ascontiguousarray(pairs), xy, r, alive)) if len(pairs) else 0
             xy, r = xy[alive], r[alive]
-    report["merged"] = merged
+    return xy, r, merged
 
-    # A pair short by more than two full nudges cannot be saved by nudging: remove first,
-    # so that an overfull set does not cost millions of pair pushes per sweep.
-    removed_web = 0
-    pairs, webs = _web_violations(xy, r, rules.web_mm)
-    hopeless = pairs[(rules.web_mm - webs) > 2.0 * max_nudge_mm]
-    if len(hopeless):
-        alive = _alive_after_removal(hopeless, pairs, r)
-        removed_web += int((~alive).sum())
-        xy, r = xy[alive], r[alive]
 
-    # Nudge: Jacobi sweeps that push each violating pair apart by half its deficit.
+def _nudge(xy: np.ndarray, r: np.ndarray, rules: DesignRules, max_nudge_mm: float, nudge_rounds: int) -> None:
+    """Jacobi sweeps that push each violating pair apart by half its deficit, in place.
+
+    The first sweep also brings every dot inside the margin box and out of keep-outs; no
+    dot moves more than ``max_nudge_mm`` from where it started.
+    """
     start = xy.copy()
     target_web = rules.web_mm + NUDGE_SLACK_MM
     # No dot moves more than max_nudge_mm, so every pair that can come within the web
@@ -406,6 +363,73 @@ def enforce_rules(
             break
         active[:] = False
         active[moved] = True
+
+
+def enforce_rules(
+    xy: np.ndarray,
+    r: np.ndarray,
+    rules: DesignRules,
+    max_nudge_mm: float | None = None,
+    nudge_rounds: int = 100,
+) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Repair a hole set so that it satisfies the design rules.
+
+    In order: non-finite dots are dropped; radii below the floor are raised;
+    pairs whose centres are closer than the larger radius (holes that would
+    fuse) are merged into one hole at their area-weighted centre; pairs whose
+    web is short by more than ``2 max_nudge_mm`` lose their more crowded dot;
+    web, edge and keep-out violations are nudged apart (each dot moves at most
+    ``max_nudge_mm`` in total); dots still outside the margin box or a keep-out
+    are removed; remaining web violations are resolved by removing the more
+    crowded dot of each pair, worst pair first. The result always passes
+    :func:`check_rules`.
+
+    Args:
+        xy: ``(N, 2)`` hole centres in picture mm.
+        r: ``(N,)`` hole radii in mm.
+        rules: The design rules.
+        max_nudge_mm: Largest total move of one dot when nudging, in mm.
+            Defaults to 0.35 of the minimum centre spacing
+            ``2 hole_min_r + web`` (on the bundled example this resolved all
+            but a handful of conflicts; 0.25 left 1-3 % of the dots to removal).
+        nudge_rounds: Nudge sweeps (stopping early once nothing moves). Defaults to 100.
+
+    Returns:
+        ``(xy, r, report)``: the repaired centres and radii (new arrays) and a
+        dict with ``n_in``, ``n_out``, ``raised``, ``merged``, ``nudged``,
+        ``removed`` (total) and ``removed_invalid``, ``removed_edge``,
+        ``removed_keepout``, ``removed_web``, and ``min_web_mm``.
+    """
+    xy = np.array(xy, dtype=np.float64).reshape(-1, 2)
+    r = np.array(r, dtype=np.float64).reshape(-1)
+    if len(xy) != len(r):
+        raise ValueError(f"xy has {len(xy)} dots but r has {len(r)}")
+    report: dict[str, int | float] = {"n_in": int(len(r))}
+    if max_nudge_mm is None:
+        max_nudge_mm = 0.35 * (2.0 * rules.hole_min_r_mm + rules.web_mm)
+
+    finite = np.isfinite(xy).all(axis=1) & np.isfinite(r)
+    report["removed_invalid"] = int((~finite).sum())
+    xy, r = xy[finite], r[finite]
+
+    low = r < rules.hole_min_r_mm
+    report["raised"] = int(low.sum())
+    r[low] = rules.hole_min_r_mm
+
+    xy, r, report["merged"] = _merge_fused(xy, r)
+
+    # A pair short by more than two full nudges cannot be saved by nudging: remove first,
+    # so that an overfull set does not cost millions of pair pushes per sweep.
+    removed_web = 0
+    pairs, webs = _web_violations(xy, r, rules.web_mm)
+    hopeless = pairs[(rules.web_mm - webs) > 2.0 * max_nudge_mm]
+    if len(hopeless):
+        alive = _alive_after_removal(hopeless, pairs, r)
+        removed_web += int((~alive).sum())
+        xy, r = xy[alive], r[alive]
+
+    start = xy.copy()
+    _nudge(xy, r, rules, max_nudge_mm, nudge_rounds)
     report["nudged"] = int((np.hypot(*(xy - start).T) > 1e-9).sum())
 
     edge_out = _edge_excess(xy, r, rules) > 0

@@ -70,13 +70,17 @@ def test_step_reads_back_as_the_same_valid_solid(plate, tmp_path):
     assert topo["faces"] == topology_checks(model.part.wrapped)["faces"]
 
 
-def test_step_is_deterministic(tmp_path):
-    d = dots()
-    a = cad.build_plate(d, W, H, PlateConfig(), LABEL)
-    b = cad.build_plate(d, W, H, PlateConfig(), LABEL)
-    cad.write_step(a, tmp_path / "a.step")
-    cad.write_step(b, tmp_path / "b.step")
-    assert (tmp_path / "a.step").read_bytes() == (tmp_path / "b.step").read_bytes()
+def test_step_header_is_fixed(tmp_path):
+    # The header holds no clock: a fixed timestamp, the product name from the label.
+    model = cad.build_plate(dots(), W, H, PlateConfig(), LABEL)
+    cad.write_step(model, tmp_path / "a.step")
+    head = (tmp_path / "a.step").read_text(encoding="ascii").split("ENDSEC;")[0]
+    name = f"{LABEL.job} layer {LABEL.layer} of {LABEL.layers}"
+    assert head == (
+        "ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION(('stencil_cad plate'),'2;1');\n"
+        f"FILE_NAME('{name}','2026-01-01T00:00:00',(''),(''),'stencil_cad','stencil_cad','');\n"
+        "FILE_SCHEMA(('AUTOMOTIVE_DESIGN { 1 0 10303 214 1 1 1 1 }'));\n"
+    )
 
 
 def test_stl_is_binary_watertight_and_right_volume(plate, tmp_path):
