@@ -8,6 +8,7 @@ import numba
 import numpy as np
 
 from ..config.spray import SprayConfig
+from ..frames import mm_to_raster
 from ..model import DotSet, Layers
 from .scores import delta_e_map
 from .spray import resample, simulate
@@ -141,13 +142,12 @@ def sweep(
 
 
 @numba.njit(cache=True)
-def _raster_discs(img, xy, r, px_per_mm):  # pragma: no cover - compiled
-    """Darken ``img`` with anti-aliased discs (min blend)."""
+def _raster_discs(img, rc, r_px):  # pragma: no cover - compiled
+    """Darken ``img`` with anti-aliased discs (min blend); centres in raster (row, col) px."""
     h, w = img.shape
-    for k in range(xy.shape[0]):
-        cx = xy[k, 0] * px_per_mm
-        cy = h - xy[k, 1] * px_per_mm  # row coordinate of the centre, in px (rows grow downwards)
-        rr = r[k] * px_per_mm
+    for k in range(rc.shape[0]):
+        cy, cx = rc[k, 0], rc[k, 1]
+        rr = r_px[k]
         c0 = max(int(math.floor(cx - rr - 1.0)), 0)
         c1 = min(int(math.ceil(cx + rr + 1.0)), w - 1)
         r0 = max(int(math.floor(cy - rr - 1.0)), 0)
@@ -185,7 +185,8 @@ def dots_preview(dotset: DotSet, width_mm: float, height_mm: float, px_per_mm: f
         sx = w / width_mm
         sy = h / height_mm
         xy = np.asarray(dotset.xy_mm, dtype=np.float64).reshape(-1, 2) * np.array([sx, sy]) / sx
-        _raster_discs(img, np.ascontiguousarray(xy), np.asarray(dotset.r_mm, dtype=np.float64), float(sx))
+        rc = mm_to_raster(xy, h, float(sx))
+        _raster_discs(img, rc, np.asarray(dotset.r_mm, dtype=np.float64) * float(sx))
     return np.round(img).astype(np.uint8)
 
 

@@ -38,7 +38,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..config.stipple import StippleConfig, Tone
-from ..frames import px_to_mm
+from ..frames import pixel_centres_mm, px_to_mm
 from ..model import DotSet
 from .rules import DesignRules, _keepout_clearance, enforce_rules, rules_from_config
 
@@ -352,17 +352,10 @@ def lloyd(
 # --------------------------------------------------------------------------- the stage
 
 
-def _pixel_centres_mm(h: int, w: int, mm_per_px: float) -> tuple[np.ndarray, np.ndarray]:
-    """X (1, W) and y (H, 1) of the pixel centres in picture mm."""
-    x = ((np.arange(w) + 0.5) * mm_per_px)[None, :]
-    y = ((h - np.arange(h) - 0.5) * mm_per_px)[:, None]
-    return x, y
-
-
 def _feasible(t: np.ndarray, r_of_t: np.ndarray, mm_per_px: float, rules: DesignRules) -> np.ndarray:
     """Pixels where a hole of radius ``r(t)`` keeps the edge margin and keep-out clearance."""
     h, w = t.shape
-    x, y = _pixel_centres_mm(h, w, mm_per_px)
+    x, y = pixel_centres_mm(h, w, mm_per_px)
     reach = rules.edge_margin_mm + r_of_t
     ok = (x >= reach) & (x <= rules.width_mm - reach) & (y >= reach) & (y <= rules.height_mm - reach)
     if rules.keepouts:
