@@ -582,6 +582,8 @@ def stage_simulate(run: Run, picture: Picture | None, layers: Layers, dotsets: l
         per_wall = []
         stems = simulated_stems(cfg)
         for h, name in zip(cfg.wall.heights() if stems else [], stems, strict=True):
+            # Extra walls exist only under the physical model, where design is set.
+            assert design is not None
             if h == design.standoff_mm:
                 other, other_scores = sim, scores
             else:

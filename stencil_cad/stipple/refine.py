@@ -54,7 +54,7 @@ import logging
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numba
 import numpy as np
@@ -409,8 +409,8 @@ class _Layer:
     rules: DesignRules
     spray_time: float
     rmax: float
-    m: np.ndarray | None = None
-    v: np.ndarray | None = None
+    m: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    v: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     added: int = 0
     removed: int = 0
     reverted: int = 0
@@ -539,7 +539,7 @@ def _objective(trans, before, comp, target, alpha_targets, layer_weight, colours
 def _layer_terms(trans, before, colours, dedc):
     """Per layer ``G = dE/dalpha`` and ``Q = |dC/dalpha|^2`` of the composite error."""
     n = len(trans)
-    suffix = [None] * n
+    suffix: list[np.ndarray] = [np.empty(0)] * n
     acc = np.ones_like(trans[0])
     for k in range(n - 1, -1, -1):
         suffix[k] = acc
@@ -657,6 +657,20 @@ def _add_holes(layer, g, q, t, kernels, pitch, shape) -> int:
 # --------------------------------------------------------------------------- the stage
 
 
+def _adam_step(layer: _Layer, grad: np.ndarray, it: int, frac: float, settings: RefineSettings) -> None:
+    """One Adam step of a layer's centres and radii (step sizes scaled by ``frac``), projected."""
+    layer.m = _B1 * layer.m + (1.0 - _B1) * grad
+    layer.v = _B2 * layer.v + (1.0 - _B2) * grad * grad
+    mhat = layer.m / (1.0 - _B1**it)
+    vhat = layer.v / (1.0 - _B2**it)
+    step = mhat / (np.sqrt(vhat) + _EPS)
+    x0, y0, r0 = layer.x.copy(), layer.y.copy(), layer.r.copy()
+    layer.x = layer.x - frac * settings.step_mm * step[:, 0]
+    layer.y = layer.y - frac * settings.step_mm * step[:, 1]
+    layer.r = layer.r - frac * settings.radius_step_mm * step[:, 2]
+    _project(layer, x0, y0, r0)
+
+
 def refine_dots(
     target_rgb: np.ndarray,
     mm_per_px: float,
@@ -741,18 +755,8 @@ def refine_dots(
         # Linear decay of the step size to a fifth: large moves first, then polish.
         frac = 1.0 - 0.8 * (it - 1) / max(iters - 1, 1)
         for layer, grad in zip(state, grads, strict=True):
-            if len(layer.x) == 0:
-                continue
-            layer.m = _B1 * layer.m + (1.0 - _B1) * grad
-            layer.v = _B2 * layer.v + (1.0 - _B2) * grad * grad
-            mhat = layer.m / (1.0 - _B1**it)
-            vhat = layer.v / (1.0 - _B2**it)
-            step = mhat / (np.sqrt(vhat) + _EPS)
-            x0, y0, r0 = layer.x.copy(), layer.y.copy(), layer.r.copy()
-            layer.x = layer.x - frac * settings.step_mm * step[:, 0]
-            layer.y = layer.y - frac * settings.step_mm * step[:, 1]
-            layer.r = layer.r - frac * settings.radius_step_mm * step[:, 2]
-            _project(layer, x0, y0, r0)
+            if len(layer.x):
+                _adam_step(layer, grad, it, frac, settings)
         trans, e, terms = evaluate()
         every = settings.add_remove_every
         if every and it % every == 0 and it < iters:
