@@ -1,21 +1,15 @@
 """The job config: one YAML file describes a whole job.
 
-Each stage owns its section in a module of this package; this module holds the
-top level and the loader that turns pydantic errors into one-line messages.
+Each stage owns its section in a module of this package; :mod:`.job` holds the top
+level and :mod:`.io` the loader that turns pydantic errors into one-line messages.
 """
-
-from __future__ import annotations
-
-import enum
-from pathlib import Path
-
-from pydantic import Field, model_validator
 
 from .base import StrictModel
 from .cad import ExportConfig, PlateConfig, WallConfig
 from .compute import ComputeConfig
 from .decompose import DecomposeConfig
 from .hard import HardConfig
+from .job import JobConfig, Mode, SizeConfig, parse_overrides
 from .refine import RefineConfig
 from .spray import SprayConfig
 from .stipple import StippleConfig
@@ -38,115 +32,3 @@ __all__ = [
     "WallConfig",
     "parse_overrides",
 ]
-
-
-class Mode(str, enum.Enum):
-    """Which kind of stencil to make."""
-
-    soft = "soft"
-    hard = "hard"
-
-
-class SizeConfig(StrictModel):
-    """Physical size of the picture area on the stencil."""
-
-    width_mm: float = Field(
-        150.0,
-        gt=10.0,
-        le=2000.0,
-        description="Width of the picture area in mm. Range (10, 2000]. The plate adds its margin around it.",
-    )
-    height_mm: float | None = Field(
-        None,
-        gt=10.0,
-        le=2000.0,
-        description=(
-            "Height of the picture area in mm, or null to follow the image's aspect ratio. "
-            "When both are set and the aspect differs, the image is centre-cropped to fit."
-        ),
-    )
-    px_per_mm: float = Field(
-        2.0,
-        gt=0.1,
-        le=20.0,
-        description=(
-            "Working resolution in pixels per mm for decomposition and stippling. Range (0.1, 20]. "
-            "The image must have at least this many pixels per mm of picture (it is never upscaled "
-            "by more than 2x)."
-        ),
-    )
-
-
-class JobConfig(StrictModel):
-    """A whole stencil job."""
-
-    name: str = Field(
-        "stencil",
-        min_length=1,
-        max_length=64,
-        pattern=r"^[A-Za-z0-9_.\- ]+$",
-        description="Job name, used in labels and the manifest. Letters, digits, space, '_', '-', '.'.",
-    )
-    image: Path | None = Field(
-        None,
-        description=(
-            "Input image (PNG, JPEG, TIFF, BMP, WebP; RGB, RGBA, grey, 8 or 16 bit). A relative path "
-            "is taken from the config file's folder. null means the bundled example image."
-        ),
-    )
-    mode: Mode = Field(
-        Mode.soft,
-        description="Stencil kind. Choices: soft (stippled continuous-tone layers), hard (flat-colour cut stencils).",
-    )
-    seed: int = Field(0, ge=0, description="Random seed; the same config and seed give the same dots.")
-    size: SizeConfig = Field(default_factory=SizeConfig, description="Physical size of the picture area.")
-    decompose: DecomposeConfig = Field(
-        default_factory=DecomposeConfig, description="Soft layer decomposition."
-    )
-    stipple: StippleConfig = Field(
-        default_factory=StippleConfig, description="Stippling and hole design rules."
-    )
-    refine: RefineConfig = Field(
-        default_factory=RefineConfig, description="Refinement of the holes against the spray model."
-    )
-    plate: PlateConfig = Field(default_factory=PlateConfig, description="The stencil plate.")
-    wall: WallConfig = Field(default_factory=WallConfig, description="The interlocking wall.")
-    spray: SprayConfig = Field(default_factory=SprayConfig, description="Spray simulation.")
-    view: ViewConfig = Field(default_factory=ViewConfig, description="Viewing distance of the picture.")
-    hard: HardConfig = Field(default_factory=HardConfig, description="Hard-stencil mode.")
-    export: ExportConfig = Field(default_factory=ExportConfig, description="Output files.")
-    compute: ComputeConfig = Field(
-        default_factory=ComputeConfig,
-        description="Where the work runs: this process, a local Dask cluster or a remote one.",
-    )
-
-    @model_validator(mode="after")
-    def _cross_checks(self) -> JobConfig:
-        self.wall.check_plate(self.plate.outline, self.plate.thickness_mm)
-        return self
-
-
-def parse_overrides(
-    cfg: JobConfig, image: Path | None = None, seed: int | None = None, hard: bool = False
-) -> JobConfig:
-    """Apply command-line overrides, validating them like config values.
-
-    Args:
-        cfg: The loaded config.
-        image: ``--image`` path, or None.
-        seed: ``--seed``, or None.
-        hard: The `hard` command forces ``mode: hard``.
-
-    Returns:
-        A new validated config.
-    """
-    from .io import parse_config
-
-    data = cfg.model_dump(mode="json")
-    if image is not None:
-        data["image"] = str(image)
-    if seed is not None:
-        data["seed"] = seed
-    if hard:
-        data["mode"] = Mode.hard.value
-    return parse_config(data, source="command line")
