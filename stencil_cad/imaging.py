@@ -148,7 +148,8 @@ def _read_streamed(path: Path, size: tuple[int, int], k: int):
         raise ImageError(
             f"cannot read image {path}: {first} (the file may be truncated; re-export it)"
         ) from None
-    top = {np.uint8: 255.0, np.uint16: 65535.0}.get(fmt, 1.0)
+    full_scale: dict[type, float] = {np.uint8: 255.0, np.uint16: 65535.0}
+    top = full_scale.get(fmt, 1.0)
     bands = a.shape[2]
     grey = bands in (1, 2)
     colour = a[..., :1] if grey else a[..., :3]

@@ -456,14 +456,16 @@ class OutputDir:
         return [self.path / n for n in self.files]
 
     def _rollback(self, placed: list[str], set_aside: list[str]) -> None:
+        stage = self._stage
+        assert stage is not None  # only called while committing a staged folder
         for n in placed:
             with contextlib.suppress(OSError):
-                os.replace(self.path / n, self._stage / n)
+                os.replace(self.path / n, stage / n)
         for n in set_aside:
             try:
-                os.replace(self._stage / _ASIDE / n, self.path / n)
+                os.replace(stage / _ASIDE / n, self.path / n)
             except OSError as exc:  # pragma: no cover - the folder itself went away
-                log.error("could not restore %s: %s (it is in %s)", n, exc, self._stage / _ASIDE)
+                log.error("could not restore %s: %s (it is in %s)", n, exc, stage / _ASIDE)
                 return
 
     def abort(self) -> None:
