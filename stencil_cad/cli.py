@@ -190,7 +190,7 @@ def main(argv: list[str] | None = None) -> int:
 def _signals_as_interrupts():
     """SIGTERM and SIGHUP (``timeout``, ``docker stop``, a closed terminal) act like Ctrl-C."""
 
-    def handler(signum, frame):
+    def handler(signum, _frame):
         raise KeyboardInterrupt(signum)
 
     old = {}

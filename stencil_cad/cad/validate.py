@@ -317,6 +317,18 @@ def _check_tiles(geom: PlateGeometry, tile_holes: int) -> tuple[list[dict], list
     return tiles_info, fails
 
 
+def _allowed_mesh_error(shape, geom: PlateGeometry | None, tolerance_mm: float, mref: float) -> float:
+    """Largest relative mesh-volume error accepted.
+
+    A mesh lies within the chord error of the surface, so its volume differs from the
+    B-rep's by at most (area of the curved faces) × tolerance. The fast mesher's holes
+    are built to the analytic area; OCCT's mesher (a template's own solid) is not.
+    """
+    if geom is not None:
+        return MESH_RTOL
+    return max(MESH_RTOL, _curved_area(shape) * tolerance_mm / abs(mref))
+
+
 def _mesh_fails(mc: dict, holes: int | None, mref: float, allowed: float) -> list[str]:
     """The mesh: watertight, consistently wound, one part, genus = holes, no slivers, its volume."""
     fails = []
@@ -435,14 +447,8 @@ def check_plate(
     sec["mesh_check"] = time.perf_counter() - t0
     mref = analytic if analytic is not None else volume
     mc["rel_error"] = abs(mc["volume"] - mref) / abs(mref)
-    # A mesh lies within the chord error of the surface, so its volume differs from the
-    # B-rep's by at most (area of the curved faces) × tolerance. The fast mesher's holes
-    # are built to the analytic area; OCCT's mesher (a template's own solid) is not.
-    allowed = MESH_RTOL
-    if geom is None:
-        allowed = max(MESH_RTOL, _curved_area(shape) * tolerance_mm / abs(mref))
-    mc["allowed_rel_error"] = allowed
-    fails += _mesh_fails(mc, holes, mref, allowed)
+    mc["allowed_rel_error"] = _allowed_mesh_error(shape, geom, tolerance_mm, mref)
+    fails += _mesh_fails(mc, holes, mref, mc["allowed_rel_error"])
 
     report = {
         "n_solids": topo["solids"],
