@@ -389,7 +389,7 @@ def _feature_masks(layout: CardLayout, shape, ppm) -> dict[str, np.ndarray]:
     rows, cols = np.mgrid[0 : shape[0], 0 : shape[1]]
     x = (cols + 0.5) / ppm
     y = layout.height_mm - (rows + 0.5) / ppm
-    out = {}
+    out: dict[str, np.ndarray] = {}
     for f in layout.features:
         x0, y0, x1, y1 = f.box
         m = (x >= x0 - 2) & (x <= x1 + 2) & (y >= y0 - 2) & (y <= y1 + 2)
@@ -494,14 +494,14 @@ def fit_card(
     c_start = min(0.98, max(depth0) / 0.9 + 0.05)
     a_c = min(max(depth0) / c_start, 0.98)
     beta0 = -math.log(1.0 - a_c) / passes * (distance_mm / prior.distance_mm) * (speed_m_s / prior.speed_m_s)
-    q = [
+    q0 = [
         math.log(max(prior.bleed_sigma_mm, 0.05)),
         math.log(max(prior.spread_k, 0.02)),
         math.log(max(beta0, 1e-3)),
         c_start,
     ]
-    q += [0.0, 0.0] * len(fps)
-    q = np.array(q, dtype=np.float64)
+    q0 += [0.0, 0.0] * len(fps)
+    q = np.array(q0, dtype=np.float64)
     win = cv2.createHanningWindow(shape[::-1], cv2.CV_64F)
     for j in range(len(fps)):
         pred = 1.0 - predict(q, j)
@@ -511,7 +511,7 @@ def fit_card(
     lo = np.array([math.log(0.01), math.log(1e-3), math.log(1e-3), 0.05] + [-5.0] * (2 * len(fps)))
     hi = np.array([math.log(10.0), math.log(1.0), math.log(20.0), 1.0] + [5.0] * (2 * len(fps)))
     q = np.clip(q, lo + 1e-9, hi - 1e-9)
-    active = np.ones(q.size, bool)
+    active = np.ones(q.size, dtype=np.bool_)
     active[0] = many
     q_fixed = q.copy()
 

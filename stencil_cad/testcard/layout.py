@@ -347,6 +347,24 @@ def card_description(layout: CardLayout, extra: dict | None = None) -> dict:
     }
 
 
+def _ints4(values) -> tuple[int, int, int, int]:
+    """Four ints from a card description's list (a wrong length is a ValueError)."""
+    a, b, c, d = (int(v) for v in values)
+    return a, b, c, d
+
+
+def _floats2(values) -> tuple[float, float]:
+    """Two floats from a card description's list (a wrong length is a ValueError)."""
+    a, b = (float(v) for v in values)
+    return a, b
+
+
+def _floats5(values) -> tuple[float, float, float, float, float]:
+    """Five floats from a card description's list (a wrong length is a ValueError)."""
+    a, b, c, d, e = (float(v) for v in values)
+    return a, b, c, d, e
+
+
 def layout_from_description(desc: dict) -> CardLayout:
     """Read ``card.json`` back into a :class:`CardLayout`.
 
@@ -373,9 +391,9 @@ def layout_from_description(desc: dict) -> CardLayout:
             Footprint(
                 standoff_mm=float(fp["standoff_mm"]),
                 origin_mm=tuple(fp["origin_on_sheet_mm"]),
-                marker_ids=tuple(int(i) for i in fp["marker_ids"]),
+                marker_ids=_ints4(fp["marker_ids"]),
                 markers=np.asarray(fp["marker_centres_mm"], dtype=np.float64),
-                flat_patches=tuple(tuple(float(v) for v in p) for p in fp["flat_patches_mm"]),
+                flat_patches=tuple(_floats5(p) for p in fp["flat_patches_mm"]),
                 outer_ring=np.asarray(fp["wall_outline_mm"], dtype=np.float64),
             )
             for fp in desc["footprints"]
@@ -388,9 +406,9 @@ def layout_from_description(desc: dict) -> CardLayout:
             features=feats,
             footprints=foots,
             plate_thickness_mm=float(desc["plate_thickness_mm"]),
-            sheet_mm=tuple(float(v) for v in desc["sheet_mm"]),
+            sheet_mm=_floats2(desc["sheet_mm"]),
             passes=int(desc.get("passes", CARD_PASSES)),
-            band_mm=tuple(float(v) for v in desc["band_mm"]),
+            band_mm=_floats2(desc["band_mm"]),
         )
     except (KeyError, TypeError, ValueError) as exc:
         raise ValueError(

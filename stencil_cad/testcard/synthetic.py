@@ -154,7 +154,7 @@ def synthetic_photo(
     )
     if s.blur_px > 0:
         photo = cv2.GaussianBlur(photo, (0, 0), s.blur_px)
-    photo = photo + rng.normal(0.0, s.noise, photo.shape).astype(np.float32)
+    photo = photo + np.asarray(rng.normal(0.0, s.noise, photo.shape), dtype=np.float32)
     u8 = np.clip(photo * 255.0 + 0.5, 0, 255).astype(np.uint8)
     bgr = u8[..., ::-1]
     if s.jpeg_quality is None:
