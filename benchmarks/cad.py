@@ -3,7 +3,7 @@
 Cases (each runs in a fresh Python process so that ``peak_mb`` is its own):
 
 * ``plate-14k``: a 200 x 200 mm picture with 14,000 holes, built, checked and
-  written as STEP + STL + DXF (DXF through ``stencil_cad.exchange.dxf`` when present).
+  written as STEP + STL + DXF + SVG (DXF through ``stencil_cad.exchange.dxf`` when present).
   Target: ≤ 15 s in all (``target_seconds``). One-off costs a job pays once
   (imports of build123d/OCP, numba's cache, font loading, by building a
   900-hole plate) are reported apart (``warmup_seconds``).
@@ -92,6 +92,13 @@ def _plate_case(n: int, name: str) -> dict:
             dxf.write_dxf(Path(tmp) / "p.dxf", ring, circles_xy_r=np.column_stack([dots.xy_mm, dots.r_mm]))
             steps["dxf"] = time.perf_counter() - t
             cpu["dxf"] = time.process_time() - c
+            from stencil_cad.exchange import svg
+
+            t, c = time.perf_counter(), time.process_time()
+            drawing = dxf.DxfStencil(outline_ring=ring, circles_xy_r=(dots.xy_mm, dots.r_mm))
+            svg.write_svg(Path(tmp) / "p.svg", drawing)
+            steps["svg"] = time.perf_counter() - t
+            cpu["svg"] = time.process_time() - c
         except ImportError:
             steps["dxf"] = None
         sizes = {p.suffix[1:]: p.stat().st_size for p in Path(tmp).iterdir()}

@@ -72,7 +72,12 @@ def _parser() -> argparse.ArgumentParser:
     sp.add_argument(
         "--timeout", type=float, default=900.0, help="seconds per plate before giving up (default 900)"
     )
-    sp.add_argument("--force", action="store_true", help="replace existing G-code / .sl1 files")
+    sp.add_argument(
+        "--project",
+        action="store_true",
+        help="write a PrusaSlicer 3MF project per plate (tiles and every setting inside) instead of slicing",
+    )
+    sp.add_argument("--force", action="store_true", help="replace existing G-code / .sl1 / .3mf files")
     sp.add_argument(
         "-v", "--verbose", action="store_true", help="show the slicer's log on failure; tracebacks"
     )
@@ -229,6 +234,8 @@ def _dispatch(args) -> int:
 def _slice(args) -> int:
     from . import pipeline
 
+    if args.project:
+        return _projects(args)
     failed = 0
     for stl, out, result in pipeline.slice_plates(
         args.stl, args.profile, force=args.force, timeout_s=args.timeout
@@ -296,6 +303,22 @@ def _calibrate(args) -> int:
         )
     )
     return 0
+
+
+def _projects(args) -> int:
+    """`slice --project`: one PrusaSlicer 3MF project per plate, written whole or not at all."""
+    from . import pipeline
+
+    failed = 0
+    for stl, out, error in pipeline.plate_projects(
+        args.stl, args.profile, force=args.force, timeout_s=args.timeout
+    ):
+        if error is None:
+            print(f"{out}: PrusaSlicer project with the {args.profile} settings")
+        else:
+            failed += 1
+            print(f"stencil-cad: error: writing the project of {stl} failed: {error}", file=sys.stderr)
+    return 1 if failed else 0
 
 
 def _load_job(args):

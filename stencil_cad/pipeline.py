@@ -65,6 +65,8 @@ class Run:
     summary: list = field(default_factory=list)
     #: The plate template in use: ``{"path", "sha256", "builtin"}`` (None before it is checked).
     template: dict | None = None
+    #: Images for the instruction sheet that are not result files (PNG bytes by name).
+    sheet_images: dict = field(default_factory=dict)
 
     def rng_for(self, stage: str, index: int = 0) -> np.random.Generator:
         """An independent generator per stage and layer, derived from the seed.
@@ -131,7 +133,6 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
 
     from . import decompose as dec
     from .exchange.layers_npz import layers_from_npz, layers_to_npz
-    from .simulate.previews import swatch
 
     with run.stage("decompose"):
         # Iterations run per pyramid level, so the total is not known in advance.
@@ -141,14 +142,18 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
                 bar.update(1)
                 bar.set_postfix(energy=f"{energy:.4g}", refresh=False)
 
+            dcfg = _with_can_list(run, run.cfg.decompose, "decompose.palette")
             try:
                 tiles = _decompose_tiles(run, picture)
-                if tiles is None:
-                    layers = dec.decompose(
-                        picture, run.cfg.decompose, run.rng_for("decompose"), progress=progress
-                    )
-                else:
-                    layers = _decompose_tiled(run, picture, tiles, progress)
+
+                def solve(section) -> Layers:
+                    if tiles is None:
+                        return dec.decompose(picture, section, run.rng_for("decompose"), progress=progress)
+                    return _decompose_tiled(run, picture, tiles, progress, section)
+
+                layers = solve(dcfg)
+                if dcfg.palette == "auto" and run.cfg.paints.catalogue is not None:
+                    layers = _snap_to_catalogue(run, dcfg, layers, solve)
             except ValueError as exc:
                 # A config that does not suit this image (e.g. opacity_source: alpha on RGB).
                 raise UserError(str(exc)) from exc
@@ -159,9 +164,13 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
         # Go on with exactly what was saved (float32 opacities), so a stage command run later
         # on layers.npz gives the same dots as this run.
         layers = layers_from_npz(saved)
+        from .simulate import labelled
+
         for i, a in enumerate(layers.alphas):
-            out.write_png(f"{layer_stem(i)}_opacity.png", 1.0 - a)
-        out.write_png("swatch.png", swatch(layers))
+            out.write_png(
+                f"{layer_stem(i)}_opacity.png",
+                labelled.opacity_card(a, layers.mm_per_px, i + 1, layers.count, to_hex(layers.colours[i])),
+            )
         out.write_png("composite.png", layers.composite())
         trace = "iteration,energy\n" + "".join(f"{k},{e:.10g}\n" for k, e in enumerate(layers.energy_trace))
         out.write_text("energy.csv", trace)
@@ -203,12 +212,16 @@ def _decompose_tiles(run: Run, picture: Picture):
     return tiles
 
 
-def _decompose_tiled(run: Run, picture: Picture, tiles, progress) -> Layers:
-    """Colours on a small copy of the picture, then the opacities tile by tile as tasks."""
+def _decompose_tiled(run: Run, picture: Picture, tiles, progress, cfg=None) -> Layers:
+    """Colours on a small copy of the picture, then the opacities tile by tile as tasks.
+
+    ``cfg`` is the decompose section to solve with (defaults to the job's; a can list or the
+    catalogue's cans replace its palette).
+    """
     from . import decompose as dec
     from .decompose import tiled
 
-    cfg = run.cfg.decompose
+    cfg = run.cfg.decompose if cfg is None else cfg
     coarse = dec.decompose(
         tiled.coarse_picture(picture, tiles), cfg, run.rng_for("decompose"), progress=progress
     )
@@ -236,6 +249,80 @@ def computing(run: Run, picture_px: int, where: ComputeConfig | None = None) -> 
             yield
         finally:
             run.executor = None
+
+
+def _with_can_list(run: Run, section, where: str):
+    """A config section whose palette CSV (a can list) is replaced by its colours; the cans are noted."""
+    from .decompose import paints
+
+    if not isinstance(section.palette, Path):
+        return section
+    try:
+        cans = paints.load_cans(section.palette)
+    except ValueError as exc:
+        raise UserError(f"{where}: {exc}") from None
+    run.figures.setdefault("cans", {})["list"] = [c.__dict__ for c in cans]
+    hexes = paints.to_hex_list(cans)
+    return section.model_copy(update={"palette": hexes if where.startswith("decompose") else list(hexes)})
+
+
+def _catalogue(run: Run) -> list:
+    from .decompose import paints
+
+    try:
+        cans = paints.load_cans(run.cfg.paints.catalogue)
+    except ValueError as exc:
+        raise UserError(f"paints.catalogue: {exc}") from None
+    run.figures.setdefault("cans", {})["catalogue"] = [c.__dict__ for c in cans]
+    return cans
+
+
+def _snap_to_catalogue(run: Run, dcfg, layers: Layers, solve) -> Layers:
+    """Snap the solved paints (and an 'auto' primer) to their nearest cans and solve the opacities again.
+
+    ``solve(section)`` decomposes the picture with a decompose section (whole or in tiles).
+    """
+    from .decompose import paints
+
+    cans = _catalogue(run)
+    paint_snap = paints.snap_report(layers.colours, cans)
+    update = {"order": "given"}
+    primer_snap = None
+    if dcfg.primer == "auto":
+        primer_snap = paints.snap_report(layers.primer[None, :], cans)[0]
+        update["primer"] = primer_snap["can"]
+    chosen: list[str] = []
+    for row in paint_snap:
+        if row["can"] not in chosen and row["can"] != update.get("primer", dcfg.primer):
+            chosen.append(row["can"])
+    if not chosen:
+        raise ValueError(
+            "paints.catalogue: every solved paint snaps to the primer's can; add cans closer to the "
+            "picture's colours, or set decompose.palette to a list"
+        )
+    update["palette"] = tuple(chosen)
+    snapped = solve(dcfg.model_validate({**dcfg.model_dump(), **update}))
+    before = float(layers.info.get("rmse", float("nan")))
+    after = float(snapped.info.get("rmse", float("nan")))
+    run.figures.setdefault("cans", {})["snap"] = {
+        "paints": paint_snap,
+        "primer": primer_snap,
+        "rmse_solved": before,
+        "rmse_snapped": after,
+        "rmse_cost": after - before,
+        "de2000_mean_shift": float(sum(r["delta_e2000"] for r in paint_snap) / len(paint_snap)),
+    }
+    log.info("paints: snapped to the catalogue, composite RMSE %.2f → %.2f (0-255 units)", before, after)
+    return snapped
+
+
+def can_names(figures: dict) -> dict[str, str]:
+    """``{hex: can label}`` of every can this job knows (its can list and catalogue)."""
+    from .decompose import paints
+
+    known = figures.get("cans", {})
+    rows = [*known.get("list", []), *known.get("catalogue", [])]
+    return paints.names_by_hex([paints.Can(**r) for r in rows])
 
 
 def read_layers(folder: Path) -> Layers:
@@ -274,10 +361,8 @@ def stage_stipple(
 
     from . import stipple
     from .exchange.dots_csv import dots_to_csv
-    from .simulate.previews import dots_preview
 
     bound_dots(run, picture_mm)
-    width_mm, height_mm = picture_mm
     cfg = run.cfg
     calibrated = getattr(cfg.stipple.tone, "value", cfg.stipple.tone) == "calibrated"
     sets: list[DotSet] = []
@@ -308,17 +393,11 @@ def stage_stipple(
     if cfg.refine.enabled:
         sets = stage_refine(run, layers, sets, picture_mm, picture)
     with run.stage("stipple"):
+        cards = plate_cards(run, layers.colours, picture_mm, sets)
         for i, ds in enumerate(sets):
             run.out.write_text(dots_name(i), dots_to_csv(ds))
-            run.out.write_png(f"{layer_stem(i)}_dots.png", dots_preview(ds, width_mm, height_mm))
-        run.out.write_json(
-            SPRAY_JSON,
-            {
-                "spray_times": [ds.report["spray_time"] for ds in sets],
-                "unit": cfg.spray.amount_unit,
-                "nozzle_height": cfg.spray.nozzle_height,
-            },
-        )
+            run.out.write_png(f"{layer_stem(i)}_dots.png", cards[i])
+        write_spray_order(run, layers.primer, layers.colours, [ds.report["spray_time"] for ds in sets])
     run.figures["stipple"] = [
         {"layer": i + 1, "dots": len(ds), **_plain(ds.report)} for i, ds in enumerate(sets)
     ]
@@ -431,6 +510,93 @@ def stage_refine(
     return out
 
 
+def _order_note(cfg: JobConfig) -> str:
+    """Why the paints come in this order, in one line for the swatch card."""
+    if cfg.mode == Mode.hard:
+        order = getattr(cfg.hard.order, "value", cfg.hard.order)
+        return {
+            "light_to_dark": "light to dark: each darker paint covers the lighter ones",
+            "dark_to_light": "dark to light (hard.order)",
+            "given": "the order of hard.palette",
+        }[order]
+    order = getattr(cfg.decompose.order, "value", cfg.decompose.order)
+    return {
+        "auto": "each coat covers the ones before; this order reconstructs the picture best (decompose.order: auto)",
+        "light_to_dark": "lightest paint first (decompose.order: light_to_dark)",
+        "given": "the order of decompose.palette (decompose.order: given)",
+    }[order]
+
+
+def write_spray_order(run: Run, primer: np.ndarray, colours: np.ndarray, spray_times: list[float]) -> None:
+    """Write ``spray.json`` (spray order, paints, spray times) and the swatch card ``swatch.png``."""
+    from .simulate import labelled
+
+    names = can_names(run.figures)
+    order = [
+        {
+            "step": i + 1,
+            "plate": layer_stem(i),
+            "hex": to_hex(c),
+            "name": names.get(to_hex(c), ""),
+            "spray_time": float(t),
+        }
+        for i, (c, t) in enumerate(zip(colours, spray_times, strict=True))
+    ]
+    run.out.write_json(
+        SPRAY_JSON,
+        {
+            "primer": {"hex": to_hex(primer), "name": names.get(to_hex(primer), "")},
+            "order": order,
+            "spray_times": [float(t) for t in spray_times],
+            "unit": run.cfg.spray.amount_unit,
+            "nozzle_height": run.cfg.spray.nozzle_height,
+        },
+    )
+    run.figures["spray_order"] = {
+        "primer": {"hex": to_hex(primer), "name": names.get(to_hex(primer), "")},
+        "note": _order_note(run.cfg),
+        "unit": run.cfg.spray.amount_unit,
+        "steps": order,
+    }
+    run.out.write_png(
+        "swatch.png",
+        labelled.swatch_card(
+            to_hex(primer),
+            [{**o, "note": f"plate {o['plate']}"} for o in order],
+            order_note=_order_note(run.cfg),
+            unit=run.cfg.spray.amount_unit,
+            primer_name=names.get(to_hex(primer), ""),
+        ),
+    )
+
+
+def plate_cards(
+    run: Run, colours: np.ndarray, picture_mm: tuple[float, float], holes: list
+) -> list[np.ndarray]:
+    """The plate previews: outline with key tabs and label area, holes or cut-outs, header and scale."""
+    from . import outline
+    from .simulate import labelled
+
+    cfg = run.cfg
+    ring = outline.plate_outline(*picture_mm, cfg.plate.outline)
+    box = outline.label_region(*picture_mm, cfg.plate.outline)
+    names = can_names(run.figures)
+    cards = []
+    for i, h in enumerate(holes):
+        hx = to_hex(colours[i])
+        kw = (
+            {"circles_xy_r": np.column_stack([h.xy_mm, h.r_mm]) if len(h) else np.zeros((0, 3))}
+            if hasattr(h, "r_mm")
+            else {"polygons": h.polygons}
+        )
+        cards.append(
+            labelled.plate_card(
+                ring, box, picture_mm, i + 1, len(holes), hx, names.get(hx, ""), job=cfg.name, **kw
+            )
+        )
+    return cards
+
+
 def read_dots(folder: Path, count: int | None = None) -> list[DotSet]:
     """Read the dots CSV files of a folder, in layer order."""
     from .exchange.dots_csv import dots_from_csv
@@ -482,7 +648,7 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
     """Build, check and export one plate per layer and the wall(s)."""
     from . import cad, outline
     from .cad import wall as wall_mod
-    from .exchange import dxf
+    from .exchange import dxf, svg
 
     cfg = run.cfg
     width_mm, height_mm = picture_mm
@@ -515,18 +681,27 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
                     with run.out.open_path(f"{stem}.3mf") as p:
                         cad.write_3mf(model, p, exp.stl_tolerance_mm)
                 dxf_info = {}
+                drawing = dxf.stencil_for(h, ring, stem.upper())
                 if exp.dxf:
                     with run.out.open_path(f"{stem}.dxf") as p:
                         info = dxf.write_dxf_stencils(
                             p,
-                            [dxf.stencil_for(h, ring, stem.upper())],
+                            [drawing],
                             kerf_mm=exp.dxf_kerf_mm,
                             # Fixed dates and GUIDs: the same job writes the same bytes, wherever it ran.
                             deterministic=True,
                         )
                     # Laser software wants +X/+Y: the drawing is shifted by this much from the picture frame.
                     dxf_info = {"dxf_offset_mm": [round(float(v), 4) for v in info.offset_mm]}
-                results.append({"layer": i + 1, **_plain(check), **dxf_info})
+                if exp.svg:
+                    with run.out.open_path(f"{stem}.svg") as p:
+                        sinfo = svg.write_svg(
+                            p, drawing, kerf_mm=exp.dxf_kerf_mm, title=f"{cfg.name} {stem} of {len(holes)}"
+                        )
+                    dxf_info["svg_offset_mm"] = [round(float(v), 4) for v in sinfo.offset_mm]
+                    dxf_info["svg_circles"] = sinfo.circles
+                cut = round(_cut_length_mm(h, ring), 1)
+                results.append({"layer": i + 1, **_plain(check), **dxf_info, "cut_length_mm": cut})
                 bar.update(1)
         walls = []
         heights = wall_mod.wall_heights(cfg.wall)
@@ -569,16 +744,14 @@ def stage_simulate(run: Run, picture: Picture | None, layers: Layers, dotsets: l
         ref = _resample(reference, sim.composite.shape[:2])
         scores = _scores(run, ref, sim.composite, sim.mm_per_px)
         run.out.write_png("simulated.png", sim.composite)
-        run.out.write_png(
-            "preview.png",
-            simulate.preview(
-                ref,
-                _resample(layers.composite(), sim.composite.shape[:2]),
-                sim.composite,
-                text=_score_line(scores),
-            ),
-        )
-        run.out.write_png("sweep.png", simulate.sweep(layers, dotsets, cfg.spray, geometry=design))
+        ideal = _resample(layers.composite(), sim.composite.shape[:2])
+        write_previews(run, ref, ideal, sim.composite, sim.mm_per_px, scores)
+        factors = tuple(cfg.spray.sweep_factors)
+        panels = simulate.sweep_panels(layers, dotsets, cfg.spray, factors=factors, geometry=design)
+        from .simulate import labelled
+
+        run.out.write_png("sweep.png", labelled.sweep_card(panels, factors, sim.mm_per_px))
+        write_steps(run, layers.primer, layers.colours, sim.alphas, sim.mm_per_px)
         per_wall = []
         stems = simulated_stems(cfg)
         for h, name in zip(cfg.wall.heights() if stems else [], stems, strict=True):
@@ -688,11 +861,68 @@ def _dot_visibility(run: Run, layers: Layers, dotsets: list[DotSet]) -> dict:
 
 
 def _score_line(scores: dict) -> str:
+    """The scores under the preview: what a viewer sees (S-CIELAB) and pixel by pixel (ΔE2000)."""
     d = scores["view_distance_m"]
     return (
-        f"input | decomposition | simulated spray | ΔE2000 map    ΔE2000 {scores['de2000_mean']:.2f}   "
-        f"S-CIELAB at {d:g} m {scores['scielab']:.2f}, at {2 * d:g} m {scores['scielab_2x']:.2f}"
+        f"S-CIELAB at {d:g} m {scores['scielab']:.2f}, at {2 * d:g} m {scores['scielab_2x']:.2f}   ·   "
+        f"ΔE2000 per pixel: mean {scores['de2000_mean']:.2f}, 95 % below {scores['de2000_p95']:.1f}"
     )
+
+
+def write_previews(run: Run, reference, ideal, sprayed, mm_per_px: float, scores: dict) -> None:
+    """The labelled four-panel ``preview.png``: input, ideal layers, simulated spray, error map."""
+    from . import simulate
+    from .simulate import labelled
+
+    de_max = 30.0
+    notes = [
+        _score_line(scores),
+        f"PSNR {scores['psnr']:.1f} dB, SSIM {scores['ssim']:.2f}  ·  "
+        f"picture {sprayed.shape[1] * mm_per_px:g} × {sprayed.shape[0] * mm_per_px:g} mm",
+    ]
+    run.out.write_png(
+        "preview.png",
+        labelled.job_preview(
+            reference,
+            ideal,
+            sprayed,
+            simulate.delta_e_map(reference, sprayed),
+            simulate.colour_map,
+            de_max,
+            mm_per_px,
+            notes=notes,
+        ),
+    )
+
+
+def step_name(i: int) -> str:
+    """File name of the simulated picture after layer ``i`` (0-based)."""
+    return f"{layer_stem(i)}_after.png"
+
+
+def write_steps(
+    run: Run, primer: np.ndarray, colours: np.ndarray, alphas: np.ndarray, mm_per_px: float
+) -> None:
+    """Per layer, the simulated picture after it is sprayed, and its paint estimate."""
+    from .decompose import paints
+    from .model import composite
+
+    cfg = run.cfg.paints
+    area = float(alphas.shape[1] * alphas.shape[2]) * mm_per_px**2
+    rows = []
+    for i in range(alphas.shape[0]):
+        run.out.write_png(
+            step_name(i), np.clip(composite(primer, colours[: i + 1], alphas[: i + 1]), 0.0, 1.0)
+        )
+        mean = float(np.mean(alphas[i]))
+        est = paints.paint_estimate(area, mean, cfg.coverage_m2_per_can, cfg.can_ml)
+        rows.append({"layer": i + 1, "hex": to_hex(colours[i]), "mean_opacity": mean, **est})
+    run.figures["paint"] = {
+        "sprayed_area_m2": area * 1e-6,
+        "coverage_m2_per_can": cfg.coverage_m2_per_can,
+        "can_ml": cfg.can_ml,
+        "layers": rows,
+    }
 
 
 def _resample(img: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
@@ -781,8 +1011,37 @@ def finish(run: Run, command: str) -> list[Path]:
     old_path = run.out.path / MANIFEST
     if command != "run" and command != "hard" and old_path.exists():
         manifest = _merge_manifest(old_path, manifest, run.out)
+    if command in ("run", "hard") and run.cfg.export.instructions:
+        with run.stage("instructions"):
+            write_instructions(run, manifest)
+        manifest["seconds"] = run.times
+        manifest["files"] = run.out.file_table()
     run.out.write_json(MANIFEST, manifest)
     return run.out.commit()
+
+
+INSTRUCTIONS = ("instructions.html", "instructions.pdf")
+
+
+def write_instructions(run: Run, manifest: dict, tiles: list | None = None) -> None:
+    """Write the instruction sheet (HTML and PDF) from the manifest and the job's preview images.
+
+    Args:
+        run: The command's state; its staged PNGs and ``sheet_images`` are the pictures.
+        manifest: The manifest as it will be written (its file list so far).
+        tiles: A mural's tiles (see :func:`stencil_cad.sheet.sheet_from_manifest`); None takes
+            them from the manifest when present.
+    """
+    from . import sheet
+
+    listed = [*manifest.get("files", []), *({"name": n} for n in INSTRUCTIONS)]
+    data = sheet.sheet_from_manifest({**manifest, "files": listed}, tiles=tiles)
+    images = dict(run.sheet_images)
+    for name in run.out.files:
+        if name.endswith(".png"):
+            images[name] = (run.out.stage / name).read_bytes()
+    run.out.write_text(INSTRUCTIONS[0], sheet.render_html(data, images))
+    run.out.write_bytes(INSTRUCTIONS[1], sheet.render_pdf(data, images))
 
 
 def _merge_manifest(old_path: Path, new: dict, out: OutputDir) -> dict:
@@ -833,6 +1092,7 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
         check_template(run)
     cfg = run.cfg
     save_config(run)
+    run.sheet_images["input.png"] = _png(picture.rgb)
     size = (picture.width_mm, picture.height_mm)
     run.figures["picture"] = {
         "source": picture.source,
@@ -952,15 +1212,16 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None) -> list[Path]:
 
 def run_hard(run: Run, picture: Picture) -> list[Path]:
     """Hard-stencil mode: segmentation, bridges, plates with polygon cut-outs, simulation."""
-    from . import hardstencil, simulate
+    from . import hardstencil
 
     cfg = run.cfg
     size = (picture.width_mm, picture.height_mm)
     with run.stage("segment"):
         rules = _process_rules(cfg)
+        hcfg = _with_can_list(run, cfg.hard, "hard.palette")
         try:
             hard = hardstencil.make_hard_stencils(
-                picture, cfg.hard, rules["min_feature_mm"], rules["bridge_min_mm"], run.rng_for("hard")
+                picture, hcfg, rules["min_feature_mm"], rules["bridge_min_mm"], run.rng_for("hard")
             )
         except ValueError as exc:
             raise UserError(f"hard mode: {exc}") from exc
@@ -970,8 +1231,13 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
                 "(prime the surface with it, or use an image with more colours)"
             )
         run.out.write_png("segmentation.png", hard.palette[hard.labels])
+        colours = np.array([cl.colour for cl in hard.cut_layers]).reshape(-1, 3)
+        for i, card in enumerate(plate_cards(run, colours, size, hard.cut_layers)):
+            run.out.write_png(f"{layer_stem(i)}_cut.png", card)
+        write_spray_order(run, hard.primer, colours, [float(cfg.spray.amount)] * hard.count)
     run.figures["hard"] = _plain(hard.report)
     run.figures["hard"]["warnings"] = [str(w) for w in hard.report.get("warnings", [])]
+    run.figures["hard"]["per_layer"] = [_plain(r) for r in hard.report.get("per_layer", [])]
     layers = Layers(
         primer=hard.primer,
         colours=np.array([cl.colour for cl in hard.cut_layers]).reshape(-1, 3),
@@ -983,13 +1249,11 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
         from .simulate.physical import SprayGeometry
 
         geometry = SprayGeometry.of_job(cfg) if cfg.spray.model == SprayModel.physical else None
-        _, comp = hardstencil.simulate_hard(hard, cfg.spray, geometry=geometry)
+        alphas, comp = hardstencil.simulate_hard(hard, cfg.spray, geometry=geometry)
         scores = _scores(run, picture.rgb, comp, picture.mm_per_px)
         run.out.write_png("simulated.png", comp)
-        run.out.write_png(
-            "preview.png",
-            simulate.preview(picture.rgb, hardstencil.render_ideal(hard), comp, text=_score_line(scores)),
-        )
+        write_previews(run, picture.rgb, hardstencil.render_ideal(hard), comp, picture.mm_per_px, scores)
+        write_steps(run, hard.primer, hard.colours, alphas, picture.mm_per_px)
     run.figures["simulate"] = _plain(scores)
     return finish(run, "hard")
 
@@ -1028,7 +1292,10 @@ def run_outputs(cfg: JobConfig, command: str) -> list[str]:
 def stage_outputs(cfg: JobConfig, command: str, count: int) -> list[str]:
     """Names a stage command will write, so it can refuse before doing the work."""
     if command == "stipple":
-        return [n for i in range(count) for n in (dots_name(i), f"{layer_stem(i)}_dots.png")] + [SPRAY_JSON]
+        return [n for i in range(count) for n in (dots_name(i), f"{layer_stem(i)}_dots.png")] + [
+            SPRAY_JSON,
+            "swatch.png",
+        ]
     if command == "build":
         exts = [
             e
@@ -1036,6 +1303,7 @@ def stage_outputs(cfg: JobConfig, command: str, count: int) -> list[str]:
                 (".step", cfg.export.step),
                 (".stl", cfg.export.stl),
                 (".dxf", cfg.export.dxf),
+                (".svg", cfg.export.svg),
                 (".3mf", cfg.export.three_mf),
             )
             if on
@@ -1043,7 +1311,9 @@ def stage_outputs(cfg: JobConfig, command: str, count: int) -> list[str]:
         names = [layer_stem(i) + e for i in range(count) for e in exts]
         return names + [s + e for s in wall_stems(cfg.wall.standoff_mm) for e in (".step", ".stl")]
     if command == "simulate":
-        return ["simulated.png", "preview.png", "sweep.png", *simulated_stems(cfg)]
+        return ["simulated.png", "preview.png", "sweep.png", *simulated_stems(cfg)] + [
+            step_name(i) for i in range(count)
+        ]
     return []
 
 
@@ -1071,6 +1341,33 @@ def _process_rules(cfg: JobConfig) -> dict:
 
 
 # --------------------------------------------------------------------------- helpers
+
+
+def _png(image: np.ndarray) -> bytes:
+    """PNG bytes of a float image in [0, 1]."""
+    import io
+
+    from PIL import Image
+
+    a = (np.clip(np.asarray(image, dtype=np.float64), 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+    buf = io.BytesIO()
+    Image.fromarray(a).save(buf, format="PNG")
+    return buf.getvalue()
+
+
+def _cut_length_mm(holes, ring: np.ndarray) -> float:
+    """Length of every cut of a plate in mm: the holes (or cut-out rings) and the outline."""
+
+    def perimeter(r) -> float:
+        r = np.asarray(r, dtype=np.float64)
+        return float(np.sum(np.linalg.norm(np.roll(r, -1, axis=0) - r, axis=1)))
+
+    total = perimeter(ring)
+    if hasattr(holes, "r_mm"):
+        return total + float(2.0 * np.pi * np.sum(holes.r_mm))
+    for outer, inner in holes.polygons:
+        total += perimeter(outer) + sum(perimeter(h) for h in inner)
+    return total
 
 
 def _plain(d: Mapping[str, object] | None) -> dict[str, object]:
@@ -1260,6 +1557,54 @@ def slice_plates(
         else:
             tmp.unlink(missing_ok=True)
         yield stl, out, result
+
+
+def plate_projects(
+    stls: list[Path], profile: str, *, force: bool = False, timeout_s: float = 300.0
+) -> Iterator[tuple[Path, Path, str | None]]:
+    """Write a PrusaSlicer 3MF project (plate as tiles, every setting inside) beside each STL.
+
+    Args:
+        stls: The plates' STL files.
+        profile: A shipped PrusaSlicer profile name (``prusa_fdm``, ``prusa_sla``).
+        force: Replace existing ``.3mf`` files.
+        timeout_s: Seconds before a PrusaSlicer run is killed. Defaults to 300 s.
+
+    Yields:
+        ``(stl, output, error)`` per plate; ``error`` is None when the project was written.
+
+    Raises:
+        UserError: An STL is missing, an output exists, the profile is not PrusaSlicer's, or
+            PrusaSlicer is not installed.
+    """
+    import subprocess
+
+    from . import slicing
+
+    prof = slicing.get_profile(profile)
+    if prof.slicer is not slicing.Slicer.PRUSA:
+        raise UserError(f"--project writes PrusaSlicer projects; {profile} is a CuraEngine profile")
+    jobs = []
+    for stl in stls:
+        if not stl.is_file():
+            raise UserError(f"STL not found: {stl} (run `stencil-cad run` first, or check the path)")
+        out = stl.with_suffix(".3mf")
+        if out.exists() and not force:
+            raise OutputError(f"{out} already exists (use --force to replace it)")
+        jobs.append((stl, out))
+    for stl, out in jobs:
+        tmp = out.with_name(f".{out.name}.partial.3mf")
+        try:
+            slicing.plate_project(stl, tmp, prof, timeout_s=timeout_s)
+        except slicing.SlicerNotFoundError as exc:
+            tmp.unlink(missing_ok=True)
+            raise UserError(f"{exc}") from None
+        except (RuntimeError, subprocess.TimeoutExpired) as exc:
+            tmp.unlink(missing_ok=True)
+            yield stl, out, str(exc)
+            continue
+        tmp.replace(out)
+        yield stl, out, None
 
 
 def write_default_config(path: Path, *, force: bool = False) -> None:

@@ -16,8 +16,7 @@ from stencil_cad.config.decompose import MAX_LAYERS, DecomposeConfig, colour_to_
 from stencil_cad.decompose import decompose, energy, energy_of
 from stencil_cad.decompose import solver as solver_mod
 from stencil_cad.exchange.layers_npz import layers_from_npz, layers_to_npz
-from stencil_cad.model import Layers, Picture, composite
-from stencil_cad.simulate.previews import swatch
+from stencil_cad.model import Picture, composite
 
 # Ground truth of the synthetic test. The colours lie on the faces of the RGB
 # cube, as saturated paints do: with colours strictly inside the cube the
@@ -495,18 +494,20 @@ def test_npz_round_trip(synthetic):
         layers_from_npz({"primer": np.zeros(3), "colours": np.zeros((2, 3))})
 
 
-def test_swatch_shows_primer_then_paints():
-    layers = Layers(
-        primer=np.array([1.0, 1.0, 1.0]),
-        colours=np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 0.5]]),
-        alphas=np.zeros((2, 4, 4)),
-        mm_per_px=1.0,
-    )
-    sw = swatch(layers, size_px=8)
-    assert sw.shape == (8, 24, 3) and sw.dtype == np.uint8
-    assert tuple(sw[4, 4]) == (255, 255, 255)
-    assert tuple(sw[4, 12]) == (255, 0, 0)
-    assert tuple(sw[4, 20]) == (0, 0, 128)
+def test_swatch_card_shows_primer_then_paints():
+    from stencil_cad.simulate.labelled import swatch_card
+
+    chip = 40
+    card = swatch_card("#ffffff", [{"hex": "#ff0000"}, {"hex": "#000080", "spray_time": 0.5}], chip_px=chip)
+    assert card.dtype == np.uint8 and card.shape[2] == 3
+    # Chips stand in one column, primer first, each bordered: find the rows of each colour.
+    col = card[:, 10 + 34 + chip // 2]
+    rows = {c: np.nonzero((col == np.array(c)).all(axis=1))[0] for c in ((255, 0, 0), (0, 0, 128))}
+    assert rows[(255, 0, 0)].size > chip // 2 and rows[(0, 0, 128)].size > chip // 2
+    assert rows[(255, 0, 0)].max() < rows[(0, 0, 128)].min()
+    white_chip_top = rows[(255, 0, 0)].min() - (chip + 8)
+    assert (col[white_chip_top + 4 : white_chip_top + chip - 4] == 255).all()
+    assert (col[white_chip_top - 1 : white_chip_top + 2] < 80).any()  # the primer's border
 
 
 @pytest.fixture(scope="module")

@@ -302,13 +302,20 @@ def test_score_resamples_reference():
     assert s["de2000_mean"] == pytest.approx(0.0, abs=1e-9)
 
 
-def test_preview_layout():
+def test_preview_panels_titles_and_colour_bar():
+    from stencil_cad.simulate import labelled
+
     img = np.full((20, 30, 3), 0.4)
-    out = sim.preview(np.full((40, 60, 3), 0.4), img, img)
-    assert out.dtype == np.uint8 and out.shape == (20, 4 * 30 + 12, 3)
-    black = np.round(sim.colour_map(np.zeros(1), 20.0)[0] * 255).astype(np.uint8)
-    assert (out[:, 3 * 30 + 12 :] == black).all()  # no error: the bottom of the ramp
-    assert (out[:, 30:34] == 255).all()
+    err = np.zeros((20, 30))
+    out = labelled.job_preview(img, img, img, err, sim.colour_map, 30.0, mm_per_px=1.0, panel_px=60)
+    assert out.dtype == np.uint8 and out.ndim == 3
+    # Four 60 px panels and the colour bar side by side; the error panel is the bottom of the ramp.
+    assert out.shape[1] > 4 * 60
+    black = np.round(sim.colour_map(np.zeros(1), 30.0)[0] * 255).astype(np.uint8)
+    assert (np.abs(out.astype(int) - black.astype(int)).sum(axis=2) == 0).sum() >= 60 * 40
+    # The bar holds the top of the ramp too.
+    top = np.round(sim.colour_map(np.full(1, 30.0), 30.0)[0] * 255).astype(int)
+    assert (np.abs(out.astype(int) - top).sum(axis=2) <= 3).any()
 
 
 def test_sweep_panels():

@@ -10,6 +10,7 @@ from .compute import ComputeConfig
 from .decompose import DecomposeConfig
 from .hard import HardConfig
 from .job import JobConfig, Mode, SizeConfig, parse_overrides
+from .paints import PaintsConfig
 from .refine import RefineConfig
 from .spray import SprayConfig
 from .stipple import StippleConfig
@@ -22,6 +23,7 @@ __all__ = [
     "HardConfig",
     "JobConfig",
     "Mode",
+    "PaintsConfig",
     "PlateConfig",
     "RefineConfig",
     "SizeConfig",

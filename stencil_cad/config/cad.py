@@ -246,6 +246,20 @@ class ExportConfig(StrictModel):
     dxf: bool = Field(
         True, description="Write a DXF per plate for laser cutting (outline and holes). true/false."
     )
+    svg: bool = Field(
+        True,
+        description=(
+            "Write an SVG per plate for cutters that take SVG but not DXF (Glowforge, Cricut, Silhouette): "
+            "mm units, a circle per hole, the outline as a path, the same frame as the DXF. true/false."
+        ),
+    )
+    instructions: bool = Field(
+        True,
+        description=(
+            "Write the instruction sheet of a whole job (`run`, `hard`): instructions.html (self-contained, "
+            "opens offline) and instructions.pdf. true/false."
+        ),
+    )
     three_mf: bool = Field(
         False, description="Also write a 3MF mesh per plate (same mesh as the STL). true/false."
     )
@@ -262,5 +276,5 @@ class ExportConfig(StrictModel):
         0.0,
         ge=0.0,
         le=1.0,
-        description="Laser kerf in mm; DXF contours are offset by half of it so cut parts keep their size. Range [0, 1].",
+        description="Laser kerf in mm; DXF and SVG contours are offset by half of it so cut parts keep their size. Range [0, 1].",
     )

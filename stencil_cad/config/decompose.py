@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import enum
+from pathlib import Path
 from typing import Literal
 
 from pydantic import Field, field_validator, model_validator
@@ -125,12 +126,14 @@ class DecomposeConfig(StrictModel):
         le=10000,
         description="Most projected SOR sweeps per opacity QP. Range [1, 10000].",
     )
-    palette: Literal["auto"] | tuple[str, ...] = Field(
+    palette: Literal["auto"] | tuple[str, ...] | Path = Field(
         "auto",
         description=(
-            "Paint colours. 'auto': found by K-means and then refined by the solver. Or a list of the "
-            "cans you own, each a hex string '#1a2b3c' or [r, g, b] with integers 0-255: the colours "
-            f"are held fixed and only the opacities (and an 'auto' primer) are solved. 1 to {3 * MAX_LAYERS} cans."
+            "Paint colours. 'auto': found by K-means and then refined by the solver (and snapped to "
+            "paints.catalogue when that is set). Or a list of the cans you own, each a hex string "
+            "'#1a2b3c' or [r, g, b] with integers 0-255, or the path of a CSV of cans (columns name, code, "
+            "hex; relative to the config file): the colours are held fixed and only the opacities (and an "
+            f"'auto' primer) are solved. 1 to {3 * MAX_LAYERS} cans."
         ),
     )
     primer: str = Field(
@@ -194,15 +197,19 @@ class DecomposeConfig(StrictModel):
     @field_validator("palette", mode="before")
     @classmethod
     def _parse_palette(cls, value: object) -> object:
+        if isinstance(value, Path):
+            return value
         if isinstance(value, str):
             if value == "auto":
                 return value
-            raise ValueError(f"must be 'auto' or a list of colours, got {value!r}")
+            if value.lower().endswith(".csv"):
+                return Path(value)
+            raise ValueError(f"must be 'auto', a list of colours or a .csv can list, got {value!r}")
         if isinstance(value, (list, tuple)):
             if not 1 <= len(value) <= 3 * MAX_LAYERS:
                 raise ValueError(f"must hold 1 to {3 * MAX_LAYERS} colours, got {len(value)}")
             return tuple(parse_colour(v) for v in value)
-        raise ValueError(f"must be 'auto' or a list of colours, got {value!r}")
+        raise ValueError(f"must be 'auto', a list of colours or a .csv can list, got {value!r}")
 
     @field_validator("primer", mode="before")
     @classmethod
@@ -221,6 +228,8 @@ class DecomposeConfig(StrictModel):
         """The palette as RGB triples in [0, 1], or None for 'auto'."""
         if self.palette == "auto":
             return None
+        if isinstance(self.palette, Path):
+            raise ValueError(f"palette {self.palette} is a can list: read it first (stencil_cad.paints)")
         return tuple(colour_to_rgb(c) for c in self.palette)
 
     def primer_rgb(self) -> tuple[float, float, float] | None:

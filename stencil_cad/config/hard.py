@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import enum
+from pathlib import Path
 
 from pydantic import Field, field_validator, model_validator
 
@@ -31,10 +32,11 @@ class HardConfig(StrictModel):
             "warning. Ignored when `palette` is set."
         ),
     )
-    palette: list[str] | None = Field(
+    palette: list[str] | Path | None = Field(
         None,
         description=(
-            "Fixed paint colours as hex strings '#rrggbb' (2 to 16 entries), or null to pick K colours "
+            "Fixed paint colours as hex strings '#rrggbb' (2 to 16 entries), or the path of a CSV of "
+            "cans (columns name, code, hex; relative to the config file), or null to pick K colours "
             "from the image (K-means). With order 'given' the first entry is the primer and the rest "
             "are sprayed in the listed order."
         ),
@@ -125,11 +127,17 @@ class HardConfig(StrictModel):
         ),
     )
 
-    @field_validator("palette")
+    @field_validator("palette", mode="before")
     @classmethod
-    def _check_palette(cls, v: list[str] | None) -> list[str] | None:
-        if v is None:
+    def _check_palette(cls, v: object) -> object:
+        if v is None or isinstance(v, Path):
             return v
+        if isinstance(v, str):
+            if v.lower().endswith(".csv"):
+                return Path(v)
+            raise ValueError(f"must be a list of colours, a .csv can list or null, got {v!r}")
+        if not isinstance(v, (list, tuple)):
+            raise ValueError(f"must be a list of colours, a .csv can list or null, got {v!r}")
         if not 2 <= len(v) <= 16:
             raise ValueError(f"palette needs 2 to 16 colours, got {len(v)}")
         return [parse_colour(c) for c in v]

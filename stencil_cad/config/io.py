@@ -230,6 +230,7 @@ def load_config(path: Path | str) -> JobConfig:
     cfg = parse_config(data, source=str(path))
     if cfg.image is not None and not cfg.image.is_absolute():
         cfg = cfg.model_copy(update={"image": (path.parent / cfg.image)})
+    cfg = _resolve_can_lists(cfg, path.parent)
     if cfg.plate.template is not None and not cfg.plate.template.is_absolute():
         plate = cfg.plate.model_copy(update={"template": path.parent / cfg.plate.template})
         cfg = cfg.model_copy(update={"plate": plate})
@@ -308,6 +309,18 @@ def with_profile(cfg, folder: Path, raw_can: Any = None, source: str = "config")
                 "(the profile's constants are used) or remove spray.profile"
             )
     return cfg.model_copy(update={"spray": cfg.spray.model_copy(update={"profile": prof, "can": can})})
+
+
+def _resolve_can_lists(cfg, folder: Path):
+    """Can-list paths (palettes as CSV, the paint catalogue) are taken from the config's folder."""
+
+    def fix(p):
+        return p if not isinstance(p, Path) or p.is_absolute() else folder / p
+
+    dec = cfg.decompose.model_copy(update={"palette": fix(cfg.decompose.palette)})
+    hard = cfg.hard.model_copy(update={"palette": fix(cfg.hard.palette)})
+    paints = cfg.paints.model_copy(update={"catalogue": fix(cfg.paints.catalogue)})
+    return cfg.model_copy(update={"decompose": dec, "hard": hard, "paints": paints})
 
 
 def _yaml_scalar(value: Any) -> str:

@@ -12,6 +12,7 @@ from .cad import ExportConfig, PlateConfig, WallConfig
 from .compute import ComputeConfig
 from .decompose import DecomposeConfig
 from .hard import HardConfig
+from .paints import PaintsConfig
 from .refine import RefineConfig
 from .spray import SprayConfig
 from .stipple import StippleConfig
@@ -93,6 +94,9 @@ class JobConfig(StrictModel):
     view: ViewConfig = Field(default_factory=ViewConfig, description="Viewing distance of the picture.")
     hard: HardConfig = Field(default_factory=HardConfig, description="Hard-stencil mode.")
     export: ExportConfig = Field(default_factory=ExportConfig, description="Output files.")
+    paints: PaintsConfig = Field(
+        default_factory=PaintsConfig, description="The maker's cans and the paint estimate."
+    )
     compute: ComputeConfig = Field(
         default_factory=ComputeConfig,
         description="Where the work runs: this process, a local Dask cluster or a remote one.",

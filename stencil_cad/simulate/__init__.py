@@ -6,7 +6,7 @@
 the result with the input and :mod:`.previews` draws the preview images.
 """
 
-from .previews import colour_map, dots_preview, preview, swatch, sweep
+from .previews import colour_map, dots_preview, sweep, sweep_panels
 from .scores import delta_e_map, score
 from .spray import (
     SimResult,
@@ -46,15 +46,14 @@ __all__ = [
     "hole_kernels",
     "layer_rmse",
     "packing_density",
-    "preview",
     "resample",
     "score",
     "sim_shape",
     "simulate",
     "spray_mask",
     "spray_opacity",
-    "swatch",
     "sweep",
+    "sweep_panels",
     "target_on_grid",
     "tone_response",
 ]

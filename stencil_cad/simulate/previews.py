@@ -10,10 +10,9 @@ import numpy as np
 from ..config.spray import SprayConfig
 from ..frames import mm_to_raster
 from ..model import DotSet, Layers
-from .scores import delta_e_map
-from .spray import resample, simulate
+from .spray import simulate
 
-__all__ = ["colour_map", "dots_preview", "preview", "swatch", "sweep"]
+__all__ = ["colour_map", "dots_preview", "sweep", "sweep_panels"]
 
 
 # Control points of a perceptually ordered black-purple-orange-yellow ramp (inferno-like).
@@ -54,59 +53,6 @@ def _hstack(panels: list[np.ndarray], gap: int = 4) -> np.ndarray:
     return np.concatenate(row, axis=1)
 
 
-def caption(image: np.ndarray, text: str) -> np.ndarray:
-    """Add a white strip with one line of text under an RGB uint8 image.
-
-    Args:
-        image: ``(H, W, 3)`` uint8.
-        text: The line (scores, settings).
-
-    Returns:
-        ``(H + strip, W, 3)`` uint8.
-    """
-    from importlib.resources import files
-
-    from PIL import Image, ImageDraw, ImageFont
-
-    size = int(np.clip(image.shape[1] // 90, 10, 28))
-    font = ImageFont.truetype(str(files("stencil_cad") / "data" / "DejaVuSans-Bold.ttf"), size)
-    strip = Image.new("RGB", (image.shape[1], int(size * 1.8)), (255, 255, 255))
-    ImageDraw.Draw(strip).text((size // 2, size // 3), text, fill=(0, 0, 0), font=font)
-    return np.concatenate([image, np.asarray(strip, dtype=np.uint8)], axis=0)
-
-
-def preview(
-    input_rgb: np.ndarray,
-    decomposition_rgb: np.ndarray,
-    simulated_rgb: np.ndarray,
-    de_max: float = 30.0,
-    text: str | None = None,
-) -> np.ndarray:
-    """Side-by-side preview: input | decomposition composite | simulated spray | error map.
-
-    The first two are resampled to the simulated image's grid. The error map is the
-    per-pixel CIEDE2000 between input and simulated spray on an inferno-like ramp
-    from 0 (black) to ``de_max`` (pale yellow).
-
-    Args:
-        input_rgb: ``(H, W, 3)`` input picture in [0, 1].
-        decomposition_rgb: ``(H, W, 3)`` composite of the decomposition in [0, 1].
-        simulated_rgb: ``(H, W, 3)`` simulated spray in [0, 1].
-        de_max: ΔE2000 shown at the top of the ramp. Defaults to 30.
-        text: A line (the scores) written in a strip under the panels, or None.
-
-    Returns:
-        ``(H, 4 W + 12, 3)`` uint8 image (taller by the strip with ``text``).
-    """
-    sim = np.clip(np.asarray(simulated_rgb, dtype=np.float64), 0.0, 1.0)
-    shape = sim.shape[:2]
-    inp = resample(input_rgb, shape)
-    dec = resample(decomposition_rgb, shape)
-    err = colour_map(delta_e_map(inp, sim), de_max)
-    out = _hstack([_to_u8(inp), _to_u8(dec), _to_u8(sim), _to_u8(err)])
-    return out if text is None else caption(out, text)
-
-
 def sweep(
     layers: Layers,
     dotsets: list[DotSet],
@@ -131,6 +77,24 @@ def sweep(
     Returns:
         ``(H, k W + 4 (k - 1), 3)`` uint8 image, one panel per factor, left to right.
     """
+    return _hstack(
+        sweep_panels(
+            layers, dotsets, cfg, grid_mm_per_px, spray_times=spray_times, factors=factors, geometry=geometry
+        )
+    )
+
+
+def sweep_panels(
+    layers: Layers,
+    dotsets: list[DotSet],
+    cfg: SprayConfig,
+    grid_mm_per_px: float | None = None,
+    *,
+    spray_times: list[float] | None = None,
+    factors: tuple[float, ...] | None = None,
+    geometry=None,
+) -> list[np.ndarray]:
+    """The panels of :func:`sweep`, one ``(H, W, 3)`` uint8 image per factor, for labelling."""
     factors = tuple(cfg.sweep_factors if factors is None else factors)
     panels = []
     for f in factors:
@@ -138,7 +102,7 @@ def sweep(
             layers, dotsets, cfg, grid_mm_per_px, spray_times=spray_times, time_factor=f, geometry=geometry
         )
         panels.append(_to_u8(res.composite))
-    return _hstack(panels)
+    return panels
 
 
 @numba.njit(cache=True)
@@ -164,44 +128,38 @@ def _raster_discs(img, rc, r_px):  # pragma: no cover - compiled
                     img[row, col] = v
 
 
-def dots_preview(dotset: DotSet, width_mm: float, height_mm: float, px_per_mm: float = 4) -> np.ndarray:
+def dots_preview(
+    dotset: DotSet,
+    width_mm: float,
+    height_mm: float,
+    px_per_mm: float = 4,
+    origin_mm: tuple[float, float] = (0.0, 0.0),
+) -> np.ndarray:
     """Draw the holes black on white.
 
     Args:
         dotset: The holes, in picture mm.
-        width_mm: Picture-area width in mm.
-        height_mm: Picture-area height in mm.
+        width_mm: Width of the drawn area in mm (the picture area by default).
+        height_mm: Height of the drawn area in mm.
         px_per_mm: Preview resolution in pixels per mm. Defaults to 4.
+        origin_mm: Picture-frame point at the drawn area's bottom-left corner. Defaults to
+            (0, 0), the picture's corner; a plate preview passes the corner of the outline's box.
 
     Returns:
-        ``(H, W)`` uint8 image, row 0 at the top (y = height_mm), holes 0,
+        ``(H, W)`` uint8 image, row 0 at the top (y = origin + height_mm), holes 0,
         material 255, anti-aliased edges.
     """
     h = max(int(round(height_mm * px_per_mm)), 1)
     w = max(int(round(width_mm * px_per_mm)), 1)
     img = np.full((h, w), 255.0, dtype=np.float32)
     if len(dotset):
-        # Scale so the image spans exactly the picture area even after rounding.
+        # Scale so the image spans exactly the drawn area even after rounding.
         sx = w / width_mm
         sy = h / height_mm
-        xy = np.asarray(dotset.xy_mm, dtype=np.float64).reshape(-1, 2) * np.array([sx, sy]) / sx
+        xy = np.asarray(dotset.xy_mm, dtype=np.float64).reshape(-1, 2) - np.asarray(
+            origin_mm, dtype=np.float64
+        )
+        xy = xy * np.array([sx, sy]) / sx
         rc = mm_to_raster(xy, h, float(sx))
         _raster_discs(img, rc, np.asarray(dotset.r_mm, dtype=np.float64) * float(sx))
     return np.round(img).astype(np.uint8)
-
-
-def swatch(layers: Layers, size_px: int = 64) -> np.ndarray:
-    """The primer and the paints in spray order as a row of squares.
-
-    Args:
-        layers: The decomposition.
-        size_px: Side of each square in px. Defaults to 64 px.
-
-    Returns:
-        ``(size_px, size_px * (L + 1), 3)`` uint8 image, primer leftmost.
-    """
-    size_px = max(int(size_px), 1)
-    allc = np.vstack([np.asarray(layers.primer)[None, :], np.asarray(layers.colours).reshape(-1, 3)])
-    allc = np.clip(np.nan_to_num(allc, nan=0.0), 0.0, 1.0)
-    row = np.repeat(np.rint(allc * 255.0).astype(np.uint8), size_px, axis=0)
-    return np.ascontiguousarray(np.broadcast_to(row[None, :, :], (size_px, row.shape[0], 3)))

@@ -740,6 +740,41 @@ def slice_plate(
         )
 
 
+def plate_project(
+    model: str | os.PathLike,
+    output: str | os.PathLike,
+    profile: str | Profile = "prusa_fdm",
+    *,
+    holes_per_tile: int = HOLES_PER_TILE,
+    timeout_s: float = 300.0,
+    executable: str | os.PathLike | None = None,
+) -> Path:
+    """Write the PrusaSlicer 3MF project of one plate, tiled as :func:`slice_plate` would slice it.
+
+    Args:
+        model: The plate's STL.
+        output: ``.3mf`` path to write.
+        profile: A PrusaSlicer profile name. Defaults to ``"prusa_fdm"``.
+        holes_per_tile: Target holes per tile. Defaults to :data:`HOLES_PER_TILE`.
+        timeout_s: Seconds before each PrusaSlicer run is killed. Defaults to 300 s.
+        executable: PrusaSlicer binary; found with :func:`find_slicer` when None.
+
+    Returns:
+        The written path (see :func:`export_3mf_project`).
+    """
+    import tempfile
+
+    prof = get_profile(profile)
+    tiles = prof.technology is Technology.FFF and _has_manifold3d()
+    if tiles:
+        tiles = mesh_genus(read_stl(model)) > 1.5 * holes_per_tile
+    if not tiles:
+        return export_3mf_project(model, output, prof, timeout_s=timeout_s, executable=executable)
+    with tempfile.TemporaryDirectory(prefix="stencil_tiles_") as tmp:
+        parts = split_into_tiles(model, tmp, holes_per_tile=holes_per_tile)
+        return export_3mf_project(parts, output, prof, timeout_s=timeout_s, executable=executable)
+
+
 def _has_manifold3d() -> bool:
     try:
         import manifold3d  # noqa: F401

@@ -1,0 +1,818 @@
+"""The instruction sheet a maker holds in hand: ``instructions.html`` and ``instructions.pdf``.
+
+The sheet is built from the job's manifest (the same figures ``manifest.json`` holds) and
+the job's preview images, so whatever a stage adds to the manifest (scores, spray units,
+tiles) reaches the sheet without this module knowing the stage. It shows the picture and
+its simulated result with size and viewing distance; the primer and paints in spray order
+with swatches, hex codes and can names; one step per plate with its preview and the
+simulated picture after that layer; how to set up the wall (and the tile map of a mural);
+print or cut settings per plate; the paint estimate; and the checks that passed.
+
+The HTML is one self-contained file (images as ``data:`` URIs, styles inline, no script, no
+external reference), so it opens offline. The PDF is drawn with ReportLab's page layout
+engine (text stays text, images are embedded PNGs).
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+__all__ = ["Sheet", "render_html", "render_pdf", "sheet_from_manifest"]
+
+# Rule of thumb for when separate dots blend for the eye: one arcminute, about 3,400 x the pitch.
+ARCMINUTE_FACTOR = 3438.0
+
+# Manifest keys of quality figures, with how the sheet names them; other numeric figures of
+# the `simulate` section are listed under their own key.
+_SCORE_NAMES = {
+    "de2000_mean": ("ΔE2000, mean (pixel by pixel)", "{:.2f}"),
+    "de2000_p95": ("ΔE2000, 95th percentile", "{:.2f}"),
+    "psnr": ("PSNR", "{:.1f} dB"),
+    "ssim": ("SSIM", "{:.3f}"),
+    "scielab": ("S-CIELAB at the viewing distance", "{:.2f}"),
+    "scielab_2x": ("S-CIELAB at twice the viewing distance", "{:.2f}"),
+    "view_distance_m": ("viewing distance", "{:g} m"),
+}
+_SKIP_SCORES = {
+    "holes",
+    "spray_time",
+    "seconds",
+    "shape",
+    "blur_sigma_mm",
+    "layer_rmse",
+    "layer_tone_rmse",
+    "nozzle_height",
+}
+
+
+@dataclass(frozen=True)
+class Step:
+    """One spraying step: a plate, its paint, its preview and the picture after it."""
+
+    number: int
+    plate: str
+    hex: str
+    name: str
+    spray_time: float | None
+    holes: int | None
+    plate_image: str
+    after_image: str
+    kind: str
+    how: str = ""
+
+
+@dataclass(frozen=True)
+class Sheet:
+    """Everything the sheet shows, as plain values (see :func:`sheet_from_manifest`)."""
+
+    job: str
+    mode: str
+    width_mm: float
+    height_mm: float
+    viewing: str
+    primer_hex: str
+    primer_name: str
+    order_note: str
+    unit: str
+    steps: list[Step]
+    wall: list[str]
+    tiles: list[dict]
+    prints: list[list[str]]
+    print_head: list[str]
+    paint: list[list[str]]
+    paint_note: str
+    snap: list[str]
+    scores: list[tuple[str, str]]
+    checks: list[tuple[str, bool]]
+    files: list[str]
+    warnings: list[str] = field(default_factory=list)
+
+
+def _val(d: Mapping, *keys, default=None):
+    for k in keys:
+        if not isinstance(d, Mapping) or k not in d:
+            return default
+        d = d[k]
+    return d
+
+
+def _viewing(manifest: Mapping) -> str:
+    """Viewing distance: the configured one (with its score) or the distance at which dots blend."""
+    sim = manifest.get("simulate", {}) or {}
+    d = _val(manifest, "config", "view", "distance_m") or sim.get("view_distance_m")
+    if d:
+        return f"{float(d):g} m (the distance the quality is scored at)"
+    pic = manifest.get("picture", {}) or {}
+    area = float(pic.get("width_mm", 0)) * float(pic.get("height_mm", 0))
+    holes = [int(h) for h in sim.get("holes", []) if h]
+    if area > 0 and holes:
+        pitch = math.sqrt(area / max(holes))
+        return (
+            f"dots blend from about {pitch * ARCMINUTE_FACTOR / 1000:.1f} m (mean hole pitch {pitch:.1f} mm, "
+            "1 arcminute); closer, the dots show"
+        )
+    return "any: the cut-outs have hard edges"
+
+
+def _wall_list(walls: Sequence[Mapping]) -> str:
+    return ", ".join(f"{w.get('file')}: stand-off {float(w.get('standoff_mm', 0)):g} mm" for w in walls)
+
+
+def _process(manifest: Mapping) -> str:
+    return str(_val(manifest, "config", "stipple", "process", default="fdm"))
+
+
+def _print_rows(manifest: Mapping, steps: list[Step]) -> tuple[list[str], list[list[str]]]:
+    """Per plate: files, hole count, and the print or cut settings for the job's process."""
+    process = _process(manifest)
+    cfg = manifest.get("config", {}) or {}
+    thick = _val(cfg, "plate", "thickness_mm", default=None)
+    kerf = _val(cfg, "export", "dxf_kerf_mm", default=0.0)
+    plates = {p.get("layer"): p for p in _val(manifest, "build", "plates", default=[]) or []}
+    head = ["plate", "holes", "files", "settings"]
+    rows = []
+    for s in steps:
+        p = plates.get(s.number, {})
+        holes = p.get("hole_count", s.holes)
+        files = [
+            f"{s.plate}{e}"
+            for e in (".stl", ".step", ".3mf", ".dxf", ".svg")
+            if f"{s.plate}{e}" in _file_names(manifest)
+        ]
+        if process == "laser":
+            cut = p.get("cut_length_mm")
+            how = (
+                f"laser: cut {s.plate}.dxf (or .svg), holes first, outline last; kerf compensated {kerf:g} mm"
+            )
+            if cut:
+                how += f"; cut length {cut / 1000:.2f} m"
+        elif process == "sla":
+            how = (
+                f"resin: `stencil-cad slice --profile prusa_sla {s.plate}.stl`; flat on the build plate, "
+                "no supports, 0.1 mm layers"
+            )
+        else:
+            tiles = math.ceil((holes or 0) / 300) if (holes or 0) > 450 else 1
+            how = (
+                f"FDM: `stencil-cad slice {s.plate}.stl` (PrusaSlicer, prusa_fdm, 0.2 mm layers, 100 % infill"
+                + (f", sliced as {tiles} tiles" if tiles > 1 else "")
+                + "); print flat, plate-down, no supports or brim"
+            )
+        if thick:
+            how += f"; plate {thick:g} mm thick"
+        rows.append([s.plate, str(holes if holes is not None else "–"), ", ".join(files) or "–", how])
+    return head, rows
+
+
+def _file_names(manifest: Mapping) -> set[str]:
+    return {str(r.get("name")) for r in manifest.get("files", []) or [] if isinstance(r, Mapping)}
+
+
+def _checks(manifest: Mapping) -> list[tuple[str, bool]]:
+    out: list[tuple[str, bool]] = []
+    build = manifest.get("build") or {}
+    for p in build.get("plates", []):
+        n = p.get("layer")
+        out.append(
+            (f"plate {n:02d}: one solid, valid B-rep ({p.get('n_solids', '?')} solid)", bool(p.get("valid")))
+        )
+        rel = p.get("rel_error")
+        if rel is not None:
+            out.append(
+                (f"plate {n:02d}: volume equals the analytic volume (relative error {rel:.1e})", rel < 1e-6)
+            )
+        mesh = p.get("mesh") or {}
+        if mesh:
+            ok = bool(mesh.get("watertight")) and bool(mesh.get("consistent_winding"))
+            out.append((f"plate {n:02d}: mesh watertight and consistently wound", ok))
+            if "genus" in mesh and "hole_count" in p:
+                out.append(
+                    (
+                        f"plate {n:02d}: mesh genus {mesh['genus']} = hole count {p['hole_count']}",
+                        mesh["genus"] == p["hole_count"],
+                    )
+                )
+    for w in build.get("walls", []):
+        out.append(
+            (f"{w.get('file')}: valid wall (stand-off {w.get('standoff_mm', 0):g} mm)", bool(w.get("valid")))
+        )
+    rules = manifest.get("stipple") or []
+    web = _val(manifest, "config", "stipple", "web_mm")
+    for r in rules:
+        mw = r.get("min_web_mm")
+        if mw is not None:
+            text = f"layer {r.get('layer', 0):02d}: smallest web between holes {mw:.2f} mm"
+            out.append(
+                (
+                    text + (f" (rule ≥ {web:g} mm)" if web else " (design rules enforced)"),
+                    web is None or mw >= web - 1e-6,
+                )
+            )
+    hard = manifest.get("hard") or {}
+    for i, lay in enumerate(hard.get("per_layer", []) or []):
+        if "polygon_held_components" in lay:
+            out.append(
+                (
+                    f"cut layer {i + 1:02d}: sheet in one piece, every island held by bridges",
+                    lay.get("polygon_held_components") == 1,
+                )
+            )
+    return out
+
+
+def _scores(manifest: Mapping) -> list[tuple[str, str]]:
+    sim = manifest.get("simulate") or {}
+    rows = []
+    for k, v in sim.items():
+        if k in _SKIP_SCORES or isinstance(v, (dict, list, str, bool)) or v is None:
+            continue
+        name, fmt = _SCORE_NAMES.get(k, (k.replace("_", " "), "{:.4g}"))
+        rows.append((name, fmt.format(v)))
+    return rows
+
+
+def sheet_from_manifest(manifest: Mapping, tiles: Sequence[Mapping] | None = None) -> Sheet:
+    """Collect what the sheet shows from a job's manifest.
+
+    Args:
+        manifest: The manifest (as written to ``manifest.json``; ``files`` may be partial).
+        tiles: Tiles of a mural, each with ``x_mm``, ``y_mm``, ``width_mm``, ``height_mm`` (picture
+            frame, bottom-left corner) and optionally ``name``; None takes ``manifest["tiles"]``
+            (or ``manifest["mural"]["tiles"]``) when present.
+
+    Returns:
+        The :class:`Sheet`.
+    """
+    cfg = manifest.get("config", {}) or {}
+    pic = manifest.get("picture", {}) or {}
+    mode = str(cfg.get("mode", "soft"))
+    spray = manifest.get("spray_order") or {}
+    order = spray.get("steps", [])
+    paint = manifest.get("paint") or {}
+    prow = {r.get("layer"): r for r in paint.get("layers", [])}
+    holes = _val(manifest, "simulate", "holes", default=None) or []
+    names = _file_names(manifest)
+    # What the hand does per layer, in the spray model's units, when the job says it.
+    how = {
+        r.get("layer"): str(r.get("text", ""))
+        for r in manifest.get("spraying", []) or []
+        if isinstance(r, Mapping)
+    }
+    steps = []
+    for k, o in enumerate(order):
+        plate = o["plate"]
+        plate_img = f"{plate}_dots.png" if f"{plate}_dots.png" in names else f"{plate}_cut.png"
+        steps.append(
+            Step(
+                number=int(o["step"]),
+                plate=plate,
+                hex=o["hex"],
+                name=o.get("name", "") or "",
+                spray_time=o.get("spray_time"),
+                holes=int(holes[k]) if k < len(holes) else None,
+                plate_image=plate_img,
+                after_image=f"{plate}_after.png",
+                kind="holes" if mode == "soft" else "cut-outs",
+                how=how.get(int(o["step"]), ""),
+            )
+        )
+    primer = spray.get("primer") or {}
+    primer_hex = (
+        primer.get("hex")
+        or _val(manifest, "decompose", "primer")
+        or (_val(manifest, "hard", "palette") or ["#ffffff"])[0]
+    )
+    nozzle = _val(cfg, "spray", "nozzle_height", default=None)
+    walls = _val(manifest, "build", "walls", default=[]) or []
+    wall = [
+        f"Prime the whole surface with the primer {primer_hex}"
+        + (f" ({primer.get('name')})" if primer.get("name") else "")
+        + " and let it dry.",
+        "Set the wall on the surface where the picture goes"
+        + (f" ({_wall_list(walls)}; a taller wall gives softer dots)" if walls else "")
+        + ". Tape or hold it so it cannot move between layers.",
+        "Each plate fits the wall one way only: the key tabs match the wall's notches and the label, "
+        "in the bottom border, reads the right way up from the top.",
+        "Spray every layer from the same distance and sweep evenly over the whole plate"
+        + (
+            f" (at the nozzle height the simulation assumed, spray.nozzle_height = {nozzle:g})"
+            if nozzle is not None
+            else ""
+        )
+        + "; let each layer dry before the next.",
+    ]
+    tiles_list = (
+        list(tiles)
+        if tiles is not None
+        else list(manifest.get("tiles") or _val(manifest, "mural", "tiles", default=[]) or [])
+    )
+    if tiles_list:
+        wall.append(
+            f"The picture is a mural of {len(tiles_list)} tiles (map below): spray each tile's plates in its "
+            "own wall position, tile by tile, every tile in the same layer order."
+        )
+    head, rows = _print_rows(manifest, steps)
+    cov = paint.get("coverage_m2_per_can", _val(cfg, "paints", "coverage_m2_per_can", default=1.5))
+    can_ml = paint.get("can_ml", _val(cfg, "paints", "can_ml", default=400.0))
+    area = float(paint.get("sprayed_area_m2", 0.0))
+    paint_rows = []
+    if area:
+        p_ml = area / cov * can_ml
+        paint_rows.append(
+            [
+                "primer",
+                primer_hex,
+                f"{area:.3f}",
+                "1 coat",
+                f"{p_ml:.1f}",
+                f"{max(1, math.ceil(area / cov - 1e-9))}",
+            ]
+        )
+    for s in steps:
+        r = prow.get(s.number)
+        if not r:
+            continue
+        paint_rows.append(
+            [
+                s.plate,
+                s.hex + (f" {s.name}" if s.name else ""),
+                f"{r['covered_m2']:.4f}",
+                f"{r['mean_opacity']:.3f}",
+                f"{r['ml']:.1f}",
+                str(r["cans_to_buy"]),
+            ]
+        )
+    paint_note = (
+        f"Covered area = sprayed area ({area:.3f} m²) × the layer's mean opacity in the simulation; "
+        f"at {cov:g} m² per {can_ml:g} ml can. Paint that lands on the plate is not counted: sweeping "
+        "the whole plate uses more."
+    )
+    snap = []
+    sn = _val(manifest, "cans", "snap")
+    if sn:
+        for r in sn.get("paints", []):
+            snap.append(f"solved {r['solved']} → can {r['can']} {r['name']} (ΔE2000 {r['delta_e2000']:.1f})")
+        if sn.get("primer"):
+            r = sn["primer"]
+            snap.append(f"primer {r['solved']} → can {r['can']} {r['name']} (ΔE2000 {r['delta_e2000']:.1f})")
+        snap.append(
+            f"cost of using the cans: composite RMSE {sn['rmse_solved']:.2f} → {sn['rmse_snapped']:.2f} (0-255 units)"
+        )
+    warnings = [str(w) for w in (_val(manifest, "decompose", "warnings", default=[]) or [])]
+    warnings += [str(w) for w in (_val(manifest, "hard", "warnings", default=[]) or [])]
+    return Sheet(
+        job=str(cfg.get("name", "stencil")),
+        mode=mode,
+        width_mm=float(pic.get("width_mm", 0.0)),
+        height_mm=float(pic.get("height_mm", 0.0)),
+        viewing=_viewing(manifest),
+        primer_hex=str(primer_hex),
+        primer_name=str(primer.get("name", "") or ""),
+        order_note=str(spray.get("note", "")),
+        unit=str(spray.get("unit", "spray time")),
+        steps=steps,
+        wall=wall,
+        tiles=[dict(t) for t in tiles_list],
+        prints=rows,
+        print_head=head,
+        paint=paint_rows,
+        paint_note=paint_note,
+        snap=snap,
+        scores=_scores(manifest),
+        checks=_checks(manifest),
+        files=sorted(names),
+        warnings=warnings,
+    )
+
+
+def _amount(step: Step, unit: str, bare: bool = False) -> str:
+    """A step's amount of paint in the job's unit: ``2 passes`` or ``spray time 0.707``."""
+    t = step.spray_time
+    if t is None:
+        return "–" if bare else ""
+    text = f"{t:g} passes" if unit == "passes" else (f"{t:.3g}" if bare else f"spray time {t:.3g}")
+    return text if bare else f", {text}"
+
+
+def _unit_note(unit: str) -> str:
+    if unit == "passes":
+        return (
+            "Passes: whole sweeps of the can across the plate, at the can distance and speed given per step."
+        )
+    return "Spray time is relative to the job's spray.spray_time (1 = the planned dose)."
+
+
+# ------------------------------------------------------------------------------------------ HTML
+
+
+def _e(text) -> str:
+    return html.escape(str(text), quote=True)
+
+
+def _img(images: Mapping[str, bytes], name: str, alt: str, width: str = "100%") -> str:
+    data = images.get(name)
+    if not data:
+        return ""
+    b64 = base64.b64encode(data).decode("ascii")
+    return f'<img src="data:image/png;base64,{b64}" alt="{_e(alt)}" style="width:{width}">'
+
+
+def _chip(hx: str) -> str:
+    return f'<span class="chip" style="background:{_e(hx)}"></span>'
+
+
+def tile_map_svg(tiles: Sequence[Mapping], width_mm: float, height_mm: float, px: int = 480) -> str:
+    """An inline SVG map of a mural's tiles (picture frame, y up drawn up)."""
+    if not tiles or width_mm <= 0 or height_mm <= 0:
+        return ""
+    s = px / max(width_mm, height_mm)
+    w, h = width_mm * s, height_mm * s
+    parts = [
+        f'<svg xmlns="http://www.w3.org/2000/svg" width="{w + 2:.0f}" height="{h + 2:.0f}" viewBox="-1 -1 {w + 2:.1f} {h + 2:.1f}">'
+    ]
+    parts.append(f'<rect x="0" y="0" width="{w:.1f}" height="{h:.1f}" fill="#f4f4f4" stroke="#888"/>')
+    for k, t in enumerate(tiles):
+        x, y = float(t.get("x_mm", 0)), float(t.get("y_mm", 0))
+        tw, th = float(t.get("width_mm", 0)), float(t.get("height_mm", 0))
+        name = t.get("name") or t.get("tile") or f"T{k + 1}"
+        parts.append(
+            f'<rect x="{x * s:.1f}" y="{h - (y + th) * s:.1f}" width="{tw * s:.1f}" height="{th * s:.1f}" '
+            'fill="none" stroke="#222" stroke-width="1.5"/>'
+        )
+        parts.append(
+            f'<text x="{(x + tw / 2) * s:.1f}" y="{h - (y + th / 2) * s:.1f}" font-size="13" '
+            f'text-anchor="middle" font-family="sans-serif">{_e(name)}</text>'
+        )
+    parts.append("</svg>")
+    return "".join(parts)
+
+
+_CSS = """
+body{font-family:"DejaVu Sans",Helvetica,Arial,sans-serif;color:#141414;max-width:1000px;margin:24px auto;padding:0 16px;line-height:1.4}
+h1{font-size:26px;margin:0 0 4px} h2{font-size:19px;border-bottom:2px solid #141414;margin-top:28px;padding-bottom:2px}
+h3{font-size:16px;margin:18px 0 6px} table{border-collapse:collapse;width:100%;font-size:13px;margin:6px 0}
+th,td{border:1px solid #bbb;padding:4px 6px;text-align:left;vertical-align:top} th{background:#eee}
+.chip{display:inline-block;width:26px;height:26px;border:2px solid #141414;vertical-align:middle;margin-right:6px}
+.pair{display:flex;gap:14px;align-items:flex-start} .pair figure{flex:1;margin:0}
+figcaption{font-size:12px;color:#555} .ok{color:#15702a;font-weight:bold} .bad{color:#b00020;font-weight:bold}
+.step{page-break-inside:avoid;border:1px solid #ccc;padding:8px 10px;margin:12px 0}
+.note{font-size:12px;color:#555} code{font-size:12px}
+@media print{body{margin:0;max-width:none}}
+"""
+
+
+def render_html(sheet: Sheet, images: Mapping[str, bytes]) -> str:
+    """The instruction sheet as one self-contained HTML page.
+
+    Args:
+        sheet: What to show (:func:`sheet_from_manifest`).
+        images: PNG bytes by file name: ``input.png`` (the picture), ``simulated.png``,
+            ``swatch.png``, ``preview.png`` and, per step, the plate preview and the
+            ``layer_NN_after.png`` picture. Missing images are left out.
+
+    Returns:
+        The HTML text (UTF-8).
+    """
+    e = _e
+    out = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        f"<title>{e(sheet.job)}: stencil instructions</title>",
+        f"<style>{_CSS}</style></head><body>",
+        f"<h1>{e(sheet.job)}: how to spray it</h1>",
+        f'<p class="note">{"Stippled" if sheet.mode == "soft" else "Hard-edged cut"} stencils, '
+        f"{len(sheet.steps)} plates. Picture {sheet.width_mm:g} × {sheet.height_mm:g} mm; "
+        f"viewing distance: {e(sheet.viewing)}.</p>",
+        '<div class="pair">',
+        f"<figure>{_img(images, 'input.png', 'the picture asked for')}<figcaption>The picture "
+        f"({sheet.width_mm:g} × {sheet.height_mm:g} mm)</figcaption></figure>",
+        f"<figure>{_img(images, 'simulated.png', 'the simulated spray')}<figcaption>What the plates "
+        "give, simulated</figcaption></figure>",
+        "</div>",
+        "<h2>Paints, in spray order</h2>",
+        f"<table><tr><th>#</th><th>colour</th><th>hex</th><th>can</th><th>plate</th><th>{e(sheet.unit)}</th></tr>",
+        f"<tr><td>0</td><td>{_chip(sheet.primer_hex)}primer</td><td><code>{e(sheet.primer_hex)}</code></td>"
+        f"<td>{e(sheet.primer_name) or '–'}</td><td>none: the whole surface</td><td>full coat</td></tr>",
+    ]
+    for s in sheet.steps:
+        t = _amount(s, sheet.unit, bare=True)
+        out.append(
+            f"<tr><td>{s.number}</td><td>{_chip(s.hex)}</td><td><code>{e(s.hex)}</code></td>"
+            f"<td>{e(s.name) or '–'}</td><td>{e(s.plate)}</td><td>{t}</td></tr>"
+        )
+    out.append("</table>")
+    if sheet.order_note:
+        out.append(f'<p class="note">Why this order: {e(sheet.order_note)}.</p>')
+    out.append(f'<p class="note">{e(_unit_note(sheet.unit))}</p>')
+    if sheet.snap:
+        out.append(
+            "<h3>Snapped to your cans</h3><ul>" + "".join(f"<li>{e(x)}</li>" for x in sheet.snap) + "</ul>"
+        )
+    out.append("<h2>Set up the wall</h2><ol>" + "".join(f"<li>{e(x)}</li>" for x in sheet.wall) + "</ol>")
+    if sheet.tiles:
+        out.append("<h3>Tile map</h3>" + tile_map_svg(sheet.tiles, sheet.width_mm, sheet.height_mm))
+    out.append("<h2>Spray, plate by plate</h2>")
+    for s in sheet.steps:
+        t = _amount(s, sheet.unit)
+        out.append(
+            f'<div class="step"><h3>Step {s.number}: plate {e(s.plate)}, paint {_chip(s.hex)}<code>{e(s.hex)}</code>'
+            f"{' ' + e(s.name) if s.name else ''}</h3>"
+            f'<p class="note">Drop {e(s.plate)} into the wall, label towards you and readable; spray '
+            f"evenly{e(t)}; let it dry, lift it out.</p>"
+            + (f'<p class="note">{e(s.how)}</p>' if s.how else "")
+            + '<div class="pair">'
+            f"<figure>{_img(images, s.plate_image, f'plate {s.plate}')}<figcaption>The plate "
+            f"({s.holes if s.holes is not None else '?'} {s.kind})</figcaption></figure>"
+            f"<figure>{_img(images, s.after_image, f'after step {s.number}')}<figcaption>The picture after "
+            f"step {s.number} (simulated)</figcaption></figure></div></div>"
+        )
+    out.append(
+        "<h2>Print or cut the plates</h2><table><tr>"
+        + "".join(f"<th>{e(h)}</th>" for h in sheet.print_head)
+        + "</tr>"
+    )
+    for r in sheet.prints:
+        out.append("<tr>" + "".join(f"<td>{e(c)}</td>" for c in r) + "</tr>")
+    out.append("</table>")
+    if sheet.paint:
+        out.append(
+            "<h2>Paint to buy</h2><table><tr><th>coat</th><th>paint</th><th>covered m²</th>"
+            "<th>mean opacity</th><th>ml</th><th>cans</th></tr>"
+        )
+        for r in sheet.paint:
+            out.append("<tr>" + "".join(f"<td>{e(c)}</td>" for c in r) + "</tr>")
+        out.append(f'</table><p class="note">{e(sheet.paint_note)}</p>')
+    out.append("<h2>Checks</h2>")
+    if sheet.scores:
+        out.append("<table><tr><th>quality, simulated spray vs picture</th><th>value</th></tr>")
+        out += [f"<tr><td>{e(k)}</td><td>{e(v)}</td></tr>" for k, v in sheet.scores]
+        out.append("</table>")
+    out.append(_img(images, "preview.png", "input, ideal layers, simulated spray, error map"))
+    out.append("<ul>")
+    for text, ok in sheet.checks:
+        out.append(
+            f'<li><span class="{"ok" if ok else "bad"}">{"passed" if ok else "FAILED"}</span> {e(text)}</li>'
+        )
+    out.append("</ul>")
+    if sheet.warnings:
+        out.append("<h3>Warnings</h3><ul>" + "".join(f"<li>{e(w)}</li>" for w in sheet.warnings) + "</ul>")
+    out.append(f'<h2>Files</h2><p class="note">{e(", ".join(sheet.files))}</p>')
+    out.append("</body></html>")
+    return "\n".join(out) + "\n"
+
+
+# ------------------------------------------------------------------------------------------- PDF
+
+
+def _pdf_fonts() -> tuple[str, str]:
+    """Body and bold fonts: Helvetica for text, the bundled DejaVu Sans Bold for headings and symbols."""
+    from importlib import resources
+
+    from reportlab.pdfbase import pdfmetrics
+    from reportlab.pdfbase.ttfonts import TTFont
+
+    if "StencilBold" not in pdfmetrics.getRegisteredFontNames():
+        path = resources.files("stencil_cad") / "data" / "DejaVuSans-Bold.ttf"
+        with resources.as_file(path) as p:
+            pdfmetrics.registerFont(TTFont("StencilBold", str(p)))
+    return "Helvetica", "StencilBold"
+
+
+def _latin(text: str) -> str:
+    """Helvetica (a standard PDF font) has no Δ, → or ≥: spell them."""
+    return (
+        str(text)
+        .replace("ΔE", "dE")
+        .replace("Δ", "d")
+        .replace("→", "->")
+        .replace("≥", ">=")
+        .replace("≤", "<=")
+    )
+
+
+def render_pdf(sheet: Sheet, images: Mapping[str, bytes]) -> bytes:
+    """The instruction sheet as a PDF (A4), the same content as :func:`render_html`.
+
+    Returns:
+        The PDF bytes.
+    """
+    from reportlab.lib import colors
+    from reportlab.lib.pagesizes import A4
+    from reportlab.lib.styles import ParagraphStyle
+    from reportlab.lib.units import mm
+    from reportlab.lib.utils import ImageReader
+    from reportlab.platypus import (
+        Image,
+        KeepTogether,
+        Paragraph,
+        SimpleDocTemplate,
+        Spacer,
+        Table,
+        TableStyle,
+    )
+
+    body_font, bold_font = _pdf_fonts()
+    h1 = ParagraphStyle("h1", fontName=bold_font, fontSize=18, leading=22, spaceAfter=4)
+    h2 = ParagraphStyle("h2", fontName=bold_font, fontSize=13, leading=16, spaceBefore=10, spaceAfter=4)
+    h3 = ParagraphStyle("h3", fontName=bold_font, fontSize=10.5, leading=13, spaceBefore=6, spaceAfter=2)
+    body = ParagraphStyle("body", fontName=body_font, fontSize=9, leading=11.5)
+    small = ParagraphStyle(
+        "small", fontName=body_font, fontSize=7.5, leading=9.5, textColor=colors.HexColor("#555555")
+    )
+    page_w = A4[0] - 30 * mm
+
+    def p(text, style=body):
+        return Paragraph(html.escape(_latin(text)), style)
+
+    def img(name: str, width: float):
+        data = images.get(name)
+        if not data:
+            return p("(no image)", small)
+        reader = ImageReader(io.BytesIO(data))
+        iw, ih = reader.getSize()
+        return Image(io.BytesIO(data), width=width, height=width * ih / iw)
+
+    grid = TableStyle(
+        [
+            ("GRID", (0, 0), (-1, -1), 0.4, colors.HexColor("#bbbbbb")),
+            ("BACKGROUND", (0, 0), (-1, 0), colors.HexColor("#eeeeee")),
+            ("VALIGN", (0, 0), (-1, -1), "TOP"),
+            ("FONTNAME", (0, 0), (-1, -1), body_font),
+            ("FONTSIZE", (0, 0), (-1, -1), 8),
+        ]
+    )
+
+    def table(head, rows, widths=None, extra=()):
+        data = [[p(h, small) for h in head]] + [[p(c) if isinstance(c, str) else c for c in r] for r in rows]
+        t = Table(data, colWidths=widths, repeatRows=1)
+        t.setStyle(grid)
+        if extra:
+            t.setStyle(TableStyle(list(extra)))
+        return t
+
+    story = [
+        Paragraph(html.escape(f"{sheet.job}: how to spray it"), h1),
+        p(
+            f"{'Stippled' if sheet.mode == 'soft' else 'Hard-edged cut'} stencils, {len(sheet.steps)} plates. "
+            f"Picture {sheet.width_mm:g} × {sheet.height_mm:g} mm; viewing distance: {sheet.viewing}."
+        ),
+        Spacer(1, 4),
+    ]
+    half = page_w / 2 - 3 * mm
+    story.append(
+        Table(
+            [
+                [img("input.png", half), img("simulated.png", half)],
+                [p("The picture", small), p("What the plates give, simulated", small)],
+            ],
+            colWidths=[page_w / 2, page_w / 2],
+        )
+    )
+    story.append(Paragraph("Paints, in spray order", h2))
+    rows = [["", "0", sheet.primer_hex, sheet.primer_name or "–", "none: the whole surface", "full coat"]]
+    for s in sheet.steps:
+        rows.append(
+            [
+                "",
+                str(s.number),
+                s.hex,
+                s.name or "–",
+                s.plate,
+                _amount(s, sheet.unit, bare=True),
+            ]
+        )
+    chips = [("BACKGROUND", (0, 1), (0, 1), colors.HexColor(sheet.primer_hex))]
+    chips += [
+        ("BACKGROUND", (0, k + 2), (0, k + 2), colors.HexColor(s.hex)) for k, s in enumerate(sheet.steps)
+    ]
+    chips += [("BOX", (0, k), (0, k), 1.2, colors.black) for k in range(1, len(rows) + 1)]
+    story.append(
+        table(
+            ["colour", "#", "hex", "can", "plate", sheet.unit],
+            rows,
+            [14 * mm, 8 * mm, 22 * mm, 45 * mm, 45 * mm, 25 * mm],
+            chips,
+        )
+    )
+    if sheet.order_note:
+        story.append(p(f"Why this order: {sheet.order_note}.", small))
+    story.append(p(_unit_note(sheet.unit), small))
+    if sheet.snap:
+        story.append(Paragraph("Snapped to your cans", h3))
+        story += [p(x) for x in sheet.snap]
+    story.append(Paragraph("Set up the wall", h2))
+    story += [p(f"{k + 1}. {x}") for k, x in enumerate(sheet.wall)]
+    if sheet.tiles:
+        story.append(Paragraph("Tile map", h3))
+        story.append(_tile_drawing(sheet.tiles, sheet.width_mm, sheet.height_mm, page_w * 0.6))
+    story.append(Paragraph("Spray, plate by plate", h2))
+    for s in sheet.steps:
+        t = _amount(s, sheet.unit)
+        head = Table(
+            [["", p(f"Step {s.number}: plate {s.plate}, paint {s.hex} {s.name}".rstrip(), h3)]],
+            colWidths=[8 * mm, page_w - 8 * mm],
+        )
+        head.setStyle(
+            TableStyle(
+                [
+                    ("BACKGROUND", (0, 0), (0, 0), colors.HexColor(s.hex)),
+                    ("BOX", (0, 0), (0, 0), 1.2, colors.black),
+                ]
+            )
+        )
+        pair = Table(
+            [
+                [img(s.plate_image, half), img(s.after_image, half * 0.8)],
+                [
+                    p(f"The plate ({s.holes if s.holes is not None else '?'} {s.kind})", small),
+                    p(f"After step {s.number} (simulated)", small),
+                ],
+            ],
+            colWidths=[page_w / 2, page_w / 2],
+        )
+        story.append(
+            KeepTogether(
+                [
+                    head,
+                    p(
+                        f"Drop {s.plate} into the wall, label readable; spray evenly{t}; let it dry, lift it out."
+                        + (f" {s.how}" if s.how else ""),
+                        small,
+                    ),
+                    pair,
+                    Spacer(1, 6),
+                ]
+            )
+        )
+    story.append(Paragraph("Print or cut the plates", h2))
+    story.append(table(sheet.print_head, sheet.prints, [18 * mm, 14 * mm, 45 * mm, page_w - 77 * mm]))
+    if sheet.paint:
+        story.append(Paragraph("Paint to buy", h2))
+        story.append(table(["coat", "paint", "covered m²", "mean opacity", "ml", "cans"], sheet.paint))
+        story.append(p(sheet.paint_note, small))
+    story.append(Paragraph("Checks", h2))
+    if sheet.scores:
+        story.append(
+            table(
+                ["quality, simulated spray vs picture", "value"],
+                [list(r) for r in sheet.scores],
+                [110 * mm, 40 * mm],
+            )
+        )
+        story.append(Spacer(1, 4))
+    if images.get("preview.png"):
+        story.append(img("preview.png", page_w))
+    for text, ok in sheet.checks:
+        story.append(p(f"{'passed' if ok else 'FAILED'}: {text}"))
+    if sheet.warnings:
+        story.append(Paragraph("Warnings", h3))
+        story += [p(w) for w in sheet.warnings]
+    story.append(Paragraph("Files", h2))
+    story.append(p(", ".join(sheet.files), small))
+    buf = io.BytesIO()
+    doc = SimpleDocTemplate(
+        buf,
+        pagesize=A4,
+        leftMargin=15 * mm,
+        rightMargin=15 * mm,
+        topMargin=14 * mm,
+        bottomMargin=14 * mm,
+        title=f"{sheet.job}: stencil instructions",
+        author="stencil_cad",
+        invariant=1,
+    )
+    doc.build(story)
+    return buf.getvalue()
+
+
+def _tile_drawing(tiles, width_mm: float, height_mm: float, width_pt: float):
+    from reportlab.graphics.shapes import Drawing, Rect, String
+    from reportlab.lib import colors
+
+    s = width_pt / max(width_mm, height_mm, 1e-9)
+    d = Drawing(width_mm * s + 2, height_mm * s + 2)
+    d.add(
+        Rect(1, 1, width_mm * s, height_mm * s, fillColor=colors.HexColor("#f4f4f4"), strokeColor=colors.grey)
+    )
+    for k, t in enumerate(tiles):
+        x, y = float(t.get("x_mm", 0)), float(t.get("y_mm", 0))
+        tw, th = float(t.get("width_mm", 0)), float(t.get("height_mm", 0))
+        d.add(
+            Rect(
+                1 + x * s,
+                1 + y * s,
+                tw * s,
+                th * s,
+                fillColor=None,
+                strokeColor=colors.black,
+                strokeWidth=1.2,
+            )
+        )
+        name = str(t.get("name") or t.get("tile") or f"T{k + 1}")
+        d.add(String(1 + (x + tw / 2) * s, 1 + (y + th / 2) * s, name, textAnchor="middle", fontSize=9))
+    return d
