@@ -37,6 +37,9 @@ _SCORE_NAMES = {
     "scielab": ("S-CIELAB at the viewing distance", "{:.2f}"),
     "scielab_2x": ("S-CIELAB at twice the viewing distance", "{:.2f}"),
     "view_distance_m": ("viewing distance", "{:g} m"),
+    "dots_blend_m": ("distance from which the dots blend", "{:.1f} m"),
+    "dots_blend_layer": ("layer whose dots show longest", "{:g}"),
+    "dots_hole_r_mm": ("its smallest hole radius", "{:g} mm"),
 }
 _SKIP_SCORES = {
     "holes",
@@ -105,8 +108,10 @@ def _viewing(manifest: Mapping) -> str:
     """Viewing distance: the configured one (with its score) or the distance at which dots blend."""
     sim = manifest.get("simulate", {}) or {}
     d = _val(manifest, "config", "view", "distance_m") or sim.get("view_distance_m")
+    blend = sim.get("dots_blend_m")
+    blend_text = f"; the dots blend from about {float(blend):.1f} m" if blend else ""
     if d:
-        return f"{float(d):g} m (the distance the quality is scored at)"
+        return f"{float(d):g} m (the distance the quality is scored at){blend_text}"
     pic = manifest.get("picture", {}) or {}
     area = float(pic.get("width_mm", 0)) * float(pic.get("height_mm", 0))
     holes = [int(h) for h in sim.get("holes", []) if h]
