@@ -586,7 +586,7 @@ def plate_cards(
         hx = to_hex(colours[i])
         kw = (
             {"circles_xy_r": np.column_stack([h.xy_mm, h.r_mm]) if len(h) else np.zeros((0, 3))}
-            if hasattr(h, "r_mm")
+            if isinstance(h, DotSet)
             else {"polygons": h.polygons}
         )
         cards.append(
@@ -1363,7 +1363,7 @@ def _cut_length_mm(holes, ring: np.ndarray) -> float:
         return float(np.sum(np.linalg.norm(np.roll(r, -1, axis=0) - r, axis=1)))
 
     total = perimeter(ring)
-    if hasattr(holes, "r_mm"):
+    if isinstance(holes, DotSet):
         return total + float(2.0 * np.pi * np.sum(holes.r_mm))
     for outer, inner in holes.polygons:
         total += perimeter(outer) + sum(perimeter(h) for h in inner)
