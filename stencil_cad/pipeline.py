@@ -270,7 +270,7 @@ def _catalogue(run: Run) -> list:
     from .decompose import paints
 
     try:
-        cans = paints.load_cans(run.cfg.paints.catalogue)
+        cans = paints.load_cans(run.cfg.paints.catalogue)  # type: ignore[arg-type]
     except ValueError as exc:
         raise UserError(f"paints.catalogue: {exc}") from None
     run.figures.setdefault("cans", {})["catalogue"] = [c.__dict__ for c in cans]
@@ -300,7 +300,7 @@ def _snap_to_catalogue(run: Run, dcfg, layers: Layers, solve) -> Layers:
             "paints.catalogue: every solved paint snaps to the primer's can; add cans closer to the "
             "picture's colours, or set decompose.palette to a list"
         )
-    update["palette"] = tuple(chosen)
+    update["palette"] = tuple(chosen)  # type: ignore[assignment]
     snapped = solve(dcfg.model_validate({**dcfg.model_dump(), **update}))
     before = float(layers.info.get("rmse", float("nan")))
     after = float(snapped.info.get("rmse", float("nan")))
@@ -699,7 +699,7 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
                             p, drawing, kerf_mm=exp.dxf_kerf_mm, title=f"{cfg.name} {stem} of {len(holes)}"
                         )
                     dxf_info["svg_offset_mm"] = [round(float(v), 4) for v in sinfo.offset_mm]
-                    dxf_info["svg_circles"] = sinfo.circles
+                    dxf_info["svg_circles"] = sinfo.circles  # type: ignore[assignment]
                 cut = round(_cut_length_mm(h, ring), 1)
                 results.append({"layer": i + 1, **_plain(check), **dxf_info, "cut_length_mm": cut})
                 bar.update(1)

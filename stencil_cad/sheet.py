@@ -695,7 +695,7 @@ def render_pdf(sheet: Sheet, images: Mapping[str, bytes]) -> bytes:
     chips += [
         ("BACKGROUND", (0, k + 2), (0, k + 2), colors.HexColor(s.hex)) for k, s in enumerate(sheet.steps)
     ]
-    chips += [("BOX", (0, k), (0, k), 1.2, colors.black) for k in range(1, len(rows) + 1)]
+    chips += [("BOX", (0, k), (0, k), 1.2, colors.black) for k in range(1, len(rows) + 1)]  # type: ignore[misc]
     story.append(
         table(
             ["colour", "#", "hex", "can", "plate", sheet.unit],

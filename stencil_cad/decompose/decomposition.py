@@ -174,7 +174,7 @@ def _single_layer(picture: Picture, cfg: DecomposeConfig, source: str, t0: float
         paint = np.array(pal[0])
         if len(pal) > 1:
             warnings.append(
-                f"opacity source '{source}' makes one layer: only the first can {cfg.palette[0]} is used"
+                f"opacity source '{source}' makes one layer: only the first can {cfg.palette[0]} is used"  # type: ignore[index]
             )
     elif source == "alpha":
         a = np.asarray(picture.alpha, dtype=np.float64)
@@ -449,7 +449,7 @@ def _start_candidates(
     chosen = np.arange(len(cans))
     if len(cans) > n_layers:
         chosen = _select_cans(trial_target, cans, primer0, primer_free, n_layers, s)
-        order_info["cans_chosen"] = [cfg.palette[i] for i in chosen]
+        order_info["cans_chosen"] = [cfg.palette[i] for i in chosen]  # type: ignore[index]
     n_layers = len(chosen)
     free = np.zeros(n_layers + 1, dtype=bool)
     free[0] = primer_free
