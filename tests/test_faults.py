@@ -104,7 +104,7 @@ def test_stage_command_with_force_keeps_the_other_stages_files(run_copy, capsys,
     own = {
         "build": (".step", ".stl", ".dxf", ".3mf"),
         "stipple": ("_dots.csv", "_dots.png", "spray.json"),
-        "simulate": ("simulated.png", "preview.png", "sweep.png"),
+        "simulate": ("simulated.png", "preview.png", "sweep.png", "_after.png"),
     }[command]
     for name, sha in before.items():
         if name == "manifest.json" or name.endswith(own):

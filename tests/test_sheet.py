@@ -235,7 +235,8 @@ def _rsvg_components(svg, css, tmp_path, zoom=12.0):
     png = tmp_path / (svg.stem + ".png")
     r = run([rsvg, "--stylesheet", str(style), "-z", str(zoom), "-b", "white", "-o", str(png), str(svg)])
     assert r.returncode == 0, r.stderr
-    img = np.asarray(Image.open(png).convert("L")) < 128
+    with Image.open(png) as im:
+        img = np.asarray(im.convert("L")) < 128
     labels, n = ndimage.label(img)
     return img, labels, n
 
@@ -305,7 +306,8 @@ def test_hard_mode_writes_the_swatch_card_and_the_spray_order(hard_job):
     ]
     assert len(spray["order"]) == m["hard"]["layers"] >= 1
     assert all(o["name"] == cans[o["hex"]] for o in spray["order"])
-    card = np.asarray(Image.open(hard_job / "swatch.png").convert("RGB"))
+    with Image.open(hard_job / "swatch.png") as im:
+        card = np.asarray(im.convert("RGB"))
     assert card.shape[0] >= 3 * 56 and card.shape[1] >= 360
     for i in range(1, len(spray["order"]) + 1):
         assert (hard_job / f"layer_{i:02d}_cut.png").exists()
@@ -428,8 +430,8 @@ def test_instructions_open_in_headless_chromium(soft_job, tmp_path):
     (ARTEFACTS / "instructions.png").write_bytes(shot)
     from PIL import Image
 
-    im = Image.open(ARTEFACTS / "instructions.png")
-    assert im.width >= 1000 and im.height > 2000
+    with Image.open(ARTEFACTS / "instructions.png") as im:
+        assert im.width >= 1000 and im.height > 2000
 
 
 @pytest.mark.slow
@@ -442,7 +444,8 @@ def test_instructions_pdf_pages_render(soft_job, tmp_path):
     from PIL import Image
 
     for p in pages:
-        a = np.asarray(Image.open(p).convert("L"))
+        with Image.open(p) as page:
+            a = np.asarray(page.convert("L"))
         assert a.min() < 100 and a.max() > 200  # text and images on paper, not blank
     text = run([need("pdftotext"), str(soft_job / "instructions.pdf"), "-"]).stdout
     spray = json.loads((soft_job / "spray.json").read_text())
