@@ -24,6 +24,7 @@ NAMES = [
     "e2e",
     "limits",
     "calibrate",
+    "mural",
 ]
 
 

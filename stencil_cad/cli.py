@@ -47,6 +47,11 @@ def _parser() -> argparse.ArgumentParser:
             help="run the tasks on the Dask cluster whose scheduler is at ADDRESS, e.g. tcp://host:8786 "
             "(overrides compute.scheduler)",
         )
+        sp.add_argument(
+            "--bed",
+            help="print or laser bed every part must fit: a preset (prusa_mk4, bambu_x1c, xtool_s1, …) or XxY "
+            "in mm (e.g. 250x210); overrides the config's `bed`",
+        )
         if with_from:
             sp.add_argument(
                 "--from", dest="src", type=Path, help="folder with the saved intermediates (default: --out)"
@@ -76,6 +81,9 @@ def _parser() -> argparse.ArgumentParser:
         "--project",
         action="store_true",
         help="write a PrusaSlicer 3MF project per plate (tiles and every setting inside) instead of slicing",
+    )
+    sp.add_argument(
+        "--bed", help="the printer's bed (preset such as prusa_mk4, or XxY mm) instead of the profile's"
     )
     sp.add_argument("--force", action="store_true", help="replace existing G-code / .sl1 / .3mf files")
     sp.add_argument(
@@ -237,8 +245,11 @@ def _slice(args) -> int:
     if args.project:
         return _projects(args)
     failed = 0
+    from .config.bed import parse_bed_arg
+
+    bed = parse_bed_arg(args.bed) if args.bed else None
     for stl, out, result in pipeline.slice_plates(
-        args.stl, args.profile, force=args.force, timeout_s=args.timeout
+        args.stl, args.profile, force=args.force, timeout_s=args.timeout, bed=bed
     ):
         if result.ok:
             print(f"{out}: {result.output_bytes} bytes in {result.seconds:.1f} s ({args.profile})")
@@ -340,7 +351,10 @@ def _load_job(args):
         cfg = cfg_io.load_config(config_path)
     else:
         cfg = cfg_io.parse_config({}, source="defaults")
-    cfg = parse_overrides(cfg, image=args.image, seed=args.seed, hard=args.command == "hard")
+    from .config.bed import parse_bed_arg
+
+    bed = parse_bed_arg(args.bed) if getattr(args, "bed", None) else None
+    cfg = parse_overrides(cfg, image=args.image, seed=args.seed, hard=args.command == "hard", bed=bed)
     if args.out is not None:
         out = args.out
     elif args.config is None and args.image is None:
@@ -357,8 +371,16 @@ def _job(args) -> int:
     cfg, out_path = _load_job(args)
     where = with_command_line(cfg.compute, args.workers, args.scheduler)
     src = (args.src or out_path) if args.command in pipeline.STAGE_COMMANDS else None
+    announce = None if args.quiet else (lambda line: print(line, file=sys.stderr))
     run, files = pipeline.run_command(
-        args.command, cfg, out_path, src=src, force=args.force, quiet=args.quiet, where=where
+        args.command,
+        cfg,
+        out_path,
+        src=src,
+        force=args.force,
+        quiet=args.quiet,
+        where=where,
+        announce=announce,
     )
     if not args.quiet:
         print(report.summary(run, files, out_path))

@@ -215,6 +215,7 @@ def fit_to_size(
     width_mm: float,
     height_mm: float | None,
     px_per_mm: float,
+    max_upscale: float = MAX_UPSCALE,
 ) -> tuple[np.ndarray, np.ndarray | None, float, float]:
     """Crop to the requested aspect and resample to the working grid.
 
@@ -224,6 +225,7 @@ def fit_to_size(
         width_mm: Picture width in mm.
         height_mm: Picture height in mm, or None to follow the aspect ratio.
         px_per_mm: Working resolution in px per mm.
+        max_upscale: Largest enlargement of the image. Defaults to 2.
 
     Returns:
         ``(rgb, alpha, mm_per_px, height_mm)`` on the working grid.
@@ -253,8 +255,8 @@ def fit_to_size(
     out_w = max(1, round(width_mm * px_per_mm))
     out_h = max(1, round(height_mm * px_per_mm))
     scale = max(out_w / w, out_h / h)
-    if scale > MAX_UPSCALE:
-        need_w = int(np.ceil(out_w / MAX_UPSCALE))
+    if scale > max_upscale + 1e-9:
+        need_w = int(np.ceil(out_w / max_upscale))
         raise ImageError(
             f"image too small: {w}×{h} px for {width_mm:g}×{height_mm:g} mm at {px_per_mm:g} px/mm "
             f"(needs at least {need_w} px wide; use a larger image, a smaller size.width_mm or a lower "
@@ -272,7 +274,11 @@ def fit_to_size(
 
 
 def load_picture(
-    path: Path | str | None, width_mm: float, height_mm: float | None, px_per_mm: float
+    path: Path | str | None,
+    width_mm: float,
+    height_mm: float | None,
+    px_per_mm: float,
+    max_upscale: float = MAX_UPSCALE,
 ) -> Picture:
     """Load an image file (or the bundled example) onto the working grid.
 
@@ -281,6 +287,7 @@ def load_picture(
         width_mm: Picture width in mm.
         height_mm: Picture height in mm, or None to follow the aspect ratio.
         px_per_mm: Working resolution in px per mm.
+        max_upscale: Largest enlargement of the image. Defaults to 2.
 
     Returns:
         The picture on a grid of ``round(width_mm * px_per_mm)`` columns.
@@ -299,7 +306,7 @@ def load_picture(
         distinct = max(
             distinct, distinct_colours(rgb * alpha[..., None] + (1.0 - alpha[..., None]), COLOUR_COUNT_CAP)
         )
-    rgb, alpha, mm_per_px, _ = fit_to_size(rgb, alpha, width_mm, height_mm, px_per_mm)
+    rgb, alpha, mm_per_px, _ = fit_to_size(rgb, alpha, width_mm, height_mm, px_per_mm, max_upscale)
     log.debug("loaded %s as %s px at %.4f mm/px", source, rgb.shape[:2], mm_per_px)
     return Picture(
         rgb=rgb, mm_per_px=mm_per_px, alpha=alpha, grey=grey, source=source, distinct_colours=distinct

@@ -30,7 +30,7 @@ import logging
 import os
 import shutil
 import tempfile
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 
 import numpy as np
@@ -492,3 +492,20 @@ def _json_default(obj):
     if hasattr(obj, "value"):
         return obj.value
     raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+
+def plain(d: Mapping[str, object] | None) -> dict[str, object]:
+    """Keep the JSON-friendly scalars of a report dict."""
+    out: dict[str, object] = {}
+    for k, v in (d or {}).items():
+        if isinstance(v, np.generic):
+            v = v.item()
+        if isinstance(v, float) and not np.isfinite(v):
+            v = None
+        if isinstance(v, (int, float, str, bool, type(None))):
+            out[k] = v
+        elif isinstance(v, (list, tuple)) and all(isinstance(x, (int, float, str, bool)) for x in v):
+            out[k] = list(v)
+        elif isinstance(v, Mapping):
+            out[k] = plain(v)
+    return out

@@ -10,7 +10,7 @@ import contextlib
 import logging
 import platform
 import time
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -25,6 +25,7 @@ from .config.spray import SprayModel
 from .errors import OutputError, UserError
 from .model import DotSet, Holes, Layers, Picture
 from .output import MANIFEST, OutputDir, manifest_header
+from .output import plain as _plain
 
 if TYPE_CHECKING:
     from .compute import Executor
@@ -117,9 +118,14 @@ def load_picture(cfg: JobConfig) -> Picture:
     """
     from dataclasses import replace
 
+    from . import resolution
+    from .imaging import MAX_UPSCALE
     from .imaging import load_picture as _load
 
-    pic = _load(cfg.image, cfg.size.width_mm, cfg.size.height_mm, cfg.size.px_per_mm)
+    px = 1.0 / resolution.working_mm_per_px(cfg)
+    pic = _load(
+        cfg.image, cfg.size.width_mm, cfg.size.height_mm, px, resolution.max_upscale(cfg, MAX_UPSCALE)
+    )
     source = getattr(cfg.decompose.opacity_source, "value", cfg.decompose.opacity_source)
     if pic.alpha is not None and source != "alpha":
         a = pic.alpha[..., None]
@@ -671,15 +677,7 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
                     raise UserError(f"{layer_stem(i)}: {exc}") from exc
                 check = cad.check_plate(model, h, tolerance_mm=exp.stl_tolerance_mm)
                 stem = layer_stem(i)
-                if exp.step:
-                    with run.out.open_path(f"{stem}.step") as p:
-                        cad.write_step(model, p)
-                if exp.stl:
-                    with run.out.open_path(f"{stem}.stl") as p:
-                        cad.write_stl(model, p, exp.stl_tolerance_mm)
-                if exp.three_mf:
-                    with run.out.open_path(f"{stem}.3mf") as p:
-                        cad.write_3mf(model, p, exp.stl_tolerance_mm)
+                cad.write_mesh_files(run.out, model, stem, exp)
                 dxf_info = {}
                 drawing = dxf.stencil_for(h, ring, stem.upper())
                 if exp.dxf:
@@ -725,21 +723,26 @@ def simulated_stems(cfg: JobConfig) -> list[str]:
     return [f"simulated_{stem}.png" for stem in wall_stems(heights)]
 
 
-def stage_simulate(run: Run, picture: Picture | None, layers: Layers, dotsets: list[DotSet]) -> dict:
+def stage_simulate(
+    run: Run, picture: Picture | None, layers: Layers, dotsets: list[DotSet], keep: bool = False
+):
     """Spray every plate in simulation, composite, score against the input, save previews.
+
+    Returns the scores, or with ``keep`` the simulation and the reference on its grid.
 
     Under the physical model every wall height gets its own simulation and score
     (``simulated_wall_10mm.png`` …); the main pictures and scores are those of the design
     stand-off (``wall.standoff_mm[0]``), which the tone calibration designed the dots for.
     """
-    from . import simulate
+    from . import resolution, simulate
     from .simulate.physical import SprayGeometry
 
     cfg = run.cfg
     physical = cfg.spray.model == SprayModel.physical
     design = SprayGeometry.of_job(cfg) if physical else None
     with run.stage("simulate"):
-        sim = simulate.simulate(layers, dotsets, cfg.spray, geometry=design)
+        grid_mm = resolution.sim_mm_per_px(cfg)
+        sim = simulate.simulate(layers, dotsets, cfg.spray, grid_mm, geometry=design)
         reference = picture.rgb if picture is not None else layers.composite()
         ref = _resample(reference, sim.composite.shape[:2])
         scores = _scores(run, ref, sim.composite, sim.mm_per_px)
@@ -747,7 +750,7 @@ def stage_simulate(run: Run, picture: Picture | None, layers: Layers, dotsets: l
         ideal = _resample(layers.composite(), sim.composite.shape[:2])
         write_previews(run, ref, ideal, sim.composite, sim.mm_per_px, scores)
         factors = tuple(cfg.spray.sweep_factors)
-        panels = simulate.sweep_panels(layers, dotsets, cfg.spray, factors=factors, geometry=design)
+        panels = simulate.sweep_panels(layers, dotsets, cfg.spray, grid_mm, factors=factors, geometry=design)
         from .simulate import labelled
 
         run.out.write_png("sweep.png", labelled.sweep_card(panels, factors, sim.mm_per_px))
@@ -760,7 +763,9 @@ def stage_simulate(run: Run, picture: Picture | None, layers: Layers, dotsets: l
             if h == design.standoff_mm:
                 other, other_scores = sim, scores
             else:
-                other = simulate.simulate(layers, dotsets, cfg.spray, geometry=SprayGeometry.of_job(cfg, h))
+                other = simulate.simulate(
+                    layers, dotsets, cfg.spray, grid_mm, geometry=SprayGeometry.of_job(cfg, h)
+                )
                 other_scores = simulate.score(ref, other.composite)
             run.out.write_png(name, other.composite)
             per_wall.append(
@@ -780,7 +785,7 @@ def stage_simulate(run: Run, picture: Picture | None, layers: Layers, dotsets: l
     if per_wall:
         run.figures["simulate"]["walls"] = per_wall
     run.figures["spraying"] = spraying_steps(cfg, layers, dotsets)
-    return scores
+    return (sim, ref) if keep else scores
 
 
 def spraying_steps(cfg: JobConfig, layers: Layers, dotsets: list[DotSet]) -> list[dict]:
@@ -1101,13 +1106,18 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
         "pixels": list(picture.shape),
         "mm_per_px": picture.mm_per_px,
     }
+    grid = plan_mural(run, size, picture.shape)
     if cfg.mode == Mode.hard:
+        if grid.tiled:
+            raise UserError(
+                f"hard mode makes one plate per layer, and a {size[0]:.0f} × {size[1]:.0f} mm picture's plate does "
+                f"not fit the bed {grid.bed}; use soft mode for a tiled mural, a larger bed or a smaller size"
+            )
         return run_hard(run, picture)
     bound_dots(run, size)
     layers = stage_decompose(run, picture)
     dotsets = stage_stipple(run, layers, size, picture)
-    stage_build(run, layers, dotsets, size)
-    stage_simulate(run, picture, layers, dotsets)
+    build_any(run, layers, dotsets, size, grid, picture)
     return finish(run, "run")
 
 
@@ -1210,6 +1220,42 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None) -> list[Path]:
     return finish(run, "card")
 
 
+def plan_mural(run: Run, picture_mm: tuple[float, float], shape_px: tuple[int, int]):
+    """Tile the picture for the bed (one tile when it fits) and check every part fits, before any work."""
+    from . import mural_stages
+
+    grid, fig = mural_stages.plan(
+        run.cfg, *picture_mm, run.cfg.decompose.layers, int(shape_px[0]) * int(shape_px[1])
+    )
+    run.figures["mural"] = fig
+    return grid
+
+
+def build_any(
+    run: Run,
+    layers: Layers,
+    dotsets: list[DotSet],
+    picture_mm: tuple[float, float],
+    grid,
+    picture=None,
+    simulate: bool = True,
+) -> None:
+    """Build (and simulate): one plate per layer, or per tile and layer for a mural."""
+    from . import mural_stages
+
+    if not grid.tiled:
+        stage_build(run, layers, dotsets, picture_mm)
+        if simulate:
+            stage_simulate(run, picture, layers, dotsets)
+        return
+    per_tile = mural_stages.stage_build_tiles(run, layers, dotsets, grid)
+    mural_stages.write_map(run, grid, layers, picture)
+    if not simulate:
+        return
+    sim, ref = stage_simulate(run, picture, layers, dotsets, keep=True)
+    mural_stages.stage_mural_simulate(run, sim, ref, layers, dotsets, grid, per_tile)
+
+
 def run_hard(run: Run, picture: Picture) -> list[Path]:
     """Hard-stencil mode: segmentation, bridges, plates with polygon cut-outs, simulation."""
     from . import hardstencil
@@ -1286,28 +1332,22 @@ def run_outputs(cfg: JobConfig, command: str) -> list[str]:
             "energy.csv",
             "layer_*_opacity.png",
         ]
-    return [*RUN_FILES, "layer_*", "wall*"]
+    return [*RUN_FILES, "layer_*", "wall*", "tile_*", "mural_map.png"]
 
 
-def stage_outputs(cfg: JobConfig, command: str, count: int) -> list[str]:
+def stage_outputs(cfg: JobConfig, command: str, count: int, grid=None) -> list[str]:
     """Names a stage command will write, so it can refuse before doing the work."""
+    if command == "build" and grid is not None and grid.tiled:
+        from . import mural_stages
+
+        return mural_stages.tile_outputs(cfg, grid, count)
     if command == "stipple":
         return [n for i in range(count) for n in (dots_name(i), f"{layer_stem(i)}_dots.png")] + [
             SPRAY_JSON,
             "swatch.png",
         ]
     if command == "build":
-        exts = [
-            e
-            for e, on in (
-                (".step", cfg.export.step),
-                (".stl", cfg.export.stl),
-                (".dxf", cfg.export.dxf),
-                (".svg", cfg.export.svg),
-                (".3mf", cfg.export.three_mf),
-            )
-            if on
-        ]
+        exts = cfg.export.plate_extensions()
         names = [layer_stem(i) + e for i in range(count) for e in exts]
         return names + [s + e for s in wall_stems(cfg.wall.standoff_mm) for e in (".step", ".stl")]
     if command == "simulate":
@@ -1370,23 +1410,6 @@ def _cut_length_mm(holes, ring: np.ndarray) -> float:
     return total
 
 
-def _plain(d: Mapping[str, object] | None) -> dict[str, object]:
-    """Keep the JSON-friendly scalars of a report dict."""
-    out: dict[str, object] = {}
-    for k, v in (d or {}).items():
-        if isinstance(v, np.generic):
-            v = v.item()
-        if isinstance(v, float) and not np.isfinite(v):
-            v = None
-        if isinstance(v, (int, float, str, bool, type(None))):
-            out[k] = v
-        elif isinstance(v, (list, tuple)) and all(isinstance(x, (int, float, str, bool)) for x in v):
-            out[k] = list(v)
-        elif isinstance(v, Mapping):
-            out[k] = _plain(v)
-    return out
-
-
 # --------------------------------------------------------------------------- the commands
 
 #: Commands that run one stage on the intermediates a previous command saved.
@@ -1402,6 +1425,7 @@ def run_command(
     force: bool = False,
     quiet: bool = False,
     where: ComputeConfig | None = None,
+    announce: Callable[[str], None] | None = None,
 ) -> tuple[Run, list[Path]]:
     """Run one command of the command line: ``run``, ``hard``, ``decompose`` or a stage command.
 
@@ -1418,6 +1442,8 @@ def run_command(
         quiet: No progress bars.
         where: Where the tasks run: the ``compute`` section with ``--workers`` /
             ``--scheduler`` applied. Defaults to the config's.
+        announce: Called with one line saying what the job will cost (tiles, plates, holes,
+            time), after the input is read and before any work, or None.
 
     Returns:
         ``(run, files)``: the run's state (figures, timings) and the files written.
@@ -1444,6 +1470,14 @@ def run_command(
                 # `simulate` scores, and `stipple` refines, against the decomposition when the image is gone.
                 if command not in ("simulate", "stipple"):
                     raise
+        if picture is not None and command in ("run", "hard") and announce is not None:
+            from . import mural_stages
+
+            shape = picture.shape
+            _, plan = mural_stages.plan(
+                cfg, picture.width_mm, picture.height_mm, cfg.decompose.layers, shape[0] * shape[1]
+            )
+            announce(mural_stages.plan_line(plan))
         if command in ("run", "hard", "decompose"):
             assert picture is not None  # load_picture raised otherwise
             with computing(run, picture.shape[0] * picture.shape[1], where):
@@ -1465,8 +1499,9 @@ def run_command(
 def _run_stage_command(run: Run, command: str, src: Path, picture: Picture | None) -> list[Path]:
     cfg = run.cfg
     layers = read_layers(src)
-    run.out.check_free(stage_outputs(cfg, command, layers.count))
     size = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
+    grid = plan_mural(run, size, layers.alphas.shape[1:])
+    run.out.check_free(stage_outputs(cfg, command, layers.count, grid))
     if abs(size[0] - cfg.size.width_mm) > 0.01 * cfg.size.width_mm:
         log.warning(
             "the saved layers are %.4g mm wide but the config says size.width_mm %.4g; the saved "
@@ -1480,14 +1515,19 @@ def _run_stage_command(run: Run, command: str, src: Path, picture: Picture | Non
         dotsets = read_dots(src, layers.count)
         if command == "build":
             check_dots(cfg, dotsets, size)
-            stage_build(run, layers, dotsets, size)
+            build_any(run, layers, dotsets, size, grid, picture, simulate=False)
         else:
             stage_simulate(run, picture, layers, dotsets)
     return finish(run, command)
 
 
 def slice_plates(
-    stls: list[Path], profile: str, *, force: bool = False, timeout_s: float = 600.0
+    stls: list[Path],
+    profile: str,
+    *,
+    force: bool = False,
+    timeout_s: float = 600.0,
+    bed: str | tuple[float, float] | None = None,
 ) -> Iterator[tuple[Path, Path, SliceResult]]:
     """Slice exported plates with a shipped profile, each beside its STL.
 
@@ -1499,6 +1539,8 @@ def slice_plates(
         profile: A shipped profile name (``prusa_fdm``, ``prusa_sla``, ``cura_fdm``).
         force: Replace existing outputs.
         timeout_s: Seconds before a slicer run is killed. Defaults to 600 s.
+        bed: The printer's bed (a preset name or ``(x_mm, y_mm)``) replacing the profile's,
+            so each mural tile is sliced on the bed it was sized for; None keeps the profile's.
 
     Yields:
         ``(stl, output, result)`` per plate, in order, as each slice finishes.
@@ -1513,7 +1555,8 @@ def slice_plates(
     prof = slicing.get_profile(profile)
     if not (math.isfinite(timeout_s) and timeout_s > 0):
         raise UserError(f"--timeout must be a positive number of seconds, got {timeout_s}")
-    bed = slicing.bed_size(prof)
+    overrides = _bed_overrides(prof, bed)
+    bed = slicing.bed_size(prof) if bed is None else _bed_xy(bed)
     jobs = []
     for stl in stls:
         if not stl.is_file():
@@ -1545,7 +1588,7 @@ def slice_plates(
     for stl, out in jobs:
         tmp = out.with_name(f".{out.name}.partial{prof.suffix}")
         try:
-            result = slicing.slice_plate(stl, tmp, prof, timeout_s=timeout_s)
+            result = slicing.slice_plate(stl, tmp, prof, timeout_s=timeout_s, overrides=overrides)
         except slicing.SlicerNotFoundError as exc:
             tmp.unlink(missing_ok=True)
             raise UserError(f"{exc}") from None
@@ -1605,6 +1648,29 @@ def plate_projects(
             continue
         tmp.replace(out)
         yield stl, out, None
+
+
+def _bed_xy(bed) -> tuple[float, float]:
+    from .config.bed import resolve_bed
+
+    b = resolve_bed(bed)
+    return (b.x_mm, b.y_mm)
+
+
+def _bed_overrides(prof, bed) -> dict:
+    """Slicer settings that set the bed size (PrusaSlicer ``bed_shape``, Cura machine width/depth)."""
+    from . import slicing
+    from .config.bed import resolve_bed
+
+    try:
+        b = resolve_bed(bed)
+    except ValueError as exc:
+        raise UserError(f"--bed: {exc}") from None
+    if b is None:
+        return {}
+    if prof.slicer is slicing.Slicer.CURA:
+        return {"machine_width": b.x_mm, "machine_depth": b.y_mm}
+    return {"bed_shape": f"0x0,{b.x_mm:g}x0,{b.x_mm:g}x{b.y_mm:g},0x{b.y_mm:g}"}
 
 
 def write_default_config(path: Path, *, force: bool = False) -> None:

@@ -62,7 +62,9 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
             + ", ".join(f"{k} {_fmt(v)}" for k, v in hard.items() if not isinstance(v, (list, dict)))
         )
     build = f.get("build")
-    if build:
+    if build and any("tile" in p for p in build["plates"]):
+        lines += _mural_lines(f)
+    elif build:
         ok = all(p.get("valid", False) for p in build["plates"])
         for p in build["plates"]:
             lines.append(
@@ -154,3 +156,29 @@ def _wrap(names: list[str], width: int = 100) -> str:
         line = f"{line}, {n}" if line else n
     out.append(line)
     return "\n            ".join(out)
+
+
+def _mural_lines(f: dict) -> list[str]:
+    """The build and mural part of the summary for a tiled job."""
+    build, m = f["build"], f.get("mural", {})
+    plates, walls = build["plates"], build["walls"]
+    ok = all(p.get("valid", False) for p in plates) and all(w.get("valid", False) for w in walls)
+    tiles = m.get("tiles", [])
+    lines = [
+        f"  mural     {len(tiles)} tiles, {len(plates)} plates, {len(walls)} walls on {m.get('bed', {}).get('name')}; "
+        f"holes {m.get('holes_total')} (global {m.get('holes_global')}); rules on the union: {m.get('union_check_rules')}",
+        f"  checks    {'all solids valid' if ok else 'SOME SOLIDS FAILED — see manifest.json'}",
+    ]
+    sim = m.get("simulation")
+    if sim:
+        lines.append(
+            f"  tiles     simulated mural vs global: max difference {sim['tiled_vs_global_max_abs']:.2g}"
+        )
+        for c in sim.get("registration_cost", []):
+            lines.append(
+                f"  register  ±{c['error_mm'] / 2:g} mm between {c['between']} ({c['error_mm']:g} mm apart): "
+                f"S-CIELAB {c['cost_scielab']:+.3g}, ΔE2000 mean {c['cost_de2000_mean']:+.3g}, "
+                f"PSNR {c['cost_psnr']:+.3g} dB, SSIM {c['cost_ssim']:+.3g}"
+            )
+    lines.append("  map       mural_map.png (tile grid, positions, order of work)")
+    return lines

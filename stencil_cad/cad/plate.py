@@ -67,6 +67,7 @@ class LabelInfo:
         colour: Paint colour, a name or ``#rrggbb``.
         job: Job name.
         spray_order: Position in the spray order (defaults to the layer number).
+        tile: A mural tile's name and grid, e.g. ``"B3 of 2x4"``, or empty.
     """
 
     layer: int
@@ -74,6 +75,7 @@ class LabelInfo:
     colour: str = ""
     job: str = ""
     spray_order: int | None = None
+    tile: str = ""
 
     @property
     def order(self) -> int:
@@ -84,6 +86,8 @@ class LabelInfo:
 def label_text(label: LabelInfo) -> str:
     """The label's text, e.g. ``"L2/4  SPRAY 2  #1A2B3C  portrait"``."""
     parts = [f"L{label.layer}/{label.layers}", f"SPRAY {label.order}"]
+    if label.tile:
+        parts.insert(0, f"TILE {label.tile}")
     if label.colour:
         parts.append(str(label.colour).upper() if str(label.colour).startswith("#") else str(label.colour))
     if label.job:
@@ -458,7 +462,7 @@ def label_glyphs(
     for shorter in (replace(label, job=""), replace(label, job="", colour="")):
         if label_text(shorter) not in candidates:
             candidates.append(label_text(shorter))
-    candidates.append(f"L{label.layer}/{label.layers}")
+    candidates.append((f"{label.tile.split()[0]} " if label.tile else "") + f"L{label.layer}/{label.layers}")
     fitted = None
     for text in candidates:
         size = float(height_mm)

@@ -243,6 +243,7 @@ def build_plate(
     label: LabelInfo | None,
     *,
     rules: DesignRules | None = None,
+    outline_ring=None,
 ) -> PlateModel:
     """Build one layer's plate: check the holes again, then run the plate template.
 
@@ -256,6 +257,8 @@ def build_plate(
         rules: Optional :class:`~stencil_cad.stipple.rules.DesignRules` to re-check the dots
             with (the job's process rules); by default the plate's own floor:
             radius ≥ 0.5 mm, web ≥ ``cfg.min_web_mm``, inside the picture.
+        outline_ring: ``(M, 2)`` counter-clockwise outline replacing the config's (a mural
+            tile's outline with its sight notches), or None.
 
     Returns:
         The plate model (build123d Part, description, analytic volume).
@@ -267,7 +270,9 @@ def build_plate(
     t0 = time.perf_counter()
     check_holes(holes, width_mm, height_mm, cfg.min_web_mm, rules)
     t1 = time.perf_counter()
-    ring = outline_mod.plate_outline(width_mm, height_mm, cfg.outline)
+    ring = (
+        outline_mod.plate_outline(width_mm, height_mm, cfg.outline) if outline_ring is None else outline_ring
+    )
     area = outline_mod.label_region(width_mm, height_mm, cfg.outline)
     path = cfg.template if cfg.template is not None else builtin_template()
     model = run_template(

@@ -16,7 +16,7 @@ from ..exchange.mesh import stl_bytes, threemf_bytes
 from ..exchange.step import step_text
 from ..model import TriMesh
 
-__all__ = ["occt_mesh", "write_3mf", "write_step", "write_stl"]
+__all__ = ["occt_mesh", "write_3mf", "write_mesh_files", "write_step", "write_stl"]
 
 
 def _name(model) -> str:
@@ -25,6 +25,26 @@ def _name(model) -> str:
         return "stencil_plate"
     job = label.job or "stencil"
     return f"{job} layer {label.layer} of {label.layers}"
+
+
+def write_mesh_files(out, model, stem: str, export) -> None:
+    """Write a plate's STEP, STL and 3MF, as the ``export`` config asks, through an output folder.
+
+    Args:
+        out: The output folder (an :class:`~stencil_cad.output.OutputDir`: ``open_path``).
+        model: A :class:`~stencil_cad.cad.plate.PlateModel`.
+        stem: File stem, e.g. ``layer_01`` or ``tile_B3_layer_01``.
+        export: The ``export`` config section.
+    """
+    if export.step:
+        with out.open_path(f"{stem}.step") as p:
+            write_step(model, p)
+    if export.stl:
+        with out.open_path(f"{stem}.stl") as p:
+            write_stl(model, p, export.stl_tolerance_mm)
+    if export.three_mf:
+        with out.open_path(f"{stem}.3mf") as p:
+            write_3mf(model, p, export.stl_tolerance_mm)
 
 
 def write_step(model, path: str | os.PathLike) -> None:

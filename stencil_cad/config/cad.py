@@ -278,3 +278,8 @@ class ExportConfig(StrictModel):
         le=1.0,
         description="Laser kerf in mm; DXF and SVG contours are offset by half of it so cut parts keep their size. Range [0, 1].",
     )
+
+    def plate_extensions(self) -> list[str]:
+        """The file extensions written per plate, e.g. ``[".step", ".stl", ".dxf"]``."""
+        on = ((".step", self.step), (".stl", self.stl), (".dxf", self.dxf), (".3mf", self.three_mf))
+        return [e for e, wanted in on if wanted]

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import enum
 from pathlib import Path
+from typing import Annotated, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from .base import StrictModel
+from .bed import BED_DESCRIPTION, parse_bed
 from .cad import ExportConfig, PlateConfig, WallConfig
 from .compute import ComputeConfig
 from .decompose import DecomposeConfig
@@ -26,32 +28,41 @@ class Mode(str, enum.Enum):
     hard = "hard"
 
 
+#: Largest picture side in mm (a 50 m wall).
+MAX_SIZE_MM = 50_000.0
+
+
 class SizeConfig(StrictModel):
     """Physical size of the picture area on the stencil."""
 
     width_mm: float = Field(
         150.0,
         gt=10.0,
-        le=2000.0,
-        description="Width of the picture area in mm. Range (10, 2000]. The plate adds its margin around it.",
+        le=MAX_SIZE_MM,
+        description=(
+            "Width of the picture area in mm. Range (10, 50000]. The plate adds its margin around it; "
+            "a picture larger than the bed becomes a mural of tiles."
+        ),
     )
     height_mm: float | None = Field(
         None,
         gt=10.0,
-        le=2000.0,
+        le=MAX_SIZE_MM,
         description=(
             "Height of the picture area in mm, or null to follow the image's aspect ratio. "
             "When both are set and the aspect differs, the image is centre-cropped to fit."
         ),
     )
-    px_per_mm: float = Field(
+    px_per_mm: Annotated[float, Field(gt=0.1, le=20.0)] | Literal["auto"] = Field(
         2.0,
-        gt=0.1,
-        le=20.0,
         description=(
-            "Working resolution in pixels per mm for decomposition and stippling. Range (0.1, 20]. "
-            "The image must have at least this many pixels per mm of picture (it is never upscaled "
-            "by more than 2x)."
+            "Working resolution in pixels per mm for decomposition and stippling. Range (0.1, 20], or auto. "
+            "A number: the image must have at least half this many pixels per mm of picture (it is never "
+            "upscaled by more than 2x), and the simulation runs at spray.px_per_mm. auto: the grids follow "
+            "what the holes can show: working pixels of a third of the hole pitch (coarser if "
+            "the eye cannot see finer at view.distance_m), simulation pixels of half the smallest dot's "
+            "spray sigma, and any image with one pixel per hole pitch will do (a 512 px photo makes a 1.6 m "
+            "FDM mural)."
         ),
     )
 
@@ -102,6 +113,13 @@ class JobConfig(StrictModel):
         description="Where the work runs: this process, a local Dask cluster or a remote one.",
     )
 
+    bed: str | tuple[float, float] | None = Field(None, description=BED_DESCRIPTION)
+
+    @field_validator("bed", mode="before")
+    @classmethod
+    def _bed(cls, value):
+        return parse_bed(value)
+
     @model_validator(mode="after")
     def _cross_checks(self) -> JobConfig:
         self.wall.check_plate(self.plate.outline, self.plate.thickness_mm)
@@ -109,7 +127,11 @@ class JobConfig(StrictModel):
 
 
 def parse_overrides(
-    cfg: JobConfig, image: Path | None = None, seed: int | None = None, hard: bool = False
+    cfg: JobConfig,
+    image: Path | None = None,
+    seed: int | None = None,
+    hard: bool = False,
+    bed: str | tuple[float, float] | None = None,
 ) -> JobConfig:
     """Apply command-line overrides, validating them like config values.
 
@@ -118,6 +140,7 @@ def parse_overrides(
         image: ``--image`` path, or None.
         seed: ``--seed``, or None.
         hard: The `hard` command forces ``mode: hard``.
+        bed: ``--bed`` (a preset name or ``(x_mm, y_mm)``), or None.
 
     Returns:
         A new validated config.
@@ -131,4 +154,6 @@ def parse_overrides(
         data["seed"] = seed
     if hard:
         data["mode"] = Mode.hard.value
+    if bed is not None:
+        data["bed"] = list(bed) if isinstance(bed, tuple) else bed
     return parse_config(data, source="command line")

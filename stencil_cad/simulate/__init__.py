@@ -18,6 +18,7 @@ from .spray import (
     simulate,
     spray_mask,
     spray_opacity,
+    tail_tolerance,
     target_on_grid,
 )
 from .tone import (
@@ -52,6 +53,7 @@ __all__ = [
     "simulate",
     "spray_mask",
     "spray_opacity",
+    "tail_tolerance",
     "sweep",
     "sweep_panels",
     "target_on_grid",

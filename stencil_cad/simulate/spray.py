@@ -59,6 +59,7 @@ __all__ = [
     "simulate",
     "spray_mask",
     "spray_opacity",
+    "tail_tolerance",
     "target_on_grid",
 ]
 
@@ -206,7 +207,11 @@ def _crop_bounds(shape_hw, crop):
     return r0, r1, c0, c1
 
 
-def _fast_transmittance(rc, sigma_px, spray_time, max_error, bounds):
+def _tail_tol(rc, sigma_px, max_error):
+    return max_error / (_TAIL_SAFETY * max(1.0, _effective_overlap(rc, sigma_px)))
+
+
+def _fast_transmittance(rc, sigma_px, spray_time, max_error, bounds, tol=None):
     r0, r1, c0, c1 = bounds
     # float32 halves the memory traffic and doubles the SIMD width; the product of a few
     # hundred factors keeps a relative error near 1e-5, far below max_error.
@@ -214,8 +219,8 @@ def _fast_transmittance(rc, sigma_px, spray_time, max_error, bounds):
     n = rc.shape[0]
     if n == 0:
         return trans, 0.0
-    n_eff = _effective_overlap(rc, sigma_px)
-    tol = max_error / (_TAIL_SAFETY * max(1.0, n_eff))
+    if tol is None:
+        tol = _tail_tol(rc, sigma_px, max_error)
     if spray_time <= tol:
         return trans, tol
     rad = sigma_px * math.sqrt(2.0 * math.log(spray_time / tol))
@@ -300,6 +305,7 @@ def spray_opacity(
     spray_time: float | None = None,
     crop: tuple[int, int, int, int] | None = None,
     geometry=None,
+    tail_tol: float | None = None,
 ) -> np.ndarray:
     """The opacity one stencil sprays: ``I = 1 - prod_i (1 - min(N_i, 1))``.
 
@@ -321,6 +327,9 @@ def spray_opacity(
             raster (same values as the full computation, cropped).
         geometry: :class:`~stencil_cad.simulate.physical.SprayGeometry` (stand-off and plate
             thickness); needed by the physical model, ignored by the paper's.
+        tail_tol: Fast path: drop each dot's tail below this paint density instead of the
+            one derived from these holes (:func:`tail_tolerance`), so that parts of a hole
+            set (the tiles of a mural) splat exactly the discs the whole set would.
 
     Returns:
         ``(H, W)`` (or the crop's shape) ndarray of float in [0, 1].
@@ -341,9 +350,28 @@ def spray_opacity(
     if exact:
         trans = _exact_transmittance(rc, sigma_px, a, bounds)
     else:
-        trans, _ = _fast_transmittance(rc, sigma_px, a, cfg.max_error, bounds)
+        trans, _ = _fast_transmittance(rc, sigma_px, a, cfg.max_error, bounds, tail_tol)
     out = np.subtract(1.0, trans, dtype=np.float64)
     return np.clip(out, 0.0, 1.0, out=out)
+
+
+def tail_tolerance(
+    xy_mm: np.ndarray, r_mm: np.ndarray, shape_hw: tuple[int, int], mm_per_px: float, cfg: SprayConfig
+) -> float:
+    """The paint density below which the fast path drops a dot's tail, for this hole set.
+
+    Args:
+        xy_mm: ``(N, 2)`` hole centres in mm.
+        r_mm: ``(N,)`` hole radii in mm.
+        shape_hw: ``(H, W)`` of the raster.
+        mm_per_px: Raster pixel size in mm.
+        cfg: Spray settings (``max_error``, ``nozzle_height``).
+
+    Returns:
+        The tolerance (paint density, dimensionless); 0 for no holes.
+    """
+    rc, sigma_px = _prepare(xy_mm, r_mm, shape_hw, mm_per_px, cfg.spray_time, cfg.nozzle_height)
+    return 0.0 if rc.shape[0] == 0 else float(_tail_tol(rc, sigma_px, cfg.max_error))
 
 
 def spray_mask(

@@ -1,0 +1,661 @@
+"""Murals: a picture larger than the bed, cut into tiles that spray without a seam.
+
+The holes are placed once over the whole mural (the stipple stage runs on the whole
+picture), so the web rule, the density and the tone hold across every seam. This module
+only *partitions* them:
+
+* the mural is cut into a grid of ``cols × rows`` equal tiles named by row and column
+  (row A at the top, columns from 1 at the left: A1, A2, …, B1, …);
+* every hole belongs to exactly one tile, the one whose core rectangle holds its centre
+  (half-open intervals, the last row and column closed);
+* each tile's plate covers its core plus a *halo* on every side it shares with a
+  neighbour: the distance past which a hole's spray is below :data:`HALO_TAIL` of its peak
+  (for the largest hole and spray time the job can use). The tile's wall opening is that
+  sheet, so a hole near a seam sprays onto the neighbour's area exactly as in the global
+  simulation, and the neighbour's own holes are not on this plate (its sheet is solid
+  there).
+
+The sprayed opacity of a layer is ``1 - prod_i (1 - N_i)`` over its holes; a product over
+tiles of products over their holes is the same product, so the tiled mural at zero
+registration error is the global simulation (:func:`simulate_tiles` checks it numerically
+with the same tail cut).
+
+Registration. Every tile carries its grid lines (the core's edges, in mural mm): the maker
+snaps chalk lines (or sets a laser level) on the wall at the grid positions of
+``mural_map.png``; each wall has a 90° sight notch in its outer rim where each of its four
+grid lines crosses the rim, and each plate has the same notches in its border, identical on
+every layer of a tile. Lay the notches on the lines, mark them with pencil through the
+notches, and every layer of every tile lands in register.
+
+Spray order across tiles is layer by layer (layer 1 on every tile, then layer 2, …): at a
+seam two tiles' sprays overlap, and only layer-major order keeps the global *over* order
+there.
+
+Kernel-free: no build123d here; :mod:`stencil_cad.cad.registration` cuts the wall notches.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .config.bed import Bed, resolve_bed
+from .errors import UserError
+from .model import DotSet
+
+#: A hole's spray is cut where its paint density falls below this fraction of the
+#: peak; the halo is that distance for the largest hole.
+HALO_TAIL = 1e-9
+
+#: Depth in mm of the V sight notches: plates (inside the label gap) and walls (inside the rim).
+PLATE_NOTCH_MM = 1.0
+WALL_NOTCH_MM = 1.5
+
+#: Largest spray-time multiplier the tone calibration may choose (calibrate._A_FACTORS).
+_CALIBRATION_MAX_FACTOR = 8.0
+
+
+@dataclass(frozen=True)
+class Tile:
+    """One tile of a mural.
+
+    Attributes:
+        name: Row letter(s) and column number, e.g. ``"B3"`` (row A at the top).
+        row: Row index from the top, 0-based.
+        col: Column index from the left, 0-based.
+        core: ``(x0, y0, x1, y1)`` mm in the mural frame: the holes this tile owns.
+        sheet: ``(x0, y0, x1, y1)`` mm in the mural frame: the core grown by the halo on
+            the sides shared with a neighbour; the plate's picture area and the wall's opening.
+    """
+
+    name: str
+    row: int
+    col: int
+    core: tuple[float, float, float, float]
+    sheet: tuple[float, float, float, float]
+
+    @property
+    def origin(self) -> tuple[float, float]:
+        """Mural mm of the sheet's bottom-left corner (the tile frame's origin)."""
+        return self.sheet[0], self.sheet[1]
+
+    @property
+    def size(self) -> tuple[float, float]:
+        """``(w, h)`` of the sheet in mm."""
+        return self.sheet[2] - self.sheet[0], self.sheet[3] - self.sheet[1]
+
+    def grid_lines(self) -> tuple[list[float], list[float]]:
+        """The core's edges in the tile frame: ``([x_left, x_right], [y_bottom, y_top])`` mm."""
+        ox, oy = self.origin
+        return [self.core[0] - ox, self.core[2] - ox], [self.core[1] - oy, self.core[3] - oy]
+
+
+@dataclass(frozen=True)
+class TileGrid:
+    """The tiles of a mural (or one tile for a picture that fits the bed).
+
+    Attributes:
+        width_mm: Mural width in mm.
+        height_mm: Mural height in mm.
+        cols: Tile columns.
+        rows: Tile rows.
+        halo_mm: How far a sheet reaches past its core into each neighbour, in mm.
+        x_edges: ``cols + 1`` grid-line x positions in mm, left to right.
+        y_edges: ``rows + 1`` grid-line y positions in mm, bottom to top.
+        bed: The bed, or None.
+        tiles: Row-major from the top-left (A1, A2, …, B1, …).
+    """
+
+    width_mm: float
+    height_mm: float
+    cols: int
+    rows: int
+    halo_mm: float
+    x_edges: tuple[float, ...]
+    y_edges: tuple[float, ...]
+    bed: Bed | None
+    tiles: tuple[Tile, ...] = field(default_factory=tuple)
+
+    @property
+    def tiled(self) -> bool:
+        """True when the picture is cut into more than one tile."""
+        return len(self.tiles) > 1
+
+    def owner(self, xy_mm: np.ndarray) -> np.ndarray:
+        """Index into :attr:`tiles` of the tile owning each point (its core holds the point)."""
+        xy = np.asarray(xy_mm, dtype=np.float64).reshape(-1, 2)
+        col = np.searchsorted(np.asarray(self.x_edges[1:-1]), xy[:, 0], side="right")
+        row_up = np.searchsorted(np.asarray(self.y_edges[1:-1]), xy[:, 1], side="right")
+        row = self.rows - 1 - row_up
+        return row * self.cols + col
+
+
+def row_name(row: int) -> str:
+    """Spreadsheet-style row letters: 0 → A, 25 → Z, 26 → AA."""
+    out = ""
+    row += 1
+    while row:
+        row, rem = divmod(row - 1, 26)
+        out = chr(ord("A") + rem) + out
+    return out
+
+
+def spray_halo_mm(cfg) -> float:
+    """How far a sheet must reach past its tile so that no hole's spray is cut, in mm.
+
+    The largest hole's Gaussian at the largest spray time the job can use falls below
+    :data:`HALO_TAIL` there.
+
+    Args:
+        cfg: The job config.
+    """
+    from .simulate import dot_sigma_mm
+
+    sp = cfg.spray
+    if getattr(sp.model, "value", sp.model) == "physical":
+        # One blur for every hole; the physical splat reaches 5 sigma past the hole's edge.
+        from .simulate.physical import spread_sigma_mm
+
+        sigma = spread_sigma_mm(sp, max(cfg.wall.heights()))
+        return 5.0 * sigma + cfg.stipple.resolved_max_radius_mm + 1.0
+    a = sp.spray_time
+    calibrated = getattr(cfg.stipple.tone, "value", cfg.stipple.tone) == "calibrated"
+    if calibrated and getattr(sp.calibrate, "value", sp.calibrate) == "spray_time":
+        a = min(100.0, a * _CALIBRATION_MAX_FACTOR)
+    sigma = float(dot_sigma_mm(cfg.stipple.resolved_max_radius_mm, sp.nozzle_height))
+    return sigma * math.sqrt(2.0 * math.log(max(a, 1.0) / HALO_TAIL))
+
+
+def part_sizes(sheet_w: float, sheet_h: float, cfg) -> dict[str, tuple[float, float]]:
+    """Bounding-box sizes ``(w, h)`` in mm of a sheet's plate and wall (kernel-free).
+
+    The wall's outside follows the pocket at the wall thickness, or a rounded rectangle
+    when the key tabs crowd it (as :func:`stencil_cad.cad.wall.wall_rings` builds it).
+    """
+    from .outline import offset_outline
+
+    oc = cfg.plate.outline
+    plate = offset_outline(sheet_w, sheet_h, oc, 0.0)
+    reach = cfg.wall.clearance_mm + cfg.wall.wall_thickness_mm
+    try:
+        wall = offset_outline(sheet_w, sheet_h, oc, reach)
+    except ValueError:
+        plain = oc.model_copy(update={"keys": []})
+        wall = offset_outline(sheet_w, sheet_h, plain, reach + max(k.depth_mm for k in oc.keys))
+    size = lambda ring: tuple(float(v) for v in ring.max(axis=0) - ring.min(axis=0))  # noqa: E731
+    return {"plate": size(plate), "wall": size(wall)}
+
+
+def plan_tiles(width_mm: float, height_mm: float, cfg) -> TileGrid:
+    """Cut a picture into the fewest equal tiles whose plates and walls fit the bed.
+
+    Args:
+        width_mm: Picture width in mm.
+        height_mm: Picture height in mm.
+        cfg: The job config (``bed``, plate outline, wall, stipple and spray settings).
+
+    Returns:
+        The grid: one tile without halo when there is no bed or everything fits it.
+
+    Raises:
+        UserError: No tiling fits the bed (naming the bed and the smallest part).
+    """
+    bed = resolve_bed(cfg.bed)
+
+    def grid(cols: int, rows: int, halo: float) -> TileGrid:
+        xs = tuple(width_mm * k / cols for k in range(cols + 1))
+        ys = tuple(height_mm * k / rows for k in range(rows + 1))
+        tiles = []
+        for r in range(rows):
+            up = rows - 1 - r
+            for c in range(cols):
+                core = (xs[c], ys[up], xs[c + 1], ys[up + 1])
+                sheet = (
+                    core[0] - (halo if c > 0 else 0.0),
+                    core[1] - (halo if up > 0 else 0.0),
+                    core[2] + (halo if c < cols - 1 else 0.0),
+                    core[3] + (halo if up < rows - 1 else 0.0),
+                )
+                tiles.append(Tile(f"{row_name(r)}{c + 1}", r, c, core, sheet))
+        return TileGrid(
+            width_mm, height_mm, cols, rows, halo if cols * rows > 1 else 0.0, xs, ys, bed, tuple(tiles)
+        )
+
+    if bed is None or bed.fits(*part_sizes(width_mm, height_mm, cfg)["wall"]):
+        return grid(1, 1, 0.0)
+    halo = spray_halo_mm(cfg)
+    # The rim, margin and key add a constant to the sheet; measure it once, check exactly below.
+    ref = part_sizes(100.0, 100.0, cfg)["wall"]
+    extra = (ref[0] - 100.0, ref[1] - 100.0)
+
+    def sheet(n: int, length: float) -> float:
+        return length / n + halo * min(n - 1, 2)
+
+    best = None
+    max_n = int(max(width_mm, height_mm) // 5.0) + 2
+    for cols in range(1, max_n + 1):
+        sw = sheet(cols, width_mm) + extra[0]
+        if sw > max(bed.x_mm, bed.y_mm):
+            continue
+        for rows in range(1, max_n + 1):
+            if best is not None and cols * rows >= best[0]:
+                break
+            sh = sheet(rows, height_mm) + extra[1]
+            if bed.fits(sw, sh):
+                g = grid(cols, rows, halo)
+                if all(bed.fits(*part_sizes(*t.size, cfg)["wall"]) for t in g.tiles):
+                    best = (cols * rows, g)
+                break
+    if best is None:
+        small = part_sizes(10.0 + 2 * halo, 10.0 + 2 * halo, cfg)["wall"]
+        raise UserError(
+            f"bed {bed}: even a 10 mm tile needs a wall of {small[0]:.0f} × {small[1]:.0f} mm (plate margin, "
+            f"wall rim and a {halo:.1f} mm spray halo on each side); use a larger bed or smaller "
+            "plate.outline.margin_mm / wall.wall_thickness_mm"
+        )
+    return best[1]
+
+
+def check_fits_bed(grid: TileGrid, cfg) -> list[dict]:
+    """Check every tile's plate and wall against the bed, before any CAD.
+
+    Returns:
+        One row per tile: ``tile``, ``plate_mm``, ``wall_mm`` (bounding-box sizes).
+
+    Raises:
+        UserError: A part that does not fit, naming both sizes.
+    """
+    rows = []
+    for t in grid.tiles:
+        sizes = part_sizes(*t.size, cfg)
+        for kind in ("plate", "wall"):
+            w, h = sizes[kind]
+            if grid.bed is not None and not grid.bed.fits(w, h):
+                where = f"tile {t.name} " if grid.tiled else ""
+                raise UserError(
+                    f"{where}{kind} is {w:.1f} × {h:.1f} mm but the bed {grid.bed} is smaller; choose a larger "
+                    "`bed`, or a smaller plate.outline.margin_mm / wall.wall_thickness_mm"
+                )
+        rows.append(
+            {
+                "tile": t.name,
+                "plate_mm": [round(v, 2) for v in sizes["plate"]],
+                "wall_mm": [round(v, 2) for v in sizes["wall"]],
+            }
+        )
+    return rows
+
+
+# --------------------------------------------------------------------------- holes
+
+
+def split_dots(dotset: DotSet, grid: TileGrid) -> list[DotSet]:
+    """Partition one layer's holes among the tiles, in each tile's frame.
+
+    Every hole goes to exactly one tile (the owner of its centre) and keeps its order.
+
+    Returns:
+        One DotSet per tile (same order as ``grid.tiles``), centres in the tile frame
+        (origin at the sheet's bottom-left).
+    """
+    owner = grid.owner(dotset.xy_mm)
+    out = []
+    for k, t in enumerate(grid.tiles):
+        sel = owner == k
+        ox, oy = t.origin
+        xy = dotset.xy_mm[sel] - np.array([ox, oy])
+        out.append(DotSet(xy_mm=xy, r_mm=dotset.r_mm[sel].copy(), report={**dotset.report, "tile": t.name}))
+    return out
+
+
+def to_mural(tile_sets: list[DotSet], grid: TileGrid) -> DotSet:
+    """The union of tiles' holes (tile frames) in the mural frame."""
+    xy = [d.xy_mm + np.array(t.origin) for d, t in zip(tile_sets, grid.tiles, strict=True)]
+    r = [d.r_mm for d in tile_sets]
+    return DotSet(xy_mm=np.concatenate(xy).reshape(-1, 2), r_mm=np.concatenate(r))
+
+
+def seam_density(
+    dotsets: list[DotSet], grid: TileGrid, band_mm: float = 5.0, flank_mm: float = 10.0
+) -> list[dict]:
+    """Hole density within ``band_mm`` of each seam, against the flanks beside it and the mural.
+
+    Density is holes per m², all layers together. ``ratio_flank`` compares the band with the
+    two strips from ``band_mm`` to ``band_mm + flank_mm`` on either side (the same tones,
+    so a dot-free or crowded seam shows); ``ratio_global`` with the whole mural.
+    """
+    xy = np.concatenate([d.xy_mm for d in dotsets]).reshape(-1, 2) if dotsets else np.zeros((0, 2))
+    area = grid.width_mm * grid.height_mm
+    glob = len(xy) / area * 1e6
+    out = []
+    for axis, edges, length in ((0, grid.x_edges, grid.height_mm), (1, grid.y_edges, grid.width_mm)):
+        for e in edges[1:-1]:
+            d = np.abs(xy[:, axis] - e)
+            band = np.count_nonzero(d < band_mm) / (2 * band_mm * length) * 1e6
+            flank = (
+                np.count_nonzero((d >= band_mm) & (d < band_mm + flank_mm)) / (2 * flank_mm * length) * 1e6
+            )
+            out.append(
+                {
+                    "seam": f"{'x' if axis == 0 else 'y'} = {e:.1f} mm",
+                    "band_per_m2": round(band, 1),
+                    "flank_per_m2": round(flank, 1),
+                    "global_per_m2": round(glob, 1),
+                    "ratio_flank": round(band / flank, 4) if flank else None,
+                    "ratio_global": round(band / glob, 4) if glob else None,
+                }
+            )
+    return out
+
+
+# --------------------------------------------------------------------------- registration
+
+
+def _crossings(ring: np.ndarray, value: float, axis: int, depth: float, tol: float = 1e-7):
+    """Straight ring edges along ``axis`` crossed by the line ``coord[axis] = value``.
+
+    Returns the first and last such edge along the other axis (the two sides of the
+    outline) as ``(edge_index, point)``, only edges with room for a notch of ``depth``.
+    """
+    a = ring
+    b = np.roll(ring, -1, axis=0)
+    other = 1 - axis
+    flat = np.abs(a[:, other] - b[:, other]) < tol
+    lo = np.minimum(a[:, axis], b[:, axis])
+    hi = np.maximum(a[:, axis], b[:, axis])
+    room = flat & (lo <= value - depth - 0.6) & (hi >= value + depth + 0.6)
+    idx = np.flatnonzero(room)
+    if len(idx) == 0:
+        return []
+    pos = a[idx, other]
+    picks = {int(idx[np.argmin(pos)]), int(idx[np.argmax(pos)])}
+    out = []
+    for i in sorted(picks):
+        p = np.empty(2)
+        p[axis] = value
+        p[other] = a[i, other]
+        out.append((i, p))
+    return out
+
+
+def notch_triangles(
+    ring: np.ndarray, lines: tuple[list[float], list[float]], depth: float
+) -> list[tuple[int, np.ndarray]]:
+    """Where the grid lines cross the outline: one 90° V notch per crossing.
+
+    Args:
+        ring: ``(M, 2)`` counter-clockwise outline.
+        lines: ``(xs, ys)`` of the vertical and horizontal grid lines, in the ring's frame.
+        depth: Notch depth in mm (its mouth is twice as wide).
+
+    Returns:
+        ``(edge_index, triangle)`` per notch: ``triangle`` is ``(3, 2)``, mouth start on the
+        edge, apex ``depth`` inside, mouth end on the edge, in the edge's direction.
+    """
+    out = []
+    xs, ys = lines
+    for axis, values in ((0, xs), (1, ys)):
+        for v in values:
+            for i, p in _crossings(ring, v, axis, depth):
+                u = ring[(i + 1) % len(ring)] - ring[i]
+                u = u / np.hypot(*u)
+                n = np.array([-u[1], u[0]])  # inward for a counter-clockwise ring
+                out.append((i, np.array([p - depth * u, p + depth * n, p + depth * u])))
+    return out
+
+
+def notched_ring(
+    ring: np.ndarray, lines: tuple[list[float], list[float]], depth: float
+) -> tuple[np.ndarray, int]:
+    """The outline with a V sight notch wherever a grid line crosses it.
+
+    Returns:
+        ``(ring, notches)``: the new counter-clockwise ring and the number of notches cut.
+    """
+    notches = notch_triangles(ring, lines, depth)
+    by_edge: dict[int, list[np.ndarray]] = {}
+    for i, tri in notches:
+        by_edge.setdefault(i, []).append(tri)
+    pts = []
+    for i in range(len(ring)):
+        pts.append(ring[i])
+        tris = by_edge.get(i, [])
+        start = ring[i]
+        tris.sort(key=lambda t: float(np.hypot(*(t[0] - start))))
+        for tri in tris:
+            pts.extend(tri)
+    return np.asarray(pts), len(notches)
+
+
+# --------------------------------------------------------------------------- simulation
+
+
+def _sheet_crop(sheet, shape: tuple[int, int], g: float, dx: float = 0.0, dy: float = 0.0):
+    """Pixel window ``(r0, r1, c0, c1)`` whose centres lie on a (shifted) sheet, or None."""
+    h, w = shape
+    x0, y0, x1, y1 = sheet[0] + dx, sheet[1] + dy, sheet[2] + dx, sheet[3] + dy
+    cx = (np.arange(w) + 0.5) * g
+    cy = (h - np.arange(h) - 0.5) * g
+    cols = np.flatnonzero((cx >= x0) & (cx <= x1))
+    rows = np.flatnonzero((cy >= y0) & (cy <= y1))
+    if len(cols) == 0 or len(rows) == 0:
+        return None
+    return int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+
+
+def simulate_tiles(
+    shape: tuple[int, int],
+    g: float,
+    tile_sets: list[list[DotSet]],
+    grid: TileGrid,
+    spray_cfg,
+    spray_times: list[float],
+    tail_tols: list[float],
+    offset: Callable[[int, int], tuple[float, float]] | None = None,
+    geometry=None,
+) -> np.ndarray:
+    """Spray every tile's plates through their walls, layer by layer, on the mural's raster.
+
+    Each tile's spray reaches only its sheet (the wall opening); a tile moved by a
+    registration error moves its sheet and holes together.
+
+    Args:
+        shape: ``(H, W)`` of the mural raster.
+        g: Raster pixel size in mm.
+        tile_sets: Per tile (``grid.tiles`` order), per layer, the holes in the tile frame.
+        grid: The tiles.
+        spray_cfg: Spray settings.
+        spray_times: Spray time per layer.
+        tail_tols: Per layer, the tail cut of the global simulation
+            (:func:`stencil_cad.simulate.tail_tolerance`), so both splat the same discs.
+        offset: ``offset(tile_index, layer) -> (dx, dy)`` mm registration error, or None.
+        geometry: The spray geometry (stand-off, plate) for the physical spray model, or None.
+
+    Returns:
+        ``(L, H, W)`` simulated opacities.
+    """
+    from .simulate import spray_opacity
+
+    layers = len(spray_times)
+    alphas = np.empty((layers, *shape), dtype=np.float64)
+    for i in range(layers):
+        trans = np.ones(shape, dtype=np.float64)
+        for k, t in enumerate(grid.tiles):
+            ds = tile_sets[k][i]
+            if len(ds) == 0:
+                continue
+            dx, dy = offset(k, i) if offset is not None else (0.0, 0.0)
+            crop = _sheet_crop(t.sheet, shape, g, dx, dy)
+            if crop is None:
+                continue
+            xy = ds.xy_mm + np.array([t.origin[0] + dx, t.origin[1] + dy])
+            a = spray_opacity(
+                xy,
+                ds.r_mm,
+                shape,
+                g,
+                spray_cfg,
+                spray_time=spray_times[i],
+                crop=crop,
+                tail_tol=tail_tols[i],
+                geometry=geometry,
+            )
+            r0, r1, c0, c1 = crop
+            trans[r0:r1, c0:c1] *= 1.0 - a
+        alphas[i] = 1.0 - trans
+    return alphas
+
+
+def registration_offsets(
+    grid: TileGrid, error_mm: float, between: str
+) -> Callable[[int, int], tuple[float, float]]:
+    """A registration error pattern: neighbours off by ``error_mm`` in x and in y.
+
+    ``between="tiles"``: tile columns alternate ±error/2 in x and rows ±error/2 in y (every
+    layer of a tile moves together), so each seam opens or overlaps by ``error_mm``.
+    ``between="layers"``: within every tile, odd layers sit at +error/2 and even layers at
+    -error/2 in both x and y, so consecutive layers are off by ``error_mm``.
+    """
+    h = 0.5 * error_mm
+    if between == "tiles":
+        return lambda k, i: (
+            h if grid.tiles[k].col % 2 == 0 else -h,
+            h if grid.tiles[k].row % 2 == 0 else -h,
+        )
+    if between == "layers":
+        return lambda k, i: (h, h) if i % 2 == 0 else (-h, -h)
+    raise ValueError(f"between must be 'tiles' or 'layers', got {between!r}")
+
+
+# --------------------------------------------------------------------------- plan and map
+
+
+#: Measured rates (this machine, 2 cores) for the cost estimate, seconds per unit.
+_SECONDS_PER_HOLE = 4e-4  # stipple + build + export per hole (1 m² FDM: ~85,000 holes)
+_SECONDS_PER_MPX = 2.0  # decomposition + simulation per megapixel per layer
+
+
+def plan_cost(grid: TileGrid, cfg, layers: int, work_px: int) -> dict:
+    """What a size costs before any work: tiles, plates, walls, holes (at most) and a time estimate.
+
+    The hole count is the upper bound at full ink (every layer packed at the densest tone),
+    the time an estimate from measured per-hole and per-pixel rates.
+    """
+    st = cfg.stipple
+    d = st.auto_spacing_factor * (2.0 * st.resolved_max_radius_mm + st.resolved_web_mm)
+    per_mm2 = 2.0 / (math.sqrt(3.0) * d * d)
+    holes_max = int(per_mm2 * grid.width_mm * grid.height_mm * layers)
+    walls = len(grid.tiles) * len(cfg.wall.heights())
+    est = _SECONDS_PER_HOLE * holes_max * 0.5 + _SECONDS_PER_MPX * work_px / 1e6 * layers
+    return {
+        "tiles": len(grid.tiles),
+        "grid": f"{grid.rows} rows × {grid.cols} columns",
+        "plates": len(grid.tiles) * layers,
+        "walls": walls,
+        "holes_at_most": holes_max,
+        "estimated_seconds": round(est, 1),
+    }
+
+
+def order_of_work(grid: TileGrid, layers: int) -> list[str]:
+    """The spray order: layer by layer, each over every tile in reading order."""
+    return [f"layer {i + 1:02d}: " + " ".join(t.name for t in grid.tiles) for i in range(layers)]
+
+
+def manifest_rows(grid: TileGrid) -> list[dict]:
+    """Each tile's name, core and sheet in mm from the mural's bottom-left corner."""
+    rnd = lambda v: [round(float(x), 3) for x in v]  # noqa: E731
+    return [
+        {
+            "tile": t.name,
+            "row": t.row + 1,
+            "column": t.col + 1,
+            "position_mm": rnd(t.core[:2]),
+            "core_mm": rnd(t.core),
+            "sheet_mm": rnd(t.sheet),
+            "grid_lines_mm": {"x": rnd((t.core[0], t.core[2])), "y": rnd((t.core[1], t.core[3]))},
+        }
+        for t in grid.tiles
+    ]
+
+
+def mural_map(
+    grid: TileGrid, layers: int, preview: np.ndarray | None = None, width_px: int = 1600
+) -> np.ndarray:
+    """The assembly map: the tile grid over the picture, names, positions and order of work.
+
+    Args:
+        grid: The tiles.
+        layers: Number of paint layers.
+        preview: ``(H, W, 3)`` picture in [0, 1] drawn faintly under the grid, or None.
+        width_px: Width of the map's drawing area in px.
+
+    Returns:
+        ``(H, W, 3)`` uint8 image.
+    """
+    from importlib.resources import files
+
+    from PIL import Image, ImageDraw, ImageFont
+
+    scale = width_px / grid.width_mm
+    pw, ph = width_px, max(1, int(round(grid.height_mm * scale)))
+    pad, text_h = 60, 28 * (layers + 3)
+    img = Image.new("RGB", (pw + 2 * pad, ph + 2 * pad + text_h), "white")
+    if preview is not None:
+        pic = Image.fromarray((np.clip(preview, 0, 1) * 255).astype(np.uint8)).resize((pw, ph))
+        pic = Image.blend(Image.new("RGB", (pw, ph), "white"), pic, 0.35)
+        img.paste(pic, (pad, pad))
+    font_path = str(files("stencil_cad") / "data" / "DejaVuSans-Bold.ttf")
+    big = ImageFont.truetype(font_path, max(12, min(48, int(0.2 * min(pw / grid.cols, ph / grid.rows)))))
+    small = ImageFont.truetype(font_path, 16)
+    draw = ImageDraw.Draw(img)
+
+    def px(x: float, y: float) -> tuple[float, float]:
+        return pad + x * scale, pad + (grid.height_mm - y) * scale
+
+    for t in grid.tiles:
+        x0, y0 = px(t.sheet[0], t.sheet[3])
+        x1, y1 = px(t.sheet[2], t.sheet[1])
+        draw.rectangle([x0, y0, x1, y1], outline=(150, 150, 220), width=1)
+    for x in grid.x_edges:
+        draw.line([px(x, 0), px(x, grid.height_mm)], fill=(200, 30, 30), width=3)
+        draw.text((px(x, 0)[0], pad + ph + 4), f"{x:.0f}", fill="black", font=small, anchor="ma")
+    for y in grid.y_edges:
+        draw.line([px(0, y), px(grid.width_mm, y)], fill=(200, 30, 30), width=3)
+        draw.text((pad - 4, px(0, y)[1]), f"{y:.0f}", fill="black", font=small, anchor="rm")
+    for t in grid.tiles:
+        cx, cy = px(0.5 * (t.core[0] + t.core[2]), 0.5 * (t.core[1] + t.core[3]))
+        draw.text((cx, cy), t.name, fill="black", font=big, anchor="mm")
+        draw.text(
+            (cx, cy + big.size),
+            f"({t.core[0]:.0f}, {t.core[1]:.0f}) mm",
+            fill="black",
+            font=small,
+            anchor="mt",
+        )
+    ty = pad + ph + 30
+    lines = [
+        f"{grid.rows} × {grid.cols} tiles, grid lines in mm from the bottom-left corner (red); "
+        f"blue: each sheet's reach ({grid.halo_mm:.1f} mm halo)",
+        "order of work (let each layer dry before the next):",
+        *order_of_work(grid, layers),
+    ]
+    for line in lines:
+        draw.text((pad, ty), line, fill="black", font=small)
+        ty += 26
+    return np.asarray(img)
+
+
+def tile_label(tile: Tile | None, grid: TileGrid) -> str:
+    """The tile part of a plate label, e.g. ``"B3 of 2x4"``, or empty for one tile."""
+    if tile is None or not grid.tiled:
+        return ""
+    return f"{tile.name} of {grid.rows}x{grid.cols}"
+
+
+def shifted(ds: DotSet, dx: float, dy: float) -> DotSet:
+    """A DotSet moved by ``(dx, dy)`` mm."""
+    return replace(ds, xy_mm=ds.xy_mm + np.array([dx, dy]))

@@ -1,0 +1,288 @@
+"""The mural stages, called by :mod:`stencil_cad.pipeline`: plan, per-tile build, tiled simulation.
+
+Tiles are a layer over the global result: the stipple stage places every hole over the
+whole mural, :func:`stencil_cad.mural.split_dots` hands each hole to one tile, and each
+tile's plates and wall are built exactly like a one-plate job in the tile's own frame.
+Every tile is independent of the others once the dots are split, so each can become a
+separate task.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+
+import numpy as np
+
+from . import mural
+from .colour import to_hex
+from .errors import UserError
+from .model import DotSet, Layers, Picture
+from .output import plain as _plain
+
+log = logging.getLogger(__name__)
+
+
+def tile_stem(tile: mural.Tile, i: int) -> str:
+    """Stem of a tile's layer files, e.g. ``tile_B3_layer_02`` (layer ``i`` 0-based)."""
+    return f"tile_{tile.name}_layer_{i + 1:02d}"
+
+
+def tile_wall_stems(tile: mural.Tile, standoffs_mm: list[float]) -> list[str]:
+    """Stems of a tile's walls: ``tile_B3_wall`` or ``tile_B3_wall_10mm`` … for several heights."""
+    heights = sorted(set(standoffs_mm))
+    return (
+        [f"tile_{tile.name}_wall"]
+        if len(heights) == 1
+        else [f"tile_{tile.name}_wall_{h:g}mm" for h in heights]
+    )
+
+
+def tile_outputs(cfg, grid: mural.TileGrid, count: int) -> list[str]:
+    """Names the tiled build writes (so a stage command can refuse before the work)."""
+    exts = cfg.export.plate_extensions()
+    names = []
+    for t in grid.tiles:
+        names += [tile_stem(t, i) + e for i in range(count) for e in exts]
+        names += [s + e for s in tile_wall_stems(t, cfg.wall.standoff_mm) for e in (".step", ".stl")]
+    return names + ["mural_map.png"]
+
+
+def plan(cfg, width_mm: float, height_mm: float, layers: int, work_px: int) -> tuple[mural.TileGrid, dict]:
+    """Tile the picture for the bed and check every part fits, before any work.
+
+    Returns:
+        ``(grid, figures)``: the tiles and the plan for the manifest (bed, halo, part sizes, cost).
+
+    Raises:
+        UserError: A part cannot fit the bed.
+    """
+    grid = mural.plan_tiles(width_mm, height_mm, cfg)
+    sizes = mural.check_fits_bed(grid, cfg)
+    fig = {
+        "bed": None
+        if grid.bed is None
+        else {"name": grid.bed.name, "x_mm": grid.bed.x_mm, "y_mm": grid.bed.y_mm},
+        "tiled": grid.tiled,
+        "halo_mm": round(grid.halo_mm, 3),
+        "cost": mural.plan_cost(grid, cfg, layers, work_px),
+        "part_sizes": sizes,
+    }
+    return grid, fig
+
+
+def stage_build_tiles(run, layers: Layers, dotsets: list[DotSet], grid: mural.TileGrid) -> list[list[DotSet]]:
+    """Build, check and export every tile's plates (one per layer) and wall(s).
+
+    Returns:
+        Per tile, per layer, the tile's holes in the tile frame.
+    """
+    from . import cad, outline
+    from .cad import registration
+    from .cad import wall as wall_mod
+    from .exchange import dxf
+    from .stipple import rules as dots
+
+    cfg = run.cfg
+    exp = cfg.export
+    split = [mural.split_dots(ds, grid) for ds in dotsets]  # [layer][tile]
+    per_tile = [[split[i][k] for i in range(len(dotsets))] for k in range(len(grid.tiles))]
+    # The union of the tiles' holes is the global set: same count, same rules.
+    union = [
+        mural.to_mural([per_tile[k][i] for k in range(len(grid.tiles))], grid) for i in range(len(dotsets))
+    ]
+    rules = dots.rules_from_config(cfg.stipple, grid.width_mm, grid.height_mm)
+    for i, u in enumerate(union):
+        if len(u) != len(dotsets[i]):
+            raise RuntimeError(f"layer {i + 1}: tiles hold {len(u)} holes, the mural {len(dotsets[i])}")
+        try:
+            dots.check_rules(u.xy_mm, u.r_mm, rules)
+        except ValueError as exc:
+            raise UserError(f"layer {i + 1} (all tiles in mural coordinates): {exc}") from None
+    plates, walls = [], []
+    heights = wall_mod.wall_heights(cfg.wall)
+    with run.stage("build"):
+        with run.bar(len(grid.tiles) * (len(dotsets) + len(heights)), "build tiles") as bar:
+            for k, t in enumerate(grid.tiles):
+                w, h = t.size
+                lines = t.grid_lines()
+                ring, notches = mural.notched_ring(
+                    outline.plate_outline(w, h, cfg.plate.outline), lines, mural.PLATE_NOTCH_MM
+                )
+                for i, holes in enumerate(per_tile[k]):
+                    stem = tile_stem(t, i)
+                    label = cad.LabelInfo(
+                        layer=i + 1,
+                        layers=len(dotsets),
+                        colour=to_hex(layers.colours[i]),
+                        job=cfg.name,
+                        tile=mural.tile_label(t, grid),
+                    )
+                    try:
+                        model = cad.build_plate(holes, w, h, cfg.plate, label, outline_ring=ring)
+                    except ValueError as exc:
+                        raise UserError(f"{stem}: {exc}") from exc
+                    check = cad.check_plate(model, holes, tolerance_mm=exp.stl_tolerance_mm)
+                    (x0, y0, _), (x1, y1, _) = model.geometry.bbox
+                    if grid.bed is not None and not grid.bed.fits(x1 - x0, y1 - y0):
+                        raise UserError(
+                            f"{stem}: plate is {x1 - x0:.1f} × {y1 - y0:.1f} mm, larger than the bed {grid.bed}"
+                        )
+                    cad.write_mesh_files(run.out, model, stem, exp)
+                    row = {
+                        "tile": t.name,
+                        "layer": i + 1,
+                        "file": stem,
+                        "notches": notches,
+                        "bbox_mm": [round(x1 - x0, 3), round(y1 - y0, 3)],
+                    }
+                    if exp.dxf:
+                        with run.out.open_path(f"{stem}.dxf") as p:
+                            info = dxf.write_dxf_stencils(
+                                p, [dxf.stencil_for(holes, ring, stem.upper())], kerf_mm=exp.dxf_kerf_mm
+                            )
+                        row["dxf_offset_mm"] = [round(float(v), 4) for v in info.offset_mm]
+                        bx = info.bbox_mm
+                        sheet = (bx[2] - bx[0], bx[3] - bx[1])
+                        row["dxf_sheet_mm"] = [round(v, 3) for v in sheet]
+                        if grid.bed is not None and not grid.bed.fits(*sheet):
+                            raise UserError(
+                                f"{stem}.dxf: sheet is {sheet[0]:.1f} × {sheet[1]:.1f} mm, larger than the bed {grid.bed}"
+                            )
+                    plates.append({**row, **_plain(check)})
+                    bar.update(1)
+                for standoff, stem in zip(heights, tile_wall_stems(t, cfg.wall.standoff_mm), strict=True):
+                    wm = wall_mod.build_wall(
+                        w, h, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, standoff
+                    )
+                    wm, wall_notches = registration.notch_wall(wm, lines, w, cfg.wall.finger_slot_mm)
+                    wcheck = wall_mod.check_wall(wm)
+                    bb = wcheck["bbox"]
+                    if grid.bed is not None and not grid.bed.fits(bb[3] - bb[0], bb[4] - bb[1]):
+                        raise UserError(
+                            f"{stem}: wall is {bb[3] - bb[0]:.1f} × {bb[4] - bb[1]:.1f} mm, larger than the bed {grid.bed}"
+                        )
+                    with run.out.open_path(f"{stem}.step") as p:
+                        wall_mod.wall_step(wm, p)
+                    with run.out.open_path(f"{stem}.stl") as p:
+                        wall_mod.wall_stl(wm, p, exp.stl_tolerance_mm)
+                    walls.append(
+                        {
+                            "tile": t.name,
+                            "file": f"{stem}.step",
+                            "standoff_mm": standoff,
+                            "notches": wall_notches,
+                            **wcheck,
+                        }
+                    )
+                    bar.update(1)
+    run.figures["build"] = {"plates": plates, "walls": walls}
+    run.figures.setdefault("mural", {}).update(
+        {
+            "tiles": mural.manifest_rows(grid),
+            "holes_per_tile": {
+                t.name: [len(per_tile[k][i]) for i in range(len(dotsets))] for k, t in enumerate(grid.tiles)
+            },
+            "holes_total": int(sum(len(d) for d in union)),
+            "holes_global": int(sum(len(d) for d in dotsets)),
+            "union_check_rules": "passed",
+            "seam_density": mural.seam_density(dotsets, grid),
+            "order_of_work": mural.order_of_work(grid, len(dotsets)),
+        }
+    )
+    return per_tile
+
+
+def write_map(run, grid: mural.TileGrid, layers: Layers, picture: Picture | None) -> None:
+    """Write ``mural_map.png``: the grid over the picture, names, positions, order of work."""
+    preview = picture.rgb if picture is not None else layers.composite()
+    run.out.write_png("mural_map.png", mural.mural_map(grid, layers.count, preview))
+
+
+#: Registration errors simulated, mm.
+REGISTRATION_ERRORS_MM = (0.5, 1.0)
+
+
+def stage_mural_simulate(
+    run,
+    sim,
+    reference: np.ndarray,
+    layers: Layers,
+    dotsets: list[DotSet],
+    grid: mural.TileGrid,
+    per_tile: list[list[DotSet]],
+) -> None:
+    """The tiled mural in simulation: equal to the global one at zero error, and the cost of misregistration.
+
+    Args:
+        run: The run.
+        sim: The global :class:`~stencil_cad.simulate.SimResult`.
+        reference: ``(H, W, 3)`` picture on the simulation grid.
+        layers: The decomposition.
+        dotsets: The global holes per layer.
+        grid: The tiles.
+        per_tile: Per tile, per layer, holes in the tile frame.
+    """
+    from . import simulate
+    from .model import composite
+    from .simulate import scielab
+    from .simulate.physical import SprayGeometry
+
+    cfg = run.cfg.spray
+    geometry = SprayGeometry.of_job(run.cfg) if getattr(cfg.model, "value", cfg.model) == "physical" else None
+    g = sim.mm_per_px
+    shape = sim.alphas.shape[1:]
+    times = [float(t) for t in sim.info["spray_time"]]
+    tols = [simulate.tail_tolerance(d.xy_mm, d.r_mm, shape, g, cfg) if len(d) else 0.0 for d in dotsets]
+    out: dict = {}
+    with run.stage("simulate_tiles"):
+        t0 = time.perf_counter()
+        tiled = mural.simulate_tiles(shape, g, per_tile, grid, cfg, times, tols, geometry=geometry)
+        diff = float(np.max(np.abs(tiled - sim.alphas))) if tiled.size else 0.0
+        out["tiled_vs_global_max_abs"] = diff
+        out["tiled_equals_global"] = bool(diff <= 1e-6)
+        dist = run.cfg.view.distance_m
+
+        def scores(alphas: np.ndarray) -> dict:
+            comp = np.clip(composite(layers.primer, layers.colours, alphas), 0, 1)
+            return {**simulate.score(reference, comp), "scielab": scielab.scielab(reference, comp, g, dist)}
+
+        base = scores(tiled)
+        del tiled
+        costs = []
+        for between in ("tiles", "layers"):
+            for err in REGISTRATION_ERRORS_MM:
+                off = mural.registration_offsets(grid, err, between)
+                a = mural.simulate_tiles(shape, g, per_tile, grid, cfg, times, tols, off, geometry)
+                sc = scores(a)
+                del a
+                costs.append(
+                    {
+                        "between": between,
+                        "error_mm": err,
+                        **{f"{k}": round(v, 5) for k, v in sc.items()},
+                        **{
+                            f"cost_{k}": round(sc[k] - base[k], 5)
+                            for k in ("scielab", "de2000_mean", "de2000_p95", "psnr", "ssim")
+                        },
+                    }
+                )
+        out["zero_error_scores"] = {k: round(v, 5) for k, v in base.items()}
+        out["registration_cost"] = costs
+        out["seconds"] = round(time.perf_counter() - t0, 2)
+    run.figures.setdefault("mural", {})["simulation"] = out
+    if not out["tiled_equals_global"]:
+        log.warning("tiled simulation differs from the global one by %.3g (max abs opacity)", diff)
+
+
+def plan_line(plan: dict) -> str:
+    """One line, printed before the work starts: what this size costs."""
+    c = plan["cost"]
+    bed = plan.get("bed")
+    where = f"bed {bed['name']} ({bed['x_mm']:g} × {bed['y_mm']:g} mm)" if bed else "no bed given"
+    if bed and "×" in bed["name"]:
+        where = f"bed {bed['name']}"
+    return (
+        f"stencil-cad: plan: {c['tiles']} tile(s) ({c['grid']}, {where}), {c['plates']} plates, {c['walls']} wall(s), "
+        f"at most {c['holes_at_most']:,} holes, about {c['estimated_seconds']:.0f} s"
+    )
