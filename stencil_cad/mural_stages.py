@@ -123,7 +123,7 @@ def stage_build_tiles(run, layers: Layers, dotsets: list[DotSet], grid: mural.Ti
                     except ValueError as exc:
                         raise UserError(f"{stem}: {exc}") from exc
                     check = cad.check_plate(model, holes, tolerance_mm=exp.stl_tolerance_mm)
-                    (x0, y0, _), (x1, y1, _) = model.geometry.bbox
+                    (x0, y0, _), (x1, y1, _) = check["bbox"]
                     if grid.bed is not None and not grid.bed.fits(x1 - x0, y1 - y0):
                         raise UserError(
                             f"{stem}: plate is {x1 - x0:.1f} × {y1 - y0:.1f} mm, larger than the bed {grid.bed}"

@@ -1654,6 +1654,8 @@ def _bed_xy(bed) -> tuple[float, float]:
     from .config.bed import resolve_bed
 
     b = resolve_bed(bed)
+    if b is None:
+        raise UserError("--bed: no bed given (name a preset such as prusa_mk4, or XxY mm)")
     return (b.x_mm, b.y_mm)
 
 
