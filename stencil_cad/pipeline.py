@@ -468,13 +468,16 @@ def stage_refine(
     ``view.distance_m``, and the holes keep the stipple rules (the largest radius is
     ``refine.max_radius_factor`` times the hole floor).
     """
+    from . import resolution
     from .simulate import scielab, spray
     from .simulate.physical import SprayGeometry
     from .stipple import refine
     from .stipple.rules import rules_from_config
 
     cfg = run.cfg
-    grid = 1.0 / cfg.spray.px_per_mm
+    # The simulation's grid: with ``size.px_per_mm: auto`` it follows the dots' spray sigma
+    # (8x fewer pixels than 4 px/mm for FDM holes, which keeps a mural's refinement in memory).
+    grid = resolution.sim_mm_per_px(cfg) or 1.0 / cfg.spray.px_per_mm
     shape = spray.sim_shape(layers.alphas.shape[1:], layers.mm_per_px, grid)
     reference = picture.rgb if picture is not None else layers.composite()
     target = spray.resample(np.clip(reference, 0.0, 1.0), shape)
