@@ -9,8 +9,13 @@ separate task.
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import tempfile
 import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -77,14 +82,10 @@ def stage_build_tiles(run, layers: Layers, dotsets: list[DotSet], grid: mural.Ti
     Returns:
         Per tile, per layer, the tile's holes in the tile frame.
     """
-    from . import cad, outline
-    from .cad import registration
     from .cad import wall as wall_mod
-    from .exchange import dxf
     from .stipple import rules as dots
 
     cfg = run.cfg
-    exp = cfg.export
     split = [mural.split_dots(ds, grid) for ds in dotsets]  # [layer][tile]
     per_tile = [[split[i][k] for i in range(len(dotsets))] for k in range(len(grid.tiles))]
     # The union of the tiles' holes is the global set: same count, same rules.
@@ -101,81 +102,16 @@ def stage_build_tiles(run, layers: Layers, dotsets: list[DotSet], grid: mural.Ti
             raise UserError(f"layer {i + 1} (all tiles in mural coordinates): {exc}") from None
     plates, walls = [], []
     heights = wall_mod.wall_heights(cfg.wall)
+    tasks = _part_tasks(cfg, layers, grid, per_tile, heights)
+    n_parts = len(grid.tiles) * (len(dotsets) + len(heights))
     with run.stage("build"):
-        with run.bar(len(grid.tiles) * (len(dotsets) + len(heights)), "build tiles") as bar:
-            for k, t in enumerate(grid.tiles):
-                w, h = t.size
-                lines = t.grid_lines()
-                ring, notches = mural.notched_ring(
-                    outline.plate_outline(w, h, cfg.plate.outline), lines, mural.PLATE_NOTCH_MM
-                )
-                for i, holes in enumerate(per_tile[k]):
-                    stem = tile_stem(t, i)
-                    label = cad.LabelInfo(
-                        layer=i + 1,
-                        layers=len(dotsets),
-                        colour=to_hex(layers.colours[i]),
-                        job=cfg.name,
-                        tile=mural.tile_label(t, grid),
-                    )
-                    try:
-                        model = cad.build_plate(holes, w, h, cfg.plate, label, outline_ring=ring)
-                    except ValueError as exc:
-                        raise UserError(f"{stem}: {exc}") from exc
-                    check = cad.check_plate(model, holes, tolerance_mm=exp.stl_tolerance_mm)
-                    (x0, y0, _), (x1, y1, _) = check["bbox"]
-                    if grid.bed is not None and not grid.bed.fits(x1 - x0, y1 - y0):
-                        raise UserError(
-                            f"{stem}: plate is {x1 - x0:.1f} × {y1 - y0:.1f} mm, larger than the bed {grid.bed}"
-                        )
-                    cad.write_mesh_files(run.out, model, stem, exp)
-                    row = {
-                        "tile": t.name,
-                        "layer": i + 1,
-                        "file": stem,
-                        "notches": notches,
-                        "bbox_mm": [round(x1 - x0, 3), round(y1 - y0, 3)],
-                    }
-                    if exp.dxf:
-                        with run.out.open_path(f"{stem}.dxf") as p:
-                            info = dxf.write_dxf_stencils(
-                                p, [dxf.stencil_for(holes, ring, stem.upper())], kerf_mm=exp.dxf_kerf_mm
-                            )
-                        row["dxf_offset_mm"] = [round(float(v), 4) for v in info.offset_mm]
-                        bx = info.bbox_mm
-                        sheet = (bx[2] - bx[0], bx[3] - bx[1])
-                        row["dxf_sheet_mm"] = [round(v, 3) for v in sheet]
-                        if grid.bed is not None and not grid.bed.fits(*sheet):
-                            raise UserError(
-                                f"{stem}.dxf: sheet is {sheet[0]:.1f} × {sheet[1]:.1f} mm, larger than the bed {grid.bed}"
-                            )
-                    plates.append({**row, **_plain(check)})
-                    bar.update(1)
-                for standoff, stem in zip(heights, tile_wall_stems(t, cfg.wall.standoff_mm), strict=True):
-                    wm = wall_mod.build_wall(
-                        w, h, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, standoff
-                    )
-                    wm, wall_notches = registration.notch_wall(wm, lines, w, cfg.wall.finger_slot_mm)
-                    wcheck = wall_mod.check_wall(wm)
-                    bb = wcheck["bbox"]
-                    if grid.bed is not None and not grid.bed.fits(bb[3] - bb[0], bb[4] - bb[1]):
-                        raise UserError(
-                            f"{stem}: wall is {bb[3] - bb[0]:.1f} × {bb[4] - bb[1]:.1f} mm, larger than the bed {grid.bed}"
-                        )
-                    with run.out.open_path(f"{stem}.step") as p:
-                        wall_mod.wall_step(wm, p)
-                    with run.out.open_path(f"{stem}.stl") as p:
-                        wall_mod.wall_stl(wm, p, exp.stl_tolerance_mm)
-                    walls.append(
-                        {
-                            "tile": t.name,
-                            "file": f"{stem}.step",
-                            "standoff_mm": standoff,
-                            "notches": wall_notches,
-                            **wcheck,
-                        }
-                    )
-                    bar.update(1)
+        # Each plate and wall is a task (built, checked and exported where it runs); the files
+        # come back as bytes and are staged here in task order, so the output is the same
+        # whichever process built what.
+        for res in run.tasks.map(build_part, tasks, "build tiles", count=n_parts):
+            for name, data in res.files:
+                run.out.write_bytes(name, data)
+            (plates if res.kind == "plate" else walls).append(res.row)
     run.figures["build"] = {"plates": plates, "walls": walls}
     run.figures.setdefault("mural", {}).update(
         {
@@ -191,6 +127,182 @@ def stage_build_tiles(run, layers: Layers, dotsets: list[DotSet], grid: mural.Ti
         }
     )
     return per_tile
+
+
+@dataclass(frozen=True)
+class PartTask:
+    """One plate or wall of a tile: everything a worker needs to build, check and export it.
+
+    Attributes:
+        kind: ``"plate"`` or ``"wall"``.
+        stem: File stem, e.g. ``tile_B3_layer_02``.
+        cfg: The job config.
+        size_mm: ``(w, h)`` of the tile's sheet in mm.
+        lines: The tile's grid lines (sight notches).
+        bed: The bed every part must fit, or None.
+        holes: A plate's holes in the tile frame (None for a wall).
+        label: A plate's label (None for a wall).
+        ring: A plate's notched outline ring (None for a wall).
+        notches: A plate's notch count.
+        standoff_mm: A wall's stand-off height (None for a plate).
+        tile: The tile's name.
+    """
+
+    kind: str
+    stem: str
+    cfg: object
+    size_mm: tuple[float, float]
+    lines: object
+    bed: object
+    tile: str
+    holes: DotSet | None = None
+    label: object = None
+    ring: np.ndarray | None = None
+    notches: int = 0
+    standoff_mm: float | None = None
+
+
+@dataclass(frozen=True)
+class PartResult:
+    """What a :class:`PartTask` made: its files (name, bytes) in writing order and its manifest row."""
+
+    kind: str
+    files: tuple
+    row: dict
+
+
+def _part_tasks(cfg, layers: Layers, grid: mural.TileGrid, per_tile, heights) -> Iterator[PartTask]:
+    """Every tile's plates (one per layer) and walls, tile by tile, made one at a time."""
+    from . import cad, outline
+
+    n = len(per_tile[0]) if per_tile else 0
+    for k, t in enumerate(grid.tiles):
+        w, h = t.size
+        lines = t.grid_lines()
+        ring, notches = mural.notched_ring(
+            outline.plate_outline(w, h, cfg.plate.outline), lines, mural.PLATE_NOTCH_MM
+        )
+        common = {"cfg": cfg, "size_mm": (w, h), "lines": lines, "bed": grid.bed, "tile": t.name}
+        for i, holes in enumerate(per_tile[k]):
+            label = cad.LabelInfo(
+                layer=i + 1,
+                layers=n,
+                colour=to_hex(layers.colours[i]),
+                job=cfg.name,
+                tile=mural.tile_label(t, grid),
+            )
+            yield PartTask(
+                kind="plate",
+                stem=tile_stem(t, i),
+                holes=holes,
+                label=label,
+                ring=ring,
+                notches=notches,
+                **common,
+            )
+        for standoff, stem in zip(heights, tile_wall_stems(t, cfg.wall.standoff_mm), strict=True):
+            yield PartTask(kind="wall", stem=stem, standoff_mm=standoff, **common)
+
+
+def build_part(task: PartTask) -> PartResult:
+    """Build, check and export one plate or wall (a task: pure, the same task gives the same bytes).
+
+    Raises:
+        UserError: The holes break the rules, the label cannot fit, or the part does not fit the bed.
+    """
+    return _build_plate(task) if task.kind == "plate" else _build_wall(task)
+
+
+class _Files:
+    """Collects the files a task writes as (name, bytes), through the output folder's ``open_path`` interface.
+
+    Each file is written into a private temporary folder where the task runs (a worker may be
+    another machine) and read back, so the files travel with the task's result.
+    """
+
+    def __init__(self):
+        self.files: list[tuple[str, bytes]] = []
+
+    @contextlib.contextmanager
+    def open_path(self, name: str) -> Iterator[Path]:
+        """Yield a temporary path to write ``name`` to; its bytes are kept when the block succeeds."""
+        with tempfile.TemporaryDirectory(prefix="stencil-part-") as tmp:
+            path = Path(tmp) / name
+            yield path
+            self.files.append((name, path.read_bytes()))
+
+
+def _build_plate(task: PartTask) -> PartResult:
+    from . import cad
+    from .exchange import dxf
+
+    cfg, stem, holes = task.cfg, task.stem, task.holes
+    exp = cfg.export
+    w, h = task.size_mm
+    try:
+        model = cad.build_plate(holes, w, h, cfg.plate, task.label, outline_ring=task.ring)
+    except ValueError as exc:
+        raise UserError(f"{stem}: {exc}") from exc
+    check = cad.check_plate(model, holes, tolerance_mm=exp.stl_tolerance_mm)
+    (x0, y0, _), (x1, y1, _) = check["bbox"]
+    if task.bed is not None and not task.bed.fits(x1 - x0, y1 - y0):
+        raise UserError(f"{stem}: plate is {x1 - x0:.1f} × {y1 - y0:.1f} mm, larger than the bed {task.bed}")
+    files = _Files()
+    cad.write_mesh_files(files, model, stem, exp)
+    row = {
+        "tile": task.tile,
+        "layer": task.label.layer,
+        "file": stem,
+        "notches": task.notches,
+        "bbox_mm": [round(x1 - x0, 3), round(y1 - y0, 3)],
+    }
+    if exp.dxf:
+        with files.open_path(f"{stem}.dxf") as p:
+            info = dxf.write_dxf_stencils(
+                p,
+                [dxf.stencil_for(holes, task.ring, stem.upper())],
+                kerf_mm=exp.dxf_kerf_mm,
+                # Fixed dates and GUIDs: the same job writes the same bytes, wherever it ran.
+                deterministic=True,
+            )
+        row["dxf_offset_mm"] = [round(float(v), 4) for v in info.offset_mm]
+        bx = info.bbox_mm
+        sheet = (bx[2] - bx[0], bx[3] - bx[1])
+        row["dxf_sheet_mm"] = [round(v, 3) for v in sheet]
+        if task.bed is not None and not task.bed.fits(*sheet):
+            raise UserError(
+                f"{stem}.dxf: sheet is {sheet[0]:.1f} × {sheet[1]:.1f} mm, larger than the bed {task.bed}"
+            )
+    return PartResult("plate", tuple(files.files), {**row, **_plain(check)})
+
+
+def _build_wall(task: PartTask) -> PartResult:
+    from .cad import registration
+    from .cad import wall as wall_mod
+
+    cfg, stem = task.cfg, task.stem
+    w, h = task.size_mm
+    wm = wall_mod.build_wall(w, h, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, task.standoff_mm)
+    wm, wall_notches = registration.notch_wall(wm, task.lines, w, cfg.wall.finger_slot_mm)
+    wcheck = wall_mod.check_wall(wm)
+    bb = wcheck["bbox"]
+    if task.bed is not None and not task.bed.fits(bb[3] - bb[0], bb[4] - bb[1]):
+        raise UserError(
+            f"{stem}: wall is {bb[3] - bb[0]:.1f} × {bb[4] - bb[1]:.1f} mm, larger than the bed {task.bed}"
+        )
+    files = _Files()
+    with files.open_path(f"{stem}.step") as p:
+        wall_mod.wall_step(wm, p)
+    with files.open_path(f"{stem}.stl") as p:
+        wall_mod.wall_stl(wm, p, cfg.export.stl_tolerance_mm)
+    row = {
+        "tile": task.tile,
+        "file": f"{stem}.step",
+        "standoff_mm": task.standoff_mm,
+        "notches": wall_notches,
+        **wcheck,
+    }
+    return PartResult("wall", tuple(files.files), row)
 
 
 def write_map(run, grid: mural.TileGrid, layers: Layers, picture: Picture | None) -> None:

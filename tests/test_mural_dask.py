@@ -1,0 +1,39 @@
+"""A small mural on a local Dask cluster of two workers against the same job in this process."""
+
+import json
+
+import pytest
+
+from stencil_cad.cli import main
+
+
+@pytest.mark.slow
+def test_small_mural_on_two_workers_writes_the_in_process_bytes(tmp_path):
+    cfg = tmp_path / "mural.yaml"
+    cfg.write_text(
+        "name: tiny_mural\n"
+        "size: {width_mm: 240, height_mm: 160, px_per_mm: auto}\n"
+        "bed: prusa_mk4\n"
+        "decompose: {layers: 2}\n"
+        "stipple: {process: fdm}\n"
+    )
+    outs = {}
+    for workers in ("0", "2"):
+        out = tmp_path / f"w{workers}"
+        assert main(["run", str(cfg), "--out", str(out), "-q", "--workers", workers]) == 0
+        outs[workers] = out
+    man = {w: json.loads((o / "manifest.json").read_text()) for w, o in outs.items()}
+    assert man["0"]["compute"]["kind"] == "in_process"
+    assert (man["2"]["compute"]["kind"], man["2"]["compute"]["workers"]) == ("local", 2)
+    tiles = man["2"]["mural"]["tiles"]
+    assert len(tiles) >= 2
+    # Every plate and wall of every tile was a task.
+    assert man["2"]["compute"]["tasks"] >= len(tiles) * 3
+    names = sorted(p.name for p in outs["0"].iterdir())
+    assert names == sorted(p.name for p in outs["2"].iterdir())
+    assert any(n.startswith("tile_A2_layer_02") for n in names)
+    for name in names:
+        if name != "manifest.json":
+            assert (outs["0"] / name).read_bytes() == (outs["2"] / name).read_bytes(), name
+    rows = {w: [(r["name"], r["sha256"]) for r in m["files"]] for w, m in man.items()}
+    assert rows["0"] == rows["2"]
