@@ -7,6 +7,15 @@ Each case is a square mural (1 m × 1 m, 2 m × 2 m) from the bundled 512 px pho
 (the largest sum of the resident memory of the command and all its child processes, sampled
 every 0.2 s, and never below the kernel's peak of the largest one), ``tiles``, ``holes``
 and the stage times. The 4 m² row also gives ``ratio_to_1m2``.
+
+The Dask rows (cases ``4m2-w2``, ``10m2-w2``; ``10m2-w1`` on request) run the same command with
+``--workers N`` (a local cluster of N worker processes; the one-process rows run with
+``--workers 0``). ``10m2`` is 4 m × 2.5 m. ``identical`` is true when every output file but
+``manifest.json`` (timings, where it ran) is byte-identical to the one-process run of the same
+size in this invocation, and null when there was none; ``speedup_vs_1`` is the one-process
+run's seconds over this one's. ``peak_mb_all`` sums the command and its worker processes.
+Run ``python -m benchmarks mural --case 4m2 --case 4m2-w2`` several times on a quiet machine
+and quote the medians: the speed-up is a ratio of wall clocks.
 """
 
 from __future__ import annotations
@@ -22,7 +31,15 @@ from pathlib import Path
 
 import yaml
 
-CASES = {"1m2": 1000.0, "4m2": 2000.0}
+#: Case name: (width mm, height mm, workers; 0 = one process).
+CASES = {
+    "1m2": (1000.0, 1000.0, 0),
+    "4m2": (2000.0, 2000.0, 0),
+    "4m2-w2": (2000.0, 2000.0, 2),
+    "10m2-w2": (4000.0, 2500.0, 2),
+}
+#: Cases run only when asked for by name.
+ON_REQUEST = {"10m2-w1": (4000.0, 2500.0, 0)}
 
 
 def _tree_rss_mb(pid: int) -> float:
@@ -42,21 +59,34 @@ def _tree_rss_mb(pid: int) -> float:
     return total / 2**20
 
 
-def _run_case(side_mm: float, tmp: Path, image: Path) -> dict:
+def _run_case(name: str, case: tuple[float, float, int], tmp: Path, image: Path) -> tuple[dict, Path]:
+    width_mm, height_mm, workers = case
+    area = width_mm * height_mm / 1e6
     cfg = {
-        "name": f"mural_{side_mm / 1000:g}m",
+        "name": f"mural_{area:g}m2",
         "image": str(image),
-        "size": {"width_mm": side_mm, "height_mm": side_mm, "px_per_mm": "auto"},
+        "size": {"width_mm": width_mm, "height_mm": height_mm, "px_per_mm": "auto"},
         "bed": "prusa_mk4",
         "decompose": {"layers": 4},
         "stipple": {"process": "fdm"},
     }
     path = tmp / f"{cfg['name']}.yaml"
     path.write_text(yaml.safe_dump(cfg))
-    out = tmp / cfg["name"]
+    out = tmp / name
     t0 = time.perf_counter()
     proc = subprocess.Popen(
-        [sys.executable, "-m", "stencil_cad", "run", str(path), "--out", str(out), "-q"],
+        [
+            sys.executable,
+            "-m",
+            "stencil_cad",
+            "run",
+            str(path),
+            "--out",
+            str(out),
+            "-q",
+            "--workers",
+            str(workers),
+        ],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -76,15 +106,15 @@ def _run_case(side_mm: float, tmp: Path, image: Path) -> dict:
     kernel_peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
     row = {
         "bench": "mural",
-        "case": f"{(side_mm / 1000) ** 2:g}m2",
-        "area_m2": round((side_mm / 1000) ** 2, 3),
-        "workers": 1,
+        "case": name,
+        "area_m2": round(area, 3),
+        "workers": max(workers, 1),
         "seconds": round(seconds, 1),
         "peak_mb_all": round(max(peak[0], kernel_peak), 1),
     }
     if proc.returncode != 0:
         row["error"] = err.strip().splitlines()[-1] if err.strip() else f"exit {proc.returncode}"
-        return row
+        return row, out
     manifest = json.loads((out / "manifest.json").read_text())
     m = manifest.get("mural", {})
     row["tiles"] = len(m.get("tiles", [])) or 1
@@ -92,7 +122,15 @@ def _run_case(side_mm: float, tmp: Path, image: Path) -> dict:
     row["stage_seconds"] = manifest.get("seconds", {})
     sim = m.get("simulation", {})
     row["tiled_vs_global_max_abs"] = sim.get("tiled_vs_global_max_abs")
-    return row
+    return row, out
+
+
+def _identical(a: Path, b: Path) -> bool:
+    """Every file but the manifest byte-identical, and the same set of files."""
+    names = sorted(p.name for p in a.iterdir())
+    if names != sorted(p.name for p in b.iterdir()):
+        return False
+    return all((a / n).read_bytes() == (b / n).read_bytes() for n in names if n != "manifest.json")
 
 
 def run(cases=None):
@@ -100,16 +138,28 @@ def run(cases=None):
 
     from stencil_cad.imaging import example_image_path
 
-    names = [c for c in CASES if not cases or c in cases]
+    every = {**CASES, **ON_REQUEST}
+    names = [c for c in every if (c in cases if cases else c in CASES)]
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
         image = tmp / "photo_1024.png"
         Image.open(example_image_path()).convert("RGB").resize((1024, 1024), Image.LANCZOS).save(image)
         first = None
+        one_process: dict[float, tuple[dict, Path]] = {}
         for name in names:
-            row = _run_case(CASES[name], tmp, image)
-            if first is None and "error" not in row:
-                first = row
-            elif first is not None and "error" not in row:
-                row["ratio_to_1m2"] = round(row["seconds"] / first["seconds"], 2)
+            row, out = _run_case(name, every[name], tmp, image)
+            ok = "error" not in row
+            if ok and every[name][2] == 0:
+                one_process[row["area_m2"]] = (row, out)
+                if first is None:
+                    first = row
+                else:
+                    row["ratio_to_1m2"] = round(row["seconds"] / first["seconds"], 2)
+            elif ok:
+                base = one_process.get(row["area_m2"])
+                row["identical"] = None if base is None else _identical(base[1], out)
+                if base is not None:
+                    row["speedup_vs_1"] = round(base[0]["seconds"] / row["seconds"], 2)
+                if first is not None:
+                    row["ratio_to_1m2"] = round(row["seconds"] / first["seconds"], 2)
             yield row
