@@ -16,6 +16,7 @@ import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -24,6 +25,11 @@ from .colour import to_hex
 from .errors import UserError
 from .model import DotSet, Layers, Picture
 from .output import plain as _plain
+
+if TYPE_CHECKING:
+    from .cad import LabelInfo
+    from .config.bed import Bed
+    from .config.job import JobConfig
 
 log = logging.getLogger(__name__)
 
@@ -100,7 +106,8 @@ def stage_build_tiles(run, layers: Layers, dotsets: list[DotSet], grid: mural.Ti
             dots.check_rules(u.xy_mm, u.r_mm, rules)
         except ValueError as exc:
             raise UserError(f"layer {i + 1} (all tiles in mural coordinates): {exc}") from None
-    plates, walls = [], []
+    plates: list[dict] = []
+    walls: list[dict] = []
     heights = wall_mod.wall_heights(cfg.wall)
     tasks = _part_tasks(cfg, layers, grid, per_tile, heights)
     n_parts = len(grid.tiles) * (len(dotsets) + len(heights))
@@ -150,13 +157,13 @@ class PartTask:
 
     kind: str
     stem: str
-    cfg: object
+    cfg: JobConfig
     size_mm: tuple[float, float]
-    lines: object
-    bed: object
+    lines: tuple[list[float], list[float]]
+    bed: Bed | None
     tile: str
     holes: DotSet | None = None
-    label: object = None
+    label: LabelInfo | None = None
     ring: np.ndarray | None = None
     notches: int = 0
     standoff_mm: float | None = None
@@ -236,11 +243,13 @@ def _build_plate(task: PartTask) -> PartResult:
     from . import cad
     from .exchange import dxf
 
-    cfg, stem, holes = task.cfg, task.stem, task.holes
+    cfg, stem, holes, ring = task.cfg, task.stem, task.holes, task.ring
+    if holes is None or ring is None or task.label is None:
+        raise ValueError(f"{stem}: a plate task needs its holes, outline and label")
     exp = cfg.export
     w, h = task.size_mm
     try:
-        model = cad.build_plate(holes, w, h, cfg.plate, task.label, outline_ring=task.ring)
+        model = cad.build_plate(holes, w, h, cfg.plate, task.label, outline_ring=ring)
     except ValueError as exc:
         raise UserError(f"{stem}: {exc}") from exc
     check = cad.check_plate(model, holes, tolerance_mm=exp.stl_tolerance_mm)
@@ -260,7 +269,7 @@ def _build_plate(task: PartTask) -> PartResult:
         with files.open_path(f"{stem}.dxf") as p:
             info = dxf.write_dxf_stencils(
                 p,
-                [dxf.stencil_for(holes, task.ring, stem.upper())],
+                [dxf.stencil_for(holes, ring, stem.upper())],
                 kerf_mm=exp.dxf_kerf_mm,
                 # Fixed dates and GUIDs: the same job writes the same bytes, wherever it ran.
                 deterministic=True,
@@ -282,6 +291,8 @@ def _build_wall(task: PartTask) -> PartResult:
 
     cfg, stem = task.cfg, task.stem
     w, h = task.size_mm
+    if task.standoff_mm is None:
+        raise ValueError(f"{stem}: a wall task needs its stand-off height")
     wm = wall_mod.build_wall(w, h, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, task.standoff_mm)
     wm, wall_notches = registration.notch_wall(wm, task.lines, w, cfg.wall.finger_slot_mm)
     wcheck = wall_mod.check_wall(wm)
