@@ -111,7 +111,7 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
     times = ", ".join(f"{k} {v:.1f} s" for k, v in run.times.items())
     lines.append(f"  time      {times}")
     names = sorted(p.name for p in files)
-    lines.append("  files     " + _wrap(names))
+    lines.append("  files     " + _wrap(_grouped_tile_files(names)))
     out = getattr(run, "out", None)
     kept = list(getattr(out, "kept", []) or [])
     if kept:
@@ -145,6 +145,38 @@ def _dots_advice(run, sim: dict, distance_m: float) -> str:
             f"from about {blend:.1f} m{finer}"
         )
     return f"from {distance_m:g} m the {hole:g} mm holes blend into continuous tone (they do from about {blend:.1f} m)"
+
+
+def _grouped_tile_files(names: list[str]) -> list[str]:
+    """The file names, a mural's tile files counted per kind instead of listed one by one.
+
+    ``tile_A1_layer_01.stl`` … ``tile_E6_layer_04.stl`` become one entry such as
+    ``tile_A1…E6_layer_NN.stl (120)``; a mural has hundreds of them.
+    """
+    import re
+
+    pattern = re.compile(r"tile_([A-Z]+\d+)_(.+)$")
+    groups: dict[str, list[str]] = {}
+    rest = []
+    for n in names:
+        m = pattern.match(n)
+        if m is None:
+            rest.append(n)
+            continue
+        kind = re.sub(r"layer_\d+", "layer_NN", m.group(2))
+        groups.setdefault(kind, []).append(m.group(1))
+    if sum(len(v) for v in groups.values()) <= 12:
+        return names
+
+    def order(tile: str) -> tuple[int, str, int]:
+        row = tile.rstrip("0123456789")
+        return len(row), row, int(tile[len(row) :])
+
+    out = []
+    for kind, tiles in sorted(groups.items()):
+        first, last = min(tiles, key=order), max(tiles, key=order)
+        out.append(f"tile_{first}…{last}_{kind} ({len(tiles)})")
+    return out + rest
 
 
 def _wrap(names: list[str], width: int = 100) -> str:

@@ -308,3 +308,22 @@ def test_small_mural_end_to_end(tmp_path):
         polys = [e for e in doc.modelspace() if e.dxftype() == "LWPOLYLINE"]
         outlines.append(max((np.array([v[:2] for v in p.get_points()]) for p in polys), key=len))
     np.testing.assert_allclose(outlines[0], outlines[1])
+
+
+def test_summary_counts_a_murals_tile_files_per_kind():
+    from stencil_cad.report import _grouped_tile_files
+
+    names = sorted(
+        [f"tile_{r}{c}_layer_{k:02d}.stl" for r in "AB" for c in range(1, 12) for k in (1, 2)]
+        + [f"tile_{r}{c}_wall.step" for r in "AB" for c in range(1, 12)]
+        + ["manifest.json", "mural_map.png"]
+    )
+    grouped = _grouped_tile_files(names)
+    assert grouped == [
+        "tile_A1…B11_layer_NN.stl (44)",
+        "tile_A1…B11_wall.step (22)",
+        "manifest.json",
+        "mural_map.png",
+    ]
+    few = ["tile_A1_layer_01.stl", "tile_A2_layer_01.stl", "manifest.json"]
+    assert _grouped_tile_files(few) == few
