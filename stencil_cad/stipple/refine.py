@@ -11,6 +11,7 @@ layer sprayed in order (Porter-Duff *over*) and ``C*(p)`` the input picture,
 
     E = sum_p |g * (C - C*)|^2(p)
 
+(``p`` over the whole plane, the error zero outside the picture; images in float32)
 where ``g`` is a Gaussian of the eye's narrowest (luminance) lobe at the viewing distance
 (:func:`stencil_cad.simulate.scielab.smallest_sigma_mm`): error finer than the eye resolves from
 there costs nothing. Each layer's own filtered opacity error ``sum_p (g * (alpha_l -
@@ -74,6 +75,8 @@ Kernels = Callable[[np.ndarray, float], tuple]
 
 #: A hole's deposit is evaluated out to where it falls below this (relative to 1).
 _TAIL = 1e-4
+#: Cap of one deposit in the product model's gradient quotient ``N / (1 - N)`` (see there).
+_NV_MAX = 0.999999
 #: Rule tolerance of the refinement's own check, mm (a quarter of ``check_rules``' default).
 _TOL_MM = 2.5e-4
 #: Adam's moment decay rates and epsilon.
@@ -104,35 +107,55 @@ class RefineSettings:
 
 
 # --------------------------------------------------------------------------- compiled kernels
+#
+# Images are float32 in the stage (float64 when a caller passes float64, as the gradient test
+# does; numba compiles one version per dtype), per-hole sums are float64. Measured on
+# `python -m benchmarks refine` (100,000 holes, 2048 x 2048 px, one core's worth of a shared
+# machine): the float64 version with numpy/scipy image passes took 12.5 s per iteration, of
+# which 3.6 s the per-hole gradient (a branchy inner loop that did not vectorise), 2.9 s the
+# pair searches of the rule projection (one per revert round), 2.0 s scipy's Gaussian filters
+# and 2.4 s numpy's whole-image composite and layer terms.
 
 
 @numba.njit(cache=True)
-def _footprint(row, col, sig, a, h, w):  # pragma: no cover - compiled
-    """Pixel window where a deposit of peak ``a`` exceeds the tail, ``1 / (2 sigma^2)`` and its column profile."""
+def _footprint(row, col, sig, a, img):  # pragma: no cover - compiled
+    """Pixel window of ``img`` where a deposit of peak ``a`` exceeds the tail, ``1 / (2 sigma^2)``, column profile and offsets.
+
+    The profile and offsets are of ``img``'s dtype.
+    """
+    h, w = img.shape
     rad = sig * math.sqrt(2.0 * math.log(a / _TAIL))
     r0 = max(0, int(math.ceil(row - rad)))
     r1 = min(h - 1, int(math.floor(row + rad)))
     c0 = max(0, int(math.ceil(col - rad)))
     c1 = min(w - 1, int(math.floor(col + rad)))
     k = 1.0 / (2.0 * sig * sig)
-    ex = np.empty(max(c1 - c0 + 1, 0))
+    n = max(c1 - c0 + 1, 0)
+    ex = np.empty(n, dtype=img.dtype)
+    dxv = np.empty(n, dtype=img.dtype)
     for c in range(c0, c1 + 1):
         dx = c - col
+        dxv[c - c0] = dx
         ex[c - c0] = math.exp(-dx * dx * k)
-    return r0, r1, c0, c1, k, ex
+    return r0, r1, c0, c1, k, ex, dxv
 
 
 #: Rows per band of the parallel transmittance (each band is written by one thread only).
 _BAND = 32
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True, parallel=True, fastmath=True)
 def _transmittance_bands(
-    h, w, rows, cols, sig, peak, exp_mode, band_lo, band_hi
+    t, s, rows, cols, sig, peak, exp_mode, band_lo, band_hi
 ):  # pragma: no cover - compiled
-    """``T`` by row bands; holes sorted by row, band ``b`` visits holes ``band_lo[b]:band_hi[b]``."""
-    t = np.ones((h, w))
-    s = np.zeros((h, w)) if exp_mode else t
+    """``T`` into ``t`` (all ones on entry) by row bands; holes sorted by row, band ``b`` visits holes ``band_lo[b]:band_hi[b]``.
+
+    ``s`` is the summed dose (zeros, shaped like ``t``) in the exp model and unused otherwise.
+    """
+    h, w = t.shape
+    ft = t.dtype.type
+    one = ft(1.0)
+    zero = ft(0.0)
     for b in numba.prange(band_lo.shape[0]):
         lo = b * _BAND
         hi = min(h, lo + _BAND) - 1
@@ -140,25 +163,28 @@ def _transmittance_bands(
             a = peak[i]
             if a <= _TAIL:
                 continue
-            r0, r1, c0, c1, k, ex = _footprint(rows[i], cols[i], sig[i], a, h, w)
+            r0, r1, c0, c1, k, ex, _ = _footprint(rows[i], cols[i], sig[i], a, t)
             for r in range(max(r0, lo), min(r1, hi) + 1):
                 dy = r - rows[i]
-                ey = a * math.exp(-dy * dy * k)
-                for c in range(c0, c1 + 1):
-                    n = ey * ex[c - c0]
-                    if exp_mode:
-                        s[r, c] += n
-                    else:
-                        t[r, c] *= max(1.0 - n, 0.0)
+                ey = ft(a * math.exp(-dy * dy * k))
+                # Row slices: indexing t[r, c] here ran at half the speed.
+                if exp_mode:
+                    srow = s[r, c0 : c1 + 1]
+                    for c in range(c1 - c0 + 1):
+                        srow[c] += ey * ex[c]
+                else:
+                    trow = t[r, c0 : c1 + 1]
+                    for c in range(c1 - c0 + 1):
+                        trow[c] *= max(one - ey * ex[c], zero)
         if exp_mode:
             for r in range(lo, hi + 1):
                 for c in range(w):
                     t[r, c] = math.exp(-s[r, c])
-    return t
 
 
-def _transmittance(h, w, rows, cols, sig, peak, exp_mode):
-    """``T = prod (1 - min(N_i, 1))`` (or ``exp(-sum N_i)``) on an ``(h, w)`` grid, px units."""
+def _transmittance(t, rows, cols, sig, peak, exp_mode):
+    """``T = prod (1 - min(N_i, 1))`` (or ``exp(-sum N_i)``) into ``t`` (an ``(h, w)`` array of ones), px units."""
+    h = t.shape[0]
     order = np.argsort(rows, kind="stable")
     rows, cols, sig, peak = rows[order], cols[order], sig[order], peak[order]
     a = np.maximum(peak, _TAIL)
@@ -166,20 +192,32 @@ def _transmittance(h, w, rows, cols, sig, peak, exp_mode):
     top = np.arange(0, h, _BAND, dtype=np.float64)
     band_lo = np.searchsorted(rows, top - reach, side="left").astype(np.int64)
     band_hi = np.searchsorted(rows, top + _BAND + reach, side="right").astype(np.int64)
-    return _transmittance_bands(h, w, rows, cols, sig, peak, exp_mode, band_lo, band_hi)
+    s = np.zeros_like(t) if exp_mode else np.zeros((1, 1), dtype=t.dtype)
+    _transmittance_bands(t, s, rows, cols, sig, peak, exp_mode, band_lo, band_hi)
+    return t
 
 
-@numba.njit(cache=True, parallel=True)
-def _hole_gradients(g, t, rows, cols, sig, peak, exp_mode):  # pragma: no cover - compiled
-    """Per hole ``sum_p g(p) dalpha/dN_i dN_i/d(row, col, sigma, peak)`` in px units."""
+@numba.njit(cache=True, parallel=True, fastmath=True)
+def _hole_gradients(gt, rows, cols, sig, peak, exp_mode):  # pragma: no cover - compiled
+    """Per hole ``sum_p G(p) dalpha/dN_i dN_i/d(row, col, sigma, peak)`` in px units; ``gt = G T``.
+
+    With ``w(p) = G T N_i / (1 - N_i)`` (product; 0 where the hole clamps) or ``G T N_i``
+    (exp), the four sums are ``sum w dy / s^2``, ``sum w dx / s^2``,
+    ``sum w (dx^2 + dy^2) / s^3`` and ``sum w / peak``; each row's are three running sums
+    of ``w``, ``w dx`` and ``w dx^2`` in the image's dtype, a loop the compiler vectorises
+    (branch-free: where a hole clamps, ``T`` and so ``gt`` is 0, and ``N_i`` is capped below 1
+    so the quotient stays finite).
+    """
     n = rows.shape[0]
     out = np.zeros((n, 4))
-    h, w = g.shape
+    ft = gt.dtype.type
+    one = ft(1.0)
+    cap = ft(_NV_MAX)
     for i in numba.prange(n):
         a = peak[i]
         if a <= _TAIL:
             continue
-        r0, r1, c0, c1, k, ex = _footprint(rows[i], cols[i], sig[i], a, h, w)
+        r0, r1, c0, c1, k, ex, dxv = _footprint(rows[i], cols[i], sig[i], a, gt)
         s2 = sig[i] * sig[i]
         gr = 0.0
         gc = 0.0
@@ -187,35 +225,42 @@ def _hole_gradients(g, t, rows, cols, sig, peak, exp_mode):  # pragma: no cover 
         ga = 0.0
         for r in range(r0, r1 + 1):
             dy = r - rows[i]
-            ey = math.exp(-dy * dy * k)
-            for c in range(c0, c1 + 1):
-                dx = c - cols[i]
-                e = ey * ex[c - c0]
-                nv = a * e
-                if exp_mode:
-                    dadn = t[r, c]
-                else:
-                    if nv >= 1.0:
-                        continue
-                    dadn = t[r, c] / (1.0 - nv)
-                q = g[r, c] * dadn
-                gr += q * nv * dy / s2
-                gc += q * nv * dx / s2
-                gs += q * nv * (dx * dx + dy * dy) / (s2 * sig[i])
-                ga += q * e
-        out[i, 0] = gr
-        out[i, 1] = gc
-        out[i, 2] = gs
-        out[i, 3] = ga
+            ey = ft(a * math.exp(-dy * dy * k))
+            w0 = ft(0.0)
+            w1 = ft(0.0)
+            w2 = ft(0.0)
+            row = gt[r, c0 : c1 + 1]
+            if exp_mode:
+                for c in range(c1 - c0 + 1):
+                    wv = row[c] * (ey * ex[c])
+                    d = dxv[c]
+                    w0 += wv
+                    w1 += wv * d
+                    w2 += wv * d * d
+            else:
+                for c in range(c1 - c0 + 1):
+                    nv = ey * ex[c]
+                    wv = row[c] * nv / (one - min(nv, cap))
+                    d = dxv[c]
+                    w0 += wv
+                    w1 += wv * d
+                    w2 += wv * d * d
+            gr += dy * w0
+            gc += w1
+            gs += w2 + dy * dy * w0
+            ga += w0
+        out[i, 0] = gr / s2
+        out[i, 1] = gc / s2
+        out[i, 2] = gs / (s2 * sig[i])
+        out[i, 3] = ga / a
     return out
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True, parallel=True, fastmath=True)
 def _removal_change(g, q, t, rows, cols, sig, peak, exp_mode):  # pragma: no cover - compiled
     """Predicted change of the objective if each hole alone were removed (inf: cannot tell)."""
     n = rows.shape[0]
     out = np.zeros(n)
-    h, w = g.shape
     for i in numba.prange(n):
         a = peak[i]
         if a <= _TAIL:
@@ -223,7 +268,7 @@ def _removal_change(g, q, t, rows, cols, sig, peak, exp_mode):  # pragma: no cov
         if not exp_mode and a >= 1.0:
             out[i] = np.inf
             continue
-        r0, r1, c0, c1, k, ex = _footprint(rows[i], cols[i], sig[i], a, h, w)
+        r0, r1, c0, c1, k, ex, _ = _footprint(rows[i], cols[i], sig[i], a, g)
         acc = 0.0
         for r in range(r0, r1 + 1):
             dy = r - rows[i]
@@ -238,6 +283,83 @@ def _removal_change(g, q, t, rows, cols, sig, peak, exp_mode):  # pragma: no cov
                 acc += -g[r, c] * d + q[r, c] * d * d
         out[i] = acc
     return out
+
+
+@numba.njit(cache=True, parallel=True)
+def _composite_residuals(trans, primer, colours, target, alpha_t, res, lres):  # pragma: no cover - compiled
+    """Composite minus target into ``res`` (H, W, 3); each layer's opacity minus its target into ``lres``.
+
+    ``lres`` has no layers when the per-layer term is off (then ``alpha_t`` is not read).
+    """
+    n_l, h, w = trans.shape
+    for r in numba.prange(h):
+        for c in range(w):
+            c0 = primer[0]
+            c1 = primer[1]
+            c2 = primer[2]
+            for m in range(n_l):
+                tm = trans[m, r, c]
+                u = 1.0 - tm
+                c0 = c0 * tm + u * colours[m, 0]
+                c1 = c1 * tm + u * colours[m, 1]
+                c2 = c2 * tm + u * colours[m, 2]
+            res[r, c, 0] = c0 - target[r, c, 0]
+            res[r, c, 1] = c1 - target[r, c, 1]
+            res[r, c, 2] = c2 - target[r, c, 2]
+            for m in range(lres.shape[0]):
+                lres[m, r, c] = (1.0 - trans[m, r, c]) - alpha_t[m, r, c]
+
+
+@numba.njit(cache=True, parallel=True)
+def _opacity_gradients(trans, primer, colours, dedc, dl, lam, gt, gq):  # pragma: no cover - compiled
+    """Per layer ``G T`` into ``gt`` (L, H, W), ``G = dE/dalpha_l``; ``G`` and ``Q`` into ``gq`` (2, L, H, W) if it has room.
+
+    ``dC/dalpha_l = (c_l - C_{l-1}) prod_{m > l} T_m``, so ``G = dE/dC . dC/dalpha_l`` plus
+    ``lam`` times the layer term's gradient ``dl`` (no layers: off) and ``Q = |dC/dalpha_l|^2 + lam``.
+    """
+    n_l, h, w = trans.shape
+    want_q = gq.shape[0] > 0
+    layer_term = dl.shape[0] > 0
+    for r in numba.prange(h):
+        bef = np.empty((n_l, 3))
+        for c in range(w):
+            c0 = primer[0]
+            c1 = primer[1]
+            c2 = primer[2]
+            for m in range(n_l):
+                bef[m, 0] = c0
+                bef[m, 1] = c1
+                bef[m, 2] = c2
+                tm = trans[m, r, c]
+                u = 1.0 - tm
+                c0 = c0 * tm + u * colours[m, 0]
+                c1 = c1 * tm + u * colours[m, 1]
+                c2 = c2 * tm + u * colours[m, 2]
+            s = 1.0
+            for m in range(n_l - 1, -1, -1):
+                j0 = (colours[m, 0] - bef[m, 0]) * s
+                j1 = (colours[m, 1] - bef[m, 1]) * s
+                j2 = (colours[m, 2] - bef[m, 2]) * s
+                gl = dedc[r, c, 0] * j0 + dedc[r, c, 1] * j1 + dedc[r, c, 2] * j2
+                if layer_term:
+                    gl += lam * dl[m, r, c]
+                tm = trans[m, r, c]
+                gt[m, r, c] = gl * tm
+                if want_q:
+                    gq[0, m, r, c] = gl
+                    gq[1, m, r, c] = j0 * j0 + j1 * j1 + j2 * j2 + lam
+                s *= tm
+
+
+@numba.njit(cache=True, parallel=True)
+def _dot(a, b):  # pragma: no cover - compiled
+    """``sum a b`` with a float64 accumulator (``a``, ``b`` contiguous, of one shape)."""
+    fa = a.ravel()
+    fb = b.ravel()
+    acc = 0.0
+    for i in numba.prange(fa.shape[0]):
+        acc += float(fa[i]) * float(fb[i])
+    return acc
 
 
 @numba.njit(cache=True)
@@ -333,18 +455,66 @@ def _project_pairs(pairs, x, y, r, rmin, web, sweeps):  # pragma: no cover - com
 
 
 @numba.njit(cache=True)
-def _web_bad(pairs, x, y, r, web):  # pragma: no cover - compiled
-    """Mark both holes of every pair whose web is below ``web``."""
-    bad = np.zeros(x.shape[0], dtype=np.bool_)
+def _revert_broken(pairs, x, y, r, x0, y0, r0, self_bad, web):  # pragma: no cover - compiled
+    """Send moved holes that break a rule back to ``(x0, y0, r0)`` until none does; return how many went back.
+
+    ``self_bad`` marks holes that break a rule of their own (floor, margin, keep-out); a pair
+    whose web is below ``web`` sends back whichever of its holes moved. The old state passed
+    the rules, so after the first pass only the neighbours of holes just sent back need a
+    look, and each round sends back at least one moved hole, so this ends.
+    """
+    n = x.shape[0]
+    moved = (x != x0) | (y != y0) | (r != r0)
+    bad = self_bad & moved
+    # Neighbours of every hole (CSR), both directions.
+    start = np.zeros(n + 1, dtype=np.int64)
+    for k in range(pairs.shape[0]):
+        start[pairs[k, 0] + 1] += 1
+        start[pairs[k, 1] + 1] += 1
+    for i in range(n):
+        start[i + 1] += start[i]
+    fill = start[:-1].copy()
+    nbr = np.empty(start[n], dtype=np.int64)
     for k in range(pairs.shape[0]):
         i = pairs[k, 0]
         j = pairs[k, 1]
-        dx = x[i] - x[j]
-        dy = y[i] - y[j]
-        if math.sqrt(dx * dx + dy * dy) - r[i] - r[j] < web:
-            bad[i] = True
-            bad[j] = True
-    return bad
+        nbr[fill[i]] = j
+        fill[i] += 1
+        nbr[fill[j]] = i
+        fill[j] += 1
+    for k in range(pairs.shape[0]):
+        i = pairs[k, 0]
+        j = pairs[k, 1]
+        if (moved[i] or moved[j]) and _web_below(x, y, r, i, j, web):
+            bad[i] = bad[i] or moved[i]
+            bad[j] = bad[j] or moved[j]
+    back = np.flatnonzero(bad)
+    count = 0
+    while back.shape[0] > 0:
+        for hole in back:
+            x[hole] = x0[hole]
+            y[hole] = y0[hole]
+            r[hole] = r0[hole]
+            moved[hole] = False
+            bad[hole] = False
+        count += back.shape[0]
+        # Only pairs with a hole just sent back changed; its moved neighbours may break now.
+        nxt = []
+        for hole in back:
+            for q in range(start[hole], start[hole + 1]):
+                j = nbr[q]
+                if moved[j] and not bad[j] and _web_below(x, y, r, hole, j, web):
+                    bad[j] = True
+                    nxt.append(j)
+        back = np.array(nxt, dtype=np.int64)
+    return count
+
+
+@numba.njit(cache=True)
+def _web_below(x, y, r, i, j, web):  # pragma: no cover - compiled
+    dx = x[i] - x[j]
+    dy = y[i] - y[j]
+    return math.sqrt(dx * dx + dy * dy) - r[i] - r[j] < web
 
 
 @numba.njit(cache=True)
@@ -398,6 +568,11 @@ def _greedy_add(cand_x, cand_y, x, y, r, r_new, web, cell, cap):  # pragma: no c
 
 # --------------------------------------------------------------------------- one layer's holes
 
+#: Extra reach of a layer's neighbour list in mm: the list stays valid while no hole has
+#: moved half of it from where the list was made (a Verlet list), so the pair search runs
+#: every few steps rather than once per revert round.
+_SKIN_MM = 0.4
+
 
 @dataclass
 class _Layer:
@@ -414,14 +589,27 @@ class _Layer:
     added: int = 0
     removed: int = 0
     reverted: int = 0
+    pairs: np.ndarray | None = None
+    ref: tuple[np.ndarray, np.ndarray] = (np.zeros(0), np.zeros(0))
+    skin: float = _SKIN_MM
 
     def reset_moments(self) -> None:
         self.m = np.zeros((len(self.x), 3))
         self.v = np.zeros((len(self.x), 3))
 
     def keep(self, mask: np.ndarray) -> None:
+        """Keep the holes of ``mask`` (a boolean mask or an index array, in the new order)."""
         self.x, self.y, self.r = self.x[mask], self.y[mask], self.r[mask]
         self.m, self.v = self.m[mask], self.v[mask]
+        self.pairs = None
+
+    def sort(self, band_mm: float) -> None:
+        """Order the holes by bands of ``band_mm`` across, then along x.
+
+        Neighbouring holes then touch neighbouring pixels one after the other: the per-hole
+        gradient ran 4x faster on 100,000 holes than in the stippler's order (cache misses).
+        """
+        self.keep(np.lexsort((self.x, np.floor(self.y / band_mm))))
 
 
 def _kernels_px(layer: _Layer, kernels: Kernels, pitch: float, height_px: int):
@@ -449,8 +637,8 @@ def _box_and_keepouts(x, y, r, rules: DesignRules) -> None:
         y[:] = xy[:, 1]
 
 
-def _broken(x, y, r, rules: DesignRules, reach: float) -> np.ndarray:
-    """Holes that break a rule (web with the CSV slack, margin box, keep-outs, radius floor)."""
+def _self_broken(x, y, r, rules: DesignRules) -> np.ndarray:
+    """Holes that break a rule of their own (radius floor, margin box, keep-outs)."""
     # The tolerance is a quarter of check_rules' (which covers the CSV's rounding): holes read
     # back from a CSV may sit that close to a limit, and must count as good here.
     m = rules.edge_margin_mm - _TOL_MM
@@ -458,9 +646,29 @@ def _broken(x, y, r, rules: DesignRules, reach: float) -> np.ndarray:
     bad |= (y < m + r) | (y > rules.height_mm - m - r)
     if rules.keepouts:
         bad |= _keepout_clearance(np.column_stack([x, y]), rules.keepouts) < r + m
-    pairs = _cell_pairs(x, y, reach)
-    bad |= _web_bad(pairs, x, y, r, rules.web_mm - _TOL_MM)
     return bad
+
+
+def _drift(x, y, ref_x, ref_y) -> float:
+    return float(np.max(np.hypot(x - ref_x, y - ref_y), initial=0.0))
+
+
+def _neighbours(layer: _Layer, old: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """Every pair of holes that can break the web, with the holes where they are now or at ``old``.
+
+    A pair matters only closer than ``2 rmax + web``; the list holds the pairs closer than
+    that plus the skin where it was made, so it holds every pair that matters while no
+    hole, now or at ``old``, is more than half the skin from there.
+    """
+    base = 2.0 * layer.rmax + layer.rules.web_mm + NUDGE_SLACK_MM
+    if layer.pairs is not None:
+        rx, ry = layer.ref
+        if max(_drift(layer.x, layer.y, rx, ry), _drift(*old, rx, ry)) <= 0.5 * layer.skin:
+            return layer.pairs
+    layer.skin = max(_SKIN_MM, 2.0 * _drift(*old, layer.x, layer.y) + 1e-9)
+    layer.pairs = _cell_pairs(layer.x, layer.y, base + layer.skin)
+    layer.ref = (layer.x.copy(), layer.y.copy())
+    return layer.pairs
 
 
 def _project(layer: _Layer, x0, y0, r0) -> None:
@@ -468,97 +676,103 @@ def _project(layer: _Layer, x0, y0, r0) -> None:
     rules = layer.rules
     x, y, r = layer.x, layer.y, layer.r
     np.clip(r, rules.hole_min_r_mm, layer.rmax, out=r)
-    web = rules.web_mm + NUDGE_SLACK_MM
-    reach = 2.0 * layer.rmax + web
     if len(x) > 1:
-        pairs = _cell_pairs(x, y, reach)
-        _project_pairs(pairs, x, y, r, rules.hole_min_r_mm, web, 4)
+        pairs = _neighbours(layer, (x0, y0))
+        _project_pairs(pairs, x, y, r, rules.hole_min_r_mm, rules.web_mm + NUDGE_SLACK_MM, 4)
     _box_and_keepouts(x, y, r, rules)
-    # Reverting only ever moves holes back to a state that passed, so this ends; each round
-    # reverts at least one moved hole.
-    while True:
-        bad = _broken(x, y, r, rules, reach)
-        bad &= (x != x0) | (y != y0) | (r != r0)
-        if not bad.any():
-            break
-        layer.reverted += int(bad.sum())
-        x[bad], y[bad], r[bad] = x0[bad], y0[bad], r0[bad]
+    self_bad = _self_broken(x, y, r, rules)
+    pairs = _neighbours(layer, (x0, y0)) if len(x) > 1 else np.empty((0, 2), dtype=np.int64)
+    layer.reverted += _revert_broken(pairs, x, y, r, x0, y0, r0, self_bad, rules.web_mm - _TOL_MM)
 
 
 # --------------------------------------------------------------------------- the objective
 
 
-def _forward(layers_state, kernels, pitch, shape, primer, colours):
-    """Per-layer transmittance and the composite before each layer (C_{l-1})."""
-    h, w = shape
-    trans = []
-    before = []
-    comp = np.empty((h, w, 3))
-    comp[...] = primer
-    for layer, colour in zip(layers_state, colours, strict=True):
+def _gauss(img: np.ndarray, sigma_px: float) -> np.ndarray:
+    """Gaussian filter of an (H, W) or (H, W, C) image with zero padding (so it is self-adjoint).
+
+    OpenCV's separable filter in float32: 14x faster than scipy's ``gaussian_filter`` on a
+    2048 x 2048 x 3 image here (0.05 s vs 0.70 s), same kernel (radius ``4 sigma``).
+    """
+    import cv2
+
+    rad = int(4.0 * sigma_px + 0.5)
+    xs = np.arange(-rad, rad + 1, dtype=np.float64)
+    k = np.exp(-(xs * xs) / (2.0 * sigma_px * sigma_px))
+    k = (k / k.sum()).astype(img.dtype)
+    return cv2.sepFilter2D(np.ascontiguousarray(img), -1, k, k, borderType=cv2.BORDER_CONSTANT)
+
+
+def _filtered(res: np.ndarray, eye_px: float) -> tuple[float, np.ndarray]:
+    """``E`` and ``dE/dres`` of ``E = sum |g * res|^2`` (``res`` of shape (H, W) or (H, W, C)).
+
+    The filtered error is summed over the whole plane (``res`` zero outside the picture), so
+    ``E = <res, g2 * res>`` with ``g2 = g * g`` the Gaussian of ``sqrt(2)`` times the width,
+    and ``dE/dres = 2 g2 * res``: one filter pass, not two.
+    """
+    if eye_px <= 0:
+        return _dot(res, res), 2.0 * res
+    d = _gauss(res, math.sqrt(2.0) * eye_px)
+    d *= 2.0
+    return 0.5 * _dot(res, d), d
+
+
+@dataclass
+class _Eval:
+    """The objective at one state: per-layer ``T`` (L, H, W), ``E``, ``G T`` (L, H, W), ``(G, Q)`` if asked."""
+
+    trans: np.ndarray
+    e: float
+    gt: np.ndarray
+    gq: np.ndarray | None
+
+
+def _evaluate(
+    state, kernels, pitch, target, alpha_targets, lam, primer, colours, eye_px, want_q=False
+) -> _Eval:
+    """The composite's filtered squared error plus ``lam`` times each layer's, and its gradients.
+
+    Images are of ``target``'s dtype. ``G = dE/dalpha_l`` and ``Q`` the curvature along it
+    (see the module doc); ``alpha_targets`` (L, H, W) is read only when ``lam > 0``.
+    """
+    h, w = target.shape[:2]
+    dt = target.dtype
+    n_l = len(state)
+    trans = np.ones((n_l, h, w), dtype=dt)
+    for k, layer in enumerate(state):
         if len(layer.x):
             rows, cols, sig, peak, _, _, exp_mode = _kernels_px(layer, kernels, pitch, h)
-            t = _transmittance(h, w, rows, cols, sig, peak, exp_mode)
-        else:
-            t = np.ones((h, w))
-        before.append(comp.copy())
-        comp = comp * t[..., None] + (1.0 - t[..., None]) * colour
-        trans.append(t)
-    return trans, before, comp
+            _transmittance(trans[k], rows, cols, sig, peak, exp_mode)
+    n_t = n_l if lam > 0 else 0
+    res = np.empty((h, w, 3), dtype=dt)
+    lres = np.empty((n_t, h, w), dtype=dt)
+    a_t = alpha_targets if n_t else lres
+    _composite_residuals(trans, primer, colours, target, a_t, res, lres)
+    e, dedc = _filtered(res, eye_px)
+    dl = np.empty_like(lres)
+    for k in range(n_t):
+        ek, dl[k] = _filtered(lres[k], eye_px)
+        e += lam * ek
+    gt = np.empty_like(trans)
+    gq = np.empty((2, n_l, h, w) if want_q else (0, 1, 1, 1), dtype=dt)
+    _opacity_gradients(trans, primer, colours, dedc, dl, float(lam), gt, gq)
+    return _Eval(trans, e, gt, gq if want_q else None)
 
 
-def _residual_gradient(res, eye_px):
-    """``E`` and ``dE/dres`` of ``E = sum |g * res|^2`` (``res`` of shape (H, W) or (H, W, C))."""
-    from scipy.ndimage import gaussian_filter
-
-    if eye_px <= 0:
-        return float(np.sum(res * res)), 2.0 * res
-    axes = (eye_px, eye_px, 0.0)[: res.ndim]
-    # Zero padding keeps the filter self-adjoint, so g applied again is the exact gradient.
-    f = gaussian_filter(res, axes, mode="constant")
-    return float(np.sum(f * f)), 2.0 * gaussian_filter(f, axes, mode="constant")
+def _g_and_q(ev: _Eval, k: int) -> tuple[np.ndarray, np.ndarray]:
+    if ev.gq is None:
+        raise ValueError("the objective was evaluated without G and Q")
+    return ev.gq[0, k], ev.gq[1, k]
 
 
-def _objective(trans, before, comp, target, alpha_targets, layer_weight, colours, eye_px):
-    """``E`` and per layer ``(G, Q)``: ``G = dE/dalpha_l``, ``Q`` the curvature along it.
-
-    ``E`` is the composite's filtered squared error plus ``layer_weight`` times each layer's
-    filtered squared opacity error (so no layer is made worse to help another's colour).
-    """
-    e, dedc = _residual_gradient(comp - target, eye_px)
-    terms = _layer_terms(trans, before, colours, dedc)
-    if layer_weight > 0:
-        for k, t in enumerate(trans):
-            el, dl = _residual_gradient((1.0 - t) - alpha_targets[k], eye_px)
-            e += layer_weight * el
-            g, q = terms[k]
-            terms[k] = (g + layer_weight * dl, q + layer_weight)
-    return e, terms
-
-
-def _layer_terms(trans, before, colours, dedc):
-    """Per layer ``G = dE/dalpha`` and ``Q = |dC/dalpha|^2`` of the composite error."""
-    n = len(trans)
-    suffix: list[np.ndarray] = [np.empty(0)] * n
-    acc = np.ones_like(trans[0])
-    for k in range(n - 1, -1, -1):
-        suffix[k] = acc
-        acc = acc * trans[k]
-    out = []
-    for k in range(n):
-        j = (colours[k] - before[k]) * suffix[k][..., None]
-        out.append((np.sum(dedc * j, axis=-1), np.sum(j * j, axis=-1)))
-    return out
-
-
-def _hole_grads(state, kernels, pitch, h, trans, terms) -> list[np.ndarray]:
+def _hole_grads(state, kernels, pitch, h, gt) -> list[np.ndarray]:
     """Per layer ``(N, 3)`` gradient of the objective w.r.t. each hole's x, y (mm) and radius (mm)."""
     out = []
-    for layer, (g, _q), t in zip(state, terms, trans, strict=True):
+    for k, layer in enumerate(state):
         grad = np.zeros((len(layer.x), 3))
         if len(layer.x):
             rows, cols, sig, peak, dsig, dpeak, exp_mode = _kernels_px(layer, kernels, pitch, h)
-            raw = _hole_gradients(g, t, rows, cols, sig, peak, exp_mode)
+            raw = _hole_gradients(gt[k], rows, cols, sig, peak, exp_mode)
             # px -> mm: x = (col + 0.5) s, y = (H - row - 0.5) s, sigma_mm = sigma_px s.
             grad[:, 0] = raw[:, 1] / pitch
             grad[:, 1] = -raw[:, 0] / pitch
@@ -596,7 +810,7 @@ def _remove_holes(layer, g, q, t, kernels, pitch, h) -> int:
 
 
 def _add_holes(layer, g, q, t, kernels, pitch, shape) -> int:
-    from scipy.ndimage import gaussian_filter, minimum_filter
+    from scipy.ndimage import minimum_filter
 
     rules = layer.rules
     h, w = shape
@@ -605,10 +819,8 @@ def _add_holes(layer, g, q, t, kernels, pitch, shape) -> int:
     s_px = float(sigma[0]) / pitch
     a = min(float(peak[0]), 1.0)
     # Predicted change of E for a new hole centred on each pixel (see the module doc).
-    lin = gaussian_filter(g * t, s_px, mode="constant") * (2.0 * math.pi * s_px * s_px) * a
-    quad = (
-        gaussian_filter(q * t * t, s_px / math.sqrt(2.0), mode="constant") * (math.pi * s_px * s_px) * a * a
-    )
+    lin = _gauss(g * t, s_px) * (2.0 * math.pi * s_px * s_px) * a
+    quad = _gauss(q * t * t, s_px / math.sqrt(2.0)) * (math.pi * s_px * s_px) * a * a
     change = lin + quad
     spacing_px = (2.0 * r_new + rules.web_mm) / pitch
     local = change <= minimum_filter(change, size=max(3, int(spacing_px)), mode="nearest")
@@ -651,6 +863,7 @@ def _add_holes(layer, g, q, t, kernels, pitch, shape) -> int:
         layer.r = np.concatenate([layer.r, np.full(n_new, r_new)])
         layer.m = np.concatenate([layer.m, np.zeros((n_new, 3))])
         layer.v = np.concatenate([layer.v, np.zeros((n_new, 3))])
+        layer.sort(_BAND * pitch)
     return n_new
 
 
@@ -718,7 +931,8 @@ def refine_dots(
             f"need one rule set, colour and spray time per DotSet: {n} DotSets, {len(rules)} rules, "
             f"{len(colours)} colours, {len(spray_times)} spray times"
         )
-    target = np.asarray(target_rgb, dtype=np.float64)
+    # float32 images: half the memory traffic of every whole-image pass (see the kernels' note).
+    target = np.ascontiguousarray(target_rgb, dtype=np.float32)
     shape = target.shape[:2]
     h = shape[0]
     primer = np.asarray(primer, dtype=np.float64)
@@ -735,38 +949,40 @@ def refine_dots(
             rmax=rmax,
         )
         layer.reset_moments()
+        layer.sort(_BAND * mm_per_px)
         state.append(layer)
     eye_px = settings.eye_sigma_mm / mm_per_px
     npx = float(shape[0] * shape[1] * 3)
 
-    alpha_targets = None if alpha_targets is None else np.asarray(alpha_targets, dtype=np.float64)
+    alpha_targets = None if alpha_targets is None else np.ascontiguousarray(alpha_targets, dtype=np.float32)
     lam = settings.layer_weight if alpha_targets is not None else 0.0
 
-    def evaluate():
-        trans, before, comp = _forward(state, kernels, mm_per_px, shape, primer, colours)
-        e, terms = _objective(trans, before, comp, target, alpha_targets, lam, colours, eye_px)
-        return trans, e, terms
+    def evaluate(want_q=False):
+        return _evaluate(
+            state, kernels, mm_per_px, target, alpha_targets, lam, primer, colours, eye_px, want_q
+        )
 
-    trans, e, terms = evaluate()
-    e_start = e
+    ev = evaluate()
+    e_start = ev.e
     iters = settings.iterations
+    every = settings.add_remove_every
     for it in range(1, iters + 1):
-        grads = _hole_grads(state, kernels, mm_per_px, h, trans, terms)
+        grads = _hole_grads(state, kernels, mm_per_px, h, ev.gt)
         # Linear decay of the step size to a fifth: large moves first, then polish.
         frac = 1.0 - 0.8 * (it - 1) / max(iters - 1, 1)
         for layer, grad in zip(state, grads, strict=True):
             if len(layer.x):
                 _adam_step(layer, grad, it, frac, settings)
-        trans, e, terms = evaluate()
-        every = settings.add_remove_every
-        if every and it % every == 0 and it < iters:
+        moves = bool(every) and it % every == 0 and it < iters
+        ev = evaluate(want_q=moves)
+        if moves:
             for k, layer in enumerate(state):
-                g, q = terms[k]
-                layer.removed += _remove_holes(layer, g, q, trans[k], kernels, mm_per_px, h)
-                trans, e, terms = evaluate()
-                g, q = terms[k]
-                layer.added += _add_holes(layer, g, q, trans[k], kernels, mm_per_px, shape)
-                trans, e, terms = evaluate()
+                g, q = _g_and_q(ev, k)
+                layer.removed += _remove_holes(layer, g, q, ev.trans[k], kernels, mm_per_px, h)
+                ev = evaluate(want_q=True)
+                g, q = _g_and_q(ev, k)
+                layer.added += _add_holes(layer, g, q, ev.trans[k], kernels, mm_per_px, shape)
+                ev = evaluate(want_q=True)
         if progress is not None:
             progress(it, iters)
     out = []
@@ -785,7 +1001,7 @@ def refine_dots(
     report = {
         "iterations": iters,
         "objective_start": math.sqrt(e_start / npx),
-        "objective_end": math.sqrt(e / npx),
+        "objective_end": math.sqrt(ev.e / npx),
         "seconds": round(time.perf_counter() - t_start, 3),
     }
     log.debug("refined: %s", report)
