@@ -20,6 +20,55 @@ log = logging.getLogger("stencil_cad")
 EXAMPLE_OUT = Path("output") / "example"
 
 
+def _card_parsers(sub) -> None:
+    """The calibration card's two commands: ``card`` writes it, ``calibrate`` measures a can from its photo."""
+    sp = sub.add_parser(
+        "card",
+        help="write the calibration card: a test plate, its wall(s), the sheet to spray it on, card.json",
+    )
+    sp.add_argument(
+        "config", nargs="?", type=Path, help="job config YAML whose holes, plate and wall the card uses"
+    )
+    sp.add_argument(
+        "--out", type=Path, default=Path("output") / "card", help="output folder (default: output/card)"
+    )
+    sp.add_argument(
+        "--standoff",
+        type=float,
+        action="append",
+        metavar="MM",
+        help="stand-off of a wall to measure (repeatable, up to 3; default: the job's, plus twice it if only one)",
+    )
+    sp.add_argument("--force", action="store_true", help="replace files in a non-empty output folder")
+    g = sp.add_mutually_exclusive_group()
+    g.add_argument("-v", "--verbose", action="store_true", help="log each step; show tracebacks")
+    g.add_argument("-q", "--quiet", action="store_true", help="no summary")
+    sp = sub.add_parser(
+        "calibrate", help="measure a can from a photo of the sprayed calibration card; write a spray profile"
+    )
+    sp.add_argument(
+        "photo", type=Path, help="photo (JPEG/PNG) of the sprayed card sheet, all markers in view"
+    )
+    sp.add_argument("--card", type=Path, required=True, help="the card.json that `stencil-cad card` wrote")
+    sp.add_argument("--passes", type=float, help="passes sprayed over the card (default: the card's, 4)")
+    sp.add_argument(
+        "--distance-mm",
+        type=float,
+        default=None,
+        help="can distance from the plate in mm (default: card.json's)",
+    )
+    sp.add_argument("--speed", type=float, default=None, help="sweep speed in m/s (default: card.json's)")
+    sp.add_argument("--paint", default="", help="can, cap and paint, recorded in the profile")
+    sp.add_argument(
+        "--out",
+        type=Path,
+        default=Path("spray_profile.yaml"),
+        help="profile to write (default: spray_profile.yaml)",
+    )
+    sp.add_argument("--force", action="store_true", help="replace an existing profile")
+    sp.add_argument("-v", "--verbose", action="store_true", help="log each step; show tracebacks")
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="stencil-cad",
@@ -89,51 +138,7 @@ def _parser() -> argparse.ArgumentParser:
     sp.add_argument(
         "-v", "--verbose", action="store_true", help="show the slicer's log on failure; tracebacks"
     )
-    sp = sub.add_parser(
-        "card",
-        help="write the calibration card: a test plate, its wall(s), the sheet to spray it on, card.json",
-    )
-    sp.add_argument(
-        "config", nargs="?", type=Path, help="job config YAML whose holes, plate and wall the card uses"
-    )
-    sp.add_argument(
-        "--out", type=Path, default=Path("output") / "card", help="output folder (default: output/card)"
-    )
-    sp.add_argument(
-        "--standoff",
-        type=float,
-        action="append",
-        metavar="MM",
-        help="stand-off of a wall to measure (repeatable, up to 3; default: the job's, plus twice it if only one)",
-    )
-    sp.add_argument("--force", action="store_true", help="replace files in a non-empty output folder")
-    g = sp.add_mutually_exclusive_group()
-    g.add_argument("-v", "--verbose", action="store_true", help="log each step; show tracebacks")
-    g.add_argument("-q", "--quiet", action="store_true", help="no summary")
-    sp = sub.add_parser(
-        "calibrate", help="measure a can from a photo of the sprayed calibration card; write a spray profile"
-    )
-    sp.add_argument(
-        "photo", type=Path, help="photo (JPEG/PNG) of the sprayed card sheet, all markers in view"
-    )
-    sp.add_argument("--card", type=Path, required=True, help="the card.json that `stencil-cad card` wrote")
-    sp.add_argument("--passes", type=float, help="passes sprayed over the card (default: the card's, 4)")
-    sp.add_argument(
-        "--distance-mm",
-        type=float,
-        default=None,
-        help="can distance from the plate in mm (default: card.json's)",
-    )
-    sp.add_argument("--speed", type=float, default=None, help="sweep speed in m/s (default: card.json's)")
-    sp.add_argument("--paint", default="", help="can, cap and paint, recorded in the profile")
-    sp.add_argument(
-        "--out",
-        type=Path,
-        default=Path("spray_profile.yaml"),
-        help="profile to write (default: spray_profile.yaml)",
-    )
-    sp.add_argument("--force", action="store_true", help="replace an existing profile")
-    sp.add_argument("-v", "--verbose", action="store_true", help="log each step; show tracebacks")
+    _card_parsers(sub)
     sp = sub.add_parser("init", help="write a commented config file")
     sp.add_argument(
         "path", nargs="?", type=Path, default=Path("stencil.yaml"), help="where (default: stencil.yaml)"

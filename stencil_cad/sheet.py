@@ -241,27 +241,10 @@ def _scores(manifest: Mapping) -> list[tuple[str, str]]:
     return rows
 
 
-def sheet_from_manifest(manifest: Mapping, tiles: Sequence[Mapping] | None = None) -> Sheet:
-    """Collect what the sheet shows from a job's manifest.
-
-    Args:
-        manifest: The manifest (as written to ``manifest.json``; ``files`` may be partial).
-        tiles: Tiles of a mural, each with ``x_mm``, ``y_mm``, ``width_mm``, ``height_mm`` (picture
-            frame, bottom-left corner) and optionally ``name``; None takes ``manifest["tiles"]``
-            (or ``manifest["mural"]["tiles"]``) when present.
-
-    Returns:
-        The :class:`Sheet`.
-    """
-    cfg = manifest.get("config", {}) or {}
-    pic = manifest.get("picture", {}) or {}
-    mode = str(cfg.get("mode", "soft"))
-    spray = manifest.get("spray_order") or {}
-    order = spray.get("steps", [])
-    paint = manifest.get("paint") or {}
-    prow = {r.get("layer"): r for r in paint.get("layers", [])}
+def _steps(manifest: Mapping, mode: str, names: set[str]) -> list[Step]:
+    """One :class:`Step` per plate in spray order."""
+    order = (manifest.get("spray_order") or {}).get("steps", [])
     holes = _val(manifest, "simulate", "holes", default=None) or []
-    names = _file_names(manifest)
     # What the hand does per layer, in the spray model's units, when the job says it.
     how = {
         r.get("layer"): str(r.get("text", ""))
@@ -286,12 +269,11 @@ def sheet_from_manifest(manifest: Mapping, tiles: Sequence[Mapping] | None = Non
                 how=how.get(int(o["step"]), ""),
             )
         )
-    primer = spray.get("primer") or {}
-    primer_hex = (
-        primer.get("hex")
-        or _val(manifest, "decompose", "primer")
-        or (_val(manifest, "hard", "palette") or ["#ffffff"])[0]
-    )
+    return steps
+
+
+def _wall_steps(manifest: Mapping, cfg: Mapping, primer: Mapping, primer_hex: str, n_tiles: int) -> list[str]:
+    """The set-up instructions: prime, set the wall, fit the plates, spray evenly (and the mural's tiles)."""
     nozzle = _val(cfg, "spray", "nozzle_height", default=None)
     walls = _val(manifest, "build", "walls", default=[]) or []
     wall = [
@@ -311,17 +293,20 @@ def sheet_from_manifest(manifest: Mapping, tiles: Sequence[Mapping] | None = Non
         )
         + "; let each layer dry before the next.",
     ]
-    tiles_list = (
-        list(tiles)
-        if tiles is not None
-        else list(manifest.get("tiles") or _val(manifest, "mural", "tiles", default=[]) or [])
-    )
-    if tiles_list:
+    if n_tiles:
         wall.append(
-            f"The picture is a mural of {len(tiles_list)} tiles (map below): spray each tile's plates in its "
+            f"The picture is a mural of {n_tiles} tiles (map below): spray each tile's plates in its "
             "own wall position, tile by tile, every tile in the same layer order."
         )
-    head, rows = _print_rows(manifest, steps)
+    return wall
+
+
+def _paint_table(
+    manifest: Mapping, cfg: Mapping, primer_hex: str, steps: list[Step]
+) -> tuple[list[list[str]], str]:
+    """The paint to buy: one row for the primer and one per layer, and the note on how it was counted."""
+    paint = manifest.get("paint") or {}
+    prow = {r.get("layer"): r for r in paint.get("layers", [])}
     cov = paint.get("coverage_m2_per_can", _val(cfg, "paints", "coverage_m2_per_can", default=1.5))
     can_ml = paint.get("can_ml", _val(cfg, "paints", "can_ml", default=400.0))
     area = float(paint.get("sprayed_area_m2", 0.0))
@@ -357,6 +342,11 @@ def sheet_from_manifest(manifest: Mapping, tiles: Sequence[Mapping] | None = Non
         f"at {cov:g} m² per {can_ml:g} ml can. Paint that lands on the plate is not counted: sweeping "
         "the whole plate uses more."
     )
+    return paint_rows, paint_note
+
+
+def _snap_lines(manifest: Mapping) -> list[str]:
+    """Which can each solved paint (and the primer) was snapped to, and what that cost."""
     snap = []
     sn = _val(manifest, "cans", "snap")
     if sn:
@@ -368,6 +358,40 @@ def sheet_from_manifest(manifest: Mapping, tiles: Sequence[Mapping] | None = Non
         snap.append(
             f"cost of using the cans: composite RMSE {sn['rmse_solved']:.2f} → {sn['rmse_snapped']:.2f} (0-255 units)"
         )
+    return snap
+
+
+def sheet_from_manifest(manifest: Mapping, tiles: Sequence[Mapping] | None = None) -> Sheet:
+    """Collect what the sheet shows from a job's manifest.
+
+    Args:
+        manifest: The manifest (as written to ``manifest.json``; ``files`` may be partial).
+        tiles: Tiles of a mural, each with ``x_mm``, ``y_mm``, ``width_mm``, ``height_mm`` (picture
+            frame, bottom-left corner) and optionally ``name``; None takes ``manifest["tiles"]``
+            (or ``manifest["mural"]["tiles"]``) when present.
+
+    Returns:
+        The :class:`Sheet`.
+    """
+    cfg = manifest.get("config", {}) or {}
+    pic = manifest.get("picture", {}) or {}
+    mode = str(cfg.get("mode", "soft"))
+    spray = manifest.get("spray_order") or {}
+    names = _file_names(manifest)
+    steps = _steps(manifest, mode, names)
+    primer = spray.get("primer") or {}
+    primer_hex = (
+        primer.get("hex")
+        or _val(manifest, "decompose", "primer")
+        or (_val(manifest, "hard", "palette") or ["#ffffff"])[0]
+    )
+    tiles_list = (
+        list(tiles)
+        if tiles is not None
+        else list(manifest.get("tiles") or _val(manifest, "mural", "tiles", default=[]) or [])
+    )
+    head, rows = _print_rows(manifest, steps)
+    paint_rows, paint_note = _paint_table(manifest, cfg, primer_hex, steps)
     warnings = [str(w) for w in (_val(manifest, "decompose", "warnings", default=[]) or [])]
     warnings += [str(w) for w in (_val(manifest, "hard", "warnings", default=[]) or [])]
     return Sheet(
@@ -381,13 +405,13 @@ def sheet_from_manifest(manifest: Mapping, tiles: Sequence[Mapping] | None = Non
         order_note=str(spray.get("note", "")),
         unit=str(spray.get("unit", "spray time")),
         steps=steps,
-        wall=wall,
+        wall=_wall_steps(manifest, cfg, primer, primer_hex, len(tiles_list)),
         tiles=[dict(t) for t in tiles_list],
         prints=rows,
         print_head=head,
         paint=paint_rows,
         paint_note=paint_note,
-        snap=snap,
+        snap=_snap_lines(manifest),
         scores=_scores(manifest),
         checks=_checks(manifest),
         files=sorted(names),
@@ -600,85 +624,85 @@ def _latin(text: str) -> str:
     )
 
 
-def render_pdf(sheet: Sheet, images: Mapping[str, bytes]) -> bytes:
-    """The instruction sheet as a PDF (A4), the same content as :func:`render_html`.
+class _PdfKit:
+    """The PDF's page width, styles and the flowables every section is made of."""
 
-    Returns:
-        The PDF bytes.
-    """
-    from reportlab.lib import colors
-    from reportlab.lib.pagesizes import A4
-    from reportlab.lib.styles import ParagraphStyle
-    from reportlab.lib.units import mm
-    from reportlab.lib.utils import ImageReader
-    from reportlab.platypus import (
-        Image,
-        KeepTogether,
-        Paragraph,
-        SimpleDocTemplate,
-        Spacer,
-        Table,
-        TableStyle,
-    )
+    def __init__(self, images: Mapping[str, bytes]):
+        from reportlab.lib import colors
+        from reportlab.lib.pagesizes import A4
+        from reportlab.lib.styles import ParagraphStyle
+        from reportlab.lib.units import mm
+        from reportlab.platypus import TableStyle
 
-    body_font, bold_font = _pdf_fonts()
-    h1 = ParagraphStyle("h1", fontName=bold_font, fontSize=18, leading=22, spaceAfter=4)
-    h2 = ParagraphStyle("h2", fontName=bold_font, fontSize=13, leading=16, spaceBefore=10, spaceAfter=4)
-    h3 = ParagraphStyle("h3", fontName=bold_font, fontSize=10.5, leading=13, spaceBefore=6, spaceAfter=2)
-    body = ParagraphStyle("body", fontName=body_font, fontSize=9, leading=11.5)
-    small = ParagraphStyle(
-        "small", fontName=body_font, fontSize=7.5, leading=9.5, textColor=colors.HexColor("#555555")
-    )
-    page_w = A4[0] - 30 * mm
+        self.images = images
+        body_font, bold_font = _pdf_fonts()
+        self.h1 = ParagraphStyle("h1", fontName=bold_font, fontSize=18, leading=22, spaceAfter=4)
+        self.h2 = ParagraphStyle(
+            "h2", fontName=bold_font, fontSize=13, leading=16, spaceBefore=10, spaceAfter=4
+        )
+        self.h3 = ParagraphStyle(
+            "h3", fontName=bold_font, fontSize=10.5, leading=13, spaceBefore=6, spaceAfter=2
+        )
+        self.body = ParagraphStyle("body", fontName=body_font, fontSize=9, leading=11.5)
+        self.small = ParagraphStyle(
+            "small", fontName=body_font, fontSize=7.5, leading=9.5, textColor=colors.HexColor("#555555")
+        )
+        self.page_w = A4[0] - 30 * mm
+        self.half = self.page_w / 2 - 3 * mm
+        self.grid = TableStyle(
+            [
+                ("GRID", (0, 0), (-1, -1), 0.4, colors.HexColor("#bbbbbb")),
+                ("BACKGROUND", (0, 0), (-1, 0), colors.HexColor("#eeeeee")),
+                ("VALIGN", (0, 0), (-1, -1), "TOP"),
+                ("FONTNAME", (0, 0), (-1, -1), body_font),
+                ("FONTSIZE", (0, 0), (-1, -1), 8),
+            ]
+        )
 
-    def p(text, style=body):
-        return Paragraph(html.escape(_latin(text)), style)
+    def p(self, text, style=None):
+        """A paragraph of plain text (body style unless given)."""
+        from reportlab.platypus import Paragraph
 
-    def img(name: str, width: float):
-        data = images.get(name)
+        return Paragraph(html.escape(_latin(text)), self.body if style is None else style)
+
+    def heading(self, text: str, style):
+        """A heading of the sheet's own fixed text, as given."""
+        from reportlab.platypus import Paragraph
+
+        return Paragraph(text, style)
+
+    def img(self, name: str, width: float):
+        """The named picture at ``width`` pt, or a note that it is missing."""
+        from reportlab.lib.utils import ImageReader
+        from reportlab.platypus import Image
+
+        data = self.images.get(name)
         if not data:
-            return p("(no image)", small)
+            return self.p("(no image)", self.small)
         reader = ImageReader(io.BytesIO(data))
         iw, ih = reader.getSize()
         return Image(io.BytesIO(data), width=width, height=width * ih / iw)
 
-    grid = TableStyle(
-        [
-            ("GRID", (0, 0), (-1, -1), 0.4, colors.HexColor("#bbbbbb")),
-            ("BACKGROUND", (0, 0), (-1, 0), colors.HexColor("#eeeeee")),
-            ("VALIGN", (0, 0), (-1, -1), "TOP"),
-            ("FONTNAME", (0, 0), (-1, -1), body_font),
-            ("FONTSIZE", (0, 0), (-1, -1), 8),
-        ]
-    )
+    def table(self, head, rows, widths=None, extra=()):
+        """A gridded table with a header row repeated on every page."""
+        from reportlab.platypus import Table, TableStyle
 
-    def table(head, rows, widths=None, extra=()):
-        data = [[p(h, small) for h in head]] + [[p(c) if isinstance(c, str) else c for c in r] for r in rows]
+        data = [[self.p(h, self.small) for h in head]] + [
+            [self.p(c) if isinstance(c, str) else c for c in r] for r in rows
+        ]
         t = Table(data, colWidths=widths, repeatRows=1)
-        t.setStyle(grid)
+        t.setStyle(self.grid)
         if extra:
             t.setStyle(TableStyle(list(extra)))
         return t
 
-    story = [
-        Paragraph(html.escape(f"{sheet.job}: how to spray it"), h1),
-        p(
-            f"{'Stippled' if sheet.mode == 'soft' else 'Hard-edged cut'} stencils, {len(sheet.steps)} plates. "
-            f"Picture {sheet.width_mm:g} × {sheet.height_mm:g} mm; viewing distance: {sheet.viewing}."
-        ),
-        Spacer(1, 4),
-    ]
-    half = page_w / 2 - 3 * mm
-    story.append(
-        Table(
-            [
-                [img("input.png", half), img("simulated.png", half)],
-                [p("The picture", small), p("What the plates give, simulated", small)],
-            ],
-            colWidths=[page_w / 2, page_w / 2],
-        )
-    )
-    story.append(Paragraph("Paints, in spray order", h2))
+
+def _pdf_paints(sheet: Sheet, k: _PdfKit) -> list:
+    """The paints in spray order, each with its colour chip, and the notes under them."""
+    from reportlab.lib import colors
+    from reportlab.lib.units import mm
+
+    story = [k.heading("Paints, in spray order", k.h2)]
     rows = [["", "0", sheet.primer_hex, sheet.primer_name or "–", "none: the whole surface", "full coat"]]
     for s in sheet.steps:
         rows.append(
@@ -691,13 +715,13 @@ def render_pdf(sheet: Sheet, images: Mapping[str, bytes]) -> bytes:
                 _amount(s, sheet.unit, bare=True),
             ]
         )
-    chips = [("BACKGROUND", (0, 1), (0, 1), colors.HexColor(sheet.primer_hex))]
+    chips: list[tuple] = [("BACKGROUND", (0, 1), (0, 1), colors.HexColor(sheet.primer_hex))]
     chips += [
-        ("BACKGROUND", (0, k + 2), (0, k + 2), colors.HexColor(s.hex)) for k, s in enumerate(sheet.steps)
+        ("BACKGROUND", (0, j + 2), (0, j + 2), colors.HexColor(s.hex)) for j, s in enumerate(sheet.steps)
     ]
-    chips += [("BOX", (0, k), (0, k), 1.2, colors.black) for k in range(1, len(rows) + 1)]  # type: ignore[misc]
+    chips += [("BOX", (0, j), (0, j), 1.2, colors.black) for j in range(1, len(rows) + 1)]
     story.append(
-        table(
+        k.table(
             ["colour", "#", "hex", "can", "plate", sheet.unit],
             rows,
             [14 * mm, 8 * mm, 22 * mm, 45 * mm, 45 * mm, 25 * mm],
@@ -705,22 +729,26 @@ def render_pdf(sheet: Sheet, images: Mapping[str, bytes]) -> bytes:
         )
     )
     if sheet.order_note:
-        story.append(p(f"Why this order: {sheet.order_note}.", small))
-    story.append(p(_unit_note(sheet.unit), small))
+        story.append(k.p(f"Why this order: {sheet.order_note}.", k.small))
+    story.append(k.p(_unit_note(sheet.unit), k.small))
     if sheet.snap:
-        story.append(Paragraph("Snapped to your cans", h3))
-        story += [p(x) for x in sheet.snap]
-    story.append(Paragraph("Set up the wall", h2))
-    story += [p(f"{k + 1}. {x}") for k, x in enumerate(sheet.wall)]
-    if sheet.tiles:
-        story.append(Paragraph("Tile map", h3))
-        story.append(_tile_drawing(sheet.tiles, sheet.width_mm, sheet.height_mm, page_w * 0.6))
-    story.append(Paragraph("Spray, plate by plate", h2))
+        story.append(k.heading("Snapped to your cans", k.h3))
+        story += [k.p(x) for x in sheet.snap]
+    return story
+
+
+def _pdf_steps(sheet: Sheet, k: _PdfKit) -> list:
+    """Spray, plate by plate: per step its colour, what to do, the plate and the simulated result."""
+    from reportlab.lib import colors
+    from reportlab.lib.units import mm
+    from reportlab.platypus import KeepTogether, Spacer, Table, TableStyle
+
+    story = [k.heading("Spray, plate by plate", k.h2)]
     for s in sheet.steps:
         t = _amount(s, sheet.unit)
         head = Table(
-            [["", p(f"Step {s.number}: plate {s.plate}, paint {s.hex} {s.name}".rstrip(), h3)]],
-            colWidths=[8 * mm, page_w - 8 * mm],
+            [["", k.p(f"Step {s.number}: plate {s.plate}, paint {s.hex} {s.name}".rstrip(), k.h3)]],
+            colWidths=[8 * mm, k.page_w - 8 * mm],
         )
         head.setStyle(
             TableStyle(
@@ -732,53 +760,98 @@ def render_pdf(sheet: Sheet, images: Mapping[str, bytes]) -> bytes:
         )
         pair = Table(
             [
-                [img(s.plate_image, half), img(s.after_image, half * 0.8)],
+                [k.img(s.plate_image, k.half), k.img(s.after_image, k.half * 0.8)],
                 [
-                    p(f"The plate ({s.holes if s.holes is not None else '?'} {s.kind})", small),
-                    p(f"After step {s.number} (simulated)", small),
+                    k.p(f"The plate ({s.holes if s.holes is not None else '?'} {s.kind})", k.small),
+                    k.p(f"After step {s.number} (simulated)", k.small),
                 ],
             ],
-            colWidths=[page_w / 2, page_w / 2],
+            colWidths=[k.page_w / 2, k.page_w / 2],
         )
         story.append(
             KeepTogether(
                 [
                     head,
-                    p(
+                    k.p(
                         f"Drop {s.plate} into the wall, label readable; spray evenly{t}; let it dry, lift it out."
                         + (f" {s.how}" if s.how else ""),
-                        small,
+                        k.small,
                     ),
                     pair,
                     Spacer(1, 6),
                 ]
             )
         )
-    story.append(Paragraph("Print or cut the plates", h2))
-    story.append(table(sheet.print_head, sheet.prints, [18 * mm, 14 * mm, 45 * mm, page_w - 77 * mm]))
-    if sheet.paint:
-        story.append(Paragraph("Paint to buy", h2))
-        story.append(table(["coat", "paint", "covered m²", "mean opacity", "ml", "cans"], sheet.paint))
-        story.append(p(sheet.paint_note, small))
-    story.append(Paragraph("Checks", h2))
+    return story
+
+
+def _pdf_checks(sheet: Sheet, k: _PdfKit) -> list:
+    """The simulated quality, the preview, every check passed or failed, the warnings."""
+    from reportlab.lib.units import mm
+    from reportlab.platypus import Spacer
+
+    story = [k.heading("Checks", k.h2)]
     if sheet.scores:
         story.append(
-            table(
+            k.table(
                 ["quality, simulated spray vs picture", "value"],
                 [list(r) for r in sheet.scores],
                 [110 * mm, 40 * mm],
             )
         )
         story.append(Spacer(1, 4))
-    if images.get("preview.png"):
-        story.append(img("preview.png", page_w))
+    if k.images.get("preview.png"):
+        story.append(k.img("preview.png", k.page_w))
     for text, ok in sheet.checks:
-        story.append(p(f"{'passed' if ok else 'FAILED'}: {text}"))
+        story.append(k.p(f"{'passed' if ok else 'FAILED'}: {text}"))
     if sheet.warnings:
-        story.append(Paragraph("Warnings", h3))
-        story += [p(w) for w in sheet.warnings]
-    story.append(Paragraph("Files", h2))
-    story.append(p(", ".join(sheet.files), small))
+        story.append(k.heading("Warnings", k.h3))
+        story += [k.p(w) for w in sheet.warnings]
+    return story
+
+
+def render_pdf(sheet: Sheet, images: Mapping[str, bytes]) -> bytes:
+    """The instruction sheet as a PDF (A4), the same content as :func:`render_html`.
+
+    Returns:
+        The PDF bytes.
+    """
+    from reportlab.lib.pagesizes import A4
+    from reportlab.lib.units import mm
+    from reportlab.platypus import Paragraph, SimpleDocTemplate, Spacer, Table
+
+    k = _PdfKit(images)
+    story = [
+        Paragraph(html.escape(f"{sheet.job}: how to spray it"), k.h1),
+        k.p(
+            f"{'Stippled' if sheet.mode == 'soft' else 'Hard-edged cut'} stencils, {len(sheet.steps)} plates. "
+            f"Picture {sheet.width_mm:g} × {sheet.height_mm:g} mm; viewing distance: {sheet.viewing}."
+        ),
+        Spacer(1, 4),
+        Table(
+            [
+                [k.img("input.png", k.half), k.img("simulated.png", k.half)],
+                [k.p("The picture", k.small), k.p("What the plates give, simulated", k.small)],
+            ],
+            colWidths=[k.page_w / 2, k.page_w / 2],
+        ),
+    ]
+    story += _pdf_paints(sheet, k)
+    story.append(k.heading("Set up the wall", k.h2))
+    story += [k.p(f"{j + 1}. {x}") for j, x in enumerate(sheet.wall)]
+    if sheet.tiles:
+        story.append(k.heading("Tile map", k.h3))
+        story.append(_tile_drawing(sheet.tiles, sheet.width_mm, sheet.height_mm, k.page_w * 0.6))
+    story += _pdf_steps(sheet, k)
+    story.append(k.heading("Print or cut the plates", k.h2))
+    story.append(k.table(sheet.print_head, sheet.prints, [18 * mm, 14 * mm, 45 * mm, k.page_w - 77 * mm]))
+    if sheet.paint:
+        story.append(k.heading("Paint to buy", k.h2))
+        story.append(k.table(["coat", "paint", "covered m²", "mean opacity", "ml", "cans"], sheet.paint))
+        story.append(k.p(sheet.paint_note, k.small))
+    story += _pdf_checks(sheet, k)
+    story.append(k.heading("Files", k.h2))
+    story.append(k.p(", ".join(sheet.files), k.small))
     buf = io.BytesIO()
     doc = SimpleDocTemplate(
         buf,

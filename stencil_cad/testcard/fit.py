@@ -397,6 +397,188 @@ def _feature_masks(layout: CardLayout, shape, ppm) -> dict[str, np.ndarray]:
     return out
 
 
+def _prepare_footprints(rgb: np.ndarray, layout: CardLayout, ppm: float) -> list[_Footprint]:
+    """Every footprint whose markers the photo shows, rectified and flat-fielded.
+
+    Raises:
+        PhotoError: No marker of the card is readable (or a footprint's own named reason).
+    """
+    found = _detect(rgb)
+    if not any(i in found for fp in layout.footprints for i in fp.marker_ids):
+        raise PhotoError(
+            "fiducials not found: no ArUco marker of this card is readable in the photo; photograph the whole "
+            "sheet, flat, in focus and in even light (see `Measuring your can` in the README)"
+        )
+    fps = [
+        _prepare_footprint(rgb, layout, fp, found, ppm)
+        for fp in layout.footprints
+        if any(i in found for i in fp.marker_ids)
+    ]
+    missing = [fp.standoff_mm for fp in layout.footprints if not any(i in found for i in fp.marker_ids)]
+    if missing:
+        log.warning("footprints %s mm not in the photo: fitting the others", missing)
+    return fps
+
+
+def _picture_masks(shape: tuple[int, int], ppm: float) -> tuple[np.ndarray, np.ndarray]:
+    """The pixels scored (all but the outermost 0.5 mm) and the quarter of them fitted."""
+    # The outermost 0.5 mm of the picture area touches the wall's inner face: left out.
+    mask = np.zeros(shape, bool)
+    e = int(round(0.5 * ppm))
+    mask[e:-e, e:-e] = True
+    # Every other pixel each way: the model is evaluated at full resolution (the blur must be
+    # resolved), the residuals on a quarter of the pixels still hold ~10^5 values per footprint.
+    fit_mask = mask.copy()
+    fit_mask[1::2, :] = False
+    fit_mask[:, 1::2] = False
+    return mask, fit_mask
+
+
+@dataclass
+class _CardModel:
+    """The sprayed card as a function of the fit's parameter vector.
+
+    ``q = [log bleed_sigma_mm, log spread_k, log deposit_per_pass, contrast, dx_0, dy_0, dx_1, ...]``
+    (offsets in mm, one pair per footprint).
+    """
+
+    models: list[_SprayFFT]
+    obs: list[np.ndarray]  # per footprint, the flat-fielded channel fitted
+    blur_px: list[float]  # per footprint, the camera's blur (px at the fit resolution)
+    base: SprayConfig
+    prior: CanConstants
+    passes: float
+    many: bool  # two or more stand-offs: the bleed is fitted
+    distance_mm: float
+    speed_m_s: float
+
+    def constants(self, q) -> CanConstants:
+        """The can's constants that ``q`` stands for (clamped to the schema's range)."""
+        s0 = math.exp(q[0]) if self.many else self.prior.bleed_sigma_mm
+        return CanConstants(
+            spread_k=min(math.exp(q[1]), 1.0),
+            bleed_sigma_mm=min(max(s0, 0.01), 10.0),
+            deposit_per_pass=min(math.exp(q[2]), 20.0),
+            distance_mm=self.distance_mm,
+            speed_m_s=self.speed_m_s,
+        )
+
+    def predict(self, q, j: int) -> np.ndarray:
+        """Footprint ``j`` as the camera would see it, flat-fielded (paper 1)."""
+        from scipy.ndimage import gaussian_filter
+
+        cfg = self.base.model_copy(update={"can": self.constants(q)})
+        alpha = self.models[j].opacity(cfg, self.passes, q[4 + 2 * j], q[5 + 2 * j])
+        img = 1.0 - q[3] * alpha
+        if self.blur_px[j] > 0.3:
+            img = gaussian_filter(img, self.blur_px[j], mode="nearest")
+        return img
+
+    def residuals(self, q, fit_mask: np.ndarray) -> np.ndarray:
+        """Model minus photo over the fitted pixels of every footprint."""
+        return np.concatenate([(self.predict(q, j) - self.obs[j])[fit_mask] for j in range(len(self.obs))])
+
+
+def _start(card: _CardModel, depth0: list[float], shape: tuple[int, int], ppm: float) -> np.ndarray:
+    """The parameter vector the fit starts from.
+
+    The prior's spread, the deposit from the window's centre at a guessed contrast, and each
+    footprint's offset from phase correlation against the model at that start.
+    """
+    import cv2
+
+    prior, passes = card.prior, card.passes
+    c_start = min(0.98, max(depth0) / 0.9 + 0.05)
+    a_c = min(max(depth0) / c_start, 0.98)
+    beta0 = (
+        -math.log(1.0 - a_c)
+        / passes
+        * (card.distance_mm / prior.distance_mm)
+        * (card.speed_m_s / prior.speed_m_s)
+    )
+    q0 = [
+        math.log(max(prior.bleed_sigma_mm, 0.05)),
+        math.log(max(prior.spread_k, 0.02)),
+        math.log(max(beta0, 1e-3)),
+        c_start,
+    ]
+    q0 += [0.0, 0.0] * len(card.obs)
+    q = np.array(q0, dtype=np.float64)
+    win = cv2.createHanningWindow(shape[::-1], cv2.CV_64F)
+    for j in range(len(card.obs)):
+        pred = 1.0 - card.predict(q, j)
+        (dx, dy), _ = cv2.phaseCorrelate(pred.astype(np.float64), (1.0 - card.obs[j]).astype(np.float64), win)
+        q[4 + 2 * j] = dx / ppm
+        q[5 + 2 * j] = -dy / ppm
+    return q
+
+
+def _solve(card: _CardModel, q: np.ndarray, fit_mask: np.ndarray):
+    """Least squares from ``q`` within the parameters' bounds (the bleed fixed with one stand-off).
+
+    Returns:
+        The fitted parameter vector and scipy's result (for its evaluation count and message).
+    """
+    from scipy.optimize import least_squares
+
+    n = len(card.obs)
+    lo = np.array([math.log(0.01), math.log(1e-3), math.log(1e-3), 0.05] + [-5.0] * (2 * n))
+    hi = np.array([math.log(10.0), math.log(1.0), math.log(20.0), 1.0] + [5.0] * (2 * n))
+    q = np.clip(q, lo + 1e-9, hi - 1e-9)
+    active = np.ones(q.size, dtype=np.bool_)
+    active[0] = card.many
+    q_fixed = q.copy()
+
+    def res_active(qa):
+        qq = q_fixed.copy()
+        qq[active] = qa
+        return card.residuals(qq, fit_mask)
+
+    sol = least_squares(res_active, q[active], bounds=(lo[active], hi[active]), x_scale="jac", diff_step=1e-4)
+    q = q_fixed.copy()
+    q[active] = sol.x
+    return q, sol
+
+
+def _patch_tones(
+    card: _CardModel,
+    fps: list[_Footprint],
+    layout: CardLayout,
+    q: np.ndarray,
+    shape: tuple[int, int],
+    ppm: float,
+) -> list[dict]:
+    """Per footprint and dose-ladder patch, the measured and the fitted mean opacity."""
+    cfg_fit = card.base.model_copy(update={"can": card.constants(q)})
+    tones = []
+    rows, cols = np.mgrid[0 : shape[0], 0 : shape[1]]
+    xg = (cols + 0.5) / ppm
+    yg = layout.height_mm - (rows + 0.5) / ppm
+    for j, f in enumerate(fps):
+        shift = q[4 + 2 * j : 6 + 2 * j]
+        alpha = card.models[j].opacity(cfg_fit, card.passes, shift[0], shift[1])
+        measured = (1.0 - card.obs[j]) / q[3]
+        for feat in layout.features:
+            if feat.kind != "patch":
+                continue
+            x0, y0, x1, y1 = feat.box
+            m = (
+                (xg >= x0 + shift[0] + 1)
+                & (xg <= x1 + shift[0] - 1)
+                & (yg >= y0 + shift[1] + 1)
+                & (yg <= y1 + shift[1] - 1)
+            )
+            tones.append(
+                {
+                    "standoff_mm": f.fp.standoff_mm,
+                    "open_fraction": feat.open_fraction,
+                    "measured": round(float(measured[m].mean()), 4),
+                    "fitted": round(float(alpha[m].mean()), 4),
+                }
+            )
+    return tones
+
+
 def fit_card(
     rgb: np.ndarray,
     layout: CardLayout,
@@ -425,26 +607,9 @@ def fit_card(
     Raises:
         PhotoError: The photo cannot be read as a card (named reason).
     """
-    import cv2
-    from scipy.ndimage import gaussian_filter
-    from scipy.optimize import least_squares
-
     t0 = time.perf_counter()
     prior = prior or CanConstants()
-    found = _detect(rgb)
-    if not any(i in found for fp in layout.footprints for i in fp.marker_ids):
-        raise PhotoError(
-            "fiducials not found: no ArUco marker of this card is readable in the photo; photograph the whole "
-            "sheet, flat, in focus and in even light (see `Measuring your can` in the README)"
-        )
-    fps = [
-        _prepare_footprint(rgb, layout, fp, found, ppm)
-        for fp in layout.footprints
-        if any(i in found for i in fp.marker_ids)
-    ]
-    missing = [fp.standoff_mm for fp in layout.footprints if not any(i in found for i in fp.marker_ids)]
-    if missing:
-        log.warning("footprints %s mm not in the photo: fitting the others", missing)
+    fps = _prepare_footprints(rgb, layout, ppm)
     ch = _channel(fps, layout, ppm)
     shape = fps[0].lin.shape[:2]
     obs = [f.lin[..., ch] for f in fps]
@@ -454,112 +619,28 @@ def fit_card(
             "no paint found on the card: the window is as light as the primer; spray the card (see "
             "`stencil-cad card`) and photograph the sprayed sheet"
         )
-    blur_px = [f.blur_mm * ppm for f in fps]
-    many = len({f.fp.standoff_mm for f in fps}) >= 2
-    base = SprayConfig(model="physical", can_distance_mm=distance_mm, pass_speed_m_s=speed_m_s)
-    models = [_SprayFFT(layout, f.fp.standoff_mm, shape, ppm) for f in fps]
-    # The outermost 0.5 mm of the picture area touches the wall's inner face: left out.
-    mask = np.zeros(shape, bool)
-    e = int(round(0.5 * ppm))
-    mask[e:-e, e:-e] = True
-    # Every other pixel each way: the model is evaluated at full resolution (the blur must be
-    # resolved), the residuals on a quarter of the pixels still hold ~10^5 values per footprint.
-    fit_mask = mask.copy()
-    fit_mask[1::2, :] = False
-    fit_mask[:, 1::2] = False
-
-    def constants(q) -> CanConstants:
-        s0 = math.exp(q[0]) if many else prior.bleed_sigma_mm
-        return CanConstants(
-            spread_k=min(math.exp(q[1]), 1.0),
-            bleed_sigma_mm=min(max(s0, 0.01), 10.0),
-            deposit_per_pass=min(math.exp(q[2]), 20.0),
-            distance_mm=distance_mm,
-            speed_m_s=speed_m_s,
-        )
-
-    def predict(q, j) -> np.ndarray:
-        cfg = base.model_copy(update={"can": constants(q)})
-        alpha = models[j].opacity(cfg, passes, q[4 + 2 * j], q[5 + 2 * j])
-        img = 1.0 - q[3] * alpha
-        if blur_px[j] > 0.3:
-            img = gaussian_filter(img, blur_px[j], mode="nearest")
-        return img
-
-    def residuals(q) -> np.ndarray:
-        return np.concatenate([(predict(q, j) - obs[j])[fit_mask] for j in range(len(fps))])
-
-    # Start: the prior's spread; the deposit from the window's centre at a guessed contrast;
-    # each footprint's offset from phase correlation against the model at that start.
-    c_start = min(0.98, max(depth0) / 0.9 + 0.05)
-    a_c = min(max(depth0) / c_start, 0.98)
-    beta0 = -math.log(1.0 - a_c) / passes * (distance_mm / prior.distance_mm) * (speed_m_s / prior.speed_m_s)
-    q0 = [
-        math.log(max(prior.bleed_sigma_mm, 0.05)),
-        math.log(max(prior.spread_k, 0.02)),
-        math.log(max(beta0, 1e-3)),
-        c_start,
-    ]
-    q0 += [0.0, 0.0] * len(fps)
-    q = np.array(q0, dtype=np.float64)
-    win = cv2.createHanningWindow(shape[::-1], cv2.CV_64F)
-    for j in range(len(fps)):
-        pred = 1.0 - predict(q, j)
-        (dx, dy), _ = cv2.phaseCorrelate(pred.astype(np.float64), (1.0 - obs[j]).astype(np.float64), win)
-        q[4 + 2 * j] = dx / ppm
-        q[5 + 2 * j] = -dy / ppm
-    lo = np.array([math.log(0.01), math.log(1e-3), math.log(1e-3), 0.05] + [-5.0] * (2 * len(fps)))
-    hi = np.array([math.log(10.0), math.log(1.0), math.log(20.0), 1.0] + [5.0] * (2 * len(fps)))
-    q = np.clip(q, lo + 1e-9, hi - 1e-9)
-    active = np.ones(q.size, dtype=np.bool_)
-    active[0] = many
-    q_fixed = q.copy()
-
-    def res_active(qa):
-        qq = q_fixed.copy()
-        qq[active] = qa
-        return residuals(qq)
-
-    sol = least_squares(res_active, q[active], bounds=(lo[active], hi[active]), x_scale="jac", diff_step=1e-4)
-    q = q_fixed.copy()
-    q[active] = sol.x
-    can = constants(q)
-    res_all = [predict(q, j) - obs[j] for j in range(len(fps))]
+    card = _CardModel(
+        models=[_SprayFFT(layout, f.fp.standoff_mm, shape, ppm) for f in fps],
+        obs=obs,
+        blur_px=[f.blur_mm * ppm for f in fps],
+        base=SprayConfig(model="physical", can_distance_mm=distance_mm, pass_speed_m_s=speed_m_s),
+        prior=prior,
+        passes=passes,
+        many=len({f.fp.standoff_mm for f in fps}) >= 2,
+        distance_mm=distance_mm,
+        speed_m_s=speed_m_s,
+    )
+    mask, fit_mask = _picture_masks(shape, ppm)
+    q, sol = _solve(card, _start(card, depth0, shape, ppm), fit_mask)
+    res_all = [card.predict(q, j) - obs[j] for j in range(len(fps))]
     rms = float(np.sqrt(np.mean(np.concatenate([rj[mask] for rj in res_all]) ** 2)))
     feats = _feature_masks(layout, shape, ppm)
     feature_rms = {
         k: round(float(np.sqrt(np.mean(np.concatenate([rj[m & mask] for rj in res_all]) ** 2))), 5)
         for k, m in feats.items()
     }
-    cfg_fit = base.model_copy(update={"can": can})
-    tones = []
-    rows, cols = np.mgrid[0 : shape[0], 0 : shape[1]]
-    xg = (cols + 0.5) / ppm
-    yg = layout.height_mm - (rows + 0.5) / ppm
-    for j, f in enumerate(fps):
-        shift = q[4 + 2 * j : 6 + 2 * j]
-        alpha = models[j].opacity(cfg_fit, passes, shift[0], shift[1])
-        measured = (1.0 - obs[j]) / q[3]
-        for feat in layout.features:
-            if feat.kind != "patch":
-                continue
-            x0, y0, x1, y1 = feat.box
-            m = (
-                (xg >= x0 + shift[0] + 1)
-                & (xg <= x1 + shift[0] - 1)
-                & (yg >= y0 + shift[1] + 1)
-                & (yg <= y1 + shift[1] - 1)
-            )
-            tones.append(
-                {
-                    "standoff_mm": f.fp.standoff_mm,
-                    "open_fraction": feat.open_fraction,
-                    "measured": round(float(measured[m].mean()), 4),
-                    "fitted": round(float(alpha[m].mean()), 4),
-                }
-            )
     return CardFit(
-        can=can,
+        can=card.constants(q),
         contrast=float(q[3]),
         channel=ch,
         shifts_mm=tuple(
@@ -567,7 +648,7 @@ def fit_card(
         ),
         residual_rms=rms,
         feature_residuals=feature_rms,
-        patch_tones=tones,
+        patch_tones=_patch_tones(card, fps, layout, q, shape, ppm),
         camera_blur_mm=float(np.median([f.blur_mm for f in fps])),
         px_per_mm=float(min(f.px_per_mm for f in fps)),
         seconds=time.perf_counter() - t0,
@@ -576,7 +657,7 @@ def fit_card(
             "markers_found": [f.markers for f in fps],
             "grey_patch": [round(float(f.grey[ch]), 4) for f in fps],
             "black_share": [round(float(f.black_share[ch]), 4) for f in fps],
-            "bleed_fitted": many,
+            "bleed_fitted": card.many,
             "evaluations": int(sol.nfev),
             "status": str(sol.message),
         },

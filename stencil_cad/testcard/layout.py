@@ -22,10 +22,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..model import DotSet
+
+if TYPE_CHECKING:
+    from ..config.job import JobConfig
+    from ..config.stipple import StippleConfig
 
 __all__ = [
     "CARD_H",
@@ -163,29 +168,25 @@ def _patch_holes(
     return xy, float(len(xy) * math.pi * r * r / PATCH_SIDE**2)
 
 
-def card_layout(job_cfg, standoffs_mm: list[float] | None = None) -> CardLayout:
-    """Lay out the card for a job: its hole radii and web, its plate, wall and stand-offs.
-
-    Args:
-        job_cfg: The :class:`~stencil_cad.config.JobConfig` the card measures the can for.
-        standoffs_mm: Stand-offs to make footprints (and walls) for. Defaults to the job's
-            ``wall.standoff_mm``; with a single height, twice it is added (up to 300 mm) so that
-            the spread per mm of stand-off and the bleed floor separate.
-
-    Returns:
-        The layout.
-
-    Raises:
-        ValueError: More than three stand-offs, or hole radii/web that do not fit the card.
-    """
-    from .. import outline as outline_mod
-
-    st = job_cfg.stipple
+def _standoffs(job_cfg: JobConfig, standoffs_mm: list[float] | None) -> list[float]:
+    """The stand-offs the card is made for, sorted (see :func:`card_layout`)."""
     heights = sorted(set(standoffs_mm if standoffs_mm else job_cfg.wall.standoff_mm))
     if not standoffs_mm and len(heights) == 1:
         heights = sorted({heights[0], min(300.0, 2.0 * heights[0])})
     if len(heights) > 3:
         raise ValueError(f"the card takes at most 3 stand-offs on one sheet, got {len(heights)}")
+    return heights
+
+
+def _card_holes(st: StippleConfig) -> tuple[DotSet, list[Feature]]:
+    """The plate's holes and the features they make: the window, the single rows, the dose ladder.
+
+    Args:
+        st: The job's stipple settings (hole radii, web, spacing).
+
+    Raises:
+        ValueError: The job's largest hole does not fit the single-hole rows.
+    """
     r0, r1 = st.resolved_radius_mm, st.resolved_max_radius_mm
     radii = sorted({round(r0, 3), round((r0 + r1) / 2.0, 3), round(r1, 3)})
     if r1 > 2.5:
@@ -227,6 +228,19 @@ def card_layout(job_cfg, standoffs_mm: list[float] | None = None) -> CardLayout:
         )
         n += len(pts)
     dots = DotSet(xy_mm=np.concatenate(xy), r_mm=np.concatenate(rr), report={"source": "calibration card"})
+    return dots, features
+
+
+def _wall_band(job_cfg: JobConfig) -> tuple[np.ndarray, float, float]:
+    """The wall's outline around the card and the band it covers on the sheet.
+
+    Returns:
+        The wall's outer ring (picture mm) and the band's inner and outer offset from the picture area (mm).
+
+    Raises:
+        ValueError: The plate or wall would not fit every bed, or the band cannot hold the markers.
+    """
+    from .. import outline as outline_mod
 
     oc, wc = job_cfg.plate.outline, job_cfg.wall
     outer = outline_mod.offset_outline(CARD_W, CARD_H, oc, wc.clearance_mm + wc.wall_thickness_mm)
@@ -242,12 +256,25 @@ def card_layout(job_cfg, standoffs_mm: list[float] | None = None) -> CardLayout:
     # The band under the wall: from the opening (picture area + opening margin) to the outline.
     inner = wc.opening_margin_mm
     band_outer = oc.margin_mm + wc.clearance_mm + wc.wall_thickness_mm
-    mid = (inner + band_outer) / 2.0
     if band_outer - inner < MARKER_MM + 2.0:
         raise ValueError(
             f"the wall's band ({band_outer - inner:.1f} mm) is too narrow for the card's {MARKER_MM:g} mm markers "
             "and their white border: use plate.outline.margin_mm ≥ 7"
         )
+    return outer, inner, band_outer
+
+
+def _footprints(
+    heights: list[float], outer: np.ndarray, mid: float
+) -> tuple[list[Footprint], tuple[float, float]]:
+    """One footprint per stand-off, stacked on the sheet, and the sheet's size (mm).
+
+    Args:
+        heights: The stand-offs, thinnest first.
+        outer: The wall's outer ring (picture mm).
+        mid: Offset of the band's middle line from the picture area (mm): where the markers
+            and flat-field patches sit.
+    """
     lo, hi = outer.min(axis=0), outer.max(axis=0)
     block_h = float(hi[1] - lo[1])
     sheet_w = float(hi[0] - lo[0]) + 2 * SHEET_MARGIN
@@ -281,6 +308,28 @@ def card_layout(job_cfg, standoffs_mm: list[float] | None = None) -> CardLayout:
                 outer_ring=outer,
             )
         )
+    return foots, (sheet_w, sheet_h)
+
+
+def card_layout(job_cfg: JobConfig, standoffs_mm: list[float] | None = None) -> CardLayout:
+    """Lay out the card for a job: its hole radii and web, its plate, wall and stand-offs.
+
+    Args:
+        job_cfg: The :class:`~stencil_cad.config.JobConfig` the card measures the can for.
+        standoffs_mm: Stand-offs to make footprints (and walls) for. Defaults to the job's
+            ``wall.standoff_mm``; with a single height, twice it is added (up to 300 mm) so that
+            the spread per mm of stand-off and the bleed floor separate.
+
+    Returns:
+        The layout.
+
+    Raises:
+        ValueError: More than three stand-offs, or hole radii/web that do not fit the card.
+    """
+    heights = _standoffs(job_cfg, standoffs_mm)
+    dots, features = _card_holes(job_cfg.stipple)
+    outer, inner, band_outer = _wall_band(job_cfg)
+    foots, sheet = _footprints(heights, outer, (inner + band_outer) / 2.0)
     return CardLayout(
         width_mm=CARD_W,
         height_mm=CARD_H,
@@ -288,7 +337,7 @@ def card_layout(job_cfg, standoffs_mm: list[float] | None = None) -> CardLayout:
         features=tuple(features),
         footprints=tuple(foots),
         plate_thickness_mm=float(job_cfg.plate.thickness_mm),
-        sheet_mm=(sheet_w, sheet_h),
+        sheet_mm=sheet,
         band_mm=(inner, band_outer),
     )
 

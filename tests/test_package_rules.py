@@ -1,0 +1,60 @@
+"""House rules on the package's own source, checked so they stay true: short functions, thin ``__init__``."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import stencil_cad
+
+PACKAGE = Path(stencil_cad.__file__).parent
+#: Longest function or method, in lines from its ``def`` to its last line (docstring included).
+MAX_FUNCTION_LINES = 120
+
+
+def _sources() -> list[Path]:
+    return sorted(PACKAGE.rglob("*.py"))
+
+
+def test_sources_found():
+    names = {p.relative_to(PACKAGE).as_posix() for p in _sources()}
+    assert {"__init__.py", "pipeline.py", "cad/__init__.py", "testcard/fit.py"} <= names
+
+
+def test_no_function_over_the_limit():
+    long = []
+    for path in _sources():
+        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+        for node in ast.walk(tree):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                first = min([node.lineno, *(d.lineno for d in node.decorator_list)])
+                lines = node.end_lineno - first + 1
+                if lines > MAX_FUNCTION_LINES:
+                    long.append(f"{path.relative_to(PACKAGE)}:{node.lineno} {node.name} ({lines} lines)")
+    assert not long, f"functions over {MAX_FUNCTION_LINES} lines, split them: " + "; ".join(long)
+
+
+def _is_reexport(node: ast.stmt, top_level: bool) -> bool:
+    if isinstance(node, ast.Import | ast.ImportFrom):
+        return True
+    if (
+        isinstance(node, ast.Expr)
+        and isinstance(node.value, ast.Constant)
+        and isinstance(node.value.value, str)
+    ):
+        return True  # the docstring
+    if isinstance(node, ast.Assign | ast.AnnAssign):
+        targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+        names = {t.id for t in targets if isinstance(t, ast.Name)}
+        allowed = {"__all__", "__version__"} if top_level else {"__all__"}
+        return len(names) == len(targets) and names <= allowed
+    return False
+
+
+def test_package_inits_only_reexport():
+    bad = []
+    for path in PACKAGE.rglob("__init__.py"):
+        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+        top = path.parent == PACKAGE
+        bad += [f"{path.relative_to(PACKAGE)}:{n.lineno}" for n in tree.body if not _is_reexport(n, top)]
+    assert not bad, "package __init__.py files hold only a docstring, imports and __all__: " + ", ".join(bad)
