@@ -69,6 +69,7 @@ def _photo(layout, tmp_path, cfg=None, settings=None, seed=0):
     return path
 
 
+@pytest.mark.slow
 def test_fit_recovers_the_constants_from_a_realistic_photo(layout, tmp_path):
     settings = PhotoSettings(shift_mm=((0.4, -0.3), (-0.25, 0.5)))
     path = _photo(layout, tmp_path, settings=settings)
@@ -142,10 +143,6 @@ def test_unreadable_photos_are_refused_with_the_reason(layout, tmp_path, capsys)
     card.write_text(json.dumps(card_description(layout)))
     _refused(tmp_path, card, np.full((2000, 3000, 3), 180, np.uint8), capsys, "fiducials not found")
     _refused(tmp_path, card, np.full((300, 400, 3), 180, np.uint8), capsys, "too small")
-    bright = _photo(layout, tmp_path, settings=PhotoSettings(exposure=1.6, noise=0.0, jpeg_quality=None))
-    _refused(tmp_path, card, cv2.imread(str(bright)), capsys, "overexposed")
-    small = _photo(layout, tmp_path, settings=PhotoSettings(size_px=(1200, 900), jpeg_quality=None))
-    _refused(tmp_path, card, cv2.imread(str(small)), capsys, "too small")
     (tmp_path / "junk.jpg").write_bytes(b"not an image")
     assert (
         main(
@@ -154,6 +151,16 @@ def test_unreadable_photos_are_refused_with_the_reason(layout, tmp_path, capsys)
         == 2
     )
     assert "not a readable image" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_overexposed_and_distant_photos_are_refused_with_the_reason(layout, tmp_path, capsys):
+    card = tmp_path / "card.json"
+    card.write_text(json.dumps(card_description(layout)))
+    bright = _photo(layout, tmp_path, settings=PhotoSettings(exposure=1.6, noise=0.0, jpeg_quality=None))
+    _refused(tmp_path, card, cv2.imread(str(bright)), capsys, "overexposed")
+    small = _photo(layout, tmp_path, settings=PhotoSettings(size_px=(1200, 900), jpeg_quality=None))
+    _refused(tmp_path, card, cv2.imread(str(small)), capsys, "too small")
 
 
 @pytest.mark.slow

@@ -518,7 +518,7 @@ def astronaut256():
     return np.clip(resize(data.astronaut() / 255.0, (256, 256), anti_aliasing=True), 0, 1)
 
 
-@pytest.mark.parametrize("n_layers, limit", [(4, 3.0), (6, 1.5)])
+@pytest.mark.parametrize("n_layers, limit", [(4, 3.0), pytest.param(6, 1.5, marks=pytest.mark.slow)])
 def test_astronaut_rmse(astronaut256, n_layers, limit):
     layers = decompose(
         Picture(rgb=astronaut256, mm_per_px=0.5), DecomposeConfig(layers=n_layers), np.random.default_rng(0)

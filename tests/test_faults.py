@@ -308,18 +308,26 @@ def test_a_giant_image_gets_our_own_pixel_limit_message(tmp_path, capsys):
     assert not out.exists()
 
 
-def test_large_images_are_decoded_at_reduced_size(tmp_path):
+def test_large_images_are_decoded_at_reduced_size(tmp_path, monkeypatch):
+    from stencil_cad import imaging
     from stencil_cad.imaging import read_image
 
+    # The streaming threshold lowered so a 1500 x 1800 picture takes the path a huge one takes.
+    monkeypatch.setattr(imaging, "STREAM_BYTES", 1024 * 1024)
+    streamed = []
+    real = imaging._read_streamed
+    monkeypatch.setattr(imaging, "_read_streamed", lambda *a: streamed.append(a[1:]) or real(*a))
     png = tmp_path / "big.png"
-    a = (np.indices((5000, 6000)).sum(0) % 256).astype(np.uint8)
-    Image.fromarray(np.stack([a, a[::-1], a.T[:5000, :6000] if False else a], -1)).save(png, compress_level=1)
+    a = (np.indices((1500, 1800)).sum(0) % 256).astype(np.uint8)
+    Image.fromarray(np.stack([a, a[::-1], a], -1)).save(png, compress_level=1)
     rgb, _, _ = read_image(png, min_size=(80, 60))
-    assert rgb.shape[0] < 1000 and rgb.shape[1] < 1200  # streamed through libvips, shrunk
+    assert streamed == [((1800, 1500), 9)]  # streamed through libvips, shrunk by 9
+    assert rgb.shape[0] < 1500 // 8 and rgb.shape[1] < 1800 // 8
     jpg = tmp_path / "photo.jpg"
     Image.fromarray(np.stack([a, a, a], -1)).save(jpg, quality=90)
     rgb, _, _ = read_image(jpg, min_size=(80, 60))
-    assert rgb.shape[0] <= 5000 // 8 + 1  # DCT-scaled (draft) then reduced
+    assert len(streamed) == 1  # a JPEG is not streamed, but
+    assert rgb.shape[0] <= 1500 // 8 + 1  # DCT-scaled (draft) then reduced
     assert rgb.shape[0] >= 120 and rgb.shape[1] >= 160
 
 

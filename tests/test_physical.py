@@ -184,6 +184,7 @@ def test_job_references_a_profile(tmp_path):
         load_config(tmp_path / "w.yaml")
 
 
+@pytest.mark.slow
 def test_job_in_the_makers_units_scores_every_wall(tmp_path, capsys):
     from stencil_cad.cli import main
 

@@ -8,6 +8,9 @@ import pytest
 
 from stencil_cad.cli import main
 
+# Every test here runs whole jobs through the command line: the full suite's, not the quick loop's.
+pytestmark = pytest.mark.slow
+
 SMALL = """\
 name: small
 size:

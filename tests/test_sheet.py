@@ -167,6 +167,7 @@ def test_missing_can_list_is_a_clear_error(tmp_path, capsys):
 # ------------------------------------------------------------------------------------- the job
 
 
+@pytest.mark.slow
 def test_catalogue_snaps_every_paint_to_a_can_and_shows_the_cost(soft_job):
     m = json.loads((soft_job / "manifest.json").read_text())
     cans = {c.hex: c for c in paints.load_cans(CATALOGUE)}
@@ -185,6 +186,7 @@ def test_catalogue_snaps_every_paint_to_a_can_and_shows_the_cost(soft_job):
         assert o["name"] in html
 
 
+@pytest.mark.slow
 def test_every_output_of_the_maker_is_written(soft_job):
     names = {p.name for p in soft_job.iterdir()}
     for i in (1, 2):
@@ -195,6 +197,7 @@ def test_every_output_of_the_maker_is_written(soft_job):
     assert names == listed | {"manifest.json"}
 
 
+@pytest.mark.slow
 def test_svg_matches_the_dots_and_the_dxf(soft_job):
     import ezdxf
 
@@ -293,6 +296,7 @@ def test_rsvg_reads_the_hard_cut_outs(hard_job, tmp_path):
 # ------------------------------------------------------------------------------ hard mode
 
 
+@pytest.mark.slow
 def test_hard_mode_writes_the_swatch_card_and_the_spray_order(hard_job):
     from PIL import Image
 
@@ -341,6 +345,7 @@ def test_scale_bar_length_is_in_mm():
 # ----------------------------------------------------------------------------- the sheet
 
 
+@pytest.mark.slow
 def test_sheet_is_self_contained(soft_job):
     html = (soft_job / "instructions.html").read_text()
     assert "<script" not in html

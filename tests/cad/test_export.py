@@ -47,6 +47,7 @@ def read_step(path):
     return reader.OneShape()
 
 
+@pytest.mark.slow
 def test_step_reads_back_as_the_same_valid_solid(plate, tmp_path):
     d, model = plate
     path = tmp_path / "p.step"
