@@ -275,8 +275,10 @@ def _with_can_list(run: Run, section, where: str):
 def _catalogue(run: Run) -> list:
     from .decompose import paints
 
+    catalogue = run.cfg.paints.catalogue
+    assert catalogue is not None, "snapping to a catalogue needs paints.catalogue"
     try:
-        cans = paints.load_cans(run.cfg.paints.catalogue)  # type: ignore[arg-type]
+        cans = paints.load_cans(catalogue)
     except ValueError as exc:
         raise UserError(f"paints.catalogue: {exc}") from None
     run.figures.setdefault("cans", {})["catalogue"] = [c.__dict__ for c in cans]
@@ -292,7 +294,7 @@ def _snap_to_catalogue(run: Run, dcfg, layers: Layers, solve) -> Layers:
 
     cans = _catalogue(run)
     paint_snap = paints.snap_report(layers.colours, cans)
-    update = {"order": "given"}
+    update: dict[str, object] = {"order": "given"}
     primer_snap = None
     if dcfg.primer == "auto":
         primer_snap = paints.snap_report(layers.primer[None, :], cans)[0]
@@ -306,7 +308,7 @@ def _snap_to_catalogue(run: Run, dcfg, layers: Layers, solve) -> Layers:
             "paints.catalogue: every solved paint snaps to the primer's can; add cans closer to the "
             "picture's colours, or set decompose.palette to a list"
         )
-    update["palette"] = tuple(chosen)  # type: ignore[assignment]
+    update["palette"] = tuple(chosen)
     snapped = solve(dcfg.model_validate({**dcfg.model_dump(), **update}))
     before = float(layers.info.get("rmse", float("nan")))
     after = float(snapped.info.get("rmse", float("nan")))
@@ -522,18 +524,16 @@ def stage_refine(
 def _order_note(cfg: JobConfig) -> str:
     """Why the paints come in this order, in one line for the swatch card."""
     if cfg.mode == Mode.hard:
-        order = getattr(cfg.hard.order, "value", cfg.hard.order)
         return {
             "light_to_dark": "light to dark: each darker paint covers the lighter ones",
             "dark_to_light": "dark to light (hard.order)",
             "given": "the order of hard.palette",
-        }[order]
-    order = getattr(cfg.decompose.order, "value", cfg.decompose.order)
+        }[cfg.hard.order.value]
     return {
         "auto": "each coat covers the ones before; this order reconstructs the picture best (decompose.order: auto)",
         "light_to_dark": "lightest paint first (decompose.order: light_to_dark)",
         "given": "the order of decompose.palette (decompose.order: given)",
-    }[order]
+    }[cfg.decompose.order.value]
 
 
 def write_spray_order(run: Run, primer: np.ndarray, colours: np.ndarray, spray_times: list[float]) -> None:

@@ -10,21 +10,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.spatial import cKDTree
 
+from stencil_cad import stipple as sp
 from stencil_cad.config import StippleConfig
 from stencil_cad.frames import mm_to_px
-from stencil_cad.stipple import (
-    HEX_G,
-    auto_dot_count,
-    cvt_energy,
-    cvt_optimum,
-    e_norm,
-    importance_sample,
-    lloyd,
-    refine_factor,
-    stipple_layer,
-    tone_map,
-    voronoi_pass,
-)
 from stencil_cad.stipple.rules import check_rules, rules_from_config
 
 SLA = StippleConfig(process="sla", edge_margin_mm=0.0, tone="linear")
@@ -46,7 +34,7 @@ def test_voronoi_pass_is_exact(seed):
     n = int(g.integers(1, 400))
     seeds = np.column_stack([g.uniform(-0.5, h - 0.5, n), g.uniform(-0.5, w - 0.5, n)])
     seeds[: n // 3] = seeds[0] + g.normal(0, 2.0, (n // 3, 2))  # clustered, some off the grid
-    mass, m_row, m_col, energy, label = voronoi_pass(weight, seeds, bsize=int(g.integers(4, 12)))
+    mass, m_row, m_col, energy, label = sp.voronoi_pass(weight, seeds, bsize=int(g.integers(4, 12)))
     rows, cols = np.nonzero(weight > 0)
     pix = np.column_stack([rows, cols]).astype(float)
     d, _ = cKDTree(seeds).query(pix)
@@ -63,10 +51,10 @@ def test_voronoi_pass_warm_start_gives_the_same_labels():
     g = rng(1)
     weight = g.random((90, 70))
     seeds = g.uniform(0, 69, (300, 2))
-    _, _, _, e0, lab0 = voronoi_pass(weight, seeds)
+    _, _, _, e0, lab0 = sp.voronoi_pass(weight, seeds)
     moved = seeds + g.normal(0, 1.5, seeds.shape)
-    _, _, _, cold_e, cold = voronoi_pass(weight, moved)
-    _, _, _, warm_e, warm = voronoi_pass(weight, moved, prev_label=lab0.copy())
+    _, _, _, cold_e, cold = sp.voronoi_pass(weight, moved)
+    _, _, _, warm_e, warm = sp.voronoi_pass(weight, moved, prev_label=lab0.copy())
     np.testing.assert_allclose(warm_e.sum(), cold_e.sum())
     same = warm == cold
     assert same.mean() > 0.999  # ties may break differently, distances are equal
@@ -75,11 +63,11 @@ def test_voronoi_pass_warm_start_gives_the_same_labels():
 def test_importance_sample_follows_density():
     lam = np.ones((40, 80))
     lam[:, 40:] = 3.0
-    pts = importance_sample(lam, 40_000, rng(2))
+    pts = sp.importance_sample(lam, 40_000, rng(2))
     right = (pts[:, 1] >= 39.5).mean()
     assert right == pytest.approx(0.75, abs=0.01)
     assert pts.min() >= -0.5 and pts[:, 0].max() <= 39.5 and pts[:, 1].max() <= 79.5
-    np.testing.assert_array_equal(pts, importance_sample(lam, 40_000, rng(2)))
+    np.testing.assert_array_equal(pts, sp.importance_sample(lam, 40_000, rng(2)))
 
 
 def test_hexagonal_lattice_has_e_norm_one():
@@ -89,42 +77,42 @@ def test_hexagonal_lattice_has_e_norm_one():
     rows, cols = np.meshgrid(np.arange(-2, 30), np.arange(-2, 30), indexing="ij")
     seeds = np.column_stack([(rows * dy).ravel(), (cols * d + 0.5 * d * (rows % 2)).ravel()]).astype(float)
     h = w = 400
-    _, _, _, _, label = voronoi_pass(np.ones((h, w)), seeds)
+    _, _, _, _, label = sp.voronoi_pass(np.ones((h, w)), seeds)
     # Keep only whole cells well inside the grid.
     inner = (
         (seeds[:, 0] > 2 * d) & (seeds[:, 0] < h - 2 * d) & (seeds[:, 1] > 2 * d) & (seeds[:, 1] < w - 2 * d)
     )
     weight = inner[label].astype(float)
     n = int(inner.sum())
-    ratio = cvt_energy(weight, seeds) / cvt_optimum(weight, n)
+    ratio = sp.cvt_energy(weight, seeds) / sp.cvt_optimum(weight, n)
     assert ratio == pytest.approx(1.0, abs=0.01)
-    assert HEX_G == pytest.approx(0.0801875 * 2)
+    assert sp.HEX_G == pytest.approx(0.0801875 * 2)
 
 
 def test_lloyd_energy_never_increases_and_converges():
     g = rng(4)
     yy, xx = np.mgrid[0:120, 0:160]
     weight = (0.2 + xx / 160.0) ** 2
-    seeds = importance_sample(np.sqrt(weight), 300, g)
+    seeds = sp.importance_sample(np.sqrt(weight), 300, g)
     energies = []
     for _ in range(15):
-        energies.append(cvt_energy(weight, seeds))
-        seeds, info = lloyd(weight, seeds, 1, 0.0, omega=1.0)
+        energies.append(sp.cvt_energy(weight, seeds))
+        seeds, info = sp.lloyd(weight, seeds, 1, 0.0, omega=1.0)
     assert all(b <= a + 1e-9 * a for a, b in zip(energies, energies[1:], strict=False))
     assert energies[-1] < 0.7 * energies[0]
-    assert e_norm(weight, seeds) < 1.15  # 300 cells: the border cells cost a few per cent
+    assert sp.e_norm(weight, seeds) < 1.15  # 300 cells: the border cells cost a few per cent
 
 
 def test_over_relaxation_beats_plain_lloyd():
     g = rng(5)
     yy, xx = np.mgrid[0:150, 0:150]
     weight = (0.1 + np.hypot(yy - 75, xx - 75) / 100.0) ** 2
-    start = importance_sample(np.sqrt(weight), 600, g)
-    plain, _ = lloyd(weight, start, 20, 0.0, omega=1.0)
-    fast, info = lloyd(weight, start, 20, 0.0, omega=1.8)
-    assert e_norm(weight, fast) < e_norm(weight, plain)
+    start = sp.importance_sample(np.sqrt(weight), 600, g)
+    plain, _ = sp.lloyd(weight, start, 20, 0.0, omega=1.0)
+    fast, info = sp.lloyd(weight, start, 20, 0.0, omega=1.8)
+    assert sp.e_norm(weight, fast) < sp.e_norm(weight, plain)
     with pytest.raises(ValueError, match="omega"):
-        lloyd(weight, start, 1, 0.0, omega=2.0)
+        sp.lloyd(weight, start, 1, 0.0, omega=2.0)
 
 
 # ----------------------------------------------------------------------------- tone and count
@@ -132,33 +120,33 @@ def test_over_relaxation_beats_plain_lloyd():
 
 def test_tone_map_threshold_and_density_hook():
     alpha = np.array([[0.0, 0.04, 0.05, 0.5, 1.0]])
-    t, mask = tone_map(alpha, StippleConfig(tone="linear"))
+    t, mask = sp.tone_map(alpha, StippleConfig(tone="linear"))
     np.testing.assert_array_equal(mask, [[False, False, True, True, True]])
     np.testing.assert_allclose(t, [[0, 0, 0.05, 0.5, 1.0]])
     dens = np.array([[4.0, 4.0, 2.0, 1.0, 0.0]])
-    t, _ = tone_map(alpha, StippleConfig(tone="calibrated"), density=dens)
+    t, _ = sp.tone_map(alpha, StippleConfig(tone="calibrated"), density=dens)
     np.testing.assert_allclose(t, [[0, 0, 0.5, 0.25, 0.0]])
     with pytest.raises(ValueError, match="calibrated"):
-        tone_map(alpha, StippleConfig(tone="calibrated"))
+        sp.tone_map(alpha, StippleConfig(tone="calibrated"))
     with pytest.raises(ValueError, match="shape"):
-        tone_map(alpha, StippleConfig(tone="linear"), density=np.ones((2, 2)))
+        sp.tone_map(alpha, StippleConfig(tone="linear"), density=np.ones((2, 2)))
 
 
 def test_auto_dot_count_is_hexagonal_packing():
     cfg = StippleConfig(process="sla")  # r 0.5, web 0.5 -> spacing 1.15 * 1.5 mm
     t = np.ones((100, 100))
-    n = auto_dot_count(t, np.full(t.shape, 0.5), 0.5, cfg)
+    n = sp.auto_dot_count(t, np.full(t.shape, 0.5), 0.5, cfg)
     d = 1.15 * 1.5
     assert n == round(50 * 50 / (math.sqrt(3) / 2 * d * d))
-    assert auto_dot_count(0.5 * t, np.full(t.shape, 0.5), 0.5, cfg) == pytest.approx(n / 2, abs=1)
+    assert sp.auto_dot_count(0.5 * t, np.full(t.shape, 0.5), 0.5, cfg) == pytest.approx(n / 2, abs=1)
 
 
 def test_refine_factor():
-    assert refine_factor(90_000, 300, 90_000) == 1
-    assert refine_factor(90_000, 4_000, 90_000) == 3
-    assert refine_factor(100, 10_000, 100) == 8
-    assert refine_factor(4_000_000, 100_000, 4_000_000) == 2
-    assert refine_factor(0, 10, 100) == 1
+    assert sp.refine_factor(90_000, 300, 90_000) == 1
+    assert sp.refine_factor(90_000, 4_000, 90_000) == 3
+    assert sp.refine_factor(100, 10_000, 100) == 8
+    assert sp.refine_factor(4_000_000, 100_000, 4_000_000) == 2
+    assert sp.refine_factor(0, 10, 100) == 1
 
 
 # ----------------------------------------------------------------------------- the stage
@@ -166,7 +154,7 @@ def test_refine_factor():
 
 def test_uniform_density_gives_hexagonal_spacing():
     alpha = np.full((160, 160), 0.6)
-    ds = stipple_layer(alpha, 0.5, SLA, rng(1))
+    ds = sp.stipple_layer(alpha, 0.5, SLA, rng(1))
     xy = ds.xy_mm
     d, _ = cKDTree(xy).query(xy, k=7)
     nn = d[:, 1]
@@ -184,7 +172,7 @@ def test_uniform_density_gives_hexagonal_spacing():
 def test_density_ramp_gives_dots_proportional_to_ink():
     w = 160
     alpha = np.tile(np.linspace(0.1, 1.0, w)[None, :], (w, 1))
-    ds = stipple_layer(alpha, 0.5, SLA, rng(2))
+    ds = sp.stipple_layer(alpha, 0.5, SLA, rng(2))
     edges = np.linspace(0, w * 0.5, 6)
     counts = np.histogram(ds.xy_mm[:, 0], edges)[0]
     x = (np.arange(w) + 0.5) * 0.5
@@ -197,9 +185,9 @@ def test_same_seed_same_dots_and_rules_hold():
     g = rng(7)
     alpha = np.clip(g.random((60, 80)), 0, 1)
     cfg = StippleConfig(process="laser", keepouts_mm=[(0.0, 0.0, 15.0, 8.0)], tone="linear")
-    a = stipple_layer(alpha, 0.5, cfg, rng(3))
-    b = stipple_layer(alpha, 0.5, cfg, rng(3))
-    c = stipple_layer(alpha, 0.5, cfg, rng(4))
+    a = sp.stipple_layer(alpha, 0.5, cfg, rng(3))
+    b = sp.stipple_layer(alpha, 0.5, cfg, rng(3))
+    c = sp.stipple_layer(alpha, 0.5, cfg, rng(4))
     np.testing.assert_array_equal(a.xy_mm, b.xy_mm)
     np.testing.assert_array_equal(a.r_mm, b.r_mm)
     assert a.xy_mm.shape != c.xy_mm.shape or not np.array_equal(a.xy_mm, c.xy_mm)
@@ -224,7 +212,7 @@ def test_no_holes_below_opacity_threshold():
     alpha = np.zeros((80, 80))
     alpha[:, 40:] = 0.8
     alpha[:, 30:40] = 0.03  # below the 0.05 threshold
-    ds = stipple_layer(alpha, 0.5, SLA, rng(5))
+    ds = sp.stipple_layer(alpha, 0.5, SLA, rng(5))
     rc = np.rint(mm_to_px(ds.xy_mm, 80, 0.5)).astype(int)
     assert len(ds) > 100
     assert (alpha[rc[:, 0], rc[:, 1]] >= 0.05).all()
@@ -241,7 +229,7 @@ def test_variable_radius_grows_with_density():
         max_radius_mm=1.5,
         tone="linear",
     )
-    ds = stipple_layer(alpha, 0.5, cfg, rng(6))
+    ds = sp.stipple_layer(alpha, 0.5, cfg, rng(6))
     assert ds.r_mm.min() >= 0.5 and ds.r_mm.max() <= 1.5
     x = ds.xy_mm[:, 0]
     assert ds.r_mm[x > 45].mean() > ds.r_mm[x < 15].mean() + 0.4
@@ -255,7 +243,7 @@ def test_variable_radius_grows_with_density():
 def test_n_dots_and_density_overrides():
     alpha = np.full((100, 100), 1.0)
     ramp = np.tile(np.linspace(0.0, 1.0, 100)[None, :], (100, 1))
-    ds = stipple_layer(alpha, 0.5, SLA, rng(8), density=ramp, n_dots=400)
+    ds = sp.stipple_layer(alpha, 0.5, SLA, rng(8), density=ramp, n_dots=400)
     assert ds.report["n_initial"] == 400
     x = ds.xy_mm[:, 0]
     assert (x > 25).sum() > 2.5 * (x <= 25).sum()
@@ -263,15 +251,15 @@ def test_n_dots_and_density_overrides():
 
 def test_empty_layer_and_progress():
     calls = []
-    ds = stipple_layer(np.zeros((50, 50)), 0.5, SLA, rng(), progress=lambda i, n: calls.append((i, n)))
+    ds = sp.stipple_layer(np.zeros((50, 50)), 0.5, SLA, rng(), progress=lambda i, n: calls.append((i, n)))
     assert len(ds) == 0 and ds.report["min_web_mm"] == math.inf
-    ds = stipple_layer(np.full((50, 50), 0.5), 0.5, SLA, rng(), progress=lambda i, n: calls.append((i, n)))
+    ds = sp.stipple_layer(np.full((50, 50), 0.5), 0.5, SLA, rng(), progress=lambda i, n: calls.append((i, n)))
     assert calls and calls[-1][1] == SLA.max_iterations and calls[-1][0] == ds.report["iterations"]
 
 
 def test_calibrated_tone_needs_density():
     with pytest.raises(ValueError, match="calibrated"):
-        stipple_layer(np.ones((10, 10)), 0.5, StippleConfig(tone="calibrated"), rng())
+        sp.stipple_layer(np.ones((10, 10)), 0.5, StippleConfig(tone="calibrated"), rng())
 
 
 @pytest.mark.parametrize(
@@ -284,12 +272,12 @@ def test_calibrated_tone_needs_density():
 )
 def test_bad_inputs(alpha, mm_per_px, needle):
     with pytest.raises(ValueError, match=needle):
-        stipple_layer(alpha, mm_per_px, SLA, rng())
+        sp.stipple_layer(alpha, mm_per_px, SLA, rng())
 
 
 def test_tiny_and_overfull_layers_still_obey_rules():
     for alpha, n in [(np.ones((1, 1)), None), (np.ones((20, 20)), 5000), (np.full((20, 20), np.nan), None)]:
-        ds = stipple_layer(alpha, 5.0 if alpha.size == 1 else 0.5, SLA, rng(), n_dots=n)
+        ds = sp.stipple_layer(alpha, 5.0 if alpha.size == 1 else 0.5, SLA, rng(), n_dots=n)
         size = 5.0 if alpha.size == 1 else 10.0
         check_rules(ds.xy_mm, ds.r_mm, rules_from_config(SLA, size, size), tol_mm=1e-9)
 
@@ -306,6 +294,6 @@ def test_rules_hold_on_random_layers(seed, process, variable, h, w):
     g = rng(seed)
     alpha = np.clip(g.random((h, w)) * g.random() * 1.5, 0.0, 1.0)
     cfg = StippleConfig(process=process, variable_radius=variable, max_iterations=15, tone="linear")
-    ds = stipple_layer(alpha, 0.5, cfg, g)
+    ds = sp.stipple_layer(alpha, 0.5, cfg, g)
     check_rules(ds.xy_mm, ds.r_mm, rules_from_config(cfg, w * 0.5, h * 0.5), tol_mm=1e-9)
     assert ds.report["n_final"] == len(ds)

@@ -4,8 +4,31 @@ from __future__ import annotations
 
 import types
 import typing
+from collections.abc import Sequence
+from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict, ValidationInfo, field_validator
+
+#: A palette list once read: its colours as ``'#rrggbb'`` strings, in order. A config's palette
+#: may instead still name a can list (a CSV file) until the pipeline has read it.
+HexPalette = tuple[str, ...]
+
+
+def resolved_palette(palette: str | Sequence[str] | Path | None, field: str) -> HexPalette | None:
+    """The palette's colours, or None where the config leaves the colours to the image.
+
+    Args:
+        palette: The field's value: ``'auto'``/None, a list of ``'#rrggbb'``, or a can list path.
+        field: The field's dotted name, for the message.
+
+    Raises:
+        ValueError: The palette is still a can list file (read it first, see :mod:`stencil_cad.decompose.paints`).
+    """
+    if palette is None or isinstance(palette, str):  # null or 'auto' (the validators allow no other string)
+        return None
+    if isinstance(palette, Path):
+        raise ValueError(f"{field} {palette} is a can list: read it first (stencil_cad.decompose.paints)")
+    return tuple(palette)
 
 
 class StrictModel(BaseModel):

@@ -9,7 +9,7 @@ from typing import Literal
 from pydantic import Field, field_validator, model_validator
 
 from ..colour import colour_to_rgb, parse_colour
-from .base import StrictModel
+from .base import HexPalette, StrictModel, resolved_palette
 
 #: Largest number of paint layers a job may ask for. Each layer is one printed
 #: plate and one spray pass; beyond eight the plates stop paying for themselves
@@ -224,13 +224,18 @@ class DecomposeConfig(StrictModel):
             raise ValueError("order: 'given' needs a palette list, got palette: 'auto'")
         return self
 
+    def palette_hex(self) -> HexPalette | None:
+        """The palette list, or None for 'auto'.
+
+        Raises:
+            ValueError: The palette is still a can list file (the pipeline reads it first).
+        """
+        return resolved_palette(self.palette, "decompose.palette")
+
     def palette_rgb(self) -> tuple[tuple[float, float, float], ...] | None:
         """The palette as RGB triples in [0, 1], or None for 'auto'."""
-        if self.palette == "auto":
-            return None
-        if isinstance(self.palette, Path):
-            raise ValueError(f"palette {self.palette} is a can list: read it first (stencil_cad.paints)")
-        return tuple(colour_to_rgb(c) for c in self.palette)
+        hexes = self.palette_hex()
+        return None if hexes is None else tuple(colour_to_rgb(c) for c in hexes)
 
     def primer_rgb(self) -> tuple[float, float, float] | None:
         """The fixed primer as an RGB triple in [0, 1], or None for 'auto'."""

@@ -8,7 +8,7 @@ from pathlib import Path
 from pydantic import Field, field_validator, model_validator
 
 from ..colour import parse_colour
-from .base import StrictModel
+from .base import HexPalette, StrictModel, resolved_palette
 
 
 class SprayOrder(str, enum.Enum):
@@ -147,3 +147,11 @@ class HardConfig(StrictModel):
         if self.order == SprayOrder.given and self.palette is None:
             raise ValueError("hard.order 'given' needs hard.palette (the colours in spray order), got null")
         return self
+
+    def palette_hex(self) -> HexPalette | None:
+        """The fixed colours, or None to pick them from the image.
+
+        Raises:
+            ValueError: The palette is still a can list file (the pipeline reads it first).
+        """
+        return resolved_palette(self.palette, "hard.palette")

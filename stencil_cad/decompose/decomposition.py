@@ -17,7 +17,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..colour import distinct_colours, kmeans, to_hex
+from ..colour import colour_to_rgb, distinct_colours, kmeans, to_hex
 from ..config.decompose import DecomposeConfig, LayerOrder, OpacitySource
 from ..model import Layers, Picture
 from . import energy, palette, solver
@@ -169,12 +169,12 @@ def _single_layer(picture: Picture, cfg: DecomposeConfig, source: str, t0: float
     warnings: list[str] = []
     rgb = np.clip(np.asarray(picture.rgb, dtype=np.float64), 0.0, 1.0)
     primer = np.array(cfg.primer_rgb() or (1.0, 1.0, 1.0))
-    pal = cfg.palette_rgb()
-    if pal is not None:
-        paint = np.array(pal[0])
-        if len(pal) > 1:
+    hexes = cfg.palette_hex()
+    if hexes is not None:
+        paint = np.array(colour_to_rgb(hexes[0]))
+        if len(hexes) > 1:
             warnings.append(
-                f"opacity source '{source}' makes one layer: only the first can {cfg.palette[0]} is used"  # type: ignore[index]
+                f"opacity source '{source}' makes one layer: only the first can {hexes[0]} is used"
             )
     elif source == "alpha":
         a = np.asarray(picture.alpha, dtype=np.float64)
@@ -407,6 +407,7 @@ def _start_candidates(
     fixed_primer = cfg.primer_rgb()
     primer_free = fixed_primer is None
     fixed_palette = cfg.palette_rgb()
+    hexes = cfg.palette_hex() or ()
     n_layers = cfg.layers
     if fixed_palette is None:
         k = n_layers + int(primer_free)
@@ -449,7 +450,7 @@ def _start_candidates(
     chosen = np.arange(len(cans))
     if len(cans) > n_layers:
         chosen = _select_cans(trial_target, cans, primer0, primer_free, n_layers, s)
-        order_info["cans_chosen"] = [cfg.palette[i] for i in chosen]  # type: ignore[index]
+        order_info["cans_chosen"] = [hexes[i] for i in chosen]
     n_layers = len(chosen)
     free = np.zeros(n_layers + 1, dtype=bool)
     free[0] = primer_free

@@ -13,6 +13,7 @@ Python only loops over labels and sweeps.
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 
 import maxflow
 import numpy as np
@@ -201,7 +202,7 @@ def _adjacent_pairs(comp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return a[d], b[d]
 
 
-def hex_to_rgb(colours: list[str]) -> np.ndarray:
+def hex_to_rgb(colours: Sequence[str]) -> np.ndarray:
     """``(K, 3)`` float in [0, 1] from hex strings '#rrggbb'."""
     return np.array([colour_to_rgb(c) for c in colours], dtype=np.float64).reshape(-1, 3)
 

@@ -126,7 +126,7 @@ def make_hard_stencils(
     rgb = np.clip(np.asarray(picture.rgb, dtype=np.float64), 0.0, 1.0)
     h, w = rgb.shape[:2]
     min_px = max(cfg.min_region_mm2, min_feature_mm**2) / s**2
-    fixed = hex_to_rgb(cfg.palette) if cfg.palette is not None else None  # type: ignore[arg-type]
+    fixed = hex_to_rgb(hexes) if (hexes := cfg.palette_hex()) is not None else None
     t0 = time.perf_counter()
     labels, colours, seg = segment_image(
         rgb, cfg.colours, cfg.smoothness, min_px, rng, palette=fixed, sweeps=cfg.sweeps, rounds=cfg.rounds
