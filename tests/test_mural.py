@@ -160,6 +160,7 @@ def test_plate_notches_on_grid_lines():
 # --------------------------------------------------------------------------- simulation
 
 
+@pytest.mark.slow
 def test_tiled_spray_equals_global_and_misregistration_costs():
     from stencil_cad import simulate
 

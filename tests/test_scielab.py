@@ -39,8 +39,8 @@ def test_flat_field_is_preserved():
 
 
 def test_fine_checkerboard_vanishes_with_distance_coarse_does_not():
-    fine = _checkerboard(240, 1)
-    coarse = _checkerboard(240, 40)
+    fine = _checkerboard(160, 1)  # 40 x 40 mm: 4 x 4 coarse squares, the same verdicts as 240 px
+    coarse = _checkerboard(160, 40)
     grey = np.full_like(fine, _mid_grey())
     near_fine = scielab(fine, grey, 0.25, 0.25)
     far_fine = scielab(fine, grey, 0.25, 4.0)
