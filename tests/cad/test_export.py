@@ -133,6 +133,7 @@ def test_3mf_reads_back(plate, tmp_path):
     assert mc["volume"] == pytest.approx(model.analytic_volume, rel=1e-3)
 
 
+@pytest.mark.slow
 def test_edited_solid_exports_through_occt(tmp_path):
     from build123d import Cylinder, Pos
 
