@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -9,6 +10,9 @@ from hypothesis import strategies as st
 import stencil_cad.pipeline as pipeline
 from stencil_cad.cli import main
 from stencil_cad.config import JobConfig
+
+# 120 documents through the command line: the full suite's (derandomized in CI), not the quick loop's.
+pytestmark = pytest.mark.slow
 
 
 def _keys(model, prefix=()):

@@ -142,6 +142,7 @@ def test_gaussian_kernel_error_as_documented():
     assert np.abs(gauss - exact).max() < 0.01 * exact.max() + 1e-4
 
 
+@pytest.mark.slow
 def test_physical_tone_calibration_chooses_whole_passes():
     from stencil_cad.simulate import calibrated_tone_for
 
