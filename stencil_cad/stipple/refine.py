@@ -884,6 +884,31 @@ def _adam_step(layer: _Layer, grad: np.ndarray, it: int, frac: float, settings: 
     _project(layer, x0, y0, r0)
 
 
+def _start_layers(
+    dotsets: list[DotSet],
+    rules: list[DesignRules],
+    spray_times: list[float],
+    settings: RefineSettings,
+    mm_per_px: float,
+) -> list[_Layer]:
+    """Each layer's holes as the optimiser's state: float64 copies, fresh moments, in band order."""
+    state = []
+    for ds, rl, a in zip(dotsets, rules, spray_times, strict=True):
+        rmax = max(settings.max_radius_mm, rl.hole_min_r_mm, float(np.max(ds.r_mm, initial=0.0)))
+        layer = _Layer(
+            x=np.array(ds.xy_mm[:, 0], dtype=np.float64),
+            y=np.array(ds.xy_mm[:, 1], dtype=np.float64),
+            r=np.array(ds.r_mm, dtype=np.float64),
+            rules=rl,
+            spray_time=float(a),
+            rmax=rmax,
+        )
+        layer.reset_moments()
+        layer.sort(_BAND * mm_per_px)
+        state.append(layer)
+    return state
+
+
 def refine_dots(
     target_rgb: np.ndarray,
     mm_per_px: float,
@@ -937,20 +962,7 @@ def refine_dots(
     h = shape[0]
     primer = np.asarray(primer, dtype=np.float64)
     colours = np.asarray(colours, dtype=np.float64).reshape(-1, 3)
-    state = []
-    for ds, rl, a in zip(dotsets, rules, spray_times, strict=True):
-        rmax = max(settings.max_radius_mm, rl.hole_min_r_mm, float(np.max(ds.r_mm, initial=0.0)))
-        layer = _Layer(
-            x=np.array(ds.xy_mm[:, 0], dtype=np.float64),
-            y=np.array(ds.xy_mm[:, 1], dtype=np.float64),
-            r=np.array(ds.r_mm, dtype=np.float64),
-            rules=rl,
-            spray_time=float(a),
-            rmax=rmax,
-        )
-        layer.reset_moments()
-        layer.sort(_BAND * mm_per_px)
-        state.append(layer)
+    state = _start_layers(dotsets, rules, spray_times, settings, mm_per_px)
     eye_px = settings.eye_sigma_mm / mm_per_px
     npx = float(shape[0] * shape[1] * 3)
 
