@@ -1263,7 +1263,10 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
     """Hard-stencil mode: segmentation, bridges, plates with polygon cut-outs, simulation."""
     from . import hardstencil
 
-    cfg = run.cfg
+    # Cut-outs are sprayed from their own nozzle height: the simulation, the spray order and
+    # the maker's spraying steps all read it from the spray section.
+    spray = run.cfg.spray.model_copy(update={"nozzle_height": run.cfg.hard.nozzle_height})
+    cfg = run.cfg = run.cfg.model_copy(update={"spray": spray})
     size = (picture.width_mm, picture.height_mm)
     with run.stage("segment"):
         rules = _process_rules(cfg)

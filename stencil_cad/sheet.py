@@ -287,7 +287,8 @@ def _wall_steps(manifest: Mapping, cfg: Mapping, primer: Mapping, primer_hex: st
         "in the bottom border, reads the right way up from the top.",
         "Spray every layer from the same distance and sweep evenly over the whole plate"
         + (
-            f" (at the nozzle height the simulation assumed, spray.nozzle_height = {nozzle:g})"
+            f" (at the nozzle height the simulation assumed, {'hard' if mode == 'hard' else 'spray'}.nozzle_height"
+            f" = {nozzle:g})"
             if nozzle is not None
             else ""
         )

@@ -11,6 +11,8 @@ from readers import need, run
 
 from stencil_cad import sheet
 from stencil_cad.cli import main
+from stencil_cad.config.hard import HardConfig
+from stencil_cad.config.spray import SprayConfig
 from stencil_cad.decompose import paints
 
 CATALOGUE = Path(__file__).resolve().parent.parent / "stencil_cad" / "data" / "example_cans.csv"
@@ -317,6 +319,11 @@ def test_hard_mode_writes_the_swatch_card_and_the_spray_order(hard_job):
         assert (hard_job / f"layer_{i:02d}_cut.png").exists()
         assert (hard_job / f"layer_{i:02d}_after.png").exists()
     assert (hard_job / "instructions.html").exists() and (hard_job / "instructions.pdf").exists()
+    # Cut-outs are sprayed from hard mode's own nozzle height, and the maker is told it.
+    h = HardConfig().nozzle_height
+    assert h != SprayConfig().nozzle_height
+    assert m["config"]["spray"]["nozzle_height"] == h
+    assert f"hard.nozzle_height = {h:g}" in (hard_job / "instructions.html").read_text()
 
 
 # -------------------------------------------------------------------------------- previews

@@ -182,7 +182,7 @@ class SprayConfig(StrictModel):
             "the dot's variance grows linearly with h, i.e. with the nozzle's distance). To fit it to a real "
             "can, spray one test hole and measure the dot's full width at half maximum W: "
             "h = (W / (1.1774 r))^2 - 1. Range [0, 1000]. The default 15 is where soft stencils score best "
-            "from 1 m (python -m benchmarks quality); hard cut-outs keep sharper edges from lower down (h = 3)."
+            "from 1 m (python -m benchmarks quality). Hard mode sprays from hard.nozzle_height instead."
         ),
     )
     px_per_mm: float = Field(
