@@ -275,6 +275,8 @@ def _steps(manifest: Mapping, mode: str, names: set[str]) -> list[Step]:
 def _wall_steps(manifest: Mapping, cfg: Mapping, primer: Mapping, primer_hex: str, n_tiles: int) -> list[str]:
     """The set-up instructions: prime, set the wall, fit the plates, spray evenly (and the mural's tiles)."""
     nozzle = _val(cfg, "spray", "nozzle_height", default=None)
+    # Hard mode sprays from its own nozzle height (the pipeline copies it into the spray section).
+    section = "hard" if str(cfg.get("mode", "soft")) == "hard" else "spray"
     walls = _val(manifest, "build", "walls", default=[]) or []
     wall = [
         f"Prime the whole surface with the primer {primer_hex}"
@@ -287,8 +289,7 @@ def _wall_steps(manifest: Mapping, cfg: Mapping, primer: Mapping, primer_hex: st
         "in the bottom border, reads the right way up from the top.",
         "Spray every layer from the same distance and sweep evenly over the whole plate"
         + (
-            f" (at the nozzle height the simulation assumed, {'hard' if mode == 'hard' else 'spray'}.nozzle_height"
-            f" = {nozzle:g})"
+            f" (at the nozzle height the simulation assumed, {section}.nozzle_height = {nozzle:g})"
             if nozzle is not None
             else ""
         )
