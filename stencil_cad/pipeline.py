@@ -28,6 +28,7 @@ from .output import MANIFEST, OutputDir, manifest_header
 from .output import plain as _plain
 
 if TYPE_CHECKING:
+    from . import mural
     from .compute import Executor
     from .slicing import SliceResult
 
@@ -355,7 +356,11 @@ SPRAY_JSON = "spray.json"
 
 
 def stage_stipple(
-    run: Run, layers: Layers, picture_mm: tuple[float, float], picture: Picture | None = None
+    run: Run,
+    layers: Layers,
+    picture_mm: tuple[float, float],
+    picture: Picture | None = None,
+    grid: mural.TileGrid | None = None,
 ) -> list[DotSet]:
     """Stipple every layer's opacity into holes, enforce the design rules, refine, save CSV + previews.
 
@@ -399,7 +404,7 @@ def stage_stipple(
         for alpha, ds in zip(layers.alphas, sets, strict=True)
     ]
     if cfg.refine.enabled:
-        sets = stage_refine(run, layers, sets, picture_mm, picture)
+        sets = stage_refine(run, layers, sets, picture_mm, picture, grid)
     with run.stage("stipple"):
         cards = plate_cards(run, layers.colours, picture_mm, sets)
         for i, ds in enumerate(sets):
@@ -463,12 +468,14 @@ def stage_refine(
     dotsets: list[DotSet],
     picture_mm: tuple[float, float],
     picture: Picture | None = None,
+    grid: mural.TileGrid | None = None,
 ) -> list[DotSet]:
     """Refine every layer's holes against the spray model so the composite matches the picture.
 
     The objective lives on the simulation grid, its eye filter is the viewer's at
     ``view.distance_m``, and the holes keep the stipple rules (the largest radius is
-    ``refine.max_radius_factor`` times the hole floor).
+    ``refine.max_radius_factor`` times the hole floor). A mural (``grid`` of several tiles)
+    is refined tile by tile (:mod:`stencil_cad.mural_refine`), each tile a task.
     """
     from . import resolution
     from .simulate import scielab, spray
@@ -479,8 +486,8 @@ def stage_refine(
     cfg = run.cfg
     # The simulation's grid: with ``size.px_per_mm: auto`` it follows the dots' spray sigma
     # (8x fewer pixels than 4 px/mm for FDM holes, which keeps a mural's refinement in memory).
-    grid = resolution.sim_mm_per_px(cfg) or 1.0 / cfg.spray.px_per_mm
-    shape = spray.sim_shape(layers.alphas.shape[1:], layers.mm_per_px, grid)
+    grid_mm = resolution.sim_mm_per_px(cfg) or 1.0 / cfg.spray.px_per_mm
+    shape = spray.sim_shape(layers.alphas.shape[1:], layers.mm_per_px, grid_mm)
     reference = picture.rgb if picture is not None else layers.composite()
     target = spray.resample(np.clip(reference, 0.0, 1.0), shape)
     rules = rules_from_config(cfg.stipple, *picture_mm)
@@ -502,11 +509,30 @@ def stage_refine(
         return spray.hole_kernels(r_mm, cfg.spray, spray_time, geometry=geometry)
 
     times = [float(ds.report.get("spray_time", cfg.spray.amount)) for ds in dotsets]
+    if grid is not None and grid.tiled:
+        from . import mural_refine
+
+        problem = mural_refine.Problem(
+            target=target,
+            alpha_targets=alpha_targets,
+            mm_per_px=grid_mm,
+            primer=layers.primer,
+            colours=layers.colours,
+            rules=[rules] * layers.count,
+            kernels=mural_refine.HoleKernels(cfg.spray, geometry),
+            spray_times=times,
+            settings=settings,
+        )
+        halo = mural_refine.refine_halo_mm(cfg, settings.eye_sigma_mm)
+        with run.stage("refine"):
+            out, report = mural_refine.refine_mural(problem, grid, dotsets, halo, run.tasks.map)
+        run.figures["refine"] = _plain(report)
+        return out
     with run.stage("refine"):
         with run.bar(rc.iterations, "refine") as bar:
             out, report = refine.refine_dots(
                 target,
-                grid,
+                grid_mm,
                 layers.primer,
                 layers.colours,
                 dotsets,
@@ -1119,7 +1145,7 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
         return run_hard(run, picture)
     bound_dots(run, size)
     layers = stage_decompose(run, picture)
-    dotsets = stage_stipple(run, layers, size, picture)
+    dotsets = stage_stipple(run, layers, size, picture, grid)
     build_any(run, layers, dotsets, size, grid, picture)
     return finish(run, "run")
 
@@ -1516,7 +1542,7 @@ def _run_stage_command(run: Run, command: str, src: Path, picture: Picture | Non
             cfg.size.width_mm,
         )
     if command == "stipple":
-        stage_stipple(run, layers, size, picture)
+        stage_stipple(run, layers, size, picture, grid)
     else:
         dotsets = read_dots(src, layers.count)
         if command == "build":
