@@ -592,6 +592,8 @@ class _Layer:
     pairs: np.ndarray | None = None
     ref: tuple[np.ndarray, np.ndarray] = (np.zeros(0), np.zeros(0))
     skin: float = _SKIN_MM
+    #: Each hole's index in the input DotSet (-1 for a hole the add moves placed).
+    ids: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     def reset_moments(self) -> None:
         self.m = np.zeros((len(self.x), 3))
@@ -601,7 +603,13 @@ class _Layer:
         """Keep the holes of ``mask`` (a boolean mask or an index array, in the new order)."""
         self.x, self.y, self.r = self.x[mask], self.y[mask], self.r[mask]
         self.m, self.v = self.m[mask], self.v[mask]
+        self.ids = self.ids[mask]
         self.pairs = None
+
+    def input_order(self) -> np.ndarray:
+        """Indices that put the holes back in the input's order, the added ones after them."""
+        last = int(self.ids.max(initial=-1)) + 1
+        return np.argsort(np.where(self.ids >= 0, self.ids, last), kind="stable")
 
     def sort(self, band_mm: float) -> None:
         """Order the holes by bands of ``band_mm`` across, then along x.
@@ -863,6 +871,7 @@ def _add_holes(layer, g, q, t, kernels, pitch, shape) -> int:
         layer.r = np.concatenate([layer.r, np.full(n_new, r_new)])
         layer.m = np.concatenate([layer.m, np.zeros((n_new, 3))])
         layer.v = np.concatenate([layer.v, np.zeros((n_new, 3))])
+        layer.ids = np.concatenate([layer.ids, np.full(n_new, -1, dtype=np.int64)])
         layer.sort(_BAND * pitch)
     return n_new
 
@@ -902,6 +911,7 @@ def _start_layers(
             rules=rl,
             spray_time=float(a),
             rmax=rmax,
+            ids=np.arange(len(ds), dtype=np.int64),
         )
         layer.reset_moments()
         layer.sort(_BAND * mm_per_px)
@@ -942,7 +952,7 @@ def refine_dots(
 
     Returns:
         ``(dotsets, report)``: the refined DotSets (each passes :func:`check_rules` of its
-        rules; ``report`` of each adds ``refine_added``, ``refine_removed``,
+        rules; the holes that stay keep the input's order, the added ones follow; ``report`` of each adds ``refine_added``, ``refine_removed``,
         ``refine_reverted``) and the stage report (``objective_start``, ``objective_end``
         as RMS composite errors, ``iterations``, ``seconds``).
 
@@ -999,6 +1009,7 @@ def refine_dots(
             progress(it, iters)
     out = []
     for ds, layer in zip(dotsets, state, strict=True):
+        layer.keep(layer.input_order())
         xy = np.column_stack([layer.x, layer.y])
         check_rules(xy, layer.r, layer.rules)
         rep = {
