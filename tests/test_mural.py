@@ -309,6 +309,14 @@ def test_small_mural_end_to_end(tmp_path):
         polys = [e for e in doc.modelspace() if e.dxftype() == "LWPOLYLINE"]
         outlines.append(max((np.array([v[:2] for v in p.get_points()]) for p in polys), key=len))
     np.testing.assert_allclose(outlines[0], outlines[1])
+    # Read back from the files alone: the tiles' DXF holes in mural coordinates are the
+    # mural's dots, one to one, and keep the rules across the seam.
+    from benchmarks.mural_check import check
+
+    got = check(out)
+    assert got["same_holes"] and got["union_rules"] == "passed"
+    assert got["holes_dxf"] == got["holes_csv"] == m["mural"]["holes_global"]
+    assert got["plates_fit"] and got["walls_fit"] and got["all_valid"]
 
 
 def test_summary_counts_a_murals_tile_files_per_kind():
