@@ -537,13 +537,14 @@ def registration_offsets(
 # --------------------------------------------------------------------------- plan and map
 
 
-#: Rates for the cost estimate, seconds per unit, measured on a 2-core machine: a checked and
-#: exported plate of ~2,000 holes takes 2–3 s (most of it the B-rep check on four sub-tiles), a
-#: notched wall about 1.5 s, stippling and simulating about 0.2 ms per hole, decomposition about
-#: 2 s per megapixel and layer.
-_SECONDS_PER_PLATE = 3.0
+#: Rates for the cost estimate, seconds per unit of one core, from the 1.2 m × 0.8 m FDM mural
+#: of 40 tiles (1,050 CPU-s in all): a checked and exported plate of ~500–2,000 holes takes about
+#: 4 s (the mesher, the mesh checks and the B-rep check on sub-tiles), a notched wall about 1.5 s,
+#: stippling, refining and simulating (with the registration costs) about 2 ms per hole, the
+#: decomposition about 2 s per megapixel and layer.
+_SECONDS_PER_PLATE = 4.0
 _SECONDS_PER_WALL = 1.5
-_SECONDS_PER_HOLE = 2e-4
+_SECONDS_PER_HOLE = 2e-3
 _SECONDS_PER_MPX = 2.0
 
 
