@@ -182,6 +182,8 @@ def tile_tasks(
     """The tasks of one phase, from the mural's current holes (``state``: per layer ``(xy, r)``)."""
     shape = problem.target.shape[:2]
     g = problem.mm_per_px
+    # What every task shares, without the mural's rasters (each task carries its own crop).
+    shared = replace(problem, target=np.zeros((0, 0, 3)), alpha_targets=None)
     tasks = []
     for k in tiles:
         t = grid.tiles[k]
@@ -219,7 +221,7 @@ def tile_tasks(
                 core=cores,
                 index=idx,
                 rules=rules,
-                problem=replace(problem, target=np.zeros((0, 0, 3)), alpha_targets=None),
+                problem=shared,
             )
         )
     return tasks
@@ -257,19 +259,11 @@ def refine_tile(task: TileTask) -> TileResult:
 
 def web_conflicts(xy: np.ndarray, r: np.ndarray, web_mm: float) -> np.ndarray:
     """Holes closer than the web to another hole (a boolean per hole)."""
-    from scipy.spatial import cKDTree
+    from .stipple.rules import web_violations
 
     bad = np.zeros(len(xy), dtype=bool)
-    if len(xy) < 2:
-        return bad
-    pairs = cKDTree(xy).query_pairs(2.0 * float(r.max()) + web_mm, output_type="ndarray")
-    if len(pairs) == 0:
-        return bad
-    i, j = pairs[:, 0], pairs[:, 1]
-    gap = np.hypot(*(xy[i] - xy[j]).T) - r[i] - r[j]
-    close = gap < web_mm - _TOL_MM
-    bad[i[close]] = True
-    bad[j[close]] = True
+    pairs, _ = web_violations(xy, r, web_mm - _TOL_MM)
+    bad[pairs.ravel()] = True
     return bad
 
 

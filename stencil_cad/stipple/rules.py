@@ -124,7 +124,7 @@ def _pairs_within(xy: np.ndarray, reach: float) -> np.ndarray:
     return pairs.astype(np.int64, copy=False).reshape(-1, 2)
 
 
-def _web_violations(xy: np.ndarray, r: np.ndarray, web: float) -> tuple[np.ndarray, np.ndarray]:
+def web_violations(xy: np.ndarray, r: np.ndarray, web: float) -> tuple[np.ndarray, np.ndarray]:
     """Pairs whose web is below ``web`` and their web values (sorted smallest first)."""
     if len(xy) < 2:
         return np.empty((0, 2), dtype=np.int64), np.empty(0)
@@ -421,7 +421,7 @@ def enforce_rules(
     # A pair short by more than two full nudges cannot be saved by nudging: remove first,
     # so that an overfull set does not cost millions of pair pushes per sweep.
     removed_web = 0
-    pairs, webs = _web_violations(xy, r, rules.web_mm)
+    pairs, webs = web_violations(xy, r, rules.web_mm)
     hopeless = pairs[(rules.web_mm - webs) > 2.0 * max_nudge_mm]
     if len(hopeless):
         alive = _alive_after_removal(hopeless, pairs, r)
@@ -439,7 +439,7 @@ def enforce_rules(
     keep = ~(edge_out | keep_out)
     xy, r = xy[keep], r[keep]
 
-    pairs, _ = _web_violations(xy, r, rules.web_mm)
+    pairs, _ = web_violations(xy, r, rules.web_mm)
     if len(pairs):
         alive = _alive_after_removal(pairs, pairs, r)
         removed_web += int((~alive).sum())
@@ -501,7 +501,7 @@ def _violations(xy: np.ndarray, r: np.ndarray, rules: DesignRules, tol_mm: float
 
     idx = np.flatnonzero(ok)
     if len(idx) > 1:
-        pairs, webs = _web_violations(xy[idx], r[idx], rules.web_mm - tol_mm)
+        pairs, webs = web_violations(xy[idx], r[idx], rules.web_mm - tol_mm)
         pairs = idx[pairs]
         total += len(pairs)
         order = np.lexsort((pairs[:, 1], pairs[:, 0]))[:limit]
