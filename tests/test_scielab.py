@@ -88,3 +88,37 @@ def test_smaller_holes_blend_from_nearer():
     sla = blend_distance_m(0.5, 0.5, SprayConfig(nozzle_height=7.0), 1.0, black, white)
     assert sla is not None and fdm is not None
     assert 0.5 < sla < fdm < 16.0
+
+
+def _photo_pair(n: int = 240):
+    from skimage import data
+    from skimage.transform import resize
+
+    ref = resize(data.astronaut() / 255.0, (n, n + 40), anti_aliasing=True)
+    rng = np.random.default_rng(3)
+    return ref, np.clip(ref + rng.normal(0, 0.08, ref.shape) + 0.03, 0, 1)
+
+
+@pytest.mark.parametrize("mm_per_px, distance_m", [(0.71, 1.0), (0.71, 2.0), (0.25, 1.0)])
+def test_blocks_give_the_whole_pictures_score(mm_per_px, distance_m):
+    # Many small blocks (each with its margin) against one block holding the whole picture.
+    ref, test = _photo_pair()
+    whole = scielab(ref, test, mm_per_px, distance_m, block_pixels=10**9)
+    blocks = scielab(ref, test, mm_per_px, distance_m, block_pixels=40_000)
+    assert blocks == pytest.approx(whole, rel=1e-12)
+    m_whole = scielab_map(ref, test, mm_per_px, distance_m, block_pixels=10**9)
+    m_blocks = scielab_map(ref, test, mm_per_px, distance_m, block_pixels=40_000)
+    np.testing.assert_allclose(m_blocks, m_whole, rtol=0, atol=1e-9)
+
+
+def test_wide_gaussians_on_the_averaged_copy_match_an_exact_filter(monkeypatch):
+    # At 0.71 mm/px from 1 m the luminance 7° Gaussian is ~146 px wide: it goes through the
+    # block-averaged copy. An exact filter applies it directly to the whole picture.
+    import stencil_cad.simulate.scielab as sc
+
+    ref, test = _photo_pair()
+    fast = scielab(ref, test, 0.71, 1.0)
+    monkeypatch.setattr(sc, "DIRECT_SIGMA_PX", 1e9)
+    exact = scielab(ref, test, 0.71, 1.0, block_pixels=10**9)
+    assert fast == pytest.approx(exact, abs=1e-3)
+    assert fast != exact  # the fast path did run

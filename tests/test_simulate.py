@@ -392,3 +392,24 @@ def test_calibrated_stipple_sprays_closer_than_linear():
     r_lin = sim.simulate(layers, [lin], spray).layer_rmse[0]
     r_cal = sim.simulate(layers, [calibrated], spray).layer_rmse[0]
     assert r_cal < r_lin
+
+
+@pytest.mark.parametrize("shape", [(300, 420), (9, 40)])
+def test_scores_in_strips_equal_the_whole_pictures(shape, monkeypatch):
+    # The pixel scores run a strip of rows at a time (bounded memory on murals); they must be
+    # scikit-image's whole-picture CIEDE2000 and SSIM.
+    from skimage.color import deltaE_ciede2000, rgb2lab
+    from skimage.metrics import structural_similarity
+
+    from stencil_cad.simulate import scores
+
+    rng = np.random.default_rng(0)
+    ref = rng.random((*shape, 3))
+    sim = np.clip(ref + rng.normal(0, 0.1, ref.shape), 0, 1)
+    monkeypatch.setattr(scores, "STRIP_PIXELS", 5_000)
+    got = scores.score(ref, sim)
+    de = deltaE_ciede2000(rgb2lab(ref), rgb2lab(sim))
+    assert got["de2000_mean"] == pytest.approx(float(np.mean(de)), rel=1e-12)
+    assert got["de2000_p95"] == pytest.approx(float(np.percentile(de, 95)), rel=1e-12)
+    ssim = structural_similarity(ref, sim, data_range=1.0, channel_axis=2, win_size=7)
+    assert got["ssim"] == pytest.approx(float(ssim), rel=1e-12)

@@ -12,6 +12,10 @@ from .spray import resample
 
 __all__ = ["delta_e_map", "score"]
 
+#: Pixels per strip of the pixel scores: a mural's scores hold one strip's colour conversions
+#: at a time (CIEDE2000 keeps about 15 float copies of its input) instead of the whole picture's.
+STRIP_PIXELS = 1_000_000
+
 
 def score(reference_rgb: np.ndarray, simulated_rgb: np.ndarray) -> dict:
     """Scores of a simulated spray against the input.
@@ -29,19 +33,60 @@ def score(reference_rgb: np.ndarray, simulated_rgb: np.ndarray) -> dict:
     """
     sim = np.clip(np.asarray(simulated_rgb, dtype=np.float64), 0.0, 1.0)
     ref = resample(np.clip(np.asarray(reference_rgb, dtype=np.float64), 0.0, 1.0), sim.shape[:2])
-    de = deltaE_ciede2000(rgb2lab(ref), rgb2lab(sim))
+    de = _delta_e(ref, sim)
     small = min(sim.shape[:2])
     win = min(7, small if small % 2 else small - 1)
-    if win >= 3:
-        ssim = float(structural_similarity(ref, sim, data_range=1.0, channel_axis=2, win_size=win))
-    else:
-        ssim = float("nan")
+    ssim = _ssim(ref, sim, win) if win >= 3 else float("nan")
     return {
         "de2000_mean": float(np.mean(de)),
         "de2000_p95": float(np.percentile(de, 95)),
         "psnr": _psnr(ref, sim),
         "ssim": ssim,
     }
+
+
+def _strips(shape: tuple[int, ...], least: int = 1):
+    h, w = shape[:2]
+    rows = max(STRIP_PIXELS // max(w, 1), least)
+    return [(r0, min(r0 + rows, h)) for r0 in range(0, h, rows)]
+
+
+def _delta_e(ref: np.ndarray, sim: np.ndarray) -> np.ndarray:
+    """Per-pixel CIEDE2000 of two sRGB images, a strip of rows at a time."""
+    out = np.empty(sim.shape[:2])
+    for r0, r1 in _strips(sim.shape):
+        out[r0:r1] = deltaE_ciede2000(rgb2lab(ref[r0:r1]), rgb2lab(sim[r0:r1]))
+    return out
+
+
+def _ssim(ref: np.ndarray, sim: np.ndarray, win: int) -> float:
+    """scikit-image's mean SSIM (RGB, data range 1, ``win`` × ``win`` window), a strip of rows at a time.
+
+    Each strip carries ``win // 2`` rows of the picture on either side, so its local SSIM
+    equals the whole picture's; the mean is over the same pixels scikit-image averages
+    (``win // 2`` from every border excluded), channel by channel.
+    """
+    pad = win // 2
+    h, w = sim.shape[:2]
+    if h <= 2 * pad or w <= 2 * pad:
+        return float(structural_similarity(ref, sim, data_range=1.0, channel_axis=2, win_size=win))
+    means = []
+    for c in range(sim.shape[2]):
+        total, count = 0.0, 0
+        for r0, r1 in _strips(sim.shape, least=win):
+            a, b = max(r0 - pad, 0), min(r1 + pad, h)
+            if b - a < win:
+                a = max(b - win, 0)
+            _, local = structural_similarity(
+                ref[a:b, :, c], sim[a:b, :, c], data_range=1.0, win_size=win, full=True
+            )
+            lo, hi = max(r0, pad), min(r1, h - pad)
+            if hi > lo:
+                part = local[lo - a : hi - a, pad : w - pad]
+                total += float(part.sum())
+                count += part.size
+        means.append(total / count)
+    return float(np.mean(means))
 
 
 def _psnr(ref: np.ndarray, sim: np.ndarray) -> float:
