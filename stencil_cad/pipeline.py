@@ -355,6 +355,41 @@ def read_layers(folder: Path) -> Layers:
 SPRAY_JSON = "spray.json"
 
 
+@dataclass(frozen=True)
+class StippleTask:
+    """One layer to stipple: its opacity, pixel size, the job config and its own generator."""
+
+    alpha: np.ndarray
+    mm_per_px: float
+    cfg: JobConfig
+    rng: np.random.Generator
+
+
+def stipple_task(task: StippleTask) -> tuple[DotSet, dict | None]:
+    """Stipple one layer (a task): ``(holes, tone choice summary or None)``.
+
+    With ``stipple.tone: calibrated`` the density comes from the spray response, and with
+    ``spray.calibrate: spray_time`` the layer gets its own spray time (in the holes' report).
+    """
+    from dataclasses import replace
+
+    from . import stipple
+
+    cfg = task.cfg
+    density, summary = None, None
+    spray_time = cfg.spray.amount
+    if getattr(cfg.stipple.tone, "value", cfg.stipple.tone) == "calibrated":
+        from .simulate import tone
+
+        choice = tone.calibrated_tone_for(task.alpha, task.mm_per_px, cfg)
+        density = choice.density
+        if getattr(cfg.spray.calibrate, "value", cfg.spray.calibrate) == "spray_time":
+            spray_time = float(choice.spray_time)
+        summary = choice.summary()
+    ds = stipple.stipple_layer(task.alpha, task.mm_per_px, cfg.stipple, task.rng, density=density)
+    return replace(ds, report={**ds.report, "spray_time": spray_time}), summary
+
+
 def stage_stipple(
     run: Run,
     layers: Layers,
@@ -370,35 +405,23 @@ def stage_stipple(
     ``refine.enabled`` the holes are then refined against the spray model
     (:func:`stage_refine`) towards ``picture`` (the decomposition's composite without one).
     """
-    from dataclasses import replace
-
-    from . import stipple
     from .exchange.dots_csv import dots_to_csv
 
     bound_dots(run, picture_mm)
     cfg = run.cfg
-    calibrated = getattr(cfg.stipple.tone, "value", cfg.stipple.tone) == "calibrated"
     sets: list[DotSet] = []
     tones: list[dict] = []
     with run.stage("stipple"):
-        with run.bar(layers.count, "stipple") as bar:
-            for i, alpha in enumerate(layers.alphas):
-                density = None
-                spray_time = cfg.spray.amount
-                if calibrated:
-                    from .simulate import tone
-
-                    choice = tone.calibrated_tone_for(alpha, layers.mm_per_px, cfg)
-                    density = choice.density
-                    if getattr(cfg.spray.calibrate, "value", cfg.spray.calibrate) == "spray_time":
-                        spray_time = float(choice.spray_time)
-                    tones.append(choice.summary())
-                ds = stipple.stipple_layer(
-                    alpha, layers.mm_per_px, cfg.stipple, run.rng_for("stipple", i), density=density
-                )
-                ds = replace(ds, report={**ds.report, "spray_time": spray_time})
-                sets.append(ds)
-                bar.update(1)
+        # One task per layer (on a cluster the layers stipple side by side); each layer's
+        # generator comes from the seed, so any number of workers gives the same holes.
+        tasks = [
+            StippleTask(alpha, layers.mm_per_px, cfg, run.rng_for("stipple", i))
+            for i, alpha in enumerate(layers.alphas)
+        ]
+        for ds, tone_summary in run.tasks.map(stipple_task, tasks, "stipple"):
+            sets.append(ds)
+            if tone_summary is not None:
+                tones.append(tone_summary)
     run.figures["dark_end"] = [
         _dark_end(cfg, alpha, float(ds.report["spray_time"]))
         for alpha, ds in zip(layers.alphas, sets, strict=True)

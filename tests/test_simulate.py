@@ -413,3 +413,27 @@ def test_scores_in_strips_equal_the_whole_pictures(shape, monkeypatch):
     assert got["de2000_p95"] == pytest.approx(float(np.percentile(de, 95)), rel=1e-12)
     ssim = structural_similarity(ref, sim, data_range=1.0, channel_axis=2, win_size=7)
     assert got["ssim"] == pytest.approx(float(ssim), rel=1e-12)
+
+
+def test_a_murals_plate_card_stays_within_its_longest_side():
+    # A 4 m × 2.5 m picture at the default 4 px/mm would be 16,000 px wide.
+    from stencil_cad.config import PlateConfig
+    from stencil_cad.outline import label_region, plate_outline
+    from stencil_cad.simulate import labelled
+
+    size = (4000.0, 2500.0)
+    ring = plate_outline(*size, PlateConfig().outline)
+    box = label_region(*size, PlateConfig().outline)
+    holes = np.array([[100.0, 100.0, 1.0], [3900.0, 2400.0, 0.5]])
+    card = labelled.plate_card(ring, box, size, 1, 4, "#112233", circles_xy_r=holes)
+    assert max(card.shape[:2]) <= labelled.CARD_MAX_SIDE_PX + 200  # the plate, plus header and margins
+    small = labelled.plate_card(
+        plate_outline(100.0, 80.0, PlateConfig().outline),
+        label_region(100.0, 80.0, PlateConfig().outline),
+        (100.0, 80.0),
+        1,
+        4,
+        "#112233",
+        circles_xy_r=holes[:0],
+    )
+    assert small.shape[1] >= 400  # small plates keep 4 px/mm

@@ -249,6 +249,12 @@ def _frame(ring: np.ndarray, margin_mm: float = 3.0):
     return lo, hi
 
 
+#: Longest side of a plate card in pixels. A 4 m mural's whole-picture card at 4 px/mm
+#: would be 16,000 px wide (480 MB of RGB per layer, and PIL's drawing took the stipple
+#: stage of a 10 m² mural to 8.3 GB); 6,000 px still draws 0.5 mm holes of a 1.5 m picture.
+CARD_MAX_SIDE_PX = 6000
+
+
 def plate_card(
     outline_ring: np.ndarray,
     label_box: tuple[float, float, float, float],
@@ -275,13 +281,15 @@ def plate_card(
         circles_xy_r: ``(N, 3)`` holes (x, y, r) in mm, or None.
         polygons: Hard-mode cut-outs (``(outer, holes)`` pairs in mm), or None.
         job: Job name, printed in the header.
-        px_per_mm: Drawing resolution in px per mm. Defaults to 4.
+        px_per_mm: Drawing resolution in px per mm. Defaults to 4; lowered so that the
+            plate's longer side stays within :data:`CARD_MAX_SIDE_PX`.
 
     Returns:
         ``(H, W, 3)`` uint8 image: a header (layer, paint, count), the plate, a key and a scale bar.
     """
     ring = np.asarray(outline_ring, dtype=np.float64)
     lo, hi = _frame(ring)
+    px_per_mm = min(px_per_mm, CARD_MAX_SIDE_PX / max(float(np.max(hi - lo)), 1e-9))
     w = int(math.ceil((hi[0] - lo[0]) * px_per_mm))
     h = int(math.ceil((hi[1] - lo[1]) * px_per_mm))
 
