@@ -368,7 +368,10 @@ def stage_mural_simulate(
 
         def scores(alphas: np.ndarray) -> dict:
             comp = np.clip(composite(layers.primer, layers.colours, alphas), 0, 1)
-            return {**simulate.score(reference, comp), "scielab": scielab.scielab(reference, comp, g, dist)}
+            return {
+                **simulate.score(reference, comp),
+                "scielab": scielab.scielab(reference, comp, g, dist, tasks_map=run.tasks.map),
+            }
 
         base = scores(tiled)
         del tiled

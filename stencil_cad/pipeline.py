@@ -888,7 +888,7 @@ def _scores(run: Run, reference: np.ndarray, sprayed: np.ndarray, mm_per_px: flo
     from .simulate import scielab
 
     scores = simulate.score(reference, sprayed)
-    scores.update(scielab.view_scores(reference, sprayed, mm_per_px, run.cfg.view.distance_m))
+    scores.update(scielab.view_scores(reference, sprayed, mm_per_px, run.cfg.view.distance_m, run.tasks.map))
     return scores
 
 

@@ -45,6 +45,7 @@ against many agrees to 1e-12 (``tests/test_scielab.py``).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -199,13 +200,12 @@ def _wide_maps(rgb: np.ndarray, plan: _Plan) -> list:
     return out
 
 
-def _filter_region(rgb: np.ndarray, region, plan: _Plan, wide: list) -> np.ndarray:
-    """The region of the picture as the eye sees it, upsampled, in XYZ."""
+def _filter_region(part: np.ndarray, region, plan: _Plan, wide: list) -> np.ndarray:
+    """A region (``part``, the picture's pixels in ``region``) as the eye sees it, upsampled, in XYZ."""
     from scipy.ndimage import gaussian_filter, map_coordinates
 
-    r0, r1, c0, c1 = region
+    r0, _, c0, _ = region
     k = plan.k
-    part = rgb[r0:r1, c0:c1]
     if k > 1:
         part = np.repeat(np.repeat(part, k, axis=0), k, axis=1)
     opp = _srgb_to_opp(part)
@@ -257,26 +257,69 @@ def scielab_filter(
     out = np.empty((rgb.shape[0] * k, rgb.shape[1] * k, 3))
     for core, region in plan.blocks():
         r0, r1, c0, c1 = core
+        part = rgb[region[0] : region[1], region[2] : region[3]]
         out[r0 * k : r1 * k, c0 * k : c1 * k] = _core(
-            _filter_region(rgb, region, plan, wide), core, region, k
+            _filter_region(part, region, plan, wide), core, region, k
         )
     return out
 
 
-def _delta_e_blocks(reference_rgb, test_rgb, mm_per_px: float, distance_m: float, block_pixels: int):
-    """Yield ``(core, ΔE of the core)`` block by block; memory is bounded by one block."""
+@dataclass(frozen=True)
+class BlockTask:
+    """One block of a score: both pictures' pixels in its region, where its core lies, the plan."""
+
+    ref: np.ndarray
+    test: np.ndarray
+    core: tuple[int, int, int, int]
+    region: tuple[int, int, int, int]
+    plan: _Plan
+    wide_ref: list
+    wide_test: list
+
+
+def block_delta_e(task: BlockTask) -> np.ndarray:
+    """S-CIELAB ΔE of one block's core (upsampled), from its region (a task)."""
     from skimage.color import deltaE_ciede2000, xyz2lab
 
+    k = task.plan.k
+    lab_ref = xyz2lab(
+        _core(_filter_region(task.ref, task.region, task.plan, task.wide_ref), task.core, task.region, k)
+    )
+    lab_test = xyz2lab(
+        _core(_filter_region(task.test, task.region, task.plan, task.wide_test), task.core, task.region, k)
+    )
+    return deltaE_ciede2000(lab_ref, lab_test)
+
+
+def block_sum(task: BlockTask) -> tuple[float, int]:
+    """Sum and count of one block's S-CIELAB ΔE (a task)."""
+    de = block_delta_e(task)
+    return float(np.sum(de)), int(de.size)
+
+
+def _block_tasks(reference_rgb, test_rgb, mm_per_px: float, distance_m: float, block_pixels: int):
+    """The blocks of a score, each carrying only its region's pixels."""
     ref = _check_rgb(reference_rgb)
     test = _check_rgb(test_rgb)
     if ref.shape != test.shape:
         raise ValueError(f"images differ in shape: {ref.shape} and {test.shape}")
     plan = _Plan(ref.shape[:2], mm_per_px, distance_m, block_pixels)
     wide_ref, wide_test = _wide_maps(ref, plan), _wide_maps(test, plan)
+    tasks = []
     for core, region in plan.blocks():
-        lab_ref = xyz2lab(_core(_filter_region(ref, region, plan, wide_ref), core, region, plan.k))
-        lab_test = xyz2lab(_core(_filter_region(test, region, plan, wide_test), core, region, plan.k))
-        yield core, plan.k, deltaE_ciede2000(lab_ref, lab_test)
+        r0, r1, c0, c1 = region
+        tasks.append(
+            BlockTask(
+                np.ascontiguousarray(ref[r0:r1, c0:c1]),
+                np.ascontiguousarray(test[r0:r1, c0:c1]),
+                core,
+                region,
+                plan,
+                wide_ref,
+                wide_test,
+            )
+        )
+    return plan, tasks
 
 
 def scielab_map(
@@ -298,15 +341,12 @@ def scielab_map(
     Returns:
         ``(k H, k W)`` ΔE map (``k`` as in :func:`scielab_filter`).
     """
-    out = None
-    for (r0, r1, c0, c1), k, de in _delta_e_blocks(
-        reference_rgb, test_rgb, mm_per_px, distance_m, block_pixels
-    ):
-        if out is None:
-            h, w = np.shape(reference_rgb)[:2]
-            out = np.empty((h * k, w * k))
-        out[r0 * k : r1 * k, c0 * k : c1 * k] = de
-    assert out is not None
+    plan, tasks = _block_tasks(reference_rgb, test_rgb, mm_per_px, distance_m, block_pixels)
+    k = plan.k
+    out = np.empty((plan.shape[0] * k, plan.shape[1] * k))
+    for task in tasks:
+        r0, r1, c0, c1 = task.core
+        out[r0 * k : r1 * k, c0 * k : c1 * k] = block_delta_e(task)
     return out
 
 
@@ -316,6 +356,7 @@ def scielab(
     mm_per_px: float,
     distance_m: float,
     block_pixels: int = BLOCK_PIXELS,
+    tasks_map=None,
 ) -> float:
     """Mean S-CIELAB ΔE between two images of the same grid seen from ``distance_m``.
 
@@ -329,18 +370,24 @@ def scielab(
         mm_per_px: Pixel pitch of both images in mm.
         distance_m: Viewing distance in metres.
         block_pixels: Pixels (upsampled) of one block with its margin.
+        tasks_map: ``tasks_map(fn, items, desc)`` yielding ``fn(item)`` in order (a job's
+            executor, so the blocks of a mural run on its workers), or None: in this process.
 
     Returns:
         The mean ΔE (0 for identical images).
     """
+    _, tasks = _block_tasks(reference_rgb, test_rgb, mm_per_px, distance_m, block_pixels)
+    results = tasks_map(block_sum, tasks, "score") if tasks_map is not None else map(block_sum, tasks)
     total, count = 0.0, 0
-    for _, _, de in _delta_e_blocks(reference_rgb, test_rgb, mm_per_px, distance_m, block_pixels):
-        total += float(np.sum(de))
-        count += de.size
+    for s, n in results:  # in block order: the same sum on any number of workers
+        total += s
+        count += n
     return total / count
 
 
-def view_scores(reference_rgb: np.ndarray, test_rgb: np.ndarray, mm_per_px: float, distance_m: float) -> dict:
+def view_scores(
+    reference_rgb: np.ndarray, test_rgb: np.ndarray, mm_per_px: float, distance_m: float, tasks_map=None
+) -> dict:
     """S-CIELAB at the viewing distance and at twice it, for the manifest and the summary.
 
     Args:
@@ -348,12 +395,13 @@ def view_scores(reference_rgb: np.ndarray, test_rgb: np.ndarray, mm_per_px: floa
         test_rgb: ``(H, W, 3)`` sRGB in [0, 1], same shape.
         mm_per_px: Pixel pitch of both images in mm.
         distance_m: Viewing distance in metres.
+        tasks_map: Where the blocks run (see :func:`scielab`), or None: in this process.
 
     Returns:
         ``view_distance_m``, ``scielab`` (at the distance) and ``scielab_2x`` (at twice it).
     """
     return {
         "view_distance_m": float(distance_m),
-        "scielab": scielab(reference_rgb, test_rgb, mm_per_px, distance_m),
-        "scielab_2x": scielab(reference_rgb, test_rgb, mm_per_px, 2.0 * distance_m),
+        "scielab": scielab(reference_rgb, test_rgb, mm_per_px, distance_m, tasks_map=tasks_map),
+        "scielab_2x": scielab(reference_rgb, test_rgb, mm_per_px, 2.0 * distance_m, tasks_map=tasks_map),
     }
