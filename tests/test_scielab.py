@@ -102,23 +102,25 @@ def _photo_pair(n: int = 240):
 @pytest.mark.parametrize("mm_per_px, distance_m", [(0.71, 1.0), (0.71, 2.0), (0.25, 1.0)])
 def test_blocks_give_the_whole_pictures_score(mm_per_px, distance_m):
     # Many small blocks (each with its margin) against one block holding the whole picture.
-    ref, test = _photo_pair()
+    ref, test = _photo_pair(150)
     whole = scielab(ref, test, mm_per_px, distance_m, block_pixels=10**9)
-    blocks = scielab(ref, test, mm_per_px, distance_m, block_pixels=40_000)
+    blocks = scielab(ref, test, mm_per_px, distance_m, block_pixels=100_000)
     assert blocks == pytest.approx(whole, rel=1e-12)
     m_whole = scielab_map(ref, test, mm_per_px, distance_m, block_pixels=10**9)
-    m_blocks = scielab_map(ref, test, mm_per_px, distance_m, block_pixels=40_000)
+    m_blocks = scielab_map(ref, test, mm_per_px, distance_m, block_pixels=100_000)
     np.testing.assert_allclose(m_blocks, m_whole, rtol=0, atol=1e-9)
 
 
-def test_wide_gaussians_on_the_averaged_copy_match_an_exact_filter(monkeypatch):
+@pytest.mark.parametrize("n, mm_per_px", [(126, 0.71), (127, 0.71), (127, 0.25)])
+def test_wide_gaussians_on_the_averaged_copy_match_an_exact_filter(n, mm_per_px, monkeypatch):
     # At 0.71 mm/px from 1 m the luminance 7° Gaussian is ~146 px wide: it goes through the
-    # block-averaged copy. An exact filter applies it directly to the whole picture.
+    # block-averaged copy (cells of 9 px; 127 and 167 are not whole multiples of the cell, so
+    # the picture's edge falls inside a cell). An exact filter applies it to the whole picture.
     import stencil_cad.simulate.scielab as sc
 
-    ref, test = _photo_pair()
-    fast = scielab(ref, test, 0.71, 1.0)
+    ref, test = _photo_pair(n)
+    fast = scielab(ref, test, mm_per_px, 1.0)
     monkeypatch.setattr(sc, "DIRECT_SIGMA_PX", 1e9)
-    exact = scielab(ref, test, 0.71, 1.0, block_pixels=10**9)
-    assert fast == pytest.approx(exact, abs=1e-3)
+    exact = scielab(ref, test, mm_per_px, 1.0, block_pixels=10**9)
+    assert fast == pytest.approx(exact, abs=6e-4)
     assert fast != exact  # the fast path did run

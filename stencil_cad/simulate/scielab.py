@@ -38,8 +38,9 @@ with a margin of the direct Gaussians' reach, so its core is the same as the who
 picture's and the memory is that of one block: a mural of 20 megapixels, upsampled
 twice at 1 m, would otherwise hold several 80-megapixel float copies. Against an exact
 filter (every Gaussian applied directly to the whole picture) the mean differs by at
-most 5e-4 ΔE on a 600 × 600 px photo at 0.25–0.71 mm/px from 1 and 2 m; one block
-against many agrees to 1e-12 (``tests/test_scielab.py``).
+most 5e-4 ΔE on photos of 60 × 80 to 601 × 601 px (sizes that are and are not whole
+multiples of the averaging cell) at 0.25 and 0.71 mm/px from 1 m; one block against many
+agrees to 1e-12 (``tests/test_scielab.py``).
 """
 
 from __future__ import annotations
@@ -170,7 +171,12 @@ class _Plan:
 
 
 def _wide_maps(rgb: np.ndarray, plan: _Plan) -> list:
-    """Per channel, the wide Gaussians' weighted sum on a block-averaged grid, with its block size."""
+    """Per channel, the wide Gaussians' weighted sum on a block-averaged grid: ``(map, cell, pad)``.
+
+    The channel is mirrored past the picture's edges (scipy's "reflect") by the Gaussians'
+    reach and rounded up to whole cells before averaging, so the picture's edge lies where
+    the whole-picture filter reflects it and every cell holds ``cell`` × ``cell`` pixels.
+    """
     from scipy.ndimage import gaussian_filter
 
     h, w = plan.shape
@@ -179,24 +185,24 @@ def _wide_maps(rgb: np.ndarray, plan: _Plan) -> list:
         if not gaussians:
             out.append(None)
             continue
-        # Blocks of about a third of DIRECT_SIGMA_PX for the narrowest wide Gaussian, in input pixels.
+        # Cells of about a third of DIRECT_SIGMA_PX for the narrowest wide Gaussian, in input pixels.
         f = max(int(min(s for s, _ in gaussians) / plan.k // (DIRECT_SIGMA_PX / 3.0)), 1)
-        hs, ws = -(-h // f), -(-w // f)
-        small = np.zeros((hs, ws))
-        for r0 in range(0, h, f * 256):
-            r1 = min(r0 + f * 256, h)
-            opp = _srgb_to_opp(rgb[r0:r1])[..., c]
-            sums = np.add.reduceat(
-                np.add.reduceat(opp, np.arange(0, r1 - r0, f), axis=0), np.arange(0, w, f), axis=1
-            )
-            counts = np.outer(
-                np.diff(np.r_[np.arange(0, r1 - r0, f), r1 - r0]), np.diff(np.r_[np.arange(0, w, f), w])
-            )
-            small[r0 // f : r0 // f + sums.shape[0]] = sums / counts
+        # A Gaussian far wider than the picture (a small picture seen from far) sees the
+        # mirrored picture over and over: four picture sizes of mirror are ample there.
+        reach = min(4.0 * max(s for s, _ in gaussians) / plan.k, 4.0 * max(h, w))
+        pad = f * int(math.ceil((reach + f) / f))
+        channel = np.empty((h, w))
+        for r0 in range(0, h, 512):
+            channel[r0 : r0 + 512] = _srgb_to_opp(rgb[r0 : r0 + 512])[..., c]
+        padded = np.pad(channel, ((pad, pad + (-h) % f), (pad, pad + (-w) % f)), mode="symmetric")
+        del channel
+        hs, ws = padded.shape[0] // f, padded.shape[1] // f
+        small = padded.reshape(hs, f, ws, f).mean(axis=(1, 3))
+        del padded
         acc = np.zeros_like(small)
         for sigma, weight in gaussians:
             acc += weight * gaussian_filter(small, sigma / plan.k / f, mode="reflect", truncate=4.0)
-        out.append((acc, f))
+        out.append((acc, f, pad))
     return out
 
 
@@ -214,10 +220,10 @@ def _filter_region(part: np.ndarray, region, plan: _Plan, wide: list) -> np.ndar
         for sigma, weight in plan.direct[c]:
             out[..., c] += weight * gaussian_filter(opp[..., c], sigma, mode="reflect", truncate=4.0)
         if wide[c] is not None:
-            small, f = wide[c]
-            # Upsampled pixel centres in input pixels, then in block-averaged cells.
-            ys = (r0 + (np.arange(part.shape[0]) + 0.5) / k) / f - 0.5
-            xs = (c0 + (np.arange(part.shape[1]) + 0.5) / k) / f - 0.5
+            small, f, pad = wide[c]
+            # Upsampled pixel centres in input pixels, then in the padded picture's cells.
+            ys = (pad + r0 + (np.arange(part.shape[0]) + 0.5) / k) / f - 0.5
+            xs = (pad + c0 + (np.arange(part.shape[1]) + 0.5) / k) / f - 0.5
             yy, xx = np.meshgrid(ys, xs, indexing="ij")
             out[..., c] += map_coordinates(small, [yy, xx], order=1, mode="nearest")
     return out @ OPP_TO_XYZ.T
@@ -298,18 +304,22 @@ def block_sum(task: BlockTask) -> tuple[float, int]:
 
 
 def _block_tasks(reference_rgb, test_rgb, mm_per_px: float, distance_m: float, block_pixels: int):
-    """The blocks of a score, each carrying only its region's pixels."""
+    """``(plan, tasks, count)``: the blocks of a score, made one at a time as they are consumed.
+
+    Each task carries only its region's pixels, so a lazy consumer holds one block at a time.
+    """
     ref = _check_rgb(reference_rgb)
     test = _check_rgb(test_rgb)
     if ref.shape != test.shape:
         raise ValueError(f"images differ in shape: {ref.shape} and {test.shape}")
     plan = _Plan(ref.shape[:2], mm_per_px, distance_m, block_pixels)
     wide_ref, wide_test = _wide_maps(ref, plan), _wide_maps(test, plan)
-    tasks = []
-    for core, region in plan.blocks():
-        r0, r1, c0, c1 = region
-        tasks.append(
-            BlockTask(
+    blocks = list(plan.blocks())
+
+    def tasks():
+        for core, region in blocks:
+            r0, r1, c0, c1 = region
+            yield BlockTask(
                 np.ascontiguousarray(ref[r0:r1, c0:c1]),
                 np.ascontiguousarray(test[r0:r1, c0:c1]),
                 core,
@@ -318,8 +328,8 @@ def _block_tasks(reference_rgb, test_rgb, mm_per_px: float, distance_m: float, b
                 wide_ref,
                 wide_test,
             )
-        )
-    return plan, tasks
+
+    return plan, tasks(), len(blocks)
 
 
 def scielab_map(
@@ -341,7 +351,7 @@ def scielab_map(
     Returns:
         ``(k H, k W)`` ΔE map (``k`` as in :func:`scielab_filter`).
     """
-    plan, tasks = _block_tasks(reference_rgb, test_rgb, mm_per_px, distance_m, block_pixels)
+    plan, tasks, _ = _block_tasks(reference_rgb, test_rgb, mm_per_px, distance_m, block_pixels)
     k = plan.k
     out = np.empty((plan.shape[0] * k, plan.shape[1] * k))
     for task in tasks:
@@ -370,14 +380,15 @@ def scielab(
         mm_per_px: Pixel pitch of both images in mm.
         distance_m: Viewing distance in metres.
         block_pixels: Pixels (upsampled) of one block with its margin.
-        tasks_map: ``tasks_map(fn, items, desc)`` yielding ``fn(item)`` in order (a job's
-            executor, so the blocks of a mural run on its workers), or None: in this process.
+        tasks_map: ``tasks_map(fn, items, desc, count)`` yielding ``fn(item)`` in order, consuming
+            ``items`` lazily (a job's executor, so the blocks of a mural run on its workers), or
+            None: in this process.
 
     Returns:
         The mean ΔE (0 for identical images).
     """
-    _, tasks = _block_tasks(reference_rgb, test_rgb, mm_per_px, distance_m, block_pixels)
-    results = tasks_map(block_sum, tasks, "score") if tasks_map is not None else map(block_sum, tasks)
+    _, tasks, count = _block_tasks(reference_rgb, test_rgb, mm_per_px, distance_m, block_pixels)
+    results = tasks_map(block_sum, tasks, "score", count) if tasks_map is not None else map(block_sum, tasks)
     total, count = 0.0, 0
     for s, n in results:  # in block order: the same sum on any number of workers
         total += s
