@@ -270,7 +270,11 @@ def web_conflicts(xy: np.ndarray, r: np.ndarray, web_mm: float) -> np.ndarray:
 def seam_pass(
     xy: np.ndarray, r: np.ndarray, xy0: np.ndarray, r0: np.ndarray, web_mm: float
 ) -> tuple[np.ndarray, np.ndarray, int]:
-    """Revert every refined hole that meets another closer than the web, until none does.
+    """Put back every changed hole that meets another closer than the web, until none does.
+
+    A hole is changed when it differs from ``(xy0, r0)``, a state that passes the web rule
+    (the holes before the latest phase): only the changed hole of a conflicting pair goes
+    back, so a neighbour tile's earlier refinement is kept.
 
     Returns:
         ``(xy, r, reverted)``: the holes and how many went back to their stippled state.
@@ -310,6 +314,7 @@ def refine_mural(
     rows: list[dict] = []
     reverted = [0] * len(dotsets)
     for phase in phases(grid):
+        before = [(xy.copy(), r.copy()) for xy, r in state]
         tasks = tile_tasks(problem, grid, phase, state, halo)
         for res in tasks_map(refine_tile, tasks, "refine tiles"):
             for (xy, r), i, p, q in zip(state, res.index, res.xy_mm, res.r_mm, strict=True):
@@ -318,8 +323,9 @@ def refine_mural(
             if bar is not None:
                 bar.update(1)
         # After every phase, so the next phase's regions start from holes that pass the rules.
-        for k, (ds, (xy, r), rl) in enumerate(zip(dotsets, state, problem.rules, strict=True)):
-            xy2, r2, n = seam_pass(xy, r, ds.xy_mm, ds.r_mm, rl.web_mm)
+        # Only this phase's moves can meet a hole closer than the web (the state before passed).
+        for k, ((xy0, r0), (xy, r), rl) in enumerate(zip(before, state, problem.rules, strict=True)):
+            xy2, r2, n = seam_pass(xy, r, xy0, r0, rl.web_mm)
             state[k] = (xy2, r2)
             reverted[k] += n
     out = []
