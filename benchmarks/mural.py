@@ -66,7 +66,7 @@ def _photo(tmp: Path, width_mm: float) -> Path:
 
     from stencil_cad.imaging import example_image_path
 
-    side = max(1024, 1600 if width_mm > 3200 else 0)
+    side = 1600 if width_mm > 3200 else 1024
     image = tmp / f"photo_{side}.png"
     if not image.exists():
         Image.open(example_image_path()).convert("RGB").resize((side, side), Image.LANCZOS).save(image)

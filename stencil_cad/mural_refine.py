@@ -277,7 +277,7 @@ def seam_pass(
     back, so a neighbour tile's earlier refinement is kept.
 
     Returns:
-        ``(xy, r, reverted)``: the holes and how many went back to their stippled state.
+        ``(xy, r, reverted)``: the holes and how many went back to ``(xy0, r0)``.
     """
     xy, r = xy.copy(), r.copy()
     reverted = 0

@@ -387,8 +387,8 @@ def scielab(
     Returns:
         The mean ΔE (0 for identical images).
     """
-    _, tasks, count = _block_tasks(reference_rgb, test_rgb, mm_per_px, distance_m, block_pixels)
-    results = tasks_map(block_sum, tasks, "score", count) if tasks_map is not None else map(block_sum, tasks)
+    _, tasks, blocks = _block_tasks(reference_rgb, test_rgb, mm_per_px, distance_m, block_pixels)
+    results = tasks_map(block_sum, tasks, "score", blocks) if tasks_map is not None else map(block_sum, tasks)
     total, count = 0.0, 0
     for s, n in results:  # in block order: the same sum on any number of workers
         total += s

@@ -99,4 +99,4 @@ def delta_e_map(reference_rgb: np.ndarray, simulated_rgb: np.ndarray) -> np.ndar
     """Per-pixel CIEDE2000 between two images (reference resampled to the simulated grid)."""
     sim = np.clip(np.asarray(simulated_rgb, dtype=np.float64), 0.0, 1.0)
     ref = resample(np.clip(np.asarray(reference_rgb, dtype=np.float64), 0.0, 1.0), sim.shape[:2])
-    return deltaE_ciede2000(rgb2lab(ref), rgb2lab(sim))
+    return _delta_e(ref, sim)
