@@ -1543,7 +1543,7 @@ def run_command(
                 else:
                     files = run_all(run, picture)
         else:
-            files = _run_stage_command(run, command, src or out_path, picture)
+            files = _run_stage_command(run, command, src or out_path, picture, where)
     except BaseException:
         out.abort()
         raise
@@ -1551,9 +1551,17 @@ def run_command(
     return run, files
 
 
-def _run_stage_command(run: Run, command: str, src: Path, picture: Picture | None) -> list[Path]:
-    cfg = run.cfg
+def _run_stage_command(
+    run: Run, command: str, src: Path, picture: Picture | None, where: ComputeConfig | None
+) -> list[Path]:
     layers = read_layers(src)
+    # A stage command's tasks run where the whole job's would (--workers, --scheduler).
+    with computing(run, layers.alphas.shape[1] * layers.alphas.shape[2], where):
+        return _stage_command(run, command, src, picture, layers)
+
+
+def _stage_command(run: Run, command: str, src: Path, picture: Picture | None, layers: Layers) -> list[Path]:
+    cfg = run.cfg
     size = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
     grid = plan_mural(run, size, layers.alphas.shape[1:])
     run.out.check_free(stage_outputs(cfg, command, layers.count, grid))

@@ -37,3 +37,18 @@ def test_small_mural_on_two_workers_writes_the_in_process_bytes(tmp_path):
             assert (outs["0"] / name).read_bytes() == (outs["2"] / name).read_bytes(), name
     rows = {w: [(r["name"], r["sha256"]) for r in m["files"]] for w, m in man.items()}
     assert rows["0"] == rows["2"]
+    # A stage command runs its tasks where asked too (it ran them in this process before); the
+    # plates it builds from the saved dots are the same bytes in this process and on 2 workers.
+    rebuilt = {}
+    for workers in ("0", "2"):
+        rebuilt[workers] = tmp_path / f"build_w{workers}"
+        args = ["build", str(cfg), "--from", str(outs["0"]), "--out", str(rebuilt[workers]), "-q"]
+        assert main([*args, "--workers", workers]) == 0
+    bman = json.loads((rebuilt["2"] / "manifest.json").read_text())
+    assert (bman["compute"]["kind"], bman["compute"]["workers"]) == ("local", 2)
+    assert bman["compute"]["tasks"] >= len(tiles) * 3
+    plates = sorted(p.name for p in rebuilt["0"].glob("tile_*"))
+    assert plates == sorted(p.name for p in rebuilt["2"].glob("tile_*"))
+    assert any(n.endswith(".stl") for n in plates)
+    for name in plates:
+        assert (rebuilt["0"] / name).read_bytes() == (rebuilt["2"] / name).read_bytes(), name
