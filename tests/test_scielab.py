@@ -124,3 +124,56 @@ def test_wide_gaussians_on_the_averaged_copy_match_an_exact_filter(n, mm_per_px,
     exact = scielab(ref, test, mm_per_px, 1.0, block_pixels=10**9)
     assert fast == pytest.approx(exact, abs=6e-4)
     assert fast != exact  # the fast path did run
+
+
+@pytest.mark.parametrize(
+    "shape, k, sigma",
+    [((7, 5), 3, 2.0), ((40, 33), 3, 18.4), ((13, 60), 2, 30.0), ((5, 5), 8, 9.0), ((24, 24), 4, 0.7)],
+)
+def test_phase_filter_equals_filtering_the_upsampled_picture(shape, k, sigma):
+    # The phase filters on the input grid give what scipy gives on the picture upsampled first,
+    # borders included, and kernels longer than the picture (mirrored several times) too.
+    from scipy.ndimage import gaussian_filter
+
+    from stencil_cad.simulate.scielab import _upsampled_gaussian
+
+    x = np.random.default_rng(7).random(shape)
+    up = np.repeat(np.repeat(x, k, axis=0), k, axis=1)
+    want = gaussian_filter(up, sigma, mode="reflect", truncate=4.0)
+    np.testing.assert_allclose(_upsampled_gaussian(x, sigma, k), want, rtol=0, atol=1e-13)
+
+
+def test_bilinear_on_a_grid_equals_map_coordinates():
+    from scipy.ndimage import map_coordinates
+
+    from stencil_cad.simulate.scielab import _bilinear
+
+    rng = np.random.default_rng(8)
+    for hs, ws in [(1, 1), (1, 7), (9, 13), (50, 40)]:
+        small = rng.random((hs, ws))
+        ys, xs = np.linspace(-2, hs + 1, 37), np.linspace(-1.5, ws + 2, 29)
+        yy, xx = np.meshgrid(ys, xs, indexing="ij")
+        want = map_coordinates(small, [yy, xx], order=1, mode="nearest")
+        np.testing.assert_allclose(_bilinear(small, ys, xs), want, rtol=0, atol=1e-13)
+
+
+def test_compiled_ciede2000_equals_scikit_image():
+    from skimage.color import deltaE_ciede2000, xyz2lab
+
+    from stencil_cad.simulate.ciede import delta_e_xyz
+
+    rng = np.random.default_rng(9)
+    white = np.array([0.95047, 1.0, 1.08883])
+    a = rng.random((60, 70, 3)) * white
+    b = np.clip(a + 0.05 * rng.standard_normal(a.shape), 0.0, 1.2)
+    b[0, :10] = a[0, :10]  # identical pixels
+    a[1, :5] = b[1, :5] = 0.0  # black: zero chroma on both sides
+    a[2, :5] = white  # white against noise
+    a[3] = a[3, :, 1:2] * white  # greys (chroma 0 on one side only)
+    a[4, :, :] = rng.random((70, 3)) * 1e-3  # the linear part of the Lab curve
+    want = deltaE_ciede2000(xyz2lab(a), xyz2lab(b))
+    got = delta_e_xyz(a, b)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
+    assert np.all(got[0, :10] == 0.0)
+    with pytest.raises(ValueError, match="same shape"):
+        delta_e_xyz(a, b[:, :5])

@@ -9,8 +9,8 @@ them with CIEDE2000:
 2. each channel is convolved with its own sum of Gaussians whose widths are angles
    of the visual field (degrees). The chromatic channels blur far more than the
    luminance one: the eye resolves fine luminance detail but little fine colour;
-3. back to XYZ, then CIELAB (D65 white) and CIEDE2000 per pixel; the score is the
-   mean.
+3. back to XYZ, then CIELAB (D65 white) and CIEDE2000 per pixel
+   (:mod:`stencil_cad.simulate.ciede`); the score is the mean.
 
 The widths are given in degrees, so the pixel pitch (mm per px) and the viewing
 distance set them in pixels: ``samples per degree = D tan(1°) / pitch``. The widths
@@ -29,7 +29,9 @@ Every Gaussian is normalised to unit sum, so each channel's filter preserves a f
 field (the weights sum to 1). When the grid's pixels are coarser than the narrowest
 Gaussian (its standard deviation under :data:`MIN_SIGMA_PX` pixels) the images are
 upsampled (each pixel repeated, as a printed or displayed pixel is a flat square)
-before filtering, so the kernel is sampled finely enough. Gaussians much wider
+before filtering, so the kernel is sampled finely enough (the filter itself runs on
+the input grid as one shorter filter per phase of the repetition, which gives the same
+sums in a quarter of the time). Gaussians much wider
 than :data:`DIRECT_SIGMA_PX` pixels are applied on a block-averaged copy and
 interpolated back (they are smooth on that scale).
 
@@ -208,25 +210,95 @@ def _wide_maps(rgb: np.ndarray, plan: _Plan) -> list:
 
 def _filter_region(part: np.ndarray, region, plan: _Plan, wide: list) -> np.ndarray:
     """A region (``part``, the picture's pixels in ``region``) as the eye sees it, upsampled, in XYZ."""
-    from scipy.ndimage import gaussian_filter, map_coordinates
+    from scipy.ndimage import gaussian_filter
 
     r0, _, c0, _ = region
     k = plan.k
-    if k > 1:
-        part = np.repeat(np.repeat(part, k, axis=0), k, axis=1)
+    # Colour conversion is per pixel, so it commutes with the upsampling (each pixel repeated):
+    # converted first, it costs k² times less.
     opp = _srgb_to_opp(part)
-    out = np.zeros_like(opp)
+    h, w = opp.shape[0] * k, opp.shape[1] * k
+    out = np.zeros((h, w, 3))
     for c in range(3):
         for sigma, weight in plan.direct[c]:
-            out[..., c] += weight * gaussian_filter(opp[..., c], sigma, mode="reflect", truncate=4.0)
+            if k == 1:
+                out[..., c] += weight * gaussian_filter(opp[..., c], sigma, mode="reflect", truncate=4.0)
+            else:
+                out[..., c] += weight * _upsampled_gaussian(opp[..., c], sigma, k)
         if wide[c] is not None:
             small, f, pad = wide[c]
             # Upsampled pixel centres in input pixels, then in the padded picture's cells.
-            ys = (pad + r0 + (np.arange(part.shape[0]) + 0.5) / k) / f - 0.5
-            xs = (pad + c0 + (np.arange(part.shape[1]) + 0.5) / k) / f - 0.5
-            yy, xx = np.meshgrid(ys, xs, indexing="ij")
-            out[..., c] += map_coordinates(small, [yy, xx], order=1, mode="nearest")
+            ys = (pad + r0 + (np.arange(h) + 0.5) / k) / f - 0.5
+            xs = (pad + c0 + (np.arange(w) + 0.5) / k) / f - 0.5
+            out[..., c] += _bilinear(small, ys, xs)
     return out @ OPP_TO_XYZ.T
+
+
+def _lerp_index(n: int, coords: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Linear interpolation along one axis of length ``n``: lower index, upper index, weight of the upper."""
+    c = np.clip(coords, 0.0, n - 1.0)
+    i0 = np.minimum(np.floor(c).astype(np.intp), max(n - 2, 0))
+    return i0, np.minimum(i0 + 1, n - 1), c - i0
+
+
+def _bilinear(small: np.ndarray, ys: np.ndarray, xs: np.ndarray) -> np.ndarray:
+    """``small`` linearly interpolated at every ``(ys[i], xs[j])``, clamped at its edges.
+
+    The values of ``map_coordinates(small, meshgrid(ys, xs), order=1, mode="nearest")``,
+    one axis at a time (the points form a grid): a few times faster on a block.
+    """
+    y0, y1, fy = _lerp_index(small.shape[0], ys)
+    x0, x1, fx = _lerp_index(small.shape[1], xs)
+    rows = small[y0] * (1.0 - fy)[:, None] + small[y1] * fy[:, None]
+    return rows[:, x0] * (1.0 - fx) + rows[:, x1] * fx
+
+
+def _phase_kernels(sigma: float, k: int) -> list[np.ndarray]:
+    """The Gaussian of scipy (radius ``int(4 sigma + 0.5)``, unit sum) folded onto ``k`` phases.
+
+    On a picture whose pixels are each repeated ``k`` times, the filtered value at upsampled
+    index ``j k + p`` is ``sum_q K_p[q] x[j + q]``: the taps ``d`` of the kernel that land on
+    input pixel ``j + q`` (``(p + d) // k == q``) add up. Each phase's kernel is returned
+    zero-padded to odd length with its ``q = 0`` tap in the middle (``correlate1d``'s centre).
+    """
+    radius = int(4.0 * sigma + 0.5)
+    d = np.arange(-radius, radius + 1)
+    kernel = np.exp(-0.5 / (sigma * sigma) * d.astype(np.float64) ** 2)
+    kernel /= kernel.sum()
+    out = []
+    for p in range(k):
+        q = (p + d) // k
+        lo, hi = int(q.min()), int(q.max())
+        half = max(-lo, hi)
+        w = np.zeros(2 * half + 1)
+        np.add.at(w, q + half, kernel)
+        out.append(w)
+    return out
+
+
+def _upsampled_gaussian(x: np.ndarray, sigma: float, k: int) -> np.ndarray:
+    """``gaussian_filter(upsample(x, k), sigma, mode="reflect", truncate=4)`` without upsampling first.
+
+    Every input pixel stands for ``k`` × ``k`` equal upsampled pixels, so along each axis the
+    filter is ``k`` shorter filters on the input grid, one per phase (:func:`_phase_kernels`),
+    interleaved: the same sums, about ``2 k² / (k + 1)`` times fewer operations (4.5 at the
+    ``k = 3`` of a 1 mm grid seen from 1 m). Mirroring the input at its edges ("reflect") is
+    mirroring the upsampled picture at its edges, so the borders agree too.
+    """
+    from scipy.ndimage import correlate1d
+
+    kernels = _phase_kernels(sigma, k)
+    y = x
+    for axis in (0, 1):
+        shape = list(y.shape)
+        shape[axis] *= k
+        z = np.empty(shape)
+        for p, w in enumerate(kernels):
+            index = [slice(None), slice(None)]
+            index[axis] = slice(p, None, k)
+            z[tuple(index)] = correlate1d(y, w, axis=axis, mode="reflect")
+        y = z
+    return y
 
 
 def _check_rgb(rgb: np.ndarray) -> np.ndarray:
@@ -285,16 +357,16 @@ class BlockTask:
 
 def block_delta_e(task: BlockTask) -> np.ndarray:
     """S-CIELAB ΔE of one block's core (upsampled), from its region (a task)."""
-    from skimage.color import deltaE_ciede2000, xyz2lab
+    from .ciede import delta_e_xyz
 
     k = task.plan.k
-    lab_ref = xyz2lab(
-        _core(_filter_region(task.ref, task.region, task.plan, task.wide_ref), task.core, task.region, k)
+    xyz_ref = _core(
+        _filter_region(task.ref, task.region, task.plan, task.wide_ref), task.core, task.region, k
     )
-    lab_test = xyz2lab(
-        _core(_filter_region(task.test, task.region, task.plan, task.wide_test), task.core, task.region, k)
+    xyz_test = _core(
+        _filter_region(task.test, task.region, task.plan, task.wide_test), task.core, task.region, k
     )
-    return deltaE_ciede2000(lab_ref, lab_test)
+    return delta_e_xyz(xyz_ref, xyz_test)
 
 
 def block_sum(task: BlockTask) -> tuple[float, int]:
