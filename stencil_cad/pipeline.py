@@ -1554,14 +1554,8 @@ def run_command(
 def _run_stage_command(
     run: Run, command: str, src: Path, picture: Picture | None, where: ComputeConfig | None
 ) -> list[Path]:
-    layers = read_layers(src)
-    # A stage command's tasks run where the whole job's would (--workers, --scheduler).
-    with computing(run, layers.alphas.shape[1] * layers.alphas.shape[2], where):
-        return _stage_command(run, command, src, picture, layers)
-
-
-def _stage_command(run: Run, command: str, src: Path, picture: Picture | None, layers: Layers) -> list[Path]:
     cfg = run.cfg
+    layers = read_layers(src)
     size = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
     grid = plan_mural(run, size, layers.alphas.shape[1:])
     run.out.check_free(stage_outputs(cfg, command, layers.count, grid))
@@ -1572,16 +1566,21 @@ def _stage_command(run: Run, command: str, src: Path, picture: Picture | None, l
             size[0],
             cfg.size.width_mm,
         )
-    if command == "stipple":
-        stage_stipple(run, layers, size, picture, grid)
-    else:
+    dotsets = None
+    if command != "stipple":
         dotsets = read_dots(src, layers.count)
         if command == "build":
             check_dots(cfg, dotsets, size)
+    # Every refusal above comes before any worker starts; the tasks then run where the whole
+    # job's would (--workers, --scheduler).
+    with computing(run, layers.alphas.shape[1] * layers.alphas.shape[2], where):
+        if dotsets is None:
+            stage_stipple(run, layers, size, picture, grid)
+        elif command == "build":
             build_any(run, layers, dotsets, size, grid, picture, simulate=False)
         else:
             stage_simulate(run, picture, layers, dotsets)
-    return finish(run, command)
+        return finish(run, command)
 
 
 def slice_plates(

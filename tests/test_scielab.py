@@ -128,7 +128,15 @@ def test_wide_gaussians_on_the_averaged_copy_match_an_exact_filter(n, mm_per_px,
 
 @pytest.mark.parametrize(
     "shape, k, sigma",
-    [((7, 5), 3, 2.0), ((40, 33), 3, 18.4), ((13, 60), 2, 30.0), ((5, 5), 8, 9.0), ((24, 24), 4, 0.7)],
+    [
+        ((7, 5), 3, 2.0),
+        ((40, 33), 3, 18.4),
+        ((13, 60), 2, 30.0),
+        ((5, 5), 8, 9.0),
+        ((24, 24), 4, 0.7),
+        ((1, 4), 3, 9.0),
+        ((5, 7), 1, 2.0),
+    ],
 )
 def test_phase_filter_equals_filtering_the_upsampled_picture(shape, k, sigma):
     # The phase filters on the input grid give what scipy gives on the picture upsampled first,
