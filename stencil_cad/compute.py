@@ -56,6 +56,13 @@ _WORKER_ENV = {
 }
 
 
+# Dask settings of a local cluster's workers. Dask's statistical profiler samples the stack of
+# the running task every 10 ms (for its dashboard, which a local cluster here does not serve);
+# switched off, the build of a 0.6 m x 0.6 m mural (80 plates and walls) on 2 workers took
+# 98-99 s instead of 102-106 s and about 5 % less CPU (two runs each, same files).
+_LOCAL_DASK_CONFIG = {"distributed.worker.profile.enabled": False}
+
+
 def cores() -> int:
     """Cores this process may use (the affinity mask where the OS has one)."""
     try:
@@ -227,17 +234,21 @@ class DaskExecutor(Executor):
         self._maps = 0
         _quiet_dask_logs()
         if plan.kind == "local":
-            # No dashboard (no port to bind), worker chatter only on real trouble.
-            self._cluster = LocalCluster(
-                n_workers=plan.workers,
-                threads_per_worker=1,
-                processes=True,
-                memory_limit=cfg.memory_per_task_bytes + WORKER_BASE_BYTES,
-                scheduler_kwargs={"dashboard": False},
-                host="127.0.0.1",
-                silence_logs=logging.ERROR,
-                env=dict(_WORKER_ENV),
-            )
+            import dask
+
+            # No dashboard (no port to bind), worker chatter only on real trouble; the nannies
+            # hand the settings in force now to the workers they start.
+            with dask.config.set(_LOCAL_DASK_CONFIG):
+                self._cluster = LocalCluster(
+                    n_workers=plan.workers,
+                    threads_per_worker=1,
+                    processes=True,
+                    memory_limit=cfg.memory_per_task_bytes + WORKER_BASE_BYTES,
+                    scheduler_kwargs={"dashboard": False},
+                    host="127.0.0.1",
+                    silence_logs=logging.ERROR,
+                    env=dict(_WORKER_ENV),
+                )
             self.client = Client(self._cluster, set_as_default=False)
         else:
             try:
