@@ -210,8 +210,6 @@ def _wide_maps(rgb: np.ndarray, plan: _Plan) -> list:
 
 def _filter_region(part: np.ndarray, region, plan: _Plan, wide: list) -> np.ndarray:
     """A region (``part``, the picture's pixels in ``region``) as the eye sees it, upsampled, in XYZ."""
-    from scipy.ndimage import gaussian_filter
-
     r0, _, c0, _ = region
     k = plan.k
     # Colour conversion is per pixel, so it commutes with the upsampling (each pixel repeated):
@@ -221,10 +219,7 @@ def _filter_region(part: np.ndarray, region, plan: _Plan, wide: list) -> np.ndar
     out = np.zeros((h, w, 3))
     for c in range(3):
         for sigma, weight in plan.direct[c]:
-            if k == 1:
-                out[..., c] += weight * gaussian_filter(opp[..., c], sigma, mode="reflect", truncate=4.0)
-            else:
-                out[..., c] += weight * _upsampled_gaussian(opp[..., c], sigma, k)
+            out[..., c] += weight * _upsampled_gaussian(opp[..., c], sigma, k)
         if wide[c] is not None:
             small, f, pad = wide[c]
             # Upsampled pixel centres in input pixels, then in the padded picture's cells.
