@@ -25,6 +25,7 @@ NAMES = [
     "limits",
     "calibrate",
     "mural",
+    "dask_overhead",
 ]
 
 

@@ -46,6 +46,14 @@ CONNECT_TIMEOUT = "15s"
 # the next input, and no more, so inputs waiting on workers stay bounded.
 IN_FLIGHT_PER_WORKER = 2
 
+# Task inputs up to this size (pickled) travel inside the task, and the scheduler gives the task
+# to the first free worker; larger ones are scattered first, to the worker with the fewest of
+# this map's tasks in flight, and the task runs there (Dask warns of task graphs over 10 MB).
+# Scattered in turn, as before, inputs pinned tasks to a worker that could be busy: 40 tasks of
+# 0.3-4 CPU-s on 2 workers took 37.2 s; sent inside the tasks 33.8 s, scattered to the least
+# busy worker 33.9 s (medians of two; the ideal is 32.75).
+INLINE_BYTES = 8 << 20
+
 # Environment of local worker processes: each worker runs one task on one core, so the
 # compiled kernels and BLAS must not start a thread per core inside every worker too.
 _WORKER_ENV = {
@@ -56,11 +64,23 @@ _WORKER_ENV = {
 }
 
 
-# Dask settings of a local cluster's workers. Dask's statistical profiler samples the stack of
-# the running task every 10 ms (for its dashboard, which a local cluster here does not serve);
-# switched off, the build of a 0.6 m x 0.6 m mural (80 plates and walls) on 2 workers took
-# 98-99 s instead of 102-106 s and about 5 % less CPU (two runs each, same files).
-_LOCAL_DASK_CONFIG = {"distributed.worker.profile.enabled": False}
+# Dask settings of a local cluster (its scheduler, nannies and workers), for the housekeeping
+# that serves Dask's dashboard and diagnostics, which a local cluster here does not serve:
+# - the statistical profiler samples the running task's stack every 10 ms; switched off, the
+#   build of a 0.6 m x 0.6 m mural (80 plates and walls) on 2 workers took 98-99 s instead of
+#   102-106 s and about 5 % less CPU (two runs each, same files);
+# - every event loop checks its own health every 20 ms ("tick"), the system monitor samples
+#   CPU and memory every 0.5 s and each nanny reads its worker's memory every 0.1 s. An idle
+#   cluster of 2 workers spends 4.1 CPU-s per 30 s on them with Dask's defaults, 0.7 with these
+#   (the nannies run in this process: 2.3 -> 0.4); 40 tasks of 2 CPU-s took 43.3 s instead of
+#   41.2 (medians of two; the ideal is 40). `python -m benchmarks dask_overhead` measures both.
+#   The memory limit is still enforced, every 0.5 s.
+_LOCAL_DASK_CONFIG = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "5s",
+    "distributed.worker.memory.monitor-interval": "500ms",
+}
 
 
 def cores() -> int:
@@ -302,6 +322,8 @@ class DaskExecutor(Executor):
         tag = f"{desc.replace(' ', '_')}-{self._maps}"
         source = iter(enumerate(items))
         pending: dict = {}
+        # This map's tasks in flight on each worker (scattered inputs only).
+        load = dict.fromkeys(self.client.scheduler_info().get("workers", {}), 0)
         done: dict[int, Any] = {}
         next_out = 0
         ac = as_completed(loop=self.client.loop)
@@ -311,11 +333,22 @@ class DaskExecutor(Executor):
                 i, item = next(source)
             except StopIteration:
                 return False
-            # The inputs go to the cluster as data of their own, not inside the task graph
-            # (a decomposition tile is tens of MB); released with the result.
-            data = self.client.scatter(item, hash=False)
-            fut = self.client.submit(fn, data, pure=False, key=f"{tag}-{i}")
-            pending[fut] = (i, data)
+            key = f"{tag}-{i}"
+            if _pickled_size(item) <= INLINE_BYTES:
+                # A small input travels with its task, which the scheduler then gives to
+                # whichever worker is free first.
+                data, where = None, None
+                fut = self.client.submit(fn, item, pure=False, key=key)
+            else:
+                # A large one goes to the cluster as data of its own, not inside the task graph
+                # (a decomposition tile is tens of MB), to the least busy worker; released with
+                # the result.
+                where = min(load, key=load.__getitem__) if load else None
+                data = self.client.scatter(item, hash=False, workers=None if where is None else [where])
+                fut = self.client.submit(fn, data, pure=False, key=key)
+                if where is not None:
+                    load[where] += 1
+            pending[fut] = (i, data, where)
             ac.add(fut)
             return True
 
@@ -324,10 +357,13 @@ class DaskExecutor(Executor):
                 break
         try:
             for fut in ac:
-                i, data = pending.pop(fut)
+                i, data, where = pending.pop(fut)
+                if where is not None:
+                    load[where] -= 1
                 done[i] = self._result(fut, desc)
                 fut.release()
-                data.release()
+                if data is not None:
+                    data.release()
                 bar.update(1)
                 submit()
                 while next_out in done:
@@ -358,6 +394,15 @@ class DaskExecutor(Executor):
             with contextlib.suppress(Exception):
                 self._cluster.close()
             self._cluster = None
+
+
+def _pickled_size(item: Any) -> int:
+    """Bytes of ``item`` pickled as Dask sends it (protocol 5, arrays as out-of-band buffers)."""
+    import pickle
+
+    buffers: list = []
+    head = pickle.dumps(item, protocol=5, buffer_callback=buffers.append)
+    return len(head) + sum(memoryview(b).nbytes for b in buffers)
 
 
 def _quiet_dask_logs() -> None:

@@ -97,15 +97,25 @@ def test_in_process_map_keeps_order_and_counts_tasks():
 
 
 @pytest.mark.slow
-def test_local_cluster_map_matches_in_process():
+def test_local_cluster_map_matches_in_process(monkeypatch):
     logging.getLogger("stencil_cad").setLevel(logging.WARNING)
     with compute.executor(ComputeConfig(workers=2), 10, quiet=True) as ex:
         assert isinstance(ex, compute.DaskExecutor) and ex.workers == 2
         # More tasks than the in-flight window, so submission refills as results arrive.
         assert list(ex.map(_square, range(23), "squares")) == [i * i for i in range(23)]
         assert ex.tasks == 23
-        # The workers run without Dask's stack sampler (it cost plate builds about 5 % of their CPU).
+        # The workers run without Dask's stack sampler (it cost plate builds about 5 % of their CPU)
+        # and with the slower housekeeping of compute._LOCAL_DASK_CONFIG.
         assert set(ex.client.run(_profiling).values()) == {False}
+        assert list(ex.client.run(_housekeeping).values()) == [compute._LOCAL_DASK_CONFIG] * 2
+        # Small inputs travel inside their tasks, large ones are scattered to the least busy
+        # worker; either way both workers get tasks and the results come back in order.
+        for inline in (compute.INLINE_BYTES, 0):
+            monkeypatch.setattr(compute, "INLINE_BYTES", inline)
+            items = [np.full(64, i, dtype=np.float64) for i in range(12)]
+            out = list(ex.map(_total_and_worker, items, "totals"))
+            assert [t for t, _ in out] == [64.0 * i for i in range(12)]
+            assert len({w for _, w in out}) == 2, inline
 
 
 def _profiling(dask_worker):
@@ -115,6 +125,21 @@ def _profiling(dask_worker):
         dask.config.get("distributed.worker.profile.enabled")
         or "profile-cycle" in dask_worker.periodic_callbacks
     )
+
+
+def _housekeeping(dask_worker):
+    import dask
+
+    return {k: dask.config.get(k) for k in compute._LOCAL_DASK_CONFIG}
+
+
+def _total_and_worker(a):
+    import time
+
+    from distributed import get_worker
+
+    time.sleep(0.1)
+    return float(a.sum()), get_worker().address
 
 
 def _files(folder):

@@ -1,0 +1,78 @@
+"""What a local Dask cluster of 2 workers costs on top of the work it runs.
+
+Every task burns a fixed amount of its own thread's CPU time, so the ideal wall clock is the
+total over the 2 workers; ``seconds`` is the measured wall clock of the map (cluster already
+started and warm), ``efficiency`` the ideal over it. Cases:
+
+* ``even-project`` / ``even-dask-defaults``: 40 tasks of 2.0 CPU-s through
+  :class:`stencil_cad.compute.DaskExecutor`, with the project's cluster settings
+  (``compute._LOCAL_DASK_CONFIG``: no stack sampler, slower health checks and monitors) and
+  with Dask's defaults — the baseline of the same run.
+* ``uneven-inline`` / ``uneven-scattered``: 40 tasks of 0.3-4.0 CPU-s (a fixed draw), their
+  inputs sent inside the tasks or, as large inputs are, scattered to the least busy worker first.
+
+Run ``python -m benchmarks dask_overhead`` on a quiet machine (about 4 minutes); quote the
+medians of a few runs.
+"""
+
+from __future__ import annotations
+
+import random
+import time
+
+from stencil_cad import compute
+from stencil_cad.config.compute import ComputeConfig
+
+CASES = ["even-project", "even-dask-defaults", "uneven-inline", "uneven-scattered"]
+
+
+def burn(seconds: float) -> float:
+    """Spend ``seconds`` of this thread's CPU time in Python."""
+    t0 = time.thread_time()
+    x = 0
+    while time.thread_time() - t0 < seconds:
+        for i in range(10_000):
+            x += i * i
+    return seconds
+
+
+def _jobs(case: str) -> list[float]:
+    if case.startswith("even"):
+        return [2.0] * 40
+    rng = random.Random(1)
+    return [rng.choice([0.3, 0.6, 1.0, 2.5, 4.0]) for _ in range(40)]
+
+
+def _run_case(case: str) -> dict:
+    settings, inline = compute._LOCAL_DASK_CONFIG, compute.INLINE_BYTES
+    try:
+        if case == "even-dask-defaults":
+            compute._LOCAL_DASK_CONFIG = {}
+        if case == "uneven-scattered":
+            compute.INLINE_BYTES = -1
+        jobs = _jobs(case)
+        with compute.executor(ComputeConfig(workers=2), 10**9, quiet=True) as ex:
+            list(ex.map(burn, [0.2, 0.2], "warm-up"))
+            t0 = time.perf_counter()
+            out = list(ex.map(burn, jobs, "burn"))
+            seconds = time.perf_counter() - t0
+    finally:
+        compute._LOCAL_DASK_CONFIG, compute.INLINE_BYTES = settings, inline
+    if out != jobs:
+        raise RuntimeError(f"{case}: results out of order")
+    ideal = sum(jobs) / 2
+    return {
+        "bench": "dask_overhead",
+        "case": case,
+        "tasks": len(jobs),
+        "seconds": round(seconds, 2),
+        "ideal_seconds": round(ideal, 2),
+        "efficiency": round(ideal / seconds, 3),
+    }
+
+
+def run(cases=None):
+    for case in CASES:
+        if cases and case not in cases:
+            continue
+        yield _run_case(case)
