@@ -24,6 +24,7 @@ progress bar counts every task of the job.
 from __future__ import annotations
 
 import contextlib
+import copy
 import logging
 import os
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -52,7 +53,11 @@ IN_FLIGHT_PER_WORKER = 2
 # Scattered in turn, as before, inputs pinned tasks to a worker that could be busy: 40 tasks of
 # 0.3-4 CPU-s on 2 workers took 37.2 s; sent inside the tasks 33.8 s, scattered to the least
 # busy worker 33.9 s (medians of two; the ideal is 32.75).
+# On a remote cluster an input inside a task crosses the network twice (to the scheduler, which
+# keeps it until the task ends, then to the worker), so there only small ones do (a plate's
+# holes are 5-35 KB).
 INLINE_BYTES = 8 << 20
+REMOTE_INLINE_BYTES = 64 << 10
 
 # Environment of local worker processes: each worker runs one task on one core, so the
 # compiled kernels and BLAS must not start a thread per core inside every worker too.
@@ -74,7 +79,8 @@ _WORKER_ENV = {
 #   cluster of 2 workers spends 4.1 CPU-s per 30 s on them with Dask's defaults, 0.7 with these
 #   (the nannies run in this process: 2.3 -> 0.4); 40 tasks of 2 CPU-s took 43.3 s instead of
 #   41.2 (medians of two; the ideal is 40). `python -m benchmarks dask_overhead` measures both.
-#   The memory limit is still enforced, every 0.5 s.
+#   The memory limit is still enforced, and a worker still pauses or spills, but checked every
+#   0.5 s: a task can overshoot its limit for that long before its worker is stopped.
 _LOCAL_DASK_CONFIG = {
     "distributed.worker.profile.enabled": False,
     "distributed.admin.tick.interval": "1s",
@@ -259,7 +265,12 @@ class DaskExecutor(Executor):
             # No dashboard (no port to bind), worker chatter only on real trouble; the nannies
             # hand the settings in force now to the workers they start.
             with dask.config.set(_LOCAL_DASK_CONFIG):
+                # A nanny keeps the settings for the workers it restarts later (after a worker
+                # ran out of memory), so it gets its own copy, not one the exit of this block
+                # puts back to Dask's defaults.
+                settings = {"distributed": copy.deepcopy(dask.config.get("distributed"))}
                 self._cluster = LocalCluster(
+                    config=settings,
                     n_workers=plan.workers,
                     threads_per_worker=1,
                     processes=True,
@@ -322,8 +333,9 @@ class DaskExecutor(Executor):
         tag = f"{desc.replace(' ', '_')}-{self._maps}"
         source = iter(enumerate(items))
         pending: dict = {}
+        inline = INLINE_BYTES if self.plan.kind == "local" else REMOTE_INLINE_BYTES
         # This map's tasks in flight on each worker (scattered inputs only).
-        load = dict.fromkeys(self.client.scheduler_info().get("workers", {}), 0)
+        load: dict[str, int] = {}
         done: dict[int, Any] = {}
         next_out = 0
         ac = as_completed(loop=self.client.loop)
@@ -334,7 +346,7 @@ class DaskExecutor(Executor):
             except StopIteration:
                 return False
             key = f"{tag}-{i}"
-            if _pickled_size(item) <= INLINE_BYTES:
+            if _pickled_size(item) <= inline:
                 # A small input travels with its task, which the scheduler then gives to
                 # whichever worker is free first.
                 data, where = None, None
@@ -343,11 +355,8 @@ class DaskExecutor(Executor):
                 # A large one goes to the cluster as data of its own, not inside the task graph
                 # (a decomposition tile is tens of MB), to the least busy worker; released with
                 # the result.
-                where = min(load, key=load.__getitem__) if load else None
-                data = self.client.scatter(item, hash=False, workers=None if where is None else [where])
+                data, where = self._scatter(item, load)
                 fut = self.client.submit(fn, data, pure=False, key=key)
-                if where is not None:
-                    load[where] += 1
             pending[fut] = (i, data, where)
             ac.add(fut)
             return True
@@ -358,8 +367,8 @@ class DaskExecutor(Executor):
         try:
             for fut in ac:
                 i, data, where = pending.pop(fut)
-                if where is not None:
-                    load[where] -= 1
+                if where in load:
+                    load[where] = max(load[where] - 1, 0)
                 done[i] = self._result(fut, desc)
                 fut.release()
                 if data is not None:
@@ -372,6 +381,37 @@ class DaskExecutor(Executor):
         finally:
             for fut in pending:
                 fut.cancel()
+
+    def _scatter(self, item: Any, load: dict[str, int]) -> tuple[Any, str | None]:
+        """Send ``item`` to the running worker with the fewest of ``load``'s tasks; count it there.
+
+        ``load`` (worker address: this map's tasks in flight) follows the cluster: a worker that
+        left is dropped, one that joined starts at 0, a paused one is skipped. When no worker
+        can be chosen, or the chosen one went away meanwhile, the scheduler picks one.
+
+        Returns:
+            ``(future of the data, the worker's address or None)``.
+        """
+        running = {
+            a
+            for a, w in self.client.scheduler_info().get("workers", {}).items()
+            if w.get("status") == "running"
+        }
+        for a in set(load) - running:
+            del load[a]
+        for a in running - set(load):
+            load[a] = 0
+        if load:
+            # The lowest address among the least busy, so the choice does not hang on dict order.
+            where = min(load, key=lambda a: (load[a], a))
+            try:
+                data = self.client.scatter(item, hash=False, workers=[where])
+            except (KeyError, TimeoutError):
+                pass
+            else:
+                load[where] += 1
+                return data, where
+        return self.client.scatter(item, hash=False), None
 
     def _result(self, fut, desc: str) -> Any:
         from distributed import KilledWorker
@@ -397,11 +437,11 @@ class DaskExecutor(Executor):
 
 
 def _pickled_size(item: Any) -> int:
-    """Bytes of ``item`` pickled as Dask sends it (protocol 5, arrays as out-of-band buffers)."""
-    import pickle
+    """Bytes of ``item`` pickled as Dask sends it (its pickler, arrays as out-of-band buffers)."""
+    from distributed.protocol.pickle import dumps
 
     buffers: list = []
-    head = pickle.dumps(item, protocol=5, buffer_callback=buffers.append)
+    head = dumps(item, buffer_callback=buffers.append)
     return len(head) + sum(memoryview(b).nbytes for b in buffers)
 
 

@@ -110,12 +110,62 @@ def test_local_cluster_map_matches_in_process(monkeypatch):
         assert list(ex.client.run(_housekeeping).values()) == [compute._LOCAL_DASK_CONFIG] * 2
         # Small inputs travel inside their tasks, large ones are scattered to the least busy
         # worker; either way both workers get tasks and the results come back in order.
+        scatter, sent_to = ex.client.scatter, []
+
+        def recording_scatter(item, **kw):
+            sent_to.append(kw.get("workers"))
+            return scatter(item, **kw)
+
+        monkeypatch.setattr(ex.client, "scatter", recording_scatter)
         for inline in (compute.INLINE_BYTES, 0):
             monkeypatch.setattr(compute, "INLINE_BYTES", inline)
             items = [np.full(64, i, dtype=np.float64) for i in range(12)]
             out = list(ex.map(_total_and_worker, items, "totals"))
             assert [t for t, _ in out] == [64.0 * i for i in range(12)]
             assert len({w for _, w in out}) == 2, inline
+            if inline:
+                assert sent_to == []
+        # Every large input went to one chosen worker, both workers in turn while equally busy.
+        assert len(sent_to) == 12 and all(w is not None and len(w) == 1 for w in sent_to)
+        assert sent_to[0] != sent_to[1]
+        # A worker the nanny restarts (after running out of memory, say) keeps the settings.
+        ex.client.restart()
+        assert list(ex.client.run(_housekeeping).values()) == [compute._LOCAL_DASK_CONFIG] * 2
+
+
+class _FakeClient:
+    def __init__(self, workers, gone=()):
+        self.workers, self.gone, self.sent = workers, set(gone), []
+
+    def scheduler_info(self):
+        return {"workers": {a: {"status": st} for a, st in self.workers.items()}}
+
+    def scatter(self, item, hash=True, workers=None):
+        if workers and workers[0] in self.gone:
+            raise KeyError(workers[0])
+        self.sent.append(workers)
+        return item
+
+
+def test_large_inputs_go_to_the_least_busy_running_worker():
+    ex = object.__new__(compute.DaskExecutor)
+    ex.client = _FakeClient({"tcp://b": "running", "tcp://a": "running", "tcp://p": "paused"})
+    load: dict = {}
+    assert ex._scatter("x1", load) == ("x1", "tcp://a")
+    assert ex._scatter("x2", load) == ("x2", "tcp://b")
+    assert load == {"tcp://a": 1, "tcp://b": 1}  # the paused worker gets nothing
+    load["tcp://b"] -= 1  # its task finished: b is now the least busy
+    assert ex._scatter("x3", load)[1] == "tcp://b"
+    # b left and d joined: d starts at 0, b is forgotten.
+    ex.client.workers = {"tcp://a": "running", "tcp://d": "running"}
+    assert ex._scatter("x4", load)[1] == "tcp://d" and "tcp://b" not in load
+    # The chosen worker went away after the question: the scheduler picks one.
+    ex.client.gone = {"tcp://d"}
+    load["tcp://a"] = 5
+    assert ex._scatter("x5", load) == ("x5", None) and ex.client.sent[-1] is None
+    # No running worker at all: the scheduler picks one (and waits for one).
+    ex.client.workers = {}
+    assert ex._scatter("x6", load) == ("x6", None) and load == {}
 
 
 def _profiling(dask_worker):
