@@ -50,9 +50,9 @@ IN_FLIGHT_PER_WORKER = 2
 # Task inputs up to this size (pickled) travel inside the task, and the scheduler gives the task
 # to the first free worker; larger ones are scattered first, to the worker with the fewest of
 # this map's tasks in flight, and the task runs there (Dask warns of task graphs over 10 MB).
-# Scattered in turn, as before, inputs pinned tasks to a worker that could be busy: 40 tasks of
-# 0.3-4 CPU-s on 2 workers took 37.2 s; sent inside the tasks 33.8 s, scattered to the least
-# busy worker 33.9 s (medians of two; the ideal is 32.75).
+# Inputs scattered to the workers in turn pin their tasks to a worker that may be busy: 40 tasks
+# of 0.3-4 CPU-s on 2 workers took 37.2 s that way; sent inside the tasks 33.8 s, scattered to
+# the least busy worker 33.9 s (medians of two; the ideal is 32.75).
 # On a remote cluster an input inside a task crosses the network twice (to the scheduler, which
 # keeps it until the task ends, then to the worker), so there only small ones do (a plate's
 # holes are 5-35 KB).
@@ -262,12 +262,11 @@ class DaskExecutor(Executor):
         if plan.kind == "local":
             import dask
 
-            # No dashboard (no port to bind), worker chatter only on real trouble; the nannies
-            # hand the settings in force now to the workers they start.
+            # No dashboard (no port to bind), worker chatter only on real trouble. The scheduler
+            # reads the settings while this block is in force; the nannies get a copy of their
+            # own, which they hand to every worker they start or restart (after one ran out of
+            # memory), so the exit of this block cannot put Dask's defaults back into it.
             with dask.config.set(_LOCAL_DASK_CONFIG):
-                # A nanny keeps the settings for the workers it restarts later (after a worker
-                # ran out of memory), so it gets its own copy, not one the exit of this block
-                # puts back to Dask's defaults.
                 settings = {"distributed": copy.deepcopy(dask.config.get("distributed"))}
                 self._cluster = LocalCluster(
                     config=settings,
