@@ -3,16 +3,14 @@
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import logging
 import signal
 import sys
-import threading
 import time
 from pathlib import Path
 
-from . import __version__
+from . import __version__, interrupts
 from .errors import ConfigError, UserError
 
 log = logging.getLogger("stencil_cad")
@@ -169,7 +167,7 @@ def main(argv: list[str] | None = None) -> int:
         for noisy in ("PIL", "fontTools", "numba", "matplotlib", "ezdxf"):
             logging.getLogger(noisy).setLevel(logging.WARNING)
     try:
-        with _signals_as_interrupts():
+        with interrupts.as_interrupts():
             return _dispatch(args)
     except UserError as exc:
         if verbose:
@@ -181,10 +179,10 @@ def main(argv: list[str] | None = None) -> int:
         sys.stderr.close()
         return 0
     except KeyboardInterrupt as exc:
-        signum = exc.args[0] if exc.args and isinstance(exc.args[0], int) else signal.SIGINT
+        signum = exc.signum if isinstance(exc, interrupts.Interrupted) else int(signal.SIGINT)
         name = signal.Signals(signum).name
         print(f"stencil-cad: interrupted ({name}); no partial outputs were kept", file=sys.stderr)
-        return 128 + int(signum)
+        return 128 + signum
     except OSError as exc:
         # An OS condition no more specific handler turned into a message: still the user's to fix.
         from .output import os_error_message
@@ -202,25 +200,6 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 1
-
-
-@contextlib.contextmanager
-def _signals_as_interrupts():
-    """SIGTERM and SIGHUP (``timeout``, ``docker stop``, a closed terminal) act like Ctrl-C."""
-
-    def handler(signum, _frame):
-        raise KeyboardInterrupt(signum)
-
-    old = {}
-    if threading.current_thread() is threading.main_thread():
-        for sig in (signal.SIGTERM, getattr(signal, "SIGHUP", None)):
-            if sig is not None:
-                old[sig] = signal.signal(sig, handler)
-    try:
-        yield
-    finally:
-        for sig, h in old.items():
-            signal.signal(sig, h)
 
 
 def _dispatch(args) -> int:

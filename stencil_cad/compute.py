@@ -31,6 +31,7 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from . import interrupts
 from .config.compute import ComputeConfig
 from .errors import UserError
 
@@ -228,6 +229,7 @@ class Executor:
         items = list(items) if count is None and not isinstance(items, Sequence) else items
         bar = self._progress(count if count is not None else len(items), desc)  # type: ignore[arg-type]
         for item in items:
+            interrupts.check()
             result = fn(item)
             bar.update(1)
             yield result
@@ -373,6 +375,7 @@ class DaskExecutor(Executor):
                 if data is not None:
                     data.release()
                 bar.update(1)
+                interrupts.check()
                 submit()
                 while next_out in done:
                     yield done.pop(next_out)

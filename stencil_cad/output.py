@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import interrupts
 from .errors import OutputError
 from .exchange.png import png_bytes
 
@@ -425,6 +426,8 @@ class OutputDir:
         """
         if self._stage is None:
             return []
+        # A signal whose exception was dropped (see interrupts) must not let the results land.
+        interrupts.check()
         replace, remove = self._plan()
         aside = self._stage / _ASIDE
         set_aside: list[str] = []

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import yaml
 
-from . import __version__
+from . import __version__, interrupts
 from .colour import to_hex
 from .config import ComputeConfig, JobConfig, Mode
 from .config.spray import SprayModel
@@ -83,10 +83,12 @@ class Run:
 
     @contextlib.contextmanager
     def stage(self, name: str) -> Iterator[None]:
-        """Time a stage."""
+        """Time a stage; a signal whose exception was dropped stops the run at its edges."""
+        interrupts.check()
         log.info("stage %s …", name)
         t0 = time.perf_counter()
         yield
+        interrupts.check()
         self.times[name] = round(self.times.get(name, 0.0) + time.perf_counter() - t0, 3)
 
     @property
