@@ -99,6 +99,8 @@ def test_in_process_map_keeps_order_and_counts_tasks():
 @pytest.mark.slow
 def test_local_cluster_map_matches_in_process(monkeypatch):
     logging.getLogger("stencil_cad").setLevel(logging.WARNING)
+    # (An earlier cluster in this process may have put Dask's value into os.environ.)
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
     with compute.executor(ComputeConfig(workers=2), 10, quiet=True) as ex:
         assert isinstance(ex, compute.DaskExecutor) and ex.workers == 2
         # More tasks than the in-flight window, so submission refills as results arrive.
@@ -108,6 +110,8 @@ def test_local_cluster_map_matches_in_process(monkeypatch):
         # and with the slower housekeeping of compute._LOCAL_DASK_CONFIG.
         assert set(ex.client.run(_profiling).values()) == {False}
         assert list(ex.client.run(_housekeeping).values()) == [compute._LOCAL_DASK_CONFIG] * 2
+        # Nor with Dask's malloc trim threshold, which made numpy-heavy tasks half again slower.
+        assert set(ex.client.run(_trim_threshold).values()) == {None}
         # Small inputs travel inside their tasks, large ones are scattered to the least busy
         # worker; either way both workers get tasks and the results come back in order.
         scatter, sent_to = ex.client.scatter, []
@@ -175,6 +179,12 @@ def _profiling(dask_worker):
         dask.config.get("distributed.worker.profile.enabled")
         or "profile-cycle" in dask_worker.periodic_callbacks
     )
+
+
+def _trim_threshold():
+    import os
+
+    return os.environ.get("MALLOC_TRIM_THRESHOLD_")
 
 
 def _housekeeping(dask_worker):
