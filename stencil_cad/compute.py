@@ -90,10 +90,11 @@ _LOCAL_DASK_CONFIG = {
     # Dask's nannies start every worker with MALLOC_TRIM_THRESHOLD_=65536 so that glibc hands
     # freed memory back to the OS at once. Setting it switches off glibc's sliding mmap
     # threshold: every array over 128 KB is then mapped, faulted in page by page and unmapped
-    # again, and our numpy-heavy tasks slowed down by half. One S-CIELAB score of 1000 x 1000 px
+    # again, and our numpy-heavy tasks ran about 1.7x slower. One S-CIELAB score of 1000 x 1000 px
     # at 1 m (9 blocks, one process, one thread): 5.4-5.6 s by default, 9.0-9.5 s with 65536,
     # 7.9-8.5 s with 64 MiB, 7.2 s with MALLOC_MMAP_THRESHOLD_=32 MiB beside it. Without the
-    # variable a worker keeps the memory its largest task freed for the next one.
+    # variable a worker keeps the memory its largest task freed for the next one. (A nanny reads
+    # this when it is made, so only the workers started with the cluster get it: it never scales.)
     "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
 }
 

@@ -28,6 +28,8 @@ from collections.abc import Iterator
 SIGNALS = tuple(s for s in (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGHUP", None)) if s is not None)
 
 _pending: int | None = None
+#: True while a block runs that a signal must not cut short (see :func:`held`).
+_deferred = False
 
 
 class Interrupted(KeyboardInterrupt):
@@ -61,24 +63,53 @@ def check() -> None:
 def _handler(signum: int, _frame) -> None:
     global _pending
     _pending = signum
-    raise Interrupted(signum)
+    if not _deferred:
+        raise Interrupted(signum)
+
+
+@contextlib.contextmanager
+def held() -> Iterator[None]:
+    """Run a block that must not be cut short (moving results into place, putting them back).
+
+    A signal received before the block stops the run before it starts; one received during it
+    is only recorded (the handler runs in the main thread whichever thread the OS woke, so a
+    signal mask could not hold it back): the block finishes, and the next :func:`check` stops
+    the run.
+
+    Raises:
+        Interrupted: A signal was received before the block.
+    """
+    global _deferred
+    check()
+    outer, _deferred = _deferred, True
+    try:
+        yield
+    finally:
+        _deferred = outer
 
 
 @contextlib.contextmanager
 def as_interrupts() -> Iterator[None]:
     """Turn the stopping signals into :class:`Interrupted` for the duration of the block.
 
-    Outside the main thread (where Python cannot set handlers) the block runs unchanged. An error
-    raised after a signal was received leaves the block as that :class:`Interrupted`, chained to
-    the error: the signal caused it (a compile it cut short, say).
+    Outside the main thread (where Python cannot set handlers) the block runs unchanged, and a
+    signal the parent set to be ignored (``nohup``, a background job of a script) stays ignored.
+    An error raised after a signal was received leaves the block as that :class:`Interrupted`,
+    chained to the error: the signal caused it (a compile it cut short, say). A signal recorded
+    but dropped after the last check (the results have landed) does not undo them: the block
+    ends normally.
     """
-    global _pending
-    _pending = None
+    global _pending, _deferred
+    outer = _pending
     old: dict[int, object] = {}
-    if threading.current_thread() is threading.main_thread():
-        for sig in SIGNALS:
-            old[sig] = signal.signal(sig, _handler)
     try:
+        _pending = None
+        if threading.current_thread() is threading.main_thread():
+            for sig in SIGNALS:
+                current = signal.getsignal(sig)
+                if current is signal.SIG_IGN or current is None:
+                    continue
+                old[sig] = signal.signal(sig, _handler)
         yield
     except Interrupted:
         raise
@@ -87,6 +118,9 @@ def as_interrupts() -> Iterator[None]:
             raise Interrupted(_pending) from exc
         raise
     finally:
+        # A signal while the handlers are put back is recorded, not raised half-way through.
+        deferred, _deferred = _deferred, True
         for sig, h in old.items():
             signal.signal(sig, h)  # type: ignore[arg-type]
-        _pending = None
+        _deferred = deferred
+        _pending = outer

@@ -426,36 +426,37 @@ class OutputDir:
         """
         if self._stage is None:
             return []
-        # A signal whose exception was dropped (see interrupts) must not let the results land.
-        interrupts.check()
         replace, remove = self._plan()
         aside = self._stage / _ASIDE
         set_aside: list[str] = []
         placed: list[str] = []
-        # The manifest goes last: a folder whose manifest is new has every new file.
-        order = [n for n in self.files if n != MANIFEST] + [n for n in self.files if n == MANIFEST]
-        try:
-            if replace or remove:
-                aside.mkdir()
-            for n in replace + remove:
-                os.replace(self.path / n, aside / n)
-                set_aside.append(n)
-            for n in order:
-                os.replace(self._stage / n, self.path / n)
-                placed.append(n)
-        except BaseException as exc:
-            self._rollback(placed, set_aside)
-            if isinstance(exc, OSError):
-                raise OutputError(
-                    os_error_message(exc, "cannot move the results into", self.path)
-                    + "; the folder was left as it was"
-                ) from None
-            raise
-        self.removed = remove
-        shutil.rmtree(self._stage, ignore_errors=True)
-        self._stage = None
-        self._created = False
-        self._release()
+        # The moves and their rollback are not cut short by a signal: one received before them
+        # (see interrupts) stops the run with nothing moved, one during them waits until they end.
+        with interrupts.held():
+            # The manifest goes last: a folder whose manifest is new has every new file.
+            order = [n for n in self.files if n != MANIFEST] + [n for n in self.files if n == MANIFEST]
+            try:
+                if replace or remove:
+                    aside.mkdir()
+                for n in replace + remove:
+                    os.replace(self.path / n, aside / n)
+                    set_aside.append(n)
+                for n in order:
+                    os.replace(self._stage / n, self.path / n)
+                    placed.append(n)
+            except BaseException as exc:
+                self._rollback(placed, set_aside)
+                if isinstance(exc, OSError):
+                    raise OutputError(
+                        os_error_message(exc, "cannot move the results into", self.path)
+                        + "; the folder was left as it was"
+                    ) from None
+                raise
+            self.removed = remove
+            shutil.rmtree(self._stage, ignore_errors=True)
+            self._stage = None
+            self._created = False
+            self._release()
         return [self.path / n for n in self.files]
 
     def _rollback(self, placed: list[str], set_aside: list[str]) -> None:

@@ -110,7 +110,7 @@ def test_local_cluster_map_matches_in_process(monkeypatch):
         # and with the slower housekeeping of compute._LOCAL_DASK_CONFIG.
         assert set(ex.client.run(_profiling).values()) == {False}
         assert list(ex.client.run(_housekeeping).values()) == [compute._LOCAL_DASK_CONFIG] * 2
-        # Nor with Dask's malloc trim threshold, which made numpy-heavy tasks half again slower.
+        # Nor with Dask's malloc trim threshold, which made numpy-heavy tasks about 1.7x slower.
         assert set(ex.client.run(_trim_threshold).values()) == {None}
         # Small inputs travel inside their tasks, large ones are scattered to the least busy
         # worker; either way both workers get tasks and the results come back in order.

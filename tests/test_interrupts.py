@@ -119,3 +119,57 @@ def test_an_interrupt_out_of_exec_keeps_its_exit_code(tmp_path):
         timeout=60,
     )
     assert proc.returncode == 128 + signal.SIGHUP, proc.stderr
+
+
+def test_a_signal_during_a_held_block_waits_for_its_end():
+    done = []
+    with pytest.raises(interrupts.Interrupted) as info, interrupts.as_interrupts():
+        with interrupts.held():
+            os.kill(os.getpid(), signal.SIGTERM)
+            for _ in range(1000):
+                pass
+            done.append(True)
+        interrupts.check()
+    assert done == [True] and info.value.signum == signal.SIGTERM
+
+
+def test_an_ignored_signal_stays_ignored():
+    old = signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    try:
+        with interrupts.as_interrupts():
+            assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+            os.kill(os.getpid(), signal.SIGHUP)
+            for _ in range(1000):
+                pass
+        assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGHUP, old)
+
+
+def _drop_a_signal(i):
+    if i == 0:
+        _swallowed(signal.SIGTERM)
+    return i
+
+
+def test_the_tasks_stop_at_the_next_item_after_a_dropped_signal():
+    from stencil_cad import compute
+
+    ex = compute.Executor(compute.Plan("in_process", reason="test"), quiet=True)
+    seen = []
+    with pytest.raises(interrupts.Interrupted), interrupts.as_interrupts():
+        for r in ex.map(_drop_a_signal, range(5), "test"):
+            seen.append(r)
+    ex.close()
+    assert seen == [0]
+
+
+def test_a_stage_ends_the_run_after_a_dropped_signal(tmp_path):
+    from stencil_cad.config import JobConfig
+    from stencil_cad.pipeline import Run
+
+    run = Run(cfg=JobConfig(), out=OutputDir(tmp_path / "out"), quiet=True)
+    with pytest.raises(interrupts.Interrupted), interrupts.as_interrupts():
+        with run.stage("one"):
+            _swallowed(signal.SIGHUP)
+    assert "one" not in run.times
