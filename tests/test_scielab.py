@@ -181,7 +181,11 @@ def test_compiled_ciede2000_equals_scikit_image():
     a[4, :, :] = rng.random((70, 3)) * 1e-3  # the linear part of the Lab curve
     want = deltaE_ciede2000(xyz2lab(a), xyz2lab(b))
     got = delta_e_xyz(a, b)
-    np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
+    # A grey's chroma is round-off (1e-15), so its hue angle is too: both implementations turn
+    # it into hue terms in their own order of operations, and on some CPUs (seen on one CI
+    # machine) the row of greys differs by up to 2.2e-6 ΔE. Everything else within 1e-9.
+    np.testing.assert_allclose(np.delete(got, 3, axis=0), np.delete(want, 3, axis=0), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(got[3], want[3], rtol=0, atol=1e-5)
     assert np.all(got[0, :10] == 0.0)
     with pytest.raises(ValueError, match="same shape"):
         delta_e_xyz(a, b[:, :5])
