@@ -1,8 +1,8 @@
 """Murals: a picture larger than the bed, cut into tiles that spray without a seam.
 
-The holes are placed once over the whole mural (the stipple stage runs on the whole
-picture), so the web rule, the density and the tone hold across every seam. This module
-only *partitions* them:
+The holes are placed tile by tile, each tile relaxed against the holes its neighbours
+placed before it (:mod:`stencil_cad.mural_stipple`), so the web rule, the density and the
+tone hold across every seam. This module *partitions* them:
 
 * the mural is cut into a grid of ``cols × rows`` equal tiles named by row and column
   (row A at the top, columns from 1 at the left: A1, A2, …, B1, …);
@@ -141,6 +141,28 @@ def row_name(row: int) -> str:
         row, rem = divmod(row - 1, 26)
         out = chr(ord("A") + rem) + out
     return out
+
+
+def phases(grid: TileGrid) -> list[list[int]]:
+    """Tile indices by phase: the four colours of a 2 × 2 colouring of the grid."""
+    out: list[list[int]] = [[], [], [], []]
+    for k, t in enumerate(grid.tiles):
+        out[(t.row % 2) * 2 + (t.col % 2)].append(k)
+    return [p for p in out if p]
+
+
+def region_bounds(tile: Tile, grid: TileGrid, shape: tuple[int, int], g: float, halo: float):
+    """Pixel bounds ``(r0, r1, c0, c1)`` of a tile's region on the simulation raster, and its mm box."""
+    h, w = shape
+    x0, y0, x1, y1 = tile.core
+    c0 = 0 if x0 <= 0 else max(0, int(math.floor((x0 - halo) / g)))
+    c1 = w if x1 >= grid.width_mm else min(w, int(math.ceil((x1 + halo) / g)))
+    r0 = 0 if y1 >= grid.height_mm else max(0, int(math.floor(h - (y1 + halo) / g)))
+    r1 = h if y0 <= 0 else min(h, int(math.ceil(h - (y0 - halo) / g)))
+    ox, oy = c0 * g, (h - r1) * g
+    right = grid.width_mm if c1 == w else c1 * g
+    top = grid.height_mm if r0 == 0 else (h - r0) * g
+    return (r0, r1, c0, c1), (ox, oy, right, top)
 
 
 def spray_halo_mm(cfg) -> float:

@@ -10,8 +10,8 @@ with them and is thrown away. The halo is wide enough (twice the spray's reach, 
 edge margin, the largest hole and the eye filter) that a hole missing at the region's
 border changes nothing a core hole's spray or gradient touches.
 
-Tiles run in four phases, by the colour of a 2 × 2 colouring of the grid (A1, A3, … first;
-then A2, A4, …; then B1, …; then B2, …). Tiles refined in the same phase never share a
+Tiles run in the four phases of :func:`stencil_cad.mural.phases`, by the colour of a 2 × 2
+colouring of the grid (A1, A3, … first; then A2, A4, …; then B1, …; then B2, …). Tiles refined in the same phase never share a
 region, so they are independent tasks; a later phase sees the refined holes of the phases
 before it. Every task is a pure function of its inputs, so 1, 2 or 4 workers give the same
 holes, byte for byte.
@@ -150,28 +150,6 @@ def refine_halo_mm(cfg, eye_sigma_mm: float) -> float:
     )
 
 
-def phases(grid: mural.TileGrid) -> list[list[int]]:
-    """Tile indices by phase: the four colours of a 2 × 2 colouring of the grid."""
-    out: list[list[int]] = [[], [], [], []]
-    for k, t in enumerate(grid.tiles):
-        out[(t.row % 2) * 2 + (t.col % 2)].append(k)
-    return [p for p in out if p]
-
-
-def _region(tile: mural.Tile, grid: mural.TileGrid, shape: tuple[int, int], g: float, halo: float):
-    """Pixel bounds ``(r0, r1, c0, c1)`` of a tile's region on the simulation raster, and its mm box."""
-    h, w = shape
-    x0, y0, x1, y1 = tile.core
-    c0 = 0 if x0 <= 0 else max(0, int(math.floor((x0 - halo) / g)))
-    c1 = w if x1 >= grid.width_mm else min(w, int(math.ceil((x1 + halo) / g)))
-    r0 = 0 if y1 >= grid.height_mm else max(0, int(math.floor(h - (y1 + halo) / g)))
-    r1 = h if y0 <= 0 else min(h, int(math.ceil(h - (y0 - halo) / g)))
-    ox, oy = c0 * g, (h - r1) * g
-    right = grid.width_mm if c1 == w else c1 * g
-    top = grid.height_mm if r0 == 0 else (h - r0) * g
-    return (r0, r1, c0, c1), (ox, oy, right, top)
-
-
 def tile_tasks(
     problem: Problem,
     grid: mural.TileGrid,
@@ -187,7 +165,7 @@ def tile_tasks(
     tasks = []
     for k in tiles:
         t = grid.tiles[k]
-        (r0, r1, c0, c1), (ox, oy, right, top) = _region(t, grid, shape, g, halo)
+        (r0, r1, c0, c1), (ox, oy, right, top) = mural.region_bounds(t, grid, shape, g, halo)
         sets, cores, idx, rules = [], [], [], []
         for (xy, r), rl in zip(state, problem.rules, strict=True):
             reg = replace(
@@ -313,7 +291,7 @@ def refine_mural(
     state = [(ds.xy_mm.copy(), ds.r_mm.copy()) for ds in dotsets]
     rows: list[dict] = []
     reverted = [0] * len(dotsets)
-    for phase in phases(grid):
+    for phase in mural.phases(grid):
         before = [(xy.copy(), r.copy()) for xy, r in state]
         tasks = tile_tasks(problem, grid, phase, state, halo)
         for res in tasks_map(refine_tile, tasks, "refine tiles"):

@@ -76,10 +76,14 @@ class Run:
         A stage command re-run on saved intermediates therefore gives the same result as
         the same stage inside a whole run.
         """
+        return np.random.default_rng(self.seed_for(stage, index))
+
+    def seed_for(self, stage: str, *index: int) -> np.random.SeedSequence:
+        """The seed sequence of :meth:`rng_for`, for any number of indices (layer, tile, …)."""
         import zlib
 
-        key = (zlib.crc32(stage.encode()), index)
-        return np.random.default_rng(np.random.SeedSequence(self.cfg.seed, spawn_key=key))
+        key = (zlib.crc32(stage.encode()), *index)
+        return np.random.SeedSequence(self.cfg.seed, spawn_key=key)
 
     @contextlib.contextmanager
     def stage(self, name: str) -> Iterator[None]:
@@ -367,29 +371,46 @@ class StippleTask:
     rng: np.random.Generator
 
 
+def _layer_tone(task: StippleTask):
+    """``(tone choice or None, spray time)`` of one layer.
+
+    With ``stipple.tone: calibrated`` the density comes from the spray response, and with
+    ``spray.calibrate: spray_time`` the layer gets its own spray time.
+    """
+    cfg = task.cfg
+    if getattr(cfg.stipple.tone, "value", cfg.stipple.tone) != "calibrated":
+        return None, cfg.spray.amount
+    from .simulate import tone
+
+    choice = tone.calibrated_tone_for(task.alpha, task.mm_per_px, cfg)
+    if getattr(cfg.spray.calibrate, "value", cfg.spray.calibrate) == "spray_time":
+        return choice, float(choice.spray_time)
+    return choice, cfg.spray.amount
+
+
 def stipple_task(task: StippleTask) -> tuple[DotSet, dict | None]:
     """Stipple one layer (a task): ``(holes, tone choice summary or None)``.
 
-    With ``stipple.tone: calibrated`` the density comes from the spray response, and with
-    ``spray.calibrate: spray_time`` the layer gets its own spray time (in the holes' report).
+    The spray time (:func:`_layer_tone`) is in the holes' report.
     """
     from dataclasses import replace
 
     from . import stipple
 
-    cfg = task.cfg
-    density, summary = None, None
-    spray_time = cfg.spray.amount
-    if getattr(cfg.stipple.tone, "value", cfg.stipple.tone) == "calibrated":
-        from .simulate import tone
+    choice, spray_time = _layer_tone(task)
+    density = None if choice is None else choice.density
+    ds = stipple.stipple_layer(task.alpha, task.mm_per_px, task.cfg.stipple, task.rng, density=density)
+    return replace(
+        ds, report={**ds.report, "spray_time": spray_time}
+    ), None if choice is None else choice.summary()
 
-        choice = tone.calibrated_tone_for(task.alpha, task.mm_per_px, cfg)
-        density = choice.density
-        if getattr(cfg.spray.calibrate, "value", cfg.spray.calibrate) == "spray_time":
-            spray_time = float(choice.spray_time)
-        summary = choice.summary()
-    ds = stipple.stipple_layer(task.alpha, task.mm_per_px, cfg.stipple, task.rng, density=density)
-    return replace(ds, report={**ds.report, "spray_time": spray_time}), summary
+
+def tone_task(task: StippleTask):
+    """One layer's tone choice without its density map (a task): ``(choice or None, spray time)``."""
+    from dataclasses import replace
+
+    choice, spray_time = _layer_tone(task)
+    return (None if choice is None else replace(choice, density=np.zeros((0, 0)))), spray_time
 
 
 def stage_stipple(
@@ -420,10 +441,29 @@ def stage_stipple(
             StippleTask(alpha, layers.mm_per_px, cfg, run.rng_for("stipple", i))
             for i, alpha in enumerate(layers.alphas)
         ]
-        for ds, tone_summary in run.tasks.map(stipple_task, tasks, "stipple"):
-            sets.append(ds)
-            if tone_summary is not None:
-                tones.append(tone_summary)
+        if grid is not None and grid.tiled and cfg.stipple.dots is None:
+            # A mural: one task per layer and tile (stipple.dots fixes one count for a whole
+            # picture, so with it the layers stipple in one piece).
+            from dataclasses import replace
+
+            from . import mural_stipple
+
+            chosen = list(run.tasks.map(tone_task, tasks, "tone"))
+            seeds = [
+                [run.seed_for("stipple", i, k) for k in range(len(grid.tiles))] for i in range(layers.count)
+            ]
+            placed = mural_stipple.stipple_mural(
+                cfg, layers.alphas, layers.mm_per_px, grid, [c for c, _ in chosen], seeds, run.tasks.map
+            )
+            for ds, (choice, spray_time) in zip(placed, chosen, strict=True):
+                sets.append(replace(ds, report={**ds.report, "spray_time": spray_time}))
+                if choice is not None:
+                    tones.append(choice.summary())
+        else:
+            for ds, tone_summary in run.tasks.map(stipple_task, tasks, "stipple"):
+                sets.append(ds)
+                if tone_summary is not None:
+                    tones.append(tone_summary)
     run.figures["dark_end"] = [
         _dark_end(cfg, alpha, float(ds.report["spray_time"]))
         for alpha, ds in zip(layers.alphas, sets, strict=True)

@@ -101,7 +101,7 @@ def _objective(problem, dotsets):
 def test_phases_never_put_neighbours_together(small_mural):
     cfg = _job(size={"width_mm": 1000, "height_mm": 800}, bed="prusa_mk4")
     grid = mural.plan_tiles(1000, 800, cfg)
-    ph = mural_refine.phases(grid)
+    ph = mural.phases(grid)
     assert sorted(k for p in ph for k in p) == list(range(len(grid.tiles)))
     for p in ph:
         for a in p:
@@ -117,8 +117,8 @@ def test_regions_cover_their_core_and_miss_the_cores_refined_beside_them():
     halo = mural_refine.refine_halo_mm(cfg, 0.3)
     assert halo > 2 * mural.spray_halo_mm(cfg)
     shape = (int(800 / 0.7), int(1000 / 0.7))
-    for p in mural_refine.phases(grid):
-        boxes = {k: mural_refine._region(grid.tiles[k], grid, shape, 0.7, halo)[1] for k in p}
+    for p in mural.phases(grid):
+        boxes = {k: mural.region_bounds(grid.tiles[k], grid, shape, 0.7, halo)[1] for k in p}
         for k, (ox, oy, right, top) in boxes.items():
             x0, y0, x1, y1 = grid.tiles[k].core
             assert ox <= x0 + 1e-9 and oy <= y0 + 1e-9 and right >= x1 - 1e-9 and top >= y1 - 1e-9

@@ -267,6 +267,8 @@ class ToneChoice:
         predicted_rmse: Predicted layer RMSE with this choice.
         predicted_rmse_linear: Predicted layer RMSE with the linear tone at ``cfg.spray_time``.
         max_opacity: Darkest mean opacity reachable with this choice.
+        curve: The chosen spray response whose inverse gave ``density``, or None when the
+            density is the opacity itself (``calibrate: none``).
     """
 
     density: np.ndarray
@@ -275,6 +277,12 @@ class ToneChoice:
     predicted_rmse: float
     predicted_rmse_linear: float
     max_opacity: float
+    curve: ToneCurve | None = None
+
+    def density_of(self, alpha: np.ndarray) -> np.ndarray:
+        """The density this choice gives another opacity map (a part of the layer it was made for)."""
+        a = np.clip(np.nan_to_num(np.asarray(alpha, dtype=np.float64)), 0.0, 1.0)
+        return a if self.curve is None else self.curve.inverse(a)
 
     def summary(self) -> dict:
         """Plain figures for the manifest."""
@@ -343,6 +351,7 @@ def choose_tone(
 
     base = curve(cfg.amount)
     linear_mse = mse(base, flat)
+    chosen: ToneCurve | None = None
     if mode == Calibrate.none:
         best_a, best_curve, best_mse, density = cfg.amount, base, linear_mse, a
     else:
@@ -357,6 +366,7 @@ def choose_tone(
             scored.append((mse(c, c.inverse(flat)), spray_time, c))
         best_mse, best_a, best_curve = min(scored, key=lambda s: s[0])
         density = best_curve.inverse(a)
+        chosen = best_curve
     rho = packing_density(r1, web_mm, spacing_factor)
     t_eff = np.where(a >= opacity_threshold, density, 0.0)
     # Holes per pixel as the stippler counts them: lambda(t) = rho_pack t (r1 / r(t))^2.
@@ -369,6 +379,7 @@ def choose_tone(
         predicted_rmse=math.sqrt(best_mse),
         predicted_rmse_linear=math.sqrt(linear_mse),
         max_opacity=best_curve.max_opacity,
+        curve=chosen,
     )
 
 
