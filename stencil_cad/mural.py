@@ -1,8 +1,9 @@
 """Murals: a picture larger than the bed, cut into tiles that spray without a seam.
 
 The holes are placed tile by tile, each tile relaxed against the holes its neighbours
-placed before it (:mod:`stencil_cad.mural_stipple`), so the web rule, the density and the
-tone hold across every seam. This module *partitions* them:
+placed before it (:mod:`stencil_cad.mural_stipple`; with ``stipple.dots``, one count for the
+whole picture, each layer in one piece), so the web rule, the density and the tone hold
+across every seam. This module *partitions* them:
 
 * the mural is cut into a grid of ``cols × rows`` equal tiles named by row and column
   (row A at the top, columns from 1 at the left: A1, A2, …, B1, …);

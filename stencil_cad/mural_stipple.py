@@ -14,7 +14,8 @@ them at the seam as they meet each other inside the tile (no seam line of crowde
 holes). New seeds are drawn only where no earlier tile owns the pixels; after relaxation the
 tile keeps the new holes whose centres its core holds, and the rest (those in the halo of
 tiles still to come) are thrown away — those tiles place their own against this one's.
-Tiles of one phase never reach each other's cores, so they are independent tasks.
+Tiles of one phase are a whole tile apart, so their new holes never meet: they are
+independent tasks (a halo wider than a tile only costs work: each keeps its own core's holes).
 
 Rules. The mural's rules hold in every region (its edge margins at the mural's edges, not
 at a region's). Each tile's new holes are repaired with
@@ -57,8 +58,8 @@ def stipple_halo_mm(cfg: JobConfig) -> float:
     """How far a tile's stippling region reaches past its core, in mm.
 
     :data:`HALO_SPACINGS` centre spacings of the densest tone, plus the edge margin and the
-    largest hole's diameter (so that the margin at the region's border never reaches a core
-    hole).
+    largest hole's diameter (room for the rules' nudges; the margins themselves hold only at
+    the mural's edges).
     """
     st = cfg.stipple
     r1 = st.resolved_max_radius_mm
@@ -137,6 +138,10 @@ def place_tile(task: PlaceTask) -> PlaceResult:
     # unusually close neighbours within 5 mm of the seams, to 2 %.
     own = task.grid.owner(xy) == task.tile if len(xy) else np.zeros(0, dtype=bool)
     report["outside_core"] = int((~own).sum())
+    # The tile's own count: its seeds after relaxation (``removed_empty`` and
+    # ``removed_threshold`` stay the region's, halo included, and are not in ``removed``).
+    report["n_region"] = report["n_initial"]
+    report["n_initial"] = int(own.sum())
     xy, r, rep = enforce_rules(xy[own], r[own], task.rules)
     report.update({k: v for k, v in rep.items() if k not in ("n_in", "n_out", "min_web_mm")})
     # The seam pass: a new hole closer than the web to a fixed one goes (pairs of new holes
@@ -150,9 +155,7 @@ def place_tile(task: PlaceTask) -> PlaceResult:
         mixed = (pairs[:, 0] < n) != (pairs[:, 1] < n)
         seam[np.minimum(pairs[mixed, 0], pairs[mixed, 1])] = True
     report["removed_seam"] = int(seam.sum())
-    report["removed"] = (
-        report["removed"] + report["removed_empty"] + report["removed_threshold"] + int(seam.sum())
-    )
+    report["removed"] = report["removed"] + int(seam.sum())
     xy, r = xy[~seam], r[~seam]
     report["n_final"] = int(len(r))
     return PlaceResult(task.layer, task.tile, xy, r, report)
@@ -225,6 +228,7 @@ def place_tasks(
 
 _SUMMED = (
     "n_initial",
+    "n_region",
     "removed",
     "removed_empty",
     "removed_threshold",
@@ -264,8 +268,11 @@ def stipple_mural(
 
     Returns:
         One DotSet per layer over the whole mural, passing the rules; ``report`` with the
-        tiles' figures summed (``iterations`` and ``refine`` their largest, ``e_norm`` their
-        mean weighted by holes), ``tiles``, ``halo_mm`` and ``min_web_mm``.
+        tiles' figures summed (``n_final = n_initial - removed``; ``n_region`` counts every
+        region's seeds, halo included, and ``removed_empty``/``removed_threshold`` are among
+        those), ``iterations``, ``mean_move_px``, ``refine`` and ``bucket_px`` their largest,
+        ``e_norm`` their mean weighted by holes (each over its region with the fixed cells, so
+        not comparable with a one-piece stipple's), ``tiles``, ``halo_mm`` and ``min_web_mm``.
     """
     from .stipple.rules import check_rules, min_web, rules_from_config
 
@@ -300,7 +307,9 @@ def stipple_mural(
         weight = sum(row["n_final"] for row in held)
         report.update(
             iterations=max((row["iterations"] for row in rows), default=0),
+            mean_move_px=max((row["mean_move_px"] for row in rows), default=0.0),
             refine=max((row["refine"] for row in rows), default=1),
+            bucket_px=max((row["bucket_px"] for row in rows), default=0),
             e_norm=sum(row["e_norm"] * row["n_final"] for row in held) / weight if weight else math.nan,
             tiles=len(rows),
             halo_mm=round(halo, 3),

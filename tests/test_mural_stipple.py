@@ -66,7 +66,8 @@ def test_union_keeps_the_rules_and_every_tile_has_its_holes(flat_mural):
         counts = np.bincount(grid.owner(ds.xy_mm), minlength=len(grid.tiles))
         assert counts.min() > 0.8 * counts.mean()
         assert ds.report["tiles"] == len(grid.tiles)
-        assert ds.report["n_final"] == len(ds)
+        assert ds.report["n_final"] == len(ds) == ds.report["n_initial"] - ds.report["removed"]
+        assert ds.report["n_region"] >= ds.report["n_initial"] + ds.report["outside_core"]
         assert ds.report["min_web_mm"] >= rules.web_mm - 1e-9
 
 

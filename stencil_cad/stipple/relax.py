@@ -539,13 +539,18 @@ def _fixed_cells(fixed_xy_mm: np.ndarray, spacing_mm: np.ndarray, mm_per_px: flo
 
     h, w = spacing_mm.shape
     tree = cKDTree(fixed_xy_mm)
-    nearest, _ = tree.query(fixed_xy_mm, k=2)
+    if len(fixed_xy_mm) > 1:
+        nearest = tree.query(fixed_xy_mm, k=2)[0][:, 1]
+    else:
+        nearest = np.full(len(fixed_xy_mm), np.inf)
     x, y = pixel_centres_mm(h, w, mm_per_px)
     xy = np.column_stack([np.broadcast_to(x, (h, w)).ravel(), np.broadcast_to(y, (h, w)).ravel()])
-    d, i = tree.query(xy, distance_upper_bound=float(nearest[:, 1].max()))
+    finite = spacing_mm[np.isfinite(spacing_mm)]
+    bound = min(float(nearest.max()), 1.5 * float(finite.max()) if finite.size else 0.0)
+    d, i = tree.query(xy, distance_upper_bound=bound)
     inside = np.isfinite(d)
     out = np.zeros(h * w, dtype=bool)
-    reach = np.minimum(nearest[i[inside], 1], 1.5 * spacing_mm.ravel()[inside])
+    reach = np.minimum(nearest[i[inside]], 1.5 * spacing_mm.ravel()[inside])
     out[inside] = d[inside] < 0.5 * reach
     return out.reshape(h, w)
 
@@ -577,8 +582,8 @@ def place_holes(
         free: ``(H, W)`` bool, where new holes may be drawn (None: everywhere).
         fixed_xy_mm: ``(M, 2)`` holes already placed (a neighbouring region's), in the same
             frame: fixed Lloyd generators that keep their cells, so the new holes relax
-            against them (no new seed starts in their cells, and the automatic dot count
-            leaves those out). They are not returned.
+            against them (with ``free`` given, no new seed starts in their cells and the
+            automatic dot count leaves those out). They are not returned.
         origin_mm: Where ``alpha``'s bottom-left corner lies in the rules' frame (a region:
             the margins hold at the picture's edges, not at the region's).
 
@@ -601,7 +606,7 @@ def place_holes(
 
     t, mask, r_of_t = prepare(alpha, density, mm_per_px)
     nfix = len(fixed_xy_mm)
-    if free is not None and nfix > 1:
+    if free is not None and nfix and t.any():
         # The hexagonal spacing of auto_dot_count's density at each pixel (inf without ink).
         r_max = cfg.resolved_max_radius_mm
         d_full = cfg.auto_spacing_factor * (2.0 * r_max + cfg.resolved_web_mm)
