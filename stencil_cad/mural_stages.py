@@ -1,7 +1,8 @@
 """The mural stages, called by :mod:`stencil_cad.pipeline`: plan, per-tile build, tiled simulation.
 
-Tiles are a layer over the global result: the stipple stage places every hole over the
-whole mural, :func:`stencil_cad.mural.split_dots` hands each hole to one tile, and each
+Tiles are a layer over the global result: the stipple stage places the holes tile by tile
+into one hole set per layer over the whole mural (:mod:`stencil_cad.mural_stipple`),
+:func:`stencil_cad.mural.split_dots` hands each hole to one tile, and each
 tile's plates and wall are built exactly like a one-plate job in the tile's own frame.
 Every tile is independent of the others once the dots are split, so each can become a
 separate task.
