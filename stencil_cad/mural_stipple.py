@@ -61,10 +61,10 @@ def stipple_halo_mm(cfg: JobConfig) -> float:
     largest hole's diameter (room for the rules' nudges; the margins themselves hold only at
     the mural's edges).
     """
+    from .resolution import hole_pitch_mm
+
     st = cfg.stipple
-    r1 = st.resolved_max_radius_mm
-    spacing = st.auto_spacing_factor * (2.0 * r1 + st.resolved_web_mm)
-    return HALO_SPACINGS * spacing + st.resolved_edge_margin_mm + 2.0 * r1
+    return HALO_SPACINGS * hole_pitch_mm(cfg) + st.resolved_edge_margin_mm + 2.0 * st.resolved_max_radius_mm
 
 
 @dataclass(frozen=True)
@@ -165,11 +165,8 @@ def _free_mask(grid: mural.TileGrid, placed: np.ndarray, bounds, shape, g: float
     """Pixels of a region that no placed tile owns (by their centres)."""
     r0, r1, c0, c1 = bounds
     h = shape[0]
-    x = (np.arange(c0, c1) + 0.5) * g
-    y = (h - np.arange(r0, r1) - 0.5) * g
-    col = np.searchsorted(np.asarray(grid.x_edges[1:-1]), x, side="right")
-    row = grid.rows - 1 - np.searchsorted(np.asarray(grid.y_edges[1:-1]), y, side="right")
-    owner = row[:, None] * grid.cols + col[None, :]
+    x, y = np.meshgrid((np.arange(c0, c1) + 0.5) * g, (h - np.arange(r0, r1) - 0.5) * g)
+    owner = grid.owner(np.column_stack([x.ravel(), y.ravel()])).reshape(x.shape)
     return ~placed[owner]
 
 

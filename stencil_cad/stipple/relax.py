@@ -399,10 +399,21 @@ def auto_dot_count(t: np.ndarray, r_of_t: np.ndarray, mm_per_px: float, cfg: Sti
         The number of dots (0 when the layer has no ink).
     """
     r_max = cfg.resolved_max_radius_mm
-    d = cfg.auto_spacing_factor * (2.0 * r_max + cfg.resolved_web_mm)
+    d = _densest_spacing_mm(cfg)
     per_mm2 = 2.0 / (math.sqrt(3.0) * d * d)
     ink = float((t * (r_max / r_of_t) ** 2).sum()) * mm_per_px * mm_per_px
     return int(round(per_mm2 * ink))
+
+
+def _densest_spacing_mm(cfg: StippleConfig) -> float:
+    """Centre spacing of the densest pattern, ``auto_spacing_factor * (2 r_max + web)``."""
+    return cfg.auto_spacing_factor * (2.0 * cfg.resolved_max_radius_mm + cfg.resolved_web_mm)
+
+
+def _spacing_mm(t: np.ndarray, r_of_t: np.ndarray, cfg: StippleConfig) -> np.ndarray:
+    """The hexagonal hole spacing of :func:`auto_dot_count`'s density at each pixel (inf without ink)."""
+    with np.errstate(divide="ignore"):
+        return _densest_spacing_mm(cfg) / np.sqrt(t * (cfg.resolved_max_radius_mm / r_of_t) ** 2)
 
 
 def tone_map(
@@ -607,12 +618,7 @@ def place_holes(
     t, mask, r_of_t = prepare(alpha, density, mm_per_px)
     nfix = len(fixed_xy_mm)
     if free is not None and nfix and t.any():
-        # The hexagonal spacing of auto_dot_count's density at each pixel (inf without ink).
-        r_max = cfg.resolved_max_radius_mm
-        d_full = cfg.auto_spacing_factor * (2.0 * r_max + cfg.resolved_web_mm)
-        with np.errstate(divide="ignore"):
-            spacing = d_full / np.sqrt(t * (r_max / r_of_t) ** 2)
-        free = free & ~_fixed_cells(fixed_xy_mm, spacing, mm_per_px)
+        free = free & ~_fixed_cells(fixed_xy_mm, _spacing_mm(t, r_of_t, cfg), mm_per_px)
     t_new = t if free is None else np.where(free, t, 0.0)
     if n_dots is None:
         # The free pixels' ink, outside the fixed holes' cells (counting the region's ink less
@@ -624,7 +630,7 @@ def place_holes(
     # many dots. Refining the grid until each cell covers about PX_PER_DOT pixels halved
     # the removals on the bundled example; relaxing on the input grid first and refining
     # only for the last iterations did not (it settles into the coarse grid's fixed point).
-    k = refine_factor(int(np.count_nonzero(t)), n_dots + len(fixed_xy_mm), h * w)
+    k = refine_factor(int(np.count_nonzero(t)), n_dots + nfix, h * w)
     if k > 1:
         alpha = _upsample(alpha, k)
         density = None if density is None else _upsample(np.asarray(density, dtype=np.float64), k)
