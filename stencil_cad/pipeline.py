@@ -565,6 +565,11 @@ def stage_refine(
         add_remove_every=rc.add_remove_every,
         eye_sigma_mm=scielab.smallest_sigma_mm(cfg.view.distance_m),
         layer_weight=rc.layer_weight,
+        view=(
+            refine.ViewFilters(scielab.filters_mm(cfg.view.distance_m), rc.pixel_weight)
+            if rc.objective == "viewer"
+            else None
+        ),
     )
     alpha_targets = np.stack([spray.resample(a, shape) for a in layers.alphas]) if layers.count else None
 

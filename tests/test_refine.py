@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 from stencil_cad.config.spray import SprayConfig
 from stencil_cad.model import DotSet
-from stencil_cad.simulate import spray_opacity
+from stencil_cad.simulate import scielab, spray_opacity
 from stencil_cad.simulate.spray import hole_kernels
 from stencil_cad.stipple import refine
 from stencil_cad.stipple.refine import RefineSettings, refine_dots
@@ -34,8 +34,8 @@ def test_transmittance_matches_the_simulator():
     assert np.max(np.abs((1.0 - t) - exact)) < 2e-3
 
 
-@pytest.mark.parametrize("eye_mm", [0.0, 0.4])
-def test_gradient_is_exact(eye_mm):
+@pytest.mark.parametrize(("eye_mm", "view"), [(0.0, False), (0.4, False), (0.0, True)])
+def test_gradient_is_exact(eye_mm, view):
     rng = np.random.default_rng(5)
     pitch, shape = 0.25, (64, 64)
     colours = np.array([[0.8, 0.2, 0.1], [0.1, 0.1, 0.3]])
@@ -48,8 +48,11 @@ def test_gradient_is_exact(eye_mm):
     kern = _kernels()
 
     alphas = rng.uniform(0.0, 0.8, (2, *shape))
+    # The viewer's filters at 0.25 m (a narrow lobe of 0.09 mm, wide ones of 1-2 mm) with a pixel term.
+    filters = refine.ViewFilters(scielab.filters_mm(0.25), pixel_weight=0.5) if view else None
 
     def evaluate(dtype=np.float64):
+        viewer = refine._Viewer(target.astype(dtype), pitch, filters) if view else None
         return refine._evaluate(
             state,
             kern,
@@ -60,6 +63,7 @@ def test_gradient_is_exact(eye_mm):
             PRIMER,
             colours,
             eye_mm / pitch,
+            viewer=viewer,
         )
 
     def energy():
@@ -131,3 +135,18 @@ def test_refined_dots_always_pass_the_rules(seed, n, keepout):
     check_rules(out[0].xy_mm, out[0].r_mm, rules)
     assert np.all(out[0].r_mm <= 1.0 + 1e-12)
     assert rep["objective_end"] <= rep["objective_start"] + 1e-9
+
+
+def test_the_viewer_objective_lowers_its_error_and_keeps_the_rules():
+    rules = _rules()
+    shape = (120, 120)
+    ramp = np.linspace(1.0, 0.3, shape[1])[None, :, None] * np.ones((*shape, 3))
+    rng = np.random.default_rng(1)
+    xy, r, _ = enforce_rules(rng.uniform(2.5, 27.5, (150, 2)), np.full(150, 0.5), rules)
+    view = refine.ViewFilters(scielab.filters_mm(1.0), pixel_weight=0.5)
+    s = RefineSettings(iterations=12, max_radius_mm=1.0, add_remove_every=4, view=view)
+    out, rep = refine_dots(
+        ramp, 0.25, PRIMER, INK, [DotSet(xy_mm=xy, r_mm=r, report={})], [rules], _kernels(), [0.8], s
+    )
+    assert rep["objective_end"] < 0.9 * rep["objective_start"]
+    check_rules(out[0].xy_mm, out[0].r_mm, rules)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 from pydantic import Field
 
 from .base import StrictModel
@@ -56,6 +58,26 @@ class RefineConfig(StrictModel):
         description=(
             "Weight of each layer's own opacity error beside the error of the composite colour (0: the "
             "composite alone; then one layer may drift from its target to make up for another). Range [0, 100]."
+        ),
+    )
+    objective: Literal["viewer", "rgb"] = Field(
+        "rgb",
+        description=(
+            "What the refinement minimises. viewer: the colour difference a person sees from "
+            "view.distance_m (the composite's error in S-CIELAB's opponent space, each channel blurred by "
+            "the eye's filter there, weighted as CIEDE2000 weighs it at the picture's colours). rgb: the sRGB "
+            "error blurred by the eye's narrowest (luminance) filter alone (the default: on the SLA photos of "
+            "python -m benchmarks quality, viewer scored 0.1-0.16 better at 1 m on coffee and chelsea, 0.04 worse "
+            "on astronaut, with a pixel CIEDE2000 up to 0.4 worse, for 3-4x the refinement's time)."
+        ),
+    )
+    pixel_weight: float = Field(
+        0.0,
+        ge=0.0,
+        le=10.0,
+        description=(
+            "With objective viewer: weight of the unblurred, pixel-by-pixel colour difference beside the "
+            "viewer's. Range [0, 10]."
         ),
     )
     add_remove_every: int = Field(

@@ -55,6 +55,7 @@ import numpy as np
 __all__ = [
     "DEFAULT_DISTANCE_M",
     "FILTERS",
+    "filters_mm",
     "samples_per_degree",
     "scielab",
     "scielab_filter",
@@ -116,6 +117,12 @@ def smallest_sigma_mm(distance_m: float) -> float:
     """Standard deviation in mm of the eye's narrowest (luminance) Gaussian at a distance."""
     fwhm_deg = min(w for ch in FILTERS for w, _ in ch)
     return 1000.0 * distance_m * math.tan(math.radians(fwhm_deg)) * _FWHM_TO_SIGMA
+
+
+def filters_mm(distance_m: float) -> tuple[tuple[tuple[float, float], ...], ...]:
+    """:data:`FILTERS` at a viewing distance: per channel ``((sigma_mm, weight), ...)``."""
+    mm_per_deg = 1000.0 * distance_m * math.tan(math.radians(1.0))
+    return tuple(tuple((w * mm_per_deg * _FWHM_TO_SIGMA, wt) for w, wt in ch) for ch in FILTERS)
 
 
 def _srgb_to_opp(rgb: np.ndarray) -> np.ndarray:

@@ -95,6 +95,8 @@ class RefineSettings:
         add_remove_every: Add/remove moves every this many iterations (0: never).
         eye_sigma_mm: Standard deviation of the eye filter in the objective, mm (0: none).
         layer_weight: Weight of each layer's own opacity error beside the composite's.
+        view: The viewer's filters: with them the composite's error is the viewer's colour
+            error (:class:`_Viewer`); without, the sRGB error filtered by ``eye_sigma_mm``.
     """
 
     iterations: int = 60
@@ -104,6 +106,7 @@ class RefineSettings:
     add_remove_every: int = 15
     eye_sigma_mm: float = 0.0
     layer_weight: float = 1.0
+    view: ViewFilters | None = None
 
 
 # --------------------------------------------------------------------------- compiled kernels
@@ -311,14 +314,16 @@ def _composite_residuals(trans, primer, colours, target, alpha_t, res, lres):  #
 
 
 @numba.njit(cache=True, parallel=True)
-def _opacity_gradients(trans, primer, colours, dedc, dl, lam, gt, gq):  # pragma: no cover - compiled
+def _opacity_gradients(trans, primer, colours, dedc, dl, lam, gt, gq, qm):  # pragma: no cover - compiled
     """Per layer ``G T`` into ``gt`` (L, H, W), ``G = dE/dalpha_l``; ``G`` and ``Q`` into ``gq`` (2, L, H, W) if it has room.
 
     ``dC/dalpha_l = (c_l - C_{l-1}) prod_{m > l} T_m``, so ``G = dE/dC . dC/dalpha_l`` plus
-    ``lam`` times the layer term's gradient ``dl`` (no layers: off) and ``Q = |dC/dalpha_l|^2 + lam``.
+    ``lam`` times the layer term's gradient ``dl`` (no layers: off) and ``Q = |dC/dalpha_l|^2 + lam``
+    (``Q = dC^T M dC + lam`` with a per-pixel (3, 3) metric ``qm`` of (H, W, 3, 3); (0, 0, 3, 3): none).
     """
     n_l, h, w = trans.shape
     want_q = gq.shape[0] > 0
+    metric = qm.shape[0] > 0
     layer_term = dl.shape[0] > 0
     for r in numba.prange(h):
         bef = np.empty((n_l, 3))
@@ -347,7 +352,14 @@ def _opacity_gradients(trans, primer, colours, dedc, dl, lam, gt, gq):  # pragma
                 gt[m, r, c] = gl * tm
                 if want_q:
                     gq[0, m, r, c] = gl
-                    gq[1, m, r, c] = j0 * j0 + j1 * j1 + j2 * j2 + lam
+                    if metric:
+                        q = 0.0
+                        for i in range(3):
+                            ji = j0 if i == 0 else (j1 if i == 1 else j2)
+                            q += ji * (qm[r, c, i, 0] * j0 + qm[r, c, i, 1] * j1 + qm[r, c, i, 2] * j2)
+                        gq[1, m, r, c] = q + lam
+                    else:
+                        gq[1, m, r, c] = j0 * j0 + j1 * j1 + j2 * j2 + lam
                 s *= tm
 
 
@@ -725,6 +737,141 @@ def _filtered(res: np.ndarray, eye_px: float) -> tuple[float, np.ndarray]:
     return 0.5 * _dot(res, d), d
 
 
+# --------------------------------------------------------------------------- the viewer's objective
+
+
+@dataclass(frozen=True)
+class ViewFilters:
+    """The eye's filters of the viewer's objective (S-CIELAB's, at one viewing distance).
+
+    Attributes:
+        channels: Per opponent channel (luminance, red-green, blue-yellow), the Gaussians
+            ``((sigma_mm, weight), ...)`` of :data:`stencil_cad.simulate.scielab.FILTERS`
+            at the viewing distance.
+        pixel_weight: Weight of the unfiltered (pixel-by-pixel) colour error beside the
+            filtered one.
+    """
+
+    channels: tuple[tuple[tuple[float, float], ...], ...]
+    pixel_weight: float = 0.0
+
+
+#: CIE XYZ of the D65 white (2° observer), as CIELAB is computed for the scores.
+_WHITE = np.array([0.95047, 1.0, 1.08883])
+#: One ΔE of CIELAB is about 0.01 of an sRGB channel near mid grey; this scale puts the viewer's
+#: squared ΔE on the footing of the squared sRGB error summed over three channels, so the
+#: per-layer opacity term keeps its weight.
+_LAB_SCALE = 3e-4
+
+
+def _lab_metric(target: np.ndarray) -> np.ndarray:
+    """Per pixel, the (3, 3) metric in opponent coordinates that gives CIEDE2000's squared ΔE there.
+
+    CIEDE2000 linearised at the target's colour: XYZ -> CIELAB's Jacobian, then lightness,
+    chroma and hue differences weighted by ``1 / S_L``, ``1 / S_C`` and ``1 / S_H`` (the
+    hue-rotation term and the ``a*`` rescaling of small chroma are left out).
+    """
+    from skimage.color import rgb2lab, rgb2xyz
+
+    from ..simulate.scielab import OPP_TO_XYZ
+
+    h, w = target.shape[:2]
+    rgb = np.clip(target.astype(np.float64), 0.0, 1.0)
+    t = rgb2xyz(rgb) / _WHITE
+    lab = rgb2lab(rgb)
+    eps = 216.0 / 24389.0
+    df = np.where(t > eps, np.cbrt(np.maximum(t, eps)) ** -2 / 3.0, 7.787)  # d f(t) / dt
+    df = df / _WHITE
+    jac = np.zeros((h, w, 3, 3))
+    jac[..., 0, 1] = 116.0 * df[..., 1]
+    jac[..., 1, 0] = 500.0 * df[..., 0]
+    jac[..., 1, 1] = -500.0 * df[..., 1]
+    jac[..., 2, 1] = 200.0 * df[..., 1]
+    jac[..., 2, 2] = -200.0 * df[..., 2]
+    a = jac @ OPP_TO_XYZ  # d Lab / d opp
+    light = lab[..., 0] - 50.0
+    s_l = 1.0 + 0.015 * light**2 / np.sqrt(20.0 + light**2)
+    chroma = np.hypot(lab[..., 1], lab[..., 2])
+    s_c = 1.0 + 0.045 * chroma
+    s_h = 1.0 + 0.015 * chroma
+    safe = np.maximum(chroma, 1e-9)
+    u = np.where(
+        chroma[..., None] > 1e-6, np.stack([lab[..., 1], lab[..., 2]], -1) / safe[..., None], [1.0, 0.0]
+    )
+    d = np.zeros((h, w, 3, 3))
+    d[..., 0, 0] = 1.0 / s_l**2
+    uu = u[..., :, None] * u[..., None, :]
+    vv = np.eye(2) - uu
+    d[..., 1:, 1:] = uu / (s_c**2)[..., None, None] + vv / (s_h**2)[..., None, None]
+    return np.einsum("...ki,...kl,...lj->...ij", a, d, a)
+
+
+class _Viewer:
+    """The viewer's colour error on the simulation grid: S-CIELAB's filters, CIEDE2000's weights.
+
+    ``E = s sum_p F(p)^T W(p) F(p) + s beta sum_p r(p)^T W(p) r(p)`` with ``r = opp(C) - opp(C*)``
+    the composite's error in the opponent space (sRGB decoded, to XYZ, to opponent), ``F`` each
+    channel of ``r`` filtered by its sum of Gaussians and ``W`` the CIEDE2000 metric at the
+    target's colour (:func:`_lab_metric`); ``beta`` the pixel weight, ``s`` :data:`_LAB_SCALE`.
+    Gaussians of the filters wider than the picture's shorter side / 4 are left out (the
+    luminance channel's 7° lobe at ordinary sizes: a negative weight on the picture's mean).
+    """
+
+    def __init__(self, target: np.ndarray, pitch: float, view: ViewFilters):
+        from skimage.color.colorconv import xyz_from_rgb
+
+        from ..simulate.scielab import XYZ_TO_OPP
+
+        self.m = (XYZ_TO_OPP @ xyz_from_rgb).astype(np.float64)  # linear sRGB -> opponent
+        self.dt = target.dtype
+        h, w = target.shape[:2]
+        cap = min(h, w) / 4.0
+        self.filters = [[(s / pitch, wt) for s, wt in ch if s / pitch <= cap] for ch in view.channels]
+        self.beta = float(view.pixel_weight)
+        lin, dlin = self._decode(target)
+        self.opp_t = (lin @ self.m.T).astype(self.dt)
+        metric = _lab_metric(target)
+        self.w = np.ascontiguousarray(metric, dtype=self.dt)
+        # The metric in sRGB coordinates at the target (the add/remove moves' curvature Q).
+        jm = self.m[None, None, :, :] * dlin[..., None, :]  # d opp / d srgb
+        gain = sum(wt for _, wt in self.filters[0]) ** 2
+        self.q = np.ascontiguousarray(
+            _LAB_SCALE * (gain + self.beta) * np.einsum("...ki,...kl,...lj->...ij", jm, metric, jm),
+            dtype=self.dt,
+        )
+
+    @staticmethod
+    def _decode(rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        c = np.clip(rgb.astype(np.float64), 0.0, 1.0)
+        hi = c > 0.04045
+        lin = np.where(hi, ((c + 0.055) / 1.055) ** 2.4, c / 12.92)
+        dlin = np.where(hi, 2.4 / 1.055 * ((c + 0.055) / 1.055) ** 1.4, 1.0 / 12.92)
+        return lin, dlin
+
+    def _filter(self, img: np.ndarray) -> np.ndarray:
+        out = np.zeros_like(img)
+        for ch, gaussians in enumerate(self.filters):
+            plane = np.ascontiguousarray(img[..., ch])
+            for s, wt in gaussians:
+                out[..., ch] += wt * _gauss(plane, s)
+        return out
+
+    def error(self, res: np.ndarray, target: np.ndarray) -> tuple[float, np.ndarray]:
+        """``E`` and ``dE/dC`` for the composite ``C = target + res``."""
+        lin, dlin = self._decode(target + res)
+        r = (lin @ self.m.T).astype(self.dt) - self.opp_t
+        f = self._filter(r)
+        wf = np.einsum("...ij,...j->...i", self.w, f)
+        e = _dot(np.ascontiguousarray(f), np.ascontiguousarray(wf))
+        grad_r = 2.0 * self._filter(wf)
+        if self.beta > 0:
+            wr = np.einsum("...ij,...j->...i", self.w, r)
+            e += self.beta * _dot(np.ascontiguousarray(r), np.ascontiguousarray(wr))
+            grad_r += 2.0 * self.beta * wr
+        dedc = (grad_r.astype(np.float64) @ self.m) * dlin
+        return _LAB_SCALE * e, np.ascontiguousarray(_LAB_SCALE * dedc, dtype=self.dt)
+
+
 @dataclass
 class _Eval:
     """The objective at one state: per-layer ``T`` (L, H, W), ``E``, ``G T`` (L, H, W), ``(G, Q)`` if asked."""
@@ -736,7 +883,7 @@ class _Eval:
 
 
 def _evaluate(
-    state, kernels, pitch, target, alpha_targets, lam, primer, colours, eye_px, want_q=False
+    state, kernels, pitch, target, alpha_targets, lam, primer, colours, eye_px, want_q=False, viewer=None
 ) -> _Eval:
     """The composite's filtered squared error plus ``lam`` times each layer's, and its gradients.
 
@@ -756,14 +903,19 @@ def _evaluate(
     lres = np.empty((n_t, h, w), dtype=dt)
     a_t = alpha_targets if n_t else lres
     _composite_residuals(trans, primer, colours, target, a_t, res, lres)
-    e, dedc = _filtered(res, eye_px)
+    if viewer is not None:
+        e, dedc = viewer.error(res, target)
+        qm = viewer.q
+    else:
+        e, dedc = _filtered(res, eye_px)
+        qm = np.zeros((0, 0, 3, 3), dtype=dt)
     dl = np.empty_like(lres)
     for k in range(n_t):
         ek, dl[k] = _filtered(lres[k], eye_px)
         e += lam * ek
     gt = np.empty_like(trans)
     gq = np.empty((2, n_l, h, w) if want_q else (0, 1, 1, 1), dtype=dt)
-    _opacity_gradients(trans, primer, colours, dedc, dl, float(lam), gt, gq)
+    _opacity_gradients(trans, primer, colours, dedc, dl, float(lam), gt, gq, qm)
     return _Eval(trans, e, gt, gq if want_q else None)
 
 
@@ -979,9 +1131,11 @@ def refine_dots(
     alpha_targets = None if alpha_targets is None else np.ascontiguousarray(alpha_targets, dtype=np.float32)
     lam = settings.layer_weight if alpha_targets is not None else 0.0
 
+    viewer = _Viewer(target, mm_per_px, settings.view) if settings.view is not None else None
+
     def evaluate(want_q=False):
         return _evaluate(
-            state, kernels, mm_per_px, target, alpha_targets, lam, primer, colours, eye_px, want_q
+            state, kernels, mm_per_px, target, alpha_targets, lam, primer, colours, eye_px, want_q, viewer
         )
 
     ev = evaluate()
