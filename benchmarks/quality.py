@@ -42,7 +42,7 @@ SETTINGS = ("fdm", "sla")
 #: Nozzle heights h each mode is sprayed at; each reports its best. Soft stencils only gain
 #: from higher nozzles (their dots blend), hard ones from lower (their edges stay sharp), so
 #: the soft side skips h = 3, where every stipple and refinement would run once more.
-SOFT_HEIGHTS = (7.0, 15.0)
+SOFT_HEIGHTS = (15.0, 30.0)
 HARD_HEIGHTS = (3.0, 5.0, 7.0, 15.0)
 #: Viewing distances of the scores, m.
 DISTANCES_M = (1.0, 2.0)
