@@ -93,18 +93,26 @@ def _rules(w=30.0, h=30.0, keepouts=()):
     )
 
 
-def _refine(xy, r, rules, target, iterations=12, every=4):
+def _refine(xy, r, rules, target, iterations=12, every=4, view=None):
     ds = DotSet(xy_mm=xy, r_mm=r, report={})
-    s = RefineSettings(iterations=iterations, max_radius_mm=1.0, add_remove_every=every, eye_sigma_mm=0.3)
+    s = RefineSettings(
+        iterations=iterations, max_radius_mm=1.0, add_remove_every=every, eye_sigma_mm=0.3, view=view
+    )
     return refine_dots(target, 0.25, PRIMER, INK, [ds], [rules], _kernels(), [0.8], s)
 
 
-def test_refinement_lowers_the_composite_error_on_a_ramp():
+def _ramp_case(seed):
+    """A grey ramp and 150 floor-size holes that pass the rules."""
     rules = _rules()
     shape = (120, 120)
     ramp = np.linspace(1.0, 0.3, shape[1])[None, :, None] * np.ones((*shape, 3))
-    rng = np.random.default_rng(0)
+    rng = np.random.default_rng(seed)
     xy, r, _ = enforce_rules(rng.uniform(2.5, 27.5, (150, 2)), np.full(150, 0.5), rules)
+    return rules, ramp, xy, r
+
+
+def test_refinement_lowers_the_composite_error_on_a_ramp():
+    rules, ramp, xy, r = _ramp_case(0)
     out, rep = _refine(xy, r, rules, ramp)
     assert rep["objective_end"] < 0.8 * rep["objective_start"]
     check_rules(out[0].xy_mm, out[0].r_mm, rules)
@@ -138,15 +146,8 @@ def test_refined_dots_always_pass_the_rules(seed, n, keepout):
 
 
 def test_the_viewer_objective_lowers_its_error_and_keeps_the_rules():
-    rules = _rules()
-    shape = (120, 120)
-    ramp = np.linspace(1.0, 0.3, shape[1])[None, :, None] * np.ones((*shape, 3))
-    rng = np.random.default_rng(1)
-    xy, r, _ = enforce_rules(rng.uniform(2.5, 27.5, (150, 2)), np.full(150, 0.5), rules)
+    rules, ramp, xy, r = _ramp_case(1)
     view = refine.ViewFilters(scielab.filters_mm(1.0), pixel_weight=0.5)
-    s = RefineSettings(iterations=12, max_radius_mm=1.0, add_remove_every=4, view=view)
-    out, rep = refine_dots(
-        ramp, 0.25, PRIMER, INK, [DotSet(xy_mm=xy, r_mm=r, report={})], [rules], _kernels(), [0.8], s
-    )
+    out, rep = _refine(xy, r, rules, ramp, view=view)
     assert rep["objective_end"] < 0.9 * rep["objective_start"]
     check_rules(out[0].xy_mm, out[0].r_mm, rules)

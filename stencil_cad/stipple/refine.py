@@ -771,14 +771,14 @@ def _lab_metric(target: np.ndarray) -> np.ndarray:
     chroma and hue differences weighted by ``1 / S_L``, ``1 / S_C`` and ``1 / S_H`` (the
     hue-rotation term and the ``a*`` rescaling of small chroma are left out).
     """
-    from skimage.color import rgb2lab, rgb2xyz
+    from skimage.color import rgb2xyz, xyz2lab
 
     from ..simulate.scielab import OPP_TO_XYZ
 
     h, w = target.shape[:2]
-    rgb = np.clip(target.astype(np.float64), 0.0, 1.0)
-    t = rgb2xyz(rgb) / _WHITE
-    lab = rgb2lab(rgb)
+    xyz = rgb2xyz(np.clip(target.astype(np.float64), 0.0, 1.0))
+    t = xyz / _WHITE
+    lab = xyz2lab(xyz)
     eps = 216.0 / 24389.0
     df = np.where(t > eps, np.cbrt(np.maximum(t, eps)) ** -2 / 3.0, 7.787)  # d f(t) / dt
     df = df / _WHITE
