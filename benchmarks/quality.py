@@ -41,8 +41,9 @@ IMAGES = ("astronaut", "coffee", "chelsea", "rocket")
 SETTINGS = ("fdm", "sla")
 #: Nozzle heights h each mode is sprayed at; each reports its best. Soft stencils only gain
 #: from higher nozzles (their dots blend), hard ones from lower (their edges stay sharp), so
-#: the soft side skips h = 3, where every stipple and refinement would run once more.
-SOFT_HEIGHTS = (15.0, 30.0)
+#: the soft side skips the low ones, where every stipple and refinement would run once more:
+#: 22 and 30 are the FDM and SLA defaults (spray.nozzle_height), 60 where rocket scored best.
+SOFT_HEIGHTS = (22.0, 30.0, 60.0)
 HARD_HEIGHTS = (3.0, 5.0, 7.0, 15.0)
 #: Viewing distances of the scores, m.
 DISTANCES_M = (1.0, 2.0)
@@ -267,10 +268,10 @@ def run(cases=None):
             row.update(timing[hs])
             row["by_nozzle_height"] = {
                 f"{h:g}": {
-                    "hard": hard[h],
+                    **({"hard": hard[h]} if h in hard else {}),
                     **({"soft": soft[h], "soft_norefine": plain[h], **timing[h]} if h in soft else {}),
                 }
-                for h in HARD_HEIGHTS
+                for h in sorted({*HARD_HEIGHTS, *soft})
             }
             row["picture_px"] = list(pic.shape)
             row["sim_px"] = list(shape)

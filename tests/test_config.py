@@ -112,3 +112,34 @@ def test_json_schema_forbids_extra_keys():
 def test_booleans_are_not_numbers():
     with pytest.raises(ConfigError, match=r"size\.width_mm: must be a number"):
         parse_config({"size": {"width_mm": True}})
+
+
+@pytest.mark.parametrize(
+    ("data", "want"),
+    [
+        ({}, 22.0),
+        ({"stipple": {"process": "fdm"}}, 22.0),
+        ({"stipple": {"process": "sla"}}, 30.0),
+        ({"stipple": {"process": "laser"}}, 30.0),
+        ({"stipple": {"process": "sla"}, "spray": {"nozzle_height": None, "spray_time": 2.0}}, 30.0),
+        ({"stipple": {"process": "sla"}, "spray": {"nozzle_height": 7.0}}, 7.0),
+    ],
+)
+def test_nozzle_height_defaults_to_the_process_best(data, want):
+    cfg = parse_config(data, source="test")
+    assert cfg.spray.nozzle_height == want
+    # A dumped config keeps the value it resolved to, whatever its process is changed to later.
+    dumped = cfg.model_dump(mode="json")
+    dumped["stipple"]["process"] = "laser" if want == 22.0 else "fdm"
+    assert parse_config(dumped, source="test").spray.nozzle_height == want
+
+
+def test_template_leaves_the_nozzle_height_to_the_process(tmp_path):
+    import yaml
+
+    data = yaml.safe_load(default_yaml())
+    assert data["spray"]["nozzle_height"] is None
+    data["stipple"]["process"] = "sla"
+    p = tmp_path / "c.yaml"
+    p.write_text(yaml.safe_dump(data))
+    assert load_config(p).spray.nozzle_height == 30.0

@@ -8,7 +8,6 @@ import pytest
 from stencil_cad import mural, resolution
 from stencil_cad.config import io as cfg_io
 from stencil_cad.config.bed import BED_PRESETS, parse_bed_arg, resolve_bed
-from stencil_cad.config.spray import SprayConfig
 from stencil_cad.errors import ConfigError, UserError
 from stencil_cad.model import DotSet
 from stencil_cad.outline import plate_outline, polygon_area
@@ -169,7 +168,7 @@ def test_tiled_spray_equals_global_and_misregistration_costs():
     assert len(grid.tiles) == 4
     rng = np.random.default_rng(3)
     layers = [_random_dots(rng, 300, 200, 1500), _random_dots(rng, 300, 200, 900, r=1.3)]
-    sp = SprayConfig()
+    sp = cfg.spray  # the halo the grid was planned with follows the job's spray
     g = 0.7
     shape = (int(200 / g), int(300 / g))
     tols = [simulate.tail_tolerance(d.xy_mm, d.r_mm, shape, g, sp) for d in layers]

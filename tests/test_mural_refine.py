@@ -48,7 +48,7 @@ def small_mural():
 
     from stencil_cad import simulate
 
-    sp = SprayConfig()
+    sp = cfg.spray
     other = [
         stipple.stipple_layer(a, g, cfg.stipple, np.random.default_rng(10 + i)) for i, a in enumerate(alphas)
     ]

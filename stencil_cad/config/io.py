@@ -363,6 +363,8 @@ def default_yaml() -> str:
     from . import JobConfig
 
     values = JobConfig().model_dump(mode="json")
+    # Filled in from stipple.process when left out: the template leaves it to the process.
+    values["spray"]["nozzle_height"] = None
     head = [
         "# stencil_cad job config. Every key is optional; the values below are the defaults.",
         "# Run it with:  stencil-cad run this.yaml   (editors: `stencil-cad schema` prints a JSON Schema)",

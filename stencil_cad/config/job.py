@@ -16,8 +16,8 @@ from .decompose import DecomposeConfig
 from .hard import HardConfig
 from .paints import PaintsConfig
 from .refine import RefineConfig
-from .spray import SprayConfig
-from .stipple import StippleConfig
+from .spray import NOZZLE_HEIGHT_BY_PROCESS, SprayConfig
+from .stipple import Process, StippleConfig
 from .view import ViewConfig
 
 
@@ -119,6 +119,28 @@ class JobConfig(StrictModel):
     @classmethod
     def _bed(cls, value):
         return parse_bed(value)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _process_nozzle_height(cls, data):
+        """A spray section without a nozzle height (or with null) gets its process's best one."""
+        if not isinstance(data, dict):
+            return data
+        spray = data.get("spray")
+        if isinstance(spray, SprayConfig) or (spray is not None and not isinstance(spray, dict)):
+            return data
+        if spray is not None and spray.get("nozzle_height") is not None:
+            return data
+        stipple = data.get("stipple")
+        if isinstance(stipple, StippleConfig):
+            process = stipple.process
+        else:
+            raw = stipple.get("process", Process.fdm) if isinstance(stipple, dict) else Process.fdm
+            try:
+                process = Process(raw)
+            except ValueError:
+                return data  # the stipple section's own validation names the bad process
+        return {**data, "spray": {**(spray or {}), "nozzle_height": NOZZLE_HEIGHT_BY_PROCESS[process.value]}}
 
     @model_validator(mode="after")
     def _cross_checks(self) -> JobConfig:

@@ -10,6 +10,12 @@ from pydantic import Field, field_validator
 
 from .base import StrictModel
 
+#: The nozzle height each process's soft stencils score best from, seen from 1 m (stipple.process ->
+#: spray.nozzle_height; see the field's description for the figures).
+NOZZLE_HEIGHT_BY_PROCESS: dict[str, float] = {"fdm": 22.0, "sla": 30.0, "laser": 30.0}
+#: The nozzle height of a spray section outside a job, where no process is known.
+DEFAULT_NOZZLE_HEIGHT = NOZZLE_HEIGHT_BY_PROCESS["sla"]
+
 
 class Calibrate(str, enum.Enum):
     """How the calibrated tone curve picks the free spray parameter of each layer."""
@@ -171,8 +177,8 @@ class SprayConfig(StrictModel):
             "(spray.calibrate: spray_time); this is then the starting value."
         ),
     )
-    nozzle_height: float = Field(
-        30.0,
+    nozzle_height: float | None = Field(
+        None,
         ge=0.0,
         le=1000.0,
         description=(
@@ -181,8 +187,10 @@ class SprayConfig(StrictModel):
             "(r^2 / 4 is the variance of a uniform disc, so h = 0 puts the paint exactly under the hole and "
             "the dot's variance grows linearly with h, i.e. with the nozzle's distance). To fit it to a real "
             "can, spray one test hole and measure the dot's full width at half maximum W: "
-            "h = (W / (1.1774 r))^2 - 1. Range [0, 1000]. The default 30 is where soft stencils score best "
-            "from 1 m (python -m benchmarks quality: 22-35 on its photos; 15 scored 0.4-0.9 worse). Hard mode sprays from hard.nozzle_height instead."
+            "h = (W / (1.1774 r))^2 - 1. Range [0, 1000], or null: the height where soft stencils of "
+            "stipple.process score best from 1 m, 22 for fdm and 30 for sla and laser (python -m benchmarks "
+            "quality: FDM astronaut 10.4 S-CIELAB at 22, 11.2 at 30; SLA astronaut 6.8 at 30; laser holes are "
+            "the size of SLA ones and take its value). Hard mode sprays from hard.nozzle_height instead."
         ),
     )
     px_per_mm: float = Field(
@@ -242,6 +250,12 @@ class SprayConfig(StrictModel):
     def amount_unit(self) -> str:
         """``passes`` or ``spray time``."""
         return "passes" if self.model == SprayModel.physical else "spray time"
+
+    @field_validator("nozzle_height")
+    @classmethod
+    def _nozzle_default(cls, v: float | None) -> float:
+        # A job fills null in with its process's value (JobConfig); alone, the SLA/laser one.
+        return DEFAULT_NOZZLE_HEIGHT if v is None else v
 
     @field_validator("sweep_factors")
     @classmethod
