@@ -177,10 +177,13 @@ class SprayConfig(StrictModel):
             "(spray.calibrate: spray_time); this is then the starting value."
         ),
     )
-    nozzle_height: float | None = Field(
-        None,
+    # null is read as "the process's best" (see the validator and JobConfig), so a validated
+    # section always holds a number: the schema says null is allowed, the type says float.
+    nozzle_height: float = Field(
+        DEFAULT_NOZZLE_HEIGHT,
         ge=0.0,
         le=1000.0,
+        json_schema_extra={"type": ["number", "null"], "default": None},
         description=(
             "Paper model: nozzle height h, dimensionless: the extra spread of the paint as a multiple of the "
             "hole's own spread. A hole of radius r sprays a Gaussian dot of sigma = r * sqrt(1 + h) / 2 "
@@ -251,9 +254,9 @@ class SprayConfig(StrictModel):
         """``passes`` or ``spray time``."""
         return "passes" if self.model == SprayModel.physical else "spray time"
 
-    @field_validator("nozzle_height")
+    @field_validator("nozzle_height", mode="before")
     @classmethod
-    def _nozzle_default(cls, v: float | None) -> float:
+    def _nozzle_default(cls, v: Any) -> Any:
         # A job fills null in with its process's value (JobConfig); alone, the SLA/laser one.
         return DEFAULT_NOZZLE_HEIGHT if v is None else v
 
