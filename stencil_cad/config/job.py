@@ -126,21 +126,18 @@ class JobConfig(StrictModel):
         """A spray section without a nozzle height (or with null) gets its process's best one."""
         if not isinstance(data, dict):
             return data
-        spray = data.get("spray")
-        if isinstance(spray, SprayConfig) or (spray is not None and not isinstance(spray, dict)):
-            return data
-        if spray is not None and spray.get("nozzle_height") is not None:
-            return data
-        stipple = data.get("stipple")
+        spray = data.get("spray") or {}
+        if not isinstance(spray, dict) or spray.get("nozzle_height") is not None:
+            return data  # a SprayConfig object or a number: kept as given
+        stipple = data.get("stipple") or {}
         if isinstance(stipple, StippleConfig):
             process = stipple.process
         else:
-            raw = stipple.get("process", Process.fdm) if isinstance(stipple, dict) else Process.fdm
             try:
-                process = Process(raw)
-            except ValueError:
-                return data  # the stipple section's own validation names the bad process
-        return {**data, "spray": {**(spray or {}), "nozzle_height": NOZZLE_HEIGHT_BY_PROCESS[process.value]}}
+                process = Process(stipple.get("process") or Process.fdm)
+            except (AttributeError, TypeError, ValueError):
+                return data  # the stipple section's own validation names what is wrong
+        return {**data, "spray": {**spray, "nozzle_height": NOZZLE_HEIGHT_BY_PROCESS[process]}}
 
     @model_validator(mode="after")
     def _cross_checks(self) -> JobConfig:

@@ -9,12 +9,13 @@ from typing import Any
 from pydantic import Field, field_validator
 
 from .base import StrictModel
+from .stipple import Process
 
 #: The nozzle height each process's soft stencils score best from, seen from 1 m (stipple.process ->
 #: spray.nozzle_height; see the field's description for the figures).
-NOZZLE_HEIGHT_BY_PROCESS: dict[str, float] = {"fdm": 22.0, "sla": 30.0, "laser": 30.0}
+NOZZLE_HEIGHT_BY_PROCESS: dict[Process, float] = {Process.fdm: 22.0, Process.sla: 30.0, Process.laser: 30.0}
 #: The nozzle height of a spray section outside a job, where no process is known.
-DEFAULT_NOZZLE_HEIGHT = NOZZLE_HEIGHT_BY_PROCESS["sla"]
+DEFAULT_NOZZLE_HEIGHT = NOZZLE_HEIGHT_BY_PROCESS[Process.sla]
 
 
 class Calibrate(str, enum.Enum):
