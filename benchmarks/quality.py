@@ -42,7 +42,7 @@ SETTINGS = ("fdm", "sla")
 #: Nozzle heights h each mode is sprayed at; each reports its best. Soft stencils only gain
 #: from higher nozzles (their dots blend), hard ones from lower (their edges stay sharp), so
 #: the soft side skips the low ones, where every stipple and refinement would run once more:
-#: 22 and 30 are the FDM and SLA defaults (spray.nozzle_height), 60 where rocket scored best.
+#: 30 is every process's default (spray.nozzle_height), 22 where chelsea scores best, 60 where rocket does.
 SOFT_HEIGHTS = (22.0, 30.0, 60.0)
 HARD_HEIGHTS = (3.0, 5.0, 7.0, 15.0)
 #: Viewing distances of the scores, m.

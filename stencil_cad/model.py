@@ -116,6 +116,41 @@ def composite(primer: np.ndarray, colours: np.ndarray, alphas: np.ndarray) -> np
     return out
 
 
+def coat_contrast(primer: np.ndarray, colours: np.ndarray, alphas: np.ndarray) -> np.ndarray:
+    """How much each layer's opacity moves the composite colour: ``|T_l (c_l - B_{l-1})|^2``.
+
+    With every other layer fixed the composite is affine in ``alpha_l``, with slope
+    ``T_l (c_l - B_{l-1})`` (``B_{l-1}``: the composite of the layers below, ``T_l``: the
+    transmittance of those above), so an opacity error ``e`` of layer ``l`` at a pixel is a
+    colour error of squared size ``e^2`` times this. It weighs a layer's opacity errors
+    in composite colour: a sparse scatter of orange dots over dark blue counts for more
+    than the same scatter over yellow.
+
+    Args:
+        primer: ``(3,)`` primer colour in [0, 1].
+        colours: ``(L, 3)`` paint colours in [0, 1].
+        alphas: ``(L, H, W)`` opacities in [0, 1].
+
+    Returns:
+        ``(L, H, W)`` ndarray (squared sRGB distance, 0 to 3) in the alphas' float type
+        (float32 alphas, as the pipeline keeps them, give float32: a mural's layers are large).
+    """
+    alphas = np.asarray(alphas)
+    dtype = alphas.dtype if alphas.dtype in (np.float32, np.float64) else np.dtype(np.float64)
+    alphas = alphas.astype(dtype, copy=False)
+    below = np.empty((*alphas.shape[1:], 3), dtype=dtype)
+    below[...] = np.asarray(primer, dtype=dtype)
+    out = np.empty(alphas.shape, dtype=dtype)
+    for layer, (colour, a) in enumerate(zip(np.asarray(colours, dtype=dtype), alphas, strict=True)):
+        out[layer] = ((colour - below) ** 2).sum(axis=-1)
+        below += a[..., None] * (colour - below)
+    trans = np.ones(alphas.shape[1:], dtype=dtype)
+    for layer in range(alphas.shape[0] - 1, -1, -1):
+        out[layer] *= trans * trans
+        trans *= 1.0 - alphas[layer]
+    return out
+
+
 @dataclass(frozen=True)
 class DotSet:
     """The holes of one soft-stencil layer: round holes only.

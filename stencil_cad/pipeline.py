@@ -23,7 +23,7 @@ from .colour import to_hex
 from .config import ComputeConfig, JobConfig, Mode
 from .config.spray import SprayModel
 from .errors import OutputError, UserError
-from .model import DotSet, Holes, Layers, Picture
+from .model import DotSet, Holes, Layers, Picture, coat_contrast
 from .output import MANIFEST, OutputDir, manifest_header
 from .output import plain as _plain
 
@@ -363,12 +363,17 @@ SPRAY_JSON = "spray.json"
 
 @dataclass(frozen=True)
 class StippleTask:
-    """One layer to stipple: its opacity, pixel size, the job config and its own generator."""
+    """One layer to stipple: its opacity, pixel size, the job config and its own generator.
+
+    ``weight`` weighs each pixel's error when the layer's spray time is chosen: the squared
+    colour change a full coat makes there (:func:`stencil_cad.model.coat_contrast`).
+    """
 
     alpha: np.ndarray
     mm_per_px: float
     cfg: JobConfig
     rng: np.random.Generator
+    weight: np.ndarray | None = None
 
 
 def _layer_tone(task: StippleTask):
@@ -382,7 +387,7 @@ def _layer_tone(task: StippleTask):
         return None, cfg.spray.amount
     from .simulate import tone
 
-    choice = tone.calibrated_tone_for(task.alpha, task.mm_per_px, cfg)
+    choice = tone.calibrated_tone_for(task.alpha, task.mm_per_px, cfg, task.weight)
     if getattr(cfg.spray.calibrate, "value", cfg.spray.calibrate) == "spray_time":
         return choice, float(choice.spray_time)
     return choice, cfg.spray.amount
@@ -437,8 +442,9 @@ def stage_stipple(
     with run.stage("stipple"):
         # One task per layer (on a cluster the layers stipple side by side); each layer's
         # generator comes from the seed, so any number of workers gives the same holes.
+        weights = coat_contrast(layers.primer, layers.colours, layers.alphas)
         tasks = [
-            StippleTask(alpha, layers.mm_per_px, cfg, run.rng_for("stipple", i))
+            StippleTask(alpha, layers.mm_per_px, cfg, run.rng_for("stipple", i), weights[i])
             for i, alpha in enumerate(layers.alphas)
         ]
         if grid is not None and grid.tiled and cfg.stipple.dots is None:

@@ -117,8 +117,8 @@ def test_booleans_are_not_numbers():
 @pytest.mark.parametrize(
     ("data", "want"),
     [
-        ({}, 22.0),
-        ({"stipple": {"process": "fdm"}}, 22.0),
+        ({}, 30.0),
+        ({"stipple": {"process": "fdm"}}, 30.0),
         ({"stipple": {"process": "sla"}}, 30.0),
         ({"stipple": {"process": "laser"}}, 30.0),
         ({"stipple": {"process": "sla"}, "spray": {"nozzle_height": None, "spray_time": 2.0}}, 30.0),
@@ -128,10 +128,20 @@ def test_booleans_are_not_numbers():
 def test_nozzle_height_defaults_to_the_process_best(data, want):
     cfg = parse_config(data, source="test")
     assert cfg.spray.nozzle_height == want
-    # A dumped config keeps the value it resolved to, whatever its process is changed to later.
-    dumped = cfg.model_dump(mode="json")
-    dumped["stipple"]["process"] = "laser" if want == 22.0 else "fdm"
-    assert parse_config(dumped, source="test").spray.nozzle_height == want
+
+
+def test_nozzle_height_is_filled_in_from_the_process(monkeypatch):
+    """Each process gets its own entry of the table, and a dumped config keeps what it resolved to."""
+    from stencil_cad.config.spray import NOZZLE_HEIGHT_BY_PROCESS
+    from stencil_cad.config.stipple import Process
+
+    monkeypatch.setitem(NOZZLE_HEIGHT_BY_PROCESS, Process.fdm, 22.0)
+    fdm = parse_config({"stipple": {"process": "fdm"}}, source="test")
+    assert fdm.spray.nozzle_height == 22.0
+    assert parse_config({"stipple": {"process": "laser"}}, source="test").spray.nozzle_height == 30.0
+    dumped = fdm.model_dump(mode="json")
+    dumped["stipple"]["process"] = "sla"
+    assert parse_config(dumped, source="test").spray.nozzle_height == 22.0
 
 
 def test_template_leaves_the_nozzle_height_to_the_process(tmp_path):

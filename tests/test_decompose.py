@@ -16,7 +16,7 @@ from stencil_cad.config.decompose import MAX_LAYERS, DecomposeConfig, colour_to_
 from stencil_cad.decompose import decompose, energy, energy_of
 from stencil_cad.decompose import solver as solver_mod
 from stencil_cad.exchange.layers_npz import layers_from_npz, layers_to_npz
-from stencil_cad.model import Picture, composite
+from stencil_cad.model import Picture, coat_contrast, composite
 
 # Ground truth of the synthetic test. The colours lie on the faces of the RGB
 # cube, as saturated paints do: with colours strictly inside the cube the
@@ -615,3 +615,22 @@ def test_source_colour_count_sees_a_transparent_edge(tmp_path):
     Image.fromarray(rgba).save(path)
     pic = load_picture(path, 32.0, None, 2.0)
     assert pic.distinct_colours >= 64
+
+
+def test_coat_contrast_is_the_squared_slope_of_the_composite():
+    """|T_l (c_l - B_l-1)|^2 equals |d composite / d alpha_l|^2 (a finite difference), in both float types."""
+    rng = np.random.default_rng(7)
+    primer, colours, alphas = rng.random(3), rng.random((3, 3)), rng.random((3, 5, 6))
+    w = coat_contrast(primer, colours, alphas)
+    assert w.shape == alphas.shape and w.dtype == np.float64
+    for layer in range(3):
+        step = np.zeros_like(alphas)
+        step[layer] = 1e-6
+        slope = (composite(primer, colours, alphas + step) - composite(primer, colours, alphas)) / 1e-6
+        np.testing.assert_allclose(w[layer], (slope**2).sum(axis=-1), rtol=1e-4, atol=1e-8)
+    w32 = coat_contrast(primer, colours, alphas.astype(np.float32))
+    assert w32.dtype == np.float32
+    np.testing.assert_allclose(w32, w, rtol=1e-4, atol=1e-6)
+    # The top layer sees no transmittance loss; a layer under an opaque coat moves nothing.
+    alphas[2] = 1.0
+    assert np.all(coat_contrast(primer, colours, alphas)[:2] == 0.0)

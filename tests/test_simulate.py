@@ -437,3 +437,23 @@ def test_a_murals_plate_card_stays_within_its_longest_side():
         circles_xy_r=holes[:0],
     )
     assert small.shape[1] >= 400  # small plates keep 4 px/mm
+
+
+def test_choose_tone_weights_the_spray_time_choice():
+    """Weight on the sparse half of a layer picks a lower spray time than weight on its dark half."""
+    cfg = SprayConfig(spray_time=1.0)
+    alpha = np.where(np.arange(64)[None, :] < 32, 0.08, 1.0) * np.ones((16, 1))
+    sparse = np.where(alpha < 0.5, 1.0, 1e-3)
+    plain = cal.choose_tone(alpha, 0.5, 0.5, 0.5, cfg, mode=Calibrate.spray_time)
+    uniform = cal.choose_tone(
+        alpha, 0.5, 0.5, 0.5, cfg, mode=Calibrate.spray_time, weight=np.full_like(alpha, 3.0)
+    )
+    to_sparse = cal.choose_tone(alpha, 0.5, 0.5, 0.5, cfg, mode=Calibrate.spray_time, weight=sparse)
+    to_dark = cal.choose_tone(alpha, 0.5, 0.5, 0.5, cfg, mode=Calibrate.spray_time, weight=1.0 - sparse)
+    assert uniform.spray_time == plain.spray_time
+    assert uniform.predicted_rmse == pytest.approx(plain.predicted_rmse)
+    assert to_sparse.spray_time < plain.spray_time < to_dark.spray_time
+    # The reported RMSE is the unweighted one, so the unweighted choice has the lowest.
+    assert plain.predicted_rmse <= min(to_sparse.predicted_rmse, to_dark.predicted_rmse)
+    with pytest.raises(ValueError, match="weight has"):
+        cal.choose_tone(alpha, 0.5, 0.5, 0.5, cfg, mode=Calibrate.spray_time, weight=sparse[:, :10])

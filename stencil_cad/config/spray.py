@@ -13,7 +13,7 @@ from .stipple import Process
 
 #: The nozzle height each process's soft stencils score best from, seen from 1 m (stipple.process ->
 #: spray.nozzle_height; see the field's description for the figures).
-NOZZLE_HEIGHT_BY_PROCESS: dict[Process, float] = {Process.fdm: 22.0, Process.sla: 30.0, Process.laser: 30.0}
+NOZZLE_HEIGHT_BY_PROCESS: dict[Process, float] = {Process.fdm: 30.0, Process.sla: 30.0, Process.laser: 30.0}
 #: The nozzle height of a spray section outside a job, where no process is known.
 DEFAULT_NOZZLE_HEIGHT = NOZZLE_HEIGHT_BY_PROCESS[Process.sla]
 
@@ -192,9 +192,10 @@ class SprayConfig(StrictModel):
             "the dot's variance grows linearly with h, i.e. with the nozzle's distance). To fit it to a real "
             "can, spray one test hole and measure the dot's full width at half maximum W: "
             "h = (W / (1.1774 r))^2 - 1. Range [0, 1000], or null: the height where soft stencils of "
-            "stipple.process score best from 1 m, 22 for fdm and 30 for sla and laser (python -m benchmarks "
-            "quality: FDM astronaut 10.4 S-CIELAB at 22, 11.2 at 30; SLA astronaut 6.8 at 30; laser holes are "
-            "the size of SLA ones and take its value). Hard mode sprays from hard.nozzle_height instead."
+            "stipple.process score best from 1 m, 30 for fdm, sla and laser (python -m benchmarks quality, "
+            "S-CIELAB at 1 m at h 22 / 30 / 60: FDM astronaut 10.3 / 10.0 / 12.0, FDM coffee 6.3 / 6.2 / 7.2; "
+            "SLA astronaut 7.4 / 6.8 / 6.9; laser holes are the size of SLA ones and take its value; rocket, "
+            "a photo of large flat sky, scores best at 60). Hard mode sprays from hard.nozzle_height instead."
         ),
     )
     px_per_mm: float = Field(
@@ -221,8 +222,9 @@ class SprayConfig(StrictModel):
         description=(
             "Used when stipple.tone is calibrated. Choices: none (keep the paper's linear density, "
             "density proportional to opacity), dots (keep spray_time and derive the hole density and count "
-            "from the spray response), spray_time (also choose the spray time per layer that minimises the "
-            "predicted layer RMSE)."
+            "from the spray response), spray_time (also choose each layer's spray time, from 1/64 to 8 times "
+            "spray_time, that minimises the layer's predicted error in composite colour: each pixel's opacity "
+            "error weighted by the colour change a full coat of the paint makes there)."
         ),
     )
     sweep_factors: tuple[float, ...] = Field(
