@@ -376,6 +376,15 @@ class StippleTask:
     weight: np.ndarray | None = None
 
 
+def _calibrated(cfg: JobConfig) -> bool:
+    return getattr(cfg.stipple.tone, "value", cfg.stipple.tone) == "calibrated"
+
+
+def _chooses_spray_time(cfg: JobConfig) -> bool:
+    """Whether each layer gets its own spray time (calibrated tone and ``calibrate: spray_time``)."""
+    return _calibrated(cfg) and getattr(cfg.spray.calibrate, "value", cfg.spray.calibrate) == "spray_time"
+
+
 def _layer_tone(task: StippleTask):
     """``(tone choice or None, spray time)`` of one layer.
 
@@ -383,12 +392,12 @@ def _layer_tone(task: StippleTask):
     ``spray.calibrate: spray_time`` the layer gets its own spray time.
     """
     cfg = task.cfg
-    if getattr(cfg.stipple.tone, "value", cfg.stipple.tone) != "calibrated":
+    if not _calibrated(cfg):
         return None, cfg.spray.amount
     from .simulate import tone
 
     choice = tone.calibrated_tone_for(task.alpha, task.mm_per_px, cfg, task.weight)
-    if getattr(cfg.spray.calibrate, "value", cfg.spray.calibrate) == "spray_time":
+    if _chooses_spray_time(cfg):
         return choice, float(choice.spray_time)
     return choice, cfg.spray.amount
 
@@ -442,7 +451,12 @@ def stage_stipple(
     with run.stage("stipple"):
         # One task per layer (on a cluster the layers stipple side by side); each layer's
         # generator comes from the seed, so any number of workers gives the same holes.
-        weights = coat_contrast(layers.primer, layers.colours, layers.alphas)
+        # The colour weights only steer the choice of each layer's spray time.
+        weights = (
+            coat_contrast(layers.primer, layers.colours, layers.alphas)
+            if _chooses_spray_time(cfg)
+            else [None] * layers.count
+        )
         tasks = [
             StippleTask(alpha, layers.mm_per_px, cfg, run.rng_for("stipple", i), weights[i])
             for i, alpha in enumerate(layers.alphas)
