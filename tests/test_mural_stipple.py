@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 from scipy.spatial import cKDTree
@@ -90,8 +92,24 @@ def test_seams_look_like_the_interior(flat_mural):
     """On the flat grey: the hole density and neighbour spacing at the seams are the interior's."""
     _, grid, _, tiled, _ = flat_mural
     ds = tiled[0]
+    # A 5 mm band's density over its flanks varies from line to line inside a tile too (sd
+    # about 0.04 on this grey): each seam's ratio lies within the range of the same ratio on
+    # lines every 10 mm inside the tiles, at least 20 mm from a seam and the picture's edge.
+    seams = [*grid.x_edges[1:-1], *grid.y_edges[1:-1]]
+
+    def lines(n_mm, edges):
+        return [v for v in np.arange(20.0, n_mm - 19.0, 10.0) if min(abs(v - e) for e in edges[1:-1]) >= 20]
+
+    inside = SimpleNamespace(
+        x_edges=(0.0, *lines(grid.width_mm, grid.x_edges), grid.width_mm),
+        y_edges=(0.0, *lines(grid.height_mm, grid.y_edges), grid.height_mm),
+        width_mm=grid.width_mm,
+        height_mm=grid.height_mm,
+    )
+    spread = [row["ratio_flank"] for row in mural.seam_density([ds], inside)]
+    assert len(spread) > 20 and len(seams) == 3
     for row in mural.seam_density([ds], grid):
-        assert abs(row["ratio_flank"] - 1) < 0.06, row
+        assert min(spread) - 0.01 <= row["ratio_flank"] <= max(spread) + 0.01, (row, min(spread), max(spread))
     d, _ = cKDTree(ds.xy_mm).query(ds.xy_mm, k=2)
     d = d[:, 1]
     near = _near_seams(ds.xy_mm, grid, 5.0)
@@ -99,9 +117,12 @@ def test_seams_look_like_the_interior(flat_mural):
     # The one-piece stipple's mean neighbour distance varies by ±3 % from place to place
     # (4.04 to 4.26 mm in 8 mm rows of this picture); the seams stay within that.
     assert abs(d[near].mean() / d[~near].mean() - 1) < 0.03
-    # No seam line of crowded holes: hardly more unusually close neighbours than inside.
+    # No seam line of crowded holes: hardly more unusually close neighbours than inside. Within
+    # 5 mm of the seams 0 to 1.7 % of the holes (0 to 10 of 600) are, over job seeds 7 to 9 with
+    # the edge margin 0 (0 to 1 % with the 3 mm margin of before, whose halo was 3 mm wider);
+    # inside, 0.1 %. A seam line of crowded holes is every hole along it.
     short = d < 0.8 * np.median(d)
-    assert short[near].mean() <= short[~near].mean() + 0.015
+    assert short[near].mean() <= short[~near].mean() + 0.02
 
 
 def test_any_task_order_gives_the_same_holes(flat_mural):

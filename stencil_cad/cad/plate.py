@@ -281,7 +281,7 @@ def check_holes(
         holes: A :class:`DotSet` or a :class:`CutLayer`.
         width_mm: Picture width in mm.
         height_mm: Picture height in mm.
-        min_web_mm: Smallest web in mm between holes and to the picture edge.
+        min_web_mm: Smallest web in mm between holes (every hole lies inside the picture).
         rules: Optional stricter :class:`stencil_cad.stipple.rules.DesignRules` (the job's rules).
 
     Raises:
@@ -292,7 +292,8 @@ def check_holes(
             rules = DesignRules(
                 hole_min_r_mm=HOLE_FLOOR_MM,
                 web_mm=min_web_mm,
-                edge_margin_mm=min_web_mm,
+                # Inside the picture: the plate's solid border holds a hole at its edge.
+                edge_margin_mm=0.0,
                 width_mm=width_mm,
                 height_mm=height_mm,
             )

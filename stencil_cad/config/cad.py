@@ -87,8 +87,8 @@ class PlateConfig(StrictModel):
         gt=0.0,
         le=5.0,
         description=(
-            "Smallest web in mm between two holes, and between a hole and the picture edge, that the plate "
-            "accepts when it re-checks the dots (the stipple stage enforces the process web). Range (0, 5]. "
+            "Smallest web in mm between two holes that the plate accepts when it re-checks the dots (the "
+            "stipple stage enforces the process web; every hole must lie inside the picture). Range (0, 5]. "
             "Dots that break it, or holes below the 0.5 mm radius floor, stop the build with a list."
         ),
     )

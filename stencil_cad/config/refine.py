@@ -28,8 +28,8 @@ class RefineConfig(StrictModel):
             "Gradient steps of the refinement. More steps keep improving the picture at a cost linear in "
             "them: on python -m benchmarks quality's SLA astronaut at nozzle height 30, 30 steps scored "
             "S-CIELAB 7.37 at 1 m, 60 steps 6.98, 90 steps 6.84 (hard stencils: 10.1), measured before the "
-            "spray-time choice weighed colour and layer_weight became 0.1, which take 90 steps to 6.67. "
-            "Range [1, 1000]."
+            "spray-time choice weighed colour and layer_weight became 0.1, which take 90 steps to 6.67 "
+            "(all with the 2 mm edge margin of before; without it, 5.60). Range [1, 1000]."
         ),
     )
     step_mm: float = Field(
@@ -61,8 +61,8 @@ class RefineConfig(StrictModel):
             "Weight of each layer's own opacity error beside the error of the composite colour (0: the "
             "composite alone; then one layer may drift from its target to make up for another). On python -m "
             "benchmarks quality's SLA photos, S-CIELAB at 1 m with 1 / 0.3 / 0.1 / 0: astronaut 6.77 / 6.70 / "
-            "6.67 / 6.55, rocket 2.46 / 2.38 / 2.34 / 2.39; 0.1 still lowers every layer's own error. "
-            "Range [0, 100]."
+            "6.67 / 6.55, rocket 2.46 / 2.38 / 2.34 / 2.39 (with the 2 mm edge margin of before); 0.1 still "
+            "lowers every layer's own error. Range [0, 100]."
         ),
     )
     objective: Literal["viewer", "rgb"] = Field(

@@ -49,11 +49,16 @@ class Tone(str, enum.Enum):
     calibrated = "calibrated"
 
 
-#: Preset values per process: (hole_min_r_mm, web_mm, edge_margin_mm).
+#: Preset values per process: (hole_min_r_mm, web_mm, edge_margin_mm). The edge margin is 0:
+#: the plate's solid border (plate.outline.margin_mm, at least 3 mm) holds the holes at the
+#: picture's edge, as it holds the hard stencils' cut-outs, which reach it. A margin leaves a
+#: band along the edge unsprayed: python -m benchmarks quality's rocket-sla scored S-CIELAB 2.34
+#: at 1 m with the 2 mm margin of before, 1.80 without it (its 2 mm edge band held a quarter of
+#: the error).
 PROCESS_PRESETS: dict[Process, tuple[float, float, float]] = {
-    Process.fdm: (1.0, 0.8, 3.0),
-    Process.sla: (0.5, 0.5, 2.0),
-    Process.laser: (0.5, 0.6, 2.0),
+    Process.fdm: (1.0, 0.8, 0.0),
+    Process.sla: (0.5, 0.5, 0.0),
+    Process.laser: (0.5, 0.6, 0.0),
 }
 
 
@@ -64,8 +69,9 @@ class StippleConfig(StrictModel):
         Process.fdm,
         description=(
             "Manufacturing process; sets the hole floor, web and edge margin unless they are given. "
-            "Choices: fdm (r >= 1.0 mm, web 0.8 mm, margin 3 mm), sla (r >= 0.5 mm, web 0.5 mm, "
-            "margin 2 mm), laser (r >= 0.5 mm, web 0.6 mm, margin 2 mm)."
+            "Choices: fdm (r >= 1.0 mm, web 0.8 mm), sla (r >= 0.5 mm, web 0.5 mm), laser (r >= 0.5 mm, "
+            "web 0.6 mm); every preset's edge margin is 0 (the plate's solid border holds holes at the "
+            "picture's edge)."
         ),
     )
     hole_min_r_mm: float | None = Field(
@@ -89,7 +95,9 @@ class StippleConfig(StrictModel):
         le=100.0,
         description=(
             "Minimum material between a hole and the picture-area border or a keep-out rectangle, in mm. "
-            "null for the process preset. Range [0, 100]. Set 0 when the plate frame already gives the margin."
+            "null for the process preset (0: holes may reach the picture's edge, where the plate's solid "
+            "border holds them, and touch a keep-out; give a margin to keep material around a fixture in a "
+            "keep-out, or a pale band along the edge is the price). Range [0, 100]."
         ),
     )
     keepouts_mm: list[tuple[float, float, float, float]] = Field(
