@@ -45,9 +45,16 @@ SETTINGS = ("fdm", "sla")
 #: 30 is every process's default (spray.nozzle_height), 22 where chelsea scores best, 60 where rocket does.
 SOFT_HEIGHTS = (22.0, 30.0, 60.0)
 HARD_HEIGHTS = (3.0, 5.0, 7.0, 15.0)
+#: Under the physical spray model (the default) the height swept is the wall's stand-off in mm
+#: (wall.standoff_mm), which sets every hole's blur: soft stencils at 8, 10 (the default) and
+#: 12 mm, hard ones from 1 mm (a cut stencil held almost flat) up.
+SOFT_STANDOFFS = (8.0, 10.0, 12.0)
+HARD_STANDOFFS = (1.0, 3.0, 5.0, 10.0)
 #: Viewing distances of the scores, m.
 DISTANCES_M = (1.0, 2.0)
 CASES = tuple(f"{image}-{s}" for image in IMAGES for s in SETTINGS)
+#: The paper's spray model with the SLA settings: run only when named (``--case astronaut-sla-paper``).
+PAPER_CASES = tuple(f"{image}-sla-paper" for image in IMAGES)
 
 
 def _require() -> dict:
@@ -104,16 +111,62 @@ def _configs() -> dict:
             {"stipple": dict(example["stipple"]), "spray": dict(example["spray"])},
             source="quality sla (stencil_cad/data/example.yaml)",
         ),
+        "sla-paper": parse_config(
+            {"stipple": dict(example["stipple"]), "spray": {**example["spray"], "model": "paper"}},
+            source="quality sla-paper (the example's settings, the paper's spray model)",
+        ),
     }
+
+
+def _heights(cfg, hard: bool) -> tuple[float, ...]:
+    """Stand-offs (physical model) or nozzle heights (paper model) a mode is sprayed at."""
+    if cfg.spray.is_physical:
+        return HARD_STANDOFFS if hard else SOFT_STANDOFFS
+    return HARD_HEIGHTS if hard else SOFT_HEIGHTS
 
 
 def _at_height(cfg, h: float, refine: bool):
     from stencil_cad.config.io import parse_config
 
     data = cfg.model_dump(mode="json")
-    data["spray"]["nozzle_height"] = h
+    if cfg.spray.is_physical:
+        data["wall"]["standoff_mm"] = [h]
+    else:
+        data["spray"]["nozzle_height"] = h
     data["refine"]["enabled"] = refine
     return parse_config(data, source=f"quality h={h}")
+
+
+def _geometry(cfg):
+    """The spray geometry the physical model needs (None for the paper's)."""
+    from stencil_cad.simulate.physical import SprayGeometry
+
+    return SprayGeometry.of_job(cfg) if cfg.spray.is_physical else None
+
+
+def _by_can(f, cfg, layers, dotsets, ref) -> dict:
+    """S-CIELAB at 1 m of the same holes sprayed with each can of the prior (nominal first)."""
+    from stencil_cad.simulate.cans import can_prior
+    from stencil_cad.simulate.scielab import scielab
+
+    out = {}
+    for name, sp in can_prior(cfg.spray):
+        sim = f["simulate"](layers, dotsets, sp, geometry=_geometry(cfg))
+        out[name] = round(scielab(ref, sim.composite, sim.mm_per_px, DISTANCES_M[0]), 3)
+    return out
+
+
+def _source_on_grid(name: str, cfg, shape, fit_to_size) -> np.ndarray:
+    """The source photo resized to the simulated grid: the reference every score is taken against."""
+    from skimage import data
+    from skimage.transform import resize
+
+    rgb = getattr(data, name)().astype(np.float64) / 255.0
+    px = shape[1] / cfg.size.width_mm
+    rgb, _, _, _ = fit_to_size(rgb, None, cfg.size.width_mm, cfg.size.height_mm, px, max_upscale=np.inf)
+    if rgb.shape[:2] != tuple(shape):
+        rgb = resize(rgb, (*shape, 3), order=1, anti_aliasing=True)
+    return np.clip(rgb, 0.0, 1.0)
 
 
 def _nearest_resize(mask: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
@@ -140,12 +193,14 @@ def _select(cases) -> list[tuple[str, str]]:
     """(image, settings) pairs for ``cases``: full case names or image names (both settings)."""
     if not cases:
         return [(i, s) for i in IMAGES for s in SETTINGS]
-    unknown = [c for c in cases if c not in CASES and c not in IMAGES]
+    unknown = [c for c in cases if c not in CASES + PAPER_CASES and c not in IMAGES]
     if unknown:
         raise ValueError(
-            f"unknown quality case(s) {unknown}; choose from {list(CASES)} or an image name {list(IMAGES)}"
+            f"unknown quality case(s) {unknown}; choose from {list(CASES + PAPER_CASES)} or an image name "
+            f"{list(IMAGES)}"
         )
-    return [(i, s) for i in IMAGES for s in SETTINGS if f"{i}-{s}" in cases or i in cases]
+    pairs = [(i, s) for i in IMAGES for s in SETTINGS if f"{i}-{s}" in cases or i in cases]
+    return pairs + [(i, "sla-paper") for i in IMAGES if f"{i}-sla-paper" in cases]
 
 
 def _settings_fields(cfg) -> dict:
@@ -154,6 +209,7 @@ def _settings_fields(cfg) -> dict:
         "process": st.process.value,
         "tone": st.tone.value,
         "calibrate": sp.calibrate.value if st.tone.value == "calibrated" else "n/a (linear tone)",
+        "spray_model": sp.model.value,
         "spray_time": sp.spray_time,
         "hole_min_r_mm": st.resolved_hole_min_r_mm,
         "web_mm": st.resolved_web_mm,
@@ -197,7 +253,7 @@ def run(cases=None):
             cfg0 = configs[settings]
             assert cfg0.decompose == base.decompose and cfg0.seed == base.seed and cfg0.size == base.size
             soft, plain, timing = {}, {}, {}
-            for h in SOFT_HEIGHTS:
+            for h in _heights(cfg0, hard=False):
                 cfg = _at_height(cfg0, h, refine=False)
                 run_ = pipeline.Run(cfg=cfg, out=_NullOut(), quiet=True)
                 t0 = time.perf_counter()
@@ -207,9 +263,9 @@ def run(cases=None):
                 t0 = time.perf_counter()
                 refined = pipeline.stage_refine(run_r, layers, stippled, size, pic)
                 t_refine = time.perf_counter() - t0
-                sim0 = f["simulate"](layers, stippled, cfg.spray)
-                sim1 = f["simulate"](layers, refined, cfg.spray)
-                ref = f["resample"](pic.rgb, sim1.composite.shape[:2])
+                sim0 = f["simulate"](layers, stippled, cfg.spray, geometry=_geometry(cfg))
+                sim1 = f["simulate"](layers, refined, cfg.spray, geometry=_geometry(cfg))
+                ref = _source_on_grid(image, cfg, sim1.composite.shape[:2], f["fit_to_size"])
                 plain[h] = {
                     **_scores(f, ref, sim0.composite, sim0.mm_per_px),
                     "holes": sum(map(len, stippled)),
@@ -220,6 +276,7 @@ def run(cases=None):
                     "layer_tone_rmse_stippled": sim0.info["layer_tone_rmse"],
                     "layer_tone_rmse_refined": sim1.info["layer_tone_rmse"],
                     "spray_times": [round(float(d.report["spray_time"]), 4) for d in refined],
+                    "scielab_1m_by_can": _by_can(f, cfg, layers, refined, ref),
                 }
                 timing[h] = {"stipple_seconds": round(t_stipple, 3), "refine_seconds": round(t_refine, 3)}
             shape = sim1.composite.shape[:2]
@@ -233,12 +290,19 @@ def run(cases=None):
             )
             t_segment = time.perf_counter() - t0
             hard = {}
-            for h in HARD_HEIGHTS:
-                spray = cfg0.spray.model_copy(update={"nozzle_height": h})
+            for h in _heights(cfg0, hard=True):
+                hcfg = _at_height(cfg0, h, refine=False)
                 # Sprayed on the soft simulation's grid, so both are scored on the same pixels.
                 alphas = np.zeros((res.count, *shape))
                 for k, m in enumerate(res.cut_masks):
-                    alphas[k] = f["spray_mask"](_nearest_resize(m, shape), mm_per_px, spray)
+                    alphas[k] = f["spray_mask"](
+                        _nearest_resize(m, shape),
+                        mm_per_px,
+                        hcfg.spray,
+                        geometry=_geometry(hcfg),
+                        # As pipeline.run_hard sprays them: full cover under the physical model.
+                        spray_time=float(hcfg.spray.full_cover_passes()) if hcfg.spray.is_physical else None,
+                    )
                 hard_comp = np.clip(composite(res.primer, res.colours, alphas), 0.0, 1.0)
                 hard[h] = _scores(f, ref, hard_comp, mm_per_px)
 
@@ -263,6 +327,11 @@ def run(cases=None):
             row["soft_minus_hard_scielab_2m"] = round(best_hard["scielab_2m"] - best_soft["scielab_2m"], 3)
             row["soft_holes"] = best_soft["holes"]
             row["soft_spray_times"] = best_soft["spray_times"]
+            row["soft_scielab_1m_by_can"] = best_soft["scielab_1m_by_can"]
+            row["soft_scielab_1m_worst"] = max(best_soft["scielab_1m_by_can"].values())
+            row["soft_max_passes_used"] = (
+                int(max(best_soft["spray_times"])) if cfg0.spray.is_physical else None
+            )
             row["layer_tone_rmse_stippled"] = best_soft["layer_tone_rmse_stippled"]
             row["layer_tone_rmse_refined"] = best_soft["layer_tone_rmse_refined"]
             row.update(timing[hs])
@@ -271,7 +340,7 @@ def run(cases=None):
                     **({"hard": hard[h]} if h in hard else {}),
                     **({"soft": soft[h], "soft_norefine": plain[h], **timing[h]} if h in soft else {}),
                 }
-                for h in sorted({*HARD_HEIGHTS, *soft})
+                for h in sorted({*hard, *soft})
             }
             row["picture_px"] = list(pic.shape)
             row["sim_px"] = list(shape)

@@ -35,7 +35,13 @@ def _card_parsers(sub) -> None:
         type=float,
         action="append",
         metavar="MM",
-        help="stand-off of a wall to measure (repeatable, up to 3; default: the job's, plus twice it if only one)",
+        help="stand-off of a wall to measure (repeatable, up to 3; default: the job's, plus a 3 mm wall if only one)",
+    )
+    sp.add_argument(
+        "--paper",
+        choices=("a4", "letter"),
+        default="a4",
+        help="paper the sheet and its steps are printed on (default: a4)",
     )
     sp.add_argument("--force", action="store_true", help="replace files in a non-empty output folder")
     g = sp.add_mutually_exclusive_group()
@@ -264,7 +270,7 @@ def _card(args) -> int:
     run = pipeline.Run(cfg=cfg, out=out, quiet=args.quiet)
     t0 = time.perf_counter()
     try:
-        files = pipeline.run_card(run, args.standoff)
+        files = pipeline.run_card(run, args.standoff, args.paper)
     except BaseException:
         out.abort()
         raise
@@ -275,7 +281,8 @@ def _card(args) -> int:
             f"stencil-cad: calibration card → {args.out}/ ({len(files)} files, {time.perf_counter() - t0:.1f} s)\n"
             f"  plate     {c['plate_mm'][0]:g} × {c['plate_mm'][1]:g} mm, {c['holes']} holes, "
             f"{'valid' if ok else 'INVALID'}; walls at {', '.join(f'{g:g}' for g in c['standoffs_mm'])} mm\n"
-            f"  sheet     card_sheet.pdf, {c['sheet_mm'][0]:g} × {c['sheet_mm'][1]:g} mm: print at 100 %\n"
+            f"  sheet     card_sheet.pdf, {c['sheet_mm'][0]:g} × {c['sheet_mm'][1]:g} mm on {c['paper']} with the "
+            "steps: print at 100 %\n"
             f"  then      spray the card {c['passes']} passes in each wall on the sheet, photograph it "
             f"(README, 'Measuring your can') and run: stencil-cad calibrate PHOTO --card {args.out / 'card.json'}"
         )

@@ -90,7 +90,7 @@ class Problem:
     primer: np.ndarray
     colours: np.ndarray
     rules: list[DesignRules]
-    kernels: HoleKernels
+    kernels: tuple[HoleKernels, ...]
     spray_times: list[float]
     settings: RefineSettings
 

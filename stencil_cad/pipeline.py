@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import math
 import platform
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -573,8 +574,8 @@ def stage_refine(
     # (8x fewer pixels than 4 px/mm for FDM holes, which keeps a mural's refinement in memory).
     grid_mm = resolution.sim_mm_per_px(cfg) or 1.0 / cfg.spray.px_per_mm
     shape = spray.sim_shape(layers.alphas.shape[1:], layers.mm_per_px, grid_mm)
-    reference = picture.rgb if picture is not None else layers.composite()
-    target = spray.resample(np.clip(reference, 0.0, 1.0), shape)
+    # The picture the simulation is scored against: the source image on the simulation grid.
+    target = source_reference(cfg, picture, layers, shape, grid_mm)
     rules = rules_from_config(cfg.stipple, *picture_mm)
     rc = cfg.refine
     settings = refine.RefineSettings(
@@ -593,15 +594,16 @@ def stage_refine(
     )
     alpha_targets = np.stack([spray.resample(a, shape) for a in layers.alphas]) if layers.count else None
 
-    geometry = SprayGeometry.of_job(cfg) if cfg.spray.model == SprayModel.physical else None
+    from . import mural_refine
+    from .simulate.cans import can_prior
 
-    def kernels(r_mm: np.ndarray, spray_time: float) -> tuple:
-        return spray.hole_kernels(r_mm, cfg.spray, spray_time, geometry=geometry)
+    geometry = SprayGeometry.of_job(cfg) if cfg.spray.model == SprayModel.physical else None
+    # refine.cans: prior refines for the expected error over a prior of cans (without a measured can).
+    cans = can_prior(cfg.spray) if rc.cans == "prior" else [("nominal", cfg.spray)]
+    kernels = [mural_refine.HoleKernels(sp, geometry) for _, sp in cans]
 
     times = [float(ds.report.get("spray_time", cfg.spray.amount)) for ds in dotsets]
     if grid is not None and grid.tiled:
-        from . import mural_refine
-
         problem = mural_refine.Problem(
             target=target,
             alpha_targets=alpha_targets,
@@ -609,7 +611,7 @@ def stage_refine(
             primer=layers.primer,
             colours=layers.colours,
             rules=[rules] * layers.count,
-            kernels=mural_refine.HoleKernels(cfg.spray, geometry),
+            kernels=tuple(kernels),
             spray_times=times,
             settings=settings,
         )
@@ -667,14 +669,21 @@ def write_spray_order(run: Run, primer: np.ndarray, colours: np.ndarray, spray_t
         }
         for i, (c, t) in enumerate(zip(colours, spray_times, strict=True))
     ]
+    sp = run.cfg.spray
+    how: dict = {"unit": sp.amount_unit}
+    if sp.model == SprayModel.physical:
+        for o, t in zip(order, spray_times, strict=True):
+            o["passes"] = max(1, round(float(t)))
+        how.update(can_distance_cm=sp.can_distance_mm / 10.0, pass_speed_m_s=sp.pass_speed_m_s)
+    else:
+        how["nozzle_height"] = sp.nozzle_height
     run.out.write_json(
         SPRAY_JSON,
         {
             "primer": {"hex": to_hex(primer), "name": names.get(to_hex(primer), "")},
             "order": order,
             "spray_times": [float(t) for t in spray_times],
-            "unit": run.cfg.spray.amount_unit,
-            "nozzle_height": run.cfg.spray.nozzle_height,
+            **how,
         },
     )
     run.figures["spray_order"] = {
@@ -862,9 +871,9 @@ def stage_simulate(
     with run.stage("simulate"):
         grid_mm = resolution.sim_mm_per_px(cfg)
         sim = simulate.simulate(layers, dotsets, cfg.spray, grid_mm, geometry=design)
-        reference = picture.rgb if picture is not None else layers.composite()
-        ref = _resample(reference, sim.composite.shape[:2])
+        ref = source_reference(cfg, picture, layers, sim.composite.shape[:2], sim.mm_per_px)
         scores = _scores(run, ref, sim.composite, sim.mm_per_px)
+        by_can = _scores_by_can(run, layers, dotsets, ref, grid_mm, design, scores)
         run.out.write_png("simulated.png", sim.composite)
         ideal = _resample(layers.composite(), sim.composite.shape[:2])
         write_previews(run, ref, ideal, sim.composite, sim.mm_per_px, scores)
@@ -872,7 +881,9 @@ def stage_simulate(
         panels = simulate.sweep_panels(layers, dotsets, cfg.spray, grid_mm, factors=factors, geometry=design)
         from .simulate import labelled
 
-        run.out.write_png("sweep.png", labelled.sweep_card(panels, factors, sim.mm_per_px))
+        run.out.write_png(
+            "sweep.png", labelled.sweep_card(panels, factors, sim.mm_per_px, unit=cfg.spray.amount_unit)
+        )
         write_steps(run, layers.primer, layers.colours, sim.alphas, sim.mm_per_px)
         per_wall = []
         stems = simulated_stems(cfg)
@@ -901,10 +912,81 @@ def stage_simulate(
         "layer_rmse": [float(x) for x in sim.layer_rmse],
         **{k: v for k, v in _plain(sim.info).items() if k not in scores},
     }
+    if by_can:
+        run.figures["simulate"]["scielab_by_can"] = by_can
+        run.figures["simulate"]["scielab_worst"] = max(by_can.values())
     if per_wall:
         run.figures["simulate"]["walls"] = per_wall
     run.figures["spraying"] = spraying_steps(cfg, layers, dotsets)
     return (sim, ref) if keep else scores
+
+
+#: Overshoot of a sweep past each edge of the picture, mm: a pass starts and ends off the plate.
+SWEEP_OVERSHOOT_MM = 50.0
+
+
+def sweep_seconds(cfg: JobConfig, width_mm: float, height_mm: float) -> float:
+    """About how long one pass over the picture takes, in seconds.
+
+    A pass is sweeps across the picture's width, each starting and ending ``SWEEP_OVERSHOOT_MM``
+    off it, in rows half the can distance apart (the band a can sprays evenly is about half its
+    distance wide), at ``spray.pass_speed_m_s``.
+    """
+    sp = cfg.spray
+    rows = max(1, math.ceil(height_mm / (0.5 * sp.can_distance_mm)))
+    return rows * (width_mm + 2.0 * SWEEP_OVERSHOOT_MM) / (1000.0 * sp.pass_speed_m_s)
+
+
+def source_reference(
+    cfg: JobConfig, picture: Picture | None, layers: Layers, shape: tuple[int, int], mm_per_px: float
+) -> np.ndarray:
+    """The picture every simulation is scored against: the source image resized to the simulated grid.
+
+    Scoring against the picture at the job's working resolution would hide every detail that
+    resolution lost (the bundled example: 5.60 against the working picture, 5.87 against the
+    source, S-CIELAB at 1 m under the paper model). Without a picture (a stage command run on
+    saved layers), the decomposition's own composite.
+    """
+    if picture is None:
+        return _resample(layers.composite(), shape)
+    from dataclasses import replace
+
+    from .imaging import load_picture as _load
+
+    h_mm = shape[0] * mm_per_px
+    src = _load(cfg.image, shape[1] * mm_per_px, h_mm, 1.0 / mm_per_px, max_upscale=math.inf)
+    if src.alpha is not None and cfg.decompose.opacity_source != "alpha":
+        a = src.alpha[..., None]
+        src = replace(src, rgb=src.rgb * a + (1.0 - a))
+    return _resample(src.rgb, shape)
+
+
+def _scores_by_can(
+    run: Run, layers: Layers, dotsets: list[DotSet], ref, grid_mm, design, nominal: dict
+) -> dict:
+    """S-CIELAB at the viewing distance for every can of the prior (:mod:`.simulate.cans`), by name.
+
+    Empty when the prior is one can (the paper model, or a measured spray profile).
+    """
+    from . import simulate
+    from .simulate import scielab
+    from .simulate.cans import can_prior
+
+    cans = can_prior(run.cfg.spray)
+    if len(cans) < 2:
+        return {}
+    out = {}
+    for name, sp in cans:
+        if sp is run.cfg.spray or name == "nominal":
+            out[name] = float(nominal["scielab"])
+            continue
+        other = simulate.simulate(layers, dotsets, sp, grid_mm, geometry=design)
+        out[name] = float(
+            scielab.scielab(
+                ref, other.composite, other.mm_per_px, run.cfg.view.distance_m, tasks_map=run.tasks.map
+            )
+        )
+    return out
 
 
 def spraying_steps(cfg: JobConfig, layers: Layers, dotsets: list[DotSet]) -> list[dict]:
@@ -912,31 +994,37 @@ def spraying_steps(cfg: JobConfig, layers: Layers, dotsets: list[DotSet]) -> lis
 
     Args:
         cfg: The job config.
-        layers: The decomposition (for the paint colours).
+        layers: The decomposition (for the paint colours and the picture's size).
         dotsets: The layers' holes (their ``report["spray_time"]`` is the layer's amount).
 
     Returns:
-        One dict per layer: ``layer``, ``paint``, and ``passes``, ``can_distance_mm``,
-        ``pass_speed_m_s`` (physical) or ``spray_time`` (paper), and ``text``.
+        One dict per layer: ``layer``, ``paint``, and ``passes``, ``can_distance_cm``,
+        ``pass_speed_m_s``, ``spray_seconds`` (physical) or ``spray_time`` (paper), and ``text``.
     """
     sp = cfg.spray
     out = []
+    h_px, w_px = layers.alphas.shape[1:] if layers.count else (0, 0)
+    per_pass = sweep_seconds(cfg, w_px * layers.mm_per_px, h_px * layers.mm_per_px)
     for i, ds in enumerate(dotsets):
         amount = float(ds.report.get("spray_time", sp.amount))
         paint = to_hex(layers.colours[i])
         if sp.model == SprayModel.physical:
-            n = round(amount, 2)
+            n = max(1, round(amount))
+            cm = sp.can_distance_mm / 10.0
+            seconds = n * per_pass
             text = (
-                f"spray layer {i + 1} ({paint}) from {sp.can_distance_mm:g} mm, {n:g} "
-                f"pass{'' if n == 1 else 'es'} at about {sp.pass_speed_m_s:g} m/s"
+                f"spray layer {i + 1} ({paint}): {n} light pass{'' if n == 1 else 'es'} from {cm:g} cm at "
+                f"about {sp.pass_speed_m_s:g} m/s (about {seconds:.0f} s of spraying)"
+                + ("; let each pass flash off (about a minute) before the next" if n > 1 else "")
             )
             out.append(
                 {
                     "layer": i + 1,
                     "paint": paint,
                     "passes": n,
-                    "can_distance_mm": sp.can_distance_mm,
+                    "can_distance_cm": cm,
                     "pass_speed_m_s": sp.pass_speed_m_s,
+                    "spray_seconds": round(seconds, 1),
                     "text": text,
                 }
             )
@@ -1248,7 +1336,7 @@ def card_stems(standoffs_mm: list[float]) -> list[str]:
     return [f"card_wall_{h:g}mm" for h in sorted(set(standoffs_mm))]
 
 
-def run_card(run: Run, standoffs_mm: list[float] | None = None) -> list[Path]:
+def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4") -> list[Path]:
     """`stencil-cad card`: the calibration plate, a wall per stand-off, the sheet and ``card.json``.
 
     The plate takes the job's hole radii, web, plate and key; it is built, checked and exported
@@ -1296,8 +1384,13 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None) -> list[Path]:
                 wall_mod.wall_stl(wm, p, exp.stl_tolerance_mm)
             walls.append({"file": f"{stem}.step", "standoff_mm": g, **wall_mod.check_wall(wm)})
         run.out.write_png("card_sheet.png", sheet_mod.sheet_png(card))
-        run.out.write_bytes("card_sheet.pdf", sheet_mod.sheet_pdf(card))
         sp = cfg.spray
+        steps = sheet_mod.card_steps(card, sp.can_distance_mm, sp.pass_speed_m_s)
+        try:
+            pdf = sheet_mod.sheet_pdf(card, paper=paper, steps=steps)
+        except ValueError as exc:
+            raise UserError(f"card sheet: {exc}") from exc
+        run.out.write_bytes("card_sheet.pdf", pdf)
         run.out.write_json(
             CARD_JSON,
             card_mod.card_description(
@@ -1334,6 +1427,7 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None) -> list[Path]:
         "plate": _plain(check),
         "walls": walls,
         "sheet_mm": [round(v, 1) for v in card.sheet_mm],
+        "paper": paper,
         "passes": card.passes,
     }
     return finish(run, "card")
@@ -1381,7 +1475,10 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
 
     # Cut-outs are sprayed from their own nozzle height: the simulation, the spray order and
     # the maker's spraying steps all read it from the spray section.
+    # Under the physical model a cut-out gets whole passes enough for full cover.
     spray = run.cfg.spray.model_copy(update={"nozzle_height": run.cfg.hard.nozzle_height})
+    if spray.is_physical:
+        spray = spray.model_copy(update={"passes": float(spray.full_cover_passes())})
     cfg = run.cfg = run.cfg.model_copy(update={"spray": spray})
     size = (picture.width_mm, picture.height_mm)
     with run.stage("segment"):

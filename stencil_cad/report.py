@@ -92,6 +92,13 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
                 f"  seen      S-CIELAB ΔE {_fmt(sim['scielab'])} at {d:g} m, {_fmt(sim['scielab_2x'])} at {2 * d:g} m"
                 " (what a viewer sees; pixel ΔE2000 above scores every dot)"
             )
+            by_can = sim.get("scielab_by_can") or {}
+            if len(by_can) > 1:
+                lines.append(
+                    f"  can       S-CIELAB at {d:g} m between {_fmt(min(by_can.values()))} and "
+                    f"{_fmt(max(by_can.values()))} depending on your can; spray the card to know "
+                    "(stencil-cad card, then stencil-cad calibrate)"
+                )
             lines.append("  dots      " + _dots_advice(run, sim, d))
     where = f.get("compute")
     if where and where.get("kind") != "in_process":

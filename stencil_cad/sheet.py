@@ -43,6 +43,7 @@ _SCORE_NAMES = {
 }
 _SKIP_SCORES = {
     "holes",
+    "scielab_worst",
     "spray_time",
     "seconds",
     "shape",
@@ -110,6 +111,13 @@ def _viewing(manifest: Mapping) -> str:
     d = _val(manifest, "config", "view", "distance_m") or sim.get("view_distance_m")
     blend = sim.get("dots_blend_m")
     blend_text = f"; the dots blend from about {float(blend):.1f} m" if blend else ""
+    by_can = sim.get("scielab_by_can") or {}
+    if len(by_can) > 1:
+        lo, hi = min(by_can.values()), max(by_can.values())
+        blend_text += (
+            f"; S-CIELAB there between {float(lo):.2f} and {float(hi):.2f} depending on your can, "
+            "spray the card to know"
+        )
     if d:
         return f"{float(d):g} m (the distance the quality is scored at){blend_text}"
     pic = manifest.get("picture", {}) or {}
@@ -287,13 +295,7 @@ def _wall_steps(manifest: Mapping, cfg: Mapping, primer: Mapping, primer_hex: st
         + ". Tape or hold it so it cannot move between layers.",
         "Each plate fits the wall one way only: the key tabs match the wall's notches and the label, "
         "in the bottom border, reads the right way up from the top.",
-        "Spray every layer from the same distance and sweep evenly over the whole plate"
-        + (
-            f" (at the nozzle height the simulation assumed, {section}.nozzle_height = {nozzle:g})"
-            if nozzle is not None
-            else ""
-        )
-        + "; let each layer dry before the next.",
+        _spray_how(cfg, section, nozzle),
     ]
     if n_tiles:
         wall.append(
@@ -421,12 +423,38 @@ def sheet_from_manifest(manifest: Mapping, tiles: Sequence[Mapping] | None = Non
     )
 
 
+def _spray_how(cfg: Mapping, section: str, nozzle) -> str:
+    """How to hold and move the can: the physical model's distance and speed, or the paper's height."""
+    if str(_val(cfg, "spray", "model", default="physical")) == "physical":
+        cm = float(_val(cfg, "spray", "can_distance_mm", default=200.0)) / 10.0
+        speed = float(_val(cfg, "spray", "pass_speed_m_s", default=0.5))
+        return (
+            f"Hold the can about {cm:g} cm from the plate and sweep evenly across the whole plate at about "
+            f"{speed:g} m/s, starting and ending off the plate. Spray light passes, the number each step "
+            "gives, and let each pass flash off (about a minute) before the next: a heavy coat under a "
+            "lifted stencil runs and creeps. Let each layer dry before the next."
+        )
+    return (
+        "Spray every layer from the same distance and sweep evenly over the whole plate"
+        + (
+            f" (at the nozzle height the simulation assumed, {section}.nozzle_height = {nozzle:g})"
+            if nozzle is not None
+            else ""
+        )
+        + "; let each layer dry before the next."
+    )
+
+
 def _amount(step: Step, unit: str, bare: bool = False) -> str:
     """A step's amount of paint in the job's unit: ``2 passes`` or ``spray time 0.707``."""
     t = step.spray_time
     if t is None:
         return "–" if bare else ""
-    text = f"{t:g} passes" if unit == "passes" else (f"{t:.3g}" if bare else f"spray time {t:.3g}")
+    text = (
+        f"{t:g} pass{'' if t == 1 else 'es'}"
+        if unit == "passes"
+        else (f"{t:.3g}" if bare else f"spray time {t:.3g}")
+    )
     return text if bare else f", {text}"
 
 

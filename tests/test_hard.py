@@ -335,7 +335,7 @@ def test_flat_colour_image_through_the_spray_model():
     img[50:, :] = [0.2, 0.35, 0.7]
     img[20:80, 40:100] = [0.15, 0.1, 0.1]
     res = _hard(img, HardConfig(colours=4))
-    _, comp = simulate_hard(res, SprayConfig(nozzle_height=7.0))
+    _, comp = simulate_hard(res, SprayConfig(model="paper", nozzle_height=7.0))
     de = deltaE_ciede2000(rgb2lab(img), rgb2lab(comp))
     # Away from colour edges and the picture edge (4 mm, three times the spray blur sigma of
     # 1.3 mm at h = 7) the flat regions come out within about 1 ΔE (opacity 0.98 of opaque paint).

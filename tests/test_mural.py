@@ -184,11 +184,16 @@ def test_tiled_spray_equals_global_and_misregistration_costs():
 
 def test_halo_covers_the_spray():
     from stencil_cad.simulate import dot_sigma_mm
+    from stencil_cad.simulate.physical import spread_sigma_mm
 
-    cfg = job()
+    cfg = job(spray={"model": "paper"})
     sigma = float(dot_sigma_mm(cfg.stipple.resolved_max_radius_mm, cfg.spray.nozzle_height))
     halo = mural.spray_halo_mm(cfg)
     assert np.exp(-(halo**2) / (2 * sigma**2)) <= mural.HALO_TAIL * 1.0001
+    # The physical model (the default): 5 sigma of the tallest wall's blur past the largest hole.
+    cfg = job(wall={"standoff_mm": [6.0, 15.0]})
+    sigma = spread_sigma_mm(cfg.spray, 15.0)
+    assert mural.spray_halo_mm(cfg) >= 5.0 * sigma + cfg.stipple.resolved_max_radius_mm
 
 
 def test_seam_density_of_a_global_stipple():

@@ -48,7 +48,7 @@ def small_mural():
 
     from stencil_cad import simulate
 
-    sp = cfg.spray
+    sp = cfg.spray.model_copy(update={"model": "paper"})
     other = [
         stipple.stipple_layer(a, g, cfg.stipple, np.random.default_rng(10 + i)) for i, a in enumerate(alphas)
     ]
@@ -68,7 +68,7 @@ def small_mural():
         primer=primer,
         colours=colours,
         rules=[rules, rules],
-        kernels=mural_refine.HoleKernels(sp),
+        kernels=(mural_refine.HoleKernels(sp),),
         spray_times=[1.0, 1.0],
         settings=settings,
     )
@@ -177,7 +177,7 @@ def test_tasks_hold_only_their_region():
         primer=np.ones(3),
         colours=np.zeros((1, 3)),
         rules=[rules],
-        kernels=mural_refine.HoleKernels(SprayConfig()),
+        kernels=(mural_refine.HoleKernels(SprayConfig(model="paper")),),
         spray_times=[1.0],
         settings=refine.RefineSettings(iterations=1, max_radius_mm=1.0),
     )

@@ -93,7 +93,7 @@ def test_dose_scales_with_distance_and_speed():
 
 
 def test_hole_kernels_paper_contract():
-    cfg = SprayConfig(nozzle_height=7.0)
+    cfg = SprayConfig(model="paper", nozzle_height=7.0)
     r = np.array([0.5, 1.0])
     sigma, peak, ds, dp, combine = sim.hole_kernels(r, cfg, 0.7)
     assert combine == "product"

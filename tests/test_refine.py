@@ -13,7 +13,7 @@ from stencil_cad.stipple import refine
 from stencil_cad.stipple.refine import RefineSettings, refine_dots
 from stencil_cad.stipple.rules import DesignRules, check_rules, enforce_rules
 
-CFG = SprayConfig(nozzle_height=7.0)
+CFG = SprayConfig(model="paper", nozzle_height=7.0)
 PRIMER = np.array([1.0, 1.0, 1.0])
 INK = np.array([[0.1, 0.1, 0.2]])
 

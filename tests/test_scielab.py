@@ -84,8 +84,8 @@ def test_smaller_holes_blend_from_nearer():
     from stencil_cad.simulate.visibility import blend_distance_m
 
     black, white = np.zeros(3), np.ones(3)
-    fdm = blend_distance_m(1.0, 0.8, SprayConfig(nozzle_height=7.0), 1.0, black, white)
-    sla = blend_distance_m(0.5, 0.5, SprayConfig(nozzle_height=7.0), 1.0, black, white)
+    fdm = blend_distance_m(1.0, 0.8, SprayConfig(model="paper", nozzle_height=7.0), 1.0, black, white)
+    sla = blend_distance_m(0.5, 0.5, SprayConfig(model="paper", nozzle_height=7.0), 1.0, black, white)
     assert sla is not None and fdm is not None
     assert 0.5 < sla < fdm < 16.0
 

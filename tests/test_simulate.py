@@ -53,7 +53,7 @@ def test_sigma_formula():
 @pytest.mark.parametrize("exact", [True, False])
 @pytest.mark.parametrize("a", [0.5, 2.0])
 def test_single_hole_matches_formula(exact, a):
-    cfg = SprayConfig(spray_time=a, nozzle_height=7.0)
+    cfg = SprayConfig(model="paper", spray_time=a, nozzle_height=7.0)
     xy = np.array([[3.13, 2.71]])
     got = sim.spray_opacity(xy, 0.6, (60, 70), 0.1, cfg, exact=exact)
     want = _analytic(xy, 0.6, (60, 70), 0.1, a, 7.0)
@@ -64,7 +64,7 @@ def test_single_hole_matches_formula(exact, a):
 
 
 def test_two_holes_of_different_radii_multiply():
-    cfg = SprayConfig(spray_time=0.8, nozzle_height=2.0)
+    cfg = SprayConfig(model="paper", spray_time=0.8, nozzle_height=2.0)
     xy = np.array([[2.0, 2.0], [3.0, 2.5]])
     r = np.array([0.5, 1.2])
     got = sim.spray_opacity(xy, r, (50, 50), 0.1, cfg, exact=True)
@@ -74,7 +74,7 @@ def test_two_holes_of_different_radii_multiply():
 
 @pytest.mark.parametrize("exact", [True, False])
 def test_frame_peak_at_pixel_centre(exact):
-    cfg = SprayConfig(spray_time=0.5)
+    cfg = SprayConfig(model="paper", spray_time=0.5)
     shape = (40, 30)
     xy = px_to_mm(np.array([[7, 21]]), shape[0], 0.25)
     got = sim.spray_opacity(xy, 0.5, shape, 0.25, cfg, exact=exact)
@@ -87,7 +87,7 @@ def test_frame_peak_at_pixel_centre(exact):
 def test_fast_matches_exact(a, h):
     """Issue requirement: |fast - exact| <= 1e-3 for A in {0.5, 1, 2}, h in {2, 7, 15}."""
     rng = np.random.default_rng(int(a * 10 + h))
-    cfg = SprayConfig(spray_time=a, nozzle_height=h)
+    cfg = SprayConfig(model="paper", spray_time=a, nozzle_height=h)
     xy, r = _dense_holes(rng, 10.0, 9.0)
     # Densely packed on the left (where tails pile up), sparse on the right (where they show).
     keep = (xy[:, 0] < 3.0) | (rng.uniform(size=len(xy)) < 0.04)
@@ -102,7 +102,7 @@ def test_fast_matches_exact(a, h):
 
 def test_fast_error_bound_holds_for_sparse_pale_layer():
     rng = np.random.default_rng(5)
-    cfg = SprayConfig(spray_time=2.0, nozzle_height=15.0, max_error=1e-3)
+    cfg = SprayConfig(model="paper", spray_time=2.0, nozzle_height=15.0, max_error=1e-3)
     xy = rng.uniform(-5, 15, (150, 2))
     fast = sim.spray_opacity(xy, 0.5, (100, 100), 0.1, cfg)
     exact = sim.spray_opacity(xy, 0.5, (100, 100), 0.1, cfg, exact=True)
@@ -124,7 +124,7 @@ def test_fast_matches_exact_on_random_inputs(n, a, h, shape, s, seed):
     extent = np.array([shape[1], shape[0]]) * s
     xy = rng.uniform(-0.5, 1.5, (n, 2)) * extent
     r = rng.uniform(0.5, 2.0, n)
-    cfg = SprayConfig(spray_time=a, nozzle_height=h)
+    cfg = SprayConfig(model="paper", spray_time=a, nozzle_height=h)
     fast = sim.spray_opacity(xy, r, shape, s, cfg)
     exact = sim.spray_opacity(xy, r, shape, s, cfg, exact=True)
     assert fast.shape == exact.shape == shape
@@ -134,7 +134,7 @@ def test_fast_matches_exact_on_random_inputs(n, a, h, shape, s, seed):
 
 def test_crop_equals_full_raster():
     rng = np.random.default_rng(2)
-    cfg = SprayConfig()
+    cfg = SprayConfig(model="paper")
     xy, r = _dense_holes(rng, 8.0, 3.0)
     full = sim.spray_opacity(xy, r, (80, 80), 0.1, cfg)
     part = sim.spray_opacity(xy, r, (80, 80), 0.1, cfg, crop=(10, 50, 20, 70))
@@ -145,14 +145,16 @@ def test_crop_equals_full_raster():
 
 
 def test_holes_far_outside_leave_raster_empty():
-    cfg = SprayConfig()
+    cfg = SprayConfig(model="paper")
     xy = np.array([[-50.0, 5.0], [5.0, 80.0]])
     assert sim.spray_opacity(xy, 1.0, (20, 20), 0.5, cfg).max() == 0.0
 
 
 @pytest.mark.parametrize("exact", [True, False])
 def test_no_holes_gives_empty_layer(exact):
-    out = sim.spray_opacity(np.zeros((0, 2)), np.zeros(0), (12, 9), 0.5, SprayConfig(), exact=exact)
+    out = sim.spray_opacity(
+        np.zeros((0, 2)), np.zeros(0), (12, 9), 0.5, SprayConfig(model="paper"), exact=exact
+    )
     assert out.shape == (12, 9) and not out.any()
 
 
@@ -181,16 +183,16 @@ def test_config_rejects_unknown_key():
 
 def test_bad_runtime_parameters_raise():
     with pytest.raises(ValueError, match="spray_time"):
-        sim.spray_opacity(np.zeros((1, 2)), 1.0, (4, 4), 1.0, SprayConfig(), spray_time=0.0)
+        sim.spray_opacity(np.zeros((1, 2)), 1.0, (4, 4), 1.0, SprayConfig(model="paper"), spray_time=0.0)
     with pytest.raises(ValueError, match="radius"):
-        sim.spray_opacity(np.zeros((1, 2)), 0.0, (4, 4), 1.0, SprayConfig())
+        sim.spray_opacity(np.zeros((1, 2)), 0.0, (4, 4), 1.0, SprayConfig(model="paper"))
 
 
 # --------------------------------------------------------------------------- hard-stencil masks
 
 
 def test_mask_interior_and_closed():
-    cfg = SprayConfig(spray_time=1.0, nozzle_height=7.0)
+    cfg = SprayConfig(model="paper", spray_time=1.0, nozzle_height=7.0)
     mask = np.zeros((200, 200), bool)
     mask[20:180, 20:180] = True
     out = sim.spray_mask(mask, 0.1, cfg)
@@ -201,7 +203,7 @@ def test_mask_interior_and_closed():
 def test_mask_disc_sprays_the_dot_models_paint():
     """A disc cut-out of the reference radius deposits the same paint (and spread) as one hole."""
     a, h, r, s = 0.01, 7.0, 1.0, 0.05
-    cfg = SprayConfig(spray_time=a, nozzle_height=h, mask_reference_radius_mm=r)
+    cfg = SprayConfig(model="paper", spray_time=a, nozzle_height=h, mask_reference_radius_mm=r)
     shape = (400, 400)
     rows, cols = np.mgrid[0:400, 0:400]
     centre = (10.0, 10.0)
@@ -218,7 +220,7 @@ def test_mask_disc_sprays_the_dot_models_paint():
 
 
 def test_mask_without_spread_is_sharp():
-    cfg = SprayConfig(nozzle_height=0.0)
+    cfg = SprayConfig(model="paper", nozzle_height=0.0)
     mask = np.zeros((10, 10), bool)
     mask[3:6, 3:6] = True
     out = sim.spray_mask(mask, 0.5, cfg)
@@ -244,7 +246,7 @@ def test_simulate_composite_and_empty_layer():
     rng = np.random.default_rng(0)
     dots = DotSet(xy_mm=rng.uniform(0, 15, (40, 2)), r_mm=np.full(40, 0.6))
     empty = DotSet(xy_mm=np.zeros((0, 2)), r_mm=np.zeros(0))
-    cfg = SprayConfig(px_per_mm=4.0)
+    cfg = SprayConfig(model="paper", px_per_mm=4.0)
     res = sim.simulate(layers, [dots, empty], cfg)
     assert res.alphas.shape == (2, 80, 120)
     assert res.mm_per_px == 0.25
@@ -260,7 +262,7 @@ def test_simulate_composite_and_empty_layer():
 def test_simulate_per_layer_spray_time():
     layers = _layers()
     xy = np.array([[5.0, 5.0]])
-    cfg = SprayConfig(px_per_mm=2.0)
+    cfg = SprayConfig(model="paper", px_per_mm=2.0)
     timed = DotSet(xy_mm=xy, r_mm=np.array([1.0]), report={"spray_time": 0.25})
     plain = DotSet(xy_mm=xy, r_mm=np.array([1.0]))
     res = sim.simulate(layers, [timed, plain], cfg)
@@ -272,7 +274,7 @@ def test_simulate_per_layer_spray_time():
 def test_simulate_layer_rmse_is_against_blurred_target():
     layers = _layers()
     empty = DotSet(xy_mm=np.zeros((0, 2)), r_mm=np.zeros(0))
-    res = sim.simulate(layers, [empty, empty], SprayConfig(), grid_mm_per_px=0.5)
+    res = sim.simulate(layers, [empty, empty], SprayConfig(model="paper"), grid_mm_per_px=0.5)
     target = sim.target_on_grid(layers.alphas[0], (40, 60), res.info["blur_sigma_mm"][0], 0.5)
     assert res.layer_rmse[0] == pytest.approx(math.sqrt(np.mean(target**2)))
     assert 0.3 < res.layer_rmse[0] < 0.6 * math.sqrt(0.5) + 0.05
@@ -322,7 +324,7 @@ def test_sweep_panels():
     layers = _layers()
     dots = DotSet(xy_mm=np.array([[10.0, 10.0]]), r_mm=np.array([1.0]))
     empty = DotSet(xy_mm=np.zeros((0, 2)), r_mm=np.zeros(0))
-    img = sim.sweep(layers, [dots, empty], SprayConfig(px_per_mm=2.0))
+    img = sim.sweep(layers, [dots, empty], SprayConfig(model="paper", px_per_mm=2.0))
     assert img.dtype == np.uint8 and img.shape == (40, 3 * 60 + 8, 3)
     # Longer spray, darker red at the hole's edge: panels differ in order.
     centre = [img[20, k * 64 + 24] for k in range(3)]
@@ -334,7 +336,7 @@ def test_sweep_panels():
 
 def test_tone_curve_sparse_limit():
     """At low tone the holes are isolated: mean opacity = holes per mm^2 x A 2 pi sigma^2 (A <= 1)."""
-    cfg = SprayConfig(spray_time=0.5, nozzle_height=7.0)
+    cfg = SprayConfig(model="paper", spray_time=0.5, nozzle_height=7.0)
     curve = cal.tone_response(1.0, 0.8, cfg)
     t = curve.t[1]
     lam = cal.packing_density(1.0, 0.8) * t
@@ -344,7 +346,7 @@ def test_tone_curve_sparse_limit():
 
 
 def test_calibrated_density_inverts_response_and_saturates():
-    cfg = SprayConfig(spray_time=1.0)
+    cfg = SprayConfig(model="paper", spray_time=1.0)
     curve = cal.tone_response(0.5, 0.5, cfg)
     alpha = np.linspace(0, 1, 101)[None, :]
     d = cal.calibrated_density(alpha, 0.5, 0.5, 0.5, cfg)
@@ -355,7 +357,7 @@ def test_calibrated_density_inverts_response_and_saturates():
 
 
 def test_choose_tone_beats_linear_prediction():
-    cfg = SprayConfig(spray_time=1.0)
+    cfg = SprayConfig(model="paper", spray_time=1.0)
     alpha = np.tile(np.linspace(0.0, 1.0, 64), (16, 1))
     dots = cal.choose_tone(alpha, 0.5, 1.0, 0.8, cfg, mode=Calibrate.dots)
     timed = cal.choose_tone(alpha, 0.5, 1.0, 0.8, cfg, mode=Calibrate.spray_time)
@@ -376,7 +378,7 @@ def test_calibrated_stipple_sprays_closer_than_linear():
     s = 0.5
     alpha = np.tile(np.linspace(0.0, 1.0, 160), (60, 1))
     layers = Layers(primer=np.ones(3), colours=np.zeros((1, 3)), alphas=alpha[None], mm_per_px=s)
-    spray = SprayConfig(calibrate=Calibrate.dots)
+    spray = SprayConfig(model="paper", calibrate=Calibrate.dots)
     stc = StippleConfig(process="sla", edge_margin_mm=0.0, tone="linear")
     lin = stipple_layer(alpha, s, stc, np.random.default_rng(0))
     choice = cal.choose_tone(
@@ -441,7 +443,7 @@ def test_a_murals_plate_card_stays_within_its_longest_side():
 
 def test_choose_tone_weights_the_spray_time_choice():
     """Weight on the sparse half of a layer picks a lower spray time than weight on its dark half."""
-    cfg = SprayConfig(spray_time=1.0)
+    cfg = SprayConfig(model="paper", spray_time=1.0)
     alpha = np.where(np.arange(64)[None, :] < 32, 0.08, 1.0) * np.ones((16, 1))
     sparse = np.where(alpha < 0.5, 1.0, 1e-3)
     plain = cal.choose_tone(alpha, 0.5, 0.5, 0.5, cfg, mode=Calibrate.spray_time)

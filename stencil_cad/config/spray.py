@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import enum
+import math
 from pathlib import Path
 from typing import Any
 
@@ -46,7 +47,8 @@ class CanConstants(StrictModel):
         description=(
             "Angular spread of the spray, tan of its sigma: a plate held g mm off the surface blurs every "
             "hole by a Gaussian of sigma = spread_k * g mm (whatever the hole's size). Caps run from about "
-            "0.05 (skinny) to 0.2 (fat). Range [0, 1]."
+            "0.05 (skinny) to 0.2 (fat); 0.12, the middle of that range, is a prior, not a measurement: "
+            "the card's photo measures it (its two stand-offs separate it from the bleed). Range [0, 1]."
         ),
     )
     bleed_sigma_mm: float = Field(
@@ -55,16 +57,20 @@ class CanConstants(StrictModel):
         le=10.0,
         description=(
             "Spread in mm that the paint has even with no gap (wetting, bleeding under the plate, droplet "
-            "size): sigma^2 = bleed_sigma_mm^2 + (spread_k * g)^2. Range [0.01, 10]."
+            "size): sigma^2 = bleed_sigma_mm^2 + (spread_k * g)^2. 0.25 is a prior of the order of a spray "
+            "droplet's wetted spot, not a measurement; the card's photo measures it. Range [0.01, 10]."
         ),
     )
     deposit_per_pass: float = Field(
-        0.7,
+        1.5,
         gt=0.0,
         le=20.0,
         description=(
             "Optical depth one pass leaves on open surface at distance_mm and speed_m_s: after n passes an "
-            "open area has opacity 1 - exp(-n * deposit_per_pass) (0.7: 50 % after one pass, 75 % after two). "
+            "open area has opacity 1 - exp(-n * deposit_per_pass). It decides how many passes a dark layer "
+            "needs. 1.5 (78 % after one pass, 95 % after two) is a prior from the cans' own directions, which "
+            "ask for two light coats for full cover at 20-30 cm; it is not measured under our plates. A maker's first card photo replaces it: expect it to move most "
+            "with the paint (thin artist paints lower, high-cover paints higher) and the hand's speed. "
             "Range (0, 20]."
         ),
     )
@@ -119,12 +125,14 @@ class SprayConfig(StrictModel):
     """
 
     model: SprayModel = Field(
-        SprayModel.paper,
+        SprayModel.physical,
         description=(
-            "Spray model. Choices: paper (Vavilala 2015: each hole a Gaussian of sigma = r sqrt(1 + h) / 2, "
-            "amount spray_time, in model units; the wall's stand-off is not modelled), physical (the maker's "
-            "units: every wall.standoff_mm gets its own blur, the can's distance and passes set the dose, "
-            "the constants come from spray.can or a measured spray.profile)."
+            "Spray model. Choices: physical (the default, in the maker's units: every wall.standoff_mm gets "
+            "its own blur, the can's distance and whole passes set the dose, the constants come from "
+            "spray.can or a measured spray.profile; without a profile the holes are refined and scored for "
+            "a prior of cans, see stencil_cad.simulate.cans), paper (Vavilala 2015, to reproduce the paper's "
+            "setup: each hole a Gaussian of sigma = r sqrt(1 + h) / 2, amount spray_time, in model units; "
+            "the wall's stand-off is not modelled)."
         ),
     )
     passes: float = Field(
@@ -135,6 +143,19 @@ class SprayConfig(StrictModel):
             "Physical model: passes of the can over the stencil per layer, sweeping at can_distance_mm and "
             "pass_speed_m_s. The tone calibration (spray.calibrate: spray_time) chooses whole passes per "
             "layer, starting here. Range (0, 50]."
+        ),
+    )
+    max_passes: int = Field(
+        6,
+        ge=1,
+        le=20,
+        description=(
+            "Physical model: the most whole passes any layer may ask for. Every layer is designed to reach "
+            "its darkest tone within this many passes at can_distance_mm and pass_speed_m_s; where it "
+            "cannot, the plate opens more area (larger and denser holes within the design rules) instead "
+            "of asking for more paint, and the summary names the layer and its shortfall. A heavy coat "
+            "under a lifted stencil runs and creeps: a few light passes, each let to flash off, are what "
+            "a maker sprays. Range [1, 20]."
         ),
     )
     can_distance_mm: float = Field(
@@ -246,6 +267,36 @@ class SprayConfig(StrictModel):
             "dot model's sigma that comes from the nozzle. Range (0, 20]."
         ),
     )
+
+    @property
+    def is_physical(self) -> bool:
+        """True under the physical spray model."""
+        return self.model == SprayModel.physical
+
+    @property
+    def is_measured(self) -> bool:
+        """True when the can's constants come from a measured spray profile (``spray.profile``)."""
+        return self.profile is not None or bool(self.can.fit)
+
+    @property
+    def dose_per_pass(self) -> float:
+        """Optical depth one pass leaves on open surface at the job's can distance and speed.
+
+        ``beta (d_ref / d) (v_ref / v)``: ``can.deposit_per_pass`` carried from the distance and speed
+        it was measured at to ``can_distance_mm`` and ``pass_speed_m_s`` (a sweeping fan's deposit
+        falls as 1 / distance and 1 / speed).
+        """
+        c = self.can
+        return (
+            c.deposit_per_pass * (c.distance_mm / self.can_distance_mm) * (c.speed_m_s / self.pass_speed_m_s)
+        )
+
+    def full_cover_passes(self, cover: float = 0.98) -> int:
+        """The fewest whole passes (at most ``max_passes``) that cover ``cover`` of an open area.
+
+        What a cut-out of a hard stencil is sprayed with under the physical model.
+        """
+        return max(1, min(self.max_passes, math.ceil(-math.log(1.0 - cover) / self.dose_per_pass)))
 
     @property
     def amount(self) -> float:

@@ -209,15 +209,24 @@ def job_preview(
 
 
 def sweep_card(
-    panels: Sequence[np.ndarray], factors: Sequence[float], mm_per_px: float, panel_px: int = 360
+    panels: Sequence[np.ndarray],
+    factors: Sequence[float],
+    mm_per_px: float,
+    panel_px: int = 360,
+    unit: str = "spray time",
 ) -> np.ndarray:
-    """The spray-time sweep: one titled panel per factor (``spray time × f``) with scale bars."""
+    """The sweep of the amount of paint: one titled panel per factor (``passes × f``) with scale bars.
+
+    ``unit`` names the amount: ``passes`` (the physical model: the paint of f times each layer's
+    passes, a heavier or lighter hand) or ``spray time`` (the paper's model).
+    """
     ppm = 1.0 / mm_per_px
+    what = "paint per layer" if unit == "passes" else "spray time"
     titled = [
         _panel(
             p,
-            f"spray time × {f:g}",
-            "as planned" if abs(f - 1.0) < 1e-9 else f"{f:g} × the planned spray time",
+            f"{what} × {f:g}",
+            "as planned" if abs(f - 1.0) < 1e-9 else f"{f:g} × the planned {what}",
             ppm,
             panel_px,
         )

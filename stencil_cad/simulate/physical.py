@@ -119,8 +119,7 @@ def dose_per_pass(cfg: SprayConfig) -> float:
     Returns:
         Optical depth per pass (dimensionless).
     """
-    c = cfg.can
-    return c.deposit_per_pass * (c.distance_mm / cfg.can_distance_mm) * (c.speed_m_s / cfg.pass_speed_m_s)
+    return cfg.dose_per_pass
 
 
 def _lens_fraction(u: np.ndarray) -> np.ndarray:

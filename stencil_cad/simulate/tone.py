@@ -71,8 +71,6 @@ _JITTER = 0.08
 #: Spray-time multipliers tried by ``calibrate: spray_time`` (1/64 to 8: a hole sprays about
 #: ``A 2 pi sigma^2`` of paint and sigma grows with the nozzle height, so high nozzles want low A).
 _A_FACTORS = tuple(2.0 ** (k / 2.0) for k in range(-12, 7))
-#: Passes tried by ``calibrate: spray_time`` under the physical model (a hand sprays whole passes).
-_PASSES = tuple(float(n) for n in range(1, 13))
 
 
 def packing_density(max_radius_mm: float, web_mm: float, spacing_factor: float = 1.15) -> float:
@@ -380,7 +378,8 @@ def choose_tone(
     else:
         candidates = [cfg.amount]
         if mode == Calibrate.spray_time and cfg.model == SprayModel.physical:
-            candidates = sorted({*_PASSES, cfg.amount})
+            # A hand sprays whole passes, at most spray.max_passes of them.
+            candidates = [float(n) for n in range(1, cfg.max_passes + 1)]
         elif mode == Calibrate.spray_time:
             candidates = sorted({min(100.0, cfg.spray_time * f) for f in _A_FACTORS})
         scored = []

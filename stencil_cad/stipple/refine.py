@@ -54,7 +54,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
 import numba
@@ -1071,6 +1071,34 @@ def _start_layers(
     return state
 
 
+def _add_and_remove(state, ev: _Eval, evaluate, kernels, mm_per_px: float, shape) -> _Eval:
+    """One round of removals and additions per layer, each scored on the composite; the new evaluation."""
+    for k, layer in enumerate(state):
+        g, q = _g_and_q(ev, k)
+        layer.removed += _remove_holes(layer, g, q, ev.trans[k], kernels, mm_per_px, shape[0])
+        ev = evaluate(want_q=True)
+        g, q = _g_and_q(ev, k)
+        layer.added += _add_holes(layer, g, q, ev.trans[k], kernels, mm_per_px, shape)
+        ev = evaluate(want_q=True)
+    return ev
+
+
+def _refined(ds: DotSet, layer: _Layer) -> DotSet:
+    """The layer's refined holes as a DotSet (input order first), checked against its rules."""
+    layer.keep(layer.input_order())
+    xy = np.column_stack([layer.x, layer.y])
+    check_rules(xy, layer.r, layer.rules)
+    rep = {
+        **ds.report,
+        "n_stippled": len(ds),
+        "refine_added": layer.added,
+        "refine_removed": layer.removed,
+        "refine_reverted": layer.reverted,
+        "n_final": len(layer.x),
+    }
+    return replace(ds, xy_mm=xy, r_mm=layer.r.copy(), report=rep)
+
+
 def refine_dots(
     target_rgb: np.ndarray,
     mm_per_px: float,
@@ -1078,7 +1106,7 @@ def refine_dots(
     colours: np.ndarray,
     dotsets: list[DotSet],
     rules: list[DesignRules],
-    kernels: Kernels,
+    kernels: Kernels | Sequence[Kernels],
     spray_times: list[float],
     settings: RefineSettings,
     progress: Callable[[int, int], None] | None = None,
@@ -1094,7 +1122,12 @@ def refine_dots(
         colours: ``(L, 3)`` paint colours in spray order.
         dotsets: One DotSet per layer (each passing its rules).
         rules: The design rules of each layer.
-        kernels: The spray model's per-hole kernels bound to the spray settings (:data:`Kernels`).
+        kernels: The spray model's per-hole kernels bound to the spray settings (:data:`Kernels`),
+            or one per can of a prior of cans (:mod:`stencil_cad.simulate.cans`), the nominal can
+            first. With several, the expected error over the cans is minimised stochastically:
+            step ``i`` takes its gradient (and its add/remove moves) under can ``i mod n``, Adam's
+            moments average the cans' gradients, and one step costs what one can costs. The
+            reported objectives are the first (nominal) can's.
         spray_times: Spray time of each layer.
         settings: Iterations, step sizes, largest radius, add/remove cadence, eye filter.
         progress: Called as ``progress(iteration, iterations)``.
@@ -1133,6 +1166,11 @@ def refine_dots(
 
     viewer = _Viewer(target, mm_per_px, settings.view) if settings.view is not None else None
 
+    cans = [kernels] if callable(kernels) else list(kernels)
+    if not cans:
+        raise ValueError("need the kernels of at least one can")
+    kernels = cans[0]
+
     def evaluate(want_q=False):
         return _evaluate(
             state, kernels, mm_per_px, target, alpha_targets, lam, primer, colours, eye_px, want_q, viewer
@@ -1150,31 +1188,21 @@ def refine_dots(
             if len(layer.x):
                 _adam_step(layer, grad, it, frac, settings)
         moves = bool(every) and it % every == 0 and it < iters
+        if not moves:
+            # Step i + 1 takes the next can's gradient (one evaluation a step, as with one can).
+            kernels = cans[it % len(cans)]
         ev = evaluate(want_q=moves)
         if moves:
-            for k, layer in enumerate(state):
-                g, q = _g_and_q(ev, k)
-                layer.removed += _remove_holes(layer, g, q, ev.trans[k], kernels, mm_per_px, h)
-                ev = evaluate(want_q=True)
-                g, q = _g_and_q(ev, k)
-                layer.added += _add_holes(layer, g, q, ev.trans[k], kernels, mm_per_px, shape)
-                ev = evaluate(want_q=True)
+            ev = _add_and_remove(state, ev, evaluate, kernels, mm_per_px, shape)
+            if len(cans) > 1:
+                kernels = cans[it % len(cans)]
+                ev = evaluate()
         if progress is not None:
             progress(it, iters)
-    out = []
-    for ds, layer in zip(dotsets, state, strict=True):
-        layer.keep(layer.input_order())
-        xy = np.column_stack([layer.x, layer.y])
-        check_rules(xy, layer.r, layer.rules)
-        rep = {
-            **ds.report,
-            "n_stippled": len(ds),
-            "refine_added": layer.added,
-            "refine_removed": layer.removed,
-            "refine_reverted": layer.reverted,
-            "n_final": len(layer.x),
-        }
-        out.append(replace(ds, xy_mm=xy, r_mm=layer.r.copy(), report=rep))
+    if kernels is not cans[0]:
+        kernels = cans[0]
+        ev = evaluate()
+    out = [_refined(ds, layer) for ds, layer in zip(dotsets, state, strict=True)]
     report = {
         "iterations": iters,
         "objective_start": math.sqrt(e_start / npx),

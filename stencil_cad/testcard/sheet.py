@@ -15,7 +15,16 @@ import numpy as np
 from ..frames import mm_to_px
 from .layout import ARUCO_DICT, MARKER_MM, CardLayout, Footprint
 
-__all__ = ["aruco_dictionary", "sheet_pdf", "sheet_png", "sheet_reflectance", "srgb_encode", "srgb_decode"]
+__all__ = [
+    "PAPER_MM",
+    "aruco_dictionary",
+    "card_steps",
+    "sheet_pdf",
+    "sheet_png",
+    "sheet_reflectance",
+    "srgb_encode",
+    "srgb_decode",
+]
 
 #: Resolution the sheet is drawn at (px per mm, 304.8 dpi).
 SHEET_PX_PER_MM = 12.0
@@ -127,12 +136,110 @@ def sheet_png(layout: CardLayout, px_per_mm: float = SHEET_PX_PER_MM) -> np.ndar
     return np.repeat(ref[..., None], 3, axis=2)
 
 
-def sheet_pdf(layout: CardLayout, px_per_mm: float = SHEET_PX_PER_MM) -> bytes:
-    """The sheet as a one-page PDF at its true size (print at 100 %, no scaling)."""
-    from PIL import Image
+#: Paper sizes the card's page is printed on, in mm (ISO 216 A4, US Letter).
+PAPER_MM: dict[str, tuple[float, float]] = {"a4": (210.0, 297.0), "letter": (215.9, 279.4)}
+#: White border of the page around the sheet and the steps, mm (inside most printers' margins).
+PAGE_MARGIN_MM = 10.0
 
+
+def card_steps(layout: CardLayout, distance_mm: float, speed_m_s: float, paint: str = "") -> list[str]:
+    """The steps printed on the card's page: set it up, spray it, photograph it, fit it.
+
+    Args:
+        layout: The card.
+        distance_mm: Can distance the card is sprayed from, mm.
+        speed_m_s: Sweep speed, m/s.
+        paint: The paint being measured (free text), or empty.
+
+    Returns:
+        One sentence per step.
+    """
+    walls = ", ".join(f"{fp.standoff_mm:g} mm" for fp in layout.footprints)
+    n = layout.passes
+    return [
+        "Print this page at 100 % (no 'fit to page'); check the 50 mm bar with a ruler. Tape it flat on "
+        "the surface or on a board painted with your primer.",
+        f"Set each wall ({walls}) on its printed outline; its rim covers the markers and grey patches.",
+        f"Drop the card plate into a wall and spray {paint or 'the paint to measure'} with the cap you will "
+        f"use: {n} even passes from about {distance_mm / 10.0:g} cm at about {speed_m_s:g} m/s, each pass "
+        "starting and ending off the plate, each let to flash off before the next. Lift the plate "
+        "straight up, repeat in the next wall, let the page dry.",
+        "Photograph the whole page square on, in diffuse light, no flash or glare, filling most of the "
+        "frame, in focus, every marker in view.",
+        f"Run: stencil-cad calibrate PHOTO --card card.json --passes {n} --out my_can.yaml, then set "
+        "spray.profile: my_can.yaml in your job.",
+    ]
+
+
+def sheet_pdf(
+    layout: CardLayout,
+    px_per_mm: float = SHEET_PX_PER_MM,
+    paper: str = "a4",
+    steps: list[str] | None = None,
+) -> bytes:
+    """The sheet on an A4 or Letter page at its true size (print at 100 %), with the steps printed.
+
+    The steps go under the sheet when they fit on its page, else on a second page.
+
+    Args:
+        layout: The card.
+        px_per_mm: Resolution the sheet's raster is drawn at.
+        paper: ``a4`` or ``letter``.
+        steps: The steps (:func:`card_steps`), or None for none.
+
+    Returns:
+        The PDF's bytes.
+
+    Raises:
+        ValueError: An unknown paper, or a sheet larger than the page's printable area.
+    """
+    from PIL import Image
+    from reportlab.lib.styles import ParagraphStyle
+    from reportlab.lib.units import mm
+    from reportlab.lib.utils import ImageReader
+    from reportlab.pdfgen import canvas
+    from reportlab.platypus import Frame, Paragraph
+
+    if paper not in PAPER_MM:
+        raise ValueError(f"paper must be one of {', '.join(PAPER_MM)}, got {paper!r}")
+    pw, ph = PAPER_MM[paper]
+    sw, sh = layout.sheet_mm
+    if sw > pw - 2 * PAGE_MARGIN_MM or sh > ph - 2 * PAGE_MARGIN_MM:
+        raise ValueError(
+            f"the card's sheet ({sw:g} x {sh:g} mm) does not fit a {paper} page with {PAGE_MARGIN_MM:g} mm "
+            "margins: use fewer stand-offs"
+        )
     ref = srgb_encode(sheet_reflectance(layout, px_per_mm))
     im = Image.fromarray((ref * 255.0 + 0.5).astype(np.uint8), mode="L")
     buf = io.BytesIO()
-    im.save(buf, format="PDF", resolution=px_per_mm * 25.4)
+    c = canvas.Canvas(buf, pagesize=(pw * mm, ph * mm), invariant=1, pageCompression=1)
+    c.setTitle("stencil-cad calibration card")
+    x0 = (pw - sw) / 2.0
+    top = ph - PAGE_MARGIN_MM
+    c.drawImage(ImageReader(im), x0 * mm, (top - sh) * mm, sw * mm, sh * mm)
+    style = ParagraphStyle("step", fontName="Helvetica", fontSize=9, leading=11.5, spaceAfter=3)
+    head = ParagraphStyle("head", parent=style, fontName="Helvetica-Bold", fontSize=11, leading=14)
+    paras = [Paragraph("Calibration card: how to spray and photograph it", head)] + [
+        Paragraph(f"{k}. {_escape(t)}", style) for k, t in enumerate(steps or [], 1)
+    ]
+    room = top - sh - 5.0 - PAGE_MARGIN_MM
+    need = sum(p.wrap((pw - 2 * PAGE_MARGIN_MM) * mm, ph * mm)[1] + 3 for p in paras) / mm
+    if steps and need > room:
+        c.showPage()
+        room = ph - 2 * PAGE_MARGIN_MM
+    if steps:
+        frame = Frame(
+            PAGE_MARGIN_MM * mm,
+            PAGE_MARGIN_MM * mm,
+            (pw - 2 * PAGE_MARGIN_MM) * mm,
+            room * mm,
+            showBoundary=0,
+        )
+        frame.addFromList(paras, c)
+    c.showPage()
+    c.save()
     return buf.getvalue()
+
+
+def _escape(text: str) -> str:
+    return text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")

@@ -1,0 +1,89 @@
+"""The prior over cans: the few cans a stencil is designed and scored for when no can was measured.
+
+A stencil designed for one assumed can is only as good as that assumption. Real caps spread
+the spray by ``k`` = 0.05 (skinny) to 0.2 (fat) per mm of stand-off, and the optical depth a
+pass leaves varies with the paint, the distance and the hand's speed. Without a measured profile
+(``spray.profile``), the simulation scores every can below (``simulate.scielab_by_can``,
+``simulate.scielab_worst``) and the maker reads "between X and Y depending on your can; spray
+the card to know". With ``refine.cans: prior`` the refinement minimises the expected error over
+them (one can per step, in turn, so it costs what one can costs). A measured profile collapses
+the prior to that can.
+
+The cans, as the nominal can (``spray.can``) changed by:
+
+=============  =========  ===============  =========================
+can            spread k   deposit / pass   bleed sigma
+=============  =========  ===============  =========================
+nominal        k          beta             sigma_0
+skinny light   0.08       0.85 beta        0.8 sigma_0
+skinny heavy   0.08       1.15 beta        0.8 sigma_0
+fat light      0.16       0.85 beta        1.25 sigma_0
+fat heavy      0.16       1.15 beta        1.25 sigma_0
+=============  =========  ===============  =========================
+
+The spreads are the middle of the caps' published range (0.05 and 0.2 are its extreme caps);
+the deposit factors are a hand or a paint 15 % lighter or heavier than the nominal one (the
+example scores 1-3 S-CIELAB worse for each of these cans, so the prior is not made wider);
+fat caps wet more, so their bleed is larger.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..config.spray import SprayConfig
+
+__all__ = ["CAN_PRIOR", "PriorCan", "can_prior"]
+
+
+@dataclass(frozen=True)
+class PriorCan:
+    """One can of the prior, relative to the nominal can.
+
+    Attributes:
+        name: What the can is like (``nominal``, ``skinny light`` …).
+        spread_k: Its spread per mm of stand-off, or None for the nominal can's.
+        deposit_factor: Its deposit per pass as a multiple of the nominal can's.
+        bleed_factor: Its bleed sigma as a multiple of the nominal can's.
+    """
+
+    name: str
+    spread_k: float | None
+    deposit_factor: float
+    bleed_factor: float
+
+
+#: The cans a stencil without a measured profile is refined and scored for (see the module doc).
+CAN_PRIOR: tuple[PriorCan, ...] = (
+    PriorCan("nominal", None, 1.0, 1.0),
+    PriorCan("skinny light", 0.08, 0.85, 0.8),
+    PriorCan("skinny heavy", 0.08, 1.15, 0.8),
+    PriorCan("fat light", 0.16, 0.85, 1.25),
+    PriorCan("fat heavy", 0.16, 1.15, 1.25),
+)
+
+
+def can_prior(cfg: SprayConfig) -> list[tuple[str, SprayConfig]]:
+    """The spray settings of every can a stencil is designed for, the nominal one first.
+
+    Args:
+        cfg: The job's spray settings.
+
+    Returns:
+        ``(name, settings)`` per can: the whole prior under the physical model without a measured
+        profile; only ``("nominal", cfg)`` under the paper model or with a measured can.
+    """
+    if not cfg.is_physical or cfg.is_measured:
+        return [("nominal", cfg)]
+    out = []
+    for can in CAN_PRIOR:
+        c = cfg.can
+        changed = c.model_copy(
+            update={
+                "spread_k": c.spread_k if can.spread_k is None else can.spread_k,
+                "deposit_per_pass": min(20.0, c.deposit_per_pass * can.deposit_factor),
+                "bleed_sigma_mm": min(10.0, max(0.01, c.bleed_sigma_mm * can.bleed_factor)),
+            }
+        )
+        out.append((can.name, cfg.model_copy(update={"can": changed})))
+    return out
