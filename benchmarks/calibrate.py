@@ -17,6 +17,8 @@ Cases:
   and steeper light gradient, more noise, JPEG quality 70.
 * ``one-standoff``: one wall (10 mm); the bleed keeps its prior (0.25 mm, the truth here) and
   k and the deposit are fitted.
+* ``defaults``: the card ``stencil-cad card`` writes for the default job (its 10 mm wall and the
+  card's 3 mm one) sprayed with the default can's constants, 4 passes.
 """
 
 from __future__ import annotations
@@ -59,12 +61,14 @@ CASES = {
         4,
         PhotoSettings(shift_mm=((0.2, 0.2),)),
     ),
+    "defaults": (CanConstants(), None, 4, PhotoSettings(shift_mm=((0.3, -0.2), (-0.2, 0.3)))),
 }
 
 
 def _case(name: str) -> dict:
     truth, standoffs, passes, settings = CASES[name]
     layout = card_layout(JobConfig(), standoffs)
+    standoffs = [fp.standoff_mm for fp in layout.footprints]
     cfg = SprayConfig(model="physical", can=truth)
     t0 = time.perf_counter()
     data, _ = synthetic_photo(layout, cfg, passes, np.random.default_rng(14), settings)

@@ -6,6 +6,10 @@ Case ``example`` is the bundled job as shipped (refinement on); ``example-norefi
 the same job with ``refine.enabled: false``. Both run in the same call, so their ratio is
 measured on the same machine state; the ``example`` row carries the ratios (on a shared
 machine, compare CPU seconds and run the benchmark several times for medians).
+``example-prior`` refines for the prior of cans (``refine.cans: prior``) and carries its
+refinement time over the ``example`` row's; ``example-paper`` is the job under the paper's spray
+model. Every row scores against the source image resized to the simulated grid (the manifest's
+``simulate.scielab``), and under the physical model gives ``scielab_worst`` over the prior of cans.
 """
 
 from __future__ import annotations
@@ -18,24 +22,28 @@ import tempfile
 import time
 from pathlib import Path
 
-CASES = ("example-norefine", "example")
+CASES = ("example-norefine", "example", "example-prior", "example-paper")
 
 
-def _config(tmp: Path, refine: bool) -> Path:
+def _config(tmp: Path, case: str) -> Path:
     import yaml
 
     data_dir = Path(__file__).resolve().parents[1] / "stencil_cad" / "data"
     cfg = yaml.safe_load((data_dir / "example.yaml").read_text())
     cfg["image"] = str(data_dir / cfg["image"])
-    cfg.setdefault("refine", {})["enabled"] = refine
-    path = tmp / f"example_refine_{refine}.yaml"
+    cfg.setdefault("refine", {})["enabled"] = case != "example-norefine"
+    if case == "example-prior":
+        cfg["refine"]["cans"] = "prior"
+    if case == "example-paper":
+        cfg["spray"]["model"] = "paper"
+    path = tmp / f"{case}.yaml"
     path.write_text(yaml.safe_dump(cfg))
     return path
 
 
 def _one(case: str, tmp: Path) -> dict:
     out = tmp / case
-    cfg = _config(tmp, case == "example")
+    cfg = _config(tmp, case)
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     # RUSAGE_CHILDREN's peak is the largest child so far, so each child reports its own peak.
@@ -74,9 +82,20 @@ def _one(case: str, tmp: Path) -> dict:
     row["dots"] = [r["dots"] for r in manifest.get("stipple", [])]
     row["files"] = len(manifest.get("files", []))
     sim = manifest.get("simulate", {})
-    for k in ("de2000_mean", "de2000_p95", "psnr", "ssim", "view_distance_m", "scielab", "scielab_2x"):
+    for k in (
+        "de2000_mean",
+        "de2000_p95",
+        "psnr",
+        "ssim",
+        "view_distance_m",
+        "scielab",
+        "scielab_2x",
+        "scielab_worst",
+        "scielab_by_can",
+    ):
         if k in sim:
             row[k] = sim[k]
+    row["passes"] = [s.get("passes") for s in manifest.get("spraying", [])]
     return row
 
 
@@ -92,4 +111,9 @@ def run(cases=None):
                 for key in ("seconds", "cpu_seconds", "peak_mb"):
                     if base.get(key):
                         row[f"{key}_ratio_vs_norefine"] = round(row[key] / base[key], 3)
+            if case == "example-prior" and "example" in rows:
+                one = rows["example"].get("stage_seconds", {}).get("refine")
+                many = rows[case].get("stage_seconds", {}).get("refine")
+                if one and many:
+                    rows[case]["refine_ratio_vs_one_can"] = round(many / one, 3)
             yield rows[case]

@@ -917,7 +917,9 @@ def stage_simulate(
         run.figures["simulate"]["scielab_worst"] = max(by_can.values())
     if per_wall:
         run.figures["simulate"]["walls"] = per_wall
-    run.figures["spraying"] = spraying_steps(cfg, layers, dotsets)
+    run.figures["spraying"] = spraying_steps(
+        cfg, layers, [float(ds.report.get("spray_time", cfg.spray.amount)) for ds in dotsets]
+    )
     return (sim, ref) if keep else scores
 
 
@@ -989,13 +991,13 @@ def _scores_by_can(
     return out
 
 
-def spraying_steps(cfg: JobConfig, layers: Layers, dotsets: list[DotSet]) -> list[dict]:
+def spraying_steps(cfg: JobConfig, layers: Layers, amounts: Sequence[float]) -> list[dict]:
     """What the hand does for each layer, in the maker's units (physical model) or the model's.
 
     Args:
         cfg: The job config.
         layers: The decomposition (for the paint colours and the picture's size).
-        dotsets: The layers' holes (their ``report["spray_time"]`` is the layer's amount).
+        amounts: Each layer's amount of paint: passes (physical) or spray time (paper).
 
     Returns:
         One dict per layer: ``layer``, ``paint``, and ``passes``, ``can_distance_cm``,
@@ -1005,8 +1007,7 @@ def spraying_steps(cfg: JobConfig, layers: Layers, dotsets: list[DotSet]) -> lis
     out = []
     h_px, w_px = layers.alphas.shape[1:] if layers.count else (0, 0)
     per_pass = sweep_seconds(cfg, w_px * layers.mm_per_px, h_px * layers.mm_per_px)
-    for i, ds in enumerate(dotsets):
-        amount = float(ds.report.get("spray_time", sp.amount))
+    for i, amount in enumerate(amounts):
         paint = to_hex(layers.colours[i])
         if sp.model == SprayModel.physical:
             n = max(1, round(amount))
@@ -1520,6 +1521,7 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
         write_previews(run, picture.rgb, hardstencil.render_ideal(hard), comp, picture.mm_per_px, scores)
         write_steps(run, hard.primer, hard.colours, alphas, picture.mm_per_px)
     run.figures["simulate"] = _plain(scores)
+    run.figures["spraying"] = spraying_steps(cfg, layers, [float(cfg.spray.amount)] * layers.count)
     return finish(run, "hard")
 
 

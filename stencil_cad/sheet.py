@@ -398,6 +398,7 @@ def sheet_from_manifest(manifest: Mapping, tiles: Sequence[Mapping] | None = Non
     paint_rows, paint_note = _paint_table(manifest, cfg, primer_hex, steps)
     warnings = [str(w) for w in (_val(manifest, "decompose", "warnings", default=[]) or [])]
     warnings += [str(w) for w in (_val(manifest, "hard", "warnings", default=[]) or [])]
+    warnings += _dark_end_warnings(manifest)
     return Sheet(
         job=str(cfg.get("name", "stencil")),
         mode=mode,
@@ -443,6 +444,26 @@ def _spray_how(cfg: Mapping, section: str, nozzle) -> str:
         )
         + "; let each layer dry before the next."
     )
+
+
+def _dark_end_warnings(manifest: Mapping) -> list[str]:
+    """A line per layer whose darkest tones its plate cannot spray in its passes: the layer and the shortfall."""
+    out = []
+    passes = {
+        r.get("layer"): r.get("passes") for r in manifest.get("spraying", []) or [] if isinstance(r, Mapping)
+    }
+    for k, row in enumerate(manifest.get("dark_end", []) or []):
+        share = float(row.get("unreachable_share", 0.0))
+        if share < 0.005:
+            continue
+        n = passes.get(k + 1)
+        within = f" in {n} pass{'' if n == 1 else 'es'}" if n else ""
+        out.append(
+            f"Layer {k + 1}: {100 * share:.0f} % of its area is darker than its plate can spray{within} even with "
+            f"its densest holes (darkest opacity {float(row['darkest_sprayable']):.2f}, short by "
+            f"{float(row['unreachable_by']):.2f} on average there): those parts come out lighter than the picture."
+        )
+    return out
 
 
 def _amount(step: Step, unit: str, bare: bool = False) -> str:

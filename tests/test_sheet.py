@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -11,7 +12,6 @@ from readers import need, run
 
 from stencil_cad import sheet
 from stencil_cad.cli import main
-from stencil_cad.config.hard import HardConfig
 from stencil_cad.config.spray import SprayConfig
 from stencil_cad.decompose import paints
 
@@ -189,6 +189,27 @@ def test_catalogue_snaps_every_paint_to_a_can_and_shows_the_cost(soft_job):
 
 
 @pytest.mark.slow
+def test_the_maker_reads_passes_distances_and_seconds_not_model_units(soft_job):
+    m = json.loads((soft_job / "manifest.json").read_text())
+    spray = json.loads((soft_job / "spray.json").read_text())
+    html = (soft_job / "instructions.html").read_text()
+    assert not re.findall(r"model units|nozzle_height|spray time", html)
+    max_passes = m["config"]["spray"]["max_passes"]
+    for row, o in zip(m["spraying"], spray["order"], strict=True):
+        assert isinstance(row["passes"], int) and 1 <= row["passes"] <= max_passes
+        assert o["passes"] == row["passes"]
+        assert row["can_distance_cm"] == spray["can_distance_cm"] == 20.0
+        assert row["spray_seconds"] > 0
+        assert f"{row['passes']} light pass" in row["text"] and "20 cm" in row["text"]
+        assert row["text"] in html or f"{row['passes']} pass" in html
+    # Every can of the prior is scored, the nominal one first; the sheet says the range.
+    by_can = m["simulate"]["scielab_by_can"]
+    assert list(by_can)[0] == "nominal" and len(by_can) >= 3
+    assert by_can["nominal"] == m["simulate"]["scielab"]
+    assert m["simulate"]["scielab_worst"] == max(by_can.values())
+    assert "depending on your can" in html
+
+
 def test_every_output_of_the_maker_is_written(soft_job):
     names = {p.name for p in soft_job.iterdir()}
     for i in (1, 2):
@@ -319,11 +340,14 @@ def test_hard_mode_writes_the_swatch_card_and_the_spray_order(hard_job):
         assert (hard_job / f"layer_{i:02d}_cut.png").exists()
         assert (hard_job / f"layer_{i:02d}_after.png").exists()
     assert (hard_job / "instructions.html").exists() and (hard_job / "instructions.pdf").exists()
-    # Cut-outs are sprayed from hard mode's own nozzle height, and the maker is told it.
-    h = HardConfig().nozzle_height
-    assert h != SprayConfig().nozzle_height
-    assert m["config"]["spray"]["nozzle_height"] == h
-    assert f"hard.nozzle_height = {h:g}" in (hard_job / "instructions.html").read_text()
+    # Under the physical model (the default) a cut-out gets the whole passes that cover it fully,
+    # and the maker is told passes and the can's distance, not the paper's nozzle height.
+    n = SprayConfig().full_cover_passes()
+    assert 1 <= n <= SprayConfig().max_passes
+    assert [o["passes"] for o in spray["order"]] == [n] * len(spray["order"])
+    assert [r["passes"] for r in m["spraying"]] == [n] * len(spray["order"])
+    html = (hard_job / "instructions.html").read_text()
+    assert "nozzle_height" not in html and "20 cm" in html
 
 
 # -------------------------------------------------------------------------------- previews
