@@ -951,6 +951,9 @@ def source_reference(
     """
     if picture is None:
         return _resample(layers.composite(), shape)
+    if picture.source != ("bundled example" if cfg.image is None else str(cfg.image)):
+        # A picture that does not come from the job's image file (made in code): its own pixels.
+        return _resample(picture.rgb, shape)
     from dataclasses import replace
 
     from .imaging import load_picture as _load

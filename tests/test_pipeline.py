@@ -177,3 +177,28 @@ def test_slice_command_writes_gcode(small_run, tmp_path, capsys):
     assert gcode.stat().st_size > 10_000
     assert sorted(p.name for p in tmp_path.iterdir()) == ["layer_01.gcode", "layer_01.stl"]
     assert main(["slice", str(stl)]) == 2  # no silent overwrite
+
+
+def test_scores_are_against_the_source_image_on_the_simulated_grid(tmp_path):
+    from PIL import Image
+
+    from stencil_cad import pipeline
+    from stencil_cad.config.io import parse_config
+    from stencil_cad.model import Layers, Picture
+
+    # A source with detail finer than the working grid: 1 px stripes at 8 px/mm.
+    src = np.zeros((160, 160, 3), np.uint8)
+    src[:, ::2] = 255
+    path = tmp_path / "stripes.png"
+    Image.fromarray(src).save(path)
+    cfg = parse_config({"image": str(path), "size": {"width_mm": 20, "px_per_mm": 1}}, "test")
+    pic = pipeline.load_picture(cfg)
+    layers = Layers(np.ones(3), np.zeros((0, 3)), np.zeros((0, 20, 20)), 1.0)
+    ref = pipeline.source_reference(cfg, pic, layers, (160, 160), 0.125)
+    assert ref.shape == (160, 160, 3)
+    # On the simulated grid the stripes are back; the working picture had averaged them to grey.
+    assert np.abs(ref[80, 1:120:2, 0] - ref[80, 0:120:2, 0]).mean() > 0.5
+    assert np.ptp(pic.rgb[..., 0]) < 0.2
+    # A picture made in code (not the job's file) is its own reference.
+    made = Picture(rgb=np.full((20, 20, 3), 0.3), mm_per_px=1.0, source="made in code")
+    assert np.allclose(pipeline.source_reference(cfg, made, layers, (40, 40), 0.5), 0.3)
