@@ -20,6 +20,22 @@ from .spray import NOZZLE_HEIGHT_BY_PROCESS, SprayConfig
 from .stipple import Process, StippleConfig
 from .view import ViewConfig
 
+#: The wall's stand-off (mm) soft stencils of each process score best from at 1 m under the physical
+#: spray model (wall.standoff_mm's description gives the figures).
+STANDOFF_BY_PROCESS: dict[Process, float] = {Process.fdm: 15.0, Process.sla: 10.0, Process.laser: 10.0}
+#: The wall's stand-off (mm) of hard stencils: low, so their cut-outs keep sharp edges.
+HARD_STANDOFF_MM = 1.0
+
+
+def _process_of(stipple) -> Process | None:
+    """The process a raw stipple section asks for (fdm when it says none), or None if it is malformed."""
+    if isinstance(stipple, StippleConfig):
+        return stipple.process
+    try:
+        return Process((stipple or {}).get("process") or Process.fdm)
+    except (AttributeError, TypeError, ValueError):
+        return None
+
 
 class Mode(str, enum.Enum):
     """Which kind of stencil to make."""
@@ -129,15 +145,26 @@ class JobConfig(StrictModel):
         spray = data.get("spray") or {}
         if not isinstance(spray, dict) or spray.get("nozzle_height") is not None:
             return data  # a SprayConfig object or a number: kept as given
-        stipple = data.get("stipple") or {}
-        if isinstance(stipple, StippleConfig):
-            process = stipple.process
-        else:
-            try:
-                process = Process(stipple.get("process") or Process.fdm)
-            except (AttributeError, TypeError, ValueError):
-                return data  # the stipple section's own validation names what is wrong
+        process = _process_of(data.get("stipple"))
+        if process is None:
+            return data  # the stipple section's own validation names what is wrong
         return {**data, "spray": {**spray, "nozzle_height": NOZZLE_HEIGHT_BY_PROCESS[process]}}
+
+    @model_validator(mode="before")
+    @classmethod
+    def _standoff_by_process(cls, data):
+        """A wall section without stand-offs (or with null) gets the best one of its mode and process."""
+        if not isinstance(data, dict):
+            return data
+        wall = data.get("wall") or {}
+        if not isinstance(wall, dict) or wall.get("standoff_mm") is not None:
+            return data  # a WallConfig object or a list: kept as given
+        if str(getattr(data.get("mode"), "value", data.get("mode"))) == Mode.hard.value:
+            return {**data, "wall": {**wall, "standoff_mm": [HARD_STANDOFF_MM]}}
+        process = _process_of(data.get("stipple"))
+        if process is None:
+            return data  # the stipple section's own validation names what is wrong
+        return {**data, "wall": {**wall, "standoff_mm": [STANDOFF_BY_PROCESS[process]]}}
 
     @model_validator(mode="after")
     def _cross_checks(self) -> JobConfig:
@@ -172,6 +199,10 @@ def parse_overrides(
     if seed is not None:
         data["seed"] = seed
     if hard:
+        if cfg.mode != Mode.hard and cfg.wall.standoff_mm == [STANDOFF_BY_PROCESS[cfg.stipple.process]]:
+            # The soft stencil's default wall: hard mode fills in its own (a user who wrote exactly
+            # this height for a soft job gets the hard one too).
+            data["wall"]["standoff_mm"] = None
         data["mode"] = Mode.hard.value
     if bed is not None:
         data["bed"] = list(bed) if isinstance(bed, tuple) else bed
