@@ -1696,15 +1696,17 @@ def slice_plates(
             raise UserError(f"{stl} is not an STL file (give a plate's layer_NN.stl)") from None
         except OSError as exc:
             raise UserError(f"cannot read {stl}: {exc.strerror} (check the file)") from None
-        if not (size[0] <= bed[0] + 1e-6 and size[1] <= bed[1] + 1e-6):
+        # A part that fits only turned (a portrait tile on a landscape bed) is sliced turned.
+        lay = slicing.place(size, bed)
+        if lay.rotate_deg is None:
             fits = [
                 f"{name} ({w:g} × {h:g} mm)"
                 for name, (w, h) in ((n, slicing.bed_size(n)) for n in slicing.PROFILES)
-                if size[0] <= w and size[1] <= h
+                if slicing.place(size, (w, h)).fits
             ]
             raise UserError(
                 f"{stl} is {size[0]:.1f} × {size[1]:.1f} mm but the {prof.name} bed is {bed[0]:g} × "
-                f"{bed[1]:g} mm: use a smaller picture (size.width_mm)"
+                f"{bed[1]:g} mm, either way round: use a smaller picture (size.width_mm)"
                 + (f", another profile (--profile {' or '.join(fits)})" if fits else "")
                 + ", or a printer with a larger bed (copy the profile and edit its bed size)"
             )
@@ -1713,11 +1715,13 @@ def slice_plates(
             raise OutputError(f"{out} is a folder where the sliced file goes (move it away)")
         if out.exists() and not force:
             raise OutputError(f"{out} already exists (use --force to replace it)")
-        jobs.append((stl, out))
-    for stl, out in jobs:
+        jobs.append((stl, out, lay.rotate_deg))
+    for stl, out, turn in jobs:
         tmp = out.with_name(f".{out.name}.partial{prof.suffix}")
         try:
-            result = slicing.slice_plate(stl, tmp, prof, timeout_s=timeout_s, overrides=overrides)
+            result = slicing.slice_plate(
+                stl, tmp, prof, timeout_s=timeout_s, overrides=overrides, rotate_deg=turn
+            )
         except slicing.SlicerNotFoundError as exc:
             tmp.unlink(missing_ok=True)
             raise UserError(f"{exc}") from None
@@ -1763,11 +1767,15 @@ def plate_projects(
         out = stl.with_suffix(".3mf")
         if out.exists() and not force:
             raise OutputError(f"{out} already exists (use --force to replace it)")
-        jobs.append((stl, out))
-    for stl, out in jobs:
+        try:
+            turn = slicing.place(slicing.stl_footprint(stl), slicing.bed_size(prof)).rotate_deg
+        except ValueError:
+            raise UserError(f"{stl} is not an STL file (give a plate's layer_NN.stl)") from None
+        jobs.append((stl, out, turn or 0))
+    for stl, out, turn in jobs:
         tmp = out.with_name(f".{out.name}.partial.3mf")
         try:
-            slicing.plate_project(stl, tmp, prof, timeout_s=timeout_s)
+            slicing.plate_project(stl, tmp, prof, timeout_s=timeout_s, rotate_deg=turn)
         except slicing.SlicerNotFoundError as exc:
             tmp.unlink(missing_ok=True)
             raise UserError(f"{exc}") from None
