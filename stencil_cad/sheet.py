@@ -22,6 +22,8 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
+from . import sheet_make, sheet_mural
+
 __all__ = ["Sheet", "render_html", "render_pdf", "sheet_from_manifest"]
 
 # Rule of thumb for when separate dots blend for the eye: one arcminute, about 3,400 x the pitch.
@@ -94,6 +96,8 @@ class Sheet:
     checks: list[tuple[str, bool]]
     files: list[str]
     warnings: list[str] = field(default_factory=list)
+    plate_count: int = 0
+    mural: sheet_mural.MuralPlan | None = None
 
 
 def _val(d: Mapping, *keys, default=None):
@@ -125,6 +129,10 @@ def _viewing(manifest: Mapping) -> str:
 
 
 def _wall_list(walls: Sequence[Mapping]) -> str:
+    tiled = [w for w in walls if w.get("tile")]
+    if tiled:
+        heights = ", ".join(f"{h:g}" for h in sorted({float(w.get("standoff_mm", 0)) for w in tiled}))
+        return f"one wall per tile, {tiled[0].get('file')} to {tiled[-1].get('file')}: stand-off {heights} mm"
     return ", ".join(f"{w.get('file')}: stand-off {float(w.get('standoff_mm', 0)):g} mm" for w in walls)
 
 
@@ -133,44 +141,25 @@ def _process(manifest: Mapping) -> str:
 
 
 def _print_rows(manifest: Mapping, steps: list[Step]) -> tuple[list[str], list[list[str]]]:
-    """Per plate: files, hole count, and the print or cut settings for the job's process."""
-    process = _process(manifest)
-    cfg = manifest.get("config", {}) or {}
-    thick = _val(cfg, "plate", "thickness_mm", default=None)
-    kerf = _val(cfg, "export", "dxf_kerf_mm", default=0.0)
-    plates = {p.get("layer"): p for p in _val(manifest, "build", "plates", default=[]) or []}
-    head = ["plate", "holes", "files", "settings"]
+    """Per plate and per wall: files, hole count, and how to make it with a profile or bed it fits."""
+    names = _file_names(manifest)
+    kind = "cut-outs" if str(_val(manifest, "config", "mode", default="soft")) == "hard" else "holes"
+    head = ["part", kind, "files", "how to make it"]
+    parts = sheet_make.plate_parts(manifest)
+    if not parts:
+        # No build figures (a sheet from the spray order alone): one row per step.
+        parts = [sheet_make.Part("plate", s.plate, None, s.holes, layer=s.number) for s in steps]
     rows = []
-    for s in steps:
-        p = plates.get(s.number, {})
-        holes = p.get("hole_count", s.holes)
-        files = [
-            f"{s.plate}{e}"
-            for e in (".stl", ".step", ".3mf", ".dxf", ".svg")
-            if f"{s.plate}{e}" in _file_names(manifest)
-        ]
-        if process == "laser":
-            cut = p.get("cut_length_mm")
-            how = (
-                f"laser: cut {s.plate}.dxf (or .svg), holes first, outline last; kerf compensated {kerf:g} mm"
-            )
-            if cut:
-                how += f"; cut length {cut / 1000:.2f} m"
-        elif process == "sla":
-            how = (
-                f"resin: `stencil-cad slice --profile prusa_sla {s.plate}.stl`; flat on the build plate, "
-                "no supports, 0.1 mm layers"
-            )
-        else:
-            tiles = math.ceil((holes or 0) / 300) if (holes or 0) > 450 else 1
-            how = (
-                f"FDM: `stencil-cad slice {s.plate}.stl` (PrusaSlicer, prusa_fdm, 0.2 mm layers, 100 % infill"
-                + (f", sliced as {tiles} tiles" if tiles > 1 else "")
-                + "); print flat, plate-down, no supports or brim"
-            )
-        if thick:
-            how += f"; plate {thick:g} mm thick"
-        rows.append([s.plate, str(holes if holes is not None else "–"), ", ".join(files) or "–", how])
+    for part in [*parts, *sheet_make.wall_parts(manifest)]:
+        files = [part.stem + e for e in (".stl", ".step", ".3mf", ".dxf", ".svg") if part.stem + e in names]
+        count = (
+            "frame"
+            if part.kind == "wall"
+            else (f"{part.holes:,}" if part.holes is not None else "not counted")
+        )
+        rows.append(
+            [part.stem, count, ", ".join(files) or "not written", sheet_make.part_advice(manifest, part)]
+        )
     return head, rows
 
 
@@ -181,31 +170,11 @@ def _file_names(manifest: Mapping) -> set[str]:
 def _checks(manifest: Mapping) -> list[tuple[str, bool]]:
     out: list[tuple[str, bool]] = []
     build = manifest.get("build") or {}
+    # A mural's plates and walls are checked tile by tile in the tile sections.
     for p in build.get("plates", []):
-        n = p.get("layer")
-        out.append(
-            (f"plate {n:02d}: one solid, valid B-rep ({p.get('n_solids', '?')} solid)", bool(p.get("valid")))
-        )
-        rel = p.get("rel_error")
-        if rel is not None:
-            out.append(
-                (f"plate {n:02d}: volume equals the analytic volume (relative error {rel:.1e})", rel < 1e-6)
-            )
-        mesh = p.get("mesh") or {}
-        if mesh:
-            ok = bool(mesh.get("watertight")) and bool(mesh.get("consistent_winding"))
-            out.append((f"plate {n:02d}: mesh watertight and consistently wound", ok))
-            if "genus" in mesh and "hole_count" in p:
-                out.append(
-                    (
-                        f"plate {n:02d}: mesh genus {mesh['genus']} = hole count {p['hole_count']}",
-                        mesh["genus"] == p["hole_count"],
-                    )
-                )
-    for w in build.get("walls", []):
-        out.append(
-            (f"{w.get('file')}: valid wall (stand-off {w.get('standoff_mm', 0):g} mm)", bool(w.get("valid")))
-        )
+        if not p.get("tile"):
+            out += sheet_make.plate_checks(p, f"plate {int(p.get('layer', 0)):02d}")
+    out += [sheet_make.wall_check(w) for w in build.get("walls", []) if not w.get("tile")]
     rules = manifest.get("stipple") or []
     web = _val(manifest, "config", "stipple", "web_mm")
     for r in rules:
@@ -282,7 +251,11 @@ def _wall_steps(manifest: Mapping, cfg: Mapping, primer: Mapping, primer_hex: st
         f"Prime the whole surface with the primer {primer_hex}"
         + (f" ({primer.get('name')})" if primer.get("name") else "")
         + " and let it dry.",
-        "Set the wall on the surface where the picture goes"
+        (
+            "Set each tile's wall on its ticks (see Registration below)"
+            if n_tiles
+            else "Set the wall on the surface where the picture goes"
+        )
         + (f" ({_wall_list(walls)}; a taller wall gives softer dots)" if walls else "")
         + ". Tape or hold it so it cannot move between layers.",
         "Each plate fits the wall one way only: the key tabs match the wall's notches and the label, "
@@ -297,8 +270,8 @@ def _wall_steps(manifest: Mapping, cfg: Mapping, primer: Mapping, primer_hex: st
     ]
     if n_tiles:
         wall.append(
-            f"The picture is a mural of {n_tiles} tiles (map below): spray each tile's plates in its "
-            "own wall position, tile by tile, every tile in the same layer order."
+            f"The picture is a mural of {n_tiles} tiles (map below): spray it round by round, one layer "
+            "on every tile in its own wall position, then the next layer (Order of work below)."
         )
     return wall
 
@@ -408,7 +381,7 @@ def sheet_from_manifest(manifest: Mapping, tiles: Sequence[Mapping] | None = Non
         unit=str(spray.get("unit", "spray time")),
         steps=steps,
         wall=_wall_steps(manifest, cfg, primer, primer_hex, len(tiles_list)),
-        tiles=[dict(t) for t in tiles_list],
+        tiles=sheet_mural.map_tiles(tiles_list),
         prints=rows,
         print_head=head,
         paint=paint_rows,
@@ -418,6 +391,10 @@ def sheet_from_manifest(manifest: Mapping, tiles: Sequence[Mapping] | None = Non
         checks=_checks(manifest),
         files=sorted(names),
         warnings=warnings,
+        plate_count=len(_val(manifest, "build", "plates", default=[]) or []) or len(steps),
+        mural=sheet_mural.mural_plan(
+            manifest, steps, lambda s: _amount(s, str(spray.get("unit", "spray time"))), names
+        ),
     )
 
 
@@ -428,6 +405,25 @@ def _amount(step: Step, unit: str, bare: bool = False) -> str:
         return "–" if bare else ""
     text = f"{t:g} passes" if unit == "passes" else (f"{t:.3g}" if bare else f"spray time {t:.3g}")
     return text if bare else f", {text}"
+
+
+def _plates_text(sheet: Sheet) -> str:
+    """The plate count for the sheet's head: every plate of the job (a mural: every tile's)."""
+    if sheet.mural is None:
+        return f"{sheet.plate_count or len(sheet.steps)} plates"
+    m = sheet.mural
+    return f"{m.plates} plates ({len(sheet.steps)} layers on each of {len(m.sections)} tiles) and {m.walls} walls"
+
+
+def _drop(sheet: Sheet, step: Step) -> str:
+    """What to put into the wall for a step: the plate, or on a mural each tile's plate of that layer."""
+    if sheet.mural is None:
+        return f"Drop {step.plate} into the wall"
+    first = sheet.mural.sections[0].name if sheet.mural.sections else "A1"
+    return (
+        f"Round {step.number}, on every tile in turn (see Tile by tile): drop that tile's "
+        f"tile_{{tile}}_{step.plate} (tile_{first}_{step.plate} on {first}) into the tile's wall"
+    )
 
 
 def _unit_note(unit: str) -> str:
@@ -517,7 +513,7 @@ def render_html(sheet: Sheet, images: Mapping[str, bytes]) -> str:
         f"<style>{_CSS}</style></head><body>",
         f"<h1>{e(sheet.job)}: how to spray it</h1>",
         f'<p class="note">{"Stippled" if sheet.mode == "soft" else "Hard-edged cut"} stencils, '
-        f"{len(sheet.steps)} plates. Picture {sheet.width_mm:g} × {sheet.height_mm:g} mm; "
+        f"{_plates_text(sheet)}. Picture {sheet.width_mm:g} × {sheet.height_mm:g} mm; "
         f"viewing distance: {e(sheet.viewing)}.</p>",
         '<div class="pair">',
         f"<figure>{_img(images, 'input.png', 'the picture asked for')}<figcaption>The picture "
@@ -547,13 +543,16 @@ def render_html(sheet: Sheet, images: Mapping[str, bytes]) -> str:
     out.append("<h2>Set up the wall</h2><ol>" + "".join(f"<li>{e(x)}</li>" for x in sheet.wall) + "</ol>")
     if sheet.tiles:
         out.append("<h3>Tile map</h3>" + tile_map_svg(sheet.tiles, sheet.width_mm, sheet.height_mm))
+        out.append(_img(images, "mural_map.png", "the mural map: grid lines, tiles and order of work"))
+    if sheet.mural is not None:
+        out.append(sheet_mural.mural_html(sheet.mural, e, _chip))
     out.append("<h2>Spray, plate by plate</h2>")
     for s in sheet.steps:
         t = _amount(s, sheet.unit)
         out.append(
             f'<div class="step"><h3>Step {s.number}: plate {e(s.plate)}, paint {_chip(s.hex)}<code>{e(s.hex)}</code>'
             f"{' ' + e(s.name) if s.name else ''}</h3>"
-            f'<p class="note">Drop {e(s.plate)} into the wall, label towards you and readable; spray '
+            f'<p class="note">{e(_drop(sheet, s))}, label towards you and readable; spray '
             f"evenly{e(t)}; let it dry, lift it out.</p>"
             + (f'<p class="note">{e(s.how)}</p>' if s.how else "")
             + '<div class="pair">'
@@ -775,7 +774,7 @@ def _pdf_steps(sheet: Sheet, k: _PdfKit) -> list:
                 [
                     head,
                     k.p(
-                        f"Drop {s.plate} into the wall, label readable; spray evenly{t}; let it dry, lift it out."
+                        f"{_drop(sheet, s)}, label readable; spray evenly{t}; let it dry, lift it out."
                         + (f" {s.how}" if s.how else ""),
                         k.small,
                     ),
@@ -826,7 +825,7 @@ def render_pdf(sheet: Sheet, images: Mapping[str, bytes]) -> bytes:
     story = [
         Paragraph(html.escape(f"{sheet.job}: how to spray it"), k.h1),
         k.p(
-            f"{'Stippled' if sheet.mode == 'soft' else 'Hard-edged cut'} stencils, {len(sheet.steps)} plates. "
+            f"{'Stippled' if sheet.mode == 'soft' else 'Hard-edged cut'} stencils, {_plates_text(sheet)}. "
             f"Picture {sheet.width_mm:g} × {sheet.height_mm:g} mm; viewing distance: {sheet.viewing}."
         ),
         Spacer(1, 4),
@@ -844,6 +843,10 @@ def render_pdf(sheet: Sheet, images: Mapping[str, bytes]) -> bytes:
     if sheet.tiles:
         story.append(k.heading("Tile map", k.h3))
         story.append(_tile_drawing(sheet.tiles, sheet.width_mm, sheet.height_mm, k.page_w * 0.6))
+        if k.images.get("mural_map.png"):
+            story.append(k.img("mural_map.png", k.page_w))
+    if sheet.mural is not None:
+        story += sheet_mural.mural_pdf(sheet.mural, k)
     story += _pdf_steps(sheet, k)
     story.append(k.heading("Print or cut the plates", k.h2))
     story.append(k.table(sheet.print_head, sheet.prints, [18 * mm, 14 * mm, 45 * mm, k.page_w - 77 * mm]))
