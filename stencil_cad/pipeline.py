@@ -798,7 +798,7 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
                 stem = layer_stem(i)
                 cad.write_mesh_files(run.out, model, stem, exp)
                 dxf_info = {}
-                drawing = dxf.stencil_for(h, ring, stem.upper())
+                drawing = dxf.stencil_for(h, ring, stem.upper(), *model.cut_label())
                 if exp.dxf:
                     with run.out.open_path(f"{stem}.dxf") as p:
                         info = dxf.write_dxf_stencils(
@@ -817,7 +817,7 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
                         )
                     dxf_info["svg_offset_mm"] = [round(float(v), 4) for v in sinfo.offset_mm]
                     dxf_info["svg_circles"] = sinfo.circles  # type: ignore[assignment]
-                cut = round(_cut_length_mm(h, ring), 1)
+                cut = round(dxf.cut_length_mm(h, ring), 1)
                 results.append({"layer": i + 1, **_plain(check), **dxf_info, "cut_length_mm": cut})
                 bar.update(1)
         walls = []
@@ -1515,21 +1515,6 @@ def _png(image: np.ndarray) -> bytes:
     buf = io.BytesIO()
     Image.fromarray(a).save(buf, format="PNG")
     return buf.getvalue()
-
-
-def _cut_length_mm(holes, ring: np.ndarray) -> float:
-    """Length of every cut of a plate in mm: the holes (or cut-out rings) and the outline."""
-
-    def perimeter(r) -> float:
-        r = np.asarray(r, dtype=np.float64)
-        return float(np.sum(np.linalg.norm(np.roll(r, -1, axis=0) - r, axis=1)))
-
-    total = perimeter(ring)
-    if isinstance(holes, DotSet):
-        return total + float(2.0 * np.pi * np.sum(holes.r_mm))
-    for outer, inner in holes.polygons:
-        total += perimeter(outer) + sum(perimeter(h) for h in inner)
-    return total
 
 
 # --------------------------------------------------------------------------- the commands
