@@ -23,7 +23,7 @@ from .colour import to_hex
 from .config import ComputeConfig, JobConfig, Mode
 from .config.spray import SprayModel
 from .errors import OutputError, UserError
-from .model import DotSet, Holes, Layers, Picture, coat_contrast
+from .model import CutLayer, DotSet, Holes, Layers, Picture, coat_contrast
 from .output import MANIFEST, OutputDir, manifest_header
 from .output import plain as _plain
 
@@ -657,6 +657,11 @@ def write_spray_order(run: Run, primer: np.ndarray, colours: np.ndarray, spray_t
     from .simulate import labelled
 
     names = can_names(run.figures)
+    if run.cfg.paints.can_names:
+        from .decompose import paints
+
+        hexes = [to_hex(c) for c in (primer, *colours)]
+        names = {**paints.colour_names([h for h in hexes if h not in names]), **names}
     order = [
         {
             "step": i + 1,
@@ -818,7 +823,12 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
                     dxf_info["svg_offset_mm"] = [round(float(v), 4) for v in sinfo.offset_mm]
                     dxf_info["svg_circles"] = sinfo.circles  # type: ignore[assignment]
                 cut = round(dxf.cut_length_mm(h, ring), 1)
-                results.append({"layer": i + 1, **_plain(check), **dxf_info, "cut_length_mm": cut})
+                (x0, y0, _), (x1, y1, _) = check["bbox"]
+                size = [round(x1 - x0, 3), round(y1 - y0, 3)]
+                row = {"layer": i + 1, **_plain(check), **dxf_info, "cut_length_mm": cut, "bbox_mm": size}
+                if isinstance(h, CutLayer):
+                    row["cutouts"] = h.cutout_figures()
+                results.append(row)
                 bar.update(1)
         walls = []
         heights = wall_mod.wall_heights(cfg.wall)
@@ -1344,10 +1354,19 @@ def plan_mural(run: Run, picture_mm: tuple[float, float], shape_px: tuple[int, i
     from . import mural_stages
 
     grid, fig = mural_stages.plan(
-        run.cfg, *picture_mm, run.cfg.decompose.layers, int(shape_px[0]) * int(shape_px[1])
+        run.cfg, *picture_mm, plate_layers(run.cfg), int(shape_px[0]) * int(shape_px[1])
     )
     run.figures["mural"] = fig
     return grid
+
+
+def plate_layers(cfg: JobConfig) -> int:
+    """Plates per tile the job plans for: the paint layers, or in hard mode one per colour but the primer."""
+    if cfg.mode != Mode.hard:
+        return cfg.decompose.layers
+    # A palette given as a list fixes the colours; a can list's length is known once it is read.
+    palette = cfg.hard.palette
+    return (len(palette) if isinstance(palette, list) else cfg.hard.colours) - 1
 
 
 def build_any(
@@ -1582,7 +1601,7 @@ def run_command(
 
             shape = picture.shape
             _, plan = mural_stages.plan(
-                cfg, picture.width_mm, picture.height_mm, cfg.decompose.layers, shape[0] * shape[1]
+                cfg, picture.width_mm, picture.height_mm, plate_layers(cfg), shape[0] * shape[1]
             )
             announce(mural_stages.plan_line(plan))
         if command in ("run", "hard", "decompose"):

@@ -69,7 +69,7 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
         for p in build["plates"]:
             lines.append(
                 f"  plate {p['layer']:02d}  {'valid' if p.get('valid') else 'INVALID'}, {p.get('n_solids', '?')} solid, "
-                f"holes {p.get('hole_count', '?')}, volume error {_fmt(p.get('rel_error'))}"
+                f"{_kind(run)} {p.get('hole_count', 'not counted')}, volume error {_fmt(p.get('rel_error'))}"
             )
         lines.append(
             "  walls     "
@@ -92,7 +92,10 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
                 f"  seen      S-CIELAB ΔE {_fmt(sim['scielab'])} at {d:g} m, {_fmt(sim['scielab_2x'])} at {2 * d:g} m"
                 " (what a viewer sees; pixel ΔE2000 above scores every dot)"
             )
-            lines.append("  dots      " + _dots_advice(run, sim, d))
+            if _kind(run) == "holes":
+                lines.append("  dots      " + _dots_advice(run, sim, d))
+            else:
+                lines.append("  cut-outs  " + _cutout_advice(f))
     where = f.get("compute")
     if where and where.get("kind") != "in_process":
         place = (
@@ -127,6 +130,29 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
     for warning in getattr(run, "warnings", []) or []:
         lines.append(f"  warning   {warning}")
     return "\n".join(lines)
+
+
+def _kind(run) -> str:
+    """What a plate's openings are called: round ``holes`` (soft) or ``cut-outs`` (hard mode)."""
+    return "cut-outs" if getattr(run.cfg.mode, "value", run.cfg.mode) == "hard" else "holes"
+
+
+def _cutout_advice(f: dict) -> str:
+    """Hard mode in plain words: the cut-outs per plate and their sizes; hard edges read from any distance."""
+    rows = []
+    for p in (f.get("build") or {}).get("plates", []):
+        c = p.get("cutouts") or {}
+        if c.get("count"):
+            rows.append(
+                f"plate {p['layer']:02d} {c['count']} from {c['span_min_mm']:g} to {c['span_max_mm']:g} mm across"
+            )
+    hard = f.get("hard") or {}
+    bridge = hard.get("bridge_drawn_mm")
+    return (
+        "; ".join(rows or ["no cut-outs"])
+        + (f"; bridges {bridge:g} mm wide" if bridge else "")
+        + "; their edges are hard, so shapes read the same from near and far"
+    )
 
 
 def _dots_advice(run, sim: dict, distance_m: float) -> str:

@@ -69,6 +69,7 @@ class Step:
     after_image: str
     kind: str
     how: str = ""
+    detail: str = ""
 
 
 @dataclass(frozen=True)
@@ -144,7 +145,7 @@ def _print_rows(manifest: Mapping, steps: list[Step]) -> tuple[list[str], list[l
     """Per plate and per wall: files, hole count, and how to make it with a profile or bed it fits."""
     names = _file_names(manifest)
     kind = "cut-outs" if str(_val(manifest, "config", "mode", default="soft")) == "hard" else "holes"
-    head = ["part", kind, "files", "how to make it"]
+    head = ["part", kind, "files", "cut length", "how to make it"]
     parts = sheet_make.plate_parts(manifest)
     if not parts:
         # No build figures (a sheet from the spray order alone): one row per step.
@@ -157,8 +158,13 @@ def _print_rows(manifest: Mapping, steps: list[Step]) -> tuple[list[str], list[l
             if part.kind == "wall"
             else (f"{part.holes:,}" if part.holes is not None else "not counted")
         )
+        cut = (
+            f"{part.cut_mm / 1000:.2f} m"
+            if part.cut_mm
+            else ("not cut" if part.kind == "wall" else "not measured")
+        )
         rows.append(
-            [part.stem, count, ", ".join(files) or "not written", sheet_make.part_advice(manifest, part)]
+            [part.stem, count, ", ".join(files) or "not written", cut, sheet_make.part_advice(manifest, part)]
         )
     return head, rows
 
@@ -214,6 +220,8 @@ def _steps(manifest: Mapping, mode: str, names: set[str]) -> list[Step]:
     """One :class:`Step` per plate in spray order."""
     order = (manifest.get("spray_order") or {}).get("steps", [])
     holes = _val(manifest, "simulate", "holes", default=None) or []
+    # A plate's own count (hard mode's cut-outs are not simulated as holes) and its cut-outs' sizes.
+    built = {int(p.get("layer", 0)): p for p in _val(manifest, "build", "plates", default=[]) or []}
     # What the hand does per layer, in the spray model's units, when the job says it.
     how = {
         r.get("layer"): str(r.get("text", ""))
@@ -231,14 +239,31 @@ def _steps(manifest: Mapping, mode: str, names: set[str]) -> list[Step]:
                 hex=o["hex"],
                 name=o.get("name", "") or "",
                 spray_time=o.get("spray_time"),
-                holes=int(holes[k]) if k < len(holes) else None,
+                holes=int(holes[k]) if k < len(holes) else built.get(int(o["step"]), {}).get("hole_count"),
                 plate_image=plate_img,
                 after_image=f"{plate}_after.png",
                 kind="holes" if mode == "soft" else "cut-outs",
                 how=how.get(int(o["step"]), ""),
+                detail=_cutout_detail(built.get(int(o["step"]), {}).get("cutouts")),
             )
         )
     return steps
+
+
+def _cutout_detail(fig: Mapping | None) -> str:
+    """A hard plate's cut-outs in words: ``2.0 to 31.5 mm across, 374 mm² open``."""
+    if not fig or not fig.get("count"):
+        return ""
+    lo, hi = float(fig["span_min_mm"]), float(fig["span_max_mm"])
+    span = f"{lo:.1f} mm across" if abs(hi - lo) < 0.05 else f"{lo:.1f} to {hi:.1f} mm across"
+    return f"{span}, {float(fig['open_mm2']):,.0f} mm² open"
+
+
+def _plate_caption(step: Step) -> str:
+    """The caption under a step's plate: its hole or cut-out count and, for cut-outs, their sizes."""
+    if step.holes is None:
+        return "The plate"
+    return f"The plate ({step.holes:,} {step.kind}" + (f", {step.detail}" if step.detail else "") + ")"
 
 
 def _wall_steps(manifest: Mapping, cfg: Mapping, primer: Mapping, primer_hex: str, n_tiles: int) -> list[str]:
@@ -556,8 +581,8 @@ def render_html(sheet: Sheet, images: Mapping[str, bytes]) -> str:
             f"evenly{e(t)}; let it dry, lift it out.</p>"
             + (f'<p class="note">{e(s.how)}</p>' if s.how else "")
             + '<div class="pair">'
-            f"<figure>{_img(images, s.plate_image, f'plate {s.plate}')}<figcaption>The plate "
-            f"({s.holes if s.holes is not None else '?'} {s.kind})</figcaption></figure>"
+            f"<figure>{_img(images, s.plate_image, f'plate {s.plate}')}<figcaption>"
+            f"{e(_plate_caption(s))}</figcaption></figure>"
             f"<figure>{_img(images, s.after_image, f'after step {s.number}')}<figcaption>The picture after "
             f"step {s.number} (simulated)</figcaption></figure></div></div>"
         )
@@ -763,7 +788,7 @@ def _pdf_steps(sheet: Sheet, k: _PdfKit) -> list:
             [
                 [k.img(s.plate_image, k.half), k.img(s.after_image, k.half * 0.8)],
                 [
-                    k.p(f"The plate ({s.holes if s.holes is not None else '?'} {s.kind})", k.small),
+                    k.p(_plate_caption(s), k.small),
                     k.p(f"After step {s.number} (simulated)", k.small),
                 ],
             ],
@@ -849,7 +874,9 @@ def render_pdf(sheet: Sheet, images: Mapping[str, bytes]) -> bytes:
         story += sheet_mural.mural_pdf(sheet.mural, k)
     story += _pdf_steps(sheet, k)
     story.append(k.heading("Print or cut the plates", k.h2))
-    story.append(k.table(sheet.print_head, sheet.prints, [18 * mm, 14 * mm, 45 * mm, k.page_w - 77 * mm]))
+    story.append(
+        k.table(sheet.print_head, sheet.prints, [26 * mm, 14 * mm, 40 * mm, 16 * mm, k.page_w - 96 * mm])
+    )
     if sheet.paint:
         story.append(k.heading("Paint to buy", k.h2))
         story.append(k.table(["coat", "paint", "covered m²", "mean opacity", "ml", "cans"], sheet.paint))

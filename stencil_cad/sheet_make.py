@@ -189,11 +189,11 @@ def _sla(part: Part, bed: Bed | None, thickness: float | None) -> str:
     return f"{why}{_fdm(part, bed, thickness)}; or a resin printer whose vat holds it"
 
 
-def _laser(part: Part, kerf: float) -> str:
+def _laser(part: Part, kerf: float, kind: str) -> str:
     """Laser advice: the cut file, the order of cuts, the cut length and an estimated time."""
     text = (
         f"laser: {part.stem}.dxf (or .svg): engrave the label (score layer, blue) first at low power, "
-        f"then cut the holes, the outline last (cut layer, black); kerf compensated {kerf:g} mm"
+        f"then cut the {kind}, the outline last (cut layer, red); kerf compensated {kerf:g} mm"
     )
     if part.cut_mm:
         pierces = (part.holes or 0) + 1
@@ -223,7 +223,7 @@ def part_advice(manifest: Mapping, part: Part) -> str:
         # A wall is a deep frame: FDM whatever the plates' process.
         return _fdm(part, bed, thickness)
     if process == "laser":
-        return _laser(part, kerf)
+        return _laser(part, kerf, "cut-outs" if str(cfg.get("mode", "soft")) == "hard" else "holes")
     if process == "sla":
         return _sla(part, bed, thickness)
     return _fdm(part, bed, thickness)

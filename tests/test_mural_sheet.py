@@ -134,7 +134,7 @@ def test_mural_sheet_from_the_manifest():
         "tile_A1_wall",
         "tile_A2_wall",
     }
-    assert all("--bed prusa_mk4" in r[3] and "turned 90°" in r[3] for r in s.prints)
+    assert all("--bed prusa_mk4" in r[4] and "turned 90°" in r[4] for r in s.prints)
     assert "tile_A1_wall.stl" in parts["tile_A1_wall"][2]
     pdf = sheet.render_pdf(s, {})
     assert pdf.startswith(b"%PDF")
@@ -272,3 +272,12 @@ def test_mural_sheet_pdf_pages(mural_job, tmp_path):
     rgb = np.asarray(Image.open(pages[k]).convert("RGB")).astype(int)
     red = (rgb[..., 0] > 150) & (rgb[..., 1] < 90) & (rgb[..., 2] < 90)
     assert red.sum() > 200 and rgb.std(axis=(0, 1)).max() > 20
+
+
+@pytest.mark.slow
+def test_mural_sheet_has_no_placeholder(mural_job):
+    from placeholders import html_text, placeholders
+
+    html = html_text((mural_job / "instructions.html").read_text())
+    pdf = run([need("pdftotext"), "-layout", str(mural_job / "instructions.pdf"), "-"]).stdout
+    assert placeholders(html) == [] and placeholders(pdf) == []
