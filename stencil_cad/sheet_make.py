@@ -35,7 +35,7 @@ __all__ = [
 #: Cutting speed assumed for the cut-time estimate, mm/s: a typical vector speed for thin
 #: stencil sheet (0.2-0.5 mm PET or card) on a 10-20 W diode or 40 W CO2 laser. Not measured
 #: here: set your machine's own speed and power from a test cut.
-LASER_SPEED_MM_S = 15.0
+LASER_SPEED_MM_S = 10.0
 #: Time per pierce (each hole and the outline start a cut), s; same caveat.
 LASER_PIERCE_S = 0.1
 
