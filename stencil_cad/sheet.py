@@ -137,10 +137,6 @@ def _wall_list(walls: Sequence[Mapping]) -> str:
     return ", ".join(f"{w.get('file')}: stand-off {float(w.get('standoff_mm', 0)):g} mm" for w in walls)
 
 
-def _process(manifest: Mapping) -> str:
-    return str(_val(manifest, "config", "stipple", "process", default="fdm"))
-
-
 def _print_rows(manifest: Mapping, steps: list[Step]) -> tuple[list[str], list[list[str]]]:
     """Per plate and per wall: files, hole count, and how to make it with a profile or bed it fits."""
     names = _file_names(manifest)
@@ -446,8 +442,8 @@ def _drop(sheet: Sheet, step: Step) -> str:
         return f"Drop {step.plate} into the wall"
     first = sheet.mural.sections[0].name if sheet.mural.sections else "A1"
     return (
-        f"Round {step.number}, on every tile in turn (see Tile by tile): drop that tile's "
-        f"tile_{{tile}}_{step.plate} (tile_{first}_{step.plate} on {first}) into the tile's wall"
+        f"Round {step.number}, on every tile in turn (see Tile by tile): drop the tile's plate of this "
+        f"layer (tile_{first}_{step.plate} on {first}, and so on) into the tile's wall"
     )
 
 
