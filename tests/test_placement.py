@@ -86,3 +86,45 @@ def test_slice_still_refuses_a_part_too_big_either_way(tmp_path, capsys):
     portrait_plate(stl, w=215.0, h=260.0)
     assert main(["slice", "--bed", "prusa_mk4", str(stl)]) == 2
     assert "either way round" in capsys.readouterr().err
+
+
+def _manifest(process: str, size, bed=None, mode: str = "soft") -> dict:
+    return {
+        "config": {"mode": mode, "bed": bed, "stipple": {"process": process}, "plate": {"thickness_mm": 1.2}},
+        "build": {
+            "plates": [{"layer": 1, "bbox_mm": list(size), "hole_count": 800, "cut_length_mm": 6000.0}],
+            "walls": [{"file": "wall.step", "bbox": [-16.2, -16.2, 0.0, 163.2, 163.2, 11.2]}],
+        },
+    }
+
+
+def test_print_advice_names_only_a_profile_the_part_fits():
+    from stencil_cad import sheet_make
+
+    big = _manifest("sla", (173.0, 173.0))
+    (plate,) = sheet_make.plate_parts(big)
+    text = sheet_make.part_advice(big, plate)
+    assert (
+        "too large for the prusa_sla vat (127 × 80 mm)" in text and "stencil-cad slice layer_01.stl" in text
+    )
+    assert "--profile prusa_sla" not in text
+    small = _manifest("sla", (75.0, 120.0))
+    text = sheet_make.part_advice(small, sheet_make.plate_parts(small)[0])
+    assert "--profile prusa_sla layer_01.stl" in text and "turned 90° to fit the vat" in text
+    # The wall has its own line, on FDM whatever the plates' process.
+    (wall,) = sheet_make.wall_parts(small)
+    assert wall.size_mm == pytest.approx((179.4, 179.4))
+    assert sheet_make.part_advice(small, wall).startswith("FDM: `stencil-cad slice wall.stl`")
+    # A portrait tile on the job's MK4 bed: sliced with that bed, turned.
+    tile = _manifest("fdm", (187.0, 248.4), bed="prusa_mk4")
+    text = sheet_make.part_advice(tile, sheet_make.plate_parts(tile)[0])
+    assert "--bed prusa_mk4" in text and "turned 90°" in text
+
+
+def test_laser_advice_gives_cut_length_and_time():
+    from stencil_cad import sheet_make
+
+    m = _manifest("laser", (120.0, 100.0), mode="hard")
+    text = sheet_make.part_advice(m, sheet_make.plate_parts(m)[0])
+    minutes = sheet_make.cut_seconds(6000.0, 801) / 60
+    assert "cut-outs" in text and "cut length 6.00 m" in text and f"about {minutes:.0f} min" in text
