@@ -1295,7 +1295,8 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None) -> list[Path]:
             cad.write_stl(model, p, exp.stl_tolerance_mm)
         ring = outline.plate_outline(w, h, cfg.plate.outline)
         with run.out.open_path("card_plate.dxf") as p:
-            dxf.write_dxf_stencils(p, [dxf.stencil_for(card.dots, ring, "CARD")], kerf_mm=exp.dxf_kerf_mm)
+            drawing = dxf.stencil_for(card.dots, ring, "CARD", *model.cut_label())
+            dxf.write_dxf_stencils(p, [drawing], kerf_mm=exp.dxf_kerf_mm)
         walls = []
         heights = [fp.standoff_mm for fp in card.footprints]
         for g, stem in zip(heights, card_stems(heights), strict=True):
