@@ -251,6 +251,19 @@ def _extent(outline, circles, rings) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
+def _add_score(doc, st: DxfStencil, shift: np.ndarray) -> int:
+    """Draw a stencil's label rings on its score layer (created when it has any); returns how many."""
+    score = st.score_rings()
+    if score:
+        doc.layers.add(st.score_layer, color=SCORE_COLOUR)
+        msp = doc.modelspace()
+        for ring in score:
+            msp.add_lwpolyline(
+                (ring + shift).tolist(), format="xy", close=True, dxfattribs={"layer": st.score_layer}
+            )
+    return len(score)
+
+
 def write_dxf_stencils(
     path: str | Path,
     stencils: Sequence[DxfStencil],
@@ -313,14 +326,7 @@ def write_dxf_stencils(
         doc.layers.add(st.layer_name, color=CUT_COLOURS[i % len(CUT_COLOURS)])
         attribs = {"layer": st.layer_name}
         # The label first: a laser that works in file order scores it while the sheet is still whole.
-        score = st.score_rings()
-        if score:
-            doc.layers.add(st.score_layer, color=SCORE_COLOUR)
-            for ring in score:
-                msp.add_lwpolyline(
-                    (ring + shift).tolist(), format="xy", close=True, dxfattribs={"layer": st.score_layer}
-                )
-        scored.append(len(score))
+        scored.append(_add_score(doc, st, shift))
         if len(circles):
             moved = circles.copy()
             moved[:, :2] += shift
