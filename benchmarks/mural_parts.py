@@ -43,7 +43,9 @@ def _job(tmp: Path) -> tuple[dict, Path]:
     out = tmp / "out"
     t0 = time.perf_counter()
     cmd = [sys.executable, "-m", "stencil_cad", "run", str(cfg), "--out", str(out), "-q", "--workers", "0"]
-    subprocess.run(cmd, check=True)
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode:
+        raise RuntimeError(f"the mural job failed (exit {r.returncode}): {r.stderr[-500:]}")
     seconds = time.perf_counter() - t0
     return _files_row(out, seconds), out
 
