@@ -239,4 +239,17 @@ def _mural_lines(f: dict) -> list[str]:
                 f"PSNR {c['cost_psnr']:+.3g} dB, SSIM {c['cost_ssim']:+.3g}"
             )
     lines.append("  map       mural_map.png (tile grid, positions, order of work)")
+    bed = m.get("bed") or {}
+    if bed:
+        from .slicing import place
+
+        sizes = [r.get("bbox_mm") for r in plates] + [w.get("bbox") for w in walls]
+        sizes = [(s[0], s[1]) if len(s) == 2 else (s[3] - s[0], s[4] - s[1]) for s in sizes if s]
+        turned = sum(1 for s in sizes if place(s, (bed["x_mm"], bed["y_mm"])).rotate_deg == 90)
+        if turned:
+            arg = bed["name"] if "×" not in bed["name"] else f"{bed['x_mm']:g}x{bed['y_mm']:g}"
+            lines.append(
+                f"  bed       {turned} of {len(sizes)} parts fit the {bed['x_mm']:g} × {bed['y_mm']:g} mm bed turned 90° "
+                f"(`stencil-cad slice --bed {arg}` turns them)"
+            )
     return lines

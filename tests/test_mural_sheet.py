@@ -89,6 +89,7 @@ def _two_tile_manifest() -> dict:
         "config": {"name": "two tiles", "mode": "soft", "bed": "prusa_mk4", "stipple": {"process": "fdm"}},
         "picture": {"width_mm": 240.0, "height_mm": 200.0},
         "mural": {
+            "bed": {"name": "prusa_mk4", "x_mm": 250.0, "y_mm": 210.0},
             "tiled": True,
             "halo_mm": 18.8,
             "tiles": tiles,
@@ -138,6 +139,13 @@ def test_mural_sheet_from_the_manifest():
     assert "tile_A1_wall.stl" in parts["tile_A1_wall"][2]
     pdf = sheet.render_pdf(s, {})
     assert pdf.startswith(b"%PDF")
+
+
+def test_the_summary_says_which_parts_lie_turned():
+    from stencil_cad.report import _mural_lines
+
+    lines = _mural_lines(_two_tile_manifest())
+    assert any("6 of 6 parts fit the 250 × 210 mm bed turned 90°" in line for line in lines)
 
 
 def test_a_long_mural_is_marked_with_a_chalk_line():
