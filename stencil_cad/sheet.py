@@ -255,11 +255,12 @@ def _cutout_detail(fig: Mapping | None) -> str:
     return f"{span}, {float(fig['open_mm2']):,.0f} mm² open"
 
 
-def _plate_caption(step: Step) -> str:
+def _plate_caption(step: Step, tiles: int = 0) -> str:
     """The caption under a step's plate: its hole or cut-out count and, for cut-outs, their sizes."""
+    what = f"The layer's {tiles} plates, one per tile" if tiles else "The plate"
     if step.holes is None:
-        return "The plate"
-    return f"The plate ({step.holes:,} {step.kind}" + (f", {step.detail}" if step.detail else "") + ")"
+        return what
+    return f"{what} ({step.holes:,} {step.kind}" + (f", {step.detail}" if step.detail else "") + ")"
 
 
 def _wall_steps(manifest: Mapping, cfg: Mapping, primer: Mapping, primer_hex: str, n_tiles: int) -> list[str]:
@@ -578,7 +579,7 @@ def render_html(sheet: Sheet, images: Mapping[str, bytes]) -> str:
             + (f'<p class="note">{e(s.how)}</p>' if s.how else "")
             + '<div class="pair">'
             f"<figure>{_img(images, s.plate_image, f'plate {s.plate}')}<figcaption>"
-            f"{e(_plate_caption(s))}</figcaption></figure>"
+            f"{e(_plate_caption(s, len(sheet.mural.sections) if sheet.mural else 0))}</figcaption></figure>"
             f"<figure>{_img(images, s.after_image, f'after step {s.number}')}<figcaption>The picture after "
             f"step {s.number} (simulated)</figcaption></figure></div></div>"
         )
@@ -784,7 +785,7 @@ def _pdf_steps(sheet: Sheet, k: _PdfKit) -> list:
             [
                 [k.img(s.plate_image, k.half), k.img(s.after_image, k.half * 0.8)],
                 [
-                    k.p(_plate_caption(s), k.small),
+                    k.p(_plate_caption(s, len(sheet.mural.sections) if sheet.mural else 0), k.small),
                     k.p(f"After step {s.number} (simulated)", k.small),
                 ],
             ],
