@@ -420,6 +420,10 @@ def sheet_from_manifest(manifest: Mapping, tiles: Sequence[Mapping] | None = Non
     )
 
 
+#: The can column of a paint no can list (and no colour name, paints.can_names: false) names.
+_NO_CAN = "no can named"
+
+
 def _amount(step: Step, unit: str, bare: bool = False) -> str:
     """A step's amount of paint in the job's unit: ``2 passes`` or ``spray time 0.707``."""
     t = step.spray_time
@@ -546,13 +550,13 @@ def render_html(sheet: Sheet, images: Mapping[str, bytes]) -> str:
         "<h2>Paints, in spray order</h2>",
         f"<table><tr><th>#</th><th>colour</th><th>hex</th><th>can</th><th>plate</th><th>{e(sheet.unit)}</th></tr>",
         f"<tr><td>0</td><td>{_chip(sheet.primer_hex)}primer</td><td><code>{e(sheet.primer_hex)}</code></td>"
-        f"<td>{e(sheet.primer_name) or '–'}</td><td>none: the whole surface</td><td>full coat</td></tr>",
+        f"<td>{e(sheet.primer_name) or _NO_CAN}</td><td>none: the whole surface</td><td>full coat</td></tr>",
     ]
     for s in sheet.steps:
         t = _amount(s, sheet.unit, bare=True)
         out.append(
             f"<tr><td>{s.number}</td><td>{_chip(s.hex)}</td><td><code>{e(s.hex)}</code></td>"
-            f"<td>{e(s.name) or '–'}</td><td>{e(s.plate)}</td><td>{t}</td></tr>"
+            f"<td>{e(s.name) or _NO_CAN}</td><td>{e(s.plate)}</td><td>{t}</td></tr>"
         )
     out.append("</table>")
     if sheet.order_note:
@@ -726,14 +730,14 @@ def _pdf_paints(sheet: Sheet, k: _PdfKit) -> list:
     from reportlab.lib.units import mm
 
     story = [k.heading("Paints, in spray order", k.h2)]
-    rows = [["", "0", sheet.primer_hex, sheet.primer_name or "–", "none: the whole surface", "full coat"]]
+    rows = [["", "0", sheet.primer_hex, sheet.primer_name or _NO_CAN, "none: the whole surface", "full coat"]]
     for s in sheet.steps:
         rows.append(
             [
                 "",
                 str(s.number),
                 s.hex,
-                s.name or "–",
+                s.name or _NO_CAN,
                 s.plate,
                 _amount(s, sheet.unit, bare=True),
             ]

@@ -141,6 +141,15 @@ def test_mural_sheet_from_the_manifest():
     assert pdf.startswith(b"%PDF")
 
 
+def test_unnamed_paints_are_said_to_be_unnamed():
+    """With no can list and paints.can_names off, the can column says so (no bare placeholder)."""
+    from placeholders import html_text, placeholders
+
+    s = sheet.sheet_from_manifest(_two_tile_manifest())
+    html = sheet.render_html(s, {})
+    assert "no can named" in html and placeholders(html_text(html)) == []
+
+
 def test_the_summary_says_which_parts_lie_turned():
     from stencil_cad.report import _mural_lines
 
