@@ -25,6 +25,7 @@ NAMES = [
     "limits",
     "calibrate",
     "mural",
+    "mural_parts",
     "dask_overhead",
 ]
 

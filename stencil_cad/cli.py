@@ -242,7 +242,8 @@ def _slice(args) -> int:
         args.stl, args.profile, force=args.force, timeout_s=args.timeout, bed=bed
     ):
         if result.ok:
-            print(f"{out}: {result.output_bytes} bytes in {result.seconds:.1f} s ({args.profile})")
+            turned = ", turned 90° to fit the bed" if result.rotate_deg else ""
+            print(f"{out}: {result.output_bytes} bytes in {result.seconds:.1f} s ({args.profile}{turned})")
             for w in result.warnings:
                 print(f"  warning   slicer: {w[:300]}")
         else:

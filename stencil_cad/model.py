@@ -216,6 +216,25 @@ class CutLayer:
         """Number of cut-outs."""
         return len(self.polygons)
 
+    def cutout_figures(self) -> dict:
+        """What the cut-outs are like: count, smallest and largest span and open area.
+
+        Returns:
+            ``{"count", "span_min_mm", "span_max_mm", "open_mm2"}``: the span of a cut-out is the
+            longer side of its bounding box in mm; the open area (mm²) leaves out the islands.
+        """
+        spans, area = [], 0.0
+        for outer, holes in self.polygons:
+            ring = np.asarray(outer, dtype=np.float64).reshape(-1, 2)
+            spans.append(float(np.max(ring.max(axis=0) - ring.min(axis=0))))
+            area += abs(polygon_area(ring)) - sum(abs(polygon_area(np.asarray(h))) for h in holes)
+        return {
+            "count": len(spans),
+            "span_min_mm": round(min(spans), 2) if spans else 0.0,
+            "span_max_mm": round(max(spans), 2) if spans else 0.0,
+            "open_mm2": round(area, 1),
+        }
+
 
 #: The holes of one plate: round (a soft layer's :class:`DotSet`) or polygon cut-outs (a
 #: hard layer's :class:`CutLayer`). Both have ``xy_mm``, ``r_mm``, ``polygons`` and

@@ -242,7 +242,7 @@ class _Files:
 
 def _build_plate(task: PartTask) -> PartResult:
     from . import cad
-    from .exchange import dxf
+    from .exchange import dxf, svg
 
     cfg, stem, holes, ring = task.cfg, task.stem, task.holes, task.ring
     if holes is None or ring is None or task.label is None:
@@ -266,11 +266,18 @@ def _build_plate(task: PartTask) -> PartResult:
         "notches": task.notches,
         "bbox_mm": [round(x1 - x0, 3), round(y1 - y0, 3)],
     }
+    drawing = dxf.stencil_for(holes, ring, stem.upper(), *model.cut_label())
+    row["cut_length_mm"] = round(dxf.cut_length_mm(holes, ring), 1)
+    if exp.svg:
+        with files.open_path(f"{stem}.svg") as p:
+            sinfo = svg.write_svg(p, drawing, kerf_mm=exp.dxf_kerf_mm, title=f"{cfg.name} {stem}")
+        row["svg_offset_mm"] = [round(float(v), 4) for v in sinfo.offset_mm]
+        row["svg_circles"] = sinfo.circles
     if exp.dxf:
         with files.open_path(f"{stem}.dxf") as p:
             info = dxf.write_dxf_stencils(
                 p,
-                [dxf.stencil_for(holes, ring, stem.upper())],
+                [drawing],
                 kerf_mm=exp.dxf_kerf_mm,
                 # Fixed dates and GUIDs: the same job writes the same bytes, wherever it ran.
                 deterministic=True,

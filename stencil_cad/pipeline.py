@@ -24,7 +24,7 @@ from .colour import to_hex
 from .config import ComputeConfig, JobConfig, Mode
 from .config.spray import SprayModel
 from .errors import OutputError, UserError
-from .model import DotSet, Holes, Layers, Picture, coat_contrast
+from .model import CutLayer, DotSet, Holes, Layers, Picture, coat_contrast
 from .output import MANIFEST, OutputDir, manifest_header
 from .output import plain as _plain
 
@@ -659,6 +659,11 @@ def write_spray_order(run: Run, primer: np.ndarray, colours: np.ndarray, spray_t
     from .simulate import labelled
 
     names = can_names(run.figures)
+    if run.cfg.paints.can_names:
+        from .decompose import paints
+
+        hexes = [to_hex(c) for c in (primer, *colours)]
+        names = {**paints.colour_names([h for h in hexes if h not in names]), **names}
     order = [
         {
             "step": i + 1,
@@ -807,7 +812,7 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
                 stem = layer_stem(i)
                 cad.write_mesh_files(run.out, model, stem, exp)
                 dxf_info = {}
-                drawing = dxf.stencil_for(h, ring, stem.upper())
+                drawing = dxf.stencil_for(h, ring, stem.upper(), *model.cut_label())
                 if exp.dxf:
                     with run.out.open_path(f"{stem}.dxf") as p:
                         info = dxf.write_dxf_stencils(
@@ -826,8 +831,13 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
                         )
                     dxf_info["svg_offset_mm"] = [round(float(v), 4) for v in sinfo.offset_mm]
                     dxf_info["svg_circles"] = sinfo.circles  # type: ignore[assignment]
-                cut = round(_cut_length_mm(h, ring), 1)
-                results.append({"layer": i + 1, **_plain(check), **dxf_info, "cut_length_mm": cut})
+                cut = round(dxf.cut_length_mm(h, ring), 1)
+                (x0, y0, _), (x1, y1, _) = check["bbox"]
+                size = [round(x1 - x0, 3), round(y1 - y0, 3)]
+                row = {"layer": i + 1, **_plain(check), **dxf_info, "cut_length_mm": cut, "bbox_mm": size}
+                if isinstance(h, CutLayer):
+                    row["cutouts"] = h.cutout_figures()
+                results.append(row)
                 bar.update(1)
         walls = []
         heights = wall_mod.wall_heights(cfg.wall)
@@ -1377,7 +1387,8 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
             cad.write_stl(model, p, exp.stl_tolerance_mm)
         ring = outline.plate_outline(w, h, cfg.plate.outline)
         with run.out.open_path("card_plate.dxf") as p:
-            dxf.write_dxf_stencils(p, [dxf.stencil_for(card.dots, ring, "CARD")], kerf_mm=exp.dxf_kerf_mm)
+            drawing = dxf.stencil_for(card.dots, ring, "CARD", *model.cut_label())
+            dxf.write_dxf_stencils(p, [drawing], kerf_mm=exp.dxf_kerf_mm)
         walls = []
         heights = [fp.standoff_mm for fp in card.footprints]
         for g, stem in zip(heights, card_stems(heights), strict=True):
@@ -1442,10 +1453,19 @@ def plan_mural(run: Run, picture_mm: tuple[float, float], shape_px: tuple[int, i
     from . import mural_stages
 
     grid, fig = mural_stages.plan(
-        run.cfg, *picture_mm, run.cfg.decompose.layers, int(shape_px[0]) * int(shape_px[1])
+        run.cfg, *picture_mm, plate_layers(run.cfg), int(shape_px[0]) * int(shape_px[1])
     )
     run.figures["mural"] = fig
     return grid
+
+
+def plate_layers(cfg: JobConfig) -> int:
+    """Plates per tile the job plans for: the paint layers, or in hard mode one per colour but the primer."""
+    if cfg.mode != Mode.hard:
+        return cfg.decompose.layers
+    # A palette given as a list fixes the colours; a can list's length is known once it is read.
+    palette = cfg.hard.palette
+    return (len(palette) if isinstance(palette, list) else cfg.hard.colours) - 1
 
 
 def build_any(
@@ -1619,21 +1639,6 @@ def _png(image: np.ndarray) -> bytes:
     return buf.getvalue()
 
 
-def _cut_length_mm(holes, ring: np.ndarray) -> float:
-    """Length of every cut of a plate in mm: the holes (or cut-out rings) and the outline."""
-
-    def perimeter(r) -> float:
-        r = np.asarray(r, dtype=np.float64)
-        return float(np.sum(np.linalg.norm(np.roll(r, -1, axis=0) - r, axis=1)))
-
-    total = perimeter(ring)
-    if isinstance(holes, DotSet):
-        return total + float(2.0 * np.pi * np.sum(holes.r_mm))
-    for outer, inner in holes.polygons:
-        total += perimeter(outer) + sum(perimeter(h) for h in inner)
-    return total
-
-
 # --------------------------------------------------------------------------- the commands
 
 #: Commands that run one stage on the intermediates a previous command saved.
@@ -1699,7 +1704,7 @@ def run_command(
 
             shape = picture.shape
             _, plan = mural_stages.plan(
-                cfg, picture.width_mm, picture.height_mm, cfg.decompose.layers, shape[0] * shape[1]
+                cfg, picture.width_mm, picture.height_mm, plate_layers(cfg), shape[0] * shape[1]
             )
             announce(mural_stages.plan_line(plan))
         if command in ("run", "hard", "decompose"):
@@ -1798,15 +1803,17 @@ def slice_plates(
             raise UserError(f"{stl} is not an STL file (give a plate's layer_NN.stl)") from None
         except OSError as exc:
             raise UserError(f"cannot read {stl}: {exc.strerror} (check the file)") from None
-        if not (size[0] <= bed[0] + 1e-6 and size[1] <= bed[1] + 1e-6):
+        # A part that fits only turned (a portrait tile on a landscape bed) is sliced turned.
+        lay = slicing.place(size, bed)
+        if lay.rotate_deg is None:
             fits = [
                 f"{name} ({w:g} × {h:g} mm)"
                 for name, (w, h) in ((n, slicing.bed_size(n)) for n in slicing.PROFILES)
-                if size[0] <= w and size[1] <= h
+                if slicing.place(size, (w, h)).fits
             ]
             raise UserError(
                 f"{stl} is {size[0]:.1f} × {size[1]:.1f} mm but the {prof.name} bed is {bed[0]:g} × "
-                f"{bed[1]:g} mm: use a smaller picture (size.width_mm)"
+                f"{bed[1]:g} mm, either way round: use a smaller picture (size.width_mm)"
                 + (f", another profile (--profile {' or '.join(fits)})" if fits else "")
                 + ", or a printer with a larger bed (copy the profile and edit its bed size)"
             )
@@ -1815,11 +1822,13 @@ def slice_plates(
             raise OutputError(f"{out} is a folder where the sliced file goes (move it away)")
         if out.exists() and not force:
             raise OutputError(f"{out} already exists (use --force to replace it)")
-        jobs.append((stl, out))
-    for stl, out in jobs:
+        jobs.append((stl, out, lay.rotate_deg))
+    for stl, out, turn in jobs:
         tmp = out.with_name(f".{out.name}.partial{prof.suffix}")
         try:
-            result = slicing.slice_plate(stl, tmp, prof, timeout_s=timeout_s, overrides=overrides)
+            result = slicing.slice_plate(
+                stl, tmp, prof, timeout_s=timeout_s, overrides=overrides, rotate_deg=turn
+            )
         except slicing.SlicerNotFoundError as exc:
             tmp.unlink(missing_ok=True)
             raise UserError(f"{exc}") from None
@@ -1865,11 +1874,15 @@ def plate_projects(
         out = stl.with_suffix(".3mf")
         if out.exists() and not force:
             raise OutputError(f"{out} already exists (use --force to replace it)")
-        jobs.append((stl, out))
-    for stl, out in jobs:
+        try:
+            turn = slicing.place(slicing.stl_footprint(stl), slicing.bed_size(prof)).rotate_deg
+        except ValueError:
+            raise UserError(f"{stl} is not an STL file (give a plate's layer_NN.stl)") from None
+        jobs.append((stl, out, turn or 0))
+    for stl, out, turn in jobs:
         tmp = out.with_name(f".{out.name}.partial.3mf")
         try:
-            slicing.plate_project(stl, tmp, prof, timeout_s=timeout_s)
+            slicing.plate_project(stl, tmp, prof, timeout_s=timeout_s, rotate_deg=turn)
         except slicing.SlicerNotFoundError as exc:
             tmp.unlink(missing_ok=True)
             raise UserError(f"{exc}") from None

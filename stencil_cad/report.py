@@ -69,7 +69,7 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
         for p in build["plates"]:
             lines.append(
                 f"  plate {p['layer']:02d}  {'valid' if p.get('valid') else 'INVALID'}, {p.get('n_solids', '?')} solid, "
-                f"holes {p.get('hole_count', '?')}, volume error {_fmt(p.get('rel_error'))}"
+                f"{_kind(run)} {p.get('hole_count', 'not counted')}, volume error {_fmt(p.get('rel_error'))}"
             )
         lines.append(
             "  walls     "
@@ -99,7 +99,10 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
                     f"{_fmt(max(by_can.values()))} depending on your can; spray the card to know "
                     "(stencil-cad card, then stencil-cad calibrate)"
                 )
-            lines.append("  dots      " + _dots_advice(run, sim, d))
+            if _kind(run) == "holes":
+                lines.append("  dots      " + _dots_advice(run, sim, d))
+            else:
+                lines.append("  cut-outs  " + _cutout_advice(f))
     where = f.get("compute")
     if where and where.get("kind") != "in_process":
         place = (
@@ -134,6 +137,29 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
     for warning in getattr(run, "warnings", []) or []:
         lines.append(f"  warning   {warning}")
     return "\n".join(lines)
+
+
+def _kind(run) -> str:
+    """What a plate's openings are called: round ``holes`` (soft) or ``cut-outs`` (hard mode)."""
+    return "cut-outs" if getattr(run.cfg.mode, "value", run.cfg.mode) == "hard" else "holes"
+
+
+def _cutout_advice(f: dict) -> str:
+    """Hard mode in plain words: the cut-outs per plate and their sizes; hard edges read from any distance."""
+    rows = []
+    for p in (f.get("build") or {}).get("plates", []):
+        c = p.get("cutouts") or {}
+        if c.get("count"):
+            rows.append(
+                f"plate {p['layer']:02d} {c['count']} from {c['span_min_mm']:g} to {c['span_max_mm']:g} mm across"
+            )
+    hard = f.get("hard") or {}
+    bridge = hard.get("bridge_drawn_mm")
+    return (
+        "; ".join(rows or ["no cut-outs"])
+        + (f"; bridges {bridge:g} mm wide" if bridge else "")
+        + "; their edges are hard, so shapes read the same from near and far"
+    )
 
 
 def _dots_advice(run, sim: dict, distance_m: float) -> str:
@@ -220,4 +246,17 @@ def _mural_lines(f: dict) -> list[str]:
                 f"PSNR {c['cost_psnr']:+.3g} dB, SSIM {c['cost_ssim']:+.3g}"
             )
     lines.append("  map       mural_map.png (tile grid, positions, order of work)")
+    bed = m.get("bed") or {}
+    if bed:
+        from .slicing import place
+
+        sizes = [r.get("bbox_mm") for r in plates] + [w.get("bbox") for w in walls]
+        sizes = [(s[0], s[1]) if len(s) == 2 else (s[3] - s[0], s[4] - s[1]) for s in sizes if s]
+        turned = sum(1 for s in sizes if place(s, (bed["x_mm"], bed["y_mm"])).rotate_deg == 90)
+        if turned:
+            arg = bed["name"] if "×" not in bed["name"] else f"{bed['x_mm']:g}x{bed['y_mm']:g}"
+            lines.append(
+                f"  bed       {turned} of {len(sizes)} parts fit the {bed['x_mm']:g} × {bed['y_mm']:g} mm bed turned 90° "
+                f"(`stencil-cad slice --bed {arg}` turns them)"
+            )
     return lines

@@ -22,6 +22,8 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
+from . import sheet_make, sheet_mural
+
 __all__ = ["Sheet", "render_html", "render_pdf", "sheet_from_manifest"]
 
 # Rule of thumb for when separate dots blend for the eye: one arcminute, about 3,400 x the pitch.
@@ -68,6 +70,7 @@ class Step:
     after_image: str
     kind: str
     how: str = ""
+    detail: str = ""
 
 
 @dataclass(frozen=True)
@@ -95,6 +98,8 @@ class Sheet:
     checks: list[tuple[str, bool]]
     files: list[str]
     warnings: list[str] = field(default_factory=list)
+    plate_count: int = 0
+    mural: sheet_mural.MuralPlan | None = None
 
 
 def _val(d: Mapping, *keys, default=None):
@@ -133,52 +138,38 @@ def _viewing(manifest: Mapping) -> str:
 
 
 def _wall_list(walls: Sequence[Mapping]) -> str:
+    tiled = [w for w in walls if w.get("tile")]
+    if tiled:
+        heights = ", ".join(f"{h:g}" for h in sorted({float(w.get("standoff_mm", 0)) for w in tiled}))
+        return f"one wall per tile, {tiled[0].get('file')} to {tiled[-1].get('file')}: stand-off {heights} mm"
     return ", ".join(f"{w.get('file')}: stand-off {float(w.get('standoff_mm', 0)):g} mm" for w in walls)
 
 
-def _process(manifest: Mapping) -> str:
-    return str(_val(manifest, "config", "stipple", "process", default="fdm"))
-
-
 def _print_rows(manifest: Mapping, steps: list[Step]) -> tuple[list[str], list[list[str]]]:
-    """Per plate: files, hole count, and the print or cut settings for the job's process."""
-    process = _process(manifest)
-    cfg = manifest.get("config", {}) or {}
-    thick = _val(cfg, "plate", "thickness_mm", default=None)
-    kerf = _val(cfg, "export", "dxf_kerf_mm", default=0.0)
-    plates = {p.get("layer"): p for p in _val(manifest, "build", "plates", default=[]) or []}
-    head = ["plate", "holes", "files", "settings"]
+    """Per plate and per wall: files, hole count, and how to make it with a profile or bed it fits."""
+    names = _file_names(manifest)
+    kind = "cut-outs" if str(_val(manifest, "config", "mode", default="soft")) == "hard" else "holes"
+    head = ["part", kind, "files", "cut length", "how to make it"]
+    parts = sheet_make.plate_parts(manifest)
+    if not parts:
+        # No build figures (a sheet from the spray order alone): one row per step.
+        parts = [sheet_make.Part("plate", s.plate, None, s.holes, layer=s.number) for s in steps]
     rows = []
-    for s in steps:
-        p = plates.get(s.number, {})
-        holes = p.get("hole_count", s.holes)
-        files = [
-            f"{s.plate}{e}"
-            for e in (".stl", ".step", ".3mf", ".dxf", ".svg")
-            if f"{s.plate}{e}" in _file_names(manifest)
-        ]
-        if process == "laser":
-            cut = p.get("cut_length_mm")
-            how = (
-                f"laser: cut {s.plate}.dxf (or .svg), holes first, outline last; kerf compensated {kerf:g} mm"
-            )
-            if cut:
-                how += f"; cut length {cut / 1000:.2f} m"
-        elif process == "sla":
-            how = (
-                f"resin: `stencil-cad slice --profile prusa_sla {s.plate}.stl`; flat on the build plate, "
-                "no supports, 0.1 mm layers"
-            )
-        else:
-            tiles = math.ceil((holes or 0) / 300) if (holes or 0) > 450 else 1
-            how = (
-                f"FDM: `stencil-cad slice {s.plate}.stl` (PrusaSlicer, prusa_fdm, 0.2 mm layers, 100 % infill"
-                + (f", sliced as {tiles} tiles" if tiles > 1 else "")
-                + "); print flat, plate-down, no supports or brim"
-            )
-        if thick:
-            how += f"; plate {thick:g} mm thick"
-        rows.append([s.plate, str(holes if holes is not None else "–"), ", ".join(files) or "–", how])
+    for part in [*parts, *sheet_make.wall_parts(manifest)]:
+        files = [part.stem + e for e in (".stl", ".step", ".3mf", ".dxf", ".svg") if part.stem + e in names]
+        count = (
+            "frame"
+            if part.kind == "wall"
+            else (f"{part.holes:,}" if part.holes is not None else "not counted")
+        )
+        cut = (
+            f"{part.cut_mm / 1000:.2f} m"
+            if part.cut_mm
+            else ("not cut" if part.kind == "wall" else "not measured")
+        )
+        rows.append(
+            [part.stem, count, ", ".join(files) or "not written", cut, sheet_make.part_advice(manifest, part)]
+        )
     return head, rows
 
 
@@ -189,31 +180,11 @@ def _file_names(manifest: Mapping) -> set[str]:
 def _checks(manifest: Mapping) -> list[tuple[str, bool]]:
     out: list[tuple[str, bool]] = []
     build = manifest.get("build") or {}
+    # A mural's plates and walls are checked tile by tile in the tile sections.
     for p in build.get("plates", []):
-        n = p.get("layer")
-        out.append(
-            (f"plate {n:02d}: one solid, valid B-rep ({p.get('n_solids', '?')} solid)", bool(p.get("valid")))
-        )
-        rel = p.get("rel_error")
-        if rel is not None:
-            out.append(
-                (f"plate {n:02d}: volume equals the analytic volume (relative error {rel:.1e})", rel < 1e-6)
-            )
-        mesh = p.get("mesh") or {}
-        if mesh:
-            ok = bool(mesh.get("watertight")) and bool(mesh.get("consistent_winding"))
-            out.append((f"plate {n:02d}: mesh watertight and consistently wound", ok))
-            if "genus" in mesh and "hole_count" in p:
-                out.append(
-                    (
-                        f"plate {n:02d}: mesh genus {mesh['genus']} = hole count {p['hole_count']}",
-                        mesh["genus"] == p["hole_count"],
-                    )
-                )
-    for w in build.get("walls", []):
-        out.append(
-            (f"{w.get('file')}: valid wall (stand-off {w.get('standoff_mm', 0):g} mm)", bool(w.get("valid")))
-        )
+        if not p.get("tile"):
+            out += sheet_make.plate_checks(p, f"plate {int(p.get('layer', 0)):02d}")
+    out += [sheet_make.wall_check(w) for w in build.get("walls", []) if not w.get("tile")]
     rules = manifest.get("stipple") or []
     web = _val(manifest, "config", "stipple", "web_mm")
     for r in rules:
@@ -253,6 +224,8 @@ def _steps(manifest: Mapping, mode: str, names: set[str]) -> list[Step]:
     """One :class:`Step` per plate in spray order."""
     order = (manifest.get("spray_order") or {}).get("steps", [])
     holes = _val(manifest, "simulate", "holes", default=None) or []
+    # A plate's own count (hard mode's cut-outs are not simulated as holes) and its cut-outs' sizes.
+    built = {int(p.get("layer", 0)): p for p in _val(manifest, "build", "plates", default=[]) or []}
     # What the hand does per layer, in the spray model's units, when the job says it.
     how = {
         r.get("layer"): str(r.get("text", ""))
@@ -270,14 +243,32 @@ def _steps(manifest: Mapping, mode: str, names: set[str]) -> list[Step]:
                 hex=o["hex"],
                 name=o.get("name", "") or "",
                 spray_time=o.get("spray_time"),
-                holes=int(holes[k]) if k < len(holes) else None,
+                holes=int(holes[k]) if k < len(holes) else built.get(int(o["step"]), {}).get("hole_count"),
                 plate_image=plate_img,
                 after_image=f"{plate}_after.png",
                 kind="holes" if mode == "soft" else "cut-outs",
                 how=how.get(int(o["step"]), ""),
+                detail=_cutout_detail(built.get(int(o["step"]), {}).get("cutouts")),
             )
         )
     return steps
+
+
+def _cutout_detail(fig: Mapping | None) -> str:
+    """A hard plate's cut-outs in words: ``2.0 to 31.5 mm across, 374 mm² open``."""
+    if not fig or not fig.get("count"):
+        return ""
+    lo, hi = float(fig["span_min_mm"]), float(fig["span_max_mm"])
+    span = f"{lo:.1f} mm across" if abs(hi - lo) < 0.05 else f"{lo:.1f} to {hi:.1f} mm across"
+    return f"{span}, {float(fig['open_mm2']):,.0f} mm² open"
+
+
+def _plate_caption(step: Step, tiles: int = 0) -> str:
+    """The caption under a step's plate: its hole or cut-out count and, for cut-outs, their sizes."""
+    what = f"The layer's {tiles} plates, one per tile" if tiles else "The plate"
+    if step.holes is None:
+        return what
+    return f"{what} ({step.holes:,} {step.kind}" + (f", {step.detail}" if step.detail else "") + ")"
 
 
 def _wall_steps(manifest: Mapping, cfg: Mapping, primer: Mapping, primer_hex: str, n_tiles: int) -> list[str]:
@@ -290,7 +281,11 @@ def _wall_steps(manifest: Mapping, cfg: Mapping, primer: Mapping, primer_hex: st
         f"Prime the whole surface with the primer {primer_hex}"
         + (f" ({primer.get('name')})" if primer.get("name") else "")
         + " and let it dry.",
-        "Set the wall on the surface where the picture goes"
+        (
+            "Set each tile's wall on its ticks (see Registration below)"
+            if n_tiles
+            else "Set the wall on the surface where the picture goes"
+        )
         + (f" ({_wall_list(walls)}; a taller wall gives softer dots)" if walls else "")
         + ". Tape or hold it so it cannot move between layers.",
         "Each plate fits the wall one way only: the key tabs match the wall's notches and the label, "
@@ -299,8 +294,8 @@ def _wall_steps(manifest: Mapping, cfg: Mapping, primer: Mapping, primer_hex: st
     ]
     if n_tiles:
         wall.append(
-            f"The picture is a mural of {n_tiles} tiles (map below): spray each tile's plates in its "
-            "own wall position, tile by tile, every tile in the same layer order."
+            f"The picture is a mural of {n_tiles} tiles (map below): spray it round by round, one layer "
+            "on every tile in its own wall position, then the next layer (Order of work below)."
         )
     return wall
 
@@ -411,7 +406,7 @@ def sheet_from_manifest(manifest: Mapping, tiles: Sequence[Mapping] | None = Non
         unit=str(spray.get("unit", "spray time")),
         steps=steps,
         wall=_wall_steps(manifest, cfg, primer, primer_hex, len(tiles_list)),
-        tiles=[dict(t) for t in tiles_list],
+        tiles=sheet_mural.map_tiles(tiles_list),
         prints=rows,
         print_head=head,
         paint=paint_rows,
@@ -421,6 +416,10 @@ def sheet_from_manifest(manifest: Mapping, tiles: Sequence[Mapping] | None = Non
         checks=_checks(manifest),
         files=sorted(names),
         warnings=warnings,
+        plate_count=len(_val(manifest, "build", "plates", default=[]) or []) or len(steps),
+        mural=sheet_mural.mural_plan(
+            manifest, steps, lambda s: _amount(s, str(spray.get("unit", "spray time"))), names
+        ),
     )
 
 
@@ -466,6 +465,10 @@ def _dark_end_warnings(manifest: Mapping) -> list[str]:
     return out
 
 
+#: The can column of a paint no can list (and no colour name, paints.can_names: false) names.
+_NO_CAN = "no can named"
+
+
 def _amount(step: Step, unit: str, bare: bool = False) -> str:
     """A step's amount of paint in the job's unit: ``2 passes`` or ``spray time 0.707``."""
     t = step.spray_time
@@ -477,6 +480,25 @@ def _amount(step: Step, unit: str, bare: bool = False) -> str:
         else (f"{t:.3g}" if bare else f"spray time {t:.3g}")
     )
     return text if bare else f", {text}"
+
+
+def _plates_text(sheet: Sheet) -> str:
+    """The plate count for the sheet's head: every plate of the job (a mural: every tile's)."""
+    if sheet.mural is None:
+        return f"{sheet.plate_count or len(sheet.steps)} plates"
+    m = sheet.mural
+    return f"{m.plates} plates ({len(sheet.steps)} layers on each of {len(m.sections)} tiles) and {m.walls} walls"
+
+
+def _drop(sheet: Sheet, step: Step) -> str:
+    """What to put into the wall for a step: the plate, or on a mural each tile's plate of that layer."""
+    if sheet.mural is None:
+        return f"Drop {step.plate} into the wall"
+    first = sheet.mural.sections[0].name if sheet.mural.sections else "A1"
+    return (
+        f"Round {step.number}, on every tile in turn (see Tile by tile): drop the tile's plate of this "
+        f"layer (tile_{first}_{step.plate} on {first}, and so on) into the tile's wall"
+    )
 
 
 def _unit_note(unit: str) -> str:
@@ -566,7 +588,7 @@ def render_html(sheet: Sheet, images: Mapping[str, bytes]) -> str:
         f"<style>{_CSS}</style></head><body>",
         f"<h1>{e(sheet.job)}: how to spray it</h1>",
         f'<p class="note">{"Stippled" if sheet.mode == "soft" else "Hard-edged cut"} stencils, '
-        f"{len(sheet.steps)} plates. Picture {sheet.width_mm:g} × {sheet.height_mm:g} mm; "
+        f"{_plates_text(sheet)}. Picture {sheet.width_mm:g} × {sheet.height_mm:g} mm; "
         f"viewing distance: {e(sheet.viewing)}.</p>",
         '<div class="pair">',
         f"<figure>{_img(images, 'input.png', 'the picture asked for')}<figcaption>The picture "
@@ -577,13 +599,13 @@ def render_html(sheet: Sheet, images: Mapping[str, bytes]) -> str:
         "<h2>Paints, in spray order</h2>",
         f"<table><tr><th>#</th><th>colour</th><th>hex</th><th>can</th><th>plate</th><th>{e(sheet.unit)}</th></tr>",
         f"<tr><td>0</td><td>{_chip(sheet.primer_hex)}primer</td><td><code>{e(sheet.primer_hex)}</code></td>"
-        f"<td>{e(sheet.primer_name) or '–'}</td><td>none: the whole surface</td><td>full coat</td></tr>",
+        f"<td>{e(sheet.primer_name) or _NO_CAN}</td><td>none: the whole surface</td><td>full coat</td></tr>",
     ]
     for s in sheet.steps:
         t = _amount(s, sheet.unit, bare=True)
         out.append(
             f"<tr><td>{s.number}</td><td>{_chip(s.hex)}</td><td><code>{e(s.hex)}</code></td>"
-            f"<td>{e(s.name) or '–'}</td><td>{e(s.plate)}</td><td>{t}</td></tr>"
+            f"<td>{e(s.name) or _NO_CAN}</td><td>{e(s.plate)}</td><td>{t}</td></tr>"
         )
     out.append("</table>")
     if sheet.order_note:
@@ -596,18 +618,21 @@ def render_html(sheet: Sheet, images: Mapping[str, bytes]) -> str:
     out.append("<h2>Set up the wall</h2><ol>" + "".join(f"<li>{e(x)}</li>" for x in sheet.wall) + "</ol>")
     if sheet.tiles:
         out.append("<h3>Tile map</h3>" + tile_map_svg(sheet.tiles, sheet.width_mm, sheet.height_mm))
+        out.append(_img(images, "mural_map.png", "the mural map: grid lines, tiles and order of work"))
+    if sheet.mural is not None:
+        out.append(sheet_mural.mural_html(sheet.mural, e, _chip))
     out.append("<h2>Spray, plate by plate</h2>")
     for s in sheet.steps:
         t = _amount(s, sheet.unit)
         out.append(
             f'<div class="step"><h3>Step {s.number}: plate {e(s.plate)}, paint {_chip(s.hex)}<code>{e(s.hex)}</code>'
             f"{' ' + e(s.name) if s.name else ''}</h3>"
-            f'<p class="note">Drop {e(s.plate)} into the wall, label towards you and readable; spray '
+            f'<p class="note">{e(_drop(sheet, s))}, label towards you and readable; spray '
             f"evenly{e(t)}; let it dry, lift it out.</p>"
             + (f'<p class="note">{e(s.how)}</p>' if s.how else "")
             + '<div class="pair">'
-            f"<figure>{_img(images, s.plate_image, f'plate {s.plate}')}<figcaption>The plate "
-            f"({s.holes if s.holes is not None else '?'} {s.kind})</figcaption></figure>"
+            f"<figure>{_img(images, s.plate_image, f'plate {s.plate}')}<figcaption>"
+            f"{e(_plate_caption(s, len(sheet.mural.sections) if sheet.mural else 0))}</figcaption></figure>"
             f"<figure>{_img(images, s.after_image, f'after step {s.number}')}<figcaption>The picture after "
             f"step {s.number} (simulated)</figcaption></figure></div></div>"
         )
@@ -754,14 +779,14 @@ def _pdf_paints(sheet: Sheet, k: _PdfKit) -> list:
     from reportlab.lib.units import mm
 
     story = [k.heading("Paints, in spray order", k.h2)]
-    rows = [["", "0", sheet.primer_hex, sheet.primer_name or "–", "none: the whole surface", "full coat"]]
+    rows = [["", "0", sheet.primer_hex, sheet.primer_name or _NO_CAN, "none: the whole surface", "full coat"]]
     for s in sheet.steps:
         rows.append(
             [
                 "",
                 str(s.number),
                 s.hex,
-                s.name or "–",
+                s.name or _NO_CAN,
                 s.plate,
                 _amount(s, sheet.unit, bare=True),
             ]
@@ -813,7 +838,7 @@ def _pdf_steps(sheet: Sheet, k: _PdfKit) -> list:
             [
                 [k.img(s.plate_image, k.half), k.img(s.after_image, k.half * 0.8)],
                 [
-                    k.p(f"The plate ({s.holes if s.holes is not None else '?'} {s.kind})", k.small),
+                    k.p(_plate_caption(s, len(sheet.mural.sections) if sheet.mural else 0), k.small),
                     k.p(f"After step {s.number} (simulated)", k.small),
                 ],
             ],
@@ -824,7 +849,7 @@ def _pdf_steps(sheet: Sheet, k: _PdfKit) -> list:
                 [
                     head,
                     k.p(
-                        f"Drop {s.plate} into the wall, label readable; spray evenly{t}; let it dry, lift it out."
+                        f"{_drop(sheet, s)}, label readable; spray evenly{t}; let it dry, lift it out."
                         + (f" {s.how}" if s.how else ""),
                         k.small,
                     ),
@@ -875,7 +900,7 @@ def render_pdf(sheet: Sheet, images: Mapping[str, bytes]) -> bytes:
     story = [
         Paragraph(html.escape(f"{sheet.job}: how to spray it"), k.h1),
         k.p(
-            f"{'Stippled' if sheet.mode == 'soft' else 'Hard-edged cut'} stencils, {len(sheet.steps)} plates. "
+            f"{'Stippled' if sheet.mode == 'soft' else 'Hard-edged cut'} stencils, {_plates_text(sheet)}. "
             f"Picture {sheet.width_mm:g} × {sheet.height_mm:g} mm; viewing distance: {sheet.viewing}."
         ),
         Spacer(1, 4),
@@ -893,9 +918,15 @@ def render_pdf(sheet: Sheet, images: Mapping[str, bytes]) -> bytes:
     if sheet.tiles:
         story.append(k.heading("Tile map", k.h3))
         story.append(_tile_drawing(sheet.tiles, sheet.width_mm, sheet.height_mm, k.page_w * 0.6))
+        if k.images.get("mural_map.png"):
+            story.append(k.img("mural_map.png", k.page_w))
+    if sheet.mural is not None:
+        story += sheet_mural.mural_pdf(sheet.mural, k)
     story += _pdf_steps(sheet, k)
     story.append(k.heading("Print or cut the plates", k.h2))
-    story.append(k.table(sheet.print_head, sheet.prints, [18 * mm, 14 * mm, 45 * mm, k.page_w - 77 * mm]))
+    story.append(
+        k.table(sheet.print_head, sheet.prints, [26 * mm, 14 * mm, 40 * mm, 16 * mm, k.page_w - 96 * mm])
+    )
     if sheet.paint:
         story.append(k.heading("Paint to buy", k.h2))
         story.append(k.table(["coat", "paint", "covered m²", "mean opacity", "ml", "cans"], sheet.paint))

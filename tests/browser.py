@@ -104,6 +104,22 @@ class Browser:
         self.profile.cleanup()
 
 
+def _open(b, url, width, domains):
+    """Open ``url`` in a new tab of ``b`` at ``width`` px with ``domains`` enabled; returns the session."""
+    target = b.send("Target.createTarget", {"url": "about:blank"})["targetId"]
+    session = b.send("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"]
+    for domain in domains:
+        b.send(f"{domain}.enable", session=session)
+    b.send(
+        "Emulation.setDeviceMetricsOverride",
+        {"width": width, "height": 900, "deviceScaleFactor": 1, "mobile": False},
+        session=session,
+    )
+    b.send("Page.navigate", {"url": url}, session=session)
+    b.wait_for("Page.loadEventFired", time.monotonic() + b.timeout)
+    return session
+
+
 def inspect_page(chromium, url, width=1100):
     """Load ``url``; returns (problems, images, screenshot PNG bytes).
 
@@ -112,17 +128,7 @@ def inspect_page(chromium, url, width=1100):
     """
     b = Browser(chromium)
     try:
-        target = b.send("Target.createTarget", {"url": "about:blank"})["targetId"]
-        session = b.send("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"]
-        for domain in ("Page", "Runtime", "Log", "Network"):
-            b.send(f"{domain}.enable", session=session)
-        b.send(
-            "Emulation.setDeviceMetricsOverride",
-            {"width": width, "height": 900, "deviceScaleFactor": 1, "mobile": False},
-            session=session,
-        )
-        b.send("Page.navigate", {"url": url}, session=session)
-        b.wait_for("Page.loadEventFired", time.monotonic() + b.timeout)
+        session = _open(b, url, width, ("Page", "Runtime", "Log", "Network"))
         images = b.send(
             "Runtime.evaluate",
             {
@@ -146,5 +152,23 @@ def inspect_page(chromium, url, width=1100):
             elif meth == "Network.loadingFailed":
                 problems.append(f"failed load: {p.get('errorText')}")
         return problems, [tuple(x) for x in json.loads(images)], base64.b64decode(shot["data"])
+    finally:
+        b.close()
+
+
+def evaluate_page(chromium, url, expression, width=1100):
+    """Load ``url`` and return (the JSON value of ``expression``, a full-page screenshot PNG)."""
+    b = Browser(chromium)
+    try:
+        session = _open(b, url, width, ("Page",))
+        value = b.send(
+            "Runtime.evaluate",
+            {"expression": f"JSON.stringify({expression})", "returnByValue": True},
+            session=session,
+        )["result"]["value"]
+        shot = b.send(
+            "Page.captureScreenshot", {"format": "png", "captureBeyondViewport": True}, session=session
+        )
+        return json.loads(value), base64.b64decode(shot["data"])
     finally:
         b.close()

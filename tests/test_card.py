@@ -188,4 +188,10 @@ def test_card_command_exports_checked_plate_walls_and_sheet(tmp_path):
 
     mesh = trimesh.load(out / "card_plate.stl")
     assert mesh.is_watertight
+    # The card's cut file carries its label on the score layer, apart from the cuts.
+    import ezdxf
+
+    doc = ezdxf.readfile(out / "card_plate.dxf")
+    assert doc.layers.get("CARD_SCORE").color != doc.layers.get("CARD").color
+    assert len(doc.modelspace().query('LWPOLYLINE[layer=="CARD_SCORE"]')) > 3
     assert main(["card", "--out", str(out), "-q"]) == 2  # not empty: no --force

@@ -232,8 +232,9 @@ def test_svg_matches_the_dots_and_the_dxf(soft_job):
         circles = np.array([[float(c.get(k)) for k in ("cx", "cy", "r")] for c in root.iter(f"{SVG}circle")])
         dots = _dots(soft_job, i)
         assert len(circles) == len(dots) > 0
-        paths = list(root.iter(f"{SVG}path"))
+        paths = list(_group(root, "cut").iter(f"{SVG}path"))
         assert len(paths) == 1 and paths[0].get("id") == "outline"
+        assert len(list(_group(root, "score").iter(f"{SVG}path"))) > 5  # the label, to score
         doc = ezdxf.readfile(soft_job / f"layer_{i:02d}.dxf")
         dxf_c = np.array(
             [[e.dxf.center.x, e.dxf.center.y, e.dxf.radius] for e in doc.modelspace().query("CIRCLE")]
@@ -248,6 +249,10 @@ def test_svg_matches_the_dots_and_the_dxf(soft_job):
         assert np.allclose(
             dots[:, 0] + float(off[0]), np.sort(flipped[:, 0])[np.argsort(np.argsort(dots[:, 0]))], atol=2e-4
         )
+
+
+def _group(root, gid):
+    return next(g for g in root.iter(f"{SVG}g") if g.get("id") == gid)
 
 
 def _rsvg_components(svg, css, tmp_path, zoom=12.0):
@@ -276,7 +281,7 @@ def test_rsvg_reads_one_circle_per_hole(soft_job, tmp_path):
     for i in (1, 2):
         svg = soft_job / f"layer_{i:02d}.svg"
         img, labels, n = _rsvg_components(
-            svg, "circle { fill: black; stroke: none; } #outline { stroke: none; }", tmp_path, 3
+            svg, "circle { fill: black; stroke: none; } #outline, #score { display: none; }", tmp_path, 3
         )
         dots = _dots(soft_job, i)
         assert n == len(dots)
@@ -305,10 +310,10 @@ def test_rsvg_reads_the_hard_cut_outs(hard_job, tmp_path):
     for i, rep in enumerate(per_layer, start=1):
         svg = hard_job / f"layer_{i:02d}.svg"
         root = ET.parse(svg).getroot()
-        assert len(list(root.iter(f"{SVG}path"))) == rep["polygons"] + 1
+        assert len(list(_group(root, "cut").iter(f"{SVG}path"))) == rep["polygons"] + 1
         assert not list(root.iter(f"{SVG}circle"))
         img, _, n = _rsvg_components(
-            svg, "#cuts path { fill: black; stroke: none; } #outline { stroke: none; }", tmp_path, 3
+            svg, "#cuts path { fill: black; stroke: none; } #outline, #score { display: none; }", tmp_path, 3
         )
         px_per_mm = img.shape[1] / float(root.get("width")[:-2])
         area = img.sum() / px_per_mm**2

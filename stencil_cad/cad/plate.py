@@ -121,6 +121,11 @@ class PlateModel:
         """Volume in mm³ from the description (outline − holes) × t + relief, or None."""
         return None if self.geometry is None else self.geometry.volume
 
+    def cut_label(self) -> tuple[str, tuple]:
+        """The label's text and glyph rings ``(outer, inners)`` (picture frame), for a cut file's score layer."""
+        text = str((self.info.get("label") or {}).get("text", ""))
+        return text, tuple(self.geometry.glyphs) if self.geometry is not None else ()
+
     @property
     def hole_count(self) -> int | None:
         """Number of through holes, or None for a template's own shape."""

@@ -296,5 +296,11 @@ class ExportConfig(StrictModel):
 
     def plate_extensions(self) -> list[str]:
         """The file extensions written per plate, e.g. ``[".step", ".stl", ".dxf"]``."""
-        on = ((".step", self.step), (".stl", self.stl), (".dxf", self.dxf), (".3mf", self.three_mf))
+        on = (
+            (".step", self.step),
+            (".stl", self.stl),
+            (".dxf", self.dxf),
+            (".svg", self.svg),
+            (".3mf", self.three_mf),
+        )
         return [e for e, wanted in on if wanted]

@@ -21,6 +21,15 @@ class PaintsConfig(StrictModel):
             "path is taken from the config file's folder. Example: stencil_cad/data/example_cans.csv."
         ),
     )
+    can_names: bool = Field(
+        True,
+        description=(
+            "Name every paint (and the primer) that no can list names after its nearest colour in the "
+            "shipped list of common colour names (stencil_cad/data/colour_names.csv), shown as "
+            "'~Orange (ΔE 4.2)' on the sheet, the swatch card and spray.json; the colour itself is not "
+            "changed. false: leave such paints unnamed. Defaults to true."
+        ),
+    )
     coverage_m2_per_can: float = Field(
         1.5,
         gt=0.0,

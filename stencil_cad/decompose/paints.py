@@ -142,6 +142,26 @@ def names_by_hex(cans: list[Can]) -> dict[str, str]:
     return {c.hex: c.label for c in cans}
 
 
+def colour_names(hexes: list[str]) -> dict[str, str]:
+    """Name colours after the nearest entry (CIEDE2000) of the shipped list ``data/colour_names.csv``.
+
+    Args:
+        hexes: Colours as ``#rrggbb``.
+
+    Returns:
+        ``{hex: "~Name (ΔE d)"}``: the ``~`` says the name is the nearest everyday colour, not a can.
+    """
+    from importlib import resources
+
+    if not hexes:
+        return {}
+    text = (resources.files("stencil_cad") / "data" / "colour_names.csv").read_text(encoding="utf-8")
+    names = parse_cans(text, "colour_names.csv")
+    rgb = np.array([[int(h[i : i + 2], 16) / 255.0 for i in (1, 3, 5)] for h in hexes])
+    idx, de = nearest_cans(rgb, names)
+    return {h: f"~{names[int(i)].name} (ΔE {float(d):.1f})" for h, i, d in zip(hexes, idx, de, strict=True)}
+
+
 def paint_estimate(
     area_mm2: float, mean_opacity: float, coverage_m2_per_can: float = 1.5, can_ml: float = 400.0
 ) -> dict:

@@ -1,8 +1,10 @@
 """Laser-cutting DXF from dots and polygons (kernel-free: ezdxf and numpy only).
 
-One file holds one or more stencils, each on its own layer: the holes as one CIRCLE each
+One file holds one or more stencils, each on its own cut layer: the holes as one CIRCLE each
 (or closed LWPOLYLINEs for hard-mode cut-outs) and the plate outline as a closed
-LWPOLYLINE, holes first so that a laser that cuts in file order frees the plate last. The
+LWPOLYLINE, holes first so that a laser that cuts in file order frees the plate last. A
+stencil's label (layer, paint, tile: the letters of the plate's own label, as outlines) is on
+a score layer of its own in blue, first in the file, to engrave or score at low power. The
 drawing is R2010, in millimetres (``$INSUNITS`` = 4), and moved into the +X/+Y quadrant,
 where laser software expects it; the shift from the picture frame is returned and stored
 in the header as the custom properties ``STENCIL_OFFSET_X_MM`` and ``STENCIL_OFFSET_Y_MM``.
@@ -28,8 +30,11 @@ from ..geometry import as_ccw, as_cw
 from ..model import Holes
 
 __all__ = [
+    "CUT_COLOURS",
+    "SCORE_COLOUR",
     "DxfInfo",
     "DxfStencil",
+    "cut_length_mm",
     "dxf_from_layers",
     "offset_ring",
     "write_dxf",
@@ -39,6 +44,10 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 DXF_VERSION = "R2010"
+#: ACI colour of the score (label) layers: blue, the engrave colour of most laser software.
+SCORE_COLOUR = 5
+#: ACI colours of the cut layers, one per stencil in turn (blue left out for the score layers).
+CUT_COLOURS = (1, 2, 3, 4, 6)
 
 
 @dataclass(frozen=True)
@@ -52,13 +61,32 @@ class DxfStencil:
         polygons: Hard-mode cut-outs, or None. Each entry is a ring ``(K, 2)`` or a pair
             ``(outer, holes)`` as in :class:`stencil_cad.model.CutLayer` (holes are islands
             that stay as sheet).
-        layer_name: DXF layer name (letters, digits, ``_``, ``-``).
+        layer_name: DXF layer name (letters, digits, ``_``, ``-``): the cut layer.
+        label: The plate's label text (layer, paint, tile), or empty.
+        label_glyphs: The label's letters as ``(outer, inners)`` rings in the picture frame (the
+            plate's own label glyphs); drawn on the score layer ``<layer_name>_SCORE`` in
+            :data:`SCORE_COLOUR`, to engrave or score, never to cut.
     """
 
     outline_ring: np.ndarray
     circles_xy_r: np.ndarray | tuple[np.ndarray, np.ndarray] | None = None
     polygons: Sequence | None = None
     layer_name: str = "STENCIL_01"
+    label: str = ""
+    label_glyphs: Sequence = ()
+
+    @property
+    def score_layer(self) -> str:
+        """Name of the layer that holds the label to engrave or score."""
+        return f"{self.layer_name}_SCORE"
+
+    def score_rings(self) -> list[np.ndarray]:
+        """Every ring of the label's glyphs (outer rings and their inner rings), ``(K, 2)`` mm each."""
+        out = []
+        for outer, inners in self.label_glyphs:
+            out.append(np.asarray(outer, dtype=np.float64).reshape(-1, 2))
+            out += [np.asarray(r, dtype=np.float64).reshape(-1, 2) for r in inners]
+        return out
 
 
 @dataclass(frozen=True)
@@ -223,6 +251,19 @@ def _extent(outline, circles, rings) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
+def _add_score(doc, st: DxfStencil, shift: np.ndarray) -> int:
+    """Draw a stencil's label rings on its score layer (created when it has any); returns how many."""
+    score = st.score_rings()
+    if score:
+        doc.layers.add(st.score_layer, color=SCORE_COLOUR)
+        msp = doc.modelspace()
+        for ring in score:
+            msp.add_lwpolyline(
+                (ring + shift).tolist(), format="xy", close=True, dxfattribs={"layer": st.score_layer}
+            )
+    return len(score)
+
+
 def write_dxf_stencils(
     path: str | Path,
     stencils: Sequence[DxfStencil],
@@ -276,14 +317,16 @@ def write_dxf_stencils(
     doc.header["$MEASUREMENT"] = 1
     doc.header["$LUNITS"] = 2
     msp = doc.modelspace()
-    counts_c, counts_p = [], []
+    counts_c, counts_p, scored = [], [], []
     templates: list[tuple[str, str, np.ndarray]] = []
     all_lo, all_hi = np.full(2, np.inf), np.full(2, -np.inf)
     for i, (st, (outline, circles, rings), shift, (lo, hi)) in enumerate(
         zip(stencils, prepared, shifts, extents, strict=True)
     ):
-        doc.layers.add(st.layer_name, color=(i % 6) + 1)
+        doc.layers.add(st.layer_name, color=CUT_COLOURS[i % len(CUT_COLOURS)])
         attribs = {"layer": st.layer_name}
+        # The label first: a laser that works in file order scores it while the sheet is still whole.
+        scored.append(_add_score(doc, st, shift))
         if len(circles):
             moved = circles.copy()
             moved[:, :2] += shift
@@ -334,7 +377,7 @@ def write_dxf_stencils(
         polylines=counts_p,
         kerf_mm=float(kerf_mm),
         bbox_mm=(float(all_lo[0]), float(all_lo[1]), float(all_hi[0]), float(all_hi[1])),
-        extra={"shifts_mm": [(float(s[0]), float(s[1])) for s in shifts]},
+        extra={"shifts_mm": [(float(s[0]), float(s[1])) for s in shifts], "score_polylines": scored},
     )
     log.info("dxf: wrote %s (%s circles, %s polylines)", path, counts_c, counts_p)
     return info
@@ -371,20 +414,39 @@ def write_dxf(
     return write_dxf_stencils(path, [st], kerf_mm=kerf_mm, deterministic=deterministic)
 
 
-def stencil_for(holes: Holes, outline_ring: np.ndarray, layer_name: str) -> DxfStencil:
+def stencil_for(
+    holes: Holes, outline_ring: np.ndarray, layer_name: str, label: str = "", glyphs: Sequence = ()
+) -> DxfStencil:
     """The DXF description of one layer's plate: round holes (a DotSet) or cut-outs (a CutLayer).
 
     Args:
         holes: The layer's holes.
         outline_ring: The plate outline ring.
         layer_name: DXF layer name.
+        label: The plate's label text. Defaults to none.
+        glyphs: The label's glyph rings ``(outer, inners)`` in the picture frame. Defaults to none.
     """
     return DxfStencil(
         outline_ring=outline_ring,
         circles_xy_r=(holes.xy_mm, holes.r_mm),
         polygons=holes.polygons,
         layer_name=layer_name,
+        label=label,
+        label_glyphs=tuple(glyphs),
     )
+
+
+def cut_length_mm(holes: Holes, ring: np.ndarray) -> float:
+    """Length of every cut of a plate in mm: the holes (or cut-out rings) and the outline."""
+
+    def perimeter(r) -> float:
+        r = np.asarray(r, dtype=np.float64)
+        return float(np.sum(np.linalg.norm(np.roll(r, -1, axis=0) - r, axis=1)))
+
+    total = perimeter(ring) + float(2.0 * np.pi * np.sum(holes.r_mm))
+    for outer, inner in holes.polygons:
+        total += perimeter(outer) + sum(perimeter(h) for h in inner)
+    return total
 
 
 def dxf_from_layers(

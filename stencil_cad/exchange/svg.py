@@ -9,7 +9,9 @@ points down). Units are millimetres: ``width``/``height`` carry ``mm`` and the
 
 Each round hole is one ``<circle>``; each hard-mode cut-out is one ``<path>`` (its outer
 ring and the rings of the islands it keeps, even-odd filled); the plate outline is the last
-``<path>``, so software that cuts in document order frees the plate last. Every element
+``<path>``, so software that cuts in document order frees the plate last. Holes and outline
+are the cut group ``#cut`` in red; the label (the plate's own letters, as outlines) is the
+score group ``#score`` in blue, first in the document, to engrave or score. Every element
 is stroked, not filled: cutters read strokes as cut lines.
 """
 
@@ -28,7 +30,10 @@ __all__ = ["SvgInfo", "write_svg"]
 # Stroke width in mm: thin enough to read as a cut line, wide enough to see on screen.
 STROKE_MM = 0.1
 CUT_COLOUR = "#ff0000"
-OUTLINE_COLOUR = "#0000ff"
+#: The outline is cut like the holes: the same colour, so a cutter runs it in the same operation.
+OUTLINE_COLOUR = CUT_COLOUR
+#: The label (letters as outlines) to engrave or score: a colour of its own.
+SCORE_COLOUR = "#0000ff"
 
 
 @dataclass(frozen=True)
@@ -41,6 +46,7 @@ class SvgInfo:
         size_mm: ``(width, height)`` of the drawing in mm.
         circles: ``<circle>`` elements written (one per hole).
         paths: ``<path>`` elements written (cut-outs and the outline).
+        score_paths: ``<path>`` elements of the label on the score group.
     """
 
     path: str
@@ -48,6 +54,7 @@ class SvgInfo:
     size_mm: tuple[float, float]
     circles: int
     paths: int
+    score_paths: int = 0
 
 
 def _ring_d(ring: np.ndarray, height: float) -> str:
@@ -85,6 +92,22 @@ def write_svg(path: str | Path, stencil: DxfStencil, kerf_mm: float = 0.0, title
     if title:
         safe = title.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
         buf.write(f"<title>{safe}</title>\n")
+    score = stencil.score_rings()
+    if score:
+        # The label first: software that works in document order scores it while the sheet is whole.
+        label = (
+            stencil.label.replace("&", "&amp;")
+            .replace("<", "&lt;")
+            .replace(">", "&gt;")
+            .replace('"', "&quot;")
+        )
+        buf.write(
+            f'<g id="score" fill="none" stroke="{SCORE_COLOUR}" stroke-width="{STROKE_MM}" '
+            f'data-layer="{stencil.score_layer}" data-label="{label}">\n'
+        )
+        buf.write("".join(f'<path d="{_ring_d(r + shift, height)}"/>\n' for r in score))
+        buf.write("</g>\n")
+    buf.write(f'<g id="cut" data-layer="{stencil.layer_name}">\n')
     buf.write(
         f'<g id="cuts" fill="none" stroke="{CUT_COLOUR}" stroke-width="{STROKE_MM}" data-layer="{stencil.layer_name}">\n'
     )
@@ -107,7 +130,7 @@ def write_svg(path: str | Path, stencil: DxfStencil, kerf_mm: float = 0.0, title
         f'<path id="outline" fill="none" stroke="{OUTLINE_COLOUR}" stroke-width="{STROKE_MM}" '
         f'd="{_ring_d(outline + shift, height)}"/>\n'
     )
-    buf.write("</svg>\n")
+    buf.write("</g>\n</svg>\n")
     Path(path).write_text(buf.getvalue(), encoding="utf-8")
     return SvgInfo(
         path=str(path),
@@ -115,4 +138,5 @@ def write_svg(path: str | Path, stencil: DxfStencil, kerf_mm: float = 0.0, title
         size_mm=(float(width), float(height)),
         circles=len(circles),
         paths=n_paths + 1,
+        score_paths=len(score),
     )

@@ -1,5 +1,6 @@
 """Slicing exported plates with the shipped print profiles, big plates as tiles."""
 
+from .placement import Placement, place, rotated_copy
 from .profiles import PROFILES, Profile, Slicer, Technology, get_profile, templates_dir
 from .slicers import (
     ENV_CURA,
@@ -35,6 +36,7 @@ __all__ = [
     "PROFILES",
     "SEAM_CLEARANCE_MM",
     "MeshInfo",
+    "Placement",
     "Profile",
     "SliceResult",
     "Slicer",
@@ -54,7 +56,9 @@ __all__ = [
     "output_problem",
     "parse_info",
     "parse_messages",
+    "place",
     "plate_project",
+    "rotated_copy",
     "sla_layer_count",
     "slice_file",
     "slice_plate",

@@ -28,13 +28,14 @@ import subprocess
 import time
 import zipfile
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from ..exchange.mesh import read_stl
 from ..geometry import mesh_genus
+from .placement import rotated_copy
 from .profiles import Profile, Slicer, Technology, get_profile, templates_dir
 from .tiling import HOLES_PER_TILE, split_into_tiles
 
@@ -411,6 +412,7 @@ class SliceResult:
         errors: Error messages the slicer printed.
         warnings: Warning messages the slicer printed.
         log: Last 4,000 characters of the console output.
+        rotate_deg: 90 when the part was sliced turned a quarter turn to fit the bed, else 0.
     """
 
     profile: str
@@ -424,6 +426,7 @@ class SliceResult:
     errors: tuple[str, ...]
     warnings: tuple[str, ...]
     log: str = ""
+    rotate_deg: int = 0
 
     @property
     def ok(self) -> bool:
@@ -702,6 +705,7 @@ def slice_plate(
     overrides: Mapping[str, object] | None = None,
     executable: str | os.PathLike | None = None,
     work_dir: str | os.PathLike | None = None,
+    rotate_deg: int = 0,
 ) -> SliceResult:
     """Slice one exported plate the recommended way: tiled when it has many holes.
 
@@ -718,26 +722,27 @@ def slice_plate(
         overrides: Settings that win over the profile.
         executable: Slicer binary; found with :func:`find_slicer` when None.
         work_dir: Folder for the tiles; a temporary folder when None.
+        rotate_deg: 90 slices the plate turned a quarter turn on the bed (a portrait part on a
+            landscape bed, see :func:`stencil_cad.slicing.placement.place`); 0 as exported.
 
     Returns:
-        The :class:`SliceResult`; check ``.ok``.
+        The :class:`SliceResult`; check ``.ok`` (``rotate_deg`` says how the plate lay).
     """
     import tempfile
 
     prof = get_profile(profile)
-    if tiles is None:
-        tiles = prof.slicer is Slicer.PRUSA and prof.technology is Technology.FFF and _has_manifold3d()
-        if tiles:
-            tiles = mesh_genus(read_stl(model)) > 1.5 * holes_per_tile
-    if not tiles:
-        return slice_file(
-            model, output, prof, timeout_s=timeout_s, overrides=overrides, executable=executable
-        )
     with tempfile.TemporaryDirectory(prefix="stencil_tiles_", dir=work_dir) as tmp:
-        parts = split_into_tiles(model, tmp, holes_per_tile=holes_per_tile)
-        return slice_file(
+        if rotate_deg:
+            model = rotated_copy(model, Path(tmp) / "turned.stl")
+        if tiles is None:
+            tiles = prof.slicer is Slicer.PRUSA and prof.technology is Technology.FFF and _has_manifold3d()
+            if tiles:
+                tiles = mesh_genus(read_stl(model)) > 1.5 * holes_per_tile
+        parts = split_into_tiles(model, tmp, holes_per_tile=holes_per_tile) if tiles else model
+        result = slice_file(
             parts, output, prof, timeout_s=timeout_s, overrides=overrides, executable=executable
         )
+    return replace(result, rotate_deg=int(rotate_deg))
 
 
 def plate_project(
@@ -748,6 +753,7 @@ def plate_project(
     holes_per_tile: int = HOLES_PER_TILE,
     timeout_s: float = 300.0,
     executable: str | os.PathLike | None = None,
+    rotate_deg: int = 0,
 ) -> Path:
     """Write the PrusaSlicer 3MF project of one plate, tiled as :func:`slice_plate` would slice it.
 
@@ -758,6 +764,7 @@ def plate_project(
         holes_per_tile: Target holes per tile. Defaults to :data:`HOLES_PER_TILE`.
         timeout_s: Seconds before each PrusaSlicer run is killed. Defaults to 300 s.
         executable: PrusaSlicer binary; found with :func:`find_slicer` when None.
+        rotate_deg: 90 lays the plate turned a quarter turn on the bed; 0 as exported.
 
     Returns:
         The written path (see :func:`export_3mf_project`).
@@ -765,13 +772,13 @@ def plate_project(
     import tempfile
 
     prof = get_profile(profile)
-    tiles = prof.technology is Technology.FFF and _has_manifold3d()
-    if tiles:
-        tiles = mesh_genus(read_stl(model)) > 1.5 * holes_per_tile
-    if not tiles:
-        return export_3mf_project(model, output, prof, timeout_s=timeout_s, executable=executable)
     with tempfile.TemporaryDirectory(prefix="stencil_tiles_") as tmp:
-        parts = split_into_tiles(model, tmp, holes_per_tile=holes_per_tile)
+        if rotate_deg:
+            model = rotated_copy(model, Path(tmp) / "turned.stl")
+        tiles = prof.technology is Technology.FFF and _has_manifold3d()
+        if tiles:
+            tiles = mesh_genus(read_stl(model)) > 1.5 * holes_per_tile
+        parts = split_into_tiles(model, tmp, holes_per_tile=holes_per_tile) if tiles else model
         return export_3mf_project(parts, output, prof, timeout_s=timeout_s, executable=executable)
 
 

@@ -1,0 +1,264 @@
+"""How to make each part, for the instruction sheet: print or cut advice that fits, cut lengths and times.
+
+Advice names only a profile whose bed the part fits (as exported, or turned 90°, which
+``stencil-cad slice`` does by itself); a plate too large for the resin profile's vat is sent to
+the FDM profile or a larger printer instead. Walls get their own line. A laser plate gets its
+cut length and an estimated cut time.
+
+Kernel-free: reads the manifest's figures only.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from .config.bed import Bed, resolve_bed
+from .slicing import bed_size, place
+
+__all__ = [
+    "LASER_PIERCE_S",
+    "LASER_SPEED_MM_S",
+    "Part",
+    "cut_seconds",
+    "fit_check",
+    "job_bed",
+    "part_advice",
+    "part_size",
+    "plate_checks",
+    "plate_parts",
+    "wall_check",
+    "wall_parts",
+]
+
+#: Cutting speed assumed for the cut-time estimate, mm/s: a typical vector speed for thin
+#: stencil sheet (0.2-0.5 mm PET or card) on a 10-20 W diode or 40 W CO2 laser. Not measured
+#: here: set your machine's own speed and power from a test cut.
+LASER_SPEED_MM_S = 10.0
+#: Time per pierce (each hole and the outline start a cut), s; same caveat.
+LASER_PIERCE_S = 0.1
+
+#: Holes above which the FDM profile slices a plate as tiles (as :func:`stencil_cad.slicing.slice_plate`).
+_TILED_ABOVE = 450
+
+
+@dataclass(frozen=True)
+class Part:
+    """One part to make: a plate or a wall, its file stem, footprint and hole count.
+
+    Attributes:
+        kind: ``"plate"`` or ``"wall"``.
+        stem: File stem, e.g. ``layer_01`` or ``tile_A1_wall``.
+        size_mm: ``(w, h)`` of its footprint as exported, mm; None when unknown.
+        holes: Hole or cut-out count (plates), or None.
+        cut_mm: Length of every cut in mm (plates), or None.
+        tile: The mural tile it belongs to, or empty.
+        layer: The layer number (plates), or 0.
+    """
+
+    kind: str
+    stem: str
+    size_mm: tuple[float, float] | None
+    holes: int | None = None
+    cut_mm: float | None = None
+    tile: str = ""
+    layer: int = 0
+
+
+def part_size(row: Mapping) -> tuple[float, float] | None:
+    """Footprint ``(w, h)`` in mm of a manifest plate or wall row (``bbox_mm`` or its ``bbox``)."""
+    if row.get("bbox_mm"):
+        w, h = row["bbox_mm"][:2]
+        return float(w), float(h)
+    bb = row.get("bbox")
+    if not bb:
+        return None
+    if len(bb) == 2 and all(isinstance(c, (list, tuple)) for c in bb):
+        (x0, y0, *_), (x1, y1, *_) = bb
+    elif len(bb) == 6:
+        x0, y0, _, x1, y1, _ = bb
+    else:
+        return None
+    return float(x1) - float(x0), float(y1) - float(y0)
+
+
+def plate_parts(manifest: Mapping) -> list[Part]:
+    """Every plate of the job in the manifest's order (a mural: tile by tile, layer by layer)."""
+    out = []
+    for p in (manifest.get("build") or {}).get("plates", []) or []:
+        layer = int(p.get("layer", 0) or 0)
+        stem = str(p.get("file") or f"layer_{layer:02d}")
+        holes = p.get("hole_count")
+        out.append(
+            Part(
+                kind="plate",
+                stem=stem,
+                size_mm=part_size(p),
+                holes=None if holes is None else int(holes),
+                cut_mm=p.get("cut_length_mm"),
+                tile=str(p.get("tile", "") or ""),
+                layer=layer,
+            )
+        )
+    return out
+
+
+def wall_parts(manifest: Mapping) -> list[Part]:
+    """Every wall of the job (one per stand-off height, per tile for a mural)."""
+    out = []
+    for w in (manifest.get("build") or {}).get("walls", []) or []:
+        stem = str(w.get("file", "wall.step")).rsplit(".", 1)[0]
+        out.append(Part(kind="wall", stem=stem, size_mm=part_size(w), tile=str(w.get("tile", "") or "")))
+    return out
+
+
+def job_bed(manifest: Mapping) -> Bed | None:
+    """The bed the job was sized for (``bed`` in the config), or None."""
+    cfg = manifest.get("config") or {}
+    try:
+        return resolve_bed(cfg.get("bed"))
+    except (ValueError, TypeError, KeyError):
+        return None
+
+
+def cut_seconds(cut_mm: float, pierces: int) -> float:
+    """Estimated laser time in s: the cut length at :data:`LASER_SPEED_MM_S` plus a pierce per cut."""
+    return cut_mm / LASER_SPEED_MM_S + LASER_PIERCE_S * pierces
+
+
+def _duration(seconds: float) -> str:
+    m = seconds / 60.0
+    return f"{m:.0f} min" if m >= 10 else f"{m:.1f} min"
+
+
+def _slice_command(stem: str, bed: Bed | None) -> str:
+    return f"`stencil-cad slice{f' --bed {_bed_arg(bed)}' if bed is not None else ''} {stem}.stl`"
+
+
+def _bed_arg(bed: Bed) -> str:
+    return bed.name if "×" not in bed.name else f"{bed.x_mm:g}x{bed.y_mm:g}"
+
+
+def _fdm(part: Part, bed: Bed | None, thickness: float | None) -> str:
+    """FDM advice: the slice command on the job's bed (or the profile's), turned when that is how it fits."""
+    bed_mm = (bed.x_mm, bed.y_mm) if bed is not None else bed_size("prusa_fdm")
+    where = bed.name if bed is not None else "prusa_fdm"
+    size = part.size_mm
+    lay = place(size, bed_mm) if size is not None else None
+    if lay is not None and not lay.fits:
+        return (
+            f"FDM: {lay.describe()} ({where}): print it on a printer whose bed holds it, "
+            f"`stencil-cad slice --bed XxY {part.stem}.stl` with your bed's size"
+        )
+    holes = part.holes or 0
+    tiles = math.ceil(holes / 300) if holes > _TILED_ABOVE else 1
+    text = f"FDM: {_slice_command(part.stem, bed)} (PrusaSlicer, prusa_fdm, 0.2 mm layers"
+    if part.kind == "wall":
+        text += ", 100 % infill); print it as exported, base on the bed and pocket on top, no supports"
+    else:
+        text += (
+            ", 100 % infill"
+            + (f", sliced in {tiles} pieces" if tiles > 1 else "")
+            + "); print flat, plate-down, no supports or brim"
+        )
+        if thickness:
+            text += f"; plate {thickness:g} mm thick"
+    if lay is not None and lay.rotate_deg == 90:
+        text += f"; {lay.describe()} (slice turns it)"
+    return text
+
+
+def _sla(part: Part, bed: Bed | None, thickness: float | None) -> str:
+    """Resin advice when the part fits the SL1S profile's vat; else the FDM advice, saying why."""
+    vat = bed_size("prusa_sla")
+    lay = place(part.size_mm, vat) if part.size_mm is not None else None
+    if lay is not None and lay.fits and part.kind == "plate":
+        text = (
+            f"resin: `stencil-cad slice --profile prusa_sla {part.stem}.stl`; flat on the build plate, "
+            "no supports, 0.1 mm layers"
+        )
+        if lay.rotate_deg == 90:
+            text += " (turned 90° to fit the vat)"
+        return text + (f"; plate {thickness:g} mm thick" if thickness else "")
+    why = (
+        f"too large for the prusa_sla vat ({vat[0]:g} × {vat[1]:g} mm), so "
+        if lay is not None and not lay.fits
+        else ""
+    )
+    return f"{why}{_fdm(part, bed, thickness)}; or a resin printer whose vat holds it"
+
+
+def _laser(part: Part, kerf: float, kind: str) -> str:
+    """Laser advice: the cut file, the order of cuts, the cut length and an estimated time."""
+    text = (
+        f"laser: {part.stem}.dxf (or .svg): engrave the label (score layer, blue) first at low power, "
+        f"then cut the {kind}, the outline last (cut layer, red); kerf compensated {kerf:g} mm"
+    )
+    if part.cut_mm:
+        pierces = (part.holes or 0) + 1
+        text += (
+            f"; cut length {part.cut_mm / 1000:.2f} m, about {_duration(cut_seconds(part.cut_mm, pierces))} "
+            f"at {LASER_SPEED_MM_S:g} mm/s and {LASER_PIERCE_S:g} s per pierce"
+        )
+    return text
+
+
+def part_advice(manifest: Mapping, part: Part) -> str:
+    """How to make one part with the job's process, naming only a profile or bed it fits.
+
+    Args:
+        manifest: The job's manifest (config, bed).
+        part: The plate or wall.
+
+    Returns:
+        One line for the sheet's print-or-cut table.
+    """
+    cfg = manifest.get("config") or {}
+    process = str((cfg.get("stipple") or {}).get("process", "fdm"))
+    thickness = (cfg.get("plate") or {}).get("thickness_mm")
+    kerf = float((cfg.get("export") or {}).get("dxf_kerf_mm", 0.0) or 0.0)
+    bed = job_bed(manifest)
+    if part.kind == "wall":
+        # A wall is a deep frame: FDM whatever the plates' process.
+        return _fdm(part, bed, thickness)
+    if process == "laser":
+        return _laser(part, kerf, "cut-outs" if str(cfg.get("mode", "soft")) == "hard" else "holes")
+    if process == "sla":
+        return _sla(part, bed, thickness)
+    return _fdm(part, bed, thickness)
+
+
+def plate_checks(p: Mapping, label: str) -> list[tuple[str, bool]]:
+    """The checks one built plate passed or failed, as sheet lines named ``label`` (e.g. ``plate 01``)."""
+    out = [(f"{label}: one solid, valid B-rep ({p.get('n_solids', 0)} solid)", bool(p.get("valid")))]
+    rel = p.get("rel_error")
+    if rel is not None:
+        out.append((f"{label}: volume equals the analytic volume (relative error {rel:.1e})", rel < 1e-6))
+    mesh = p.get("mesh") or {}
+    if mesh:
+        ok = bool(mesh.get("watertight")) and bool(mesh.get("consistent_winding"))
+        out.append((f"{label}: mesh watertight and consistently wound", ok))
+        if "genus" in mesh and p.get("hole_count") is not None:
+            out.append(
+                (
+                    f"{label}: mesh genus {mesh['genus']} = hole count {p['hole_count']}",
+                    mesh["genus"] == p["hole_count"],
+                )
+            )
+    return out
+
+
+def wall_check(w: Mapping) -> tuple[str, bool]:
+    """The check of one built wall as a sheet line."""
+    name = str(w.get("file", "wall"))
+    return (f"{name}: valid wall (stand-off {float(w.get('standoff_mm', 0)):g} mm)", bool(w.get("valid")))
+
+
+def fit_check(manifest: Mapping, part: Part) -> tuple[str, bool] | None:
+    """Whether a part lies on the job's bed (as exported or turned 90°), as a sheet line; None without a bed."""
+    bed = job_bed(manifest)
+    if bed is None or part.size_mm is None:
+        return None
+    lay = place(part.size_mm, (bed.x_mm, bed.y_mm))
+    return (f"{part.stem}: {lay.describe()} ({bed.name})", lay.fits)

@@ -1,0 +1,419 @@
+"""The mural's part of the instruction sheet: the order of work, registration, one section per tile.
+
+Built from the manifest's ``mural`` figures (each tile's core and sheet in mm from the mural's
+bottom-left corner, the halo, the holes per tile and layer), its ``build`` rows (every plate and
+wall, with the tile it belongs to) and the spray order (paint and amount per layer):
+
+* the order of work: round by round (one layer on every tile, then the next), which is the
+  only order that keeps the picture's *over* order at a seam where two tiles' sprays overlap;
+* registration: how to mark the corner, the grid lines (a chalk line on a long mural, a
+  straightedge and pencil on a short one, tape marks where neither takes), where the first
+  tile's notches sit and how each next tile meets its neighbour on their shared line;
+* per tile, in order of work: where it sits, which line each side's notches meet, its wall,
+  its plates with paint, amount, holes and files, and every check of its parts.
+
+The renderers take the HTML escaper or the PDF kit of :mod:`stencil_cad.sheet` as arguments,
+so this module stays below it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+from . import sheet_make
+
+__all__ = ["MuralPlan", "TilePlate", "TileSection", "map_tiles", "mural_html", "mural_pdf", "mural_plan"]
+
+#: A mural whose longer side is above this (mm) gets its grid lines snapped with a chalk line;
+#: a shorter one is drawn with a straightedge or level.
+CHALK_LINE_ABOVE_MM = 1000.0
+
+_EXTS = (".stl", ".step", ".3mf", ".dxf", ".svg")
+
+
+@dataclass(frozen=True)
+class TilePlate:
+    """One plate of a tile: its layer, paint, amount, holes and files."""
+
+    stem: str
+    layer: int
+    hex: str
+    name: str
+    amount: str
+    holes: int | None
+    files: list[str]
+
+
+@dataclass(frozen=True)
+class TileSection:
+    """Everything one tile needs: where it goes, which lines its notches meet, its wall, plates, checks."""
+
+    name: str
+    where: str
+    sides: list[str]
+    walls: list[str]
+    plates: list[TilePlate]
+    checks: list[tuple[str, bool]] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class MuralPlan:
+    """The mural's order of work, registration steps and tile sections."""
+
+    grid: str
+    plates: int
+    walls: int
+    rounds: list[str]
+    registration: list[str]
+    sections: list[TileSection]
+    checks: list[tuple[str, bool]] = field(default_factory=list)
+
+
+def map_tiles(rows: Sequence[Mapping]) -> list[dict]:
+    """Tiles for the tile map: ``name``, ``x_mm``, ``y_mm``, ``width_mm``, ``height_mm`` of each core.
+
+    Takes the manifest's mural rows (``tile``, ``core_mm``) or tiles already in that form.
+    """
+    out = []
+    for k, t in enumerate(rows):
+        if "core_mm" in t:
+            x0, y0, x1, y1 = (float(v) for v in t["core_mm"])
+            out.append(
+                {
+                    "name": str(t.get("tile") or t.get("name") or f"T{k + 1}"),
+                    "x_mm": x0,
+                    "y_mm": y0,
+                    "width_mm": x1 - x0,
+                    "height_mm": y1 - y0,
+                }
+            )
+        else:
+            out.append(dict(t))
+    return out
+
+
+def _mm(v: float) -> str:
+    return f"{v:.1f}"
+
+
+def _edges(rows: Sequence[Mapping], axis: int) -> list[float]:
+    return sorted({round(float(t["core_mm"][i]), 3) for t in rows for i in (axis, axis + 2)})
+
+
+def _neighbours(rows: Sequence[Mapping]) -> dict[tuple[int, int], str]:
+    return {(int(t["row"]), int(t["column"])): str(t["tile"]) for t in rows}
+
+
+def _sides(t: Mapping, near: Mapping[tuple[int, int], str]) -> list[str]:
+    """Which grid line each side's notches meet, and the tile across it (or the picture's edge)."""
+    x0, y0, x1, y1 = (float(v) for v in t["core_mm"])
+    r, c = int(t["row"]), int(t["column"])
+    # Row A is the top row: the tile above has the smaller row number.
+    sides = (
+        ("left", f"x = {_mm(x0)} mm", near.get((r, c - 1))),
+        ("right", f"x = {_mm(x1)} mm", near.get((r, c + 1))),
+        ("top", f"y = {_mm(y1)} mm", near.get((r - 1, c))),
+        ("bottom", f"y = {_mm(y0)} mm", near.get((r + 1, c))),
+    )
+    return [
+        f"{side} notches on {line} ({'meets ' + other if other else 'the picture edge'})"
+        for side, line, other in sides
+    ]
+
+
+def _method(width: float, height: float) -> str:
+    if max(width, height) > CHALK_LINE_ABOVE_MM:
+        return (
+            "Snap a chalk line through each pair of marks (pull it taut over both, lift it straight up, "
+            "let it go): vertical lines through the x marks, horizontal through the y marks."
+        )
+    return (
+        "Draw each grid line through its pair of marks with a straightedge or a long level and a soft "
+        f"pencil (the mural is {_mm(width)} × {_mm(height)} mm: a chalk line is for longer runs)."
+    )
+
+
+def _registration(manifest: Mapping, rows: Sequence[Mapping], walls: Mapping[str, list]) -> list[str]:
+    """The registration steps, from the tiles' geometry."""
+    mural = manifest.get("mural") or {}
+    xs, ys = _edges(rows, 0), _edges(rows, 1)
+    width, height = max(xs), max(ys)
+    halo = float(mural.get("halo_mm", 0.0) or 0.0)
+    first = rows[0]
+    near = _neighbours(rows)
+    notches = next((int(w.get("notches", 0)) for w in walls.get(str(first["tile"]), [])), 0)
+    steps = [
+        "Mark the mural's bottom-left corner on the surface. Draw its bottom edge level and its left edge "
+        "plumb (a spirit level or a laser level): every position on this sheet is in mm from that corner, "
+        f"x to the right, y up; the picture is {_mm(width)} × {_mm(height)} mm.",
+        "Measure from the corner with a steel tape (always from the corner, not from the last mark, so "
+        f"errors do not add up) and mark the grid lines: x = {', '.join(_mm(x) for x in xs)} mm along the "
+        f"bottom and the top edge, y = {', '.join(_mm(y) for y in ys)} mm along the left and the right edge.",
+        _method(width, height)
+        + " Where chalk or pencil does not take (glass, fresh paint), put a short strip of masking tape "
+        "across the line at each place a notch will meet it and mark the exact position on the tape.",
+        f"First tile, {first['tile']}: set its wall with its "
+        + "; ".join(_sides(first, near))
+        + f". Pencil a tick through each of its {notches or 'sight'} notches: the wall goes back onto "
+        "these ticks for every layer.",
+    ]
+    if len(rows) > 1:
+        second = rows[1]
+        shared = [s for s in _sides(second, near) if f"meets {first['tile']}" in s]
+        steps.append(
+            "Each next tile meets its neighbour on their shared grid line"
+            + (f" ({second['tile']}: {shared[0]})" if shared else "")
+            + f". Its wall and plate reach {halo:.1f} mm past that line over the neighbour, where the "
+            "plate is solid, so paint already on the neighbour stays covered; the holes on either side "
+            "of the line belong to one picture, split between the tiles."
+        )
+    steps.append(
+        "Every plate of a tile has the same notches in its border as the tile's wall: before each spray, "
+        "check that the plate's notches line up with the wall's and with the ticks on the surface."
+    )
+    cost = _registration_cost(mural)
+    if cost:
+        steps.append(cost)
+    return steps
+
+
+def _registration_cost(mural: Mapping) -> str:
+    """What a misregistration costs in the simulation, as one sentence."""
+    sim = mural.get("simulation") or {}
+    base = (sim.get("zero_error_scores") or {}).get("scielab")
+    rows = [r for r in sim.get("registration_cost", []) or [] if isinstance(r, Mapping) and "scielab" in r]
+    if base is None or not rows:
+        return ""
+    parts = [
+        f"{float(r['error_mm']):g} mm between {r['between']}: {float(r['scielab']):.2f}"
+        for r in rows
+        if "error_mm" in r
+    ]
+    return (
+        f"How exact: in the simulation the S-CIELAB error at the viewing distance is {float(base):.2f} "
+        "in register, and with a shift of " + "; ".join(parts) + "."
+    )
+
+
+def _rounds(rows: Sequence[Mapping], steps: Sequence, amount: Callable) -> list[str]:
+    order = " ".join(str(t["tile"]) for t in rows)
+    return [
+        f"Round {s.number}: {s.plate} of every tile, paint {s.hex}"
+        + (f" {s.name}" if s.name else "")
+        + f"{amount(s)}, tile by tile in this order: {order}. Let it dry before the next round."
+        for s in steps
+    ]
+
+
+def _section(
+    manifest: Mapping,
+    t: Mapping,
+    near: Mapping,
+    plates: list[Mapping],
+    walls: list[Mapping],
+    steps: Mapping[int, object],
+    amount: Callable,
+    names: set[str],
+) -> TileSection:
+    """One tile's section: position, notches, wall, plates (paint, amount, holes, files) and checks."""
+    x0, y0, x1, y1 = (float(v) for v in t["core_mm"])
+    s0, _, s1, _ = (float(v) for v in t.get("sheet_mm", t["core_mm"]))
+    name = str(t["tile"])
+    where = (
+        f"row {name.rstrip('0123456789')}, column {int(t['column'])}: its holes cover x {_mm(x0)}–{_mm(x1)} mm, "
+        f"y {_mm(y0)}–{_mm(y1)} mm from the bottom-left corner; its plates reach x {_mm(s0)}–{_mm(s1)} mm"
+    )
+    wall_lines = []
+    for w in walls:
+        stem = str(w.get("file", "")).rsplit(".", 1)[0]
+        files = [stem + e for e in (".stl", ".step") if stem + e in names]
+        wall_lines.append(
+            f"{', '.join(files) or stem}: stand-off {float(w.get('standoff_mm', 0)):g} mm, "
+            f"{int(w.get('notches', 0))} sight notches"
+        )
+    tile_plates, checks = [], []
+    for p in plates:
+        stem = str(p.get("file"))
+        s = steps.get(int(p.get("layer", 0)))
+        holes = p.get("hole_count")
+        tile_plates.append(
+            TilePlate(
+                stem=stem,
+                layer=int(p.get("layer", 0)),
+                hex=str(getattr(s, "hex", "")),
+                name=str(getattr(s, "name", "") or ""),
+                amount=amount(s).lstrip(", ") if s is not None else "",
+                holes=None if holes is None else int(holes),
+                files=[stem + e for e in _EXTS if stem + e in names],
+            )
+        )
+        checks += sheet_make.plate_checks(p, stem)
+    checks += [sheet_make.wall_check(w) for w in walls]
+    parts = [p for p in sheet_make.plate_parts(manifest) if p.tile == name]
+    parts += [w for w in sheet_make.wall_parts(manifest) if w.tile == name]
+    checks += [c for c in (sheet_make.fit_check(manifest, part) for part in parts) if c is not None]
+    return TileSection(name, where, _sides(t, near), wall_lines, tile_plates, checks)
+
+
+def mural_plan(manifest: Mapping, steps: Sequence, amount: Callable, names: set[str]) -> MuralPlan | None:
+    """The mural's order of work, registration and tile sections, or None for a one-plate job.
+
+    Args:
+        manifest: The job's manifest.
+        steps: The sheet's steps (one per layer, in spray order: ``number``, ``plate``, ``hex``, ``name``).
+        amount: A step's amount of paint as text (``", 3 passes"``).
+        names: The job's file names.
+    """
+    mural = manifest.get("mural") or {}
+    rows = [t for t in mural.get("tiles", []) or [] if isinstance(t, Mapping) and "core_mm" in t]
+    if not mural.get("tiled") or not rows:
+        return None
+    build = manifest.get("build") or {}
+    plates: dict[str, list] = {}
+    walls: dict[str, list] = {}
+    for p in build.get("plates", []) or []:
+        plates.setdefault(str(p.get("tile")), []).append(p)
+    for w in build.get("walls", []) or []:
+        walls.setdefault(str(w.get("tile")), []).append(w)
+    near = _neighbours(rows)
+    by_layer = {int(s.number): s for s in steps}
+    sections = [
+        _section(
+            manifest,
+            t,
+            near,
+            sorted(plates.get(str(t["tile"]), []), key=lambda p: int(p.get("layer", 0))),
+            walls.get(str(t["tile"]), []),
+            by_layer,
+            amount,
+            names,
+        )
+        for t in rows
+    ]
+    checks = []
+    if "holes_total" in mural and "holes_global" in mural:
+        checks.append(
+            (
+                f"the tiles hold {int(mural['holes_total']):,} holes, the mural's {int(mural['holes_global']):,}",
+                mural["holes_total"] == mural["holes_global"],
+            )
+        )
+    if mural.get("union_check_rules"):
+        checks.append(
+            (
+                "every tile's holes together keep the design rules across the seams",
+                mural["union_check_rules"] == "passed",
+            )
+        )
+    n_rows = max(int(t["row"]) for t in rows)
+    n_cols = max(int(t["column"]) for t in rows)
+    return MuralPlan(
+        grid=f"{len(rows)} tiles, {n_rows} rows × {n_cols} columns",
+        plates=sum(len(v) for v in plates.values()),
+        walls=sum(len(v) for v in walls.values()),
+        rounds=_rounds(rows, steps, amount),
+        registration=_registration(manifest, rows, walls),
+        sections=sections,
+        checks=checks,
+    )
+
+
+# ------------------------------------------------------------------------------------ rendering
+
+
+def mural_html(plan: MuralPlan, e: Callable[[object], str], chip: Callable[[str], str]) -> str:
+    """The order of work, the registration steps and the tile sections as HTML."""
+    out = [
+        f'<h2>Order of work</h2><p class="note">{e(plan.grid)}: {plan.plates} plates and {plan.walls} '
+        "walls. Spray round by round: one layer on every tile, then the next layer; a tile's later "
+        "layer goes over its neighbours' earlier ones at the seams, as in the picture.</p>",
+        '<ol class="rounds">' + "".join(f"<li>{e(r)}</li>" for r in plan.rounds) + "</ol>",
+        '<h2>Registration: where each tile goes</h2><ol class="registration">'
+        + "".join(f"<li>{e(r)}</li>" for r in plan.registration)
+        + "</ol>",
+        "<h2>Tile by tile</h2>",
+    ]
+    for sec in plan.sections:
+        rows = "".join(
+            f"<tr><td>{p.layer:02d}</td><td>{e(p.stem)}</td><td>{chip(p.hex)}<code>{e(p.hex)}</code>"
+            f"{' ' + e(p.name) if p.name else ''}</td><td>{e(p.amount)}</td>"
+            f"<td>{p.holes if p.holes is not None else 'not counted'}</td><td>{e(', '.join(p.files))}</td></tr>"
+            for p in sec.plates
+        )
+        checks = "".join(
+            f'<li><span class="{"ok" if ok else "bad"}">{"passed" if ok else "FAILED"}</span> {e(t)}</li>'
+            for t, ok in sec.checks
+        )
+        out.append(
+            f'<section class="tile" id="tile-{e(sec.name)}"><h3>Tile {e(sec.name)}</h3>'
+            f'<p class="note">{e(sec.where)}.</p>'
+            "<p>Notches: " + "; ".join(e(s) for s in sec.sides) + ".</p>"
+            "<p>Wall: " + "; ".join(e(w) for w in sec.walls) + ".</p>"
+            "<table><tr><th>layer</th><th>plate</th><th>paint</th><th>amount</th><th>holes</th>"
+            f"<th>files</th></tr>{rows}</table>"
+            f'<h4>Checks of tile {e(sec.name)}</h4><ul class="tile-checks">{checks}</ul></section>'
+        )
+    if plan.checks:
+        out.append(
+            "<h3>Checks across the tiles</h3><ul>"
+            + "".join(
+                f'<li><span class="{"ok" if ok else "bad"}">{"passed" if ok else "FAILED"}</span> {e(t)}</li>'
+                for t, ok in plan.checks
+            )
+            + "</ul>"
+        )
+    return "\n".join(out)
+
+
+def mural_pdf(plan: MuralPlan, k) -> list:
+    """The order of work, the registration steps and the tile sections as ReportLab flowables.
+
+    Args:
+        plan: The mural's plan.
+        k: The sheet's PDF kit (styles, ``p``, ``heading``, ``table``, ``page_w``).
+    """
+    from reportlab.lib.units import mm
+    from reportlab.platypus import KeepTogether
+
+    story = [
+        k.heading("Order of work", k.h2),
+        k.p(
+            f"{plan.grid}: {plan.plates} plates and {plan.walls} walls. Spray round by round: one layer "
+            "on every tile, then the next layer."
+        ),
+    ]
+    story += [k.p(f"{j + 1}. {r}") for j, r in enumerate(plan.rounds)]
+    story.append(k.heading("Registration: where each tile goes", k.h2))
+    story += [k.p(f"{j + 1}. {r}") for j, r in enumerate(plan.registration)]
+    story.append(k.heading("Tile by tile", k.h2))
+    for sec in plan.sections:
+        rows = [
+            [
+                f"{p.layer:02d}",
+                p.stem,
+                f"{p.hex} {p.name}".rstrip(),
+                p.amount,
+                str(p.holes) if p.holes is not None else "not counted",
+                ", ".join(p.files),
+            ]
+            for p in sec.plates
+        ]
+        block = [
+            k.heading(f"Tile {sec.name}", k.h3),
+            k.p(sec.where + ".", k.small),
+            k.p("Notches: " + "; ".join(sec.sides) + "."),
+            k.p("Wall: " + "; ".join(sec.walls) + "."),
+            k.table(
+                ["layer", "plate", "paint", "amount", "holes", "files"],
+                rows,
+                [12 * mm, 34 * mm, 30 * mm, 24 * mm, 14 * mm, k.page_w - 114 * mm],
+            ),
+        ]
+        story.append(KeepTogether(block))
+        story.append(k.p(f"Checks of tile {sec.name}:", k.small))
+        story += [k.p(f"{'passed' if ok else 'FAILED'}: {t}", k.small) for t, ok in sec.checks]
+    if plan.checks:
+        story.append(k.heading("Checks across the tiles", k.h3))
+        story += [k.p(f"{'passed' if ok else 'FAILED'}: {t}") for t, ok in plan.checks]
+    return story
