@@ -151,3 +151,37 @@ def test_the_viewer_objective_lowers_its_error_and_keeps_the_rules():
     out, rep = _refine(xy, r, rules, ramp, view=view)
     assert rep["objective_end"] < 0.9 * rep["objective_start"]
     check_rules(out[0].xy_mm, out[0].r_mm, rules)
+
+
+def test_refinement_for_a_prior_of_cans_takes_every_can_and_reports_the_first():
+    from stencil_cad.simulate.cans import can_prior
+    from stencil_cad.simulate.physical import SprayGeometry
+
+    rules, ramp, xy, r = _ramp_case(2)
+    geometry = SprayGeometry(standoff_mm=10.0, plate_thickness_mm=1.2)
+    cans = [cfg for _, cfg in can_prior(SprayConfig())]
+    assert len(cans) >= 3 and cans[0] == SprayConfig()
+    calls = []
+
+    def bound(cfg):
+        def kernels(radii, a):
+            calls.append(cfg)
+            return hole_kernels(radii, cfg, a, geometry=geometry)
+
+        return kernels
+
+    ds = DotSet(xy_mm=xy, r_mm=r, report={})
+    s = RefineSettings(iterations=10, max_radius_mm=1.0, add_remove_every=0, eye_sigma_mm=0.3)
+    args = (ramp, 0.25, PRIMER, INK, [ds], [rules])
+    one, rep1 = refine_dots(*args, [bound(cans[0])], [1.0], s)
+    calls.clear()
+    many, rep = refine_dots(*args, [bound(c) for c in cans], [1.0], s)
+    # Every can's gradient is taken, and the report is the nominal can's, as with one can.
+    assert {id(c) for c in calls} == {id(c) for c in cans}
+    assert rep["objective_start"] == rep1["objective_start"]
+    check_rules(many[0].xy_mm, many[0].r_mm, rules)
+    assert not np.array_equal(many[0].xy_mm, one[0].xy_mm)
+    # A measured can collapses the prior to itself; the paper's model has none.
+    measured = SprayConfig(can={"fit": {"residual": 0.01}})
+    assert [c for _, c in can_prior(measured)] == [measured]
+    assert len(can_prior(SprayConfig(model="paper"))) == 1
