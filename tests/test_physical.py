@@ -198,7 +198,7 @@ def test_job_in_the_makers_units_scores_every_wall(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["run", str(cfg), "--out", str(out)]) == 0
     text = capsys.readouterr().out
-    assert "from 250 mm" in text and "at about 0.5 m/s" in text
+    assert "from 25 cm" in text and "at about 0.5 m/s" in text
     man = json.loads((out / "manifest.json").read_text())
     walls = man["simulate"]["walls"]
     assert [w["standoff_mm"] for w in walls] == [4.0, 16.0]
@@ -206,5 +206,5 @@ def test_job_in_the_makers_units_scores_every_wall(tmp_path, capsys):
     assert walls[0]["blur_sigma_mm"][0] < walls[1]["blur_sigma_mm"][0]
     assert (out / "simulated_wall_4mm.png").is_file() and (out / "simulated_wall_16mm.png").is_file()
     steps = man["spraying"]
-    assert all(s["passes"] == int(s["passes"]) and s["can_distance_mm"] == 250 for s in steps)
+    assert all(isinstance(s["passes"], int) and s["can_distance_cm"] == 25 for s in steps)
     assert json.loads((out / "spray.json").read_text())["unit"] == "passes"

@@ -487,7 +487,8 @@ def test_instructions_pdf_pages_render(soft_job, tmp_path):
     for p in pages:
         with Image.open(p) as page:
             a = np.asarray(page.convert("L"))
-        assert a.min() < 100 and a.max() > 200  # text and images on paper, not blank
+        # Ink on paper, not a blank page (a page of small grey text alone reads about 150 at 40 dpi).
+        assert a.min() < 180 and a.max() > 200
     text = run([need("pdftotext"), str(soft_job / "instructions.pdf"), "-"]).stdout
     spray = json.loads((soft_job / "spray.json").read_text())
     for o in spray["order"]:
