@@ -303,10 +303,12 @@ def _calibrate(args) -> int:
 def _projects(args) -> int:
     """`slice --project`: one PrusaSlicer 3MF project per plate, written whole or not at all."""
     from . import pipeline
+    from .config.bed import parse_bed_arg
 
     failed = 0
+    bed = parse_bed_arg(args.bed) if args.bed else None
     for stl, out, error in pipeline.plate_projects(
-        args.stl, args.profile, force=args.force, timeout_s=args.timeout
+        args.stl, args.profile, force=args.force, timeout_s=args.timeout, bed=bed
     ):
         if error is None:
             print(f"{out}: PrusaSlicer project with the {args.profile} settings")

@@ -11,6 +11,7 @@ from PIL import Image, ImageOps, UnidentifiedImageError
 
 from .colour import distinct_colours
 from .errors import ImageError
+from .files import DATA_LIMIT, open_input
 from .model import Picture
 
 log = logging.getLogger(__name__)
@@ -64,12 +65,12 @@ def read_image(
             empty, or has non-finite pixel values.
     """
     path = Path(path)
-    if not path.exists():
-        raise ImageError(f"image not found: {path} (check the path, or the `image:` key of the config)")
-    if path.is_dir():
-        raise ImageError(f"image path is a folder, not a file: {path} (give an image file)")
+    fix = "check the path, or the `image:` key of the config"
     try:
-        with Image.open(path) as im:
+        with (
+            open_input(path, "image", limit=DATA_LIMIT, error=ImageError, fix=fix) as fh,
+            Image.open(fh) as im,
+        ):
             w, h = im.size
             if w < 1 or h < 1:
                 raise ImageError(f"image is empty: {path}")

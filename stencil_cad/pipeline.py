@@ -343,14 +343,14 @@ def can_names(figures: dict) -> dict[str, str]:
 def read_layers(folder: Path) -> Layers:
     """Read the decomposition a previous `decompose` or `run` saved."""
     from .exchange.layers_npz import layers_from_npz
+    from .files import DATA_LIMIT, open_input
 
     path = folder / LAYERS_NPZ
-    if not path.exists():
-        raise UserError(f"{path} not found (run `stencil-cad decompose` first, or pass --from DIR)")
     import zipfile
 
+    fix = "run `stencil-cad decompose` first, or pass --from DIR"
     try:
-        with np.load(path) as data:
+        with open_input(path, "decomposition", limit=DATA_LIMIT, fix=fix) as fh, np.load(fh) as data:
             return layers_from_npz(dict(data))
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
         raise UserError(
@@ -722,9 +722,18 @@ def plate_cards(
     return cards
 
 
-def read_dots(folder: Path, count: int | None = None) -> list[DotSet]:
-    """Read the dots CSV files of a folder, in layer order."""
+def read_dots(folder: Path, count: int | None = None, max_time: float = 800.0) -> list[DotSet]:
+    """Read the dots CSV files of a folder, in layer order, with ``spray.json``'s spray times.
+
+    Args:
+        folder: The run folder.
+        count: Layers of the decomposition (the files must match), or None.
+        max_time: Largest spray time ``spray.json`` may give a layer (8 x the config's cap:
+            the tone calibration chooses up to 8 x the base amount).
+    """
     from .exchange.dots_csv import dots_from_csv
+    from .files import DATA_LIMIT
+    from .files import read_text as read_checked
 
     files = sorted(folder.glob("layer_*_dots.csv"))
     if not files:
@@ -735,9 +744,10 @@ def read_dots(folder: Path, count: int | None = None) -> list[DotSet]:
         raise UserError(f"{folder} has {len(files)} dots files but the decomposition has {count} layers")
     out = []
     for f in files:
+        text = read_checked(f, "dots file", limit=DATA_LIMIT, fix="re-run `stencil-cad stipple`")
         try:
-            out.append(dots_from_csv(f.read_text(encoding="utf-8")))
-        except (ValueError, UnicodeDecodeError) as exc:
+            out.append(dots_from_csv(text))
+        except ValueError as exc:
             raise UserError(f"{f}: {str(exc)[:300]}") from None
         if len(out[-1]) == 0:
             log.warning(
@@ -746,27 +756,41 @@ def read_dots(folder: Path, count: int | None = None) -> list[DotSet]:
                 f,
             )
     spray = folder / SPRAY_JSON
-    if spray.exists():
-        import json
-        import math
+    if spray.exists() or spray.is_symlink():
         from dataclasses import replace
 
-        try:
-            times = json.loads(spray.read_text(encoding="utf-8"))["spray_times"]
-            times = [float(t) for t in times]
-            if not all(math.isfinite(t) and t > 0 for t in times):
-                raise ValueError("spray times must be positive numbers")
-        except (ValueError, KeyError, TypeError, UnicodeDecodeError):
-            raise UserError(
-                f"{spray}: not a valid spray-time file (a list of positive numbers under spray_times); "
-                "fix it, or delete it to use spray.spray_time"
-            ) from None
-        if len(times) == len(out):
-            out = [
-                replace(ds, report={**ds.report, "spray_time": float(t)})
-                for ds, t in zip(out, times, strict=True)
-            ]
+        times = read_spray_times(spray, len(out), max_time)
+        out = [replace(ds, report={**ds.report, "spray_time": t}) for ds, t in zip(out, times, strict=True)]
     return out
+
+
+def read_spray_times(path: Path, layers: int, max_time: float) -> list[float]:
+    """The per-layer spray times of a ``spray.json``: one per layer, each in (0, ``max_time``].
+
+    Raises:
+        UserError: Not a regular file, not JSON, or the list's length or a value is wrong (named).
+    """
+    import math
+
+    from .config.io import parse_json
+    from .files import read_text as read_checked
+
+    fix = "fix it, or delete it to use spray.spray_time"
+    data = parse_json(read_checked(path, "spray-time file", fix=fix), str(path))
+    times = data.get("spray_times") if isinstance(data, dict) else None
+    if not isinstance(times, list) or not all(
+        isinstance(t, (int, float)) and not isinstance(t, bool) for t in times
+    ):
+        raise UserError(f"{path}: spray_times must be a list of numbers, one per layer ({fix})")
+    if len(times) != layers:
+        raise UserError(
+            f"{path}: spray_times has {len(times)} values but there are {layers} layers; give one per "
+            f"layer ({fix})"
+        )
+    for i, t in enumerate(times):
+        if not (math.isfinite(t) and 0 < t <= max_time):
+            raise UserError(f"{path}: spray_times[{i}] must be in (0, {max_time:g}], got {t!r} ({fix})")
+    return [float(t) for t in times]
 
 
 def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tuple[float, float]) -> None:
@@ -1170,13 +1194,10 @@ def write_instructions(run: Run, manifest: dict, tiles: list | None = None) -> N
 
 def _merge_manifest(old_path: Path, new: dict, out: OutputDir) -> dict:
     """A stage command adds its figures and files to the folder's existing manifest."""
-    import json
+    from .output import read_manifest
 
-    try:
-        old = json.loads(old_path.read_text())
-    except (OSError, ValueError):
-        return new
-    if not isinstance(old, dict):
+    old = read_manifest(old_path)
+    if old is None:
         return new
     merged = {**old, **{k: v for k, v in new.items() if k not in ("seconds", "files")}}
     merged.update(manifest_header())
@@ -1635,7 +1656,7 @@ def _run_stage_command(
         )
     dotsets = None
     if command != "stipple":
-        dotsets = read_dots(src, layers.count)
+        dotsets = read_dots(src, layers.count, max_time=8.0 * cfg.spray.amount_cap)
         if command == "build":
             check_dots(cfg, dotsets, size)
     # Every refusal above comes before any worker starts; the tasks then run where the whole
@@ -1677,43 +1698,11 @@ def slice_plates(
     Raises:
         UserError: An STL is missing, an output exists, or the slicer is not installed.
     """
-    import math
-
     from . import slicing
 
     prof = slicing.get_profile(profile)
-    if not (math.isfinite(timeout_s) and timeout_s > 0):
-        raise UserError(f"--timeout must be a positive number of seconds, got {timeout_s}")
     overrides = _bed_overrides(prof, bed)
-    bed = slicing.bed_size(prof) if bed is None else _bed_xy(bed)
-    jobs = []
-    for stl in stls:
-        if not stl.is_file():
-            raise UserError(f"STL not found: {stl} (run `stencil-cad run` first, or check the path)")
-        try:
-            size = slicing.stl_footprint(stl)
-        except ValueError:
-            raise UserError(f"{stl} is not an STL file (give a plate's layer_NN.stl)") from None
-        except OSError as exc:
-            raise UserError(f"cannot read {stl}: {exc.strerror} (check the file)") from None
-        if not (size[0] <= bed[0] + 1e-6 and size[1] <= bed[1] + 1e-6):
-            fits = [
-                f"{name} ({w:g} × {h:g} mm)"
-                for name, (w, h) in ((n, slicing.bed_size(n)) for n in slicing.PROFILES)
-                if size[0] <= w and size[1] <= h
-            ]
-            raise UserError(
-                f"{stl} is {size[0]:.1f} × {size[1]:.1f} mm but the {prof.name} bed is {bed[0]:g} × "
-                f"{bed[1]:g} mm: use a smaller picture (size.width_mm)"
-                + (f", another profile (--profile {' or '.join(fits)})" if fits else "")
-                + ", or a printer with a larger bed (copy the profile and edit its bed size)"
-            )
-        out = stl.with_suffix(prof.suffix)
-        if out.is_dir():
-            raise OutputError(f"{out} is a folder where the sliced file goes (move it away)")
-        if out.exists() and not force:
-            raise OutputError(f"{out} already exists (use --force to replace it)")
-        jobs.append((stl, out))
+    jobs = _slice_jobs(stls, prof, bed, prof.suffix, force=force, timeout_s=timeout_s)
     for stl, out in jobs:
         tmp = out.with_name(f".{out.name}.partial{prof.suffix}")
         try:
@@ -1732,7 +1721,12 @@ def slice_plates(
 
 
 def plate_projects(
-    stls: list[Path], profile: str, *, force: bool = False, timeout_s: float = 300.0
+    stls: list[Path],
+    profile: str,
+    *,
+    force: bool = False,
+    timeout_s: float = 300.0,
+    bed: str | tuple[float, float] | None = None,
 ) -> Iterator[tuple[Path, Path, str | None]]:
     """Write a PrusaSlicer 3MF project (plate as tiles, every setting inside) beside each STL.
 
@@ -1741,6 +1735,7 @@ def plate_projects(
         profile: A shipped PrusaSlicer profile name (``prusa_fdm``, ``prusa_sla``).
         force: Replace existing ``.3mf`` files.
         timeout_s: Seconds before a PrusaSlicer run is killed. Defaults to 300 s.
+        bed: The printer's bed (a preset name or ``(x_mm, y_mm)``) replacing the profile's.
 
     Yields:
         ``(stl, output, error)`` per plate; ``error`` is None when the project was written.
@@ -1756,18 +1751,12 @@ def plate_projects(
     prof = slicing.get_profile(profile)
     if prof.slicer is not slicing.Slicer.PRUSA:
         raise UserError(f"--project writes PrusaSlicer projects; {profile} is a CuraEngine profile")
-    jobs = []
-    for stl in stls:
-        if not stl.is_file():
-            raise UserError(f"STL not found: {stl} (run `stencil-cad run` first, or check the path)")
-        out = stl.with_suffix(".3mf")
-        if out.exists() and not force:
-            raise OutputError(f"{out} already exists (use --force to replace it)")
-        jobs.append((stl, out))
+    overrides = _bed_overrides(prof, bed)
+    jobs = _slice_jobs(stls, prof, bed, ".3mf", force=force, timeout_s=timeout_s)
     for stl, out in jobs:
         tmp = out.with_name(f".{out.name}.partial.3mf")
         try:
-            slicing.plate_project(stl, tmp, prof, timeout_s=timeout_s)
+            slicing.plate_project(stl, tmp, prof, timeout_s=timeout_s, overrides=overrides)
         except slicing.SlicerNotFoundError as exc:
             tmp.unlink(missing_ok=True)
             raise UserError(f"{exc}") from None
@@ -1777,6 +1766,52 @@ def plate_projects(
             continue
         tmp.replace(out)
         yield stl, out, None
+
+
+def _slice_jobs(
+    stls: list[Path], prof, bed, suffix: str, *, force: bool, timeout_s: float
+) -> list[tuple[Path, Path]]:
+    """``(stl, output)`` per plate, every input and output checked before the first slicer run.
+
+    Raises:
+        UserError: A bad ``--timeout``, an STL missing, not a regular file, not an STL or larger
+            than the bed, or an output in the way (a folder, device, FIFO, or a file without ``force``).
+    """
+    import math
+
+    from . import slicing
+    from .files import DATA_LIMIT, check_input, check_target
+
+    if not (math.isfinite(timeout_s) and timeout_s > 0):
+        raise UserError(f"--timeout must be a positive number of seconds, got {timeout_s}")
+    bed = slicing.bed_size(prof) if bed is None else _bed_xy(bed)
+    jobs = []
+    for stl in stls:
+        check_input(stl, "STL", limit=DATA_LIMIT, fix="run `stencil-cad run` first, or check the path")
+        try:
+            size = slicing.stl_footprint(stl)
+        except ValueError:
+            raise UserError(f"{stl} is not an STL file (give a plate's layer_NN.stl)") from None
+        except OSError as exc:
+            raise UserError(f"cannot read {stl}: {exc.strerror} (check the file)") from None
+        if not (size[0] <= bed[0] + 1e-6 and size[1] <= bed[1] + 1e-6):
+            fits = [
+                f"{name} ({w:g} × {h:g} mm)"
+                for name, (w, h) in ((n, slicing.bed_size(n)) for n in slicing.PROFILES)
+                if size[0] <= w and size[1] <= h
+            ]
+            raise UserError(
+                f"{stl} is {size[0]:.1f} × {size[1]:.1f} mm but the {prof.name} bed is {bed[0]:g} × "
+                f"{bed[1]:g} mm: use a smaller picture (size.width_mm)"
+                + (f", another profile (--profile {' or '.join(fits)})" if fits else "")
+                + ", or a printer with a larger bed (copy the profile and edit its bed size)"
+            )
+        out = stl.with_suffix(suffix)
+        if out.is_dir():
+            raise OutputError(f"{out} is a folder where the sliced file goes (move it away)")
+        check_target(out, "sliced file", force=force, error=OutputError)
+        jobs.append((stl, out))
+    return jobs
 
 
 def _bed_xy(bed) -> tuple[float, float]:
@@ -1811,13 +1846,8 @@ def write_default_config(path: Path, *, force: bool = False) -> None:
         OutputError: ``path`` is a folder, its folder does not exist, or it exists and not ``force``.
     """
     from .config import io as cfg_io
+    from .files import write_text_over
 
     if path.is_dir():
         raise OutputError(f"{path} is a folder; give a file path such as {path / 'stencil.yaml'}")
-    if not path.parent.is_dir():
-        raise OutputError(f"folder {path.parent} does not exist (create it first, or give another path)")
-    if path.exists() and not force:
-        raise OutputError(f"{path} already exists (use --force to replace it, or give another path)")
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(cfg_io.default_yaml(), encoding="utf-8")
-    tmp.replace(path)
+    write_text_over(path, cfg_io.default_yaml(), "config", force=force, error=OutputError)

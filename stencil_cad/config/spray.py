@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import enum
+import math
 from pathlib import Path
 from typing import Any
 
@@ -251,6 +252,15 @@ class SprayConfig(StrictModel):
     def amount(self) -> float:
         """The base amount of paint per layer in the model's unit: passes (physical) or spray time A (paper)."""
         return self.passes if self.model == SprayModel.physical else self.spray_time
+
+    @property
+    def amount_cap(self) -> float:
+        """Largest base amount the config accepts: ``passes``' or ``spray_time``'s upper bound."""
+        name = "passes" if self.model == SprayModel.physical else "spray_time"
+        for meta in type(self).model_fields[name].metadata:
+            if getattr(meta, "le", None) is not None:
+                return float(meta.le)
+        return math.inf  # pragma: no cover - both fields are bounded
 
     @property
     def amount_unit(self) -> str:

@@ -748,6 +748,7 @@ def plate_project(
     holes_per_tile: int = HOLES_PER_TILE,
     timeout_s: float = 300.0,
     executable: str | os.PathLike | None = None,
+    overrides: Mapping[str, object] | None = None,
 ) -> Path:
     """Write the PrusaSlicer 3MF project of one plate, tiled as :func:`slice_plate` would slice it.
 
@@ -758,6 +759,7 @@ def plate_project(
         holes_per_tile: Target holes per tile. Defaults to :data:`HOLES_PER_TILE`.
         timeout_s: Seconds before each PrusaSlicer run is killed. Defaults to 300 s.
         executable: PrusaSlicer binary; found with :func:`find_slicer` when None.
+        overrides: Settings that win over the profile (the bed's size).
 
     Returns:
         The written path (see :func:`export_3mf_project`).
@@ -769,10 +771,14 @@ def plate_project(
     if tiles:
         tiles = mesh_genus(read_stl(model)) > 1.5 * holes_per_tile
     if not tiles:
-        return export_3mf_project(model, output, prof, timeout_s=timeout_s, executable=executable)
+        return export_3mf_project(
+            model, output, prof, timeout_s=timeout_s, executable=executable, overrides=overrides
+        )
     with tempfile.TemporaryDirectory(prefix="stencil_tiles_") as tmp:
         parts = split_into_tiles(model, tmp, holes_per_tile=holes_per_tile)
-        return export_3mf_project(parts, output, prof, timeout_s=timeout_s, executable=executable)
+        return export_3mf_project(
+            parts, output, prof, timeout_s=timeout_s, executable=executable, overrides=overrides
+        )
 
 
 def _has_manifold3d() -> bool:
