@@ -274,7 +274,7 @@ def load_config(path: Path | str) -> JobConfig:
         ConfigError: Missing file, YAML syntax error, empty file or invalid content.
     """
     path = Path(path)
-    text = read_yaml_text(path, "config", f"write one with `stencil-cad init {path}`")
+    text = read_yaml_text(path, "config", "give a YAML file; `stencil-cad init FILE` writes one")
     data = parse_yaml(text, str(path))
     cfg = parse_config(data, source=str(path))
     if cfg.image is not None and not cfg.image.is_absolute():
