@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import math
 from importlib import resources
 from pathlib import Path
 
@@ -30,6 +31,10 @@ DECODE_MARGIN = 2.0
 #: Above this many decoded bytes, a non-JPEG file is streamed through libvips: Pillow
 #: decodes a PNG whole (a 15000 x 15000 RGB PNG is 675 MB as uint8).
 STREAM_BYTES = 64 * 1024 * 1024
+
+#: Most bytes the decoded picture may take as float64 RGB before it is resampled to the grid,
+#: when a smaller decode still covers the grid (see ``_budget_factor``).
+DECODE_BUDGET = 512 * 1024 * 1024
 
 # Our own limit replaces Pillow's, whose warnings and errors say nothing a maker can act on.
 Image.MAX_IMAGE_PIXELS = None
@@ -85,8 +90,10 @@ def read_image(
             # Before EXIF rotation the sides may swap: bound by the short side against the long need.
             k = _reduce_factor((min(w, h),) * 2, (max(min_size),) * 2 if min_size else None)
             big = w * h * len(im.getbands()) * (2 if im.mode.startswith("I;16") else 1) > STREAM_BYTES
-            if k > 1 and big and im.format != "JPEG":
-                return _read_streamed(path, (w, h), k)
+            kf = _budget_factor((min(w, h),) * 2, (max(min_size),) * 2 if min_size else None, k)
+            if big and kf > 1 and (im.format != "JPEG" or k == 1):
+                # Streamed, never whole: also a JPEG whose DCT scaling cannot shrink it (k = 1).
+                return _read_streamed(path, (w, h), kf)
             if k > 1 and im.format == "JPEG":
                 im.draft("RGB" if im.mode not in ("L", "1") else im.mode, (w // k, h // k))
             im.load()
@@ -128,15 +135,32 @@ def _reduce_factor(size: tuple[int, int], min_size: tuple[int, int] | None) -> i
     return max(1, int(min(kw, kh)))
 
 
-def _read_streamed(path: Path, size: tuple[int, int], k: int):
-    """Decode a large non-JPEG file shrunk by ``k`` while streaming (libvips), never whole."""
+def _budget_factor(size: tuple[int, int], min_size: tuple[int, int] | None, k: int) -> float:
+    """Shrink factor for a streamed decode: ``k``, or more when ``k`` leaves over DECODE_BUDGET bytes.
+
+    The decoded picture becomes float64 RGB (24 bytes a pixel) before it is resampled onto the
+    working grid; at ``DECODE_MARGIN`` times a big grid's sides (a 15000 px PNG onto 4000 px,
+    k = 1) that is 1.5 GB and more. Above the budget the margin shrinks towards 1 (the grid itself).
+    """
+    if min_size is None:
+        return float(k)
+    need_px = float(min_size[0]) * float(min_size[1])
+    margin = max(1.0, min(DECODE_MARGIN, (DECODE_BUDGET / (24.0 * need_px)) ** 0.5))
+    if margin >= DECODE_MARGIN:
+        return float(k)
+    kf = min(size[0] / (margin * min_size[0]), size[1] / (margin * min_size[1]))
+    return max(float(k), kf, 1.0)
+
+
+def _read_streamed(path: Path, size: tuple[int, int], k: float):
+    """Decode a large file shrunk by ``k`` while streaming (libvips), never whole."""
     import pyvips
 
     w, h = size
+    # An integer factor as before; a fractional one (the memory budget's) rounds up, never below the grid.
+    sw, sh = (int(w // k), int(h // k)) if float(k).is_integer() else (math.ceil(w / k), math.ceil(h / k))
     try:
-        img = pyvips.Image.thumbnail(
-            str(path), max(1, w // k), height=max(1, h // k), size="force", linear=False
-        )
+        img = pyvips.Image.thumbnail(str(path), max(1, sw), height=max(1, sh), size="force", linear=False)
         fmt = {"uchar": np.uint8, "ushort": np.uint16, "float": np.float32, "double": np.float64}.get(
             img.format
         )
@@ -155,7 +179,10 @@ def _read_streamed(path: Path, size: tuple[int, int], k: int):
     grey = bands in (1, 2)
     colour = a[..., :1] if grey else a[..., :3]
     alpha = a[..., -1].astype(np.float64) / top if bands in (2, 4) else None
-    rgb = np.clip(colour.astype(np.float64) / top, 0.0, 1.0)
+    rgb = colour.astype(np.float64)  # one float copy, scaled and clipped in place
+    del a, colour
+    rgb /= top
+    np.clip(rgb, 0.0, 1.0, out=rgb)
     if grey:
         rgb = np.repeat(rgb, 3, axis=2)
     if alpha is not None and np.all(alpha >= 1.0):
