@@ -234,6 +234,7 @@ class _Footprint:
     blur_mm: float
     markers: int
     px_per_mm: float
+    noise: np.ndarray  # (3,) robust sd of the flat-fielded paper around the picture
 
 
 def _prepare_footprint(rgb: np.ndarray, layout: CardLayout, fp: Footprint, found, ppm: float) -> _Footprint:
@@ -307,6 +308,8 @@ def _prepare_footprint(rgb: np.ndarray, layout: CardLayout, fp: Footprint, found
     ff = (ratio - black) / (1.0 - black)
     grey = (grey - black) / (1.0 - black)
     blur = _edge_blur(ff, xs, ys, fp, ppm)
+    bare = ff[band_ok]  # the paper around the picture: where the card's holes are does not matter
+    noise = 1.4826 * np.median(np.abs(bare - np.median(bare, axis=0)), axis=0) if len(bare) else np.zeros(3)
     # Crop the picture area: rows from the top (y = Hc) down to y = 0, cols from x = 0.
     r0 = int(round((extent[3] - Hc) * ppm))
     c0 = int(round((0.0 - extent[0]) * ppm))
@@ -321,6 +324,7 @@ def _prepare_footprint(rgb: np.ndarray, layout: CardLayout, fp: Footprint, found
         blur_mm=blur,
         markers=n_markers,
         px_per_mm=px_per_mm,
+        noise=noise,
     )
 
 
@@ -616,6 +620,30 @@ def _patch_tones(
     return tones
 
 
+#: A fit is refused when its residual RMS is more than this many times the photo's noise (the
+#: robust spread of the bare paper around the picture) ...
+RESIDUAL_NOISE_FACTOR = 2.5
+#: ... and more than this (flat-fielded units). On synthetic photos (PNG and JPEG 85) of the right
+#: card the residual is 0.96-1.05 times the noise (0.010-0.017); of another process's card (SLA
+#: holes measured as FDM's and the reverse) 3.2-8.1 times (0.054-0.082). Not yet measured on
+#: real photos, whose paint texture may leave more.
+RESIDUAL_FLOOR = 0.03
+
+
+def _check_residual(rms: float, noise: float) -> None:
+    """Refuse a fit whose residual is far above the photo's noise: the photo is not of this card.
+
+    Raises:
+        PhotoError: With both figures and what to check.
+    """
+    if rms > max(RESIDUAL_NOISE_FACTOR * noise, RESIDUAL_FLOOR):
+        raise PhotoError(
+            f"the photo does not match the card description: the fit leaves a residual RMS of {rms:.3f}, "
+            f"{rms / max(noise, 1e-6):.1f} times the photo's noise ({noise:.3f}); photograph the sheet of the "
+            "card this card.json describes (each `stencil-cad card` writes its own), sprayed evenly and not moved"
+        )
+
+
 def fit_card(
     rgb: np.ndarray,
     layout: CardLayout,
@@ -676,6 +704,8 @@ def fit_card(
         k: round(float(np.sqrt(np.mean(np.concatenate([rj[m & mask] for rj in res_all]) ** 2))), 5)
         for k, m in feats.items()
     }
+    noise = float(np.median([f.noise[ch] for f in fps]))
+    _check_residual(rms, noise)
     return CardFit(
         can=card.constants(q),
         contrast=float(q[3]),
@@ -695,6 +725,7 @@ def fit_card(
             "grey_patch": [round(float(f.grey[ch]), 4) for f in fps],
             "black_share": [round(float(f.black_share[ch]), 4) for f in fps],
             "bleed_fitted": card.many,
+            "noise": round(noise, 5),
             "evaluations": int(sol.nfev),
             "status": str(sol.message),
         },
