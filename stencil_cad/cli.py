@@ -324,7 +324,8 @@ def _load_job(args):
 
     src = getattr(args, "src", None)
     config_path = args.config
-    if config_path is None and args.command in ("stipple", "build", "simulate"):
+    if config_path is None and args.command in ("decompose", "stipple", "build", "simulate"):
+        # A stage command in a run's folder uses the folder's config (the README's promise).
         folder = src or args.out
         if folder is not None and (folder / "config.yaml").exists():
             config_path = folder / "config.yaml"

@@ -69,6 +69,8 @@ class Run:
     template: dict | None = None
     #: Images for the instruction sheet that are not result files (PNG bytes by name).
     sheet_images: dict = field(default_factory=dict)
+    #: Files of later stages this stage command left in the folder, made from older inputs.
+    stale: list = field(default_factory=list)
 
     def rng_for(self, stage: str, index: int = 0) -> np.random.Generator:
         """An independent generator per stage and layer, derived from the seed.
@@ -1159,6 +1161,7 @@ def finish(run: Run, command: str) -> list[Path]:
     old_path = run.out.path / MANIFEST
     if command != "run" and command != "hard" and old_path.exists():
         manifest = _merge_manifest(old_path, manifest, run.out)
+        run.stale = manifest.get("stale", {}).get("files", [])
     if command in ("run", "hard") and run.cfg.export.instructions:
         with run.stage("instructions"):
             write_instructions(run, manifest)
@@ -1212,7 +1215,51 @@ def _merge_manifest(old_path: Path, new: dict, out: OutputDir) -> dict:
         and (out.path / str(row.get("name"))).is_file()
     ]
     merged["files"] = kept + new["files"]
+    merged.pop("stale", None)
+    stale = stale_files(new["command"], [str(r["name"]) for r in kept], old.get("stale"), written)
+    if stale:
+        later = ", ".join(f"`stencil-cad {c}`" for c in LATER_STAGES.get(new["command"], ()))
+        merged["stale"] = {
+            "files": stale,
+            "why": f"made before `stencil-cad {new['command']}` ran again; re-run {later or 'them'} (or `stencil-cad run`)",
+        }
     return merged
+
+
+#: The files each stage writes (shell patterns), for telling which files a re-run makes stale.
+STAGE_FILES = {
+    "stipple": ("layer_*_dots.csv", "layer_*_dots.png", SPRAY_JSON, "swatch.png"),
+    "build": ("layer_[0-9][0-9].*", "wall*.step", "wall*.stl", "tile_*", "mural_map.png"),
+    "simulate": ("simulated*.png", "preview.png", "sweep.png", "layer_*_after.png"),
+    "instructions": INSTRUCTIONS,
+}
+#: The stages that read what each stage writes, directly or through another.
+LATER_STAGES = {
+    "decompose": ("stipple", "build", "simulate"),
+    "stipple": ("build", "simulate"),
+    "build": (),
+    "simulate": (),
+}
+
+
+def stale_files(command: str, kept: list[str], earlier: object, written: set[str]) -> list[str]:
+    """Files left in a folder that a re-run of ``command`` made out of date.
+
+    Args:
+        command: The stage command that just ran.
+        kept: Names of the files it left in place.
+        earlier: The manifest's ``stale`` record before this run (its files stay stale).
+        written: Names this run wrote (no longer stale).
+
+    Returns:
+        Sorted names: files of later stages (and the instruction sheet, which shows every stage).
+    """
+    import fnmatch
+
+    before = set(earlier.get("files", [])) if isinstance(earlier, dict) else set()
+    stages = (*LATER_STAGES.get(command, ()), "instructions")
+    now = {n for n in kept if any(fnmatch.fnmatch(n, p) for s in stages for p in STAGE_FILES[s])}
+    return sorted(((before & set(kept)) | now) - written)
 
 
 def _versions() -> dict:
@@ -1593,12 +1640,13 @@ def run_command(
     """
     stage_cmd = command in STAGE_COMMANDS
     src = (src or out_path) if stage_cmd else None
+    # `decompose` is a stage too: it adds to a run's folder and never removes later stages' files.
     run = Run(cfg=cfg, out=None, quiet=quiet)  # type: ignore[arg-type]
     # Everything that can be checked is checked before the first stage: the template (Python
     # code, loaded now), the output folder (created, locked, probed for writing), the image.
     if command in ("run", "hard", "build"):
         check_template(run)
-    out = OutputDir(out_path, force=force, allow_existing=stage_cmd)
+    out = OutputDir(out_path, force=force, allow_existing=stage_cmd or command == "decompose")
     run.out = out
     t0 = time.perf_counter()
     try:

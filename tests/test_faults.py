@@ -93,7 +93,7 @@ def run_copy(job, tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("command", ["build", "stipple", "simulate"])
+@pytest.mark.parametrize("command", ["decompose", "build", "stipple", "simulate"])
 def test_stage_command_with_force_keeps_the_other_stages_files(run_copy, capsys, command):
     cfg, out = run_copy
     before = _snapshot(out)
@@ -102,6 +102,7 @@ def test_stage_command_with_force_keeps_the_other_stages_files(run_copy, capsys,
     after = _snapshot(out)
     assert set(after) == set(before)
     own = {
+        "decompose": ("layers.npz", "_opacity.png", "composite.png", "energy.csv", "config.yaml"),
         "build": (".step", ".stl", ".dxf", ".3mf"),
         "stipple": ("_dots.csv", "_dots.png", "spray.json"),
         "simulate": ("simulated.png", "preview.png", "sweep.png", "_after.png"),
