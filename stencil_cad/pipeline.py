@@ -1752,19 +1752,20 @@ def slice_plates(
     overrides = _bed_overrides(prof, bed)
     jobs = _slice_jobs(stls, prof, bed, prof.suffix, force=force, timeout_s=timeout_s)
     for stl, out in jobs:
+        # A slice killed earlier (SIGKILL, power loss) may have left these: they are ours by name.
         tmp = out.with_name(f".{out.name}.partial{prof.suffix}")
+        slicing.remove_partial(tmp)
         try:
             result = slicing.slice_plate(stl, tmp, prof, timeout_s=timeout_s, overrides=overrides)
         except slicing.SlicerNotFoundError as exc:
-            tmp.unlink(missing_ok=True)
+            slicing.remove_partial(tmp)
             raise UserError(f"{exc}") from None
         except BaseException:
-            tmp.unlink(missing_ok=True)
+            slicing.remove_partial(tmp)
             raise
         if result.ok:
             tmp.replace(out)
-        else:
-            tmp.unlink(missing_ok=True)
+        slicing.remove_partial(tmp)
         yield stl, out, result
 
 
@@ -1803,15 +1804,19 @@ def plate_projects(
     jobs = _slice_jobs(stls, prof, bed, ".3mf", force=force, timeout_s=timeout_s)
     for stl, out in jobs:
         tmp = out.with_name(f".{out.name}.partial.3mf")
+        slicing.remove_partial(tmp)
         try:
             slicing.plate_project(stl, tmp, prof, timeout_s=timeout_s, overrides=overrides)
         except slicing.SlicerNotFoundError as exc:
-            tmp.unlink(missing_ok=True)
+            slicing.remove_partial(tmp)
             raise UserError(f"{exc}") from None
         except (RuntimeError, subprocess.TimeoutExpired) as exc:
-            tmp.unlink(missing_ok=True)
+            slicing.remove_partial(tmp)
             yield stl, out, str(exc)
             continue
+        except BaseException:
+            slicing.remove_partial(tmp)
+            raise
         tmp.replace(out)
         yield stl, out, None
 

@@ -19,6 +19,7 @@ Profiles (see :data:`PROFILES` and ``docs/printing.md``):
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import os
@@ -501,6 +502,7 @@ def slice_file(
         errors="replace",
         env=env,
         start_new_session=True,
+        preexec_fn=_die_with_parent,  # noqa: PLW1509 - only a prctl call, no locks taken
     ) as proc:
         try:
             text, _ = proc.communicate(timeout=timeout_s)
@@ -508,6 +510,12 @@ def slice_file(
             timed_out = True
             _kill_group(proc)
             text, _ = proc.communicate()
+        except BaseException:
+            # Interrupted (Ctrl-C, SIGTERM): stop the slicer before it writes on, and remove what it wrote.
+            _kill_group(proc)
+            proc.wait()
+            remove_partial(output)
+            raise
         returncode = None if timed_out else proc.returncode
     seconds = time.perf_counter() - start
     cpu1 = _children_cpu()
@@ -541,6 +549,24 @@ def slice_file(
     )
     log.info("sliced in %.1f s (ok=%s, %d bytes)", seconds, result.ok, size)
     return result
+
+
+def _die_with_parent() -> None:
+    """In the slicer's process: be killed when stencil-cad dies, even by SIGKILL (Linux)."""
+    try:
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, 9)  # PR_SET_PDEATHSIG, SIGKILL
+    except (OSError, AttributeError):  # pragma: no cover - not Linux
+        pass
+
+
+def remove_partial(output: str | os.PathLike) -> None:
+    """Remove a slicer's output and the temporary file it writes first (``OUTPUT.tmp``)."""
+    output = Path(output)
+    for p in (output, output.with_name(output.name + ".tmp")):
+        with contextlib.suppress(OSError):
+            p.unlink()
 
 
 def _kill_group(proc: subprocess.Popen) -> None:
