@@ -172,17 +172,11 @@ def plan(cfg: ComputeConfig, picture_px: int) -> Plan:
 
 
 def available_memory() -> int | None:
-    """Bytes of memory the OS can give new processes without swapping (Linux ``MemAvailable``), or None."""
+    """Bytes the OS can give new processes without swapping (Linux ``MemAvailable``), or None."""
     try:
         with open("/proc/meminfo", encoding="ascii") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):  # pragma: no cover - not POSIX
+            return next(int(ln.split()[1]) * 1024 for ln in f if ln.startswith("MemAvailable:"))
+    except (OSError, ValueError, IndexError, StopIteration):
         return None
 
 
@@ -348,7 +342,7 @@ class DaskExecutor(Executor):
             self.client = Client(self._cluster, set_as_default=False)
         else:
             try:
-                _probe(plan.address)
+                _probe(str(plan.address))
                 self.client = Client(plan.address, timeout=CONNECT_TIMEOUT, set_as_default=False)
             except (OSError, TimeoutError) as exc:
                 raise UserError(
