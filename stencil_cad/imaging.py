@@ -136,19 +136,16 @@ def _reduce_factor(size: tuple[int, int], min_size: tuple[int, int] | None) -> i
 
 
 def _budget_factor(size: tuple[int, int], min_size: tuple[int, int] | None, k: int) -> float:
-    """Shrink factor for a streamed decode: ``k``, or more when ``k`` leaves over DECODE_BUDGET bytes.
+    """Shrink factor for a streamed decode: ``k``, or onto the grid itself when ``k`` costs too much.
 
     The decoded picture becomes float64 RGB (24 bytes a pixel) before it is resampled onto the
     working grid; at ``DECODE_MARGIN`` times a big grid's sides (a 15000 px PNG onto 4000 px,
-    k = 1) that is 1.5 GB and more. Above the budget the margin shrinks towards 1 (the grid itself).
+    k = 1) that is 1.5 GB and more. Above ``DECODE_BUDGET`` libvips shrinks the file straight to
+    the grid's size (its own antialiasing filter), and no second resampling is needed.
     """
-    if min_size is None:
+    if min_size is None or DECODE_MARGIN**2 * 24.0 * min_size[0] * min_size[1] <= DECODE_BUDGET:
         return float(k)
-    need_px = float(min_size[0]) * float(min_size[1])
-    margin = max(1.0, min(DECODE_MARGIN, (DECODE_BUDGET / (24.0 * need_px)) ** 0.5))
-    if margin >= DECODE_MARGIN:
-        return float(k)
-    kf = min(size[0] / (margin * min_size[0]), size[1] / (margin * min_size[1]))
+    kf = min(size[0] / min_size[0], size[1] / min_size[1])
     return max(float(k), kf, 1.0)
 
 

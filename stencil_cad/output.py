@@ -29,6 +29,7 @@ import json
 import logging
 import os
 import shutil
+import stat
 import tempfile
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
@@ -38,7 +39,7 @@ import numpy as np
 from . import interrupts
 from .errors import OutputError, UserError
 from .exchange.png import png_bytes
-from .files import read_bytes
+from .files import kind, read_bytes
 
 log = logging.getLogger(__name__)
 
@@ -331,6 +332,13 @@ class OutputDir:
             raise OutputError(
                 f"{final} is a folder where stencil-cad writes a file (move it away or choose another --out)"
             )
+        with contextlib.suppress(OSError):
+            mode = os.stat(final).st_mode
+            if not stat.S_ISREG(mode):
+                raise OutputError(
+                    f"{final} is {kind(mode)}, not a regular file: stencil-cad replaces only regular files "
+                    "(move it away, or choose another --out)"
+                )
         if name in self.replaceable and (self.is_ours(name) or not final.exists()):
             return
         if not self.force:

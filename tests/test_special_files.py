@@ -272,3 +272,15 @@ def test_stage_inputs_that_are_fifos_are_refused(tmp_path, capsys):
     os.mkfifo(run / "layers.npz")
     with _deadline(), pytest.raises(UserError, match="FIFO"):
         read_layers(run)
+
+
+def test_output_folder_entries_that_are_fifos_are_never_replaced(tmp_path, capsys):
+    cfg = tmp_path / "job.yaml"
+    cfg.write_text(SMALL)
+    out = tmp_path / "out"
+    out.mkdir()
+    os.mkfifo(out / "manifest.json")
+    os.mkfifo(out / "layer_01.stl")
+    _refused(capsys, ["run", cfg, "--out", out, "--force"], "FIFO", "replaces only regular files")
+    assert _is(out / "manifest.json", stat.S_ISFIFO) and _is(out / "layer_01.stl", stat.S_ISFIFO)
+    assert sorted(p.name for p in out.iterdir()) == ["layer_01.stl", "manifest.json"]
