@@ -8,7 +8,8 @@ and wall time, killed after 120 s and reported as ``hung``):
 - ``fifo_image``: a FIFO (named pipe) as the image;
 - ``workers_1000``: ``--workers 1000`` (the local cluster is planned, started with the capped
   count and stopped; ``peak_mb`` is this process, ``children_peak_mb`` the largest worker);
-- ``png_15000_2m``: a 15000 x 15000 px PNG onto a 2 m wide picture at 2 px/mm (the image load);
+- ``png_15000_2m``: a 15000 x 15000 px PNG onto a 2 m wide picture at 2 px/mm (the image load),
+  then onto 50 m at 0.2 px/mm (``png_15000_50m``, the whole command);
 - ``card_mismatch``: a photo of one card measured with another card's ``card.json``.
 
 Targets: exit 2 (or a capped run), at most 10 s and 500 MB each; the big PNG at most 2 GB.
@@ -155,6 +156,14 @@ def run(cases=None):
                 job = tmp / "big.yaml"
                 job.write_text("name: big\nsize: {width_mm: 2000, px_per_mm: 2}\ndecompose: {layers: 2}\n")
                 row = _judge(_child(["load", str(job), str(img)]), peak_mb=2000, exits=(0, 2))
+                row.update(bench="limits", case=case)
+                yield row
+                # The same file onto a 50 m picture at 0.2 px/mm: a 100 MP grid, refused up front.
+                job.write_text(
+                    "name: huge\nsize: {width_mm: 50000, px_per_mm: 0.2}\ndecompose: {layers: 2}\n"
+                )
+                row = _judge(_child(["run", str(job), "--image", str(img), "--out", str(tmp / "o5"), "-q"]))
+                case = "png_15000_50m"
                 img.unlink()
             else:
                 row = _judge(_card_mismatch(tmp))

@@ -11,7 +11,7 @@ import numpy as np
 from PIL import Image, ImageOps, UnidentifiedImageError
 
 from .colour import distinct_colours
-from .errors import ImageError
+from .errors import ConfigError, ImageError
 from .files import DATA_LIMIT, open_input
 from .model import Picture
 
@@ -31,6 +31,10 @@ DECODE_MARGIN = 2.0
 #: Above this many decoded bytes, a non-JPEG file is streamed through libvips: Pillow
 #: decodes a PNG whole (a 15000 x 15000 RGB PNG is 675 MB as uint8).
 STREAM_BYTES = 64 * 1024 * 1024
+
+#: Largest working picture (the grid every stage works on), in pixels: 64 MP is 1.5 GB as float64
+#: RGB, and a stage holds a few such copies (a 4 m x 4 m picture at 2 px/mm).
+MAX_GRID_PIXELS = 64_000_000
 
 #: Most bytes the decoded picture may take as float64 RGB before it is resampled to the grid,
 #: when a smaller decode still covers the grid (see ``_budget_factor``).
@@ -87,6 +91,7 @@ def read_image(
                     f"{MAX_PIXELS / 1e6:.0f} MP stencil-cad reads; downscale it"
                     + (f" (this job needs only about {min_size[0]} × {min_size[1]} px)" if min_size else "")
                 )
+            _check_grid(path, (w, h), min_size)
             # Before EXIF rotation the sides may swap: bound by the short side against the long need.
             k = _reduce_factor((min(w, h),) * 2, (max(min_size),) * 2 if min_size else None)
             big = w * h * len(im.getbands()) * (2 if im.mode.startswith("I;16") else 1) > STREAM_BYTES
@@ -133,6 +138,26 @@ def _reduce_factor(size: tuple[int, int], min_size: tuple[int, int] | None) -> i
     kw = size[0] / max(1.0, DECODE_MARGIN * min_size[0])
     kh = size[1] / max(1.0, DECODE_MARGIN * min_size[1])
     return max(1, int(min(kw, kh)))
+
+
+def _check_grid(path: Path, size: tuple[int, int], min_size: tuple[int, int] | None) -> None:
+    """Refuse, before decoding, a working picture larger than :data:`MAX_GRID_PIXELS`.
+
+    Raises:
+        ConfigError: With the grid's size, its memory and the settings that make it smaller.
+    """
+    if min_size is None:
+        return
+    gw = min_size[0]
+    gh = min_size[1] if min_size[1] > 1 else max(1, round(gw * size[1] / size[0]))
+    if gw * gh <= MAX_GRID_PIXELS:
+        return
+    shrink = (MAX_GRID_PIXELS / (gw * gh)) ** 0.5
+    raise ConfigError(
+        f"size: the working picture of {path} would be {gw} × {gh} px ({gw * gh / 1e6:.0f} MP, "
+        f"{gw * gh * 24 / 1e9:.1f} GB for each copy of its colours), more than the {MAX_GRID_PIXELS / 1e6:.0f} MP "
+        f"stencil-cad works on; lower size.px_per_mm or size.width_mm by a factor of {1 / shrink:.2f} or more"
+    )
 
 
 def _budget_factor(size: tuple[int, int], min_size: tuple[int, int] | None, k: int) -> float:
