@@ -22,7 +22,7 @@ from . import __version__, interrupts
 from .colour import to_hex
 from .config import ComputeConfig, JobConfig, Mode
 from .config.spray import SprayModel
-from .errors import OutputError, UserError
+from .errors import ConfigError, OutputError, UserError
 from .model import DotSet, Holes, Layers, Picture, coat_contrast
 from .output import MANIFEST, OutputDir, manifest_header
 from .output import plain as _plain
@@ -778,20 +778,21 @@ def read_spray_times(path: Path, layers: int, max_time: float) -> list[float]:
     from .files import read_text as read_checked
 
     fix = "fix it, or delete it to use spray.spray_time"
-    data = parse_json(read_checked(path, "spray-time file", fix=fix), str(path))
+    bad = f"{path}: not a valid spray-time file"
+    try:
+        data = parse_json(read_checked(path, "spray-time file", fix=fix), str(path))
+    except ConfigError as exc:
+        raise UserError(f"{bad} ({str(exc).removeprefix(f'{path}: ')}); {fix}") from None
     times = data.get("spray_times") if isinstance(data, dict) else None
     if not isinstance(times, list) or not all(
         isinstance(t, (int, float)) and not isinstance(t, bool) for t in times
     ):
-        raise UserError(f"{path}: spray_times must be a list of numbers, one per layer ({fix})")
+        raise UserError(f"{bad}: spray_times must be a list of numbers, one per layer; {fix}")
     if len(times) != layers:
-        raise UserError(
-            f"{path}: spray_times has {len(times)} values but there are {layers} layers; give one per "
-            f"layer ({fix})"
-        )
+        raise UserError(f"{bad}: spray_times has {len(times)} values but there are {layers} layers; {fix}")
     for i, t in enumerate(times):
         if not (math.isfinite(t) and 0 < t <= max_time):
-            raise UserError(f"{path}: spray_times[{i}] must be in (0, {max_time:g}], got {t!r} ({fix})")
+            raise UserError(f"{bad}: spray_times[{i}] must be in (0, {max_time:g}], got {t!r}; {fix}")
     return [float(t) for t in times]
 
 
