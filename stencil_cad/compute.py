@@ -506,13 +506,14 @@ class DaskExecutor(Executor):
             # The lowest address among the least busy, so the choice does not hang on dict order.
             where = min(load, key=lambda a: (load[a], a))
             try:
-                data = self.client.scatter(item, hash=False, workers=[where])
+                # In a list of one: Dask scatters the elements of a list or tuple one by one.
+                data = self.client.scatter([item], hash=False, workers=[where])[0]
             except (KeyError, TimeoutError):
                 pass
             else:
                 load[where] += 1
                 return data, where
-        return self.client.scatter(item, hash=False), None
+        return self.client.scatter([item], hash=False)[0], None
 
     def _result(self, fut, desc: str) -> Any:
         from distributed import KilledWorker

@@ -145,11 +145,11 @@ class _FakeClient:
     def scheduler_info(self):
         return {"workers": {a: {"status": st} for a, st in self.workers.items()}}
 
-    def scatter(self, item, hash=True, workers=None):
+    def scatter(self, items, hash=True, workers=None):
         if workers and workers[0] in self.gone:
             raise KeyError(workers[0])
         self.sent.append(workers)
-        return item
+        return list(items)
 
 
 def test_large_inputs_go_to_the_least_busy_running_worker():
