@@ -8,8 +8,9 @@ Usage::
 
 Prints one JSON line per file (name, size, SHA-256 on each side, same or not) and a
 last summary line; exits 1 when any compared file differs or is missing on one side.
-The compared kinds are the maker's files (CSV, STL, STEP, PNG by default, ``--ext``
-to change); the manifest holds timings and is never compared.
+Every kind of file a run writes is compared (CSV, STL, STEP, 3MF, PNG, DXF, SVG, PDF, HTML,
+NPZ, JSON, YAML; ``--ext`` to choose); ``manifest.json`` is compared without the fields that
+record when and where the job ran (:data:`PLACEMENT_KEYS`).
 """
 
 from __future__ import annotations
@@ -22,11 +23,62 @@ import sys
 import tempfile
 from pathlib import Path
 
-DEFAULT_EXTS = (".csv", ".stl", ".step", ".png")
+DEFAULT_EXTS = (
+    ".csv",
+    ".stl",
+    ".step",
+    ".3mf",
+    ".png",
+    ".dxf",
+    ".svg",
+    ".pdf",
+    ".html",
+    ".npz",
+    ".json",
+    ".yaml",
+)
+
+MANIFEST = "manifest.json"
+#: Manifest keys that record when and where the job ran, not what it made: the time per stage,
+#: the cluster (kind, workers, address, tasks), the versions of the tools, and the file table's
+#: own rows (each compared file is compared itself).
+PLACEMENT_KEYS = ("seconds", "compute", "versions", "created", "files")
 
 
 def _sha(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def manifest_content(path: Path) -> dict:
+    """A manifest without :data:`PLACEMENT_KEYS` (at any depth), the file table as name → SHA-256."""
+
+    def strip(obj):
+        if isinstance(obj, dict):
+            return {k: strip(v) for k, v in obj.items() if k not in PLACEMENT_KEYS}
+        if isinstance(obj, list):
+            return [strip(v) for v in obj]
+        return obj
+
+    data = json.loads(path.read_text(encoding="utf-8"))
+    out = strip(data)
+    out["files"] = {r["name"]: r["sha256"] for r in data.get("files", []) if isinstance(r, dict)}
+    return out
+
+
+def manifest_differences(a: dict, b: dict, where: str = "") -> list[str]:
+    """Dotted paths at which two stripped manifests differ."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        out = []
+        for k in sorted(set(a) | set(b), key=str):
+            out += manifest_differences(a.get(k), b.get(k), f"{where}.{k}" if where else str(k))
+        return out
+    if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+        return [
+            d
+            for i, (x, y) in enumerate(zip(a, b, strict=True))
+            for d in manifest_differences(x, y, f"{where}[{i}]")
+        ]
+    return [] if a == b else [where or "(top level)"]
 
 
 def compare(before: Path, after: Path, exts: tuple[str, ...] = DEFAULT_EXTS) -> list[dict]:
@@ -38,7 +90,11 @@ def compare(before: Path, after: Path, exts: tuple[str, ...] = DEFAULT_EXTS) -> 
         row: dict = {"file": name}
         for side, p in (("before", a), ("after", b)):
             row[side] = {"bytes": p.stat().st_size, "sha256": _sha(p)[:16]} if p.is_file() else None
-        row["same"] = a.is_file() and b.is_file() and a.read_bytes() == b.read_bytes()
+        if name == MANIFEST and a.is_file() and b.is_file():
+            row["differ_at"] = manifest_differences(manifest_content(a), manifest_content(b))
+            row["same"] = not row["differ_at"]
+        else:
+            row["same"] = a.is_file() and b.is_file() and a.read_bytes() == b.read_bytes()
         rows.append(row)
     return rows
 

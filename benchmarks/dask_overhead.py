@@ -10,6 +10,9 @@ started and warm), ``efficiency`` the ideal over it. Cases:
   with Dask's defaults — the baseline of the same run.
 * ``uneven-inline`` / ``uneven-scattered``: 40 tasks of 0.3-4.0 CPU-s (a fixed draw), their
   inputs sent inside the tasks or, as large inputs are, scattered to the least busy worker first.
+* ``sleep-scattered-10mb``: 40 tasks that sleep 0.5 s on a 10 MB input each (scattered, as a
+  picture tile is): the cost of moving and keeping the inputs, which other load on the machine
+  hardly changes (the tasks wait, they do not compute). The ideal is 10 s.
 
 Run ``python -m benchmarks dask_overhead`` on a quiet machine (about 4 minutes); quote the
 medians of a few runs.
@@ -23,7 +26,7 @@ import time
 from stencil_cad import compute
 from stencil_cad.config.compute import ComputeConfig
 
-CASES = ["even-project", "even-dask-defaults", "uneven-inline", "uneven-scattered"]
+CASES = ["even-project", "even-dask-defaults", "uneven-inline", "uneven-scattered", "sleep-scattered-10mb"]
 
 
 def burn(seconds: float) -> float:
@@ -34,6 +37,33 @@ def burn(seconds: float) -> float:
         for i in range(10_000):
             x += i * i
     return seconds
+
+
+def nap(item: tuple) -> float:
+    """Sleep ``item[0]`` seconds beside the input ``item[1]``; return the seconds."""
+    time.sleep(item[0])
+    return item[0]
+
+
+def _run_sleep(case: str) -> dict:
+    import numpy as np
+
+    items = [(0.5, np.full(10 * 2**20 // 8, i, dtype=np.float64)) for i in range(40)]
+    with compute.executor(ComputeConfig(workers=2), 10**9, quiet=True) as ex:
+        list(ex.map(nap, [(0.1, None)] * 2, "warm-up"))
+        t0 = time.perf_counter()
+        out = list(ex.map(nap, items, "nap"))
+        seconds = time.perf_counter() - t0
+    if out != [0.5] * 40:
+        raise RuntimeError(f"{case}: results out of order")
+    return {
+        "bench": "dask_overhead",
+        "case": case,
+        "tasks": len(items),
+        "seconds": round(seconds, 2),
+        "ideal_seconds": 10.0,
+        "efficiency": round(10.0 / seconds, 3),
+    }
 
 
 def _jobs(case: str) -> list[float]:
@@ -75,4 +105,4 @@ def run(cases=None):
     for case in CASES:
         if cases and case not in cases:
             continue
-        yield _run_case(case)
+        yield _run_sleep(case) if case.startswith("sleep") else _run_case(case)

@@ -9,6 +9,8 @@ memory (``ru_maxrss``) and wall time, so the big test images (generated here at 
 never committed) do not count. Targets: the 15000 × 15000 PNG and a 48 MP JPEG into a 40 mm
 picture ≤ 600 MB and ≤ 10 s each; ``stipple.dots: 2000000`` on 40 × 30 mm capped in ≤ 5 s
 and ≤ 500 MB. The baseline is the same command on a 400 × 300 px image, in the same run.
+The hostile inputs (an alias bomb, /dev/zero, a FIFO, --workers 1000, the 15000² PNG at 2 m,
+another card's photo) are :mod:`benchmarks.limits_hostile`'s cases.
 """
 
 from __future__ import annotations
@@ -19,7 +21,10 @@ import sys
 import tempfile
 from pathlib import Path
 
-CASES = ["baseline", "png_15000", "jpeg_48mp", "dots_2000000"]  # dots_2000000 runs dots_null too
+from benchmarks import limits_hostile
+
+# dots_2000000 runs dots_null too; the hostile inputs are in benchmarks/limits_hostile.py.
+CASES = ["baseline", "png_15000", "jpeg_48mp", "dots_2000000", *limits_hostile.CASES]
 
 # Linux keeps a process's peak RSS across fork and exec, so every measured child is started
 # from this small parent, and the images are generated in children of their own.
@@ -148,3 +153,4 @@ def run(cases=None):
             )
             yield base
             yield row
+    yield from limits_hostile.run([c for c in cases if c in limits_hostile.CASES])

@@ -311,10 +311,12 @@ def _calibrate(args) -> int:
 def _projects(args) -> int:
     """`slice --project`: one PrusaSlicer 3MF project per plate, written whole or not at all."""
     from . import pipeline
+    from .config.bed import parse_bed_arg
 
     failed = 0
+    bed = parse_bed_arg(args.bed) if args.bed else None
     for stl, out, error in pipeline.plate_projects(
-        args.stl, args.profile, force=args.force, timeout_s=args.timeout
+        args.stl, args.profile, force=args.force, timeout_s=args.timeout, bed=bed
     ):
         if error is None:
             print(f"{out}: PrusaSlicer project with the {args.profile} settings")
@@ -330,7 +332,8 @@ def _load_job(args):
 
     src = getattr(args, "src", None)
     config_path = args.config
-    if config_path is None and args.command in ("stipple", "build", "simulate"):
+    if config_path is None and args.command in ("decompose", "stipple", "build", "simulate"):
+        # A stage command in a run's folder uses the folder's config (the README's promise).
         folder = src or args.out
         if folder is not None and (folder / "config.yaml").exists():
             config_path = folder / "config.yaml"

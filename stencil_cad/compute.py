@@ -28,6 +28,7 @@ import copy
 import logging
 import os
 from collections.abc import Callable, Iterable, Iterator, Sequence
+from concurrent.futures import CancelledError
 from dataclasses import dataclass
 from typing import Any
 
@@ -41,8 +42,14 @@ log = logging.getLogger(__name__)
 # compiled kernels, Dask itself), in bytes; measured about 0.35 GB here, rounded up.
 WORKER_BASE_BYTES = int(0.6e9)
 
-# How long to wait for a remote scheduler to answer.
+# How long to wait for a remote scheduler to answer. A refused connection fails at once
+# (see _probe): Dask itself retries it until this timeout.
 CONNECT_TIMEOUT = "15s"
+PROBE_SECONDS = 5.0
+CLOSE_SECONDS = 5
+
+# Times a task whose scattered input was lost with its worker is sent again (with its input).
+RESEND = 3
 
 # Tasks kept in flight per worker: one running, one queued so a worker never waits for
 # the next input, and no more, so inputs waiting on workers stay bounded.
@@ -143,19 +150,61 @@ def plan(cfg: ComputeConfig, picture_px: int) -> Plan:
     if cfg.workers == 0:
         return Plan("in_process", reason="compute.workers is 0")
     if cfg.workers is not None:
-        return Plan("local", workers=int(cfg.workers), reason=f"compute.workers is {cfg.workers}")
+        n, cut = capped_workers(int(cfg.workers), cfg)
+        if cut:
+            log.warning("compute: %s", cut)
+        return Plan(
+            "local", workers=n, reason=f"compute.workers is {cfg.workers}" + (f"; {cut}" if cut else "")
+        )
     mpx = picture_px / 1e6
     if mpx <= cfg.dask_above_mpx:
         return Plan(
             "in_process",
             reason=f"the picture has {mpx:.3g} MP, not more than compute.dask_above_mpx {cfg.dask_above_mpx:g}",
         )
-    n = cores()
+    n, cut = capped_workers(cores(), cfg)
     return Plan(
         "local",
         workers=n,
-        reason=f"the picture has {mpx:.3g} MP, more than compute.dask_above_mpx {cfg.dask_above_mpx:g}",
+        reason=f"the picture has {mpx:.3g} MP, more than compute.dask_above_mpx {cfg.dask_above_mpx:g}"
+        + (f"; {cut}" if cut else ""),
     )
+
+
+def available_memory() -> int | None:
+    """Bytes the OS can give new processes without swapping (Linux ``MemAvailable``), or None."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            return next(int(ln.split()[1]) * 1024 for ln in f if ln.startswith("MemAvailable:"))
+    except (OSError, ValueError, IndexError, StopIteration):
+        return None
+
+
+def capped_workers(asked: int, cfg: ComputeConfig) -> tuple[int, str]:
+    """Local worker processes to start: ``asked``, cut to the cores and to the memory they may use.
+
+    Each worker runs one task on one core and may use ``compute.memory_per_task`` plus its
+    start-up size, so more workers than cores only queue, and more than the memory holds
+    end in the OS killing them.
+
+    Returns:
+        ``(workers, why it was cut or "")``.
+    """
+    per_worker = cfg.memory_per_task_bytes + WORKER_BASE_BYTES
+    free = available_memory()
+    by_memory = max(1, int(free // per_worker)) if free is not None else asked
+    n_cores = cores()
+    n = max(1, min(asked, n_cores, by_memory))
+    if n == asked:
+        return n, ""
+    if free is not None and by_memory < min(asked, n_cores):
+        why = (
+            f"{free / 1e9:.1f} GB of free memory, {per_worker / 1e9:.1f} GB per worker "
+            "(compute.memory_per_task plus the worker's start-up size)"
+        )
+    else:
+        why = f"{n_cores} core(s), one worker per core"
+    return n, f"{asked} workers asked, starting {n}: this machine has {why}"
 
 
 class TaskMemoryError(UserError):
@@ -293,6 +342,7 @@ class DaskExecutor(Executor):
             self.client = Client(self._cluster, set_as_default=False)
         else:
             try:
+                _probe(str(plan.address))
                 self.client = Client(plan.address, timeout=CONNECT_TIMEOUT, set_as_default=False)
             except (OSError, TimeoutError) as exc:
                 raise UserError(
@@ -335,6 +385,8 @@ class DaskExecutor(Executor):
         """
         from distributed import as_completed
 
+        if not self._connected():
+            raise self._scheduler_lost(desc)
         items = list(items) if count is None and not isinstance(items, Sequence) else items
         total = count if count is not None else len(items)  # type: ignore[arg-type]
         bar = self._progress(total, desc)
@@ -342,6 +394,7 @@ class DaskExecutor(Executor):
         self._maps += 1
         tag = f"{desc.replace(' ', '_')}-{self._maps}"
         source = iter(enumerate(items))
+        # future: (index, input, scattered data or None, worker or None, times sent)
         pending: dict = {}
         inline = INLINE_BYTES if self.plan.kind == "local" else REMOTE_INLINE_BYTES
         # This map's tasks in flight on each worker (scattered inputs only).
@@ -350,48 +403,85 @@ class DaskExecutor(Executor):
         next_out = 0
         ac = as_completed(loop=self.client.loop)
 
-        def submit() -> bool:
-            try:
-                i, item = next(source)
-            except StopIteration:
-                return False
-            key = f"{tag}-{i}"
+        def send(i: int, item: Any, sent: int) -> None:
+            key = f"{tag}-{i}" if sent == 0 else f"{tag}-{i}-again{sent}"
             if _pickled_size(item) <= inline:
                 # A small input travels with its task, which the scheduler then gives to
-                # whichever worker is free first.
+                # whichever worker is free first (and runs again elsewhere if that worker dies).
                 data, where = None, None
                 fut = self.client.submit(fn, item, pure=False, key=key)
             else:
                 # A large one goes to the cluster as data of its own, not inside the task graph
                 # (a decomposition tile is tens of MB), to the least busy worker; released with
-                # the result.
+                # the result. It lives on that worker only: this process keeps the input until
+                # the result arrives, and sends both again if the worker dies first.
                 data, where = self._scatter(item, load)
                 fut = self.client.submit(fn, data, pure=False, key=key)
-            pending[fut] = (i, data, where)
+            pending[fut] = (i, item if data is not None else None, data, where, sent)
             ac.add(fut)
+
+        def submit() -> bool:
+            try:
+                i, item = next(source)
+            except StopIteration:
+                return False
+            send(i, item, 0)
             return True
 
-        for _ in range(window):
-            if not submit():
-                break
         try:
+            for _ in range(window):
+                if not submit():
+                    break
             for fut in ac:
-                i, data, where = pending.pop(fut)
+                i, item, data, where, sent = pending.pop(fut)
                 if where in load:
                     load[where] = max(load[where] - 1, 0)
-                done[i] = self._result(fut, desc)
-                fut.release()
                 if data is not None:
                     data.release()
+                if self._lost_input(fut, data) and sent < RESEND:
+                    log.info("%s: task %d lost its input with a worker; sending both again", desc, i)
+                    fut.release()
+                    send(i, item, sent + 1)
+                    continue
+                done[i] = self._result(fut, desc)
+                fut.release()
                 bar.update(1)
                 interrupts.check()
                 submit()
                 while next_out in done:
                     yield done.pop(next_out)
                     next_out += 1
+        except (OSError, CancelledError, TimeoutError) as exc:
+            if self._connected():
+                raise
+            raise self._scheduler_lost(desc) from exc
         finally:
             for fut in pending:
                 fut.cancel()
+
+    def _connected(self) -> bool:
+        """True while the client is connected to its scheduler."""
+        return getattr(self.client, "status", "running") == "running"
+
+    def _lost_input(self, fut, data) -> bool:
+        """True when ``fut`` was cancelled because its scattered input went with a worker that died."""
+        return data is not None and fut.status == "cancelled" and self._connected()
+
+    def _scheduler_lost(self, desc: str) -> UserError:
+        where = (
+            f"the Dask scheduler at {self.plan.address}"
+            if self.plan.kind == "remote"
+            else "the local Dask cluster"
+        )
+        fix = (
+            f"restart it (`dask scheduler`) and its workers (`dask worker {self.plan.address}`), then run the job again"
+            if self.plan.kind == "remote"
+            else "run the job again"
+        )
+        return UserError(
+            f"{desc}: lost the connection to {where} (it stopped, or the network dropped); {fix}; no partial "
+            "outputs were kept"
+        )
 
     def _scatter(self, item: Any, load: dict[str, int]) -> tuple[Any, str | None]:
         """Send ``item`` to the running worker with the fewest of ``load``'s tasks; count it there.
@@ -416,19 +506,24 @@ class DaskExecutor(Executor):
             # The lowest address among the least busy, so the choice does not hang on dict order.
             where = min(load, key=lambda a: (load[a], a))
             try:
-                data = self.client.scatter(item, hash=False, workers=[where])
+                # In a list of one: Dask scatters the elements of a list or tuple one by one.
+                data = self.client.scatter([item], hash=False, workers=[where])[0]
             except (KeyError, TimeoutError):
                 pass
             else:
                 load[where] += 1
                 return data, where
-        return self.client.scatter(item, hash=False), None
+        return self.client.scatter([item], hash=False)[0], None
 
     def _result(self, fut, desc: str) -> Any:
         from distributed import KilledWorker
 
         try:
             return fut.result()
+        except CancelledError:
+            if not self._connected():
+                raise self._scheduler_lost(desc) from None
+            raise
         except KilledWorker:
             raise UserError(
                 f"{desc}: a worker died running a task (most often it ran out of memory: each worker may use "
@@ -440,11 +535,37 @@ class DaskExecutor(Executor):
         """Stop the progress bar, the client and a cluster this executor started."""
         super().close()
         with contextlib.suppress(Exception):
-            self.client.close()
+            # A client that lost its scheduler would otherwise try to reconnect until its timeout.
+            self.client.close(timeout=CLOSE_SECONDS)
         if self._cluster is not None:
             with contextlib.suppress(Exception):
                 self._cluster.close()
             self._cluster = None
+
+
+def _probe(address: str) -> None:
+    """Fail at once when nothing listens at a TCP scheduler address (Dask retries until its timeout).
+
+    Raises:
+        ConnectionRefusedError: The host answered that nothing listens on that port.
+    """
+    import socket
+
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        scheme, loc = parse_address(address)
+        host, port = parse_host_port(loc, default_port=8786)
+    except (ValueError, TypeError):
+        return  # Dask names the problem with the address itself
+    if scheme not in ("tcp", "tls"):
+        return
+    try:
+        socket.create_connection((host, port), timeout=PROBE_SECONDS).close()
+    except ConnectionRefusedError as exc:
+        raise ConnectionRefusedError(exc.errno, f"connection refused by {host}:{port}") from None
+    except OSError:
+        pass  # no answer yet (a slow network): Dask waits up to CONNECT_TIMEOUT
 
 
 def _pickled_size(item: Any) -> int:
@@ -457,9 +578,18 @@ def _pickled_size(item: Any) -> int:
 
 
 def _quiet_dask_logs() -> None:
-    """Dask's own INFO lines (cluster start, slow event loops) are noise to a user; -v keeps them."""
-    level = logging.DEBUG if logging.getLogger("stencil_cad").isEnabledFor(logging.DEBUG) else logging.ERROR
-    for name in ("distributed", "tornado"):
+    """Dask's own log lines are noise to a user; -v keeps them.
+
+    Its INFO lines report a cluster's start and slow event loops; its ERROR lines repeat, less
+    clearly, what the job then reports in one line (a lost scheduler was logged as "failed to
+    reconnect after 15.00 seconds" whatever the time it took).
+    """
+    level = (
+        logging.DEBUG if logging.getLogger("stencil_cad").isEnabledFor(logging.DEBUG) else logging.CRITICAL
+    )
+    # Dask's logging config gives some of its loggers (distributed.client ...) a level of their own.
+    names = [n for n in logging.root.manager.loggerDict if n.split(".")[0] in ("distributed", "tornado")]
+    for name in {"distributed", "tornado", "distributed.client", *names}:
         logging.getLogger(name).setLevel(level)
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import math
 from importlib import resources
 from pathlib import Path
 
@@ -10,7 +11,8 @@ import numpy as np
 from PIL import Image, ImageOps, UnidentifiedImageError
 
 from .colour import distinct_colours
-from .errors import ImageError
+from .errors import ConfigError, ImageError
+from .files import DATA_LIMIT, open_input
 from .model import Picture
 
 log = logging.getLogger(__name__)
@@ -29,6 +31,14 @@ DECODE_MARGIN = 2.0
 #: Above this many decoded bytes, a non-JPEG file is streamed through libvips: Pillow
 #: decodes a PNG whole (a 15000 x 15000 RGB PNG is 675 MB as uint8).
 STREAM_BYTES = 64 * 1024 * 1024
+
+#: Largest working picture (the grid every stage works on), in pixels: 64 MP is 1.5 GB as float64
+#: RGB, and a stage holds a few such copies (a 4 m x 4 m picture at 2 px/mm).
+MAX_GRID_PIXELS = 64_000_000
+
+#: Most bytes the decoded picture may take as float64 RGB before it is resampled to the grid,
+#: when a smaller decode still covers the grid (see ``_budget_factor``).
+DECODE_BUDGET = 512 * 1024 * 1024
 
 # Our own limit replaces Pillow's, whose warnings and errors say nothing a maker can act on.
 Image.MAX_IMAGE_PIXELS = None
@@ -64,12 +74,12 @@ def read_image(
             empty, or has non-finite pixel values.
     """
     path = Path(path)
-    if not path.exists():
-        raise ImageError(f"image not found: {path} (check the path, or the `image:` key of the config)")
-    if path.is_dir():
-        raise ImageError(f"image path is a folder, not a file: {path} (give an image file)")
+    fix = "check the path, or the `image:` key of the config"
     try:
-        with Image.open(path) as im:
+        with (
+            open_input(path, "image", limit=DATA_LIMIT, error=ImageError, fix=fix) as fh,
+            Image.open(fh) as im,
+        ):
             w, h = im.size
             if w < 1 or h < 1:
                 raise ImageError(f"image is empty: {path}")
@@ -81,11 +91,14 @@ def read_image(
                     f"{MAX_PIXELS / 1e6:.0f} MP stencil-cad reads; downscale it"
                     + (f" (this job needs only about {min_size[0]} × {min_size[1]} px)" if min_size else "")
                 )
+            _check_grid(path, (w, h), min_size)
             # Before EXIF rotation the sides may swap: bound by the short side against the long need.
             k = _reduce_factor((min(w, h),) * 2, (max(min_size),) * 2 if min_size else None)
             big = w * h * len(im.getbands()) * (2 if im.mode.startswith("I;16") else 1) > STREAM_BYTES
-            if k > 1 and big and im.format != "JPEG":
-                return _read_streamed(path, (w, h), k)
+            kf = _budget_factor((min(w, h),) * 2, (max(min_size),) * 2 if min_size else None, k)
+            if big and kf > 1 and (im.format != "JPEG" or k == 1):
+                # Streamed, never whole: also a JPEG whose DCT scaling cannot shrink it (k = 1).
+                return _read_streamed(path, (w, h), kf)
             if k > 1 and im.format == "JPEG":
                 im.draft("RGB" if im.mode not in ("L", "1") else im.mode, (w // k, h // k))
             im.load()
@@ -127,15 +140,49 @@ def _reduce_factor(size: tuple[int, int], min_size: tuple[int, int] | None) -> i
     return max(1, int(min(kw, kh)))
 
 
-def _read_streamed(path: Path, size: tuple[int, int], k: int):
-    """Decode a large non-JPEG file shrunk by ``k`` while streaming (libvips), never whole."""
+def _check_grid(path: Path, size: tuple[int, int], min_size: tuple[int, int] | None) -> None:
+    """Refuse, before decoding, a working picture larger than :data:`MAX_GRID_PIXELS`.
+
+    Raises:
+        ConfigError: With the grid's size, its memory and the settings that make it smaller.
+    """
+    if min_size is None:
+        return
+    gw = min_size[0]
+    gh = min_size[1] if min_size[1] > 1 else max(1, round(gw * size[1] / size[0]))
+    if gw * gh <= MAX_GRID_PIXELS:
+        return
+    shrink = (MAX_GRID_PIXELS / (gw * gh)) ** 0.5
+    raise ConfigError(
+        f"size: the working picture of {path} would be {gw} × {gh} px ({gw * gh / 1e6:.0f} MP, "
+        f"{gw * gh * 24 / 1e9:.1f} GB for each copy of its colours), more than the {MAX_GRID_PIXELS / 1e6:.0f} MP "
+        f"stencil-cad works on; lower size.px_per_mm or size.width_mm by a factor of {1 / shrink:.2f} or more"
+    )
+
+
+def _budget_factor(size: tuple[int, int], min_size: tuple[int, int] | None, k: int) -> float:
+    """Shrink factor for a streamed decode: ``k``, or onto the grid itself when ``k`` costs too much.
+
+    The decoded picture becomes float64 RGB (24 bytes a pixel) before it is resampled onto the
+    working grid; at ``DECODE_MARGIN`` times a big grid's sides (a 15000 px PNG onto 4000 px,
+    k = 1) that is 1.5 GB and more. Above ``DECODE_BUDGET`` libvips shrinks the file straight to
+    the grid's size (its own antialiasing filter), and no second resampling is needed.
+    """
+    if min_size is None or DECODE_MARGIN**2 * 24.0 * min_size[0] * min_size[1] <= DECODE_BUDGET:
+        return float(k)
+    kf = min(size[0] / min_size[0], size[1] / min_size[1])
+    return max(float(k), kf, 1.0)
+
+
+def _read_streamed(path: Path, size: tuple[int, int], k: float):
+    """Decode a large file shrunk by ``k`` while streaming (libvips), never whole."""
     import pyvips
 
     w, h = size
+    # An integer factor as before; a fractional one (the memory budget's) rounds up, never below the grid.
+    sw, sh = (int(w // k), int(h // k)) if float(k).is_integer() else (math.ceil(w / k), math.ceil(h / k))
     try:
-        img = pyvips.Image.thumbnail(
-            str(path), max(1, w // k), height=max(1, h // k), size="force", linear=False
-        )
+        img = pyvips.Image.thumbnail(str(path), max(1, sw), height=max(1, sh), size="force", linear=False)
         fmt = {"uchar": np.uint8, "ushort": np.uint16, "float": np.float32, "double": np.float64}.get(
             img.format
         )
@@ -154,7 +201,10 @@ def _read_streamed(path: Path, size: tuple[int, int], k: int):
     grey = bands in (1, 2)
     colour = a[..., :1] if grey else a[..., :3]
     alpha = a[..., -1].astype(np.float64) / top if bands in (2, 4) else None
-    rgb = np.clip(colour.astype(np.float64) / top, 0.0, 1.0)
+    rgb = colour.astype(np.float64)  # one float copy, scaled and clipped in place
+    del a, colour
+    rgb /= top
+    np.clip(rgb, 0.0, 1.0, out=rgb)
     if grey:
         rgb = np.repeat(rgb, 3, axis=2)
     if alpha is not None and np.all(alpha >= 1.0):

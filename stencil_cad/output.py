@@ -29,6 +29,7 @@ import json
 import logging
 import os
 import shutil
+import stat
 import tempfile
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
@@ -36,8 +37,9 @@ from pathlib import Path
 import numpy as np
 
 from . import interrupts
-from .errors import OutputError
+from .errors import OutputError, UserError
 from .exchange.png import png_bytes
+from .files import kind, read_bytes
 
 log = logging.getLogger(__name__)
 
@@ -52,6 +54,19 @@ _ASIDE = "set-aside"
 def manifest_header() -> dict:
     """Keys that mark a manifest as written by stencil-cad (see :meth:`OutputDir.owned`)."""
     return {"generator": GENERATOR, "manifest_version": 1}
+
+
+#: Largest manifest read back, in bytes (a 10 m² mural's lists about 2,000 files).
+MANIFEST_LIMIT = 64 << 20
+
+
+def read_manifest(path: Path) -> dict | None:
+    """The JSON object in a manifest file, or None when it is absent, not a regular file, or not JSON."""
+    try:
+        data = json.loads(read_bytes(path, "manifest", limit=MANIFEST_LIMIT))
+    except (UserError, OSError, ValueError, RecursionError):
+        return None
+    return data if isinstance(data, dict) else None
 
 
 def _umask() -> int:
@@ -262,13 +277,10 @@ class OutputDir:
         """
         if self._owned is None:
             self._owned = {}
-            try:
-                data = json.loads((self.path / MANIFEST).read_text(encoding="utf-8"))
-            except (OSError, ValueError):
+            data = read_manifest(self.path / MANIFEST)
+            if data is None:
                 return self._owned
-            ours = isinstance(data, dict) and (
-                data.get("generator") == GENERATOR or ("stencil_cad" in data and "versions" in data)
-            )
+            ours = data.get("generator") == GENERATOR or ("stencil_cad" in data and "versions" in data)
             self._manifest_ours = bool(ours)
             rows = data.get("files") if ours else None
             if isinstance(rows, list):
@@ -320,6 +332,13 @@ class OutputDir:
             raise OutputError(
                 f"{final} is a folder where stencil-cad writes a file (move it away or choose another --out)"
             )
+        with contextlib.suppress(OSError):
+            mode = os.stat(final).st_mode
+            if not stat.S_ISREG(mode):
+                raise OutputError(
+                    f"{final} is {kind(mode)}, not a regular file: stencil-cad replaces only regular files "
+                    "(move it away, or choose another --out)"
+                )
         if name in self.replaceable and (self.is_ours(name) or not final.exists()):
             return
         if not self.force:

@@ -23,7 +23,7 @@ from . import __version__, interrupts
 from .colour import to_hex
 from .config import ComputeConfig, JobConfig, Mode
 from .config.spray import SprayModel
-from .errors import OutputError, UserError
+from .errors import ConfigError, OutputError, UserError
 from .model import CutLayer, DotSet, Holes, Layers, Picture, coat_contrast
 from .output import MANIFEST, OutputDir, manifest_header
 from .output import plain as _plain
@@ -70,6 +70,8 @@ class Run:
     template: dict | None = None
     #: Images for the instruction sheet that are not result files (PNG bytes by name).
     sheet_images: dict = field(default_factory=dict)
+    #: Files of later stages this stage command left in the folder, made from older inputs.
+    stale: list = field(default_factory=list)
 
     def rng_for(self, stage: str, index: int = 0) -> np.random.Generator:
         """An independent generator per stage and layer, derived from the seed.
@@ -344,14 +346,14 @@ def can_names(figures: dict) -> dict[str, str]:
 def read_layers(folder: Path) -> Layers:
     """Read the decomposition a previous `decompose` or `run` saved."""
     from .exchange.layers_npz import layers_from_npz
+    from .files import DATA_LIMIT, open_input
 
     path = folder / LAYERS_NPZ
-    if not path.exists():
-        raise UserError(f"{path} not found (run `stencil-cad decompose` first, or pass --from DIR)")
     import zipfile
 
+    fix = "run `stencil-cad decompose` first, or pass --from DIR"
     try:
-        with np.load(path) as data:
+        with open_input(path, "decomposition", limit=DATA_LIMIT, fix=fix) as fh, np.load(fh) as data:
             return layers_from_npz(dict(data))
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
         raise UserError(
@@ -736,9 +738,18 @@ def plate_cards(
     return cards
 
 
-def read_dots(folder: Path, count: int | None = None) -> list[DotSet]:
-    """Read the dots CSV files of a folder, in layer order."""
+def read_dots(folder: Path, count: int | None = None, max_time: float = 800.0) -> list[DotSet]:
+    """Read the dots CSV files of a folder, in layer order, with ``spray.json``'s spray times.
+
+    Args:
+        folder: The run folder.
+        count: Layers of the decomposition (the files must match), or None.
+        max_time: Largest spray time ``spray.json`` may give a layer (8 x the config's cap:
+            the tone calibration chooses up to 8 x the base amount).
+    """
     from .exchange.dots_csv import dots_from_csv
+    from .files import DATA_LIMIT
+    from .files import read_text as read_checked
 
     files = sorted(folder.glob("layer_*_dots.csv"))
     if not files:
@@ -749,9 +760,10 @@ def read_dots(folder: Path, count: int | None = None) -> list[DotSet]:
         raise UserError(f"{folder} has {len(files)} dots files but the decomposition has {count} layers")
     out = []
     for f in files:
+        text = read_checked(f, "dots file", limit=DATA_LIMIT, fix="re-run `stencil-cad stipple`")
         try:
-            out.append(dots_from_csv(f.read_text(encoding="utf-8")))
-        except (ValueError, UnicodeDecodeError) as exc:
+            out.append(dots_from_csv(text))
+        except ValueError as exc:
             raise UserError(f"{f}: {str(exc)[:300]}") from None
         if len(out[-1]) == 0:
             log.warning(
@@ -760,27 +772,42 @@ def read_dots(folder: Path, count: int | None = None) -> list[DotSet]:
                 f,
             )
     spray = folder / SPRAY_JSON
-    if spray.exists():
-        import json
-        import math
+    if spray.exists() or spray.is_symlink():
         from dataclasses import replace
 
-        try:
-            times = json.loads(spray.read_text(encoding="utf-8"))["spray_times"]
-            times = [float(t) for t in times]
-            if not all(math.isfinite(t) and t > 0 for t in times):
-                raise ValueError("spray times must be positive numbers")
-        except (ValueError, KeyError, TypeError, UnicodeDecodeError):
-            raise UserError(
-                f"{spray}: not a valid spray-time file (a list of positive numbers under spray_times); "
-                "fix it, or delete it to use spray.spray_time"
-            ) from None
-        if len(times) == len(out):
-            out = [
-                replace(ds, report={**ds.report, "spray_time": float(t)})
-                for ds, t in zip(out, times, strict=True)
-            ]
+        times = read_spray_times(spray, len(out), max_time)
+        out = [replace(ds, report={**ds.report, "spray_time": t}) for ds, t in zip(out, times, strict=True)]
     return out
+
+
+def read_spray_times(path: Path, layers: int, max_time: float) -> list[float]:
+    """The per-layer spray times of a ``spray.json``: one per layer, each in (0, ``max_time``].
+
+    Raises:
+        UserError: Not a regular file, not JSON, or the list's length or a value is wrong (named).
+    """
+    import math
+
+    from .config.io import parse_json
+    from .files import read_text as read_checked
+
+    fix = "fix it, or delete it to use spray.spray_time"
+    bad = f"{path}: not a valid spray-time file"
+    try:
+        data = parse_json(read_checked(path, "spray-time file", fix=fix), str(path))
+    except ConfigError as exc:
+        raise UserError(f"{bad} ({str(exc).removeprefix(f'{path}: ')}); {fix}") from None
+    times = data.get("spray_times") if isinstance(data, dict) else None
+    if not isinstance(times, list) or not all(
+        isinstance(t, (int, float)) and not isinstance(t, bool) for t in times
+    ):
+        raise UserError(f"{bad}: spray_times must be a list of numbers, one per layer; {fix}")
+    if len(times) != layers:
+        raise UserError(f"{bad}: spray_times has {len(times)} values but there are {layers} layers; {fix}")
+    for i, t in enumerate(times):
+        if not (math.isfinite(t) and 0 < t <= max_time):
+            raise UserError(f"{bad}: spray_times[{i}] must be in (0, {max_time:g}], got {t!r}; {fix}")
+    return [float(t) for t in times]
 
 
 def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tuple[float, float]) -> None:
@@ -1237,6 +1264,7 @@ def finish(run: Run, command: str) -> list[Path]:
     old_path = run.out.path / MANIFEST
     if command != "run" and command != "hard" and old_path.exists():
         manifest = _merge_manifest(old_path, manifest, run.out)
+        run.stale = manifest.get("stale", {}).get("files", [])
     if command in ("run", "hard") and run.cfg.export.instructions:
         with run.stage("instructions"):
             write_instructions(run, manifest)
@@ -1272,13 +1300,10 @@ def write_instructions(run: Run, manifest: dict, tiles: list | None = None) -> N
 
 def _merge_manifest(old_path: Path, new: dict, out: OutputDir) -> dict:
     """A stage command adds its figures and files to the folder's existing manifest."""
-    import json
+    from .output import read_manifest
 
-    try:
-        old = json.loads(old_path.read_text())
-    except (OSError, ValueError):
-        return new
-    if not isinstance(old, dict):
+    old = read_manifest(old_path)
+    if old is None:
         return new
     merged = {**old, **{k: v for k, v in new.items() if k not in ("seconds", "files")}}
     merged.update(manifest_header())
@@ -1293,7 +1318,51 @@ def _merge_manifest(old_path: Path, new: dict, out: OutputDir) -> dict:
         and (out.path / str(row.get("name"))).is_file()
     ]
     merged["files"] = kept + new["files"]
+    merged.pop("stale", None)
+    stale = stale_files(new["command"], [str(r["name"]) for r in kept], old.get("stale"), written)
+    if stale:
+        later = ", ".join(f"`stencil-cad {c}`" for c in LATER_STAGES.get(new["command"], ()))
+        merged["stale"] = {
+            "files": stale,
+            "why": f"made before `stencil-cad {new['command']}` ran again; re-run {later or 'them'} (or `stencil-cad run`)",
+        }
     return merged
+
+
+#: The files each stage writes (shell patterns), for telling which files a re-run makes stale.
+STAGE_FILES = {
+    "stipple": ("layer_*_dots.csv", "layer_*_dots.png", SPRAY_JSON, "swatch.png"),
+    "build": ("layer_[0-9][0-9].*", "wall*.step", "wall*.stl", "tile_*", "mural_map.png"),
+    "simulate": ("simulated*.png", "preview.png", "sweep.png", "layer_*_after.png"),
+    "instructions": INSTRUCTIONS,
+}
+#: The stages that read what each stage writes, directly or through another.
+LATER_STAGES = {
+    "decompose": ("stipple", "build", "simulate"),
+    "stipple": ("build", "simulate"),
+    "build": (),
+    "simulate": (),
+}
+
+
+def stale_files(command: str, kept: list[str], earlier: object, written: set[str]) -> list[str]:
+    """Files left in a folder that a re-run of ``command`` made out of date.
+
+    Args:
+        command: The stage command that just ran.
+        kept: Names of the files it left in place.
+        earlier: The manifest's ``stale`` record before this run (its files stay stale).
+        written: Names this run wrote (no longer stale).
+
+    Returns:
+        Sorted names: files of later stages (and the instruction sheet, which shows every stage).
+    """
+    import fnmatch
+
+    before = set(earlier.get("files", [])) if isinstance(earlier, dict) else set()
+    stages = (*LATER_STAGES.get(command, ()), "instructions")
+    now = {n for n in kept if any(fnmatch.fnmatch(n, p) for s in stages for p in STAGE_FILES[s])}
+    return sorted(((before & set(kept)) | now) - written)
 
 
 def _versions() -> dict:
@@ -1679,12 +1748,13 @@ def run_command(
     """
     stage_cmd = command in STAGE_COMMANDS
     src = (src or out_path) if stage_cmd else None
+    # `decompose` is a stage too: it adds to a run's folder and never removes later stages' files.
     run = Run(cfg=cfg, out=None, quiet=quiet)  # type: ignore[arg-type]
     # Everything that can be checked is checked before the first stage: the template (Python
     # code, loaded now), the output folder (created, locked, probed for writing), the image.
     if command in ("run", "hard", "build"):
         check_template(run)
-    out = OutputDir(out_path, force=force, allow_existing=stage_cmd)
+    out = OutputDir(out_path, force=force, allow_existing=stage_cmd or command == "decompose")
     run.out = out
     t0 = time.perf_counter()
     try:
@@ -1742,7 +1812,7 @@ def _run_stage_command(
         )
     dotsets = None
     if command != "stipple":
-        dotsets = read_dots(src, layers.count)
+        dotsets = read_dots(src, layers.count, max_time=8.0 * cfg.spray.amount_cap)
         if command == "build":
             check_dots(cfg, dotsets, size)
     # Every refusal above comes before any worker starts; the tasks then run where the whole
@@ -1784,19 +1854,107 @@ def slice_plates(
     Raises:
         UserError: An STL is missing, an output exists, or the slicer is not installed.
     """
-    import math
+    from . import slicing
+
+    prof = slicing.get_profile(profile)
+    overrides = _bed_overrides(prof, bed)
+    jobs = _slice_jobs(stls, prof, bed, prof.suffix, force=force, timeout_s=timeout_s)
+    for stl, out, turn in jobs:
+        # A slice killed earlier (SIGKILL, power loss) may have left these: they are ours by name.
+        tmp = out.with_name(f".{out.name}.partial{prof.suffix}")
+        slicing.remove_partial(tmp)
+        try:
+            result = slicing.slice_plate(
+                stl, tmp, prof, timeout_s=timeout_s, overrides=overrides, rotate_deg=turn
+            )
+        except slicing.SlicerNotFoundError as exc:
+            slicing.remove_partial(tmp)
+            raise UserError(f"{exc}") from None
+        except BaseException:
+            slicing.remove_partial(tmp)
+            raise
+        if result.ok:
+            tmp.replace(out)
+        slicing.remove_partial(tmp)
+        yield stl, out, result
+
+
+def plate_projects(
+    stls: list[Path],
+    profile: str,
+    *,
+    force: bool = False,
+    timeout_s: float = 300.0,
+    bed: str | tuple[float, float] | None = None,
+) -> Iterator[tuple[Path, Path, str | None]]:
+    """Write a PrusaSlicer 3MF project (plate as tiles, every setting inside) beside each STL.
+
+    Args:
+        stls: The plates' STL files.
+        profile: A shipped PrusaSlicer profile name (``prusa_fdm``, ``prusa_sla``).
+        force: Replace existing ``.3mf`` files.
+        timeout_s: Seconds before a PrusaSlicer run is killed. Defaults to 300 s.
+        bed: The printer's bed (a preset name or ``(x_mm, y_mm)``) replacing the profile's.
+
+    Yields:
+        ``(stl, output, error)`` per plate; ``error`` is None when the project was written.
+
+    Raises:
+        UserError: An STL is missing, an output exists, the profile is not PrusaSlicer's, or
+            PrusaSlicer is not installed.
+    """
+    import subprocess
 
     from . import slicing
 
     prof = slicing.get_profile(profile)
+    if prof.slicer is not slicing.Slicer.PRUSA:
+        raise UserError(f"--project writes PrusaSlicer projects; {profile} is a CuraEngine profile")
+    overrides = _bed_overrides(prof, bed)
+    jobs = _slice_jobs(stls, prof, bed, ".3mf", force=force, timeout_s=timeout_s)
+    for stl, out, turn in jobs:
+        tmp = out.with_name(f".{out.name}.partial.3mf")
+        slicing.remove_partial(tmp)
+        try:
+            slicing.plate_project(
+                stl, tmp, prof, timeout_s=timeout_s, overrides=overrides, rotate_deg=turn or 0
+            )
+        except slicing.SlicerNotFoundError as exc:
+            slicing.remove_partial(tmp)
+            raise UserError(f"{exc}") from None
+        except (RuntimeError, subprocess.TimeoutExpired) as exc:
+            slicing.remove_partial(tmp)
+            yield stl, out, str(exc)
+            continue
+        except BaseException:
+            slicing.remove_partial(tmp)
+            raise
+        tmp.replace(out)
+        yield stl, out, None
+
+
+def _slice_jobs(
+    stls: list[Path], prof, bed, suffix: str, *, force: bool, timeout_s: float
+) -> list[tuple[Path, Path, int]]:
+    """``(stl, output, turn)`` per plate, every input and output checked before the first slicer run.
+
+    ``turn`` is 0, or 90 for a part that fits the bed only turned a quarter turn.
+
+    Raises:
+        UserError: A bad ``--timeout``, an STL missing, not a regular file, not an STL or larger
+            than the bed, or an output in the way (a folder, device, FIFO, or a file without ``force``).
+    """
+    import math
+
+    from . import slicing
+    from .files import DATA_LIMIT, check_input, check_target
+
     if not (math.isfinite(timeout_s) and timeout_s > 0):
         raise UserError(f"--timeout must be a positive number of seconds, got {timeout_s}")
-    overrides = _bed_overrides(prof, bed)
     bed = slicing.bed_size(prof) if bed is None else _bed_xy(bed)
     jobs = []
     for stl in stls:
-        if not stl.is_file():
-            raise UserError(f"STL not found: {stl} (run `stencil-cad run` first, or check the path)")
+        check_input(stl, "STL", limit=DATA_LIMIT, fix="run `stencil-cad run` first, or check the path")
         try:
             size = slicing.stl_footprint(stl)
         except ValueError:
@@ -1817,81 +1975,12 @@ def slice_plates(
                 + (f", another profile (--profile {' or '.join(fits)})" if fits else "")
                 + ", or a printer with a larger bed (copy the profile and edit its bed size)"
             )
-        out = stl.with_suffix(prof.suffix)
+        out = stl.with_suffix(suffix)
         if out.is_dir():
             raise OutputError(f"{out} is a folder where the sliced file goes (move it away)")
-        if out.exists() and not force:
-            raise OutputError(f"{out} already exists (use --force to replace it)")
+        check_target(out, "sliced file", force=force, error=OutputError)
         jobs.append((stl, out, lay.rotate_deg))
-    for stl, out, turn in jobs:
-        tmp = out.with_name(f".{out.name}.partial{prof.suffix}")
-        try:
-            result = slicing.slice_plate(
-                stl, tmp, prof, timeout_s=timeout_s, overrides=overrides, rotate_deg=turn
-            )
-        except slicing.SlicerNotFoundError as exc:
-            tmp.unlink(missing_ok=True)
-            raise UserError(f"{exc}") from None
-        except BaseException:
-            tmp.unlink(missing_ok=True)
-            raise
-        if result.ok:
-            tmp.replace(out)
-        else:
-            tmp.unlink(missing_ok=True)
-        yield stl, out, result
-
-
-def plate_projects(
-    stls: list[Path], profile: str, *, force: bool = False, timeout_s: float = 300.0
-) -> Iterator[tuple[Path, Path, str | None]]:
-    """Write a PrusaSlicer 3MF project (plate as tiles, every setting inside) beside each STL.
-
-    Args:
-        stls: The plates' STL files.
-        profile: A shipped PrusaSlicer profile name (``prusa_fdm``, ``prusa_sla``).
-        force: Replace existing ``.3mf`` files.
-        timeout_s: Seconds before a PrusaSlicer run is killed. Defaults to 300 s.
-
-    Yields:
-        ``(stl, output, error)`` per plate; ``error`` is None when the project was written.
-
-    Raises:
-        UserError: An STL is missing, an output exists, the profile is not PrusaSlicer's, or
-            PrusaSlicer is not installed.
-    """
-    import subprocess
-
-    from . import slicing
-
-    prof = slicing.get_profile(profile)
-    if prof.slicer is not slicing.Slicer.PRUSA:
-        raise UserError(f"--project writes PrusaSlicer projects; {profile} is a CuraEngine profile")
-    jobs = []
-    for stl in stls:
-        if not stl.is_file():
-            raise UserError(f"STL not found: {stl} (run `stencil-cad run` first, or check the path)")
-        out = stl.with_suffix(".3mf")
-        if out.exists() and not force:
-            raise OutputError(f"{out} already exists (use --force to replace it)")
-        try:
-            turn = slicing.place(slicing.stl_footprint(stl), slicing.bed_size(prof)).rotate_deg
-        except ValueError:
-            raise UserError(f"{stl} is not an STL file (give a plate's layer_NN.stl)") from None
-        jobs.append((stl, out, turn or 0))
-    for stl, out, turn in jobs:
-        tmp = out.with_name(f".{out.name}.partial.3mf")
-        try:
-            slicing.plate_project(stl, tmp, prof, timeout_s=timeout_s, rotate_deg=turn)
-        except slicing.SlicerNotFoundError as exc:
-            tmp.unlink(missing_ok=True)
-            raise UserError(f"{exc}") from None
-        except (RuntimeError, subprocess.TimeoutExpired) as exc:
-            tmp.unlink(missing_ok=True)
-            yield stl, out, str(exc)
-            continue
-        tmp.replace(out)
-        yield stl, out, None
+    return jobs
 
 
 def _bed_xy(bed) -> tuple[float, float]:
@@ -1926,13 +2015,8 @@ def write_default_config(path: Path, *, force: bool = False) -> None:
         OutputError: ``path`` is a folder, its folder does not exist, or it exists and not ``force``.
     """
     from .config import io as cfg_io
+    from .files import write_text_over
 
     if path.is_dir():
         raise OutputError(f"{path} is a folder; give a file path such as {path / 'stencil.yaml'}")
-    if not path.parent.is_dir():
-        raise OutputError(f"folder {path.parent} does not exist (create it first, or give another path)")
-    if path.exists() and not force:
-        raise OutputError(f"{path} already exists (use --force to replace it, or give another path)")
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(cfg_io.default_yaml(), encoding="utf-8")
-    tmp.replace(path)
+    write_text_over(path, cfg_io.default_yaml(), "config", force=force, error=OutputError)

@@ -134,6 +134,12 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
         lines.append(
             f"  removed   {len(removed)} file(s) of the earlier run not written again: " + _wrap(removed)
         )
+    stale = list(getattr(run, "stale", []) or [])
+    if stale:
+        lines.append(
+            f"  stale     {len(stale)} file(s) of later stages made from the earlier inputs (listed under "
+            "`stale` in manifest.json; re-run those stages): " + _wrap(stale)
+        )
     for warning in getattr(run, "warnings", []) or []:
         lines.append(f"  warning   {warning}")
     return "\n".join(lines)

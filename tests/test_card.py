@@ -195,3 +195,23 @@ def test_card_command_exports_checked_plate_walls_and_sheet(tmp_path):
     assert doc.layers.get("CARD_SCORE").color != doc.layers.get("CARD").color
     assert len(doc.modelspace().query('LWPOLYLINE[layer=="CARD_SCORE"]')) > 3
     assert main(["card", "--out", str(out), "-q"]) == 2  # not empty: no --force
+
+
+@pytest.mark.slow
+def test_a_photo_of_another_card_is_refused(layout, tmp_path, capsys):
+    """A photo of an SLA job's card measured with the default (FDM) card's card.json: exit 2."""
+    from stencil_cad.config.io import parse_config
+
+    other = card_layout(parse_config({"stipple": {"process": "sla"}}, "sla"), [3.0, 12.0])
+    card = tmp_path / "card.json"
+    card.write_text(json.dumps(card_description(layout)))
+    photo = _photo(other, tmp_path, settings=PhotoSettings(jpeg_quality=None))
+    out = tmp_path / "p.yaml"
+    code = main(["calibrate", str(photo), "--card", str(card), "--out", str(out)])
+    cap = capsys.readouterr()
+    err = cap.err + cap.out
+    assert code == 2, err
+    assert "does not match the card description" in err and "times the photo's noise" in err, err
+    assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        ["card.json", photo.name]
+    )

@@ -36,6 +36,7 @@ def test_bad_compute_values_name_the_key():
 
 def test_small_jobs_stay_in_process_big_ones_start_a_cluster(monkeypatch):
     monkeypatch.setattr(compute, "cores", lambda: 3)
+    monkeypatch.setattr(compute, "available_memory", lambda: 64e9)
     cfg = JobConfig().compute
     small = compute.plan(cfg, 2_000_000)
     assert small.kind == "in_process" and "not more than" in small.reason
@@ -144,11 +145,11 @@ class _FakeClient:
     def scheduler_info(self):
         return {"workers": {a: {"status": st} for a, st in self.workers.items()}}
 
-    def scatter(self, item, hash=True, workers=None):
+    def scatter(self, items, hash=True, workers=None):
         if workers and workers[0] in self.gone:
             raise KeyError(workers[0])
         self.sent.append(workers)
-        return item
+        return list(items)
 
 
 def test_large_inputs_go_to_the_least_busy_running_worker():
@@ -229,3 +230,36 @@ def test_tiled_decomposition_on_two_workers_writes_the_in_process_bytes(tmp_path
     assert _files(outs["0"]) == _files(outs["2"])
     rows = {w: {r["name"]: r["sha256"] for r in m["files"]} for w, m in manifests.items()}
     assert rows["0"] == rows["2"]
+
+
+def test_workers_are_cut_to_the_cores_and_the_memory(monkeypatch, caplog):
+    monkeypatch.setattr(compute, "cores", lambda: 2)
+    monkeypatch.setattr(compute, "available_memory", lambda: 64e9)
+    with caplog.at_level(logging.WARNING, logger="stencil_cad.compute"):
+        p = compute.plan(ComputeConfig(workers=1000), 10)
+    assert p.workers == 2 and "1000 workers asked, starting 2" in p.reason and "2 core(s)" in caplog.text
+    # 6 GB free at 2 GB per task plus the start-up size: 2 workers of the 8 cores.
+    monkeypatch.setattr(compute, "cores", lambda: 8)
+    monkeypatch.setattr(compute, "available_memory", lambda: 6e9)
+    p = compute.plan(ComputeConfig(workers=8), 10)
+    assert p.workers == 2 and "6.0 GB of free memory" in p.reason and "memory_per_task" in p.reason
+    # The automatic count (a big picture) is cut too; never below one worker.
+    monkeypatch.setattr(compute, "available_memory", lambda: 1e9)
+    assert compute.plan(ComputeConfig(), 10**9).workers == 1
+    assert compute.plan(ComputeConfig(workers=1), 10).reason == "compute.workers is 1"
+
+
+def test_a_refused_connection_fails_at_once(monkeypatch):
+    import socket
+    import time
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]  # closed again: nothing listens there
+    t0 = time.monotonic()
+    with pytest.raises(
+        UserError, match=rf"cannot reach the Dask scheduler at tcp://127\.0\.0\.1:{port}.*refused"
+    ):
+        with compute.executor(ComputeConfig(scheduler=f"tcp://127.0.0.1:{port}"), 10):
+            pass
+    assert time.monotonic() - t0 < 5

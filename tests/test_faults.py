@@ -93,7 +93,7 @@ def run_copy(job, tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("command", ["build", "stipple", "simulate"])
+@pytest.mark.parametrize("command", ["decompose", "build", "stipple", "simulate"])
 def test_stage_command_with_force_keeps_the_other_stages_files(run_copy, capsys, command):
     cfg, out = run_copy
     before = _snapshot(out)
@@ -102,6 +102,7 @@ def test_stage_command_with_force_keeps_the_other_stages_files(run_copy, capsys,
     after = _snapshot(out)
     assert set(after) == set(before)
     own = {
+        "decompose": ("layers.npz", "_opacity.png", "composite.png", "energy.csv", "config.yaml"),
         "build": (".step", ".stl", ".dxf", ".3mf"),
         "stipple": ("_dots.csv", "_dots.png", "spray.json"),
         "simulate": ("simulated.png", "preview.png", "sweep.png", "_after.png"),
@@ -473,14 +474,14 @@ def test_output_folder_writability_is_probed_before_the_first_stage(
 def test_unreadable_config(tmp_path, capsys, monkeypatch):
     cfg = tmp_path / "job.yaml"
     cfg.write_text(SMALL)
-    real = Path.read_text
+    real = os.open
 
-    def deny(self, *a, **k):
-        if self == cfg:
-            raise PermissionError(errno.EACCES, "Permission denied", str(self))
-        return real(self, *a, **k)
+    def deny(path, *a, **k):
+        if Path(path) == cfg:
+            raise PermissionError(errno.EACCES, "Permission denied", str(path))
+        return real(path, *a, **k)
 
-    monkeypatch.setattr(Path, "read_text", deny)
+    monkeypatch.setattr(os, "open", deny)
     code, _, err = _run(["run", cfg, "--out", tmp_path / "out"], capsys)
     _one_line_error(code, err, str(cfg), "permission denied")
 
@@ -530,16 +531,14 @@ def test_float_tiff_with_nans(tmp_path, capsys):
 
 
 def test_permission_denied_image(tmp_path, capsys, monkeypatch, tiny_image):
-    import PIL.Image
+    real = os.open
 
-    real = PIL.Image.open
+    def deny(path, *a, **k):
+        if Path(path) == tiny_image:
+            raise PermissionError(errno.EACCES, "Permission denied", str(path))
+        return real(path, *a, **k)
 
-    def deny(fp, *a, **k):
-        if Path(fp) == tiny_image:
-            raise PermissionError(errno.EACCES, "Permission denied", str(fp))
-        return real(fp, *a, **k)
-
-    monkeypatch.setattr(PIL.Image, "open", deny)
+    monkeypatch.setattr(os, "open", deny)
     code, _, err = _run(["run", "--image", tiny_image, "--out", tmp_path / "out"], capsys)
     line = _one_line_error(code, err, "permission denied", str(tiny_image))
     assert "truncated" not in line

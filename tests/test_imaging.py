@@ -86,3 +86,29 @@ def test_load_example():
     pic = load_picture(None, 60.0, None, 2.0)
     assert pic.shape == (120, 120) and pic.width_mm == pytest.approx(60.0)
     assert 0.0 <= pic.rgb.min() and pic.rgb.max() <= 1.0
+
+
+def test_a_big_file_is_decoded_within_the_memory_budget(tmp_path, monkeypatch):
+    """A big PNG whose decode at twice the grid would pass the budget is decoded nearer the grid."""
+    from stencil_cad import imaging
+
+    p = tmp_path / "big.png"
+    Image.fromarray(np.random.default_rng(0).integers(0, 255, (500, 500, 3), dtype=np.uint8)).save(p)
+    monkeypatch.setattr(imaging, "STREAM_BYTES", 1000)
+    # Within the budget: decoded whole (500 px is less than twice the 300 px asked).
+    assert imaging.read_image(p, min_size=(300, 300))[0].shape == (500, 500, 3)
+    monkeypatch.setattr(imaging, "DECODE_BUDGET", 24 * 300 * 300)
+    rgb = imaging.read_image(p, min_size=(300, 300))[0]
+    assert rgb.shape == (300, 300, 3) and rgb.dtype == np.float64
+
+
+def test_a_working_picture_over_the_limit_is_refused_before_decoding(tmp_path, monkeypatch):
+    from stencil_cad import imaging
+    from stencil_cad.errors import ConfigError
+
+    p = tmp_path / "wide.png"
+    Image.fromarray(np.zeros((100, 200, 3), np.uint8)).save(p)
+    monkeypatch.setattr(imaging, "MAX_GRID_PIXELS", 150 * 75)
+    with pytest.raises(ConfigError, match=r"would be 160 × 80 px .* lower size.px_per_mm or size.width_mm"):
+        imaging.load_picture(p, 80.0, None, 2.0)
+    assert imaging.load_picture(p, 70.0, None, 2.0).rgb.shape == (70, 140, 3)

@@ -1,10 +1,15 @@
 """A small mural on a local Dask cluster of two workers against the same job in this process."""
 
 import json
+import sys
+from pathlib import Path
 
 import pytest
 
 from stencil_cad.cli import main
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from benchmarks.compare_outputs import manifest_content, manifest_differences  # noqa: E402
 
 
 @pytest.mark.slow
@@ -37,6 +42,9 @@ def test_small_mural_on_two_workers_writes_the_in_process_bytes(tmp_path):
             assert (outs["0"] / name).read_bytes() == (outs["2"] / name).read_bytes(), name
     rows = {w: [(r["name"], r["sha256"]) for r in m["files"]] for w, m in man.items()}
     assert rows["0"] == rows["2"]
+    # Every other figure of the manifest too, only the timings and the placement aside.
+    content = {w: manifest_content(o / "manifest.json") for w, o in outs.items()}
+    assert manifest_differences(content["0"], content["2"]) == []
     # A stage command runs its tasks where asked too (it ran them in this process before); the
     # plates it builds from the saved dots are the same bytes in this process and on 2 workers.
     rebuilt = {}

@@ -374,3 +374,90 @@ def test_benchmark_plates_respect_the_web():
         assert xy.min() >= bench.MARGIN_MM + bench.RADIUS_MM - 0.05
         assert xy[:, 0].max() <= w - bench.MARGIN_MM - bench.RADIUS_MM + 1e-9
         assert xy[:, 1].max() <= h - bench.MARGIN_MM - bench.RADIUS_MM + 1e-9
+
+
+FAKE_SLICER = """#!/bin/sh
+# Stands in for PrusaSlicer: writes OUTPUT.tmp (as PrusaSlicer does before renaming it), then hangs.
+echo $$ > "{pidfile}"
+while [ "$#" -gt 0 ]; do
+  if [ "$1" = "--output" ]; then out="$2"; fi
+  shift
+done
+echo partial > "$out.tmp"
+sleep 60
+"""
+
+
+@pytest.mark.parametrize("sig", ["SIGTERM", "SIGKILL"])
+def test_a_killed_slice_leaves_nothing_behind(tmp_path, sig):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    work, bin_dir = tmp_path / "plates", tmp_path / "bin"
+    work.mkdir()
+    bin_dir.mkdir()
+    write_triangles_stl(work / "p.stl", square_ring_plate())
+    fake = bin_dir / "prusa-slicer"
+    fake.write_text(FAKE_SLICER.format(pidfile=bin_dir / "pid"))
+    fake.chmod(0o755)
+    root = str(Path(__file__).resolve().parents[1])
+    env = {
+        **os.environ,
+        sl.ENV_PRUSA: str(fake),
+        "PYTHONPATH": os.pathsep.join([root, os.environ.get("PYTHONPATH", "")]),
+    }
+    proc = subprocess.Popen([sys.executable, "-m", "stencil_cad", "slice", str(work / "p.stl")], env=env)
+    deadline = time.monotonic() + 60
+    while not any(p.name.endswith(".tmp") for p in work.iterdir()):
+        assert proc.poll() is None and time.monotonic() < deadline, "the slicer did not start"
+        time.sleep(0.05)
+    proc.send_signal(getattr(signal, sig))
+    proc.wait(timeout=30)
+    slicer = int((bin_dir / "pid").read_text())
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline:
+        try:
+            os.kill(slicer, 0)
+        except ProcessLookupError:
+            break
+        time.sleep(0.05)
+    else:
+        os.kill(slicer, signal.SIGKILL)
+        pytest.fail("the slicer outlived stencil-cad")
+    if sig == "SIGTERM":
+        assert proc.returncode == 128 + signal.SIGTERM
+        assert sorted(p.name for p in work.iterdir()) == ["p.stl"]
+    else:
+        # Nothing can clean up after SIGKILL but the next slice, which removes the leftovers first.
+        fake.write_text("#!/bin/sh\nexit 3\n")
+        assert (
+            subprocess.run(
+                [sys.executable, "-m", "stencil_cad", "slice", str(work / "p.stl")], env=env
+            ).returncode
+            == 1
+        )
+        assert sorted(p.name for p in work.iterdir()) == ["p.stl"]
+
+
+def test_project_validates_the_timeout_and_honours_the_bed(tmp_path, monkeypatch, capsys):
+    from stencil_cad.cli import main
+
+    stl = tmp_path / "p.stl"
+    write_triangles_stl(stl, square_ring_plate())
+    for bad in ("nan", "-5", "inf"):
+        assert main(["slice", "--project", "--timeout", bad, str(stl)]) == 2
+        err = capsys.readouterr().err
+        assert "--timeout must be a positive number" in err and "internal error" not in err, err
+    seen = {}
+
+    def fake_project(model, output, prof, timeout_s, overrides=None):
+        seen["overrides"] = overrides
+        Path(output).write_bytes(b"3mf")
+
+    monkeypatch.setattr(sl, "plate_project", fake_project)
+    assert main(["slice", "--project", "--bed", "180x180", str(stl)]) == 0
+    assert seen["overrides"] == {"bed_shape": "0x0,180x0,180x180,0x180"}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.3mf", "p.stl"]

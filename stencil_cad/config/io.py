@@ -12,6 +12,7 @@ import yaml
 from pydantic import BaseModel, ValidationError
 
 from ..errors import ConfigError
+from ..files import TEXT_LIMIT, read_text
 
 #: Longest quotation of a bad value in an error message, in characters.
 QUOTE_CHARS = 200
@@ -19,6 +20,9 @@ QUOTE_CHARS = 200
 #: Most values a config may hold once YAML aliases are expanded (an alias bomb is a few
 #: lines that expand to billions).
 MAX_VALUES = 100_000
+
+#: Deepest nesting of mappings and lists a config, profile or card description may have.
+MAX_DEPTH = 32
 
 
 def short_repr(value: Any, limit: int = QUOTE_CHARS) -> str:
@@ -55,20 +59,44 @@ class _StrictLoader(yaml.SafeLoader):
         return super().construct_mapping(node, deep=deep)
 
 
-def _count_values(data: Any, budget: int) -> int:
-    """Values in a loaded document counted with repetition, stopping past ``budget``."""
-    stack, n = [data], 0
+def _count_values(data: Any, budget: int) -> tuple[int, int]:
+    """Values in a loaded document counted with repetition, stopping past ``budget``; and its depth."""
+    stack, n, depth = [(data, 1)], 0, 0
     while stack:
-        item = stack.pop()
+        item, d = stack.pop()
         n += 1
-        if n > budget:
-            return n
+        depth = max(depth, d)
+        if n > budget or depth > MAX_DEPTH:
+            break
         if isinstance(item, dict):
-            stack.extend(item.keys())
-            stack.extend(item.values())
+            stack.extend((k, d + 1) for k in item.keys())
+            stack.extend((v, d + 1) for v in item.values())
         elif isinstance(item, (list, tuple)):
-            stack.extend(item)
-    return n
+            stack.extend((v, d + 1) for v in item)
+    return n, depth
+
+
+def _check_bounds(data: Any, source: str) -> None:
+    n, depth = _count_values(data, MAX_VALUES)
+    if n > MAX_VALUES:
+        raise ConfigError(
+            f"{source}: the file expands to more than {MAX_VALUES} values (YAML aliases nested too "
+            "deep?); write the values out"
+        )
+    if depth > MAX_DEPTH:
+        raise ConfigError(
+            f"{source}: mappings and lists nested more than {MAX_DEPTH} deep; a stencil-cad file is "
+            "a few levels deep (see templates/default.yaml)"
+        )
+
+
+def read_yaml_text(path: Path, what: str, fix: str) -> str:
+    """The text of a config, profile or card description: a regular UTF-8 file of at most 1 MiB.
+
+    Raises:
+        ConfigError: Missing, not a regular file (a FIFO, a device), too large or not text.
+    """
+    return read_text(path, what, limit=TEXT_LIMIT, error=ConfigError, fix=fix)
 
 
 def parse_yaml(text: str, source: str) -> Any:
@@ -77,8 +105,14 @@ def parse_yaml(text: str, source: str) -> Any:
     Raises:
         ConfigError: Syntax error, unsupported tag, duplicate key or an expansion too large.
     """
+    if len(text) > TEXT_LIMIT:
+        raise ConfigError(f"{source}: more than {TEXT_LIMIT} characters; a config is a short YAML file")
     try:
         data = yaml.load(text, Loader=_StrictLoader)  # noqa: S506 - a SafeLoader subclass
+    except RecursionError:
+        raise ConfigError(
+            f"{source}: mappings and lists nested too deep; a stencil-cad file is a few levels deep"
+        ) from None
     except yaml.constructor.ConstructorError as exc:
         mark = exc.problem_mark
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
@@ -99,11 +133,39 @@ def parse_yaml(text: str, source: str) -> Any:
             f"{source}: YAML syntax error{where}: {str(problem)[:QUOTE_CHARS]} (fix the indentation or "
             "quoting there)"
         ) from None
-    if _count_values(data, MAX_VALUES) > MAX_VALUES:
+    _check_bounds(data, source)
+    return data
+
+
+def parse_json(text: str, source: str) -> Any:
+    """Parse a JSON file the tool wrote (``card.json``): no duplicate keys, NaN or infinity, bounded.
+
+    Raises:
+        ConfigError: Syntax error, duplicate key, a non-finite number, or too large or deep.
+    """
+
+    def pairs(items: list[tuple[str, Any]]) -> dict:
+        out: dict = {}
+        for key, value in items:
+            if key in out:
+                raise ValueError(f"duplicate key {short_repr(key)} (keep one of them)")
+            out[key] = value
+        return out
+
+    def constant(name: str) -> Any:
+        raise ValueError(f"{name} is not a number stencil-cad accepts (write a finite number)")
+
+    if len(text) > TEXT_LIMIT:
+        raise ConfigError(f"{source}: more than {TEXT_LIMIT} characters; not a file stencil-cad wrote")
+    try:
+        data = json.loads(text, object_pairs_hook=pairs, parse_constant=constant)
+    except RecursionError:
+        raise ConfigError(f"{source}: objects and arrays nested too deep") from None
+    except ValueError as exc:
         raise ConfigError(
-            f"{source}: the config expands to more than {MAX_VALUES} values (YAML aliases nested too "
-            "deep?); write the values out"
-        )
+            f"{source}: not valid JSON: {str(exc)[:QUOTE_CHARS]} (fix or rewrite the file)"
+        ) from None
+    _check_bounds(data, source)
     return data
 
 
@@ -212,20 +274,7 @@ def load_config(path: Path | str) -> JobConfig:
         ConfigError: Missing file, YAML syntax error, empty file or invalid content.
     """
     path = Path(path)
-    if not path.exists():
-        raise ConfigError(f"config not found: {path} (write one with `stencil-cad init {path}`)")
-    if path.is_dir():
-        raise ConfigError(f"config path is a folder: {path} (give a .yaml file)")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise ConfigError(
-            f"{path}: not a text file (a config is YAML text; see templates/default.yaml)"
-        ) from None
-    except PermissionError:
-        raise ConfigError(f"cannot read config {path}: permission denied (fix its permissions)") from None
-    except OSError as exc:
-        raise ConfigError(f"cannot read config {path}: {exc.strerror or exc} (check the file)") from None
+    text = read_yaml_text(path, "config", "give a YAML file; `stencil-cad init FILE` writes one")
     data = parse_yaml(text, str(path))
     cfg = parse_config(data, source=str(path))
     if cfg.image is not None and not cfg.image.is_absolute():
@@ -258,14 +307,10 @@ def load_profile(path: Path | str):
     from .spray import CanConstants
 
     path = Path(path)
-    if not path.is_file():
-        raise ConfigError(
-            f"spray profile not found: {path} (write one with `stencil-cad calibrate PHOTO --card card.json`)"
-        )
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, yaml.YAMLError) as exc:
-        raise ConfigError(f"{path}: not a readable spray profile ({type(exc).__name__})") from None
+    text = read_yaml_text(
+        path, "spray profile", "write one with `stencil-cad calibrate PHOTO --card card.json`"
+    )
+    data = parse_yaml(text, str(path))
     if not isinstance(data, dict):
         raise ConfigError(
             f"{path}: a spray profile is a mapping of keys to values (see `stencil-cad calibrate`)"

@@ -304,6 +304,15 @@ class SprayConfig(StrictModel):
         return self.passes if self.model == SprayModel.physical else self.spray_time
 
     @property
+    def amount_cap(self) -> float:
+        """Largest base amount the config accepts: ``passes``' or ``spray_time``'s upper bound."""
+        name = "passes" if self.model == SprayModel.physical else "spray_time"
+        for meta in type(self).model_fields[name].metadata:
+            if getattr(meta, "le", None) is not None:
+                return float(meta.le)
+        return math.inf  # pragma: no cover - both fields are bounded
+
+    @property
     def amount_unit(self) -> str:
         """``passes`` or ``spray time``."""
         return "passes" if self.model == SprayModel.physical else "spray time"

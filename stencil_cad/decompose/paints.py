@@ -20,6 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from ..colour import colour_to_rgb, parse_colour, to_hex
+from ..errors import ConfigError
+from ..files import read_text
 
 __all__ = ["Can", "load_cans", "nearest_cans", "paint_estimate", "parse_cans"]
 
@@ -103,13 +105,8 @@ def load_cans(path: Path | str) -> list[Can]:
         ValueError: The file is missing or unreadable, or its content is bad (see :func:`parse_cans`).
     """
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise ValueError(f"can list not found: {p} (a CSV with the columns name,code,hex)") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ValueError(f"{p}: not a readable CSV text file ({exc.__class__.__name__})") from None
-    return parse_cans(text, str(p))
+    text = read_text(p, "can list", error=ConfigError, fix="a CSV text file with the columns name,code,hex")
+    return parse_cans(text.removeprefix("\ufeff"), str(p))
 
 
 def _lab(rgb: np.ndarray) -> np.ndarray:

@@ -19,6 +19,7 @@ Profiles (see :data:`PROFILES` and ``docs/printing.md``):
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import os
@@ -504,6 +505,7 @@ def slice_file(
         errors="replace",
         env=env,
         start_new_session=True,
+        preexec_fn=_die_with_parent,  # noqa: PLW1509 - only a prctl call, no locks taken
     ) as proc:
         try:
             text, _ = proc.communicate(timeout=timeout_s)
@@ -511,6 +513,12 @@ def slice_file(
             timed_out = True
             _kill_group(proc)
             text, _ = proc.communicate()
+        except BaseException:
+            # Interrupted (Ctrl-C, SIGTERM): stop the slicer before it writes on, and remove what it wrote.
+            _kill_group(proc)
+            proc.wait()
+            remove_partial(output)
+            raise
         returncode = None if timed_out else proc.returncode
     seconds = time.perf_counter() - start
     cpu1 = _children_cpu()
@@ -544,6 +552,24 @@ def slice_file(
     )
     log.info("sliced in %.1f s (ok=%s, %d bytes)", seconds, result.ok, size)
     return result
+
+
+def _die_with_parent() -> None:
+    """In the slicer's process: be killed when stencil-cad dies, even by SIGKILL (Linux)."""
+    try:
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, 9)  # PR_SET_PDEATHSIG, SIGKILL
+    except (OSError, AttributeError):  # pragma: no cover - not Linux
+        pass
+
+
+def remove_partial(output: str | os.PathLike) -> None:
+    """Remove a slicer's output and the temporary file it writes first (``OUTPUT.tmp``)."""
+    output = Path(output)
+    for p in (output, output.with_name(output.name + ".tmp")):
+        with contextlib.suppress(OSError):
+            p.unlink()
 
 
 def _kill_group(proc: subprocess.Popen) -> None:
@@ -754,6 +780,7 @@ def plate_project(
     timeout_s: float = 300.0,
     executable: str | os.PathLike | None = None,
     rotate_deg: int = 0,
+    overrides: Mapping[str, object] | None = None,
 ) -> Path:
     """Write the PrusaSlicer 3MF project of one plate, tiled as :func:`slice_plate` would slice it.
 
@@ -765,6 +792,7 @@ def plate_project(
         timeout_s: Seconds before each PrusaSlicer run is killed. Defaults to 300 s.
         executable: PrusaSlicer binary; found with :func:`find_slicer` when None.
         rotate_deg: 90 lays the plate turned a quarter turn on the bed; 0 as exported.
+        overrides: Settings that win over the profile (the bed's size).
 
     Returns:
         The written path (see :func:`export_3mf_project`).
@@ -779,7 +807,9 @@ def plate_project(
         if tiles:
             tiles = mesh_genus(read_stl(model)) > 1.5 * holes_per_tile
         parts = split_into_tiles(model, tmp, holes_per_tile=holes_per_tile) if tiles else model
-        return export_3mf_project(parts, output, prof, timeout_s=timeout_s, executable=executable)
+        return export_3mf_project(
+            parts, output, prof, timeout_s=timeout_s, executable=executable, overrides=overrides
+        )
 
 
 def _has_manifold3d() -> bool:

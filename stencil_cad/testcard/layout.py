@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -456,7 +456,7 @@ def layout_from_description(desc: dict) -> CardLayout:
             for fp in desc["footprints"]
         )
         w, h = (float(v) for v in desc["picture_mm"])
-        return CardLayout(
+        layout = CardLayout(
             width_mm=w,
             height_mm=h,
             dots=DotSet(xy_mm=xy, r_mm=r, report={"source": "card.json"}),
@@ -471,3 +471,50 @@ def layout_from_description(desc: dict) -> CardLayout:
         raise ValueError(
             f"card description is malformed ({type(exc).__name__}: {exc}); write it again with `stencil-cad card`"
         ) from None
+    _check_sizes(layout)
+    return layout
+
+
+#: Largest sheet side a card description may give, in mm (the card is an A4/A3 sheet).
+MAX_SHEET_MM = 2000.0
+
+
+def _check_sizes(layout: CardLayout) -> None:
+    """Every size of a card description finite and within what a printed card can be.
+
+    Raises:
+        ValueError: Naming the first key out of range.
+    """
+
+    def check(name: str, values: Any, lo: float, hi: float) -> None:
+        a = np.asarray(values, dtype=np.float64)
+        if a.size and not (np.all(np.isfinite(a)) and a.min() >= lo and a.max() <= hi):
+            bad = a[~(np.isfinite(a) & (a >= lo) & (a <= hi))].ravel()[0]
+            raise ValueError(
+                f"card description: {name} must be in [{lo:g}, {hi:g}], got {bad:g}; write it again with "
+                "`stencil-cad card`"
+            )
+
+    side = MAX_SHEET_MM
+    check("picture_mm", (layout.width_mm, layout.height_mm), 1.0, side)
+    check("sheet_mm", layout.sheet_mm, 1.0, side)
+    check("band_mm", layout.band_mm, 0.0, side)
+    check("plate_thickness_mm", layout.plate_thickness_mm, 0.1, 50.0)
+    check("passes", layout.passes, 1, 50)
+    check("holes.x_mm / y_mm", layout.dots.xy_mm, -side, side)
+    check("holes.r_mm", layout.dots.r_mm, 0.01, 100.0)
+    for f in layout.features:
+        check("features[].box_mm", f.box, -side, side)
+        check("features[].r_mm", f.r_mm, 0.0, 100.0)
+        check("features[].open_fraction", f.open_fraction, 0.0, 1.0)
+        if f.index and not 0 <= min(f.index) <= max(f.index) < len(layout.dots.r_mm):
+            raise ValueError("card description: features[].holes: a hole index outside holes; write it again")
+    for fp in layout.footprints:
+        check("footprints[].standoff_mm", fp.standoff_mm, 0.5, 300.0)
+        for name, arr in (
+            ("origin_on_sheet_mm", fp.origin_mm),
+            ("marker_centres_mm", fp.markers),
+            ("flat_patches_mm", fp.flat_patches),
+            ("wall_outline_mm", fp.outer_ring),
+        ):
+            check(f"footprints[].{name}", arr, -side, side)
