@@ -1,5 +1,6 @@
 """Slicing exported plates with the shipped print profiles, big plates as tiles."""
 
+from .gcode import GcodeEstimate, LayerPaths, hole_open_areas, layer_paths, read_estimate
 from .placement import Placement, place, rotated_copy
 from .profiles import PROFILES, Profile, Slicer, Technology, get_profile, templates_dir
 from .slicers import (
@@ -35,6 +36,8 @@ __all__ = [
     "HOLES_PER_TILE",
     "PROFILES",
     "SEAM_CLEARANCE_MM",
+    "GcodeEstimate",
+    "LayerPaths",
     "MeshInfo",
     "Placement",
     "Profile",
@@ -52,11 +55,14 @@ __all__ = [
     "gcode_summary",
     "get_profile",
     "hole_boxes",
+    "hole_open_areas",
     "inspect_mesh",
+    "layer_paths",
     "output_problem",
     "parse_info",
     "parse_messages",
     "place",
+    "read_estimate",
     "plate_project",
     "rotated_copy",
     "sla_layer_count",
