@@ -238,12 +238,25 @@ def _slice(args) -> int:
     from .config.bed import parse_bed_arg
 
     bed = parse_bed_arg(args.bed) if args.bed else None
+    hours = metres = 0.0
+    estimated = 0
     for stl, out, result in pipeline.slice_plates(
         args.stl, args.profile, force=args.force, timeout_s=args.timeout, bed=bed
     ):
         if result.ok:
             turned = ", turned 90° to fit the bed" if result.rotate_deg else ""
-            print(f"{out}: {result.output_bytes} bytes in {result.seconds:.1f} s ({args.profile}{turned})")
+            est = pipeline.print_estimate(out)
+            said = ""
+            if est is not None and est.print_s is not None:
+                estimated += 1
+                hours += est.print_s / 3600.0
+                metres += est.filament_m or 0.0
+                said = f"; prints in about {_hours(est.print_s / 3600.0)}" + (
+                    f" with {est.filament_m:.1f} m of filament" if est.filament_m is not None else ""
+                )
+            print(
+                f"{out}: {result.output_bytes} bytes in {result.seconds:.1f} s ({args.profile}{turned}){said}"
+            )
             for w in result.warnings:
                 print(f"  warning   slicer: {w[:300]}")
         else:
@@ -252,7 +265,15 @@ def _slice(args) -> int:
             print(f"stencil-cad: error: slicing {stl} failed: {why[:500]}", file=sys.stderr)
             if args.verbose:
                 print(result.log, file=sys.stderr)
+    if estimated > 1:
+        print(f"total: {estimated} parts print in about {_hours(hours)} with {metres:.1f} m of filament")
     return 1 if failed else 0
+
+
+def _hours(hours: float) -> str:
+    """``3 h 41 min`` (or ``41 min``) for a print time in hours."""
+    minutes = int(round(hours * 60))
+    return f"{minutes // 60} h {minutes % 60:02d} min" if minutes >= 60 else f"{minutes} min"
 
 
 def _card(args) -> int:

@@ -32,6 +32,7 @@ if TYPE_CHECKING:
     from . import mural
     from .compute import Executor
     from .slicing import SliceResult
+    from .slicing.gcode import GcodeEstimate
 
 log = logging.getLogger(__name__)
 
@@ -1826,8 +1827,10 @@ def slice_plates(
     for stl, out, turn in jobs:
         tmp = out.with_name(f".{out.name}.partial{prof.suffix}")
         try:
+            # A wall prints sparse (it only holds the plates off the surface): slicing.WALL_SETTINGS.
+            settings = {**slicing.part_settings(prof, stl), **overrides}
             result = slicing.slice_plate(
-                stl, tmp, prof, timeout_s=timeout_s, overrides=overrides, rotate_deg=turn
+                stl, tmp, prof, timeout_s=timeout_s, overrides=settings, rotate_deg=turn
             )
         except slicing.SlicerNotFoundError as exc:
             tmp.unlink(missing_ok=True)
@@ -1840,6 +1843,13 @@ def slice_plates(
         else:
             tmp.unlink(missing_ok=True)
         yield stl, out, result
+
+
+def print_estimate(path: Path) -> GcodeEstimate | None:
+    """The slicer's estimated print time and filament in a sliced file, None for a resin ``.sl1``."""
+    from .slicing.gcode import read_estimate
+
+    return read_estimate(path) if path.suffix == ".gcode" else None
 
 
 def plate_projects(

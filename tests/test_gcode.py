@@ -154,3 +154,25 @@ def test_reader_on_a_sliced_plate(tmp_path):
     # ... and every hole is open, close to its drawn size
     assert fraction.min() > 0.9, fraction
     assert fraction.max() < 1.1, fraction
+
+
+def test_walls_print_sparse_plates_as_profiled():
+    assert sl.is_wall("out/wall.stl") and sl.is_wall("tile_X1_wall.stl") and sl.is_wall("card_wall_3mm.stl")
+    assert not sl.is_wall("layer_01.stl") and not sl.is_wall("wallpaper_layer_01.stl")
+    assert sl.part_settings("prusa_fdm", "wall_10mm.stl")["fill_density"] == "15%"
+    assert sl.part_settings("prusa_fdm", "layer_01.stl") == {}
+    assert sl.part_settings("prusa_sla", "wall.stl") == {}
+
+
+@pytest.mark.slow
+@needs_prusa
+def test_slice_command_prints_time_and_filament(tmp_path, capsys):
+    from stencil_cad import cli
+
+    _radius_plate(tmp_path / "layer_01.stl")
+    _radius_plate(tmp_path / "layer_02.stl")
+    code = cli.main(["slice", str(tmp_path / "layer_01.stl"), str(tmp_path / "layer_02.stl")])
+    assert code == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "prints in about" in lines[0] and "m of filament" in lines[0]
+    assert lines[-1].startswith("total: 2 parts print in about ")
