@@ -33,11 +33,14 @@ from pathlib import Path
 import numpy as np
 
 from stencil_cad import slicing as sl
+from stencil_cad.config.stipple import PROCESS_HOLE_OFFSET_MM, Process
 from stencil_cad.exchange.mesh import plate_mesh, read_stl, stl_bytes
 from stencil_cad.model import PlateGeometry
 from stencil_cad.slicing import gcode
+from stencil_cad.stipple.made import drawn_radii
 
 RADII = (0.5, 0.75, 1.0, 1.5)
+#: The test plate's web: the SLA preset's 0.5 mm, every pair of neighbours at it.
 WEB_MM = 0.5
 PX_MM = 0.025
 LAYER = 2  # layer 3, an inner layer (the first carries the elephant-foot compensation)
@@ -47,8 +50,8 @@ def _timeout() -> float:
     return float(os.environ.get("STENCIL_BENCH_PRINTED_TIMEOUT", "900"))
 
 
-def radius_plate(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Write the test plate (three hex rows of six holes per radius); return holes and outline box."""
+def radius_holes() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Three hex rows of six holes per radius; returns centres, radii and the plate's (W, H)."""
     xy, rr, y0 = [], [], 3.0
     for r in RADII:
         pitch = 2 * r + WEB_MM
@@ -59,14 +62,18 @@ def radius_plate(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nda
                 )
                 rr.append(r)
         y0 += 2 * r + 2 * pitch * math.sqrt(3) / 2 + 3
-    holes, radii = np.array(xy), np.array(rr)
-    width, height = float(holes[:, 0].max() + 4.5), y0
+    holes = np.array(xy)
+    return holes, np.array(rr), np.array([float(holes[:, 0].max() + 4.5), y0])
+
+
+def write_radius_plate(path: Path, xy: np.ndarray, r: np.ndarray, size: np.ndarray) -> None:
+    """Write the test plate with holes drawn at radii ``r``."""
+    width, height = (float(v) for v in size)
     outline = np.array([[0.0, 0.0], [width, 0.0], [width, height], [0.0, height]])
     geom = PlateGeometry(
-        width_mm=width, height_mm=height, thickness_mm=1.2, outline=outline, circles_xy=holes, circles_r=radii
+        width_mm=width, height_mm=height, thickness_mm=1.2, outline=outline, circles_xy=xy, circles_r=r
     )
     path.write_bytes(stl_bytes(plate_mesh(geom)))
-    return holes, radii, np.zeros(2), np.array([width, height])
 
 
 def measured_areas(
@@ -95,27 +102,42 @@ def _slice(stl: Path, out: Path) -> tuple[dict, float]:
 
 
 def radius_cases(tmp: Path):
-    stl = tmp / "radii.stl"
-    xy, r, lo, hi = radius_plate(stl)
-    out = tmp / "radii.gcode"
-    common, _ = _slice(stl, out)
-    if not common["ok"]:
-        yield {"bench": "printed", "case": "radius_plate", **common}
-        return
-    area = measured_areas(out, xy, r, lo, hi)
+    """Per radius: open area drawn as asked (uncompensated) and drawn larger by the FDM offset.
+
+    The compensated plate keeps the web rule as made (:func:`stencil_cad.stipple.made.drawn_dots`):
+    its drawn webs are 2 x the offset under the 0.5 mm web.
+    """
+    xy, asked, size = radius_holes()
+    offset = PROCESS_HOLE_OFFSET_MM[Process.fdm]
+    measured = {}
+    for name, drawn in (
+        ("asked", asked),
+        ("compensated", drawn_radii(xy, asked, offset, WEB_MM - 2 * offset)),
+    ):
+        stl, out = tmp / f"radii_{name}.stl", tmp / f"radii_{name}.gcode"
+        write_radius_plate(stl, xy, drawn, size)
+        common, _ = _slice(stl, out)
+        if not common["ok"]:
+            yield {"bench": "printed", "case": f"radius_plate_{name}", **common}
+            return
+        measured[name] = (common, measured_areas(out, xy, drawn, np.zeros(2), size))
+    common, area = measured["compensated"]
+    before = measured["asked"][1]
     for radius in RADII:
-        m = r == radius
+        m = asked == radius
         model = math.pi * radius**2
-        got = float(area[m].mean())
         yield {
             "bench": "printed",
             "case": f"radius_{radius:g}",
             **common,
             "holes": int(m.sum()),
+            "hole_offset_mm": offset,
             "open_area_model": round(model, 4),
-            "open_area_gcode": round(got, 4),
-            "open_area_error": round(got / model - 1, 4),
+            "open_area_gcode": round(float(area[m].mean()), 4),
+            "open_area_error": round(float(area[m].mean()) / model - 1, 4),
             "open_area_error_worst": round(float((area[m] / model - 1).min()), 4),
+            "open_area_gcode_uncompensated": round(float(before[m].mean()), 4),
+            "open_area_error_uncompensated": round(float(before[m].mean()) / model - 1, 4),
         }
 
 

@@ -27,6 +27,7 @@ from .errors import OutputError, UserError
 from .model import CutLayer, DotSet, Holes, Layers, Picture, coat_contrast
 from .output import MANIFEST, OutputDir, manifest_header
 from .output import plain as _plain
+from .stipple.made import drawn_dots, made_dots
 
 if TYPE_CHECKING:
     from . import mural
@@ -797,7 +798,9 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
     with run.stage("build"):
         ring = outline.plate_outline(width_mm, height_mm, cfg.plate.outline)
         with run.bar(len(holes), "build") as bar:
-            for i, h in enumerate(holes):
+            for i, asked in enumerate(holes):
+                # The plate draws each hole larger by what the process takes off (stipple.compensate).
+                h = drawn_dots(asked, cfg.stipple, picture_mm) if isinstance(asked, DotSet) else asked
                 label = cad.LabelInfo(
                     layer=i + 1,
                     layers=len(holes),
@@ -838,6 +841,8 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
                 row = {"layer": i + 1, **_plain(check), **dxf_info, "cut_length_mm": cut, "bbox_mm": size}
                 if isinstance(h, CutLayer):
                     row["cutouts"] = h.cutout_figures()
+                elif len(h.r_mm):
+                    row["drawn_minus_asked_mm"] = round(float(np.mean(h.r_mm - asked.r_mm)), 4)
                 results.append(row)
                 bar.update(1)
         walls = []
@@ -879,6 +884,9 @@ def stage_simulate(
     cfg = run.cfg
     physical = cfg.spray.model == SprayModel.physical
     design = SprayGeometry.of_job(cfg) if physical else None
+    # Spray the holes as the process makes them (stipple.hole_offset_mm), not as asked.
+    size_mm = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
+    dotsets = [made_dots(d, cfg.stipple, size_mm) if isinstance(d, DotSet) else d for d in dotsets]
     with run.stage("simulate"):
         grid_mm = resolution.sim_mm_per_px(cfg)
         sim = simulate.simulate(layers, dotsets, cfg.spray, grid_mm, geometry=design)

@@ -153,9 +153,9 @@ def _fdm(part: Part, bed: Bed | None, thickness: float | None) -> str:
         )
     holes = part.holes or 0
     tiles = math.ceil(holes / 300) if holes > _TILED_ABOVE else 1
-    text = f"FDM: {_slice_command(part.stem, bed)} (PrusaSlicer, prusa_fdm, 0.2 mm layers"
+    text = f"FDM: {_slice_command(part.stem, bed)} (PrusaSlicer, prusa_fdm, 0.3 mm layers"
     if part.kind == "wall":
-        text += ", 100 % infill); print it as exported, base on the bed and pocket on top, no supports"
+        text += ", 10 % infill); print it as exported, base on the bed and pocket on top, no supports"
     else:
         text += (
             ", 100 % infill"

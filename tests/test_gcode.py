@@ -159,7 +159,7 @@ def test_reader_on_a_sliced_plate(tmp_path):
 def test_walls_print_sparse_plates_as_profiled():
     assert sl.is_wall("out/wall.stl") and sl.is_wall("tile_X1_wall.stl") and sl.is_wall("card_wall_3mm.stl")
     assert not sl.is_wall("layer_01.stl") and not sl.is_wall("wallpaper_layer_01.stl")
-    assert sl.part_settings("prusa_fdm", "wall_10mm.stl")["fill_density"] == "15%"
+    assert sl.part_settings("prusa_fdm", "wall_10mm.stl")["fill_density"] == "10%"
     assert sl.part_settings("prusa_fdm", "layer_01.stl") == {}
     assert sl.part_settings("prusa_sla", "wall.stl") == {}
 

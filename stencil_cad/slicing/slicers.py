@@ -7,7 +7,7 @@ reports what the slicer said. It never imports the CAD kernel.
 
 Profiles (see :data:`PROFILES` and ``docs/printing.md``):
 
-* ``prusa_fdm`` — PrusaSlicer 2.5+, FDM, 0.2 mm layers, Arachne walls with
+* ``prusa_fdm`` — PrusaSlicer 2.5+, FDM, 0.3 mm layers, Arachne walls with
   the per-loop overhang detection and the seam ray-casting off; plates with
   many holes are sliced as touching tiles (:func:`slice_plate`), which keeps
   the slicing time linear in the hole count.
