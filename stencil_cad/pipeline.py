@@ -868,11 +868,18 @@ def simulated_stems(cfg: JobConfig) -> list[str]:
 
 
 def stage_simulate(
-    run: Run, picture: Picture | None, layers: Layers, dotsets: list[DotSet], keep: bool = False
+    run: Run,
+    picture: Picture | None,
+    layers: Layers,
+    dotsets: list[DotSet],
+    keep: bool = False,
+    as_made: bool = True,
 ):
     """Spray every plate in simulation, composite, score against the input, save previews.
 
-    Returns the scores, or with ``keep`` the simulation and the reference on its grid.
+    Returns the scores, or with ``keep`` the simulation and the reference on its grid. With
+    ``as_made`` (a one-plate job) the holes are sprayed as the process makes them
+    (:func:`stencil_cad.stipple.made.made_dots`); a mural's are sprayed as asked.
 
     Under the physical model every wall height gets its own simulation and score
     (``simulated_wall_10mm.png`` …); the main pictures and scores are those of the design
@@ -884,9 +891,10 @@ def stage_simulate(
     cfg = run.cfg
     physical = cfg.spray.model == SprayModel.physical
     design = SprayGeometry.of_job(cfg) if physical else None
-    # Spray the holes as the process makes them (stipple.hole_offset_mm), not as asked.
-    size_mm = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
-    dotsets = [made_dots(d, cfg.stipple, size_mm) if isinstance(d, DotSet) else d for d in dotsets]
+    if as_made:
+        # Spray the holes as the process makes them (stipple.hole_offset_mm), not as asked.
+        size_mm = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
+        dotsets = [made_dots(d, cfg.stipple, size_mm) if isinstance(d, DotSet) else d for d in dotsets]
     with run.stage("simulate"):
         grid_mm = resolution.sim_mm_per_px(cfg)
         sim = simulate.simulate(layers, dotsets, cfg.spray, grid_mm, geometry=design)
@@ -1498,7 +1506,8 @@ def build_any(
     mural_stages.write_map(run, grid, layers, picture)
     if not simulate:
         return
-    sim, ref = stage_simulate(run, picture, layers, dotsets, keep=True)
+    # A mural's plates are drawn as asked (no compensation yet) and sprayed so.
+    sim, ref = stage_simulate(run, picture, layers, dotsets, keep=True, as_made=False)
     mural_stages.stage_mural_simulate(run, sim, ref, layers, dotsets, grid, per_tile)
 
 
@@ -1762,7 +1771,7 @@ def _run_stage_command(
         elif command == "build":
             build_any(run, layers, dotsets, size, grid, picture, simulate=False)
         else:
-            stage_simulate(run, picture, layers, dotsets)
+            stage_simulate(run, picture, layers, dotsets, as_made=not grid.tiled)
         return finish(run, command)
 
 
