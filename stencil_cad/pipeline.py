@@ -1499,6 +1499,8 @@ def build_any(
 
     if not grid.tiled:
         stage_build(run, layers, dotsets, picture_mm)
+        if run.cfg.export.print_estimate:
+            stage_print_estimate(run)
         if simulate:
             stage_simulate(run, picture, layers, dotsets)
         return
@@ -1860,6 +1862,54 @@ def slice_plates(
         else:
             tmp.unlink(missing_ok=True)
         yield stl, out, result
+
+
+def stage_print_estimate(run: Run) -> None:
+    """Slice every plate and wall the build staged and record the slicer's estimates (``export.print_estimate``).
+
+    Each part is sliced as ``stencil-cad slice`` would (walls sparse, on the job's bed); its
+    ``print_hours`` and ``filament_m`` go into its build row and the sums into ``build.print``.
+
+    Raises:
+        UserError: PrusaSlicer is not installed, the STLs were not exported, or a slice failed.
+    """
+    import tempfile
+
+    from . import slicing
+
+    cfg = run.cfg
+    prof = slicing.get_profile("prusa_fdm")
+    if not cfg.export.stl:
+        raise UserError("export.print_estimate slices the STL files: set export.stl: true")
+    if slicing.find_slicer(prof.slicer) is None:
+        raise UserError("export.print_estimate needs PrusaSlicer (Debian/Ubuntu: apt install prusa-slicer)")
+    build = run.figures["build"]
+    parts = [(row, f"layer_{int(row['layer']):02d}") for row in build["plates"]]
+    parts += [(row, str(row["file"]).rsplit(".", 1)[0]) for row in build["walls"]]
+    bed = _bed_overrides(prof, cfg.bed) if cfg.bed is not None else {}
+    bed_xy = slicing.bed_size(prof) if cfg.bed is None else _bed_xy(cfg.bed)
+    total_h = total_m = 0.0
+    with run.stage("print_estimate"), tempfile.TemporaryDirectory(prefix="stencil_print_") as tmp:
+        for row, stem in parts:
+            stl = run.out.stage / f"{stem}.stl"
+            lay = slicing.place(slicing.stl_footprint(stl), bed_xy)
+            if lay.rotate_deg is None:
+                row["print"] = "larger than the bed either way round: not sliced"
+                continue
+            out = Path(tmp) / f"{stem}.gcode"
+            settings = {**slicing.part_settings(prof, stl), **bed}
+            result = slicing.slice_plate(stl, out, prof, overrides=settings, rotate_deg=lay.rotate_deg)
+            if not result.ok:
+                raise UserError(
+                    f"export.print_estimate: slicing {stem}.stl failed: {'; '.join(result.errors)[:300]}"
+                )
+            est = slicing.read_estimate(out)
+            row["print_hours"] = None if est.print_hours is None else round(est.print_hours, 3)
+            row["filament_m"] = None if est.filament_m is None else round(est.filament_m, 2)
+            total_h += est.print_hours or 0.0
+            total_m += est.filament_m or 0.0
+            out.unlink()
+    build["print"] = {"profile": prof.name, "hours": round(total_h, 3), "filament_m": round(total_m, 2)}
 
 
 def print_estimate(path: Path) -> GcodeEstimate | None:

@@ -176,3 +176,27 @@ def test_slice_command_prints_time_and_filament(tmp_path, capsys):
     lines = capsys.readouterr().out.splitlines()
     assert "prints in about" in lines[0] and "m of filament" in lines[0]
     assert lines[-1].startswith("total: 2 parts print in about ")
+
+
+@pytest.mark.slow
+@needs_prusa
+def test_job_with_print_estimate_lists_time_and_filament(tmp_path):
+    import json
+
+    from stencil_cad.cli import main
+
+    cfg = tmp_path / "job.yaml"
+    cfg.write_text(
+        "name: printed\nsize:\n  width_mm: 36\n  px_per_mm: 2\ndecompose:\n  layers: 2\n"
+        "stipple:\n  process: sla\nexport:\n  print_estimate: true\n"
+    )
+    out = tmp_path / "out"
+    assert main(["run", str(cfg), "--out", str(out), "-q"]) == 0
+    build = json.loads((out / "manifest.json").read_text())["build"]
+    rows = [*build["plates"], *build["walls"]]
+    assert len(rows) == 3
+    assert all(r["print_hours"] > 0 and r["filament_m"] > 0 for r in rows)
+    assert build["print"]["hours"] == pytest.approx(sum(r["print_hours"] for r in rows), abs=0.01)
+    html = (out / "instructions.html").read_text()
+    assert html.count("PrusaSlicer: prints in about") == 3
+    assert "all parts" in html
