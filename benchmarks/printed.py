@@ -3,17 +3,19 @@
 `python -m benchmarks printed` prints one JSON line per case:
 
 * ``radius_<r>`` — a small test plate with holes of r = 0.5, 0.75, 1.0 and 1.5 mm at a 0.5 mm
-  web (the SLA preset's), sliced with the shipped ``prusa_fdm`` profile: per radius the mean
-  designed open area (``open_area_model``, mm² per hole), the mean open area drawn from layer 3
-  of the G-code at its extrusion widths (``open_area_gcode``) and ``open_area_error``
-  (gcode / model − 1), with the plate's ``print_hours`` and ``filament_m``;
+  web (the SLA preset's), sliced with the shipped ``prusa_fdm`` profile twice: holes drawn as
+  asked and drawn larger by the FDM ``stipple.hole_offset_mm``. Per radius the asked open area
+  (``open_area_model``, mm² per hole), the mean open area drawn from layer 3 of the compensated
+  plate's G-code at its extrusion widths (``open_area_gcode``), ``open_area_error``
+  (gcode / model − 1) and its worst hole, the same for the uncompensated plate
+  (``*_uncompensated``), with the plate's ``print_hours`` and ``filament_m``;
 * ``example_layer_NN`` / ``example_wall`` — the bundled example's parts sliced as
   ``stencil-cad slice`` slices them (walls sparse, :data:`stencil_cad.slicing.WALL_SETTINGS`):
   ``print_hours``, ``filament_m``, the plates' open areas (every hole of layer 3), and the job's
-  S-CIELAB at 1 m (``scielab``). The example runs into a temporary folder unless
-  ``STENCIL_BENCH_PRINTED_DIR`` names a folder that ``stencil-cad run`` wrote.
-  ``scielab_before`` and ``scielab_after`` (compensation) are both the job's score: the
-  hole compensation is not built, so nothing changes between them.
+  S-CIELAB at 1 m with the holes compensated (``scielab_after``, the example as shipped) and
+  drawn as asked (``scielab_before``, ``stipple.compensate: false``; both simulations spray the
+  holes as made). The two jobs run into a temporary folder unless ``STENCIL_BENCH_PRINTED_DIR``
+  and ``STENCIL_BENCH_PRINTED_BEFORE_DIR`` name folders that ``stencil-cad run`` wrote.
 
 Every slice is killed after ``STENCIL_BENCH_PRINTED_TIMEOUT`` seconds (default 900).
 """
@@ -31,6 +33,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 from stencil_cad import slicing as sl
 from stencil_cad.config.stipple import PROCESS_HOLE_OFFSET_MM, Process
@@ -141,13 +144,29 @@ def radius_cases(tmp: Path):
         }
 
 
-def _example_dir(tmp: Path) -> Path:
+def _example_dirs(tmp: Path) -> tuple[Path, Path]:
+    """The example as shipped (holes compensated) and with ``stipple.compensate: false``."""
     given = os.environ.get("STENCIL_BENCH_PRINTED_DIR")
-    if given:
-        return Path(given)
-    out = tmp / "example"
-    subprocess.run([sys.executable, "-m", "stencil_cad", "run", "--out", str(out), "-q"], check=True)
-    return out
+    before = os.environ.get("STENCIL_BENCH_PRINTED_BEFORE_DIR")
+    if given and before:
+        return Path(given), Path(before)
+    after_dir, before_dir = tmp / "example", tmp / "uncompensated"
+    subprocess.run([sys.executable, "-m", "stencil_cad", "run", "--out", str(after_dir), "-q"], check=True)
+    cfg = yaml.safe_load((after_dir / "config.yaml").read_text())
+    cfg["stipple"]["compensate"] = False
+    (tmp / "uncompensated.yaml").write_text(yaml.safe_dump(cfg))
+    cmd = [
+        sys.executable,
+        "-m",
+        "stencil_cad",
+        "run",
+        str(tmp / "uncompensated.yaml"),
+        "--out",
+        str(before_dir),
+        "-q",
+    ]
+    subprocess.run(cmd, check=True)
+    return after_dir, before_dir
 
 
 def _dots(path: Path) -> tuple[np.ndarray, np.ndarray]:
@@ -158,16 +177,16 @@ def _dots(path: Path) -> tuple[np.ndarray, np.ndarray]:
 
 
 def example_cases(tmp: Path):
-    folder = _example_dir(tmp)
-    manifest = json.loads((folder / "manifest.json").read_text())
-    scielab = manifest.get("simulate", {}).get("scielab")
+    folder, before_dir = _example_dirs(tmp)
+    scielab = json.loads((folder / "manifest.json").read_text()).get("simulate", {}).get("scielab")
+    before = json.loads((before_dir / "manifest.json").read_text()).get("simulate", {}).get("scielab")
     parts = sorted(folder.glob("layer_[0-9][0-9].stl")) + sorted(folder.glob("wall*.stl"))
     hours = metres = 0.0
     for stl in parts:
         out = tmp / (stl.stem + ".gcode")
         row, _ = _slice(stl, out)
-        row = {"bench": "printed", "case": f"example_{stl.stem}", **row, "scielab_before": scielab}
-        row["scielab_after"] = scielab
+        row = {"bench": "printed", "case": f"example_{stl.stem}", **row}
+        row.update(scielab_before=before, scielab_after=scielab)
         hours += row.get("print_hours") or 0.0
         metres += row.get("filament_m") or 0.0
         dots = folder / f"{stl.stem}_dots.csv"
@@ -190,7 +209,7 @@ def example_cases(tmp: Path):
         "case": "example_total",
         "print_hours": round(hours, 3),
         "filament_m": round(metres, 2),
-        "scielab_before": scielab,
+        "scielab_before": before,
         "scielab_after": scielab,
     }
 
