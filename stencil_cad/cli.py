@@ -231,6 +231,7 @@ def _dispatch(args) -> int:
 
 def _slice(args) -> int:
     from . import pipeline
+    from .sheet_make import hours_text as _hours
 
     if args.project:
         return _projects(args)
@@ -268,12 +269,6 @@ def _slice(args) -> int:
     if estimated > 1:
         print(f"total: {estimated} parts print in about {_hours(hours)} with {metres:.1f} m of filament")
     return 1 if failed else 0
-
-
-def _hours(hours: float) -> str:
-    """``3 h 41 min`` (or ``41 min``) for a print time in hours."""
-    minutes = int(round(hours * 60))
-    return f"{minutes // 60} h {minutes % 60:02d} min" if minutes >= 60 else f"{minutes} min"
 
 
 def _card(args) -> int:
