@@ -1959,7 +1959,14 @@ def plate_projects(
     for stl, out, turn in jobs:
         tmp = out.with_name(f".{out.name}.partial.3mf")
         try:
-            slicing.plate_project(stl, tmp, prof, timeout_s=timeout_s, rotate_deg=turn)
+            slicing.plate_project(
+                stl,
+                tmp,
+                prof,
+                timeout_s=timeout_s,
+                rotate_deg=turn,
+                overrides=slicing.part_settings(prof, stl),
+            )
         except slicing.SlicerNotFoundError as exc:
             tmp.unlink(missing_ok=True)
             raise UserError(f"{exc}") from None

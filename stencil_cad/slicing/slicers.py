@@ -754,6 +754,7 @@ def plate_project(
     timeout_s: float = 300.0,
     executable: str | os.PathLike | None = None,
     rotate_deg: int = 0,
+    overrides: Mapping[str, object] | None = None,
 ) -> Path:
     """Write the PrusaSlicer 3MF project of one plate, tiled as :func:`slice_plate` would slice it.
 
@@ -765,6 +766,7 @@ def plate_project(
         timeout_s: Seconds before each PrusaSlicer run is killed. Defaults to 300 s.
         executable: PrusaSlicer binary; found with :func:`find_slicer` when None.
         rotate_deg: 90 lays the plate turned a quarter turn on the bed; 0 as exported.
+        overrides: Settings that win over the profile (a wall's :data:`WALL_SETTINGS`).
 
     Returns:
         The written path (see :func:`export_3mf_project`).
@@ -779,7 +781,9 @@ def plate_project(
         if tiles:
             tiles = mesh_genus(read_stl(model)) > 1.5 * holes_per_tile
         parts = split_into_tiles(model, tmp, holes_per_tile=holes_per_tile) if tiles else model
-        return export_3mf_project(parts, output, prof, timeout_s=timeout_s, executable=executable)
+        return export_3mf_project(
+            parts, output, prof, overrides=overrides, timeout_s=timeout_s, executable=executable
+        )
 
 
 def _has_manifold3d() -> bool:
