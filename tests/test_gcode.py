@@ -139,11 +139,11 @@ def test_reader_on_a_sliced_plate(tmp_path):
     result = sl.slice_plate(stl, out, "prusa_fdm", tiles=False)
     assert result.ok, result.errors
     est = gcode.read_estimate(out)
-    assert est.layers == 6  # 1.2 mm at 0.2 mm
+    assert est.layers == 4  # 1.2 mm at 0.3 mm
     assert est.print_s is not None and 60 < est.print_s < 3600
     assert est.filament_mm is not None and est.filament_mm > 100
     layer = gcode.layer_paths(out, 2)
-    assert layer.z_mm == pytest.approx(0.6)
+    assert layer.z_mm == pytest.approx(0.9)
     shift = gcode.align_shift(layer, np.zeros(2), np.array([width, height]))
     px = 0.02
     covered = gcode.rasterise(layer, shift, (width, height), px)
