@@ -284,7 +284,8 @@ class ExportConfig(StrictModel):
             "Slice every plate and wall with the shipped prusa_fdm profile (as `stencil-cad slice` does, on "
             "the job's bed when `bed` is set; needs PrusaSlicer and the STL export) and put PrusaSlicer's "
             "estimated print time and filament per part, and their total, in manifest.json and on the "
-            "instruction sheet. Adds about half a minute of slicing per thousand holes. true/false."
+            "instruction sheet. Adds about half a minute of slicing per thousand holes. A mural's parts are "
+            "not sliced by the job: run `stencil-cad slice` on them. true/false."
         ),
     )
     stl_tolerance_mm: float = Field(
