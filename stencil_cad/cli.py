@@ -239,7 +239,7 @@ def _slice(args) -> int:
     from .config.bed import parse_bed_arg
 
     bed = parse_bed_arg(args.bed) if args.bed else None
-    hours = metres = 0.0
+    hours = metres = resin = 0.0
     estimated = 0
     for stl, out, result in pipeline.slice_plates(
         args.stl, args.profile, force=args.force, timeout_s=args.timeout, bed=bed
@@ -248,13 +248,16 @@ def _slice(args) -> int:
             turned = ", turned 90° to fit the bed" if result.rotate_deg else ""
             est = pipeline.print_estimate(out)
             said = ""
-            if est is not None and est.print_s is not None:
+            if est.print_s is not None:
                 estimated += 1
                 hours += est.print_s / 3600.0
                 metres += est.filament_m or 0.0
-                said = f"; prints in about {_hours(est.print_s / 3600.0)}" + (
-                    f" with {est.filament_m:.1f} m of filament" if est.filament_m is not None else ""
-                )
+                resin += est.resin_ml or 0.0
+                said = f"; prints in about {_hours(est.print_s / 3600.0)}"
+                if est.filament_m is not None:
+                    said += f" with {est.filament_m:.1f} m of filament"
+                elif est.resin_ml is not None:
+                    said += f" with {est.resin_ml:.1f} ml of resin"
             print(
                 f"{out}: {result.output_bytes} bytes in {result.seconds:.1f} s ({args.profile}{turned}){said}"
             )
@@ -267,7 +270,8 @@ def _slice(args) -> int:
             if args.verbose:
                 print(result.log, file=sys.stderr)
     if estimated > 1:
-        print(f"total: {estimated} parts print in about {_hours(hours)} with {metres:.1f} m of filament")
+        used = f"{resin:.1f} ml of resin" if resin and not metres else f"{metres:.1f} m of filament"
+        print(f"total: {estimated} parts print in about {_hours(hours)} with {used}")
     return 1 if failed else 0
 
 

@@ -1912,11 +1912,11 @@ def stage_print_estimate(run: Run) -> None:
     build["print"] = {"profile": prof.name, "hours": round(total_h, 3), "filament_m": round(total_m, 2)}
 
 
-def print_estimate(path: Path) -> GcodeEstimate | None:
-    """The slicer's estimated print time and filament in a sliced file, None for a resin ``.sl1``."""
-    from .slicing.gcode import read_estimate
+def print_estimate(path: Path) -> GcodeEstimate:
+    """The slicer's estimated print time and filament (G-code) or resin (``.sl1``) in a sliced file."""
+    from .slicing.gcode import read_estimate, read_sl1_estimate
 
-    return read_estimate(path) if path.suffix == ".gcode" else None
+    return read_sl1_estimate(path) if path.suffix == ".sl1" else read_estimate(path)
 
 
 def plate_projects(

@@ -69,6 +69,20 @@ def test_read_estimate(tmp_path):
     assert est.layers == 3
 
 
+def test_read_sl1_estimate(tmp_path):
+    import zipfile
+
+    path = tmp_path / "a.sl1"
+    with zipfile.ZipFile(path, "w") as zf:
+        zf.writestr("config.ini", "expTime = 2.6\nprintTime = 168.000000\nusedMaterial = 0.689293\n")
+        zf.writestr("a00000.png", b"")
+        zf.writestr("a00001.png", b"")
+        zf.writestr("thumbnail/thumbnail400x400.png", b"")
+    est = gcode.read_sl1_estimate(path)
+    assert est.print_s == 168.0 and est.resin_ml == pytest.approx(0.689293)
+    assert est.filament_mm is None and est.layers == 2
+
+
 def test_layer_paths_skip_skirt_and_split_at_travel(tmp_path):
     path = tmp_path / "a.gcode"
     path.write_text(SQUARE)

@@ -31,6 +31,7 @@ __all__ = [
     "parse_duration",
     "rasterise",
     "read_estimate",
+    "read_sl1_estimate",
 ]
 
 _NUM = re.compile(r"([XYZEF])(-?\d*\.?\d+)")
@@ -60,13 +61,15 @@ class GcodeEstimate:
         print_s: Estimated printing time in seconds (normal mode), None when absent.
         filament_mm: Filament length in mm, None when absent.
         filament_g: Filament mass in grams, None when absent.
-        layers: Number of ``;LAYER_CHANGE`` (or CuraEngine ``;LAYER:``) markers.
+        layers: Number of ``;LAYER_CHANGE`` (or CuraEngine ``;LAYER:``) markers (SLA: layer images).
+        resin_ml: Resin volume in ml (an SLA ``.sl1``), None for filament.
     """
 
     print_s: float | None
     filament_mm: float | None
     filament_g: float | None
     layers: int
+    resin_ml: float | None = None
 
     @property
     def print_hours(self) -> float | None:
@@ -115,6 +118,29 @@ def read_estimate(gcode: str | os.PathLike) -> GcodeEstimate:
     if print_s is None and elapsed is not None:
         print_s = elapsed
     return GcodeEstimate(print_s=print_s, filament_mm=filament_mm, filament_g=filament_g, layers=layers)
+
+
+def read_sl1_estimate(sl1: str | os.PathLike) -> GcodeEstimate:
+    """The print time and resin PrusaSlicer wrote into an SLA ``.sl1`` archive's ``config.ini``.
+
+    Raises:
+        OSError: The file cannot be read.
+        zipfile.BadZipFile: It is not a ``.sl1`` archive.
+    """
+    import zipfile
+
+    with zipfile.ZipFile(sl1) as zf:
+        text = zf.read("config.ini").decode("utf-8", errors="replace")
+        layers = sum(1 for n in zf.namelist() if n.lower().endswith(".png") and "thumbnail" not in n.lower())
+    values = {k.strip(): v.strip() for k, _, v in (line.partition("=") for line in text.splitlines())}
+
+    def number(key: str) -> float | None:
+        try:
+            return float(values[key])
+        except (KeyError, ValueError):
+            return None
+
+    return GcodeEstimate(number("printTime"), None, None, layers, resin_ml=number("usedMaterial"))
 
 
 @dataclass(frozen=True)
