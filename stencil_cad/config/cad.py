@@ -33,7 +33,12 @@ class PlateConfig(StrictModel):
         1.2,
         ge=0.4,
         le=20.0,
-        description="Plate thickness in mm. Range [0.4, 20]. Plates are exported flat, z from 0 to the thickness.",
+        description=(
+            "Plate thickness in mm. Range [0.4, 20]. Plates are exported flat, z from 0 to the thickness. "
+            "Thinner prints faster and shades the spray less: 0.9 mm is three 0.3 mm layers of the shipped "
+            "FDM profile, a quarter less print time than 1.2 mm (the bundled example's 173 mm plates use it; "
+            "a plate rests on the wall's ledge all round)."
+        ),
     )
     label: LabelMode = Field(
         LabelMode.engrave,
