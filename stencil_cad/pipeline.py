@@ -822,7 +822,7 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
                         info = dxf.write_dxf_stencils(
                             p,
                             [drawing],
-                            kerf_mm=exp.dxf_kerf_mm,
+                            kerf_mm=exp.kerf_mm,
                             # Fixed dates and GUIDs: the same job writes the same bytes, wherever it ran.
                             deterministic=True,
                         )
@@ -831,7 +831,7 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
                 if exp.svg:
                     with run.out.open_path(f"{stem}.svg") as p:
                         sinfo = svg.write_svg(
-                            p, drawing, kerf_mm=exp.dxf_kerf_mm, title=f"{cfg.name} {stem} of {len(holes)}"
+                            p, drawing, kerf_mm=exp.kerf_mm, title=f"{cfg.name} {stem} of {len(holes)}"
                         )
                     dxf_info["svg_offset_mm"] = [round(float(v), 4) for v in sinfo.offset_mm]
                     dxf_info["svg_circles"] = sinfo.circles  # type: ignore[assignment]
@@ -1405,7 +1405,7 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
         ring = outline.plate_outline(w, h, cfg.plate.outline)
         with run.out.open_path("card_plate.dxf") as p:
             drawing = dxf.stencil_for(card.dots, ring, "CARD", *model.cut_label())
-            dxf.write_dxf_stencils(p, [drawing], kerf_mm=exp.dxf_kerf_mm)
+            dxf.write_dxf_stencils(p, [drawing], kerf_mm=exp.kerf_mm)
         walls = []
         heights = [fp.standoff_mm for fp in card.footprints]
         for g, stem in zip(heights, card_stems(heights), strict=True):

@@ -70,3 +70,13 @@ def test_without_compensation_the_made_holes_are_smaller():
 def test_laser_offset_is_zero_and_configurable():
     assert StippleConfig(process="laser").resolved_hole_offset_mm == 0.0
     assert StippleConfig(process="laser", hole_offset_mm=-0.1).resolved_hole_offset_mm == -0.1
+
+
+def test_laser_kerf_comes_from_the_process_unless_given():
+    from stencil_cad.config import io as cfg_io
+
+    laser = cfg_io.parse_config({"stipple": {"process": "laser"}}, "job.yaml")
+    assert laser.export.dxf_kerf_mm == pytest.approx(0.2) and laser.export.kerf_mm == pytest.approx(0.2)
+    given = cfg_io.parse_config({"stipple": {"process": "laser"}, "export": {"dxf_kerf_mm": 0}}, "job.yaml")
+    assert given.export.kerf_mm == 0.0
+    assert cfg_io.parse_config({}, "defaults").export.kerf_mm == 0.0

@@ -302,12 +302,22 @@ class ExportConfig(StrictModel):
             "Range [0.001, 0.5]. Hole polygons keep each hole's exact area (the spray flow follows it)."
         ),
     )
-    dxf_kerf_mm: float = Field(
-        0.0,
+    dxf_kerf_mm: float | None = Field(
+        None,
         ge=0.0,
         le=1.0,
-        description="Laser kerf in mm; DXF and SVG contours are offset by half of it so cut parts keep their size. Range [0, 1].",
+        description=(
+            "Laser kerf in mm; DXF and SVG contours are offset by half of it so cut parts keep their size. "
+            "Range [0, 1]. null for the process preset: 0.2 mm for stipple.process laser (a CO2 laser in "
+            "card, PET or 3 mm plywood cuts 0.1-0.3 mm wide; measure yours with a test cut), 0 for fdm and "
+            "sla, whose DXF is only a drawing."
+        ),
     )
+
+    @property
+    def kerf_mm(self) -> float:
+        """The laser kerf in mm (0 when not resolved from the process)."""
+        return float(self.dxf_kerf_mm or 0.0)
 
     def plate_extensions(self) -> list[str]:
         """The file extensions written per plate, e.g. ``[".step", ".stl", ".dxf"]``."""

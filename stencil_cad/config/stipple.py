@@ -118,7 +118,7 @@ class StippleConfig(StrictModel):
             "makes it wider. null for the process preset: fdm 0.015 (measured from the G-code of the "
             "shipped prusa_fdm profile, python -m benchmarks printed), sla 0.02 (resin over-cure; a prior, "
             "not measured), laser 0 (the DXF and SVG already offset every cut by half of "
-            "export.dxf_kerf_mm: set that to your cutter's kerf). Range [-0.5, 0.5]."
+            "export.dxf_kerf_mm, 0.2 mm by default for laser: set it to your cutter's kerf). Range [-0.5, 0.5]."
         ),
     )
     compensate: bool = Field(
