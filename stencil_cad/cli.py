@@ -230,6 +230,8 @@ def _dispatch(args) -> int:
 
 
 def _slice(args) -> int:
+    from collections import Counter
+
     from . import pipeline
     from .sheet_make import hours_text as _hours
 
@@ -261,8 +263,9 @@ def _slice(args) -> int:
             print(
                 f"{out}: {result.output_bytes} bytes in {result.seconds:.1f} s ({args.profile}{turned}){said}"
             )
-            for w in result.warnings:
-                print(f"  warning   slicer: {w[:300]}")
+            # PrusaSlicer repeats some log lines once per tile or island: say each once, with a count.
+            for w, n in Counter(result.warnings).items():
+                print(f"  warning   slicer: {w[:300]}" + (f" ({n} times)" if n > 1 else ""))
         else:
             failed += 1
             why = "timed out" if result.timed_out else "; ".join(result.errors) or f"exit {result.returncode}"
