@@ -27,6 +27,7 @@ NAMES = [
     "mural",
     "mural_parts",
     "dask_overhead",
+    "printed",
 ]
 
 

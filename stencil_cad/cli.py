@@ -230,7 +230,10 @@ def _dispatch(args) -> int:
 
 
 def _slice(args) -> int:
+    from collections import Counter
+
     from . import pipeline
+    from .sheet_make import hours_text as _hours
 
     if args.project:
         return _projects(args)
@@ -238,20 +241,40 @@ def _slice(args) -> int:
     from .config.bed import parse_bed_arg
 
     bed = parse_bed_arg(args.bed) if args.bed else None
+    hours = metres = resin = 0.0
+    estimated = 0
     for stl, out, result in pipeline.slice_plates(
         args.stl, args.profile, force=args.force, timeout_s=args.timeout, bed=bed
     ):
         if result.ok:
             turned = ", turned 90° to fit the bed" if result.rotate_deg else ""
-            print(f"{out}: {result.output_bytes} bytes in {result.seconds:.1f} s ({args.profile}{turned})")
-            for w in result.warnings:
-                print(f"  warning   slicer: {w[:300]}")
+            est = pipeline.print_estimate(out)
+            said = ""
+            if est.print_s is not None:
+                estimated += 1
+                hours += est.print_s / 3600.0
+                metres += est.filament_m or 0.0
+                resin += est.resin_ml or 0.0
+                said = f"; prints in about {_hours(est.print_s / 3600.0)}"
+                if est.filament_m is not None:
+                    said += f" with {est.filament_m:.1f} m of filament"
+                elif est.resin_ml is not None:
+                    said += f" with {est.resin_ml:.1f} ml of resin"
+            print(
+                f"{out}: {result.output_bytes} bytes in {result.seconds:.1f} s ({args.profile}{turned}){said}"
+            )
+            # PrusaSlicer repeats some log lines once per tile or island: say each once, with a count.
+            for w, n in Counter(result.warnings).items():
+                print(f"  warning   slicer: {w[:300]}" + (f" ({n} times)" if n > 1 else ""))
         else:
             failed += 1
             why = "timed out" if result.timed_out else "; ".join(result.errors) or f"exit {result.returncode}"
             print(f"stencil-cad: error: slicing {stl} failed: {why[:500]}", file=sys.stderr)
             if args.verbose:
                 print(result.log, file=sys.stderr)
+    if estimated > 1:
+        used = f"{resin:.1f} ml of resin" if resin and not metres else f"{metres:.1f} m of filament"
+        print(f"total: {estimated} parts print in about {_hours(hours)} with {used}")
     return 1 if failed else 0
 
 

@@ -270,7 +270,7 @@ def _build_plate(task: PartTask) -> PartResult:
     row["cut_length_mm"] = round(dxf.cut_length_mm(holes, ring), 1)
     if exp.svg:
         with files.open_path(f"{stem}.svg") as p:
-            sinfo = svg.write_svg(p, drawing, kerf_mm=exp.dxf_kerf_mm, title=f"{cfg.name} {stem}")
+            sinfo = svg.write_svg(p, drawing, kerf_mm=exp.kerf_mm, title=f"{cfg.name} {stem}")
         row["svg_offset_mm"] = [round(float(v), 4) for v in sinfo.offset_mm]
         row["svg_circles"] = sinfo.circles
     if exp.dxf:
@@ -278,7 +278,7 @@ def _build_plate(task: PartTask) -> PartResult:
             info = dxf.write_dxf_stencils(
                 p,
                 [drawing],
-                kerf_mm=exp.dxf_kerf_mm,
+                kerf_mm=exp.kerf_mm,
                 # Fixed dates and GUIDs: the same job writes the same bytes, wherever it ran.
                 deterministic=True,
             )

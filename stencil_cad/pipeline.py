@@ -27,11 +27,13 @@ from .errors import ConfigError, OutputError, UserError
 from .model import CutLayer, DotSet, Holes, Layers, Picture, coat_contrast
 from .output import MANIFEST, OutputDir, manifest_header
 from .output import plain as _plain
+from .stipple.made import drawn_dots, made_dots
 
 if TYPE_CHECKING:
     from . import mural
     from .compute import Executor
     from .slicing import SliceResult
+    from .slicing.gcode import GcodeEstimate
 
 log = logging.getLogger(__name__)
 
@@ -823,7 +825,9 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
     with run.stage("build"):
         ring = outline.plate_outline(width_mm, height_mm, cfg.plate.outline)
         with run.bar(len(holes), "build") as bar:
-            for i, h in enumerate(holes):
+            for i, asked in enumerate(holes):
+                # The plate draws each hole larger by what the process takes off (stipple.compensate).
+                h = drawn_dots(asked, cfg.stipple, picture_mm) if isinstance(asked, DotSet) else asked
                 label = cad.LabelInfo(
                     layer=i + 1,
                     layers=len(holes),
@@ -845,7 +849,7 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
                         info = dxf.write_dxf_stencils(
                             p,
                             [drawing],
-                            kerf_mm=exp.dxf_kerf_mm,
+                            kerf_mm=exp.kerf_mm,
                             # Fixed dates and GUIDs: the same job writes the same bytes, wherever it ran.
                             deterministic=True,
                         )
@@ -854,7 +858,7 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
                 if exp.svg:
                     with run.out.open_path(f"{stem}.svg") as p:
                         sinfo = svg.write_svg(
-                            p, drawing, kerf_mm=exp.dxf_kerf_mm, title=f"{cfg.name} {stem} of {len(holes)}"
+                            p, drawing, kerf_mm=exp.kerf_mm, title=f"{cfg.name} {stem} of {len(holes)}"
                         )
                     dxf_info["svg_offset_mm"] = [round(float(v), 4) for v in sinfo.offset_mm]
                     dxf_info["svg_circles"] = sinfo.circles  # type: ignore[assignment]
@@ -864,6 +868,8 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
                 row = {"layer": i + 1, **_plain(check), **dxf_info, "cut_length_mm": cut, "bbox_mm": size}
                 if isinstance(h, CutLayer):
                     row["cutouts"] = h.cutout_figures()
+                elif len(h.r_mm):
+                    row["drawn_minus_asked_mm"] = round(float(np.mean(h.r_mm - asked.r_mm)), 4)
                 results.append(row)
                 bar.update(1)
         walls = []
@@ -889,11 +895,18 @@ def simulated_stems(cfg: JobConfig) -> list[str]:
 
 
 def stage_simulate(
-    run: Run, picture: Picture | None, layers: Layers, dotsets: list[DotSet], keep: bool = False
+    run: Run,
+    picture: Picture | None,
+    layers: Layers,
+    dotsets: list[DotSet],
+    keep: bool = False,
+    as_made: bool = True,
 ):
     """Spray every plate in simulation, composite, score against the input, save previews.
 
-    Returns the scores, or with ``keep`` the simulation and the reference on its grid.
+    Returns the scores, or with ``keep`` the simulation and the reference on its grid. With
+    ``as_made`` (a one-plate job) the holes are sprayed as the process makes them
+    (:func:`stencil_cad.stipple.made.made_dots`); a mural's are sprayed as asked.
 
     Under the physical model every wall height gets its own simulation and score
     (``simulated_wall_10mm.png`` …); the main pictures and scores are those of the design
@@ -905,6 +918,10 @@ def stage_simulate(
     cfg = run.cfg
     physical = cfg.spray.model == SprayModel.physical
     design = SprayGeometry.of_job(cfg) if physical else None
+    if as_made:
+        # Spray the holes as the process makes them (stipple.hole_offset_mm), not as asked.
+        size_mm = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
+        dotsets = [made_dots(d, cfg.stipple, size_mm) if isinstance(d, DotSet) else d for d in dotsets]
     with run.stage("simulate"):
         grid_mm = resolution.sim_mm_per_px(cfg)
         sim = simulate.simulate(layers, dotsets, cfg.spray, grid_mm, geometry=design)
@@ -1457,7 +1474,7 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
         ring = outline.plate_outline(w, h, cfg.plate.outline)
         with run.out.open_path("card_plate.dxf") as p:
             drawing = dxf.stencil_for(card.dots, ring, "CARD", *model.cut_label())
-            dxf.write_dxf_stencils(p, [drawing], kerf_mm=exp.dxf_kerf_mm)
+            dxf.write_dxf_stencils(p, [drawing], kerf_mm=exp.kerf_mm)
         walls = []
         heights = [fp.standoff_mm for fp in card.footprints]
         for g, stem in zip(heights, card_stems(heights), strict=True):
@@ -1551,6 +1568,8 @@ def build_any(
 
     if not grid.tiled:
         stage_build(run, layers, dotsets, picture_mm)
+        if run.cfg.export.print_estimate:
+            stage_print_estimate(run)
         if simulate:
             stage_simulate(run, picture, layers, dotsets)
         return
@@ -1558,7 +1577,8 @@ def build_any(
     mural_stages.write_map(run, grid, layers, picture)
     if not simulate:
         return
-    sim, ref = stage_simulate(run, picture, layers, dotsets, keep=True)
+    # A mural's plates are drawn as asked (no compensation yet) and sprayed so.
+    sim, ref = stage_simulate(run, picture, layers, dotsets, keep=True, as_made=False)
     mural_stages.stage_mural_simulate(run, sim, ref, layers, dotsets, grid, per_tile)
 
 
@@ -1823,7 +1843,7 @@ def _run_stage_command(
         elif command == "build":
             build_any(run, layers, dotsets, size, grid, picture, simulate=False)
         else:
-            stage_simulate(run, picture, layers, dotsets)
+            stage_simulate(run, picture, layers, dotsets, as_made=not grid.tiled)
         return finish(run, command)
 
 
@@ -1864,8 +1884,10 @@ def slice_plates(
         tmp = out.with_name(f".{out.name}.partial{prof.suffix}")
         slicing.remove_partial(tmp)
         try:
+            # A wall prints sparse (it only holds the plates off the surface): slicing.WALL_SETTINGS.
+            settings = {**slicing.part_settings(prof, stl), **overrides}
             result = slicing.slice_plate(
-                stl, tmp, prof, timeout_s=timeout_s, overrides=overrides, rotate_deg=turn
+                stl, tmp, prof, timeout_s=timeout_s, overrides=settings, rotate_deg=turn
             )
         except slicing.SlicerNotFoundError as exc:
             slicing.remove_partial(tmp)
@@ -1917,7 +1939,12 @@ def plate_projects(
         slicing.remove_partial(tmp)
         try:
             slicing.plate_project(
-                stl, tmp, prof, timeout_s=timeout_s, overrides=overrides, rotate_deg=turn or 0
+                stl,
+                tmp,
+                prof,
+                timeout_s=timeout_s,
+                overrides={**slicing.part_settings(prof, stl), **overrides},
+                rotate_deg=turn or 0,
             )
         except slicing.SlicerNotFoundError as exc:
             slicing.remove_partial(tmp)
@@ -1981,6 +2008,61 @@ def _slice_jobs(
         check_target(out, "sliced file", force=force, error=OutputError)
         jobs.append((stl, out, lay.rotate_deg))
     return jobs
+
+
+def stage_print_estimate(run: Run) -> None:
+    """Slice every plate and wall the build staged and record the slicer's estimates (``export.print_estimate``).
+
+    Each part is sliced as ``stencil-cad slice`` would (walls sparse, on the job's bed); its
+    ``print_hours`` and ``filament_m`` go into its build row and the sums into ``build.print``.
+
+    Raises:
+        UserError: PrusaSlicer is not installed, the STLs were not exported, or a slice failed.
+    """
+    import tempfile
+
+    from . import slicing
+
+    cfg = run.cfg
+    prof = slicing.get_profile("prusa_fdm")
+    if not cfg.export.stl:
+        raise UserError("export.print_estimate slices the STL files: set export.stl: true")
+    if slicing.find_slicer(prof.slicer) is None:
+        raise UserError("export.print_estimate needs PrusaSlicer (Debian/Ubuntu: apt install prusa-slicer)")
+    build = run.figures["build"]
+    parts = [(row, f"layer_{int(row['layer']):02d}") for row in build["plates"]]
+    parts += [(row, str(row["file"]).rsplit(".", 1)[0]) for row in build["walls"]]
+    bed = _bed_overrides(prof, cfg.bed) if cfg.bed is not None else {}
+    bed_xy = slicing.bed_size(prof) if cfg.bed is None else _bed_xy(cfg.bed)
+    total_h = total_m = 0.0
+    with run.stage("print_estimate"), tempfile.TemporaryDirectory(prefix="stencil_print_") as tmp:
+        for row, stem in parts:
+            stl = run.out.stage / f"{stem}.stl"
+            lay = slicing.place(slicing.stl_footprint(stl), bed_xy)
+            if lay.rotate_deg is None:
+                row["print"] = "larger than the bed either way round: not sliced"
+                continue
+            out = Path(tmp) / f"{stem}.gcode"
+            settings = {**slicing.part_settings(prof, stl), **bed}
+            result = slicing.slice_plate(stl, out, prof, overrides=settings, rotate_deg=lay.rotate_deg)
+            if not result.ok:
+                raise UserError(
+                    f"export.print_estimate: slicing {stem}.stl failed: {'; '.join(result.errors)[:300]}"
+                )
+            est = slicing.read_estimate(out)
+            row["print_hours"] = None if est.print_hours is None else round(est.print_hours, 3)
+            row["filament_m"] = None if est.filament_m is None else round(est.filament_m, 2)
+            total_h += est.print_hours or 0.0
+            total_m += est.filament_m or 0.0
+            out.unlink()
+    build["print"] = {"profile": prof.name, "hours": round(total_h, 3), "filament_m": round(total_m, 2)}
+
+
+def print_estimate(path: Path) -> GcodeEstimate:
+    """The slicer's estimated print time and filament (G-code) or resin (``.sl1``) in a sliced file."""
+    from .slicing.gcode import read_estimate, read_sl1_estimate
+
+    return read_sl1_estimate(path) if path.suffix == ".sl1" else read_estimate(path)
 
 
 def _bed_xy(bed) -> tuple[float, float]:

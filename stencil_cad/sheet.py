@@ -167,9 +167,15 @@ def _print_rows(manifest: Mapping, steps: list[Step]) -> tuple[list[str], list[l
             if part.cut_mm
             else ("not cut" if part.kind == "wall" else "not measured")
         )
-        rows.append(
-            [part.stem, count, ", ".join(files) or "not written", cut, sheet_make.part_advice(manifest, part)]
-        )
+        advice = sheet_make.part_advice(manifest, part)
+        said = sheet_make.print_text(part.print_hours, part.filament_m)
+        if said:
+            advice += f"; PrusaSlicer: {said}"
+        rows.append([part.stem, count, ", ".join(files) or "not written", cut, advice])
+    total = (manifest.get("build") or {}).get("print") or {}
+    if total.get("hours") is not None:
+        said = sheet_make.print_text(float(total["hours"]), total.get("filament_m"))
+        rows.append(["all parts", "", "", "", f"PrusaSlicer ({total.get('profile', 'prusa_fdm')}): {said}"])
     return head, rows
 
 

@@ -55,6 +55,8 @@ class Part:
         cut_mm: Length of every cut in mm (plates), or None.
         tile: The mural tile it belongs to, or empty.
         layer: The layer number (plates), or 0.
+        print_hours: PrusaSlicer's estimated print time in hours (``export.print_estimate``), or None.
+        filament_m: PrusaSlicer's filament estimate in metres, or None.
     """
 
     kind: str
@@ -64,6 +66,8 @@ class Part:
     cut_mm: float | None = None
     tile: str = ""
     layer: int = 0
+    print_hours: float | None = None
+    filament_m: float | None = None
 
 
 def part_size(row: Mapping) -> tuple[float, float] | None:
@@ -99,6 +103,8 @@ def plate_parts(manifest: Mapping) -> list[Part]:
                 cut_mm=p.get("cut_length_mm"),
                 tile=str(p.get("tile", "") or ""),
                 layer=layer,
+                print_hours=p.get("print_hours"),
+                filament_m=p.get("filament_m"),
             )
         )
     return out
@@ -109,8 +115,30 @@ def wall_parts(manifest: Mapping) -> list[Part]:
     out = []
     for w in (manifest.get("build") or {}).get("walls", []) or []:
         stem = str(w.get("file", "wall.step")).rsplit(".", 1)[0]
-        out.append(Part(kind="wall", stem=stem, size_mm=part_size(w), tile=str(w.get("tile", "") or "")))
+        out.append(
+            Part(
+                kind="wall",
+                stem=stem,
+                size_mm=part_size(w),
+                tile=str(w.get("tile", "") or ""),
+                print_hours=w.get("print_hours"),
+                filament_m=w.get("filament_m"),
+            )
+        )
     return out
+
+
+def hours_text(hours: float) -> str:
+    """``1 h 49 min`` (or ``41 min``) for a print time in hours."""
+    minutes = int(round(hours * 60))
+    return f"{minutes // 60} h {minutes % 60:02d} min" if minutes >= 60 else f"{minutes} min"
+
+
+def print_text(hours: float | None, metres: float | None) -> str:
+    """PrusaSlicer's estimate as the sheet says it, or empty without one."""
+    if hours is None:
+        return ""
+    return f"prints in about {hours_text(hours)}" + (f" with {metres:.1f} m of filament" if metres else "")
 
 
 def job_bed(manifest: Mapping) -> Bed | None:
@@ -153,9 +181,9 @@ def _fdm(part: Part, bed: Bed | None, thickness: float | None) -> str:
         )
     holes = part.holes or 0
     tiles = math.ceil(holes / 300) if holes > _TILED_ABOVE else 1
-    text = f"FDM: {_slice_command(part.stem, bed)} (PrusaSlicer, prusa_fdm, 0.2 mm layers"
+    text = f"FDM: {_slice_command(part.stem, bed)} (PrusaSlicer, prusa_fdm, 0.3 mm layers"
     if part.kind == "wall":
-        text += ", 100 % infill); print it as exported, base on the bed and pocket on top, no supports"
+        text += ", 10 % infill); print it as exported, base on the bed and pocket on top, no supports"
     else:
         text += (
             ", 100 % infill"

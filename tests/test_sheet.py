@@ -52,6 +52,8 @@ hard:
   palette: cans.csv
 stipple:
   process: laser
+export:
+  dxf_kerf_mm: 0  # the cut files drawn exactly as designed (the laser preset takes 0.2 mm off)
 """
 
 SVG = "{http://www.w3.org/2000/svg}"

@@ -285,7 +285,7 @@ def test_prusa_fdm_profile_slices(plate, tmp_path):
     assert res.ok, (res.errors, res.log)
     assert res.errors == () and res.output_bytes > 10_000
     summary = sl.gcode_summary(res.output)
-    assert summary["layers"] == 6  # 1.2 mm at 0.2 mm
+    assert summary["layers"] == 4  # 1.2 mm at 0.3 mm
     assert summary["extrusion_moves"] > 1000
     assert summary["filament_mm"] > 0
 

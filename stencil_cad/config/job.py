@@ -23,6 +23,9 @@ from .view import ViewConfig
 #: The wall's stand-off (mm) soft stencils of each process score best from at 1 m under the physical
 #: spray model (wall.standoff_mm's description gives the figures).
 STANDOFF_BY_PROCESS: dict[Process, float] = {Process.fdm: 15.0, Process.sla: 10.0, Process.laser: 10.0}
+#: Laser kerf in mm per process when export.dxf_kerf_mm is not given: a CO2 laser cuts card, PET or 3 mm
+#: plywood 0.1-0.3 mm wide (Ponoko, Snijlab: about 0.2 mm); FDM and resin plates are not cut.
+KERF_BY_PROCESS: dict[Process, float] = {Process.fdm: 0.0, Process.sla: 0.0, Process.laser: 0.2}
 #: The wall's stand-off (mm) of hard stencils: low, so their cut-outs keep sharp edges.
 HARD_STANDOFF_MM = 1.0
 
@@ -149,6 +152,20 @@ class JobConfig(StrictModel):
         if process is None:
             return data  # the stipple section's own validation names what is wrong
         return {**data, "spray": {**spray, "nozzle_height": NOZZLE_HEIGHT_BY_PROCESS[process]}}
+
+    @model_validator(mode="before")
+    @classmethod
+    def _kerf_by_process(cls, data):
+        """An export section without a kerf (or with null) gets its process's (laser 0.2 mm, else 0)."""
+        if not isinstance(data, dict):
+            return data
+        export = data.get("export") or {}
+        if not isinstance(export, dict) or export.get("dxf_kerf_mm") is not None:
+            return data  # an ExportConfig object or a number: kept as given
+        process = _process_of(data.get("stipple"))
+        if process is None:
+            return data  # the stipple section's own validation names what is wrong
+        return {**data, "export": {**export, "dxf_kerf_mm": KERF_BY_PROCESS[process]}}
 
     @model_validator(mode="before")
     @classmethod

@@ -61,6 +61,15 @@ PROCESS_PRESETS: dict[Process, tuple[float, float, float]] = {
     Process.laser: (0.5, 0.6, 0.0),
 }
 
+#: Radius in mm each process takes off a drawn hole (see ``stipple.hole_offset_mm``): FDM measured
+#: from PrusaSlicer's G-code with the shipped prusa_fdm profile (python -m benchmarks printed), resin
+#: over-cure a prior, laser 0 because the DXF/SVG writers compensate export.dxf_kerf_mm.
+PROCESS_HOLE_OFFSET_MM: dict[Process, float] = {
+    Process.fdm: 0.015,
+    Process.sla: 0.02,
+    Process.laser: 0.0,
+}
+
 
 class StippleConfig(StrictModel):
     """Settings of the stipple stage: dot count, hole sizes and design rules."""
@@ -98,6 +107,27 @@ class StippleConfig(StrictModel):
             "null for the process preset (0: holes may reach the picture's edge, where the plate's solid "
             "border holds them, and touch a keep-out; give a margin to keep material around a fixture in a "
             "keep-out, or a pale band along the edge is the price). Range [0, 100]."
+        ),
+    )
+    hole_offset_mm: float | None = Field(
+        None,
+        ge=-0.5,
+        le=0.5,
+        description=(
+            "How much narrower (radius, mm) the process makes a hole than it is drawn; negative when it "
+            "makes it wider. null for the process preset: fdm 0.015 (measured from the G-code of the "
+            "shipped prusa_fdm profile, python -m benchmarks printed), sla 0.02 (resin over-cure; a prior, "
+            "not measured), laser 0 (the DXF and SVG already offset every cut by half of "
+            "export.dxf_kerf_mm, 0.2 mm by default for laser: set it to your cutter's kerf). Range [-0.5, 0.5]."
+        ),
+    )
+    compensate: bool = Field(
+        True,
+        description=(
+            "Draw every hole larger by hole_offset_mm so the made hole has the radius the stippler asked "
+            "for; the web rule holds on the plate as made (a drawn web 2 x hole_offset_mm under web_mm "
+            "prints web_mm wide), and a hole at the picture's edge or a keep-out grows only as far as the "
+            "margin allows. The simulation sprays the made holes either way."
         ),
     )
     keepouts_mm: list[tuple[float, float, float, float]] = Field(
@@ -201,6 +231,13 @@ class StippleConfig(StrictModel):
         if self.web_mm is not None:
             return float(self.web_mm)
         return PROCESS_PRESETS[self.process][1]
+
+    @property
+    def resolved_hole_offset_mm(self) -> float:
+        """Radius in mm the process takes off each drawn hole (given value or the process preset)."""
+        if self.hole_offset_mm is not None:
+            return float(self.hole_offset_mm)
+        return PROCESS_HOLE_OFFSET_MM[self.process]
 
     @property
     def resolved_edge_margin_mm(self) -> float:

@@ -1,7 +1,18 @@
 """Slicing exported plates with the shipped print profiles, big plates as tiles."""
 
+from .gcode import GcodeEstimate, LayerPaths, hole_open_areas, layer_paths, read_estimate
 from .placement import Placement, place, rotated_copy
-from .profiles import PROFILES, Profile, Slicer, Technology, get_profile, templates_dir
+from .profiles import (
+    PROFILES,
+    WALL_SETTINGS,
+    Profile,
+    Slicer,
+    Technology,
+    get_profile,
+    is_wall,
+    part_settings,
+    templates_dir,
+)
 from .slicers import (
     ENV_CURA,
     ENV_CURA_DEFINITIONS,
@@ -36,6 +47,9 @@ __all__ = [
     "HOLES_PER_TILE",
     "PROFILES",
     "SEAM_CLEARANCE_MM",
+    "WALL_SETTINGS",
+    "GcodeEstimate",
+    "LayerPaths",
     "MeshInfo",
     "Placement",
     "Profile",
@@ -53,11 +67,16 @@ __all__ = [
     "gcode_summary",
     "get_profile",
     "hole_boxes",
+    "hole_open_areas",
     "inspect_mesh",
+    "is_wall",
+    "layer_paths",
     "output_problem",
     "parse_info",
     "parse_messages",
+    "part_settings",
     "place",
+    "read_estimate",
     "plate_project",
     "remove_partial",
     "rotated_copy",

@@ -6,7 +6,17 @@ import enum
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["PROFILES", "Profile", "Slicer", "Technology", "get_profile", "templates_dir"]
+__all__ = [
+    "PROFILES",
+    "WALL_SETTINGS",
+    "Profile",
+    "Slicer",
+    "Technology",
+    "get_profile",
+    "is_wall",
+    "part_settings",
+    "templates_dir",
+]
 
 
 class Slicer(str, enum.Enum):
@@ -60,8 +70,8 @@ PROFILES: dict[str, Profile] = {
             Technology.FFF,
             "prusa_fdm.ini",
             ".gcode",
-            0.2,
-            "PrusaSlicer FDM, 0.4 mm nozzle, 0.2 mm layers, tuned for plates with thousands of holes",
+            0.3,
+            "PrusaSlicer FDM, 0.4 mm nozzle, 0.3 mm layers, tuned for plates with thousands of holes",
         ),
         Profile(
             "prusa_sla",
@@ -115,3 +125,41 @@ def get_profile(profile: str | Profile) -> Profile:
         return PROFILES[profile]
     except KeyError:
         raise ValueError(f"unknown slicer profile {profile!r}; choose from {', '.join(PROFILES)}") from None
+
+
+#: PrusaSlicer settings for a wall (`wall.stl`, `tile_XN_wall.stl`, `card_wall_3mm.stl`): it only
+#: holds the plates off the surface, so it prints sparse inside (a 10 % grid between two walls, three
+#: top layers under the ledge the plate rests on, two bottom layers) with faster walls. The bundled
+#: example's wall: 5 h 56 min and 37.4 m of filament at the plates' old settings (100 % infill,
+#: 0.2 mm layers), 1 h 29 min and 13.0 m with these.
+WALL_SETTINGS: dict[str, object] = {
+    "fill_density": "10%",
+    "fill_pattern": "grid",
+    "perimeters": 2,
+    "top_solid_layers": 3,
+    "bottom_solid_layers": 2,
+    "infill_speed": 80,
+    "perimeter_speed": 60,
+    "external_perimeter_speed": 45,
+}
+
+
+def is_wall(path: str | Path) -> bool:
+    """True for a wall's file name (``wall``, ``wall_10mm``, ``tile_X1_wall``, ``card_wall_3mm``)."""
+    return "wall" in Path(path).stem.lower().split("_")
+
+
+def part_settings(profile: str | Profile, path: str | Path) -> dict[str, object]:
+    """Settings that win over a profile's for one part: :data:`WALL_SETTINGS` for a wall on PrusaSlicer FDM.
+
+    Args:
+        profile: The profile the part is sliced with.
+        path: The part's file (its name says whether it is a wall).
+
+    Returns:
+        PrusaSlicer ini keys and values; empty for a plate, or for a profile other than PrusaSlicer FDM.
+    """
+    prof = get_profile(profile)
+    if prof.slicer is Slicer.PRUSA and prof.technology is Technology.FFF and is_wall(path):
+        return dict(WALL_SETTINGS)
+    return {}

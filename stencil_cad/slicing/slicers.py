@@ -7,7 +7,7 @@ reports what the slicer said. It never imports the CAD kernel.
 
 Profiles (see :data:`PROFILES` and ``docs/printing.md``):
 
-* ``prusa_fdm`` — PrusaSlicer 2.5+, FDM, 0.2 mm layers, Arachne walls with
+* ``prusa_fdm`` — PrusaSlicer 2.5+, FDM, 0.3 mm layers, Arachne walls with
   the per-loop overhang detection and the seam ray-casting off; plates with
   many holes are sliced as touching tiles (:func:`slice_plate`), which keeps
   the slicing time linear in the hole count.
@@ -792,7 +792,7 @@ def plate_project(
         timeout_s: Seconds before each PrusaSlicer run is killed. Defaults to 300 s.
         executable: PrusaSlicer binary; found with :func:`find_slicer` when None.
         rotate_deg: 90 lays the plate turned a quarter turn on the bed; 0 as exported.
-        overrides: Settings that win over the profile (the bed's size).
+        overrides: Settings that win over the profile (the bed's size, a wall's :data:`WALL_SETTINGS`).
 
     Returns:
         The written path (see :func:`export_3mf_project`).

@@ -4,6 +4,7 @@
 :mod:`.rules` enforces and checks the hole floor, web, margin and keep-outs.
 """
 
+from .made import drawn_dots, drawn_radii, made_dots
 from .relax import (
     HEX_G,
     MAX_GRID_PX,
@@ -34,6 +35,9 @@ from .rules import (
 )
 
 __all__ = [
+    "drawn_dots",
+    "drawn_radii",
+    "made_dots",
     "CHECK_TOL_MM",
     "HEX_G",
     "MAX_GRID_PX",
