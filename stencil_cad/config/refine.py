@@ -83,9 +83,9 @@ class RefineConfig(StrictModel):
             "nominal: spray.can alone (the default). prior: the expected error over the prior of cans of "
             "stencil_cad.simulate.cans (one can per step, in turn; the same time as one can). Every job is "
             "scored for each can of the prior either way (simulate.scielab_by_can). On the bundled example "
-            "(deposit 1.5 per pass), prior scored S-CIELAB 6.50 at 1 m with the nominal can against 6.31 for "
-            "nominal, and no better with any other can of the prior (7.56-9.39 against 7.68-9.43): the cans "
-            "differ mostly in how dark a coat is, which moving holes cannot undo."
+            "(python -m benchmarks e2e), prior scored S-CIELAB 6.33 at 1 m with the nominal can against 6.12 "
+            "for nominal, and its worst can 8.54 against 8.43: the cans differ mostly in how dark a coat is, "
+            "which moving holes cannot undo."
         ),
     )
     pixel_weight: float = Field(
