@@ -277,8 +277,8 @@ def _with_can_list(run: Run, section, where: str):
         return section
     try:
         cans = paints.load_cans(section.palette)
-    except ValueError as exc:
-        raise UserError(f"{where}: {exc}") from None
+    except (ValueError, ConfigError) as exc:
+        raise ConfigError(f"{where}: {exc}") from None
     run.figures.setdefault("cans", {})["list"] = [c.__dict__ for c in cans]
     hexes = paints.to_hex_list(cans)
     return section.model_copy(update={"palette": hexes if where.startswith("decompose") else list(hexes)})
@@ -291,8 +291,8 @@ def _catalogue(run: Run) -> list:
     assert catalogue is not None, "snapping to a catalogue needs paints.catalogue"
     try:
         cans = paints.load_cans(catalogue)
-    except ValueError as exc:
-        raise UserError(f"paints.catalogue: {exc}") from None
+    except (ValueError, ConfigError) as exc:
+        raise ConfigError(f"paints.catalogue: {exc}") from None
     run.figures.setdefault("cans", {})["catalogue"] = [c.__dict__ for c in cans]
     return cans
 

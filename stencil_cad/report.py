@@ -82,27 +82,7 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
         lines.append(f"  checks    {'all solids valid' if ok else 'SOME SOLIDS FAILED — see manifest.json'}")
     sim = f.get("simulate")
     if sim:
-        lines.append(
-            f"  spray     ΔE2000 mean {_fmt(sim.get('de2000_mean'))}, p95 {_fmt(sim.get('de2000_p95'))}, "
-            f"PSNR {_fmt(sim.get('psnr'))} dB, SSIM {_fmt(sim.get('ssim'))}"
-        )
-        if sim.get("scielab") is not None:
-            d = sim["view_distance_m"]
-            lines.append(
-                f"  seen      S-CIELAB ΔE {_fmt(sim['scielab'])} at {d:g} m, {_fmt(sim['scielab_2x'])} at {2 * d:g} m"
-                " (what a viewer sees; pixel ΔE2000 above scores every dot)"
-            )
-            by_can = sim.get("scielab_by_can") or {}
-            if len(by_can) > 1:
-                lines.append(
-                    f"  can       S-CIELAB at {d:g} m between {_fmt(min(by_can.values()))} and "
-                    f"{_fmt(max(by_can.values()))} depending on your can; spray the card to know "
-                    "(stencil-cad card, then stencil-cad calibrate)"
-                )
-            if _kind(run) == "holes":
-                lines.append("  dots      " + _dots_advice(run, sim, d))
-            else:
-                lines.append("  cut-outs  " + _cutout_advice(f))
+        lines += _seen_lines(run, sim)
     where = f.get("compute")
     if where and where.get("kind") != "in_process":
         place = (
@@ -166,6 +146,33 @@ def _cutout_advice(f: dict) -> str:
         + (f"; bridges {bridge:g} mm wide" if bridge else "")
         + "; their edges are hard, so shapes read the same from near and far"
     )
+
+
+def _seen_lines(run: Run, sim: dict) -> list[str]:
+    """The simulation's scores: pixel by pixel, as a viewer sees them, by can, and the dots or cut-outs."""
+    lines = [
+        f"  spray     ΔE2000 mean {_fmt(sim.get('de2000_mean'))}, p95 {_fmt(sim.get('de2000_p95'))}, "
+        f"PSNR {_fmt(sim.get('psnr'))} dB, SSIM {_fmt(sim.get('ssim'))}"
+    ]
+    if sim.get("scielab") is None:
+        return lines
+    d = sim["view_distance_m"]
+    lines.append(
+        f"  seen      S-CIELAB ΔE {_fmt(sim['scielab'])} at {d:g} m, {_fmt(sim['scielab_2x'])} at {2 * d:g} m"
+        " (what a viewer sees; pixel ΔE2000 above scores every dot)"
+    )
+    by_can = sim.get("scielab_by_can") or {}
+    if len(by_can) > 1:
+        lines.append(
+            f"  can       S-CIELAB at {d:g} m between {_fmt(min(by_can.values()))} and "
+            f"{_fmt(max(by_can.values()))} depending on your can; spray the card to know "
+            "(stencil-cad card, then stencil-cad calibrate)"
+        )
+    if _kind(run) == "holes":
+        lines.append("  dots      " + _dots_advice(run, sim, d))
+    else:
+        lines.append("  cut-outs  " + _cutout_advice(run.figures))
+    return lines
 
 
 def _dots_advice(run, sim: dict, distance_m: float) -> str:

@@ -103,7 +103,7 @@ def test_stage_command_with_force_keeps_the_other_stages_files(run_copy, capsys,
     assert set(after) == set(before)
     own = {
         "decompose": ("layers.npz", "_opacity.png", "composite.png", "energy.csv", "config.yaml"),
-        "build": (".step", ".stl", ".dxf", ".3mf"),
+        "build": (".step", ".stl", ".dxf", ".svg", ".3mf"),
         "stipple": ("_dots.csv", "_dots.png", "spray.json"),
         "simulate": ("simulated.png", "preview.png", "sweep.png", "_after.png"),
     }[command]

@@ -453,7 +453,7 @@ def test_project_validates_the_timeout_and_honours_the_bed(tmp_path, monkeypatch
         assert "--timeout must be a positive number" in err and "internal error" not in err, err
     seen = {}
 
-    def fake_project(model, output, prof, timeout_s, overrides=None):
+    def fake_project(model, output, prof, timeout_s, overrides=None, rotate_deg=0):
         seen["overrides"] = overrides
         Path(output).write_bytes(b"3mf")
 

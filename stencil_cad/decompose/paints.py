@@ -102,7 +102,8 @@ def load_cans(path: Path | str) -> list[Can]:
     """Read a can list CSV file.
 
     Raises:
-        ValueError: The file is missing or unreadable, or its content is bad (see :func:`parse_cans`).
+        ConfigError: The file is missing, not a regular file or too large.
+        ValueError: Its content is bad (see :func:`parse_cans`).
     """
     p = Path(path)
     text = read_text(p, "can list", error=ConfigError, fix="a CSV text file with the columns name,code,hex")
