@@ -141,47 +141,30 @@ class JobConfig(StrictModel):
 
     @model_validator(mode="before")
     @classmethod
-    def _process_nozzle_height(cls, data):
-        """A spray section without a nozzle height (or with null) gets its process's best one."""
-        if not isinstance(data, dict):
-            return data
-        spray = data.get("spray") or {}
-        if not isinstance(spray, dict) or spray.get("nozzle_height") is not None:
-            return data  # a SprayConfig object or a number: kept as given
-        process = _process_of(data.get("stipple"))
-        if process is None:
-            return data  # the stipple section's own validation names what is wrong
-        return {**data, "spray": {**spray, "nozzle_height": NOZZLE_HEIGHT_BY_PROCESS[process]}}
+    def _fill_by_process(cls, data):
+        """Keys left out (or null) that take the best value of the job's process and mode.
 
-    @model_validator(mode="before")
-    @classmethod
-    def _kerf_by_process(cls, data):
-        """An export section without a kerf (or with null) gets its process's (laser 0.2 mm, else 0)."""
+        ``spray.nozzle_height`` (:data:`NOZZLE_HEIGHT_BY_PROCESS`), ``export.dxf_kerf_mm``
+        (:data:`KERF_BY_PROCESS`) and ``wall.standoff_mm`` (:data:`STANDOFF_BY_PROCESS`, or
+        :data:`HARD_STANDOFF_MM` for hard stencils). A section given as a model object, or a key
+        given a value, is kept as given.
+        """
         if not isinstance(data, dict):
             return data
-        export = data.get("export") or {}
-        if not isinstance(export, dict) or export.get("dxf_kerf_mm") is not None:
-            return data  # an ExportConfig object or a number: kept as given
         process = _process_of(data.get("stipple"))
         if process is None:
             return data  # the stipple section's own validation names what is wrong
-        return {**data, "export": {**export, "dxf_kerf_mm": KERF_BY_PROCESS[process]}}
-
-    @model_validator(mode="before")
-    @classmethod
-    def _standoff_by_process(cls, data):
-        """A wall section without stand-offs (or with null) gets the best one of its mode and process."""
-        if not isinstance(data, dict):
-            return data
-        wall = data.get("wall") or {}
-        if not isinstance(wall, dict) or wall.get("standoff_mm") is not None:
-            return data  # a WallConfig object or a list: kept as given
-        if str(getattr(data.get("mode"), "value", data.get("mode"))) == Mode.hard.value:
-            return {**data, "wall": {**wall, "standoff_mm": [HARD_STANDOFF_MM]}}
-        process = _process_of(data.get("stipple"))
-        if process is None:
-            return data  # the stipple section's own validation names what is wrong
-        return {**data, "wall": {**wall, "standoff_mm": [STANDOFF_BY_PROCESS[process]]}}
+        hard = str(getattr(data.get("mode"), "value", data.get("mode"))) == Mode.hard.value
+        fills = {
+            ("spray", "nozzle_height"): NOZZLE_HEIGHT_BY_PROCESS[process],
+            ("export", "dxf_kerf_mm"): KERF_BY_PROCESS[process],
+            ("wall", "standoff_mm"): [HARD_STANDOFF_MM if hard else STANDOFF_BY_PROCESS[process]],
+        }
+        for (section, key), value in fills.items():
+            raw = data.get(section) or {}
+            if isinstance(raw, dict) and raw.get(key) is None:
+                data = {**data, section: {**raw, key: value}}
+        return data
 
     @model_validator(mode="after")
     def _cross_checks(self) -> JobConfig:
