@@ -321,7 +321,9 @@ def refine_mural(
     px = sum(row["pixels"] for row in rows) or 1.0
 
     def mean(key: str) -> float:
-        return math.sqrt(sum(row[key] ** 2 * row["pixels"] for row in rows) / px)
+        # Rounded: a tile's objective is a sum whose last bit depends on the threads of the process
+        # that refined it (this one or a worker), and the manifest must not (compare_outputs).
+        return round(math.sqrt(sum(row[key] ** 2 * row["pixels"] for row in rows) / px), 9)
 
     report = {
         "tiled": True,
