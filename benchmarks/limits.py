@@ -75,13 +75,7 @@ decompose:
 
 
 def _child(args: list[str]) -> dict:
-    proc = subprocess.run([sys.executable, "-c", _CHILD, *args], capture_output=True, text=True)
-    lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
-    row = json.loads(lines[-1]) if lines else {"exit": proc.returncode}
-    err = [ln for ln in proc.stderr.splitlines() if ln.strip()]
-    if err:
-        row["stderr"] = err[-1][:300]
-    return row
+    return limits_hostile.child_row(_CHILD, args)
 
 
 def _make(path: Path, w: int, h: int) -> None:

@@ -78,12 +78,17 @@ BOMB = "\n".join(
 
 
 def _child(args: list[str]) -> dict:
+    return child_row(_CHILD, args, TIMEOUT_S)
+
+
+def child_row(script: str, args: list[str], timeout_s: float | None = None) -> dict:
+    """Run ``script`` in a child Python with ``args``: its last JSON line, its exit and stderr's last line."""
     try:
         proc = subprocess.run(
-            [sys.executable, "-c", _CHILD, *args], capture_output=True, text=True, timeout=TIMEOUT_S
+            [sys.executable, "-c", script, *args], capture_output=True, text=True, timeout=timeout_s
         )
     except subprocess.TimeoutExpired:
-        return {"exit": None, "hung": True, "seconds": TIMEOUT_S}
+        return {"exit": None, "hung": True, "seconds": timeout_s}
     lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
     row = json.loads(lines[-1]) if lines else {"exit": proc.returncode}
     err = [ln for ln in proc.stderr.splitlines() if ln.strip()]

@@ -1036,7 +1036,7 @@ def _scores_by_can(
         return {}
     out = {}
     for name, sp in cans:
-        if sp is run.cfg.spray or name == "nominal":
+        if name == "nominal":  # the job's own can, already simulated and scored
             out[name] = float(nominal["scielab"])
             continue
         other = simulate.simulate(layers, dotsets, sp, grid_mm, geometry=design)
