@@ -233,7 +233,7 @@ def _slice(args) -> int:
     from collections import Counter
 
     from . import pipeline
-    from .sheet_make import hours_text as _hours
+    from .instructions.make import hours_text as _hours
 
     if args.project:
         return _projects(args)

@@ -6,7 +6,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from .pipeline import Run
+    from .record import Run
 
 
 def _fmt(v, digits: int = 3) -> str:

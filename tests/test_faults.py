@@ -453,7 +453,7 @@ def test_out_below_a_file(tmp_path, capsys, tiny_image):
 def test_output_folder_writability_is_probed_before_the_first_stage(
     tmp_path, capsys, monkeypatch, tiny_image
 ):
-    import stencil_cad.pipeline as pipeline
+    import stencil_cad.pipeline.run as pipeline
 
     calls = []
     monkeypatch.setattr(pipeline, "stage_decompose", lambda *a, **k: calls.append(a))
@@ -572,7 +572,7 @@ def test_template_calling_sys_exit(run_copy, capsys, tmp_path, where):
 
 
 def test_template_problems_surface_before_the_first_stage(tmp_path, capsys, monkeypatch, tiny_image):
-    import stencil_cad.pipeline as pipeline
+    import stencil_cad.pipeline.run as pipeline
 
     calls = []
     monkeypatch.setattr(pipeline, "stage_decompose", lambda *a, **k: calls.append(a))

@@ -5,10 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from stencil_cad import mural, mural_refine, stipple
+from stencil_cad import mural, stipple
 from stencil_cad.config import io as cfg_io
 from stencil_cad.config.spray import SprayConfig
 from stencil_cad.model import DotSet
+from stencil_cad.mural import refine as mural_refine
 from stencil_cad.stipple import refine
 from stencil_cad.stipple.rules import check_rules, rules_from_config
 

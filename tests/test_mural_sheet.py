@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from readers import need, run
 
-from stencil_cad import sheet, slicing
+from stencil_cad import instructions, slicing
 from stencil_cad.cli import main
 
 SVG = "{http://www.w3.org/2000/svg}"
@@ -111,7 +111,7 @@ def _two_tile_manifest() -> dict:
 
 
 def test_mural_sheet_from_the_manifest():
-    s = sheet.sheet_from_manifest(_two_tile_manifest())
+    s = instructions.sheet_from_manifest(_two_tile_manifest())
     assert s.mural is not None and s.mural.plates == 4 and s.mural.walls == 2
     assert [t.name for t in s.mural.sections] == ["A1", "A2"]
     # The tile map is drawn from each tile's core (it was 0 × 0 before).
@@ -125,7 +125,7 @@ def test_mural_sheet_from_the_manifest():
     assert any("turned 90°" in c for c, ok in a2.checks if ok)
     reg = " ".join(s.mural.registration)
     assert "x = 0.0, 120.0, 240.0 mm" in reg and "straightedge" in reg and "masking tape" in reg
-    html = sheet.render_html(s, {})
+    html = instructions.render_html(s, {})
     assert "4 plates (2 layers on each of 2 tiles) and 2 walls" in html
     assert html.count('<section class="tile"') == 2 and "Drop layer_01 into the wall" not in html
     assert 'width="0.0"' not in html and 'height="0.0"' not in html
@@ -137,7 +137,7 @@ def test_mural_sheet_from_the_manifest():
     }
     assert all("--bed prusa_mk4" in r[4] and "turned 90°" in r[4] for r in s.prints)
     assert "tile_A1_wall.stl" in parts["tile_A1_wall"][2]
-    pdf = sheet.render_pdf(s, {})
+    pdf = instructions.render_pdf(s, {})
     assert pdf.startswith(b"%PDF")
 
 
@@ -145,8 +145,8 @@ def test_unnamed_paints_are_said_to_be_unnamed():
     """With no can list and paints.can_names off, the can column says so (no bare placeholder)."""
     from placeholders import html_text, placeholders
 
-    s = sheet.sheet_from_manifest(_two_tile_manifest())
-    html = sheet.render_html(s, {})
+    s = instructions.sheet_from_manifest(_two_tile_manifest())
+    html = instructions.render_html(s, {})
     assert "no can named" in html and placeholders(html_text(html)) == []
 
 
@@ -161,7 +161,7 @@ def test_a_long_mural_is_marked_with_a_chalk_line():
     m = _two_tile_manifest()
     for t in m["mural"]["tiles"]:
         t["core_mm"] = [v * 10 for v in t["core_mm"]]
-    s = sheet.sheet_from_manifest(m)
+    s = instructions.sheet_from_manifest(m)
     assert "chalk line" in " ".join(s.mural.registration)
 
 

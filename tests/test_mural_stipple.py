@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from stencil_cad import mural, mural_stipple, stipple
+from stencil_cad import mural, stipple
 from stencil_cad.config import io as cfg_io
+from stencil_cad.mural import stipple as mural_stipple
 from stencil_cad.stipple import relax
 from stencil_cad.stipple.rules import check_rules, rules_from_config
 

@@ -99,7 +99,7 @@ def _manifest(process: str, size, bed=None, mode: str = "soft") -> dict:
 
 
 def test_print_advice_names_only_a_profile_the_part_fits():
-    from stencil_cad import sheet_make
+    from stencil_cad.instructions import make as sheet_make
 
     big = _manifest("sla", (173.0, 173.0))
     (plate,) = sheet_make.plate_parts(big)
@@ -122,7 +122,7 @@ def test_print_advice_names_only_a_profile_the_part_fits():
 
 
 def test_laser_advice_gives_cut_length_and_time():
-    from stencil_cad import sheet_make
+    from stencil_cad.instructions import make as sheet_make
 
     m = _manifest("laser", (120.0, 100.0), mode="hard")
     text = sheet_make.part_advice(m, sheet_make.plate_parts(m)[0])

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from readers import need, run
 
-from stencil_cad import sheet
+from stencil_cad import instructions
 from stencil_cad.cli import main
 from stencil_cad.config.spray import SprayConfig
 from stencil_cad.decompose import paints
@@ -404,13 +404,13 @@ def test_sheet_takes_tiles_and_new_figures():
         {"name": "B1", "x_mm": 100, "y_mm": 0, "width_mm": 100, "height_mm": 80},
     ]
     manifest["simulate"]["scielab"] = 3.25
-    s = sheet.sheet_from_manifest(manifest, tiles=tiles)
-    html = sheet.render_html(s, {})
+    s = instructions.sheet_from_manifest(manifest, tiles=tiles)
+    html = instructions.render_html(s, {})
     assert html.count("<rect") == 1 + len(tiles) and ">A1<" in html and ">B1<" in html
     assert "S-CIELAB at the viewing distance" in html and "3.25" in html
     manifest["tiles"] = tiles
-    assert sheet.sheet_from_manifest(manifest).tiles == tiles
-    pdf = sheet.render_pdf(s, {})
+    assert instructions.sheet_from_manifest(manifest).tiles == tiles
+    pdf = instructions.render_pdf(s, {})
     assert pdf.startswith(b"%PDF") and len(pdf) > 2000
 
 

@@ -15,7 +15,8 @@ import numpy as np
 
 from ..geometry import point_ring_distance as _point_ring_distance
 from ..geometry import points_in_ring as _inside
-from ..mural import WALL_NOTCH_MM, notch_triangles
+from ..mural.seams import notch_triangles
+from ..mural.tiling import WALL_NOTCH_MM
 from .wall import WallModel
 
 log = logging.getLogger(__name__)

@@ -36,13 +36,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from . import mural
-from .model import DotSet
+from ..model import DotSet
+from . import tiling
 
 if TYPE_CHECKING:
-    from .config import JobConfig
-    from .simulate.tone import ToneChoice
-    from .stipple.rules import DesignRules
+    from ..config import JobConfig
+    from ..simulate.tone import ToneChoice
+    from ..stipple.rules import DesignRules
 
 log = logging.getLogger(__name__)
 
@@ -61,7 +61,7 @@ def stipple_halo_mm(cfg: JobConfig) -> float:
     largest hole's diameter (room for the rules' nudges; the margins themselves hold only at
     the mural's edges).
     """
-    from .resolution import hole_pitch_mm
+    from ..resolution import hole_pitch_mm
 
     st = cfg.stipple
     return HALO_SPACINGS * hole_pitch_mm(cfg) + st.resolved_edge_margin_mm + 2.0 * st.resolved_max_radius_mm
@@ -95,7 +95,7 @@ class PlaceTask:
     fixed_xy: np.ndarray
     fixed_r: np.ndarray
     mm_per_px: float
-    grid: mural.TileGrid
+    grid: tiling.TileGrid
     rules: DesignRules
     cfg: JobConfig
     tone: ToneChoice | None
@@ -115,8 +115,8 @@ class PlaceResult:
 
 def place_tile(task: PlaceTask) -> PlaceResult:
     """Stipple one tile of one layer against its placed neighbours (a task: pure, picklable)."""
-    from .stipple.relax import place_holes
-    from .stipple.rules import enforce_rules, web_violations
+    from ..stipple.relax import place_holes
+    from ..stipple.rules import enforce_rules, web_violations
 
     density = None if task.tone is None else task.tone.density_of(task.alpha)
     rng = np.random.default_rng(task.seed)
@@ -161,7 +161,7 @@ def place_tile(task: PlaceTask) -> PlaceResult:
     return PlaceResult(task.layer, task.tile, xy, r, report)
 
 
-def _free_mask(grid: mural.TileGrid, placed: np.ndarray, bounds, shape, g: float) -> np.ndarray:
+def _free_mask(grid: tiling.TileGrid, placed: np.ndarray, bounds, shape, g: float) -> np.ndarray:
     """Pixels of a region that no placed tile owns (by their centres)."""
     r0, r1, c0, c1 = bounds
     h = shape[0]
@@ -174,7 +174,7 @@ def place_tasks(
     cfg: JobConfig,
     alphas: np.ndarray,
     mm_per_px: float,
-    grid: mural.TileGrid,
+    grid: tiling.TileGrid,
     tiles: list[int],
     placed: np.ndarray,
     state: list[tuple[np.ndarray, np.ndarray]],
@@ -201,7 +201,7 @@ def place_tasks(
     shape = alphas.shape[1:]
     for k in tiles:
         t = grid.tiles[k]
-        bounds, (ox, oy, right, top) = mural.region_bounds(t, grid, shape, mm_per_px, halo)
+        bounds, (ox, oy, right, top) = tiling.region_bounds(t, grid, shape, mm_per_px, halo)
         r0, r1, c0, c1 = bounds
         free = _free_mask(grid, placed, bounds, shape, mm_per_px)
         for i, (xy, r) in enumerate(state):
@@ -246,7 +246,7 @@ def stipple_mural(
     cfg: JobConfig,
     alphas: np.ndarray,
     mm_per_px: float,
-    grid: mural.TileGrid,
+    grid: tiling.TileGrid,
     tones: list[ToneChoice | None],
     seeds: list[list[np.random.SeedSequence]],
     tasks_map,
@@ -271,7 +271,7 @@ def stipple_mural(
         ``e_norm`` their mean weighted by holes (each over its region with the fixed cells, so
         not comparable with a one-piece stipple's), ``tiles``, ``halo_mm`` and ``min_web_mm``.
     """
-    from .stipple.rules import check_rules, min_web, rules_from_config
+    from ..stipple.rules import check_rules, min_web, rules_from_config
 
     h, w = alphas.shape[1:]
     rules = rules_from_config(cfg.stipple, w * mm_per_px, h * mm_per_px)
@@ -280,7 +280,7 @@ def stipple_mural(
     state = [(np.zeros((0, 2)), np.zeros(0)) for _ in range(layers)]
     placed = np.zeros(len(grid.tiles), dtype=bool)
     reports: list[list[dict]] = [[] for _ in range(layers)]
-    for phase in mural.phases(grid):
+    for phase in tiling.phases(grid):
         tasks = place_tasks(cfg, alphas, mm_per_px, grid, phase, placed, state, rules, tones, seeds, halo)
         new: list[list[PlaceResult]] = [[] for _ in range(layers)]
         for res in tasks_map(place_tile, tasks, "stipple tiles", count=len(phase) * layers):

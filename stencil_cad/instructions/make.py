@@ -14,8 +14,8 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from .config.bed import Bed, resolve_bed
-from .slicing import bed_size, place
+from ..config.bed import Bed, resolve_bed
+from ..slicing import bed_size, place
 
 __all__ = [
     "LASER_PIERCE_S",

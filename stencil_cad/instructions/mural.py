@@ -21,7 +21,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
-from . import sheet_make
+from . import make
 
 __all__ = ["MuralPlan", "TilePlate", "TileSection", "map_tiles", "mural_html", "mural_pdf", "mural_plan"]
 
@@ -248,11 +248,11 @@ def _section(
                 files=[stem + e for e in _EXTS if stem + e in names],
             )
         )
-        checks += sheet_make.plate_checks(p, stem)
-    checks += [sheet_make.wall_check(w) for w in walls]
-    parts = [p for p in sheet_make.plate_parts(manifest) if p.tile == name]
-    parts += [w for w in sheet_make.wall_parts(manifest) if w.tile == name]
-    checks += [c for c in (sheet_make.fit_check(manifest, part) for part in parts) if c is not None]
+        checks += make.plate_checks(p, stem)
+    checks += [make.wall_check(w) for w in walls]
+    parts = [p for p in make.plate_parts(manifest) if p.tile == name]
+    parts += [w for w in make.wall_parts(manifest) if w.tile == name]
+    checks += [c for c in (make.fit_check(manifest, part) for part in parts) if c is not None]
     return TileSection(name, where, _sides(t, near), wall_lines, tile_plates, checks)
 
 

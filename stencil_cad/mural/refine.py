@@ -36,13 +36,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from . import mural
-from .model import DotSet
+from ..model import DotSet
+from . import tiling
 
 if TYPE_CHECKING:
-    from .config.spray import SprayConfig
-    from .stipple.refine import RefineSettings
-    from .stipple.rules import DesignRules
+    from ..config.spray import SprayConfig
+    from ..stipple.refine import RefineSettings
+    from ..stipple.rules import DesignRules
 
 log = logging.getLogger(__name__)
 
@@ -63,7 +63,7 @@ class HoleKernels:
 
     def __call__(self, r_mm: np.ndarray, spray_time: float) -> tuple:
         """``(sigma_mm, peak, dsigma_dr, dpeak_dr, combine)`` of holes of radii ``r_mm``."""
-        from .simulate import spray
+        from ..simulate import spray
 
         return spray.hole_kernels(r_mm, self.spray, spray_time, geometry=self.geometry)
 
@@ -143,7 +143,7 @@ def refine_halo_mm(cfg, eye_sigma_mm: float) -> float:
     """
     st = cfg.stipple
     return (
-        2.0 * mural.spray_halo_mm(cfg)
+        2.0 * tiling.spray_halo_mm(cfg)
         + st.resolved_edge_margin_mm
         + 2.0 * max(st.resolved_max_radius_mm, cfg.refine.max_radius_factor * st.resolved_hole_min_r_mm)
         + 3.0 * eye_sigma_mm
@@ -152,7 +152,7 @@ def refine_halo_mm(cfg, eye_sigma_mm: float) -> float:
 
 def tile_tasks(
     problem: Problem,
-    grid: mural.TileGrid,
+    grid: tiling.TileGrid,
     tiles: list[int],
     state: list[tuple[np.ndarray, np.ndarray]],
     halo: float,
@@ -165,7 +165,7 @@ def tile_tasks(
     tasks = []
     for k in tiles:
         t = grid.tiles[k]
-        (r0, r1, c0, c1), (ox, oy, right, top) = mural.region_bounds(t, grid, shape, g, halo)
+        (r0, r1, c0, c1), (ox, oy, right, top) = tiling.region_bounds(t, grid, shape, g, halo)
         sets, cores, idx, rules = [], [], [], []
         for (xy, r), rl in zip(state, problem.rules, strict=True):
             reg = replace(
@@ -207,7 +207,7 @@ def tile_tasks(
 
 def refine_tile(task: TileTask) -> TileResult:
     """Refine one tile's region and return its core holes' results (a task: pure, picklable)."""
-    from .stipple import refine
+    from ..stipple import refine
 
     p = task.problem
     settings = replace(p.settings, add_remove_every=0)
@@ -237,7 +237,7 @@ def refine_tile(task: TileTask) -> TileResult:
 
 def web_conflicts(xy: np.ndarray, r: np.ndarray, web_mm: float) -> np.ndarray:
     """Holes closer than the web to another hole (a boolean per hole)."""
-    from .stipple.rules import web_violations
+    from ..stipple.rules import web_violations
 
     bad = np.zeros(len(xy), dtype=bool)
     pairs, _ = web_violations(xy, r, web_mm - _TOL_MM)
@@ -269,7 +269,7 @@ def seam_pass(
 
 
 def refine_mural(
-    problem: Problem, grid: mural.TileGrid, dotsets: list[DotSet], halo: float, tasks_map, bar=None
+    problem: Problem, grid: tiling.TileGrid, dotsets: list[DotSet], halo: float, tasks_map, bar=None
 ) -> tuple[list[DotSet], dict]:
     """Refine a mural's holes tile by tile in four phases, then the seam pass.
 
@@ -286,12 +286,12 @@ def refine_mural(
         ``(dotsets, report)`` as :func:`stencil_cad.stipple.refine.refine_dots` returns them,
         the report with one row per tile and the seam pass's reverts.
     """
-    from .stipple.rules import check_rules
+    from ..stipple.rules import check_rules
 
     state = [(ds.xy_mm.copy(), ds.r_mm.copy()) for ds in dotsets]
     rows: list[dict] = []
     reverted = [0] * len(dotsets)
-    for phase in mural.phases(grid):
+    for phase in tiling.phases(grid):
         before = [(xy.copy(), r.copy()) for xy, r in state]
         tasks = tile_tasks(problem, grid, phase, state, halo)
         for res in tasks_map(refine_tile, tasks, "refine tiles"):

@@ -1,4 +1,4 @@
-"""Murals: a picture larger than the bed, cut into tiles that spray without a seam.
+"""The tiling: a picture larger than the bed cut into tiles that spray without a seam.
 
 The holes are placed tile by tile, each tile relaxed against the holes its neighbours
 placed before it (:mod:`stencil_cad.mural_stipple`; with ``stipple.dots``, one count for the
@@ -38,14 +38,12 @@ Kernel-free: no build123d here; :mod:`stencil_cad.cad.registration` cuts the wal
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from .config.bed import Bed, resolve_bed
-from .errors import UserError
-from .model import DotSet
+from ..config.bed import Bed, resolve_bed
+from ..errors import UserError
 
 #: A hole's spray is cut where its paint density falls below this fraction of the
 #: peak; the halo is that distance for the largest hole.
@@ -175,12 +173,12 @@ def spray_halo_mm(cfg) -> float:
     Args:
         cfg: The job config.
     """
-    from .simulate import dot_sigma_mm
+    from ..simulate import dot_sigma_mm
 
     sp = cfg.spray
     if getattr(sp.model, "value", sp.model) == "physical":
         # One blur for every hole; the physical splat reaches 5 sigma past the hole's edge.
-        from .simulate.physical import spread_sigma_mm
+        from ..simulate.physical import spread_sigma_mm
 
         sigma = spread_sigma_mm(sp, max(cfg.wall.heights()))
         return 5.0 * sigma + cfg.stipple.resolved_max_radius_mm + 1.0
@@ -198,7 +196,7 @@ def part_sizes(sheet_w: float, sheet_h: float, cfg) -> dict[str, tuple[float, fl
     The wall's outside follows the pocket at the wall thickness, or a rounded rectangle
     when the key tabs crowd it (as :func:`stencil_cad.cad.wall.wall_rings` builds it).
     """
-    from .outline import offset_outline
+    from ..outline import offset_outline
 
     oc = cfg.plate.outline
     plate = offset_outline(sheet_w, sheet_h, oc, 0.0)
@@ -316,247 +314,6 @@ def check_fits_bed(grid: TileGrid, cfg) -> list[dict]:
     return rows
 
 
-# --------------------------------------------------------------------------- holes
-
-
-def split_dots(dotset: DotSet, grid: TileGrid) -> list[DotSet]:
-    """Partition one layer's holes among the tiles, in each tile's frame.
-
-    Every hole goes to exactly one tile (the owner of its centre) and keeps its order.
-
-    Returns:
-        One DotSet per tile (same order as ``grid.tiles``), centres in the tile frame
-        (origin at the sheet's bottom-left).
-    """
-    owner = grid.owner(dotset.xy_mm)
-    out = []
-    for k, t in enumerate(grid.tiles):
-        sel = owner == k
-        ox, oy = t.origin
-        xy = dotset.xy_mm[sel] - np.array([ox, oy])
-        out.append(DotSet(xy_mm=xy, r_mm=dotset.r_mm[sel].copy(), report={**dotset.report, "tile": t.name}))
-    return out
-
-
-def to_mural(tile_sets: list[DotSet], grid: TileGrid) -> DotSet:
-    """The union of tiles' holes (tile frames) in the mural frame."""
-    xy = [d.xy_mm + np.array(t.origin) for d, t in zip(tile_sets, grid.tiles, strict=True)]
-    r = [d.r_mm for d in tile_sets]
-    return DotSet(xy_mm=np.concatenate(xy).reshape(-1, 2), r_mm=np.concatenate(r))
-
-
-def seam_density(
-    dotsets: list[DotSet], grid: TileGrid, band_mm: float = 5.0, flank_mm: float = 10.0
-) -> list[dict]:
-    """Hole density within ``band_mm`` of each seam, against the flanks beside it and the mural.
-
-    Density is holes per m², all layers together. ``ratio_flank`` compares the band with the
-    two strips from ``band_mm`` to ``band_mm + flank_mm`` on either side (the same tones,
-    so a dot-free or crowded seam shows); ``ratio_global`` with the whole mural.
-    """
-    xy = np.concatenate([d.xy_mm for d in dotsets]).reshape(-1, 2) if dotsets else np.zeros((0, 2))
-    area = grid.width_mm * grid.height_mm
-    glob = len(xy) / area * 1e6
-    out = []
-    for axis, edges, length in ((0, grid.x_edges, grid.height_mm), (1, grid.y_edges, grid.width_mm)):
-        for e in edges[1:-1]:
-            d = np.abs(xy[:, axis] - e)
-            band = np.count_nonzero(d < band_mm) / (2 * band_mm * length) * 1e6
-            flank = (
-                np.count_nonzero((d >= band_mm) & (d < band_mm + flank_mm)) / (2 * flank_mm * length) * 1e6
-            )
-            out.append(
-                {
-                    "seam": f"{'x' if axis == 0 else 'y'} = {e:.1f} mm",
-                    "band_per_m2": round(band, 1),
-                    "flank_per_m2": round(flank, 1),
-                    "global_per_m2": round(glob, 1),
-                    "ratio_flank": round(band / flank, 4) if flank else None,
-                    "ratio_global": round(band / glob, 4) if glob else None,
-                }
-            )
-    return out
-
-
-# --------------------------------------------------------------------------- registration
-
-
-def _crossings(ring: np.ndarray, value: float, axis: int, depth: float, tol: float = 1e-7):
-    """Straight ring edges along ``axis`` crossed by the line ``coord[axis] = value``.
-
-    Returns the first and last such edge along the other axis (the two sides of the
-    outline) as ``(edge_index, point)``, only edges with room for a notch of ``depth``.
-    """
-    a = ring
-    b = np.roll(ring, -1, axis=0)
-    other = 1 - axis
-    flat = np.abs(a[:, other] - b[:, other]) < tol
-    lo = np.minimum(a[:, axis], b[:, axis])
-    hi = np.maximum(a[:, axis], b[:, axis])
-    room = flat & (lo <= value - depth - 0.6) & (hi >= value + depth + 0.6)
-    idx = np.flatnonzero(room)
-    if len(idx) == 0:
-        return []
-    pos = a[idx, other]
-    picks = {int(idx[np.argmin(pos)]), int(idx[np.argmax(pos)])}
-    out = []
-    for i in sorted(picks):
-        p = np.empty(2)
-        p[axis] = value
-        p[other] = a[i, other]
-        out.append((i, p))
-    return out
-
-
-def notch_triangles(
-    ring: np.ndarray, lines: tuple[list[float], list[float]], depth: float
-) -> list[tuple[int, np.ndarray]]:
-    """Where the grid lines cross the outline: one 90° V notch per crossing.
-
-    Args:
-        ring: ``(M, 2)`` counter-clockwise outline.
-        lines: ``(xs, ys)`` of the vertical and horizontal grid lines, in the ring's frame.
-        depth: Notch depth in mm (its mouth is twice as wide).
-
-    Returns:
-        ``(edge_index, triangle)`` per notch: ``triangle`` is ``(3, 2)``, mouth start on the
-        edge, apex ``depth`` inside, mouth end on the edge, in the edge's direction.
-    """
-    out = []
-    xs, ys = lines
-    for axis, values in ((0, xs), (1, ys)):
-        for v in values:
-            for i, p in _crossings(ring, v, axis, depth):
-                u = ring[(i + 1) % len(ring)] - ring[i]
-                u = u / np.hypot(*u)
-                n = np.array([-u[1], u[0]])  # inward for a counter-clockwise ring
-                out.append((i, np.array([p - depth * u, p + depth * n, p + depth * u])))
-    return out
-
-
-def notched_ring(
-    ring: np.ndarray, lines: tuple[list[float], list[float]], depth: float
-) -> tuple[np.ndarray, int]:
-    """The outline with a V sight notch wherever a grid line crosses it.
-
-    Returns:
-        ``(ring, notches)``: the new counter-clockwise ring and the number of notches cut.
-    """
-    notches = notch_triangles(ring, lines, depth)
-    by_edge: dict[int, list[np.ndarray]] = {}
-    for i, tri in notches:
-        by_edge.setdefault(i, []).append(tri)
-    pts = []
-    for i in range(len(ring)):
-        pts.append(ring[i])
-        tris = by_edge.get(i, [])
-        start = ring[i]
-        tris.sort(key=lambda t: float(np.hypot(*(t[0] - start))))
-        for tri in tris:
-            pts.extend(tri)
-    return np.asarray(pts), len(notches)
-
-
-# --------------------------------------------------------------------------- simulation
-
-
-def _sheet_crop(sheet, shape: tuple[int, int], g: float, dx: float = 0.0, dy: float = 0.0):
-    """Pixel window ``(r0, r1, c0, c1)`` whose centres lie on a (shifted) sheet, or None."""
-    h, w = shape
-    x0, y0, x1, y1 = sheet[0] + dx, sheet[1] + dy, sheet[2] + dx, sheet[3] + dy
-    cx = (np.arange(w) + 0.5) * g
-    cy = (h - np.arange(h) - 0.5) * g
-    cols = np.flatnonzero((cx >= x0) & (cx <= x1))
-    rows = np.flatnonzero((cy >= y0) & (cy <= y1))
-    if len(cols) == 0 or len(rows) == 0:
-        return None
-    return int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
-
-
-def simulate_tiles(
-    shape: tuple[int, int],
-    g: float,
-    tile_sets: list[list[DotSet]],
-    grid: TileGrid,
-    spray_cfg,
-    spray_times: list[float],
-    tail_tols: list[float],
-    offset: Callable[[int, int], tuple[float, float]] | None = None,
-    geometry=None,
-) -> np.ndarray:
-    """Spray every tile's plates through their walls, layer by layer, on the mural's raster.
-
-    Each tile's spray reaches only its sheet (the wall opening); a tile moved by a
-    registration error moves its sheet and holes together.
-
-    Args:
-        shape: ``(H, W)`` of the mural raster.
-        g: Raster pixel size in mm.
-        tile_sets: Per tile (``grid.tiles`` order), per layer, the holes in the tile frame.
-        grid: The tiles.
-        spray_cfg: Spray settings.
-        spray_times: Spray time per layer.
-        tail_tols: Per layer, the tail cut of the global simulation
-            (:func:`stencil_cad.simulate.tail_tolerance`), so both splat the same discs.
-        offset: ``offset(tile_index, layer) -> (dx, dy)`` mm registration error, or None.
-        geometry: The spray geometry (stand-off, plate) for the physical spray model, or None.
-
-    Returns:
-        ``(L, H, W)`` simulated opacities.
-    """
-    from .simulate import spray_opacity
-
-    layers = len(spray_times)
-    alphas = np.empty((layers, *shape), dtype=np.float64)
-    for i in range(layers):
-        trans = np.ones(shape, dtype=np.float64)
-        for k, t in enumerate(grid.tiles):
-            ds = tile_sets[k][i]
-            if len(ds) == 0:
-                continue
-            dx, dy = offset(k, i) if offset is not None else (0.0, 0.0)
-            crop = _sheet_crop(t.sheet, shape, g, dx, dy)
-            if crop is None:
-                continue
-            xy = ds.xy_mm + np.array([t.origin[0] + dx, t.origin[1] + dy])
-            a = spray_opacity(
-                xy,
-                ds.r_mm,
-                shape,
-                g,
-                spray_cfg,
-                spray_time=spray_times[i],
-                crop=crop,
-                tail_tol=tail_tols[i],
-                geometry=geometry,
-            )
-            r0, r1, c0, c1 = crop
-            trans[r0:r1, c0:c1] *= 1.0 - a
-        alphas[i] = 1.0 - trans
-    return alphas
-
-
-def registration_offsets(
-    grid: TileGrid, error_mm: float, between: str
-) -> Callable[[int, int], tuple[float, float]]:
-    """A registration error pattern: neighbours off by ``error_mm`` in x and in y.
-
-    ``between="tiles"``: tile columns alternate ±error/2 in x and rows ±error/2 in y (every
-    layer of a tile moves together), so each seam opens or overlaps by ``error_mm``.
-    ``between="layers"``: within every tile, odd layers sit at +error/2 and even layers at
-    -error/2 in both x and y, so consecutive layers are off by ``error_mm``.
-    """
-    h = 0.5 * error_mm
-    if between == "tiles":
-        return lambda k, i: (
-            h if grid.tiles[k].col % 2 == 0 else -h,
-            h if grid.tiles[k].row % 2 == 0 else -h,
-        )
-    if between == "layers":
-        return lambda k, i: (h, h) if i % 2 == 0 else (-h, -h)
-    raise ValueError(f"between must be 'tiles' or 'layers', got {between!r}")
-
-
 # --------------------------------------------------------------------------- plan and map
 
 
@@ -622,80 +379,8 @@ def manifest_rows(grid: TileGrid) -> list[dict]:
     ]
 
 
-def mural_map(
-    grid: TileGrid, layers: int, preview: np.ndarray | None = None, width_px: int = 1600
-) -> np.ndarray:
-    """The assembly map: the tile grid over the picture, names, positions and order of work.
-
-    Args:
-        grid: The tiles.
-        layers: Number of paint layers.
-        preview: ``(H, W, 3)`` picture in [0, 1] drawn faintly under the grid, or None.
-        width_px: Width of the map's drawing area in px.
-
-    Returns:
-        ``(H, W, 3)`` uint8 image.
-    """
-    from importlib.resources import files
-
-    from PIL import Image, ImageDraw, ImageFont
-
-    scale = width_px / grid.width_mm
-    pw, ph = width_px, max(1, int(round(grid.height_mm * scale)))
-    pad, text_h = 60, 28 * (layers + 3)
-    img = Image.new("RGB", (pw + 2 * pad, ph + 2 * pad + text_h), "white")
-    if preview is not None:
-        pic = Image.fromarray((np.clip(preview, 0, 1) * 255).astype(np.uint8)).resize((pw, ph))
-        pic = Image.blend(Image.new("RGB", (pw, ph), "white"), pic, 0.35)
-        img.paste(pic, (pad, pad))
-    font_path = str(files("stencil_cad") / "data" / "DejaVuSans-Bold.ttf")
-    big = ImageFont.truetype(font_path, max(12, min(48, int(0.2 * min(pw / grid.cols, ph / grid.rows)))))
-    small = ImageFont.truetype(font_path, 16)
-    draw = ImageDraw.Draw(img)
-
-    def px(x: float, y: float) -> tuple[float, float]:
-        return pad + x * scale, pad + (grid.height_mm - y) * scale
-
-    for t in grid.tiles:
-        x0, y0 = px(t.sheet[0], t.sheet[3])
-        x1, y1 = px(t.sheet[2], t.sheet[1])
-        draw.rectangle([x0, y0, x1, y1], outline=(150, 150, 220), width=1)
-    for x in grid.x_edges:
-        draw.line([px(x, 0), px(x, grid.height_mm)], fill=(200, 30, 30), width=3)
-        draw.text((px(x, 0)[0], pad + ph + 4), f"{x:.0f}", fill="black", font=small, anchor="ma")
-    for y in grid.y_edges:
-        draw.line([px(0, y), px(grid.width_mm, y)], fill=(200, 30, 30), width=3)
-        draw.text((pad - 4, px(0, y)[1]), f"{y:.0f}", fill="black", font=small, anchor="rm")
-    for t in grid.tiles:
-        cx, cy = px(0.5 * (t.core[0] + t.core[2]), 0.5 * (t.core[1] + t.core[3]))
-        draw.text((cx, cy), t.name, fill="black", font=big, anchor="mm")
-        draw.text(
-            (cx, cy + big.size),
-            f"({t.core[0]:.0f}, {t.core[1]:.0f}) mm",
-            fill="black",
-            font=small,
-            anchor="mt",
-        )
-    ty = pad + ph + 30
-    lines = [
-        f"{grid.rows} × {grid.cols} tiles, grid lines in mm from the bottom-left corner (red); "
-        f"blue: each sheet's reach ({grid.halo_mm:.1f} mm halo)",
-        "order of work (let each layer dry before the next):",
-        *order_of_work(grid, layers),
-    ]
-    for line in lines:
-        draw.text((pad, ty), line, fill="black", font=small)
-        ty += 26
-    return np.asarray(img)
-
-
 def tile_label(tile: Tile | None, grid: TileGrid) -> str:
     """The tile part of a plate label, e.g. ``"B3 of 2x4"``, or empty for one tile."""
     if tile is None or not grid.tiled:
         return ""
     return f"{tile.name} of {grid.rows}x{grid.cols}"
-
-
-def shifted(ds: DotSet, dx: float, dy: float) -> DotSet:
-    """A DotSet moved by ``(dx, dy)`` mm."""
-    return replace(ds, xy_mm=ds.xy_mm + np.array([dx, dy]))

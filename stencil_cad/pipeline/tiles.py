@@ -1,8 +1,8 @@
-"""The mural stages, called by :mod:`stencil_cad.pipeline`: plan, per-tile build, tiled simulation.
+"""The tiles' glue: the plan, every tile's plates and walls as tasks, the tiled simulation.
 
 Tiles are a layer over the global result: the stipple stage places the holes tile by tile
-into one hole set per layer over the whole mural (:mod:`stencil_cad.mural_stipple`),
-:func:`stencil_cad.mural.split_dots` hands each hole to one tile, and each
+into one hole set per layer over the whole mural (:mod:`stencil_cad.mural.stipple`),
+:func:`stencil_cad.mural.seams.split_dots` hands each hole to one tile, and each
 tile's plates and wall are built exactly like a one-plate job in the tile's own frame.
 Every tile is independent of the others once the dots are split, so each can become a
 separate task.
@@ -21,43 +21,19 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from . import mural
-from .colour import to_hex
-from .errors import UserError
-from .model import DotSet, Layers, Picture
-from .output import plain as _plain
+from .. import mural
+from ..colour import to_hex
+from ..errors import UserError
+from ..model import DotSet, Layers, Picture
+from ..output import plain as _plain
+from .names import tile_stem, tile_wall_stems
 
 if TYPE_CHECKING:
-    from .cad import LabelInfo
-    from .config.bed import Bed
-    from .config.job import JobConfig
+    from ..cad import LabelInfo
+    from ..config.bed import Bed
+    from ..config.job import JobConfig
 
 log = logging.getLogger(__name__)
-
-
-def tile_stem(tile: mural.Tile, i: int) -> str:
-    """Stem of a tile's layer files, e.g. ``tile_B3_layer_02`` (layer ``i`` 0-based)."""
-    return f"tile_{tile.name}_layer_{i + 1:02d}"
-
-
-def tile_wall_stems(tile: mural.Tile, standoffs_mm: list[float]) -> list[str]:
-    """Stems of a tile's walls: ``tile_B3_wall`` or ``tile_B3_wall_10mm`` … for several heights."""
-    heights = sorted(set(standoffs_mm))
-    return (
-        [f"tile_{tile.name}_wall"]
-        if len(heights) == 1
-        else [f"tile_{tile.name}_wall_{h:g}mm" for h in heights]
-    )
-
-
-def tile_outputs(cfg, grid: mural.TileGrid, count: int) -> list[str]:
-    """Names the tiled build writes (so a stage command can refuse before the work)."""
-    exts = cfg.export.plate_extensions()
-    names = []
-    for t in grid.tiles:
-        names += [tile_stem(t, i) + e for i in range(count) for e in exts]
-        names += [s + e for s in tile_wall_stems(t, cfg.wall.standoff_mm) for e in (".step", ".stl")]
-    return names + ["mural_map.png"]
 
 
 def plan(cfg, width_mm: float, height_mm: float, layers: int, work_px: int) -> tuple[mural.TileGrid, dict]:
@@ -89,8 +65,8 @@ def stage_build_tiles(run, layers: Layers, dotsets: list[DotSet], grid: mural.Ti
     Returns:
         Per tile, per layer, the tile's holes in the tile frame.
     """
-    from .cad import wall as wall_mod
-    from .stipple import rules as dots
+    from ..cad import wall as wall_mod
+    from ..stipple import rules as dots
 
     cfg = run.cfg
     split = [mural.split_dots(ds, grid) for ds in dotsets]  # [layer][tile]
@@ -181,7 +157,7 @@ class PartResult:
 
 def _part_tasks(cfg, layers: Layers, grid: mural.TileGrid, per_tile, heights) -> Iterator[PartTask]:
     """Every tile's plates (one per layer) and walls, tile by tile, made one at a time."""
-    from . import cad, outline
+    from .. import cad, outline
 
     n = len(per_tile[0]) if per_tile else 0
     for k, t in enumerate(grid.tiles):
@@ -241,8 +217,8 @@ class _Files:
 
 
 def _build_plate(task: PartTask) -> PartResult:
-    from . import cad
-    from .exchange import dxf, svg
+    from .. import cad
+    from ..exchange import dxf, svg
 
     cfg, stem, holes, ring = task.cfg, task.stem, task.holes, task.ring
     if holes is None or ring is None or task.label is None:
@@ -294,8 +270,8 @@ def _build_plate(task: PartTask) -> PartResult:
 
 
 def _build_wall(task: PartTask) -> PartResult:
-    from .cad import registration
-    from .cad import wall as wall_mod
+    from ..cad import registration
+    from ..cad import wall as wall_mod
 
     cfg, stem = task.cfg, task.stem
     w, h = task.size_mm
@@ -354,10 +330,10 @@ def stage_mural_simulate(
         grid: The tiles.
         per_tile: Per tile, per layer, holes in the tile frame.
     """
-    from . import simulate
-    from .model import composite
-    from .simulate import scielab
-    from .simulate.physical import SprayGeometry
+    from .. import simulate
+    from ..model import composite
+    from ..simulate import scielab
+    from ..simulate.physical import SprayGeometry
 
     cfg = run.cfg.spray
     geometry = SprayGeometry.of_job(run.cfg) if getattr(cfg.model, "value", cfg.model) == "physical" else None

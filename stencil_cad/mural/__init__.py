@@ -1,0 +1,65 @@
+"""Murals: the tiling every stage takes, its seams, and the map a maker follows.
+
+A picture larger than the bed is cut into tiles (:mod:`.tiling`); each hole belongs to one
+tile and the tiles register on chalk lines through sight notches (:mod:`.seams`); the holes
+are placed (:mod:`.stipple`) and refined (:mod:`.refine`) tile by tile, each tile a task.
+A one-plate job is a 1 × 1 tiling.
+"""
+
+from .map import mural_map
+from .seams import (
+    notch_triangles,
+    notched_ring,
+    registration_offsets,
+    seam_density,
+    shifted,
+    simulate_tiles,
+    split_dots,
+    to_mural,
+)
+from .tiling import (
+    HALO_TAIL,
+    PLATE_NOTCH_MM,
+    WALL_NOTCH_MM,
+    Tile,
+    TileGrid,
+    check_fits_bed,
+    manifest_rows,
+    order_of_work,
+    part_sizes,
+    phases,
+    plan_cost,
+    plan_tiles,
+    region_bounds,
+    row_name,
+    spray_halo_mm,
+    tile_label,
+)
+
+__all__ = [
+    "HALO_TAIL",
+    "PLATE_NOTCH_MM",
+    "Tile",
+    "TileGrid",
+    "WALL_NOTCH_MM",
+    "check_fits_bed",
+    "manifest_rows",
+    "mural_map",
+    "notch_triangles",
+    "notched_ring",
+    "order_of_work",
+    "part_sizes",
+    "phases",
+    "plan_cost",
+    "plan_tiles",
+    "region_bounds",
+    "registration_offsets",
+    "row_name",
+    "seam_density",
+    "shifted",
+    "simulate_tiles",
+    "split_dots",
+    "spray_halo_mm",
+    "tile_label",
+    "to_mural",
+]

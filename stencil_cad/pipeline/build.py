@@ -1,0 +1,138 @@
+"""The build stage's glue: plates and walls built, checked and exported, one plate per layer or per tile and layer."""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..colour import to_hex
+from ..errors import UserError
+from ..model import CutLayer, DotSet, Holes, Layers
+from ..output import plain as _plain
+from ..record import Run
+from ..stipple.made import drawn_dots
+from .names import layer_stem, wall_stems
+from .simulate import stage_simulate
+from .slicing import stage_print_estimate
+
+log = logging.getLogger(__name__)
+
+
+def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tuple[float, float]) -> None:
+    """Build, check and export one plate per layer and the wall(s)."""
+    from .. import cad, outline
+    from ..cad import wall as wall_mod
+    from ..exchange import dxf, svg
+
+    cfg = run.cfg
+    width_mm, height_mm = picture_mm
+    exp = cfg.export
+    results = []
+    with run.stage("build"):
+        ring = outline.plate_outline(width_mm, height_mm, cfg.plate.outline)
+        with run.bar(len(holes), "build") as bar:
+            for i, asked in enumerate(holes):
+                # The plate draws each hole larger by what the process takes off (stipple.compensate).
+                h = drawn_dots(asked, cfg.stipple, picture_mm) if isinstance(asked, DotSet) else asked
+                label = cad.LabelInfo(
+                    layer=i + 1,
+                    layers=len(holes),
+                    colour=to_hex(layers.colours[i]),
+                    job=cfg.name,
+                )
+                try:
+                    model = cad.build_plate(h, width_mm, height_mm, cfg.plate, label)
+                except ValueError as exc:
+                    # Holes that break the rules, a label that cannot fit, a bad template.
+                    raise UserError(f"{layer_stem(i)}: {exc}") from exc
+                check = cad.check_plate(model, h, tolerance_mm=exp.stl_tolerance_mm)
+                stem = layer_stem(i)
+                cad.write_mesh_files(run.out, model, stem, exp)
+                dxf_info = {}
+                drawing = dxf.stencil_for(h, ring, stem.upper(), *model.cut_label())
+                if exp.dxf:
+                    with run.out.open_path(f"{stem}.dxf") as p:
+                        info = dxf.write_dxf_stencils(
+                            p,
+                            [drawing],
+                            kerf_mm=exp.kerf_mm,
+                            # Fixed dates and GUIDs: the same job writes the same bytes, wherever it ran.
+                            deterministic=True,
+                        )
+                    # Laser software wants +X/+Y: the drawing is shifted by this much from the picture frame.
+                    dxf_info = {"dxf_offset_mm": [round(float(v), 4) for v in info.offset_mm]}
+                if exp.svg:
+                    with run.out.open_path(f"{stem}.svg") as p:
+                        sinfo = svg.write_svg(
+                            p, drawing, kerf_mm=exp.kerf_mm, title=f"{cfg.name} {stem} of {len(holes)}"
+                        )
+                    dxf_info["svg_offset_mm"] = [round(float(v), 4) for v in sinfo.offset_mm]
+                    dxf_info["svg_circles"] = sinfo.circles  # type: ignore[assignment]
+                cut = round(dxf.cut_length_mm(h, ring), 1)
+                (x0, y0, _), (x1, y1, _) = check["bbox"]
+                size = [round(x1 - x0, 3), round(y1 - y0, 3)]
+                row = {"layer": i + 1, **_plain(check), **dxf_info, "cut_length_mm": cut, "bbox_mm": size}
+                if isinstance(h, CutLayer):
+                    row["cutouts"] = h.cutout_figures()
+                elif len(h.r_mm):
+                    row["drawn_minus_asked_mm"] = round(float(np.mean(h.r_mm - asked.r_mm)), 4)
+                results.append(row)
+                bar.update(1)
+        walls = []
+        heights = wall_mod.wall_heights(cfg.wall)
+        for standoff, stem in zip(heights, wall_stems(heights), strict=True):
+            wm = wall_mod.build_wall(
+                width_mm, height_mm, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, standoff
+            )
+            with run.out.open_path(f"{stem}.step") as p:
+                wall_mod.wall_step(wm, p)
+            with run.out.open_path(f"{stem}.stl") as p:
+                wall_mod.wall_stl(wm, p, exp.stl_tolerance_mm)
+            walls.append({"file": f"{stem}.step", "standoff_mm": standoff, **wall_mod.check_wall(wm)})
+    run.figures["build"] = {"plates": results, "walls": walls}
+
+
+def check_template(run: Run) -> None:
+    """Load and check the plate template before the first stage; record path and SHA-256.
+
+    Raises:
+        UserError: The template is not a Python file, fails to load, or has bad parameters.
+    """
+    from .. import cad
+
+    try:
+        run.template = cad.check_plate_template(run.cfg.plate)
+    except ValueError as exc:
+        raise UserError(f"plate.template: {exc}") from None
+    if not run.template["builtin"]:
+        log.info("plate template %s is Python code and runs with your rights", run.template["path"])
+
+
+def build_any(
+    run: Run,
+    layers: Layers,
+    dotsets: list[DotSet],
+    picture_mm: tuple[float, float],
+    grid,
+    picture=None,
+    simulate: bool = True,
+) -> None:
+    """Build (and simulate): one plate per layer, or per tile and layer for a mural."""
+    from . import tiles
+
+    if not grid.tiled:
+        stage_build(run, layers, dotsets, picture_mm)
+        if run.cfg.export.print_estimate:
+            stage_print_estimate(run)
+        if simulate:
+            stage_simulate(run, picture, layers, dotsets)
+        return
+    per_tile = tiles.stage_build_tiles(run, layers, dotsets, grid)
+    tiles.write_map(run, grid, layers, picture)
+    if not simulate:
+        return
+    # A mural's plates are drawn as asked (no compensation yet) and sprayed so.
+    sim, ref = stage_simulate(run, picture, layers, dotsets, keep=True, as_made=False)
+    tiles.stage_mural_simulate(run, sim, ref, layers, dotsets, grid, per_tile)

@@ -1,0 +1,197 @@
+"""The commands beside the job: the calibration card, hard-stencil mode and the default config."""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import numpy as np
+
+from ..config import JobConfig
+from ..config.spray import SprayModel
+from ..errors import OutputError, UserError
+from ..model import Layers, Picture
+from ..output import plain as _plain
+from ..record import Run
+from .build import stage_build
+from .decompose import _with_can_list
+from .manifest import finish
+from .names import CARD_JSON, card_stems, layer_stem
+from .paints import plate_cards, write_spray_order
+from .simulate import _scores, spraying_steps, write_previews, write_steps
+
+log = logging.getLogger(__name__)
+
+
+def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4") -> list[Path]:
+    """`stencil-cad card`: the calibration plate, a wall per stand-off, the sheet and ``card.json``.
+
+    The plate takes the job's hole radii, web, plate and key; it is built, checked and exported
+    exactly like a layer's plate, and its walls like the job's.
+    """
+    from dataclasses import replace
+
+    from .. import cad, outline
+    from .. import stipple as stipple_mod
+    from ..cad import wall as wall_mod
+    from ..exchange import dxf
+    from ..testcard import layout as card_mod
+    from ..testcard import sheet as sheet_mod
+
+    cfg = run.cfg
+    try:
+        card = card_mod.card_layout(cfg, standoffs_mm)
+    except ValueError as exc:
+        raise UserError(f"card: {exc}") from exc
+    w, h = card.width_mm, card.height_mm
+    exp = cfg.export
+    with run.stage("card"):
+        # The job's process rules, without its picture's keep-outs.
+        rules = replace(stipple_mod.rules_from_config(cfg.stipple, w, h), keepouts=())
+        label = cad.LabelInfo(layer=1, layers=1, colour="", job="CARD")
+        try:
+            model = cad.build_plate(card.dots, w, h, cfg.plate, label, rules=rules)
+        except ValueError as exc:
+            raise UserError(f"card plate: {exc}") from exc
+        check = cad.check_plate(model, card.dots, tolerance_mm=exp.stl_tolerance_mm)
+        with run.out.open_path("card_plate.step") as p:
+            cad.write_step(model, p)
+        with run.out.open_path("card_plate.stl") as p:
+            cad.write_stl(model, p, exp.stl_tolerance_mm)
+        ring = outline.plate_outline(w, h, cfg.plate.outline)
+        with run.out.open_path("card_plate.dxf") as p:
+            drawing = dxf.stencil_for(card.dots, ring, "CARD", *model.cut_label())
+            dxf.write_dxf_stencils(p, [drawing], kerf_mm=exp.kerf_mm)
+        walls = []
+        heights = [fp.standoff_mm for fp in card.footprints]
+        for g, stem in zip(heights, card_stems(heights), strict=True):
+            wm = wall_mod.build_wall(w, h, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, g)
+            with run.out.open_path(f"{stem}.step") as p:
+                wall_mod.wall_step(wm, p)
+            with run.out.open_path(f"{stem}.stl") as p:
+                wall_mod.wall_stl(wm, p, exp.stl_tolerance_mm)
+            walls.append({"file": f"{stem}.step", "standoff_mm": g, **wall_mod.check_wall(wm)})
+        run.out.write_png("card_sheet.png", sheet_mod.sheet_png(card))
+        sp = cfg.spray
+        steps = sheet_mod.card_steps(card, sp.can_distance_mm, sp.pass_speed_m_s)
+        try:
+            pdf = sheet_mod.sheet_pdf(card, paper=paper, steps=steps)
+        except ValueError as exc:
+            raise UserError(f"card sheet: {exc}") from exc
+        run.out.write_bytes("card_sheet.pdf", pdf)
+        run.out.write_json(
+            CARD_JSON,
+            card_mod.card_description(
+                card,
+                {
+                    "job": cfg.name,
+                    "spray": {
+                        "can_distance_mm": sp.can_distance_mm,
+                        "pass_speed_m_s": sp.pass_speed_m_s,
+                        "passes": card.passes,
+                    },
+                    "files": {
+                        "plate": "card_plate.step",
+                        "walls": [f"{s}.step" for s in card_stems(heights)],
+                        "sheet": "card_sheet.pdf",
+                    },
+                },
+            ),
+        )
+    size = ring.max(axis=0) - ring.min(axis=0)
+    run.figures["card"] = {
+        "holes": len(card.dots),
+        "plate_mm": [round(float(v), 2) for v in size],
+        "standoffs_mm": heights,
+        "features": [
+            {
+                "kind": f.kind,
+                "holes": len(f.index),
+                "r_mm": f.r_mm,
+                "open_fraction": round(f.open_fraction, 4),
+            }
+            for f in card.features
+        ],
+        "plate": _plain(check),
+        "walls": walls,
+        "sheet_mm": [round(v, 1) for v in card.sheet_mm],
+        "paper": paper,
+        "passes": card.passes,
+    }
+    return finish(run, "card")
+
+
+def run_hard(run: Run, picture: Picture) -> list[Path]:
+    """Hard-stencil mode: segmentation, bridges, plates with polygon cut-outs, simulation."""
+    from .. import hardstencil
+
+    # Cut-outs are sprayed from their own nozzle height: the simulation, the spray order and
+    # the maker's spraying steps all read it from the spray section.
+    # Under the physical model a cut-out gets whole passes enough for full cover.
+    spray = run.cfg.spray.model_copy(update={"nozzle_height": run.cfg.hard.nozzle_height})
+    if spray.is_physical:
+        spray = spray.model_copy(update={"passes": float(spray.full_cover_passes())})
+    cfg = run.cfg = run.cfg.model_copy(update={"spray": spray})
+    size = (picture.width_mm, picture.height_mm)
+    with run.stage("segment"):
+        rules = _process_rules(cfg)
+        hcfg = _with_can_list(run, cfg.hard, "hard.palette")
+        try:
+            hard = hardstencil.make_hard_stencils(
+                picture, hcfg, rules["min_feature_mm"], rules["bridge_min_mm"], run.rng_for("hard")
+            )
+        except ValueError as exc:
+            raise UserError(f"hard mode: {exc}") from exc
+        if hard.count == 0:
+            raise UserError(
+                "hard mode: the image has a single flat colour, so there is nothing to cut "
+                "(prime the surface with it, or use an image with more colours)"
+            )
+        run.out.write_png("segmentation.png", hard.palette[hard.labels])
+        colours = np.array([cl.colour for cl in hard.cut_layers]).reshape(-1, 3)
+        for i, card in enumerate(plate_cards(run, colours, size, hard.cut_layers)):
+            run.out.write_png(f"{layer_stem(i)}_cut.png", card)
+        write_spray_order(run, hard.primer, colours, [float(cfg.spray.amount)] * hard.count)
+    run.figures["hard"] = _plain(hard.report)
+    run.figures["hard"]["warnings"] = [str(w) for w in hard.report.get("warnings", [])]
+    run.figures["hard"]["per_layer"] = [_plain(r) for r in hard.report.get("per_layer", [])]
+    layers = Layers(
+        primer=hard.primer,
+        colours=np.array([cl.colour for cl in hard.cut_layers]).reshape(-1, 3),
+        alphas=hard.cut_masks.astype(np.float64),
+        mm_per_px=picture.mm_per_px,
+    )
+    stage_build(run, layers, hard.cut_layers, size)
+    with run.stage("simulate"):
+        from ..simulate.physical import SprayGeometry
+
+        geometry = SprayGeometry.of_job(cfg) if cfg.spray.model == SprayModel.physical else None
+        alphas, comp = hardstencil.simulate_hard(hard, cfg.spray, geometry=geometry)
+        scores = _scores(run, picture.rgb, comp, picture.mm_per_px)
+        run.out.write_png("simulated.png", comp)
+        write_previews(run, picture.rgb, hardstencil.render_ideal(hard), comp, picture.mm_per_px, scores)
+        write_steps(run, hard.primer, hard.colours, alphas, picture.mm_per_px)
+    run.figures["simulate"] = _plain(scores)
+    run.figures["spraying"] = spraying_steps(cfg, layers, [float(cfg.spray.amount)] * layers.count)
+    return finish(run, "hard")
+
+
+def _process_rules(cfg: JobConfig) -> dict:
+    from ..stipple.rules import rules_from_config
+
+    rules = rules_from_config(cfg.stipple, cfg.size.width_mm, cfg.size.height_mm or cfg.size.width_mm)
+    return {"min_feature_mm": 2 * rules.hole_min_r_mm, "bridge_min_mm": max(rules.web_mm, 1.0)}
+
+
+def write_default_config(path: Path, *, force: bool = False) -> None:
+    """Write the commented default config (every key, its unit, range and default) to ``path``.
+
+    Raises:
+        OutputError: ``path`` is a folder, its folder does not exist, or it exists and not ``force``.
+    """
+    from ..config import io as cfg_io
+    from ..files import write_text_over
+
+    if path.is_dir():
+        raise OutputError(f"{path} is a folder; give a file path such as {path / 'stencil.yaml'}")
+    write_text_over(path, cfg_io.default_yaml(), "config", force=force, error=OutputError)

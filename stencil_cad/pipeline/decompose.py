@@ -1,0 +1,195 @@
+"""The decompose stage's glue: solve whole or in tiles, a can list or catalogue as the palette, save ``layers.npz`` and its previews."""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+from ..colour import to_hex
+from ..errors import ConfigError, UserError
+from ..model import Layers, Picture
+from ..output import plain as _plain
+from ..record import Run
+from .names import LAYERS_NPZ, layer_stem
+
+log = logging.getLogger(__name__)
+
+
+def stage_decompose(run: Run, picture: Picture) -> Layers:
+    """Decompose the picture into a primer and paint layers, and save them."""
+    from dataclasses import replace
+
+    from .. import decompose as dec
+    from ..exchange.layers_npz import layers_from_npz, layers_to_npz
+
+    with run.stage("decompose"):
+        # Iterations run per pyramid level, so the total is not known in advance.
+        with run.bar(None, "decompose") as bar:
+
+            def progress(_iteration: int, energy: float) -> None:
+                bar.update(1)
+                bar.set_postfix(energy=f"{energy:.4g}", refresh=False)
+
+            dcfg = _with_can_list(run, run.cfg.decompose, "decompose.palette")
+            try:
+                tiles = _decompose_tiles(run, picture)
+
+                def solve(section) -> Layers:
+                    if tiles is None:
+                        return dec.decompose(picture, section, run.rng_for("decompose"), progress=progress)
+                    return _decompose_tiled(run, picture, tiles, progress, section)
+
+                layers = solve(dcfg)
+                if dcfg.palette == "auto" and run.cfg.paints.catalogue is not None:
+                    layers = _snap_to_catalogue(run, dcfg, layers, solve)
+            except ValueError as exc:
+                # A config that does not suit this image (e.g. opacity_source: alpha on RGB).
+                raise UserError(str(exc)) from exc
+        out = run.out
+        # Timings go to the manifest only, so the same job writes the same bytes.
+        saved = layers_to_npz(replace(layers, info={k: v for k, v in layers.info.items() if k != "seconds"}))
+        out.write_npz(LAYERS_NPZ, saved)
+        # Go on with exactly what was saved (float32 opacities), so a stage command run later
+        # on layers.npz gives the same dots as this run.
+        layers = layers_from_npz(saved)
+        from ..simulate import labelled
+
+        for i, a in enumerate(layers.alphas):
+            out.write_png(
+                f"{layer_stem(i)}_opacity.png",
+                labelled.opacity_card(a, layers.mm_per_px, i + 1, layers.count, to_hex(layers.colours[i])),
+            )
+        out.write_png("composite.png", layers.composite())
+        trace = "iteration,energy\n" + "".join(f"{k},{e:.10g}\n" for k, e in enumerate(layers.energy_trace))
+        out.write_text("energy.csv", trace)
+    info = dict(layers.info)
+    run.figures["decompose"] = {
+        "layers": layers.count,
+        "primer": to_hex(layers.primer),
+        "colours": [to_hex(c) for c in layers.colours],
+        "iterations": layers.iterations,
+        **{k: v for k, v in info.items() if isinstance(v, (int, float, str, list))},
+    }
+    if "tiled" in info:
+        run.figures["decompose"]["tiled"] = _plain(info["tiled"])
+    return layers
+
+
+def _decompose_tiles(run: Run, picture: Picture):
+    """The decomposition's tiles for a big picture (None: solved whole), checked against the memory per task."""
+    from .. import compute
+    from ..decompose import tiled
+
+    cfg = run.cfg
+    if not tiled.applies(picture, cfg.decompose):
+        return None
+    n = cfg.decompose.layers
+    tiles = tiled.plan(picture.shape, n, cfg.compute.memory_per_task_bytes)
+    if tiles is None:
+        return None
+    side = tiles.tile_px + 2 * tiles.halo_px
+    compute.check_fits(
+        f"a decomposition tile of {side} x {side} px with {n} layers",
+        tiled.tile_bytes(tiles.tile_px, n),
+        cfg.compute,
+    )
+    ch, cw = tiles.coarse_shape
+    compute.check_fits(
+        f"the colour solve on {ch} x {cw} px with {n} layers", tiled.whole_bytes((ch, cw), n), cfg.compute
+    )
+    return tiles
+
+
+def _decompose_tiled(run: Run, picture: Picture, tiles, progress, cfg=None) -> Layers:
+    """Colours on a small copy of the picture, then the opacities tile by tile as tasks.
+
+    ``cfg`` is the decompose section to solve with (defaults to the job's; a can list or the
+    catalogue's cans replace its palette).
+    """
+    from .. import decompose as dec
+    from ..decompose import tiled
+
+    cfg = run.cfg.decompose if cfg is None else cfg
+    coarse = dec.decompose(
+        tiled.coarse_picture(picture, tiles), cfg, run.rng_for("decompose"), progress=progress
+    )
+    results = run.tasks.map(
+        tiled.solve_tile, tiled.tasks(picture, coarse, tiles, cfg), "decompose tiles", count=tiles.count
+    )
+    return tiled.assemble(coarse, tiles, results, picture.mm_per_px)
+
+
+def _with_can_list(run: Run, section, where: str):
+    """A config section whose palette CSV (a can list) is replaced by its colours; the cans are noted."""
+    from ..decompose import paints
+
+    if not isinstance(section.palette, Path):
+        return section
+    try:
+        cans = paints.load_cans(section.palette)
+    except (ValueError, ConfigError) as exc:
+        raise ConfigError(f"{where}: {exc}") from None
+    run.figures.setdefault("cans", {})["list"] = [c.__dict__ for c in cans]
+    hexes = paints.to_hex_list(cans)
+    return section.model_copy(update={"palette": hexes if where.startswith("decompose") else list(hexes)})
+
+
+def _catalogue(run: Run) -> list:
+    from ..decompose import paints
+
+    catalogue = run.cfg.paints.catalogue
+    assert catalogue is not None, "snapping to a catalogue needs paints.catalogue"
+    try:
+        cans = paints.load_cans(catalogue)
+    except (ValueError, ConfigError) as exc:
+        raise ConfigError(f"paints.catalogue: {exc}") from None
+    run.figures.setdefault("cans", {})["catalogue"] = [c.__dict__ for c in cans]
+    return cans
+
+
+def _snap_to_catalogue(run: Run, dcfg, layers: Layers, solve) -> Layers:
+    """Snap the solved paints (and an 'auto' primer) to their nearest cans and solve the opacities again.
+
+    ``solve(section)`` decomposes the picture with a decompose section (whole or in tiles).
+    """
+    from ..decompose import paints
+
+    cans = _catalogue(run)
+    paint_snap = paints.snap_report(layers.colours, cans)
+    update: dict[str, object] = {"order": "given"}
+    primer_snap = None
+    if dcfg.primer == "auto":
+        primer_snap = paints.snap_report(layers.primer[None, :], cans)[0]
+        update["primer"] = primer_snap["can"]
+    chosen: list[str] = []
+    for row in paint_snap:
+        if row["can"] not in chosen and row["can"] != update.get("primer", dcfg.primer):
+            chosen.append(row["can"])
+    if not chosen:
+        raise ValueError(
+            "paints.catalogue: every solved paint snaps to the primer's can; add cans closer to the "
+            "picture's colours, or set decompose.palette to a list"
+        )
+    update["palette"] = tuple(chosen)
+    snapped = solve(dcfg.model_validate({**dcfg.model_dump(), **update}))
+    before = float(layers.info.get("rmse", float("nan")))
+    after = float(snapped.info.get("rmse", float("nan")))
+    run.figures.setdefault("cans", {})["snap"] = {
+        "paints": paint_snap,
+        "primer": primer_snap,
+        "rmse_solved": before,
+        "rmse_snapped": after,
+        "rmse_cost": after - before,
+        "de2000_mean_shift": float(sum(r["delta_e2000"] for r in paint_snap) / len(paint_snap)),
+    }
+    log.info("paints: snapped to the catalogue, composite RMSE %.2f → %.2f (0-255 units)", before, after)
+    return snapped
+
+
+def can_names(figures: dict) -> dict[str, str]:
+    """``{hex: can label}`` of every can this job knows (its can list and catalogue)."""
+    from ..decompose import paints
+
+    known = figures.get("cans", {})
+    rows = [*known.get("list", []), *known.get("catalogue", [])]
+    return paints.names_by_hex([paints.Can(**r) for r in rows])

@@ -1,0 +1,114 @@
+"""The paints a maker sprays: ``spray.json``, the swatch card and the plate previews with their can names."""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from ..colour import to_hex
+from ..config import JobConfig, Mode
+from ..config.spray import SprayModel
+from ..model import DotSet
+from ..record import Run
+from .decompose import can_names
+from .names import SPRAY_JSON, layer_stem
+
+log = logging.getLogger(__name__)
+
+
+def _order_note(cfg: JobConfig) -> str:
+    """Why the paints come in this order, in one line for the swatch card."""
+    if cfg.mode == Mode.hard:
+        return {
+            "light_to_dark": "light to dark: each darker paint covers the lighter ones",
+            "dark_to_light": "dark to light (hard.order)",
+            "given": "the order of hard.palette",
+        }[cfg.hard.order.value]
+    return {
+        "auto": "each coat covers the ones before; this order reconstructs the picture best (decompose.order: auto)",
+        "light_to_dark": "lightest paint first (decompose.order: light_to_dark)",
+        "given": "the order of decompose.palette (decompose.order: given)",
+    }[cfg.decompose.order.value]
+
+
+def write_spray_order(run: Run, primer: np.ndarray, colours: np.ndarray, spray_times: list[float]) -> None:
+    """Write ``spray.json`` (spray order, paints, spray times) and the swatch card ``swatch.png``."""
+    from ..simulate import labelled
+
+    names = can_names(run.figures)
+    if run.cfg.paints.can_names:
+        from ..decompose import paints
+
+        hexes = [to_hex(c) for c in (primer, *colours)]
+        names = {**paints.colour_names([h for h in hexes if h not in names]), **names}
+    order = [
+        {
+            "step": i + 1,
+            "plate": layer_stem(i),
+            "hex": to_hex(c),
+            "name": names.get(to_hex(c), ""),
+            "spray_time": float(t),
+        }
+        for i, (c, t) in enumerate(zip(colours, spray_times, strict=True))
+    ]
+    sp = run.cfg.spray
+    how: dict = {"unit": sp.amount_unit}
+    if sp.model == SprayModel.physical:
+        for o, t in zip(order, spray_times, strict=True):
+            o["passes"] = max(1, round(float(t)))
+        how.update(can_distance_cm=sp.can_distance_mm / 10.0, pass_speed_m_s=sp.pass_speed_m_s)
+    else:
+        how["nozzle_height"] = sp.nozzle_height
+    run.out.write_json(
+        SPRAY_JSON,
+        {
+            "primer": {"hex": to_hex(primer), "name": names.get(to_hex(primer), "")},
+            "order": order,
+            "spray_times": [float(t) for t in spray_times],
+            **how,
+        },
+    )
+    run.figures["spray_order"] = {
+        "primer": {"hex": to_hex(primer), "name": names.get(to_hex(primer), "")},
+        "note": _order_note(run.cfg),
+        "unit": run.cfg.spray.amount_unit,
+        "steps": order,
+    }
+    run.out.write_png(
+        "swatch.png",
+        labelled.swatch_card(
+            to_hex(primer),
+            [{**o, "note": f"plate {o['plate']}"} for o in order],
+            order_note=_order_note(run.cfg),
+            unit=run.cfg.spray.amount_unit,
+            primer_name=names.get(to_hex(primer), ""),
+        ),
+    )
+
+
+def plate_cards(
+    run: Run, colours: np.ndarray, picture_mm: tuple[float, float], holes: list
+) -> list[np.ndarray]:
+    """The plate previews: outline with key tabs and label area, holes or cut-outs, header and scale."""
+    from .. import outline
+    from ..simulate import labelled
+
+    cfg = run.cfg
+    ring = outline.plate_outline(*picture_mm, cfg.plate.outline)
+    box = outline.label_region(*picture_mm, cfg.plate.outline)
+    names = can_names(run.figures)
+    cards = []
+    for i, h in enumerate(holes):
+        hx = to_hex(colours[i])
+        kw = (
+            {"circles_xy_r": np.column_stack([h.xy_mm, h.r_mm]) if len(h) else np.zeros((0, 3))}
+            if isinstance(h, DotSet)
+            else {"polygons": h.polygons}
+        )
+        cards.append(
+            labelled.plate_card(
+                ring, box, picture_mm, i + 1, len(holes), hx, names.get(hx, ""), job=cfg.name, **kw
+            )
+        )
+    return cards

@@ -1,0 +1,110 @@
+"""The refine stage's glue: the holes moved and resized against the spray model, whole or tile by tile."""
+
+from __future__ import annotations
+
+import logging
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..config.spray import SprayModel
+from ..model import DotSet, Layers, Picture
+from ..output import plain as _plain
+from ..record import Run
+from .picture import source_reference
+
+if TYPE_CHECKING:
+    from .. import mural
+
+log = logging.getLogger(__name__)
+
+
+def stage_refine(
+    run: Run,
+    layers: Layers,
+    dotsets: list[DotSet],
+    picture_mm: tuple[float, float],
+    picture: Picture | None = None,
+    grid: mural.TileGrid | None = None,
+) -> list[DotSet]:
+    """Refine every layer's holes against the spray model so the composite matches the picture.
+
+    The objective lives on the simulation grid, its eye filter is the viewer's at
+    ``view.distance_m``, and the holes keep the stipple rules (the largest radius is
+    ``refine.max_radius_factor`` times the hole floor). A mural (``grid`` of several tiles)
+    is refined tile by tile (:mod:`stencil_cad.mural.refine`), each tile a task.
+    """
+    from .. import resolution
+    from ..simulate import scielab, spray
+    from ..simulate.physical import SprayGeometry
+    from ..stipple import refine
+    from ..stipple.rules import rules_from_config
+
+    cfg = run.cfg
+    # The simulation's grid: with ``size.px_per_mm: auto`` it follows the dots' spray sigma
+    # (8x fewer pixels than 4 px/mm for FDM holes, which keeps a mural's refinement in memory).
+    grid_mm = resolution.sim_mm_per_px(cfg) or 1.0 / cfg.spray.px_per_mm
+    shape = spray.sim_shape(layers.alphas.shape[1:], layers.mm_per_px, grid_mm)
+    # The picture the simulation is scored against: the source image on the simulation grid.
+    target = source_reference(cfg, picture, layers, shape, grid_mm)
+    rules = rules_from_config(cfg.stipple, *picture_mm)
+    rc = cfg.refine
+    settings = refine.RefineSettings(
+        iterations=rc.iterations,
+        step_mm=rc.step_mm,
+        radius_step_mm=rc.radius_step_mm,
+        max_radius_mm=max(rc.max_radius_factor * rules.hole_min_r_mm, cfg.stipple.resolved_max_radius_mm),
+        add_remove_every=rc.add_remove_every,
+        eye_sigma_mm=scielab.smallest_sigma_mm(cfg.view.distance_m),
+        layer_weight=rc.layer_weight,
+        view=(
+            refine.ViewFilters(scielab.filters_mm(cfg.view.distance_m), rc.pixel_weight)
+            if rc.objective == "viewer"
+            else None
+        ),
+    )
+    alpha_targets = np.stack([spray.resample(a, shape) for a in layers.alphas]) if layers.count else None
+
+    from ..mural import refine as mural_refine
+    from ..simulate.cans import can_prior
+
+    geometry = SprayGeometry.of_job(cfg) if cfg.spray.model == SprayModel.physical else None
+    # refine.cans: prior refines for the expected error over a prior of cans (without a measured can).
+    cans = can_prior(cfg.spray) if rc.cans == "prior" else [("nominal", cfg.spray)]
+    kernels = [mural_refine.HoleKernels(sp, geometry) for _, sp in cans]
+
+    times = [float(ds.report.get("spray_time", cfg.spray.amount)) for ds in dotsets]
+    if grid is not None and grid.tiled:
+        problem = mural_refine.Problem(
+            target=target,
+            alpha_targets=alpha_targets,
+            mm_per_px=grid_mm,
+            primer=layers.primer,
+            colours=layers.colours,
+            rules=[rules] * layers.count,
+            kernels=tuple(kernels),
+            spray_times=times,
+            settings=settings,
+        )
+        halo = mural_refine.refine_halo_mm(cfg, settings.eye_sigma_mm)
+        with run.stage("refine"):
+            out, report = mural_refine.refine_mural(problem, grid, dotsets, halo, run.tasks.map)
+        run.figures["refine"] = _plain(report)
+        return out
+    with run.stage("refine"):
+        with run.bar(rc.iterations, "refine") as bar:
+            out, report = refine.refine_dots(
+                target,
+                grid_mm,
+                layers.primer,
+                layers.colours,
+                dotsets,
+                [rules] * layers.count,
+                kernels,
+                times,
+                settings,
+                progress=lambda it, total: bar.update(1),
+                alpha_targets=alpha_targets,
+            )
+    run.figures["refine"] = _plain(report)
+    return out

@@ -1,0 +1,213 @@
+"""The order of the stages: one command of the command line, from the checks before any work to the manifest."""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import numpy as np
+
+from ..config import ComputeConfig, JobConfig, Mode
+from ..errors import UserError
+from ..exchange.png import png_bytes
+from ..model import Picture
+from ..output import OutputDir
+from ..record import Run
+from .build import build_any, check_template
+from .commands import run_hard
+from .decompose import stage_decompose
+from .manifest import finish, save_config
+from .names import STAGE_COMMANDS, run_outputs, stage_outputs
+from .picture import load_picture
+from .saved import check_dots, read_dots, read_layers
+from .simulate import stage_simulate
+from .stipple import bound_dots, stage_stipple
+
+log = logging.getLogger(__name__)
+
+
+@contextlib.contextmanager
+def computing(run: Run, picture_px: int, where: ComputeConfig | None = None) -> Iterator[None]:
+    """Open the job's executor (this process, or a Dask cluster: see :mod:`stencil_cad.compute`).
+
+    Args:
+        run: The command's state.
+        picture_px: Pixels of the working picture (small jobs stay in this process).
+        where: The ``compute`` section with the command line applied; defaults to the config's.
+    """
+    from .. import compute
+
+    with compute.executor(where or run.cfg.compute, picture_px, run.quiet) as ex:
+        run.executor = ex
+        run.figures["compute"] = ex.plan.summary()
+        try:
+            yield
+        finally:
+            run.executor = None
+
+
+def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
+    """The whole job: every stage in order."""
+    if picture is None:
+        with run.stage("load"):
+            picture = load_picture(run.cfg)
+    if run.template is None:
+        check_template(run)
+    cfg = run.cfg
+    save_config(run)
+    run.sheet_images["input.png"] = png_bytes(np.asarray(picture.rgb, dtype=np.float64))
+    size = (picture.width_mm, picture.height_mm)
+    run.figures["picture"] = {
+        "source": picture.source,
+        "width_mm": round(size[0], 3),
+        "height_mm": round(size[1], 3),
+        "pixels": list(picture.shape),
+        "mm_per_px": picture.mm_per_px,
+    }
+    grid = plan_mural(run, size, picture.shape)
+    if cfg.mode == Mode.hard:
+        if grid.tiled:
+            raise UserError(
+                f"hard mode makes one plate per layer, and a {size[0]:.0f} × {size[1]:.0f} mm picture's plate does "
+                f"not fit the bed {grid.bed}; use soft mode for a tiled mural, a larger bed or a smaller size"
+            )
+        return run_hard(run, picture)
+    bound_dots(run, size)
+    layers = stage_decompose(run, picture)
+    dotsets = stage_stipple(run, layers, size, picture, grid)
+    build_any(run, layers, dotsets, size, grid, picture)
+    return finish(run, "run")
+
+
+def plan_mural(run: Run, picture_mm: tuple[float, float], shape_px: tuple[int, int]):
+    """Tile the picture for the bed (one tile when it fits) and check every part fits, before any work."""
+    from . import tiles
+
+    grid, fig = tiles.plan(run.cfg, *picture_mm, plate_layers(run.cfg), int(shape_px[0]) * int(shape_px[1]))
+    run.figures["mural"] = fig
+    return grid
+
+
+def plate_layers(cfg: JobConfig) -> int:
+    """Plates per tile the job plans for: the paint layers, or in hard mode one per colour but the primer."""
+    if cfg.mode != Mode.hard:
+        return cfg.decompose.layers
+    # A palette given as a list fixes the colours; a can list's length is known once it is read.
+    palette = cfg.hard.palette
+    return (len(palette) if isinstance(palette, list) else cfg.hard.colours) - 1
+
+
+def run_command(
+    command: str,
+    cfg: JobConfig,
+    out_path: Path,
+    *,
+    src: Path | None = None,
+    force: bool = False,
+    quiet: bool = False,
+    where: ComputeConfig | None = None,
+    announce: Callable[[str], None] | None = None,
+) -> tuple[Run, list[Path]]:
+    """Run one command of the command line: ``run``, ``hard``, ``decompose`` or a stage command.
+
+    The template is loaded and checked, then the output folder is opened (created, locked,
+    probed for writing) before the image is read or any stage runs; on any failure nothing
+    is written (the staged files are discarded).
+
+    Args:
+        command: ``run``, ``hard``, ``decompose``, ``stipple``, ``build`` or ``simulate``.
+        cfg: The resolved job config.
+        out_path: The output folder.
+        src: Folder whose intermediates a stage command reads. Defaults to ``out_path``.
+        force: Replace the files stencil-cad wrote earlier in the folder (unchanged since).
+        quiet: No progress bars.
+        where: Where the tasks run: the ``compute`` section with ``--workers`` /
+            ``--scheduler`` applied. Defaults to the config's.
+        announce: Called with one line saying what the job will cost (tiles, plates, holes,
+            time), after the input is read and before any work, or None.
+
+    Returns:
+        ``(run, files)``: the run's state (figures, timings) and the files written.
+    """
+    stage_cmd = command in STAGE_COMMANDS
+    src = (src or out_path) if stage_cmd else None
+    # `decompose` is a stage too: it adds to a run's folder and never removes later stages' files.
+    run = Run(cfg=cfg, out=None, quiet=quiet)  # type: ignore[arg-type]
+    # Everything that can be checked is checked before the first stage: the template (Python
+    # code, loaded now), the output folder (created, locked, probed for writing), the image.
+    if command in ("run", "hard", "build"):
+        check_template(run)
+    out = OutputDir(out_path, force=force, allow_existing=stage_cmd or command == "decompose")
+    run.out = out
+    t0 = time.perf_counter()
+    try:
+        if not stage_cmd:
+            out.check_free(run_outputs(cfg, command))
+        picture = None
+        if command in ("run", "decompose", "hard", "simulate", "stipple"):
+            try:
+                with run.stage("load"):
+                    picture = load_picture(cfg)
+            except UserError:
+                # `simulate` scores, and `stipple` refines, against the decomposition when the image is gone.
+                if command not in ("simulate", "stipple"):
+                    raise
+        if picture is not None and command in ("run", "hard") and announce is not None:
+            from . import tiles
+
+            shape = picture.shape
+            _, plan = tiles.plan(
+                cfg, picture.width_mm, picture.height_mm, plate_layers(cfg), shape[0] * shape[1]
+            )
+            announce(tiles.plan_line(plan))
+        if command in ("run", "hard", "decompose"):
+            assert picture is not None  # load_picture raised otherwise
+            with computing(run, picture.shape[0] * picture.shape[1], where):
+                if command == "decompose":
+                    save_config(run)
+                    stage_decompose(run, picture)
+                    files = finish(run, "decompose")
+                else:
+                    files = run_all(run, picture)
+        else:
+            files = _run_stage_command(run, command, src or out_path, picture, where)
+    except BaseException:
+        out.abort()
+        raise
+    run.times["total"] = round(time.perf_counter() - t0, 3)
+    return run, files
+
+
+def _run_stage_command(
+    run: Run, command: str, src: Path, picture: Picture | None, where: ComputeConfig | None
+) -> list[Path]:
+    cfg = run.cfg
+    layers = read_layers(src)
+    size = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
+    grid = plan_mural(run, size, layers.alphas.shape[1:])
+    run.out.check_free(stage_outputs(cfg, command, layers.count, grid))
+    if abs(size[0] - cfg.size.width_mm) > 0.01 * cfg.size.width_mm:
+        log.warning(
+            "the saved layers are %.4g mm wide but the config says size.width_mm %.4g; the saved "
+            "layers' size is used (re-run `stencil-cad decompose` to change it)",
+            size[0],
+            cfg.size.width_mm,
+        )
+    dotsets = None
+    if command != "stipple":
+        dotsets = read_dots(src, layers.count, max_time=8.0 * cfg.spray.amount_cap)
+        if command == "build":
+            check_dots(cfg, dotsets, size)
+    # Every refusal above comes before any worker starts; the tasks then run where the whole
+    # job's would (--workers, --scheduler).
+    with computing(run, layers.alphas.shape[1] * layers.alphas.shape[2], where):
+        if dotsets is None:
+            stage_stipple(run, layers, size, picture, grid)
+        elif command == "build":
+            build_any(run, layers, dotsets, size, grid, picture, simulate=False)
+        else:
+            stage_simulate(run, picture, layers, dotsets, as_made=not grid.tiled)
+        return finish(run, command)

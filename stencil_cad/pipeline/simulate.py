@@ -1,0 +1,290 @@
+"""The simulate stage's glue: spray every plate in simulation, score as a viewer sees it, previews and spraying steps."""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..colour import to_hex
+from ..config import JobConfig
+from ..config.spray import SprayModel
+from ..model import DotSet, Layers, Picture
+from ..output import plain as _plain
+from ..record import Run
+from ..stipple.made import made_dots
+from .names import simulated_stems, step_name
+from .picture import _resample, source_reference
+
+log = logging.getLogger(__name__)
+
+
+def stage_simulate(
+    run: Run,
+    picture: Picture | None,
+    layers: Layers,
+    dotsets: list[DotSet],
+    keep: bool = False,
+    as_made: bool = True,
+):
+    """Spray every plate in simulation, composite, score against the input, save previews.
+
+    Returns the scores, or with ``keep`` the simulation and the reference on its grid. With
+    ``as_made`` (a one-plate job) the holes are sprayed as the process makes them
+    (:func:`stencil_cad.stipple.made.made_dots`); a mural's are sprayed as asked.
+
+    Under the physical model every wall height gets its own simulation and score
+    (``simulated_wall_10mm.png`` …); the main pictures and scores are those of the design
+    stand-off (``wall.standoff_mm[0]``), which the tone calibration designed the dots for.
+    """
+    from .. import resolution, simulate
+    from ..simulate.physical import SprayGeometry
+
+    cfg = run.cfg
+    physical = cfg.spray.model == SprayModel.physical
+    design = SprayGeometry.of_job(cfg) if physical else None
+    if as_made:
+        # Spray the holes as the process makes them (stipple.hole_offset_mm), not as asked.
+        size_mm = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
+        dotsets = [made_dots(d, cfg.stipple, size_mm) if isinstance(d, DotSet) else d for d in dotsets]
+    with run.stage("simulate"):
+        grid_mm = resolution.sim_mm_per_px(cfg)
+        sim = simulate.simulate(layers, dotsets, cfg.spray, grid_mm, geometry=design)
+        ref = source_reference(cfg, picture, layers, sim.composite.shape[:2], sim.mm_per_px)
+        scores = _scores(run, ref, sim.composite, sim.mm_per_px)
+        by_can = _scores_by_can(run, layers, dotsets, ref, grid_mm, design, scores)
+        run.out.write_png("simulated.png", sim.composite)
+        ideal = _resample(layers.composite(), sim.composite.shape[:2])
+        write_previews(run, ref, ideal, sim.composite, sim.mm_per_px, scores)
+        factors = tuple(cfg.spray.sweep_factors)
+        panels = simulate.sweep_panels(layers, dotsets, cfg.spray, grid_mm, factors=factors, geometry=design)
+        from ..simulate import labelled
+
+        run.out.write_png(
+            "sweep.png", labelled.sweep_card(panels, factors, sim.mm_per_px, unit=cfg.spray.amount_unit)
+        )
+        write_steps(run, layers.primer, layers.colours, sim.alphas, sim.mm_per_px)
+        per_wall = []
+        stems = simulated_stems(cfg)
+        for h, name in zip(cfg.wall.heights() if stems else [], stems, strict=True):
+            # Extra walls exist only under the physical model, where design is set.
+            assert design is not None
+            if h == design.standoff_mm:
+                other, other_scores = sim, scores
+            else:
+                other = simulate.simulate(
+                    layers, dotsets, cfg.spray, grid_mm, geometry=SprayGeometry.of_job(cfg, h)
+                )
+                other_scores = simulate.score(ref, other.composite)
+            run.out.write_png(name, other.composite)
+            per_wall.append(
+                {
+                    "standoff_mm": h,
+                    "file": name,
+                    "blur_sigma_mm": other.info["blur_sigma_mm"],
+                    **_plain(other_scores),
+                }
+            )
+    run.figures["simulate"] = {
+        **_plain(scores),
+        **_dot_visibility(run, layers, dotsets),
+        "layer_rmse": [float(x) for x in sim.layer_rmse],
+        **{k: v for k, v in _plain(sim.info).items() if k not in scores},
+    }
+    if by_can:
+        run.figures["simulate"]["scielab_by_can"] = by_can
+        run.figures["simulate"]["scielab_worst"] = max(by_can.values())
+    if per_wall:
+        run.figures["simulate"]["walls"] = per_wall
+    run.figures["spraying"] = spraying_steps(
+        cfg, layers, [float(ds.report.get("spray_time", cfg.spray.amount)) for ds in dotsets]
+    )
+    return (sim, ref) if keep else scores
+
+
+#: Overshoot of a sweep past each edge of the picture, mm: a pass starts and ends off the plate.
+SWEEP_OVERSHOOT_MM = 50.0
+
+
+def sweep_seconds(cfg: JobConfig, width_mm: float, height_mm: float) -> float:
+    """About how long one pass over the picture takes, in seconds.
+
+    A pass is sweeps across the picture's width, each starting and ending ``SWEEP_OVERSHOOT_MM``
+    off it, in rows half the can distance apart (the band a can sprays evenly is about half its
+    distance wide), at ``spray.pass_speed_m_s``.
+    """
+    sp = cfg.spray
+    rows = max(1, math.ceil(height_mm / (0.5 * sp.can_distance_mm)))
+    return rows * (width_mm + 2.0 * SWEEP_OVERSHOOT_MM) / (1000.0 * sp.pass_speed_m_s)
+
+
+def _scores_by_can(
+    run: Run, layers: Layers, dotsets: list[DotSet], ref, grid_mm, design, nominal: dict
+) -> dict:
+    """S-CIELAB at the viewing distance for every can of the prior (:mod:`.simulate.cans`), by name.
+
+    Empty when the prior is one can (the paper model, or a measured spray profile).
+    """
+    from .. import simulate
+    from ..simulate import scielab
+    from ..simulate.cans import can_prior
+
+    cans = can_prior(run.cfg.spray)
+    if len(cans) < 2:
+        return {}
+    out = {}
+    for name, sp in cans:
+        if name == "nominal":  # the job's own can, already simulated and scored
+            out[name] = float(nominal["scielab"])
+            continue
+        other = simulate.simulate(layers, dotsets, sp, grid_mm, geometry=design)
+        out[name] = float(
+            scielab.scielab(
+                ref, other.composite, other.mm_per_px, run.cfg.view.distance_m, tasks_map=run.tasks.map
+            )
+        )
+    return out
+
+
+def spraying_steps(cfg: JobConfig, layers: Layers, amounts: Sequence[float]) -> list[dict]:
+    """What the hand does for each layer, in the maker's units (physical model) or the model's.
+
+    Args:
+        cfg: The job config.
+        layers: The decomposition (for the paint colours and the picture's size).
+        amounts: Each layer's amount of paint: passes (physical) or spray time (paper).
+
+    Returns:
+        One dict per layer: ``layer``, ``paint``, and ``passes``, ``can_distance_cm``,
+        ``pass_speed_m_s``, ``spray_seconds`` (physical) or ``spray_time`` (paper), and ``text``.
+    """
+    sp = cfg.spray
+    out = []
+    h_px, w_px = layers.alphas.shape[1:] if layers.count else (0, 0)
+    per_pass = sweep_seconds(cfg, w_px * layers.mm_per_px, h_px * layers.mm_per_px)
+    for i, amount in enumerate(amounts):
+        paint = to_hex(layers.colours[i])
+        if sp.model == SprayModel.physical:
+            n = max(1, round(amount))
+            cm = sp.can_distance_mm / 10.0
+            seconds = n * per_pass
+            text = (
+                f"spray layer {i + 1} ({paint}): {n} light pass{'' if n == 1 else 'es'} from {cm:g} cm at "
+                f"about {sp.pass_speed_m_s:g} m/s (about {seconds:.0f} s of spraying)"
+                + ("; let each pass flash off (about a minute) before the next" if n > 1 else "")
+            )
+            out.append(
+                {
+                    "layer": i + 1,
+                    "paint": paint,
+                    "passes": n,
+                    "can_distance_cm": cm,
+                    "pass_speed_m_s": sp.pass_speed_m_s,
+                    "spray_seconds": round(seconds, 1),
+                    "text": text,
+                }
+            )
+        else:
+            text = (
+                f"spray layer {i + 1} ({paint}) for spray time {amount:.3g} (paper model units; "
+                "spray.model: physical gives passes and distances)"
+            )
+            out.append({"layer": i + 1, "paint": paint, "spray_time": round(amount, 4), "text": text})
+    return out
+
+
+def _scores(run: Run, reference: np.ndarray, sprayed: np.ndarray, mm_per_px: float) -> dict:
+    """Pixel scores and S-CIELAB at the viewing distance and twice it, on one grid."""
+    from .. import simulate
+    from ..simulate import scielab
+
+    scores = simulate.score(reference, sprayed)
+    scores.update(scielab.view_scores(reference, sprayed, mm_per_px, run.cfg.view.distance_m, run.tasks.map))
+    return scores
+
+
+def _dot_visibility(run: Run, layers: Layers, dotsets: list[DotSet]) -> dict:
+    """From how far the smallest holes in the most contrasting paint blend (see :mod:`.simulate.visibility`)."""
+    from ..simulate.physical import SprayGeometry
+    from ..simulate.visibility import blend_distance_m
+
+    cfg = run.cfg
+    if layers.count == 0:
+        return {}
+    lum = np.array([0.2126, 0.7152, 0.0722])
+    k = int(np.argmax(np.abs((layers.colours - layers.primer) @ lum)))
+    r = cfg.stipple.resolved_hole_min_r_mm
+    a = float(dotsets[k].report.get("spray_time", cfg.spray.amount))
+    d = blend_distance_m(
+        r,
+        cfg.stipple.resolved_web_mm,
+        cfg.spray,
+        a,
+        layers.colours[k],
+        layers.primer,
+        cfg.stipple.auto_spacing_factor,
+        geometry=SprayGeometry.of_job(cfg) if cfg.spray.model == SprayModel.physical else None,
+    )
+    return {"dots_blend_m": d, "dots_blend_layer": k + 1, "dots_hole_r_mm": r}
+
+
+def _score_line(scores: dict) -> str:
+    """The scores under the preview: what a viewer sees (S-CIELAB) and pixel by pixel (ΔE2000)."""
+    d = scores["view_distance_m"]
+    return (
+        f"S-CIELAB at {d:g} m {scores['scielab']:.2f}, at {2 * d:g} m {scores['scielab_2x']:.2f}   ·   "
+        f"ΔE2000 per pixel: mean {scores['de2000_mean']:.2f}, 95 % below {scores['de2000_p95']:.1f}"
+    )
+
+
+def write_previews(run: Run, reference, ideal, sprayed, mm_per_px: float, scores: dict) -> None:
+    """The labelled four-panel ``preview.png``: input, ideal layers, simulated spray, error map."""
+    from .. import simulate
+    from ..simulate import labelled
+
+    de_max = 30.0
+    notes = [
+        _score_line(scores),
+        f"PSNR {scores['psnr']:.1f} dB, SSIM {scores['ssim']:.2f}  ·  "
+        f"picture {sprayed.shape[1] * mm_per_px:g} × {sprayed.shape[0] * mm_per_px:g} mm",
+    ]
+    run.out.write_png(
+        "preview.png",
+        labelled.job_preview(
+            reference,
+            ideal,
+            sprayed,
+            simulate.delta_e_map(reference, sprayed),
+            simulate.colour_map,
+            de_max,
+            mm_per_px,
+            notes=notes,
+        ),
+    )
+
+
+def write_steps(
+    run: Run, primer: np.ndarray, colours: np.ndarray, alphas: np.ndarray, mm_per_px: float
+) -> None:
+    """Per layer, the simulated picture after it is sprayed, and its paint estimate."""
+    from ..decompose import paints
+    from ..model import composite
+
+    cfg = run.cfg.paints
+    area = float(alphas.shape[1] * alphas.shape[2]) * mm_per_px**2
+    rows = []
+    for i in range(alphas.shape[0]):
+        run.out.write_png(
+            step_name(i), np.clip(composite(primer, colours[: i + 1], alphas[: i + 1]), 0.0, 1.0)
+        )
+        mean = float(np.mean(alphas[i]))
+        est = paints.paint_estimate(area, mean, cfg.coverage_m2_per_can, cfg.can_ml)
+        rows.append({"layer": i + 1, "hex": to_hex(colours[i]), "mean_opacity": mean, **est})
+    run.figures["paint"] = {
+        "sprayed_area_m2": area * 1e-6,
+        "coverage_m2_per_can": cfg.coverage_m2_per_can,
+        "can_ml": cfg.can_ml,
+        "layers": rows,
+    }

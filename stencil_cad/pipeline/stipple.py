@@ -1,0 +1,238 @@
+"""The stipple stage's glue: one task per layer (or per tile), the tone choice, the dark-end figures, the saved dots."""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..config import JobConfig
+from ..config.spray import SprayModel
+from ..model import DotSet, Layers, Picture, coat_contrast
+from ..output import plain as _plain
+from ..record import Run
+from .names import dots_name, layer_stem
+from .paints import plate_cards, write_spray_order
+from .refine import stage_refine
+
+if TYPE_CHECKING:
+    from .. import mural
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class StippleTask:
+    """One layer to stipple: its opacity, pixel size, the job config and its own generator.
+
+    ``weight`` weighs each pixel's error when the layer's spray time is chosen: the squared
+    colour change a full coat makes there (:func:`stencil_cad.model.coat_contrast`).
+    """
+
+    alpha: np.ndarray
+    mm_per_px: float
+    cfg: JobConfig
+    rng: np.random.Generator
+    weight: np.ndarray | None = None
+
+
+def _calibrated(cfg: JobConfig) -> bool:
+    return getattr(cfg.stipple.tone, "value", cfg.stipple.tone) == "calibrated"
+
+
+def _chooses_spray_time(cfg: JobConfig) -> bool:
+    """Whether each layer gets its own spray time (calibrated tone and ``calibrate: spray_time``)."""
+    return _calibrated(cfg) and getattr(cfg.spray.calibrate, "value", cfg.spray.calibrate) == "spray_time"
+
+
+def _layer_tone(task: StippleTask):
+    """``(tone choice or None, spray time)`` of one layer.
+
+    With ``stipple.tone: calibrated`` the density comes from the spray response, and with
+    ``spray.calibrate: spray_time`` the layer gets its own spray time.
+    """
+    cfg = task.cfg
+    if not _calibrated(cfg):
+        return None, cfg.spray.amount
+    from ..simulate import tone
+
+    choice = tone.calibrated_tone_for(task.alpha, task.mm_per_px, cfg, task.weight)
+    if _chooses_spray_time(cfg):
+        return choice, float(choice.spray_time)
+    return choice, cfg.spray.amount
+
+
+def stipple_task(task: StippleTask) -> tuple[DotSet, dict | None]:
+    """Stipple one layer (a task): ``(holes, tone choice summary or None)``.
+
+    The spray time (:func:`_layer_tone`) is in the holes' report.
+    """
+    from dataclasses import replace
+
+    from .. import stipple
+
+    choice, spray_time = _layer_tone(task)
+    density = None if choice is None else choice.density
+    ds = stipple.stipple_layer(task.alpha, task.mm_per_px, task.cfg.stipple, task.rng, density=density)
+    return replace(
+        ds, report={**ds.report, "spray_time": spray_time}
+    ), None if choice is None else choice.summary()
+
+
+def tone_task(task: StippleTask):
+    """One layer's tone choice without its density map (a task): ``(choice or None, spray time)``."""
+    from dataclasses import replace
+
+    choice, spray_time = _layer_tone(task)
+    return (None if choice is None else replace(choice, density=np.zeros((0, 0)))), spray_time
+
+
+def stage_stipple(
+    run: Run,
+    layers: Layers,
+    picture_mm: tuple[float, float],
+    picture: Picture | None = None,
+    grid: mural.TileGrid | None = None,
+) -> list[DotSet]:
+    """Stipple every layer's opacity into holes, enforce the design rules, refine, save CSV + previews.
+
+    With ``stipple.tone: calibrated`` the density comes from the spray response
+    (:mod:`stencil_cad.simulate.tone`), and with ``spray.calibrate: spray_time`` each layer also
+    gets its own spray time, saved in ``spray.json`` and in the dots' report. With
+    ``refine.enabled`` the holes are then refined against the spray model
+    (:func:`stage_refine`) towards ``picture`` (the decomposition's composite without one).
+    """
+    from ..exchange.dots_csv import dots_to_csv
+
+    bound_dots(run, picture_mm)
+    cfg = run.cfg
+    sets: list[DotSet] = []
+    tones: list[dict] = []
+    with run.stage("stipple"):
+        # One task per layer (on a cluster the layers stipple side by side); each layer's
+        # generator comes from the seed, so any number of workers gives the same holes.
+        # The colour weights only steer the choice of each layer's spray time.
+        weights = (
+            coat_contrast(layers.primer, layers.colours, layers.alphas)
+            if _chooses_spray_time(cfg)
+            else [None] * layers.count
+        )
+        tasks = [
+            StippleTask(alpha, layers.mm_per_px, cfg, run.rng_for("stipple", i), weights[i])
+            for i, alpha in enumerate(layers.alphas)
+        ]
+        if grid is not None and grid.tiled and cfg.stipple.dots is None:
+            # A mural: one task per layer and tile (stipple.dots fixes one count for a whole
+            # picture, so with it the layers stipple in one piece).
+            from dataclasses import replace
+
+            from ..mural import stipple as mural_stipple
+
+            chosen = list(run.tasks.map(tone_task, tasks, "tone"))
+            seeds = [
+                [run.seed_for("stipple", i, k) for k in range(len(grid.tiles))] for i in range(layers.count)
+            ]
+            placed = mural_stipple.stipple_mural(
+                cfg, layers.alphas, layers.mm_per_px, grid, [c for c, _ in chosen], seeds, run.tasks.map
+            )
+            for ds, (choice, spray_time) in zip(placed, chosen, strict=True):
+                sets.append(replace(ds, report={**ds.report, "spray_time": spray_time}))
+                if choice is not None:
+                    tones.append(choice.summary())
+        else:
+            for ds, tone_summary in run.tasks.map(stipple_task, tasks, "stipple"):
+                sets.append(ds)
+                if tone_summary is not None:
+                    tones.append(tone_summary)
+    run.figures["dark_end"] = [
+        _dark_end(cfg, alpha, float(ds.report["spray_time"]))
+        for alpha, ds in zip(layers.alphas, sets, strict=True)
+    ]
+    if cfg.refine.enabled:
+        sets = stage_refine(run, layers, sets, picture_mm, picture, grid)
+    with run.stage("stipple"):
+        cards = plate_cards(run, layers.colours, picture_mm, sets)
+        for i, ds in enumerate(sets):
+            run.out.write_text(dots_name(i), dots_to_csv(ds))
+            run.out.write_png(f"{layer_stem(i)}_dots.png", cards[i])
+        write_spray_order(run, layers.primer, layers.colours, [ds.report["spray_time"] for ds in sets])
+    run.figures["stipple"] = [
+        {"layer": i + 1, "dots": len(ds), **_plain(ds.report)} for i, ds in enumerate(sets)
+    ]
+    for i, ds in enumerate(sets):
+        if len(ds) == 0:
+            removed = {k: v for k, v in ds.report.items() if k.startswith("removed_") and v}
+            log.warning(
+                "%s has no holes (%s): its plate sprays nothing; lower stipple.edge_margin_mm or "
+                "stipple.opacity_threshold, enlarge the picture, or use fewer decompose.layers",
+                layer_stem(i),
+                ", ".join(f"{k} {v}" for k, v in removed.items()) or "no ink above the opacity threshold",
+            )
+    if tones:
+        run.figures["tone_calibration"] = tones
+    return sets
+
+
+def _dark_end(cfg: JobConfig, alpha: np.ndarray, spray_time: float) -> dict:
+    """How much of a layer is darker than its stencil can spray at its spray time.
+
+    The darkest mean opacity is that of the densest pattern the rules allow, with holes up to
+    the refinement's largest radius when it is on (the stippler's otherwise), measured with
+    the spray model (:func:`stencil_cad.simulate.tone.tone_response`).
+    """
+    from ..simulate import tone
+    from ..simulate.physical import SprayGeometry
+
+    st = cfg.stipple
+    floor = st.resolved_radius_mm
+    r1 = st.resolved_max_radius_mm
+    if cfg.refine.enabled:
+        r1 = max(r1, cfg.refine.max_radius_factor * st.resolved_hole_min_r_mm)
+    curve = tone.tone_response(
+        floor,
+        st.resolved_web_mm,
+        cfg.spray,
+        spray_time=spray_time,
+        max_radius_mm=r1,
+        spacing_factor=st.auto_spacing_factor,
+        geometry=SprayGeometry.of_job(cfg) if cfg.spray.model == SprayModel.physical else None,
+    )
+    top = curve.max_opacity
+    a = np.asarray(alpha, dtype=np.float64)
+    over = a > top + 1e-6
+    return {
+        "darkest_sprayable": round(top, 4),
+        "unreachable_share": round(float(over.mean()), 4),
+        "unreachable_by": round(float((a[over] - top).mean()), 4) if over.any() else 0.0,
+    }
+
+
+def bound_dots(run: Run, picture_mm: tuple[float, float]) -> None:
+    """Cap ``stipple.dots`` at the most holes that fit the picture under the design rules.
+
+    Too many dots cost memory and time in the relaxation and are then removed by the
+    rules anyway; the cap is named in a warning.
+    """
+    from ..bounds import max_dots
+
+    cfg = run.cfg
+    if cfg.stipple.dots is None:
+        return
+    most = max_dots(cfg.stipple, *picture_mm)
+    if cfg.stipple.dots > most:
+        log.warning(
+            "stipple.dots %d cannot fit: at most %d holes of radius %g mm with %g mm webs fit in %.4g × %.4g mm; "
+            "using %d (set stipple.dots ≤ %d, or null to derive it from the picture)",
+            cfg.stipple.dots,
+            most,
+            cfg.stipple.resolved_hole_min_r_mm,
+            cfg.stipple.resolved_web_mm,
+            picture_mm[0],
+            picture_mm[1],
+            most,
+            most,
+        )
+        stipple = cfg.stipple.model_copy(update={"dots": most})
+        run.cfg = cfg.model_copy(update={"stipple": stipple})

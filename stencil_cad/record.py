@@ -1,0 +1,87 @@
+"""The record of one command: its config, output folder, executor, timings and figures.
+
+Every stage's glue takes a :class:`Run`; the manifest, the terminal summary and the instruction
+sheet are made from what the stages record in it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from . import interrupts
+
+if TYPE_CHECKING:
+    from .compute import Executor
+    from .config import JobConfig
+    from .output import OutputDir
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class Run:
+    """State of one command: config, output folder, timings and the figures for the manifest."""
+
+    cfg: JobConfig
+    out: OutputDir
+    quiet: bool = False
+    executor: Executor | None = None
+    times: dict = field(default_factory=dict)
+    figures: dict = field(default_factory=dict)
+    summary: list = field(default_factory=list)
+    #: The plate template in use: ``{"path", "sha256", "builtin"}`` (None before it is checked).
+    template: dict | None = None
+    #: Images for the instruction sheet that are not result files (PNG bytes by name).
+    sheet_images: dict = field(default_factory=dict)
+    #: Files of later stages this stage command left in the folder, made from older inputs.
+    stale: list = field(default_factory=list)
+
+    def rng_for(self, stage: str, index: int = 0) -> np.random.Generator:
+        """An independent generator per stage and layer, derived from the seed.
+
+        A stage command re-run on saved intermediates therefore gives the same result as
+        the same stage inside a whole run.
+        """
+        return np.random.default_rng(self.seed_for(stage, index))
+
+    def seed_for(self, stage: str, *index: int) -> np.random.SeedSequence:
+        """The seed sequence of :meth:`rng_for`, for any number of indices (layer, tile, …)."""
+        import zlib
+
+        key = (zlib.crc32(stage.encode()), *index)
+        return np.random.SeedSequence(self.cfg.seed, spawn_key=key)
+
+    @contextlib.contextmanager
+    def stage(self, name: str) -> Iterator[None]:
+        """Time a stage; a signal whose exception was dropped stops the run at its edges."""
+        interrupts.check()
+        log.info("stage %s …", name)
+        t0 = time.perf_counter()
+        yield
+        interrupts.check()
+        self.times[name] = round(self.times.get(name, 0.0) + time.perf_counter() - t0, 3)
+
+    @property
+    def tasks(self) -> Executor:
+        """Where tile tasks run: the executor :func:`computing` opened, else this process."""
+        if self.executor is None:
+            from . import compute
+
+            self.executor = compute.Executor(
+                compute.Plan("in_process", reason="no cluster opened"), self.quiet
+            )
+        return self.executor
+
+    def bar(self, total: int | None, desc: str):
+        """A progress bar on stderr (silent with -q)."""
+        from tqdm.auto import tqdm
+
+        # disable=None: no bar when stderr is not a terminal (logs, CI).
+        return tqdm(total=total, desc=desc, disable=True if self.quiet else None, leave=False, unit="it")
