@@ -6,7 +6,7 @@ from stencil_cad.config import JobConfig
 from stencil_cad.config.io import default_yaml, json_schema, load_config, parse_config
 from stencil_cad.errors import ConfigError
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_default_yaml_is_the_shipped_template():

@@ -26,7 +26,7 @@ from stencil_cad.cli import main
 
 pytestmark = pytest.mark.slow
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 from benchmarks.compare_outputs import compare  # noqa: E402
 

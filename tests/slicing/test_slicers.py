@@ -403,7 +403,7 @@ def test_a_killed_slice_leaves_nothing_behind(tmp_path, sig):
     fake = bin_dir / "prusa-slicer"
     fake.write_text(FAKE_SLICER.format(pidfile=bin_dir / "pid"))
     fake.chmod(0o755)
-    root = str(Path(__file__).resolve().parents[1])
+    root = str(Path(__file__).resolve().parents[2])
     env = {
         **os.environ,
         sl.ENV_PRUSA: str(fake),

@@ -8,7 +8,7 @@ import pytest
 
 from stencil_cad.cli import main
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 from benchmarks.compare_outputs import manifest_content, manifest_differences  # noqa: E402
 
 

@@ -1,4 +1,4 @@
-"""Design rules and their enforcement (stencil_cad.stipple.rules), dot CSV I/O and previews."""
+"""Design rules and their enforcement (stencil_cad.stipple.rules)."""
 
 from __future__ import annotations
 
@@ -12,9 +12,6 @@ from pydantic import ValidationError
 
 from stencil_cad.config import StippleConfig
 from stencil_cad.config.stipple import PROCESS_PRESETS, Process
-from stencil_cad.exchange.dots_csv import DotFileError, dots_from_csv, dots_to_csv
-from stencil_cad.model import DotSet
-from stencil_cad.simulate.previews import dots_preview
 from stencil_cad.stipple.rules import (
     DesignRules,
     DotRuleError,
@@ -244,65 +241,3 @@ def test_enforced_sets_always_pass_the_rules(rules, n, seed, r_hi):
     again_xy, again_r, again = enforce_rules(out_xy, out_r, rules)
     assert again["removed"] == again["merged"] == 0
     np.testing.assert_array_equal(again_r, out_r)
-
-
-# ----------------------------------------------------------------------------- CSV
-
-
-def test_csv_round_trip_keeps_rules():
-    rng = np.random.default_rng(3)
-    xy, r, _ = enforce_rules(rng.uniform(0, 100, (500, 2)), rng.uniform(1.0, 2.0, 500), RULES)
-    text = dots_to_csv(DotSet(xy, r))
-    assert text.splitlines()[0] == "x_mm,y_mm,r_mm"
-    back = dots_from_csv(text)
-    np.testing.assert_allclose(back.xy_mm, xy, atol=5e-5)
-    np.testing.assert_allclose(back.r_mm, r, atol=5e-5)
-    check_rules(back.xy_mm, back.r_mm, RULES)
-
-
-def test_csv_empty_set():
-    back = dots_from_csv(dots_to_csv(DotSet(np.zeros((0, 2)), np.zeros(0))))
-    assert len(back) == 0 and back.xy_mm.shape == (0, 2)
-
-
-@pytest.mark.parametrize(
-    "text, needle",
-    [
-        ("", "empty"),
-        ("x,y,r\n1,2,3\n", "line 1: header must be 'x_mm,y_mm,r_mm', got 'x,y,r'"),
-        ("x_mm,y_mm,r_mm\n1,2,1\n1,2\n", "line 3: expected 3 values"),
-        ("x_mm,y_mm,r_mm\n1,two,1\n", "line 2: y_mm is not a number: 'two'"),
-        ("x_mm,y_mm,r_mm\n1,2,nan\n", "line 2: r_mm is not finite"),
-        ("x_mm,y_mm,r_mm\n1,2,0.45\n", "line 2: r_mm must be ≥ 0.5 mm, got 0.45"),
-    ],
-)
-def test_csv_errors(text, needle):
-    with pytest.raises(DotFileError) as err:
-        dots_from_csv(text)
-    assert needle in str(err.value)
-
-
-def test_csv_accepts_bom_blank_lines_and_spaces():
-    ds = dots_from_csv("\ufeffx_mm, y_mm, r_mm\n\n 1.5, 2.5 ,0.5\n")
-    np.testing.assert_array_equal(ds.xy_mm, [[1.5, 2.5]])
-    np.testing.assert_array_equal(ds.r_mm, [0.5])
-
-
-# ----------------------------------------------------------------------------- preview
-
-
-def test_preview_orientation_and_area():
-    # One hole near the top-left corner of the picture (x small, y large).
-    ds = DotSet(np.array([[5.0, 35.0], [30.0, 10.0]]), np.array([2.0, 3.0]))
-    img = dots_preview(ds, 40.0, 40.0, px_per_mm=4)
-    assert img.shape == (160, 160) and img.dtype == np.uint8
-    assert img[20, 20] == 0  # (x=5, y=35) -> col 20, row 160 - 140 = 20
-    assert img[120, 120] == 0  # (x=30, y=10) -> col 120, row 120
-    assert img[0, 159] == 255
-    open_area = (255 - img.astype(float)).sum() / 255 / 16  # mm^2
-    assert open_area == pytest.approx(math.pi * (4 + 9), rel=0.01)
-
-
-def test_preview_non_square_and_empty():
-    img = dots_preview(DotSet(np.zeros((0, 2)), np.zeros(0)), 30.0, 10.0, px_per_mm=2)
-    assert img.shape == (20, 60) and (img == 255).all()

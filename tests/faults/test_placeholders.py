@@ -1,5 +1,5 @@
 """No placeholder reaches a maker's page: the sheets of the example, a hard laser job (and, in
-test_mural_sheet, a mural) hold a value wherever one belongs, never "?", "None", "nan" or "–"."""
+tests/mural/test_sheet.py, a mural) hold a value wherever one belongs, never "?", "None", "nan" or "–"."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from readers import need, run
 
 from stencil_cad.cli import main
 
-EXAMPLE = Path(__file__).resolve().parent.parent / "stencil_cad" / "data" / "example.yaml"
+EXAMPLE = Path(__file__).resolve().parents[2] / "stencil_cad" / "data" / "example.yaml"
 
 HARD_CANS = "name,code,hex\nPaper,P0,#f5f1e6\nRust,R1,#b0472a\nInk,K1,#141414\n"
 
