@@ -53,7 +53,7 @@ def _same_holes(
 def check(out: Path, bed: tuple[float, float] | None = None) -> dict:
     from stencil_cad.config import io as cfg_io
     from stencil_cad.exchange.dots_csv import dots_from_csv
-    from stencil_cad.stipple.rules import check_rules, rules_from_config
+    from stencil_cad.stipple.rules import check_rules
 
     m = json.loads((out / "manifest.json").read_text())
     mural = m["mural"]
@@ -73,7 +73,7 @@ def check(out: Path, bed: tuple[float, float] | None = None) -> dict:
     cfg = cfg_io.parse_config(m["config"], source="manifest")
     layers = len(m["stipple"])
     width, height = m["picture"]["width_mm"], m["picture"]["height_mm"]
-    rules = rules_from_config(cfg.stipple, width, height)
+    rules = cfg.stipple.design_rules(width, height)
     same, union_rules, n_dxf, n_csv = True, "passed", 0, 0
     for i in range(layers):
         xy_all, r_all = [], []

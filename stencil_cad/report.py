@@ -5,6 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from .config import Mode
+
 if TYPE_CHECKING:
     from .record import Run
 
@@ -21,6 +23,37 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
     """Files written, dots per layer, smallest web, validation, quality and time per stage."""
     f = run.figures
     lines = [f"stencil-cad: {run.cfg.name} → {out_path}/ ({len(files)} files)"]
+    lines += _layer_lines(run, f)
+    lines += _build_lines(run, f)
+    sim = f.get("simulate")
+    if sim:
+        lines += _seen_lines(run, sim)
+    where = f.get("compute")
+    if where and where.get("kind") != "in_process":
+        place = (
+            f"local cluster of {where['workers']} workers"
+            if where["kind"] == "local"
+            else f"cluster at {where['address']}"
+        )
+        lines.append(f"  compute   {place}, {where.get('tasks', 0)} tasks")
+    for w in (sim or {}).get("walls", []):
+        lines.append(
+            f"  wall {w['standoff_mm']:g} mm  ΔE2000 mean {_fmt(w.get('de2000_mean'))}, "
+            f"PSNR {_fmt(w.get('psnr'))} dB, SSIM {_fmt(w.get('ssim'))}  ({w['file']})"
+        )
+    for step in f.get("spraying", []):
+        lines.append(f"  {step['text']}")
+    times = ", ".join(f"{k} {v:.1f} s" for k, v in run.times.items())
+    lines.append(f"  time      {times}")
+    lines += _folder_lines(run, files)
+    for warning in getattr(run, "warnings", []) or []:
+        lines.append(f"  warning   {warning}")
+    return "\n".join(lines)
+
+
+def _layer_lines(run: Run, f: dict) -> list[str]:
+    """The picture, the decomposition and each layer's holes and dark end."""
+    lines: list[str] = []
     pic = f.get("picture")
     if pic:
         lines.append(
@@ -55,6 +88,12 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
                 f"stencil can spray (darkest {row['darkest_sprayable']:.2f}; short by {row['unreachable_by']:.2f} "
                 "on average)"
             )
+    return lines
+
+
+def _build_lines(run: Run, f: dict) -> list[str]:
+    """Hard-mode figures, then every plate and wall and whether each solid is valid."""
+    lines: list[str] = []
     hard = f.get("hard")
     if hard:
         lines.append(
@@ -80,26 +119,12 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
         )
         ok = ok and all(w.get("valid", False) for w in build["walls"])
         lines.append(f"  checks    {'all solids valid' if ok else 'SOME SOLIDS FAILED — see manifest.json'}")
-    sim = f.get("simulate")
-    if sim:
-        lines += _seen_lines(run, sim)
-    where = f.get("compute")
-    if where and where.get("kind") != "in_process":
-        place = (
-            f"local cluster of {where['workers']} workers"
-            if where["kind"] == "local"
-            else f"cluster at {where['address']}"
-        )
-        lines.append(f"  compute   {place}, {where.get('tasks', 0)} tasks")
-    for w in (sim or {}).get("walls", []):
-        lines.append(
-            f"  wall {w['standoff_mm']:g} mm  ΔE2000 mean {_fmt(w.get('de2000_mean'))}, "
-            f"PSNR {_fmt(w.get('psnr'))} dB, SSIM {_fmt(w.get('ssim'))}  ({w['file']})"
-        )
-    for step in f.get("spraying", []):
-        lines.append(f"  {step['text']}")
-    times = ", ".join(f"{k} {v:.1f} s" for k, v in run.times.items())
-    lines.append(f"  time      {times}")
+    return lines
+
+
+def _folder_lines(run: Run, files: list[Path]) -> list[str]:
+    """The files written, and those kept, removed or left stale in the folder."""
+    lines: list[str] = []
     names = sorted(p.name for p in files)
     lines.append("  files     " + _wrap(_grouped_tile_files(names)))
     out = getattr(run, "out", None)
@@ -120,14 +145,12 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
             f"  stale     {len(stale)} file(s) of later stages made from the earlier inputs (listed under "
             "`stale` in manifest.json; re-run those stages): " + _wrap(stale)
         )
-    for warning in getattr(run, "warnings", []) or []:
-        lines.append(f"  warning   {warning}")
-    return "\n".join(lines)
+    return lines
 
 
 def _kind(run) -> str:
     """What a plate's openings are called: round ``holes`` (soft) or ``cut-outs`` (hard mode)."""
-    return "cut-outs" if getattr(run.cfg.mode, "value", run.cfg.mode) == "hard" else "holes"
+    return "cut-outs" if run.cfg.mode == Mode.hard else "holes"
 
 
 def _cutout_advice(f: dict) -> str:
@@ -181,7 +204,7 @@ def _dots_advice(run, sim: dict, distance_m: float) -> str:
     blend = sim.get("dots_blend_m")
     pic = run.figures.get("picture", {})
     size = f"this {pic['width_mm']:g} mm picture" if pic else "the picture"
-    process = getattr(run.cfg.stipple.process, "value", run.cfg.stipple.process)
+    process = run.cfg.stipple.process.value
     finer = " — or use resin or laser holes (stipple.process: sla or laser)" if process == "fdm" else ""
     if blend is None:
         return f"at {distance_m:g} m the {hole:g} mm holes show as dots, and still do from 64 m{finer}"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import enum
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -16,7 +17,8 @@ from .decompose import DecomposeConfig
 from .hard import HardConfig
 from .paints import PaintsConfig
 from .refine import RefineConfig
-from .spray import NOZZLE_HEIGHT_BY_PROCESS, SprayConfig
+from .rules import DesignRules
+from .spray import NOZZLE_HEIGHT_BY_PROCESS, Calibrate, SprayConfig
 from .stipple import Process, StippleConfig
 from .view import ViewConfig
 
@@ -165,6 +167,15 @@ class JobConfig(StrictModel):
             if isinstance(raw, dict) and raw.get(key) is None:
                 data = {**data, section: {**raw, key: value}}
         return data
+
+    def design_rules(self, width_mm: float, height_mm: float, keepouts: Sequence = ()) -> DesignRules:
+        """The job's hole design rules over a picture area (see :meth:`StippleConfig.design_rules`)."""
+        return self.stipple.design_rules(width_mm, height_mm, keepouts)
+
+    @property
+    def chooses_spray_time(self) -> bool:
+        """Whether each layer gets its own spray time: calibrated tone and ``spray.calibrate: spray_time``."""
+        return self.stipple.is_calibrated and self.spray.calibrate == Calibrate.spray_time
 
     @model_validator(mode="after")
     def _cross_checks(self) -> JobConfig:

@@ -25,13 +25,12 @@ smaller than 1 mm across clogs with paint.
 from __future__ import annotations
 
 import enum
+from collections.abc import Sequence
 
 from pydantic import Field, field_validator, model_validator
 
 from .base import StrictModel
-
-#: Smallest hole radius any process may use, in mm.
-HOLE_FLOOR_MM = 0.5
+from .rules import HOLE_FLOOR_MM, DesignRules, as_rect
 
 
 class Process(str, enum.Enum):
@@ -224,6 +223,29 @@ class StippleConfig(StrictModel):
         if self.hole_min_r_mm is not None:
             return float(self.hole_min_r_mm)
         return PROCESS_PRESETS[self.process][0]
+
+    @property
+    def is_calibrated(self) -> bool:
+        """True when the density comes from the spray response (``tone: calibrated``)."""
+        return self.tone == Tone.calibrated
+
+    def design_rules(self, width_mm: float, height_mm: float, keepouts: Sequence = ()) -> DesignRules:
+        """The design rules of a hole set over a picture area (process presets resolved).
+
+        Args:
+            width_mm: Picture-area width in mm.
+            height_mm: Picture-area height in mm.
+            keepouts: Extra keep-out rectangles ``(x0, y0, x1, y1)`` in picture mm (for example
+                the label area the CAD stage chose), added to ``keepouts_mm``.
+        """
+        return DesignRules(
+            hole_min_r_mm=self.resolved_hole_min_r_mm,
+            web_mm=self.resolved_web_mm,
+            edge_margin_mm=self.resolved_edge_margin_mm,
+            width_mm=float(width_mm),
+            height_mm=float(height_mm),
+            keepouts=tuple(as_rect(k) for k in self.keepouts_mm) + tuple(as_rect(k) for k in keepouts),
+        )
 
     @property
     def resolved_web_mm(self) -> float:

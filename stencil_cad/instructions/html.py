@@ -66,6 +66,92 @@ figcaption{font-size:12px;color:#555} .ok{color:#15702a;font-weight:bold} .bad{c
 """
 
 
+def _html_paints_and_wall(sheet: Sheet, images: Mapping[str, bytes]) -> list[str]:
+    """The paints table (the primer row comes before it), why this order, the wall set-up and a mural's tiles."""
+    e = _e
+    out: list[str] = []
+    for s in sheet.steps:
+        t = _amount(s, sheet.unit, bare=True)
+        out.append(
+            f"<tr><td>{s.number}</td><td>{_chip(s.hex)}</td><td><code>{e(s.hex)}</code></td>"
+            f"<td>{e(s.name) or _NO_CAN}</td><td>{e(s.plate)}</td><td>{t}</td></tr>"
+        )
+    out.append("</table>")
+    if sheet.order_note:
+        out.append(f'<p class="note">Why this order: {e(sheet.order_note)}.</p>')
+    out.append(f'<p class="note">{e(_unit_note(sheet.unit))}</p>')
+    if sheet.snap:
+        out.append(
+            "<h3>Snapped to your cans</h3><ul>" + "".join(f"<li>{e(x)}</li>" for x in sheet.snap) + "</ul>"
+        )
+    out.append("<h2>Set up the wall</h2><ol>" + "".join(f"<li>{e(x)}</li>" for x in sheet.wall) + "</ol>")
+    if sheet.tiles:
+        out.append("<h3>Tile map</h3>" + tile_map_svg(sheet.tiles, sheet.width_mm, sheet.height_mm))
+        out.append(_img(images, "mural_map.png", "the mural map: grid lines, tiles and order of work"))
+    if sheet.mural is not None:
+        out.append(mural.mural_html(sheet.mural, e, _chip))
+    return out
+
+
+def _html_steps(sheet: Sheet, images: Mapping[str, bytes]) -> list[str]:
+    """One section per plate: where it goes, how to spray it, its preview and the picture after it."""
+    e = _e
+    out: list[str] = []
+    out.append("<h2>Spray, plate by plate</h2>")
+    for s in sheet.steps:
+        t = _amount(s, sheet.unit)
+        out.append(
+            f'<div class="step"><h3>Step {s.number}: plate {e(s.plate)}, paint {_chip(s.hex)}<code>{e(s.hex)}</code>'
+            f"{' ' + e(s.name) if s.name else ''}</h3>"
+            f'<p class="note">{e(_drop(sheet, s))}, label towards you and readable; spray '
+            f"evenly{e(t)}; let it dry, lift it out.</p>"
+            + (f'<p class="note">{e(s.how)}</p>' if s.how else "")
+            + '<div class="pair">'
+            f"<figure>{_img(images, s.plate_image, f'plate {s.plate}')}<figcaption>"
+            f"{e(_plate_caption(s, len(sheet.mural.sections) if sheet.mural else 0))}</figcaption></figure>"
+            f"<figure>{_img(images, s.after_image, f'after step {s.number}')}<figcaption>The picture after "
+            f"step {s.number} (simulated)</figcaption></figure></div></div>"
+        )
+    return out
+
+
+def _html_make_and_checks(sheet: Sheet, images: Mapping[str, bytes]) -> list[str]:
+    """How to print or cut each part, the paint to buy, the quality scores and the checks."""
+    e = _e
+    out: list[str] = []
+    out.append(
+        "<h2>Print or cut the plates</h2><table><tr>"
+        + "".join(f"<th>{e(h)}</th>" for h in sheet.print_head)
+        + "</tr>"
+    )
+    for r in sheet.prints:
+        out.append("<tr>" + "".join(f"<td>{e(c)}</td>" for c in r) + "</tr>")
+    out.append("</table>")
+    if sheet.paint:
+        out.append(
+            "<h2>Paint to buy</h2><table><tr><th>coat</th><th>paint</th><th>covered m²</th>"
+            "<th>mean opacity</th><th>ml</th><th>cans</th></tr>"
+        )
+        for r in sheet.paint:
+            out.append("<tr>" + "".join(f"<td>{e(c)}</td>" for c in r) + "</tr>")
+        out.append(f'</table><p class="note">{e(sheet.paint_note)}</p>')
+    out.append("<h2>Checks</h2>")
+    if sheet.scores:
+        out.append("<table><tr><th>quality, simulated spray vs picture</th><th>value</th></tr>")
+        out += [f"<tr><td>{e(k)}</td><td>{e(v)}</td></tr>" for k, v in sheet.scores]
+        out.append("</table>")
+    out.append(_img(images, "preview.png", "input, ideal layers, simulated spray, error map"))
+    out.append("<ul>")
+    for text, ok in sheet.checks:
+        out.append(
+            f'<li><span class="{"ok" if ok else "bad"}">{"passed" if ok else "FAILED"}</span> {e(text)}</li>'
+        )
+    out.append("</ul>")
+    if sheet.warnings:
+        out.append("<h3>Warnings</h3><ul>" + "".join(f"<li>{e(w)}</li>" for w in sheet.warnings) + "</ul>")
+    return out
+
+
 def render_html(sheet: Sheet, images: Mapping[str, bytes]) -> str:
     """The instruction sheet as one self-contained HTML page.
 
@@ -99,71 +185,9 @@ def render_html(sheet: Sheet, images: Mapping[str, bytes]) -> str:
         f"<tr><td>0</td><td>{_chip(sheet.primer_hex)}primer</td><td><code>{e(sheet.primer_hex)}</code></td>"
         f"<td>{e(sheet.primer_name) or _NO_CAN}</td><td>none: the whole surface</td><td>full coat</td></tr>",
     ]
-    for s in sheet.steps:
-        t = _amount(s, sheet.unit, bare=True)
-        out.append(
-            f"<tr><td>{s.number}</td><td>{_chip(s.hex)}</td><td><code>{e(s.hex)}</code></td>"
-            f"<td>{e(s.name) or _NO_CAN}</td><td>{e(s.plate)}</td><td>{t}</td></tr>"
-        )
-    out.append("</table>")
-    if sheet.order_note:
-        out.append(f'<p class="note">Why this order: {e(sheet.order_note)}.</p>')
-    out.append(f'<p class="note">{e(_unit_note(sheet.unit))}</p>')
-    if sheet.snap:
-        out.append(
-            "<h3>Snapped to your cans</h3><ul>" + "".join(f"<li>{e(x)}</li>" for x in sheet.snap) + "</ul>"
-        )
-    out.append("<h2>Set up the wall</h2><ol>" + "".join(f"<li>{e(x)}</li>" for x in sheet.wall) + "</ol>")
-    if sheet.tiles:
-        out.append("<h3>Tile map</h3>" + tile_map_svg(sheet.tiles, sheet.width_mm, sheet.height_mm))
-        out.append(_img(images, "mural_map.png", "the mural map: grid lines, tiles and order of work"))
-    if sheet.mural is not None:
-        out.append(mural.mural_html(sheet.mural, e, _chip))
-    out.append("<h2>Spray, plate by plate</h2>")
-    for s in sheet.steps:
-        t = _amount(s, sheet.unit)
-        out.append(
-            f'<div class="step"><h3>Step {s.number}: plate {e(s.plate)}, paint {_chip(s.hex)}<code>{e(s.hex)}</code>'
-            f"{' ' + e(s.name) if s.name else ''}</h3>"
-            f'<p class="note">{e(_drop(sheet, s))}, label towards you and readable; spray '
-            f"evenly{e(t)}; let it dry, lift it out.</p>"
-            + (f'<p class="note">{e(s.how)}</p>' if s.how else "")
-            + '<div class="pair">'
-            f"<figure>{_img(images, s.plate_image, f'plate {s.plate}')}<figcaption>"
-            f"{e(_plate_caption(s, len(sheet.mural.sections) if sheet.mural else 0))}</figcaption></figure>"
-            f"<figure>{_img(images, s.after_image, f'after step {s.number}')}<figcaption>The picture after "
-            f"step {s.number} (simulated)</figcaption></figure></div></div>"
-        )
-    out.append(
-        "<h2>Print or cut the plates</h2><table><tr>"
-        + "".join(f"<th>{e(h)}</th>" for h in sheet.print_head)
-        + "</tr>"
-    )
-    for r in sheet.prints:
-        out.append("<tr>" + "".join(f"<td>{e(c)}</td>" for c in r) + "</tr>")
-    out.append("</table>")
-    if sheet.paint:
-        out.append(
-            "<h2>Paint to buy</h2><table><tr><th>coat</th><th>paint</th><th>covered m²</th>"
-            "<th>mean opacity</th><th>ml</th><th>cans</th></tr>"
-        )
-        for r in sheet.paint:
-            out.append("<tr>" + "".join(f"<td>{e(c)}</td>" for c in r) + "</tr>")
-        out.append(f'</table><p class="note">{e(sheet.paint_note)}</p>')
-    out.append("<h2>Checks</h2>")
-    if sheet.scores:
-        out.append("<table><tr><th>quality, simulated spray vs picture</th><th>value</th></tr>")
-        out += [f"<tr><td>{e(k)}</td><td>{e(v)}</td></tr>" for k, v in sheet.scores]
-        out.append("</table>")
-    out.append(_img(images, "preview.png", "input, ideal layers, simulated spray, error map"))
-    out.append("<ul>")
-    for text, ok in sheet.checks:
-        out.append(
-            f'<li><span class="{"ok" if ok else "bad"}">{"passed" if ok else "FAILED"}</span> {e(text)}</li>'
-        )
-    out.append("</ul>")
-    if sheet.warnings:
-        out.append("<h3>Warnings</h3><ul>" + "".join(f"<li>{e(w)}</li>" for w in sheet.warnings) + "</ul>")
+    out += _html_paints_and_wall(sheet, images)
+    out += _html_steps(sheet, images)
+    out += _html_make_and_checks(sheet, images)
     out.append(f'<h2>Files</h2><p class="note">{e(", ".join(sheet.files))}</p>')
     out.append("</body></html>")
     return "\n".join(out) + "\n"

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
@@ -337,3 +338,44 @@ def refine_mural(
     }
     log.debug("refined a mural tile by tile: %s", report)
     return out, report
+
+
+def refine_layers(
+    problem: Problem,
+    grid: tiling.TileGrid,
+    dotsets: list[DotSet],
+    cfg,
+    tasks_map,
+    progress: Callable[[int, int], None] | None = None,
+) -> tuple[list[DotSet], dict]:
+    """Refine every layer's holes over a tiling: a 1 × 1 tiling in one piece, a mural tile by tile.
+
+    Args:
+        problem: The picture, the layers and the settings.
+        grid: The tiling.
+        dotsets: Each layer's holes over the whole picture.
+        cfg: The job config (a mural's halo follows its spray and holes).
+        tasks_map: ``tasks_map(fn, items, desc, count=)`` running a mural's tile tasks.
+        progress: ``progress(iteration, total)`` after each iteration of a one-piece refinement.
+
+    Returns:
+        ``(refined holes per layer, report)``.
+    """
+    if len(grid.tiles) > 1:
+        halo = refine_halo_mm(cfg, problem.settings.eye_sigma_mm)
+        return refine_mural(problem, grid, dotsets, halo, tasks_map)
+    from ..stipple.refine import refine_dots
+
+    return refine_dots(
+        problem.target,
+        problem.mm_per_px,
+        problem.primer,
+        problem.colours,
+        dotsets,
+        problem.rules,
+        list(problem.kernels),
+        problem.spray_times,
+        problem.settings,
+        progress=progress,
+        alpha_targets=problem.alpha_targets,
+    )

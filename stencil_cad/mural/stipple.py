@@ -31,7 +31,8 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -271,10 +272,10 @@ def stipple_mural(
         ``e_norm`` their mean weighted by holes (each over its region with the fixed cells, so
         not comparable with a one-piece stipple's), ``tiles``, ``halo_mm`` and ``min_web_mm``.
     """
-    from ..stipple.rules import check_rules, min_web, rules_from_config
+    from ..stipple.rules import check_rules, min_web
 
     h, w = alphas.shape[1:]
-    rules = rules_from_config(cfg.stipple, w * mm_per_px, h * mm_per_px)
+    rules = cfg.stipple.design_rules(w * mm_per_px, h * mm_per_px)
     halo = stipple_halo_mm(cfg)
     layers = len(alphas)
     state = [(np.zeros((0, 2)), np.zeros(0)) for _ in range(layers)]
@@ -315,3 +316,105 @@ def stipple_mural(
         out.append(DotSet(xy_mm=xy, r_mm=r, report=report))
     log.debug("stippled a mural tile by tile: %s", [ds.report for ds in out])
     return out
+
+
+@dataclass(frozen=True)
+class StippleTask:
+    """One layer to stipple: its opacity, pixel size, the job config and its own generator.
+
+    ``weight`` weighs each pixel's error when the layer's spray time is chosen: the squared
+    colour change a full coat makes there (:func:`stencil_cad.model.coat_contrast`).
+    """
+
+    alpha: np.ndarray
+    mm_per_px: float
+    cfg: JobConfig
+    rng: np.random.Generator
+    weight: np.ndarray | None = None
+
+
+def layer_tone(task: StippleTask):
+    """``(tone choice or None, spray time)`` of one layer.
+
+    With ``stipple.tone: calibrated`` the density comes from the spray response, and with
+    ``spray.calibrate: spray_time`` the layer gets its own spray time.
+    """
+    cfg = task.cfg
+    if not cfg.stipple.is_calibrated:
+        return None, cfg.spray.amount
+    from ..simulate import tone
+
+    choice = tone.calibrated_tone_for(task.alpha, task.mm_per_px, cfg, task.weight)
+    if cfg.chooses_spray_time:
+        return choice, float(choice.spray_time)
+    return choice, cfg.spray.amount
+
+
+def stipple_task(task: StippleTask) -> tuple[DotSet, dict | None]:
+    """Stipple one layer (a task): ``(holes, tone choice summary or None)``.
+
+    The spray time (:func:`layer_tone`) is in the holes' report.
+    """
+    from dataclasses import replace
+
+    from ..stipple import stipple_layer
+
+    choice, spray_time = layer_tone(task)
+    density = None if choice is None else choice.density
+    ds = stipple_layer(task.alpha, task.mm_per_px, task.cfg.stipple, task.rng, density=density)
+    return replace(
+        ds, report={**ds.report, "spray_time": spray_time}
+    ), None if choice is None else choice.summary()
+
+
+def tone_task(task: StippleTask):
+    """One layer's tone choice without its density map (a task): ``(choice or None, spray time)``."""
+    from dataclasses import replace
+
+    choice, spray_time = layer_tone(task)
+    return (None if choice is None else replace(choice, density=np.zeros((0, 0)))), spray_time
+
+
+def stipple_layers(
+    tasks: list[StippleTask],
+    alphas: np.ndarray,
+    grid: tiling.TileGrid,
+    seed_for: Callable[[int, int], np.random.SeedSequence],
+    tasks_map,
+) -> tuple[list[DotSet], list[dict]]:
+    """Every layer's holes over a tiling, each with its spray time in its report.
+
+    A 1 × 1 tiling stipples each layer in one piece, one task per layer (so does
+    ``stipple.dots``, one count for a whole picture); a mural's layers are placed tile by tile
+    (:func:`stipple_mural`), one task per layer and tile.
+
+    Args:
+        tasks: One per layer.
+        alphas: ``(L, H, W)`` the layers' opacities (the tasks' ``alpha``, stacked).
+        grid: The tiling.
+        seed_for: ``seed_for(layer, tile)``: the seed sequence of one layer on one tile.
+        tasks_map: ``tasks_map(fn, items, desc, count=)`` running the tasks (the job's executor).
+
+    Returns:
+        ``(holes per layer, summaries of the tone choices)``.
+    """
+    if not tasks:
+        return [], []
+    cfg = tasks[0].cfg
+    tones: list[dict] = []
+    if len(grid.tiles) == 1 or cfg.stipple.dots is not None:
+        sets = []
+        for ds, tone_summary in tasks_map(stipple_task, tasks, "stipple"):
+            sets.append(ds)
+            if tone_summary is not None:
+                tones.append(tone_summary)
+        return sets, tones
+    chosen = list(tasks_map(tone_task, tasks, "tone"))
+    seeds = [[seed_for(i, k) for k in range(len(grid.tiles))] for i in range(len(tasks))]
+    placed = stipple_mural(cfg, alphas, tasks[0].mm_per_px, grid, [c for c, _ in chosen], seeds, tasks_map)
+    sets = []
+    for ds, (choice, spray_time) in zip(placed, chosen, strict=True):
+        sets.append(replace(ds, report={**ds.report, "spray_time": spray_time}))
+        if choice is not None:
+            tones.append(choice.summary())
+    return sets, tones

@@ -123,6 +123,33 @@ class TileGrid:
         """True when the picture is cut into more than one tile."""
         return len(self.tiles) > 1
 
+    @classmethod
+    def cut(
+        cls, width_mm: float, height_mm: float, cols: int, rows: int, halo_mm: float, bed: Bed | None = None
+    ) -> TileGrid:
+        """A picture cut into ``cols × rows`` equal tiles, each sheet grown by ``halo_mm`` towards its neighbours."""
+        xs = tuple(width_mm * k / cols for k in range(cols + 1))
+        ys = tuple(height_mm * k / rows for k in range(rows + 1))
+        tiles = []
+        for r in range(rows):
+            up = rows - 1 - r
+            for c in range(cols):
+                core = (xs[c], ys[up], xs[c + 1], ys[up + 1])
+                sheet = (
+                    core[0] - (halo_mm if c > 0 else 0.0),
+                    core[1] - (halo_mm if up > 0 else 0.0),
+                    core[2] + (halo_mm if c < cols - 1 else 0.0),
+                    core[3] + (halo_mm if up < rows - 1 else 0.0),
+                )
+                tiles.append(Tile(f"{row_name(r)}{c + 1}", r, c, core, sheet))
+        halo = halo_mm if cols * rows > 1 else 0.0
+        return cls(width_mm, height_mm, cols, rows, halo, xs, ys, bed, tuple(tiles))
+
+    @classmethod
+    def whole(cls, width_mm: float, height_mm: float, bed: Bed | None = None) -> TileGrid:
+        """The 1 × 1 tiling of a picture that is one plate."""
+        return cls.cut(width_mm, height_mm, 1, 1, 0.0, bed)
+
     def owner(self, xy_mm: np.ndarray) -> np.ndarray:
         """Index into :attr:`tiles` of the tile owning each point (its core holds the point)."""
         xy = np.asarray(xy_mm, dtype=np.float64).reshape(-1, 2)
@@ -176,15 +203,14 @@ def spray_halo_mm(cfg) -> float:
     from ..simulate import dot_sigma_mm
 
     sp = cfg.spray
-    if getattr(sp.model, "value", sp.model) == "physical":
+    if sp.is_physical:
         # One blur for every hole; the physical splat reaches 5 sigma past the hole's edge.
         from ..simulate.physical import spread_sigma_mm
 
         sigma = spread_sigma_mm(sp, max(cfg.wall.heights()))
         return 5.0 * sigma + cfg.stipple.resolved_max_radius_mm + 1.0
     a = sp.spray_time
-    calibrated = getattr(cfg.stipple.tone, "value", cfg.stipple.tone) == "calibrated"
-    if calibrated and getattr(sp.calibrate, "value", sp.calibrate) == "spray_time":
+    if cfg.chooses_spray_time:
         a = min(100.0, a * _CALIBRATION_MAX_FACTOR)
     sigma = float(dot_sigma_mm(cfg.stipple.resolved_max_radius_mm, sp.nozzle_height))
     return sigma * math.sqrt(2.0 * math.log(max(a, 1.0) / HALO_TAIL))
@@ -231,23 +257,7 @@ def plan_tiles(width_mm: float, height_mm: float, cfg) -> TileGrid:
     bed = resolve_bed(cfg.bed)
 
     def grid(cols: int, rows: int, halo: float) -> TileGrid:
-        xs = tuple(width_mm * k / cols for k in range(cols + 1))
-        ys = tuple(height_mm * k / rows for k in range(rows + 1))
-        tiles = []
-        for r in range(rows):
-            up = rows - 1 - r
-            for c in range(cols):
-                core = (xs[c], ys[up], xs[c + 1], ys[up + 1])
-                sheet = (
-                    core[0] - (halo if c > 0 else 0.0),
-                    core[1] - (halo if up > 0 else 0.0),
-                    core[2] + (halo if c < cols - 1 else 0.0),
-                    core[3] + (halo if up < rows - 1 else 0.0),
-                )
-                tiles.append(Tile(f"{row_name(r)}{c + 1}", r, c, core, sheet))
-        return TileGrid(
-            width_mm, height_mm, cols, rows, halo if cols * rows > 1 else 0.0, xs, ys, bed, tuple(tiles)
-        )
+        return TileGrid.cut(width_mm, height_mm, cols, rows, halo, bed)
 
     if bed is None or bed.fits(*part_sizes(width_mm, height_mm, cfg)["wall"]):
         return grid(1, 1, 0.0)

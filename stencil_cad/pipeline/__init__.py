@@ -6,14 +6,14 @@ files a job writes (:mod:`.names`). One module holds each stage's glue.
 """
 
 from ..record import Run
-from .build import build_any, stage_build
+from .build import stage_build
 from .commands import run_card, run_hard, write_default_config
 from .decompose import stage_decompose
 from .manifest import finish
 from .names import STAGE_COMMANDS
 from .picture import load_picture, source_reference
 from .refine import stage_refine
-from .run import run_all, run_command
+from .run import build_any, run_all, run_command
 from .saved import read_dots, read_layers, read_spray_times
 from .simulate import stage_simulate
 from .slicing import plate_projects, print_estimate, slice_plates

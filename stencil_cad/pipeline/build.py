@@ -14,8 +14,6 @@ from ..output import plain as _plain
 from ..record import Run
 from ..stipple.made import drawn_dots
 from .names import layer_stem, wall_stems
-from .simulate import stage_simulate
-from .slicing import stage_print_estimate
 
 log = logging.getLogger(__name__)
 
@@ -81,7 +79,7 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
                 results.append(row)
                 bar.update(1)
         walls = []
-        heights = wall_mod.wall_heights(cfg.wall)
+        heights = cfg.wall.heights()
         for standoff, stem in zip(heights, wall_stems(heights), strict=True):
             wm = wall_mod.build_wall(
                 width_mm, height_mm, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, standoff
@@ -108,31 +106,3 @@ def check_template(run: Run) -> None:
         raise UserError(f"plate.template: {exc}") from None
     if not run.template["builtin"]:
         log.info("plate template %s is Python code and runs with your rights", run.template["path"])
-
-
-def build_any(
-    run: Run,
-    layers: Layers,
-    dotsets: list[DotSet],
-    picture_mm: tuple[float, float],
-    grid,
-    picture=None,
-    simulate: bool = True,
-) -> None:
-    """Build (and simulate): one plate per layer, or per tile and layer for a mural."""
-    from . import tiles
-
-    if not grid.tiled:
-        stage_build(run, layers, dotsets, picture_mm)
-        if run.cfg.export.print_estimate:
-            stage_print_estimate(run)
-        if simulate:
-            stage_simulate(run, picture, layers, dotsets)
-        return
-    per_tile = tiles.stage_build_tiles(run, layers, dotsets, grid)
-    tiles.write_map(run, grid, layers, picture)
-    if not simulate:
-        return
-    # A mural's plates are drawn as asked (no compensation yet) and sprayed so.
-    sim, ref = stage_simulate(run, picture, layers, dotsets, keep=True, as_made=False)
-    tiles.stage_mural_simulate(run, sim, ref, layers, dotsets, grid, per_tile)

@@ -8,7 +8,6 @@ from pathlib import Path
 import numpy as np
 
 from ..config import JobConfig
-from ..config.spray import SprayModel
 from ..errors import OutputError, UserError
 from ..model import Layers, Picture
 from ..output import plain as _plain
@@ -23,6 +22,60 @@ from .simulate import _scores, spraying_steps, write_previews, write_steps
 log = logging.getLogger(__name__)
 
 
+def _card_walls(run: Run, card) -> list[dict]:
+    """Build, check and export the card's walls, one per stand-off; their manifest rows."""
+    from ..cad import wall as wall_mod
+
+    cfg, exp = run.cfg, run.cfg.export
+    w, h = card.width_mm, card.height_mm
+    walls = []
+    heights = [fp.standoff_mm for fp in card.footprints]
+    for g, stem in zip(heights, card_stems(heights), strict=True):
+        wm = wall_mod.build_wall(w, h, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, g)
+        with run.out.open_path(f"{stem}.step") as p:
+            wall_mod.wall_step(wm, p)
+        with run.out.open_path(f"{stem}.stl") as p:
+            wall_mod.wall_stl(wm, p, exp.stl_tolerance_mm)
+        walls.append({"file": f"{stem}.step", "standoff_mm": g, **wall_mod.check_wall(wm)})
+    return walls
+
+
+def _card_sheet(run: Run, card, paper: str) -> None:
+    """Write the card's sheet (PNG and the PDF with its steps) and ``card.json``."""
+    from ..testcard import layout as card_mod
+    from ..testcard import sheet as sheet_mod
+
+    cfg = run.cfg
+    heights = [fp.standoff_mm for fp in card.footprints]
+    run.out.write_png("card_sheet.png", sheet_mod.sheet_png(card))
+    sp = cfg.spray
+    steps = sheet_mod.card_steps(card, sp.can_distance_mm, sp.pass_speed_m_s)
+    try:
+        pdf = sheet_mod.sheet_pdf(card, paper=paper, steps=steps)
+    except ValueError as exc:
+        raise UserError(f"card sheet: {exc}") from exc
+    run.out.write_bytes("card_sheet.pdf", pdf)
+    run.out.write_json(
+        CARD_JSON,
+        card_mod.card_description(
+            card,
+            {
+                "job": cfg.name,
+                "spray": {
+                    "can_distance_mm": sp.can_distance_mm,
+                    "pass_speed_m_s": sp.pass_speed_m_s,
+                    "passes": card.passes,
+                },
+                "files": {
+                    "plate": "card_plate.step",
+                    "walls": [f"{s}.step" for s in card_stems(heights)],
+                    "sheet": "card_sheet.pdf",
+                },
+            },
+        ),
+    )
+
+
 def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4") -> list[Path]:
     """`stencil-cad card`: the calibration plate, a wall per stand-off, the sheet and ``card.json``.
 
@@ -32,11 +85,8 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
     from dataclasses import replace
 
     from .. import cad, outline
-    from .. import stipple as stipple_mod
-    from ..cad import wall as wall_mod
     from ..exchange import dxf
     from ..testcard import layout as card_mod
-    from ..testcard import sheet as sheet_mod
 
     cfg = run.cfg
     try:
@@ -47,7 +97,7 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
     exp = cfg.export
     with run.stage("card"):
         # The job's process rules, without its picture's keep-outs.
-        rules = replace(stipple_mod.rules_from_config(cfg.stipple, w, h), keepouts=())
+        rules = replace(cfg.stipple.design_rules(w, h), keepouts=())
         label = cad.LabelInfo(layer=1, layers=1, colour="", job="CARD")
         try:
             model = cad.build_plate(card.dots, w, h, cfg.plate, label, rules=rules)
@@ -61,43 +111,10 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
         ring = outline.plate_outline(w, h, cfg.plate.outline)
         with run.out.open_path("card_plate.dxf") as p:
             drawing = dxf.stencil_for(card.dots, ring, "CARD", *model.cut_label())
-            dxf.write_dxf_stencils(p, [drawing], kerf_mm=exp.kerf_mm)
-        walls = []
+            dxf.write_dxf_stencils(p, [drawing], kerf_mm=exp.kerf_mm, deterministic=True)
+        walls = _card_walls(run, card)
         heights = [fp.standoff_mm for fp in card.footprints]
-        for g, stem in zip(heights, card_stems(heights), strict=True):
-            wm = wall_mod.build_wall(w, h, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, g)
-            with run.out.open_path(f"{stem}.step") as p:
-                wall_mod.wall_step(wm, p)
-            with run.out.open_path(f"{stem}.stl") as p:
-                wall_mod.wall_stl(wm, p, exp.stl_tolerance_mm)
-            walls.append({"file": f"{stem}.step", "standoff_mm": g, **wall_mod.check_wall(wm)})
-        run.out.write_png("card_sheet.png", sheet_mod.sheet_png(card))
-        sp = cfg.spray
-        steps = sheet_mod.card_steps(card, sp.can_distance_mm, sp.pass_speed_m_s)
-        try:
-            pdf = sheet_mod.sheet_pdf(card, paper=paper, steps=steps)
-        except ValueError as exc:
-            raise UserError(f"card sheet: {exc}") from exc
-        run.out.write_bytes("card_sheet.pdf", pdf)
-        run.out.write_json(
-            CARD_JSON,
-            card_mod.card_description(
-                card,
-                {
-                    "job": cfg.name,
-                    "spray": {
-                        "can_distance_mm": sp.can_distance_mm,
-                        "pass_speed_m_s": sp.pass_speed_m_s,
-                        "passes": card.passes,
-                    },
-                    "files": {
-                        "plate": "card_plate.step",
-                        "walls": [f"{s}.step" for s in card_stems(heights)],
-                        "sheet": "card_sheet.pdf",
-                    },
-                },
-            ),
-        )
+        _card_sheet(run, card, paper)
     size = ring.max(axis=0) - ring.min(axis=0)
     run.figures["card"] = {
         "holes": len(card.dots),
@@ -165,7 +182,7 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
     with run.stage("simulate"):
         from ..simulate.physical import SprayGeometry
 
-        geometry = SprayGeometry.of_job(cfg) if cfg.spray.model == SprayModel.physical else None
+        geometry = SprayGeometry.for_job(cfg)
         alphas, comp = hardstencil.simulate_hard(hard, cfg.spray, geometry=geometry)
         scores = _scores(run, picture.rgb, comp, picture.mm_per_px)
         run.out.write_png("simulated.png", comp)
@@ -177,9 +194,8 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
 
 
 def _process_rules(cfg: JobConfig) -> dict:
-    from ..stipple.rules import rules_from_config
 
-    rules = rules_from_config(cfg.stipple, cfg.size.width_mm, cfg.size.height_mm or cfg.size.width_mm)
+    rules = cfg.stipple.design_rules(cfg.size.width_mm, cfg.size.height_mm or cfg.size.width_mm)
     return {"min_feature_mm": 2 * rules.hole_min_r_mm, "bridge_min_mm": max(rules.web_mm, 1.0)}
 
 

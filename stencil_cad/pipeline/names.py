@@ -10,7 +10,6 @@ if TYPE_CHECKING:
 import logging
 
 from ..config import JobConfig
-from ..config.spray import SprayModel
 from ..output import MANIFEST
 
 log = logging.getLogger(__name__)
@@ -42,7 +41,7 @@ SPRAY_JSON = "spray.json"
 def simulated_stems(cfg: JobConfig) -> list[str]:
     """Extra simulated pictures, one per wall, when the physical model sees several stand-offs."""
     heights = cfg.wall.heights()
-    if cfg.spray.model != SprayModel.physical or len(heights) == 1:
+    if not cfg.spray.is_physical or len(heights) == 1:
         return []
     return [f"simulated_{stem}.png" for stem in wall_stems(heights)]
 

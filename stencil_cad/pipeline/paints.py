@@ -8,7 +8,6 @@ import numpy as np
 
 from ..colour import to_hex
 from ..config import JobConfig, Mode
-from ..config.spray import SprayModel
 from ..model import DotSet
 from ..record import Run
 from .decompose import can_names
@@ -54,7 +53,7 @@ def write_spray_order(run: Run, primer: np.ndarray, colours: np.ndarray, spray_t
     ]
     sp = run.cfg.spray
     how: dict = {"unit": sp.amount_unit}
-    if sp.model == SprayModel.physical:
+    if sp.is_physical:
         for o, t in zip(order, spray_times, strict=True):
             o["passes"] = max(1, round(float(t)))
         how.update(can_distance_cm=sp.can_distance_mm / 10.0, pass_speed_m_s=sp.pass_speed_m_s)

@@ -29,8 +29,7 @@ def load_picture(cfg: JobConfig) -> Picture:
     pic = _load(
         cfg.image, cfg.size.width_mm, cfg.size.height_mm, px, resolution.max_upscale(cfg, MAX_UPSCALE)
     )
-    source = getattr(cfg.decompose.opacity_source, "value", cfg.decompose.opacity_source)
-    if pic.alpha is not None and source != "alpha":
+    if pic.alpha is not None and cfg.decompose.opacity_source != "alpha":
         a = pic.alpha[..., None]
         pic = replace(pic, rgb=pic.rgb * a + (1.0 - a))
     return pic

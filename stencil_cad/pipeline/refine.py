@@ -7,8 +7,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..config.spray import SprayModel
 from ..model import DotSet, Layers, Picture
+from ..mural import TileGrid
 from ..output import plain as _plain
 from ..record import Run
 from .picture import source_reference
@@ -38,7 +38,6 @@ def stage_refine(
     from ..simulate import scielab, spray
     from ..simulate.physical import SprayGeometry
     from ..stipple import refine
-    from ..stipple.rules import rules_from_config
 
     cfg = run.cfg
     # The simulation's grid: with ``size.px_per_mm: auto`` it follows the dots' spray sigma
@@ -47,7 +46,7 @@ def stage_refine(
     shape = spray.sim_shape(layers.alphas.shape[1:], layers.mm_per_px, grid_mm)
     # The picture the simulation is scored against: the source image on the simulation grid.
     target = source_reference(cfg, picture, layers, shape, grid_mm)
-    rules = rules_from_config(cfg.stipple, *picture_mm)
+    rules = cfg.stipple.design_rules(*picture_mm)
     rc = cfg.refine
     settings = refine.RefineSettings(
         iterations=rc.iterations,
@@ -68,43 +67,27 @@ def stage_refine(
     from ..mural import refine as mural_refine
     from ..simulate.cans import can_prior
 
-    geometry = SprayGeometry.of_job(cfg) if cfg.spray.model == SprayModel.physical else None
+    geometry = SprayGeometry.for_job(cfg)
     # refine.cans: prior refines for the expected error over a prior of cans (without a measured can).
     cans = can_prior(cfg.spray) if rc.cans == "prior" else [("nominal", cfg.spray)]
     kernels = [mural_refine.HoleKernels(sp, geometry) for _, sp in cans]
 
     times = [float(ds.report.get("spray_time", cfg.spray.amount)) for ds in dotsets]
-    if grid is not None and grid.tiled:
-        problem = mural_refine.Problem(
-            target=target,
-            alpha_targets=alpha_targets,
-            mm_per_px=grid_mm,
-            primer=layers.primer,
-            colours=layers.colours,
-            rules=[rules] * layers.count,
-            kernels=tuple(kernels),
-            spray_times=times,
-            settings=settings,
+    problem = mural_refine.Problem(
+        target=target,
+        alpha_targets=alpha_targets,
+        mm_per_px=grid_mm,
+        primer=layers.primer,
+        colours=layers.colours,
+        rules=[rules] * layers.count,
+        kernels=tuple(kernels),
+        spray_times=times,
+        settings=settings,
+    )
+    tiling = grid or TileGrid.whole(*picture_mm)
+    with run.stage("refine"), run.bar(rc.iterations, "refine") as bar:
+        out, report = mural_refine.refine_layers(
+            problem, tiling, dotsets, cfg, run.tasks.map, progress=lambda it, total: bar.update(1)
         )
-        halo = mural_refine.refine_halo_mm(cfg, settings.eye_sigma_mm)
-        with run.stage("refine"):
-            out, report = mural_refine.refine_mural(problem, grid, dotsets, halo, run.tasks.map)
-        run.figures["refine"] = _plain(report)
-        return out
-    with run.stage("refine"):
-        with run.bar(rc.iterations, "refine") as bar:
-            out, report = refine.refine_dots(
-                target,
-                grid_mm,
-                layers.primer,
-                layers.colours,
-                dotsets,
-                [rules] * layers.count,
-                kernels,
-                times,
-                settings,
-                progress=lambda it, total: bar.update(1),
-                alpha_targets=alpha_targets,
-            )
     run.figures["refine"] = _plain(report)
     return out

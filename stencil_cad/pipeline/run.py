@@ -13,10 +13,11 @@ import numpy as np
 from ..config import ComputeConfig, JobConfig, Mode
 from ..errors import UserError
 from ..exchange.png import png_bytes
-from ..model import Picture
+from ..model import DotSet, Layers, Picture
 from ..output import OutputDir
 from ..record import Run
-from .build import build_any, check_template
+from . import tiles
+from .build import check_template, stage_build
 from .commands import run_hard
 from .decompose import stage_decompose
 from .manifest import finish, save_config
@@ -24,6 +25,7 @@ from .names import STAGE_COMMANDS, run_outputs, stage_outputs
 from .picture import load_picture
 from .saved import check_dots, read_dots, read_layers
 from .simulate import stage_simulate
+from .slicing import stage_print_estimate
 from .stipple import bound_dots, stage_stipple
 
 log = logging.getLogger(__name__)
@@ -211,3 +213,29 @@ def _run_stage_command(
         else:
             stage_simulate(run, picture, layers, dotsets, as_made=not grid.tiled)
         return finish(run, command)
+
+
+def build_any(
+    run: Run,
+    layers: Layers,
+    dotsets: list[DotSet],
+    picture_mm: tuple[float, float],
+    grid,
+    picture=None,
+    simulate: bool = True,
+) -> None:
+    """Build (and simulate): one plate per layer, or per tile and layer for a mural."""
+    if not grid.tiled:
+        stage_build(run, layers, dotsets, picture_mm)
+        if run.cfg.export.print_estimate:
+            stage_print_estimate(run)
+        if simulate:
+            stage_simulate(run, picture, layers, dotsets)
+        return
+    per_tile = tiles.stage_build_tiles(run, layers, dotsets, grid)
+    tiles.write_map(run, grid, layers, picture)
+    if not simulate:
+        return
+    # A mural's plates are drawn as asked (no compensation yet) and sprayed so.
+    sim, ref = stage_simulate(run, picture, layers, dotsets, keep=True, as_made=False)
+    tiles.stage_mural_simulate(run, sim, ref, layers, dotsets, grid, per_tile)

@@ -113,7 +113,7 @@ def check_dots(cfg: JobConfig, dotsets: list[DotSet], picture_mm: tuple[float, f
     """
     from ..stipple import rules as rules_mod
 
-    rules = rules_mod.rules_from_config(cfg.stipple, *picture_mm)
+    rules = cfg.stipple.design_rules(*picture_mm)
     for i, ds in enumerate(dotsets):
         try:
             rules_mod.check_rules(ds.xy_mm, ds.r_mm, rules)

@@ -10,7 +10,6 @@ import numpy as np
 
 from ..colour import to_hex
 from ..config import JobConfig
-from ..config.spray import SprayModel
 from ..model import DotSet, Layers, Picture
 from ..output import plain as _plain
 from ..record import Run
@@ -43,8 +42,7 @@ def stage_simulate(
     from ..simulate.physical import SprayGeometry
 
     cfg = run.cfg
-    physical = cfg.spray.model == SprayModel.physical
-    design = SprayGeometry.of_job(cfg) if physical else None
+    design = SprayGeometry.for_job(cfg)
     if as_made:
         # Spray the holes as the process makes them (stipple.hole_offset_mm), not as asked.
         size_mm = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
@@ -166,7 +164,7 @@ def spraying_steps(cfg: JobConfig, layers: Layers, amounts: Sequence[float]) -> 
     per_pass = sweep_seconds(cfg, w_px * layers.mm_per_px, h_px * layers.mm_per_px)
     for i, amount in enumerate(amounts):
         paint = to_hex(layers.colours[i])
-        if sp.model == SprayModel.physical:
+        if sp.is_physical:
             n = max(1, round(amount))
             cm = sp.can_distance_mm / 10.0
             seconds = n * per_pass
@@ -225,7 +223,7 @@ def _dot_visibility(run: Run, layers: Layers, dotsets: list[DotSet]) -> dict:
         layers.colours[k],
         layers.primer,
         cfg.stipple.auto_spacing_factor,
-        geometry=SprayGeometry.of_job(cfg) if cfg.spray.model == SprayModel.physical else None,
+        geometry=SprayGeometry.for_job(cfg),
     )
     return {"dots_blend_m": d, "dots_blend_layer": k + 1, "dots_hole_r_mm": r}
 

@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..config import JobConfig
-from ..config.spray import SprayModel
 from ..model import DotSet, Layers, Picture, coat_contrast
+from ..mural import TileGrid
+from ..mural.stipple import StippleTask, stipple_layers
 from ..output import plain as _plain
 from ..record import Run
 from .names import dots_name, layer_stem
@@ -21,72 +21,6 @@ if TYPE_CHECKING:
     from .. import mural
 
 log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True)
-class StippleTask:
-    """One layer to stipple: its opacity, pixel size, the job config and its own generator.
-
-    ``weight`` weighs each pixel's error when the layer's spray time is chosen: the squared
-    colour change a full coat makes there (:func:`stencil_cad.model.coat_contrast`).
-    """
-
-    alpha: np.ndarray
-    mm_per_px: float
-    cfg: JobConfig
-    rng: np.random.Generator
-    weight: np.ndarray | None = None
-
-
-def _calibrated(cfg: JobConfig) -> bool:
-    return getattr(cfg.stipple.tone, "value", cfg.stipple.tone) == "calibrated"
-
-
-def _chooses_spray_time(cfg: JobConfig) -> bool:
-    """Whether each layer gets its own spray time (calibrated tone and ``calibrate: spray_time``)."""
-    return _calibrated(cfg) and getattr(cfg.spray.calibrate, "value", cfg.spray.calibrate) == "spray_time"
-
-
-def _layer_tone(task: StippleTask):
-    """``(tone choice or None, spray time)`` of one layer.
-
-    With ``stipple.tone: calibrated`` the density comes from the spray response, and with
-    ``spray.calibrate: spray_time`` the layer gets its own spray time.
-    """
-    cfg = task.cfg
-    if not _calibrated(cfg):
-        return None, cfg.spray.amount
-    from ..simulate import tone
-
-    choice = tone.calibrated_tone_for(task.alpha, task.mm_per_px, cfg, task.weight)
-    if _chooses_spray_time(cfg):
-        return choice, float(choice.spray_time)
-    return choice, cfg.spray.amount
-
-
-def stipple_task(task: StippleTask) -> tuple[DotSet, dict | None]:
-    """Stipple one layer (a task): ``(holes, tone choice summary or None)``.
-
-    The spray time (:func:`_layer_tone`) is in the holes' report.
-    """
-    from dataclasses import replace
-
-    from .. import stipple
-
-    choice, spray_time = _layer_tone(task)
-    density = None if choice is None else choice.density
-    ds = stipple.stipple_layer(task.alpha, task.mm_per_px, task.cfg.stipple, task.rng, density=density)
-    return replace(
-        ds, report={**ds.report, "spray_time": spray_time}
-    ), None if choice is None else choice.summary()
-
-
-def tone_task(task: StippleTask):
-    """One layer's tone choice without its density map (a task): ``(choice or None, spray time)``."""
-    from dataclasses import replace
-
-    choice, spray_time = _layer_tone(task)
-    return (None if choice is None else replace(choice, density=np.zeros((0, 0)))), spray_time
 
 
 def stage_stipple(
@@ -108,44 +42,23 @@ def stage_stipple(
 
     bound_dots(run, picture_mm)
     cfg = run.cfg
-    sets: list[DotSet] = []
-    tones: list[dict] = []
     with run.stage("stipple"):
         # One task per layer (on a cluster the layers stipple side by side); each layer's
         # generator comes from the seed, so any number of workers gives the same holes.
         # The colour weights only steer the choice of each layer's spray time.
         weights = (
             coat_contrast(layers.primer, layers.colours, layers.alphas)
-            if _chooses_spray_time(cfg)
+            if cfg.chooses_spray_time
             else [None] * layers.count
         )
         tasks = [
             StippleTask(alpha, layers.mm_per_px, cfg, run.rng_for("stipple", i), weights[i])
             for i, alpha in enumerate(layers.alphas)
         ]
-        if grid is not None and grid.tiled and cfg.stipple.dots is None:
-            # A mural: one task per layer and tile (stipple.dots fixes one count for a whole
-            # picture, so with it the layers stipple in one piece).
-            from dataclasses import replace
-
-            from ..mural import stipple as mural_stipple
-
-            chosen = list(run.tasks.map(tone_task, tasks, "tone"))
-            seeds = [
-                [run.seed_for("stipple", i, k) for k in range(len(grid.tiles))] for i in range(layers.count)
-            ]
-            placed = mural_stipple.stipple_mural(
-                cfg, layers.alphas, layers.mm_per_px, grid, [c for c, _ in chosen], seeds, run.tasks.map
-            )
-            for ds, (choice, spray_time) in zip(placed, chosen, strict=True):
-                sets.append(replace(ds, report={**ds.report, "spray_time": spray_time}))
-                if choice is not None:
-                    tones.append(choice.summary())
-        else:
-            for ds, tone_summary in run.tasks.map(stipple_task, tasks, "stipple"):
-                sets.append(ds)
-                if tone_summary is not None:
-                    tones.append(tone_summary)
+        tiling = grid or TileGrid.whole(*picture_mm)
+        sets, tones = stipple_layers(
+            tasks, layers.alphas, tiling, lambda i, k: run.seed_for("stipple", i, k), run.tasks.map
+        )
     run.figures["dark_end"] = [
         _dark_end(cfg, alpha, float(ds.report["spray_time"]))
         for alpha, ds in zip(layers.alphas, sets, strict=True)
@@ -197,7 +110,7 @@ def _dark_end(cfg: JobConfig, alpha: np.ndarray, spray_time: float) -> dict:
         spray_time=spray_time,
         max_radius_mm=r1,
         spacing_factor=st.auto_spacing_factor,
-        geometry=SprayGeometry.of_job(cfg) if cfg.spray.model == SprayModel.physical else None,
+        geometry=SprayGeometry.for_job(cfg),
     )
     top = curve.max_opacity
     a = np.asarray(alpha, dtype=np.float64)

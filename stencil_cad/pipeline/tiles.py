@@ -65,7 +65,6 @@ def stage_build_tiles(run, layers: Layers, dotsets: list[DotSet], grid: mural.Ti
     Returns:
         Per tile, per layer, the tile's holes in the tile frame.
     """
-    from ..cad import wall as wall_mod
     from ..stipple import rules as dots
 
     cfg = run.cfg
@@ -75,7 +74,7 @@ def stage_build_tiles(run, layers: Layers, dotsets: list[DotSet], grid: mural.Ti
     union = [
         mural.to_mural([per_tile[k][i] for k in range(len(grid.tiles))], grid) for i in range(len(dotsets))
     ]
-    rules = dots.rules_from_config(cfg.stipple, grid.width_mm, grid.height_mm)
+    rules = cfg.stipple.design_rules(grid.width_mm, grid.height_mm)
     for i, u in enumerate(union):
         if len(u) != len(dotsets[i]):
             raise RuntimeError(f"layer {i + 1}: tiles hold {len(u)} holes, the mural {len(dotsets[i])}")
@@ -85,7 +84,7 @@ def stage_build_tiles(run, layers: Layers, dotsets: list[DotSet], grid: mural.Ti
             raise UserError(f"layer {i + 1} (all tiles in mural coordinates): {exc}") from None
     plates: list[dict] = []
     walls: list[dict] = []
-    heights = wall_mod.wall_heights(cfg.wall)
+    heights = cfg.wall.heights()
     tasks = _part_tasks(cfg, layers, grid, per_tile, heights)
     n_parts = len(grid.tiles) * (len(dotsets) + len(heights))
     with run.stage("build"):
@@ -336,7 +335,7 @@ def stage_mural_simulate(
     from ..simulate.physical import SprayGeometry
 
     cfg = run.cfg.spray
-    geometry = SprayGeometry.of_job(run.cfg) if getattr(cfg.model, "value", cfg.model) == "physical" else None
+    geometry = SprayGeometry.for_job(run.cfg)
     g = sim.mm_per_px
     shape = sim.alphas.shape[1:]
     times = [float(t) for t in sim.info["spray_time"]]

@@ -92,6 +92,11 @@ class SprayGeometry:
         g = float(job_cfg.wall.standoff_mm[0] if standoff_mm is None else standoff_mm)
         return cls(standoff_mm=g, plate_thickness_mm=float(job_cfg.plate.thickness_mm))
 
+    @classmethod
+    def for_job(cls, job_cfg, standoff_mm: float | None = None) -> SprayGeometry | None:
+        """:meth:`of_job` under the physical spray model; None under the paper's (no wall, no can)."""
+        return cls.of_job(job_cfg, standoff_mm) if job_cfg.spray.is_physical else None
+
 
 def spread_sigma_mm(cfg: SprayConfig, standoff_mm: float) -> float:
     """Blur of every hole's image: ``sqrt(sigma_0^2 + (k g)^2)`` in mm.

@@ -31,7 +31,6 @@ from .rules import (
     enforce_rules,
     min_web,
     rule_violations,
-    rules_from_config,
 )
 
 __all__ = [
@@ -58,7 +57,6 @@ __all__ = [
     "min_web",
     "refine_factor",
     "rule_violations",
-    "rules_from_config",
     "stipple_layer",
     "tone_map",
     "voronoi_pass",

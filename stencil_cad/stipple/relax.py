@@ -40,7 +40,7 @@ from scipy import ndimage
 from ..config.stipple import StippleConfig, Tone
 from ..frames import mm_to_px, pixel_centres_mm, px_to_mm
 from ..model import DotSet
-from .rules import DesignRules, _keepout_clearance, enforce_rules, rules_from_config
+from .rules import DesignRules, _keepout_clearance, enforce_rules
 
 log = logging.getLogger(__name__)
 
@@ -525,7 +525,7 @@ def stipple_layer(
     if not (math.isfinite(mm_per_px) and mm_per_px > 0):
         raise ValueError(f"mm_per_px must be > 0, got {mm_per_px}")
     h, w = alpha.shape
-    rules = rules_from_config(cfg, w * mm_per_px, h * mm_per_px, keepouts)
+    rules = cfg.design_rules(w * mm_per_px, h * mm_per_px, keepouts)
     xy, r, report = place_holes(alpha, mm_per_px, cfg, rng, rules, density, n_dots, progress)
     xy, r, rep = enforce_rules(xy, r, rules)
     report.update({key: v for key, v in rep.items() if key not in ("n_in", "n_out", "removed")})

@@ -18,14 +18,12 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass, field
 
 import numba
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..config.stipple import HOLE_FLOOR_MM, StippleConfig
+from ..config.rules import DesignRules
 
 log = logging.getLogger(__name__)
 
@@ -39,77 +37,6 @@ CHECK_TOL_MM = 1e-3
 
 class DotRuleError(ValueError):
     """A dot set breaks a design rule."""
-
-
-@dataclass(frozen=True)
-class DesignRules:
-    """Design rules of one hole set, all in mm.
-
-    Attributes:
-        hole_min_r_mm: Smallest allowed hole radius (>= 0.5 mm).
-        web_mm: Minimum material between two holes.
-        edge_margin_mm: Minimum material between a hole and the picture-area
-            border or a keep-out rectangle.
-        width_mm: Picture-area width W.
-        height_mm: Picture-area height H.
-        keepouts: Keep-out rectangles ``(x0, y0, x1, y1)`` in picture mm.
-    """
-
-    hole_min_r_mm: float
-    web_mm: float
-    edge_margin_mm: float
-    width_mm: float
-    height_mm: float
-    keepouts: tuple[tuple[float, float, float, float], ...] = field(default_factory=tuple)
-
-    def __post_init__(self) -> None:
-        if not self.hole_min_r_mm >= HOLE_FLOOR_MM:
-            raise ValueError(f"hole_min_r_mm must be ≥ {HOLE_FLOOR_MM} mm, got {self.hole_min_r_mm}")
-        if not self.web_mm > 0:
-            raise ValueError(f"web_mm must be > 0 mm, got {self.web_mm}")
-        if not self.edge_margin_mm >= 0:
-            raise ValueError(f"edge_margin_mm must be ≥ 0 mm, got {self.edge_margin_mm}")
-        if not (self.width_mm > 0 and self.height_mm > 0):
-            raise ValueError(f"picture size must be > 0 mm, got {self.width_mm} x {self.height_mm}")
-        object.__setattr__(self, "keepouts", tuple(tuple(float(v) for v in k) for k in self.keepouts))
-        for k, (x0, y0, x1, y1) in enumerate(self.keepouts):
-            if not (x1 > x0 and y1 > y0):
-                raise ValueError(f"keep-out {k} must have x1 > x0 and y1 > y0, got ({x0}, {y0}, {x1}, {y1})")
-
-
-def _rect(k: Sequence[float]) -> tuple[float, float, float, float]:
-    """A keep-out rectangle ``(x0, y0, x1, y1)`` in mm as Python floats."""
-    x0, y0, x1, y1 = (float(v) for v in k)
-    return x0, y0, x1, y1
-
-
-def rules_from_config(
-    cfg: StippleConfig,
-    width_mm: float,
-    height_mm: float,
-    keepouts: tuple | list = (),
-) -> DesignRules:
-    """Build the design rules of a layer from the stipple config.
-
-    Args:
-        cfg: The ``stipple`` config section (process presets resolved here).
-        width_mm: Picture-area width in mm.
-        height_mm: Picture-area height in mm.
-        keepouts: Extra keep-out rectangles ``(x0, y0, x1, y1)`` in picture mm
-            (for example the label area chosen by the CAD stage), added to
-            ``cfg.keepouts_mm``.
-
-    Returns:
-        The rules.
-    """
-    return DesignRules(
-        hole_min_r_mm=cfg.resolved_hole_min_r_mm,
-        web_mm=cfg.resolved_web_mm,
-        edge_margin_mm=cfg.resolved_edge_margin_mm,
-        width_mm=float(width_mm),
-        height_mm=float(height_mm),
-        keepouts=tuple(_rect(k) for k in cfg.keepouts_mm) + tuple(_rect(k) for k in keepouts),
-    )
 
 
 # --------------------------------------------------------------------------- geometry helpers

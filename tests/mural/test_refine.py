@@ -11,7 +11,7 @@ from stencil_cad.config.spray import SprayConfig
 from stencil_cad.model import DotSet
 from stencil_cad.mural import refine as mural_refine
 from stencil_cad.stipple import refine
-from stencil_cad.stipple.rules import check_rules, rules_from_config
+from stencil_cad.stipple.rules import check_rules
 
 
 def _job(**data):
@@ -58,7 +58,7 @@ def small_mural():
     for a, c in zip(reach, colours, strict=True):
         target = target * (1 - a[..., None]) + c * a[..., None]
     alphas = reach
-    rules = rules_from_config(cfg.stipple, 300, 200)
+    rules = cfg.stipple.design_rules(300, 200)
     settings = refine.RefineSettings(
         iterations=8, max_radius_mm=2.0 * rules.hole_min_r_mm, add_remove_every=0
     )
@@ -170,7 +170,7 @@ def test_tiled_refinement_is_the_same_whatever_order_the_tiles_finish(small_mura
 def test_tasks_hold_only_their_region():
     cfg = _job(size={"width_mm": 300, "height_mm": 200}, bed=[200, 180])
     grid = mural.plan_tiles(300, 200, cfg)
-    rules = rules_from_config(cfg.stipple, 300, 200)
+    rules = cfg.stipple.design_rules(300, 200)
     problem = mural_refine.Problem(
         target=np.zeros((200, 300, 3)),
         alpha_targets=None,

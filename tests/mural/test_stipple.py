@@ -12,7 +12,7 @@ from stencil_cad import mural, stipple
 from stencil_cad.config import io as cfg_io
 from stencil_cad.mural import stipple as mural_stipple
 from stencil_cad.stipple import relax
-from stencil_cad.stipple.rules import check_rules, rules_from_config
+from stencil_cad.stipple.rules import check_rules
 
 
 def _job(**data):
@@ -63,7 +63,7 @@ def _near_seams(xy: np.ndarray, grid: mural.TileGrid, band: float) -> np.ndarray
 
 def test_union_keeps_the_rules_and_every_tile_has_its_holes(flat_mural):
     cfg, grid, alphas, tiled, _ = flat_mural
-    rules = rules_from_config(cfg.stipple, 500, 300)
+    rules = cfg.stipple.design_rules(500, 300)
     for ds in tiled:
         check_rules(ds.xy_mm, ds.r_mm, rules)
         counts = np.bincount(grid.owner(ds.xy_mm), minlength=len(grid.tiles))
@@ -175,7 +175,7 @@ def test_new_holes_meeting_fixed_ones_go():
     cfg = _job(size={"width_mm": 500, "height_mm": 300}, bed=[250, 250], stipple={"tone": "linear"})
     grid = mural.plan_tiles(500, 300, cfg)
     alphas = np.full((1, 300, 500), 0.5)
-    rules = rules_from_config(cfg.stipple, 500, 300)
+    rules = cfg.stipple.design_rules(500, 300)
     halo = mural_stipple.stipple_halo_mm(cfg)
     # Tile A2 after A1: A1's holes as a line of big holes just inside A1, 8 mm apart: Lloyd
     # spaces the new holes by centres, so some come closer than the web to a big one's edge.

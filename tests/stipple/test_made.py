@@ -40,7 +40,7 @@ def test_drawn_dots_keep_every_rule_and_made_dots_are_as_asked():
     size = (30.0, 20.0)
     xy = rng.uniform([0, 0], size, (400, 2))
     r = rng.uniform(0.5, 1.0, 400)
-    design = rules.rules_from_config(cfg, *size)
+    design = cfg.design_rules(*size)
     fxy, fr, _ = rules.enforce_rules(xy, r, design)
     fixed = DotSet(fxy, fr)
     drawn = drawn_dots(fixed, cfg, size)

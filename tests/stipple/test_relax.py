@@ -13,7 +13,7 @@ from scipy.spatial import cKDTree
 from stencil_cad import stipple as sp
 from stencil_cad.config import StippleConfig
 from stencil_cad.frames import mm_to_px
-from stencil_cad.stipple.rules import check_rules, rules_from_config
+from stencil_cad.stipple.rules import check_rules
 
 SLA = StippleConfig(process="sla", edge_margin_mm=0.0, tone="linear")
 
@@ -191,7 +191,7 @@ def test_same_seed_same_dots_and_rules_hold():
     np.testing.assert_array_equal(a.xy_mm, b.xy_mm)
     np.testing.assert_array_equal(a.r_mm, b.r_mm)
     assert a.xy_mm.shape != c.xy_mm.shape or not np.array_equal(a.xy_mm, c.xy_mm)
-    rules = rules_from_config(cfg, 40.0, 30.0)
+    rules = cfg.design_rules(40.0, 30.0)
     check_rules(a.xy_mm, a.r_mm, rules, tol_mm=1e-9)
     assert a.report["min_web_mm"] >= rules.web_mm
     for key in (
@@ -233,7 +233,7 @@ def test_variable_radius_grows_with_density():
     assert ds.r_mm.min() >= 0.5 and ds.r_mm.max() <= 1.5
     x = ds.xy_mm[:, 0]
     assert ds.r_mm[x > 45].mean() > ds.r_mm[x < 15].mean() + 0.4
-    check_rules(ds.xy_mm, ds.r_mm, rules_from_config(cfg, 60.0, 60.0), tol_mm=1e-9)
+    check_rules(ds.xy_mm, ds.r_mm, cfg.design_rules(60.0, 60.0), tol_mm=1e-9)
     # Open area (sum of pi r^2) follows the tone: the dark half has about 2.3x the light half.
     area = np.pi * ds.r_mm**2
     ratio = area[x > 30].sum() / area[x <= 30].sum()
@@ -279,7 +279,7 @@ def test_tiny_and_overfull_layers_still_obey_rules():
     for alpha, n in [(np.ones((1, 1)), None), (np.ones((20, 20)), 5000), (np.full((20, 20), np.nan), None)]:
         ds = sp.stipple_layer(alpha, 5.0 if alpha.size == 1 else 0.5, SLA, rng(), n_dots=n)
         size = 5.0 if alpha.size == 1 else 10.0
-        check_rules(ds.xy_mm, ds.r_mm, rules_from_config(SLA, size, size), tol_mm=1e-9)
+        check_rules(ds.xy_mm, ds.r_mm, SLA.design_rules(size, size), tol_mm=1e-9)
 
 
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -295,5 +295,5 @@ def test_rules_hold_on_random_layers(seed, process, variable, h, w):
     alpha = np.clip(g.random((h, w)) * g.random() * 1.5, 0.0, 1.0)
     cfg = StippleConfig(process=process, variable_radius=variable, max_iterations=15, tone="linear")
     ds = sp.stipple_layer(alpha, 0.5, cfg, g)
-    check_rules(ds.xy_mm, ds.r_mm, rules_from_config(cfg, w * 0.5, h * 0.5), tol_mm=1e-9)
+    check_rules(ds.xy_mm, ds.r_mm, cfg.design_rules(w * 0.5, h * 0.5), tol_mm=1e-9)
     assert ds.report["n_final"] == len(ds)

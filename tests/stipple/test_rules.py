@@ -19,7 +19,6 @@ from stencil_cad.stipple.rules import (
     enforce_rules,
     min_web,
     rule_violations,
-    rules_from_config,
 )
 
 RULES = DesignRules(hole_min_r_mm=1.0, web_mm=0.8, edge_margin_mm=3.0, width_mm=100.0, height_mm=80.0)
@@ -48,7 +47,7 @@ def test_presets_resolve_and_override(process):
         1.1,
         0.0,
     )
-    rules = rules_from_config(over, 50, 60, keepouts=[(1, 2, 3, 4)])
+    rules = over.design_rules(50, 60, keepouts=[(1, 2, 3, 4)])
     assert rules == DesignRules(1.5, 1.1, 0.0, 50.0, 60.0, ((1.0, 2.0, 3.0, 4.0),))
 
 

@@ -12,7 +12,7 @@ import yaml
 from stencil_cad.cli import main
 from stencil_cad.config import JobConfig
 from stencil_cad.config.spray import CanConstants, SprayConfig
-from stencil_cad.stipple import check_rules, rules_from_config
+from stencil_cad.stipple import check_rules
 from stencil_cad.testcard import card_description, card_layout, layout_from_description
 from stencil_cad.testcard.fit import fit_card
 from stencil_cad.testcard.sheet import aruco_dictionary, sheet_reflectance
@@ -38,7 +38,7 @@ def test_layout_holds_the_jobs_holes_and_fits_every_bed(layout):
     )
     fractions = [f.open_fraction for f in layout.features if f.kind == "patch"]
     assert all(np.diff(fractions) > 0) and fractions[0] > 0.02
-    rules = rules_from_config(st, layout.width_mm, layout.height_mm)
+    rules = st.design_rules(layout.width_mm, layout.height_mm)
     window = layout.features[0].index[0]
     keep = np.ones(len(layout.dots), bool)
     keep[window] = False

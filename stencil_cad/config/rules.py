@@ -1,0 +1,56 @@
+"""The hole design rules of one hole set: a value object derived from the ``stipple`` section.
+
+Built by :meth:`stencil_cad.config.StippleConfig.design_rules` (and
+:meth:`stencil_cad.config.JobConfig.design_rules`); enforced and checked by
+:mod:`stencil_cad.stipple.rules`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+#: No hole is ever smaller than this radius in mm, whatever the process (the paper's floor).
+HOLE_FLOOR_MM = 0.5
+
+
+def as_rect(k: Sequence[float]) -> tuple[float, float, float, float]:
+    """A keep-out rectangle ``(x0, y0, x1, y1)`` in mm as Python floats."""
+    x0, y0, x1, y1 = (float(v) for v in k)
+    return x0, y0, x1, y1
+
+
+@dataclass(frozen=True)
+class DesignRules:
+    """Design rules of one hole set, all in mm.
+
+    Attributes:
+        hole_min_r_mm: Smallest allowed hole radius (>= 0.5 mm).
+        web_mm: Minimum material between two holes.
+        edge_margin_mm: Minimum material between a hole and the picture-area
+            border or a keep-out rectangle.
+        width_mm: Picture-area width W.
+        height_mm: Picture-area height H.
+        keepouts: Keep-out rectangles ``(x0, y0, x1, y1)`` in picture mm.
+    """
+
+    hole_min_r_mm: float
+    web_mm: float
+    edge_margin_mm: float
+    width_mm: float
+    height_mm: float
+    keepouts: tuple[tuple[float, float, float, float], ...] = field(default_factory=tuple)
+
+    def __post_init__(self) -> None:
+        if not self.hole_min_r_mm >= HOLE_FLOOR_MM:
+            raise ValueError(f"hole_min_r_mm must be ≥ {HOLE_FLOOR_MM} mm, got {self.hole_min_r_mm}")
+        if not self.web_mm > 0:
+            raise ValueError(f"web_mm must be > 0 mm, got {self.web_mm}")
+        if not self.edge_margin_mm >= 0:
+            raise ValueError(f"edge_margin_mm must be ≥ 0 mm, got {self.edge_margin_mm}")
+        if not (self.width_mm > 0 and self.height_mm > 0):
+            raise ValueError(f"picture size must be > 0 mm, got {self.width_mm} x {self.height_mm}")
+        object.__setattr__(self, "keepouts", tuple(tuple(float(v) for v in k) for k in self.keepouts))
+        for k, (x0, y0, x1, y1) in enumerate(self.keepouts):
+            if not (x1 > x0 and y1 > y0):
+                raise ValueError(f"keep-out {k} must have x1 > x0 and y1 > y0, got ({x0}, {y0}, {x1}, {y1})")
