@@ -2,9 +2,19 @@
 
 Usage::
 
-    stencil-cad run --out BEFORE          # on the commit before the change
-    python -m benchmarks.compare_outputs BEFORE            # runs the example now, compares
-    python -m benchmarks.compare_outputs BEFORE --out AFTER   # compares two existing folders
+    python -m benchmarks.compare_outputs --make BEFORE   # on the commit before the change
+    python -m benchmarks.compare_outputs --make AFTER    # on the commit after it
+    python -m benchmarks.compare_outputs BEFORE --out AFTER   # compares the two, job by job
+
+    stencil-cad run --out BEFORE                          # or one job, the example:
+    python -m benchmarks.compare_outputs BEFORE           # runs the example now, compares
+
+``--make DIR`` runs four jobs into ``DIR/<job>``: the bundled example, the same picture as hard
+stencils, a small mural (240 × 160 mm on a Prusa MK4 bed, 2 layers, FDM) and the calibration
+card. It runs them with one thread for the compiled kernels (``NUMBA_NUM_THREADS=1``): their
+parallel sums may differ in the last bit between runs on a loaded machine, and a hole centre
+written with 4 decimals then flips its last digit. Folders holding job folders are compared
+job by job.
 
 Prints one JSON line per file (name, size, SHA-256 on each side, same or not) and a
 last summary line; exits 1 when any compared file differs or is missing on one side.
@@ -39,6 +49,23 @@ DEFAULT_EXTS = (
 )
 
 MANIFEST = "manifest.json"
+#: The jobs ``--make`` runs: folder name and the command line after ``stencil-cad``.
+JOBS = {
+    "example": ["run"],
+    "hard": ["hard"],
+    "mural": ["run", "{mural}", "--workers", "0"],
+    "card": ["card"],
+}
+MURAL_YAML = (
+    "name: tiny_mural\n"
+    "size: {width_mm: 240, height_mm: 160, px_per_mm: auto}\n"
+    "bed: prusa_mk4\n"
+    "decompose: {layers: 2}\n"
+    "stipple: {process: fdm}\n"
+)
+#: Config keys that hold the path of an input file: compared by file name (a checkout elsewhere
+#: reads the bundled example from another folder).
+PATH_KEYS = ("image", "template", "source", "path")
 #: Manifest keys that record when and where the job ran, not what it made: the time per stage,
 #: the cluster (kind, workers, address, tasks), the versions of the tools, and the file table's
 #: own rows (each compared file is compared itself).
@@ -61,8 +88,33 @@ def manifest_content(path: Path) -> dict:
 
     data = json.loads(path.read_text(encoding="utf-8"))
     out = strip(data)
-    out["files"] = {r["name"]: r["sha256"] for r in data.get("files", []) if isinstance(r, dict)}
+    out = _names_only(out)
+    # config.yaml holds the input's absolute path: it is compared itself (config_content).
+    out["files"] = {
+        r["name"]: r["sha256"]
+        for r in data.get("files", [])
+        if isinstance(r, dict) and r["name"] != "config.yaml"
+    }
     return out
+
+
+def _names_only(cfg: dict) -> dict:
+    """A config with every input path (:data:`PATH_KEYS`, at any depth) cut to its file name."""
+    out = {}
+    for k, v in cfg.items():
+        if isinstance(v, dict):
+            v = _names_only(v)
+        elif k in PATH_KEYS and isinstance(v, str) and "/" in v:
+            v = Path(v).name
+        out[k] = v
+    return out
+
+
+def config_content(path: Path) -> dict:
+    """A written ``config.yaml`` with its input paths cut to file names."""
+    import yaml
+
+    return _names_only(yaml.safe_load(path.read_text(encoding="utf-8")) or {})
 
 
 def manifest_differences(a: dict, b: dict, where: str = "") -> list[str]:
@@ -93,28 +145,62 @@ def compare(before: Path, after: Path, exts: tuple[str, ...] = DEFAULT_EXTS) -> 
         if name == MANIFEST and a.is_file() and b.is_file():
             row["differ_at"] = manifest_differences(manifest_content(a), manifest_content(b))
             row["same"] = not row["differ_at"]
+        elif name == "config.yaml" and a.is_file() and b.is_file():
+            row["differ_at"] = manifest_differences(config_content(a), config_content(b))
+            row["same"] = not row["differ_at"]
         else:
             row["same"] = a.is_file() and b.is_file() and a.read_bytes() == b.read_bytes()
         rows.append(row)
     return rows
 
 
+def make(folder: Path) -> None:
+    """Run every job of :data:`JOBS` into ``folder/<job>`` (one thread for the compiled kernels)."""
+    import os
+
+    folder.mkdir(parents=True, exist_ok=True)
+    mural = folder / "mural.yaml"
+    mural.write_text(MURAL_YAML, encoding="utf-8")
+    env = {**os.environ, "NUMBA_NUM_THREADS": "1"}
+    for job, args in JOBS.items():
+        cmd = [sys.executable, "-m", "stencil_cad", *(a.format(mural=mural) for a in args)]
+        subprocess.run([*cmd, "--out", str(folder / job), "-q"], check=True, env=env)
+
+
+def compare_jobs(before: Path, after: Path, exts: tuple[str, ...] = DEFAULT_EXTS) -> list[dict]:
+    """:func:`compare` per job folder when both folders hold job folders, else on the folders."""
+    jobs = sorted(p.name for p in before.iterdir() if p.is_dir()) if before.is_dir() else []
+    if not jobs:
+        return compare(before, after, exts)
+    rows = []
+    for job in jobs:
+        for row in compare(before / job, after / job, exts):
+            rows.append({**row, "file": f"{job}/{row['file']}"})
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.compare_outputs", description=__doc__)
-    parser.add_argument("before", type=Path, help="output folder of the earlier run")
+    parser.add_argument("before", type=Path, nargs="?", help="output folder of the earlier run")
+    parser.add_argument("--make", type=Path, metavar="DIR", help="run every job into DIR/<job> and stop")
     parser.add_argument(
         "--out", type=Path, help="output folder of the later run (default: run the example now)"
     )
     parser.add_argument("--ext", action="append", help="file suffix to compare (repeatable)")
     args = parser.parse_args(argv)
     exts = tuple(e if e.startswith(".") else f".{e}" for e in args.ext) if args.ext else DEFAULT_EXTS
+    if args.make is not None:
+        make(args.make)
+        return 0
+    if args.before is None:
+        parser.error("give the folder of the earlier run, or --make DIR")
     with tempfile.TemporaryDirectory(prefix="stencil_compare_") as tmp:
         after = args.out
         if after is None:
             after = Path(tmp) / "example"
             cmd = [sys.executable, "-m", "stencil_cad", "run", "--out", str(after), "-q"]
             subprocess.run(cmd, check=True)
-        rows = compare(args.before, after, exts)
+        rows = compare_jobs(args.before, after, exts)
     for row in rows:
         print(json.dumps(row))
     differ = [r["file"] for r in rows if not r["same"]]
