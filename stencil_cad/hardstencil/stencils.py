@@ -17,7 +17,7 @@ from skimage.color import rgb2lab
 from ..colour import to_hex
 from ..config.hard import HardConfig, SprayOrder
 from ..model import CutLayer, Picture, composite
-from ..simulate.spray import spray_mask
+from ..simulate.opacity import spray_mask
 from .segment import hex_to_rgb
 from .segment import segment as segment_image
 from .topology import (

@@ -46,7 +46,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..config.spray import Calibrate, SprayConfig, SprayModel
-from .spray import hole_kernels, spray_opacity
+from .opacity import spray_opacity
+from .spray import hole_kernels
 
 log = logging.getLogger(__name__)
 
