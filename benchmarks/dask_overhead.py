@@ -6,7 +6,7 @@ started and warm), ``efficiency`` the ideal over it. Cases:
 
 * ``even-project`` / ``even-dask-defaults``: 40 tasks of 2.0 CPU-s through
   :class:`stencil_cad.compute.DaskExecutor`, with the project's cluster settings
-  (``compute._LOCAL_DASK_CONFIG``: no stack sampler, slower health checks and monitors) and
+  (``compute.executors._LOCAL_DASK_CONFIG``: no stack sampler, slower health checks and monitors) and
   with Dask's defaults — the baseline of the same run.
 * ``uneven-inline`` / ``uneven-scattered``: 40 tasks of 0.3-4.0 CPU-s (a fixed draw), their
   inputs sent inside the tasks or, as large inputs are, scattered to the least busy worker first.
@@ -24,6 +24,7 @@ import random
 import time
 
 from stencil_cad import compute
+from stencil_cad.compute import executors
 from stencil_cad.config.compute import ComputeConfig
 
 CASES = ["even-project", "even-dask-defaults", "uneven-inline", "uneven-scattered", "sleep-scattered-10mb"]
@@ -74,12 +75,12 @@ def _jobs(case: str) -> list[float]:
 
 
 def _run_case(case: str) -> dict:
-    settings, inline = compute._LOCAL_DASK_CONFIG, compute.INLINE_BYTES
+    settings, inline = executors._LOCAL_DASK_CONFIG, executors.INLINE_BYTES
     try:
         if case == "even-dask-defaults":
-            compute._LOCAL_DASK_CONFIG = {}
+            executors._LOCAL_DASK_CONFIG = {}
         if case == "uneven-scattered":
-            compute.INLINE_BYTES = -1
+            executors.INLINE_BYTES = -1
         jobs = _jobs(case)
         with compute.executor(ComputeConfig(workers=2), 10**9, quiet=True) as ex:
             list(ex.map(burn, [0.2, 0.2], "warm-up"))
@@ -87,7 +88,7 @@ def _run_case(case: str) -> dict:
             out = list(ex.map(burn, jobs, "burn"))
             seconds = time.perf_counter() - t0
     finally:
-        compute._LOCAL_DASK_CONFIG, compute.INLINE_BYTES = settings, inline
+        executors._LOCAL_DASK_CONFIG, executors.INLINE_BYTES = settings, inline
     if out != jobs:
         raise RuntimeError(f"{case}: results out of order")
     ideal = sum(jobs) / 2

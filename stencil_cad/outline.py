@@ -133,20 +133,6 @@ def outline_path(
     rc = cfg.corner_radius_mm + d
     rk = cfg.key_corner_radius_mm + d
     segs: list[Segment] = []
-
-    def add_line(p, q):
-        p, q = np.asarray(p, float), np.asarray(q, float)
-        if np.hypot(*(q - p)) > 1e-12:
-            segs.append(Segment(_pt(p), _pt(q)))
-
-    def add_arc(c, r, a0, sweep):
-        if r <= 1e-12:
-            return
-        c = np.asarray(c, float)
-        p = c + r * np.array([math.cos(a0), math.sin(a0)])
-        q = c + r * np.array([math.cos(a0 + sweep), math.sin(a0 + sweep)])
-        segs.append(Segment(_pt(p), _pt(q), _pt(c), float(r), a0, sweep))
-
     for side in _SIDE_ORDER:
         s0, u, n, rot, length = _side_geometry(side, x0, y0, x1, y1)
         inward = -n
@@ -155,7 +141,7 @@ def outline_path(
             return s0 + s * u + t * n
 
         # Corner at the start of this side: the arc ends on the side at distance rc from the corner.
-        add_arc(at(rc, 0.0) + rc * inward, rc, rot - math.pi, 0.5 * math.pi)
+        _add_arc(segs, at(rc, 0.0) + rc * inward, rc, rot - math.pi, 0.5 * math.pi)
         cursor = rc
         tabs = sorted(
             (
@@ -166,38 +152,66 @@ def outline_path(
             key=lambda t: t[0],
         )
         for centre, k, i in tabs:
-            depth = k.depth_mm
-            a, b = centre - 0.5 * k.width_mm - d, centre + 0.5 * k.width_mm + d
-            # When the grown tip radius exceeds the depth, the tip arcs meet the side's edge
-            # directly (at a sharp inner corner) and the tab's straight sides vanish.
-            tc = depth - rk
-            cut = min(tc, 0.0)
-            reach = rk - math.sqrt(max(rk * rk - cut * cut, 0.0))
-            phi = -math.asin(cut / rk) if rk > 0 else 0.0
-            a_edge, b_edge = a + reach, b - reach
-            grown = f" when grown by {d:g} mm" if d > 0 else ""
-            if a_edge < cursor - 1e-9:
-                what = "a rounded corner" if cursor == rc else "another tab"
-                raise ValueError(
-                    f"keys[{i}] ({side.value} side, position {k.position}, width {k.width_mm} mm) reaches "
-                    f"{what}{grown}"
-                )
-            if b_edge > length - rc + 1e-9:
-                raise ValueError(
-                    f"keys[{i}] ({side.value} side, position {k.position}, width {k.width_mm} mm) reaches "
-                    f"a rounded corner{grown}"
-                )
-            add_line(at(cursor, 0.0), at(a_edge, 0.0))
-            if tc > 0:
-                add_line(at(a, 0.0), at(a, tc))
-            add_arc(at(a + rk, tc), rk, rot + math.pi + phi, 0.5 * math.pi - phi)
-            add_line(at(a + rk, depth), at(b - rk, depth))
-            add_arc(at(b - rk, tc), rk, rot + 1.5 * math.pi, 0.5 * math.pi - phi)
-            if tc > 0:
-                add_line(at(b, tc), at(b, 0.0))
-            cursor = b_edge
-        add_line(at(cursor, 0.0), at(length - rc, 0.0))
+            cursor = _add_tab(segs, at, side, centre, k, i, d, rk, rot, cursor, rc, length)
+        _add_line(segs, at(cursor, 0.0), at(length - rc, 0.0))
     return segs
+
+
+def _add_line(segs: list[Segment], p, q) -> None:
+    """Append the line from ``p`` to ``q`` unless it has no length."""
+    p, q = np.asarray(p, float), np.asarray(q, float)
+    if np.hypot(*(q - p)) > 1e-12:
+        segs.append(Segment(_pt(p), _pt(q)))
+
+
+def _add_arc(segs: list[Segment], c, r: float, a0: float, sweep: float) -> None:
+    """Append the arc about ``c`` of radius ``r`` from angle ``a0`` through ``sweep`` (none for r = 0)."""
+    if r <= 1e-12:
+        return
+    c = np.asarray(c, float)
+    p = c + r * np.array([math.cos(a0), math.sin(a0)])
+    q = c + r * np.array([math.cos(a0 + sweep), math.sin(a0 + sweep)])
+    segs.append(Segment(_pt(p), _pt(q), _pt(c), float(r), a0, sweep))
+
+
+def _add_tab(segs, at, side, centre, k, i, d, rk, rot, cursor, rc, length) -> float:
+    """Append the side up to key ``k``'s tab and the tab itself; where the side goes on from.
+
+    ``at(s, t)`` maps a distance along the side and a depth into the plate to a point.
+
+    Raises:
+        ValueError: If the tab reaches a rounded corner or the tab before it.
+    """
+    depth = k.depth_mm
+    a, b = centre - 0.5 * k.width_mm - d, centre + 0.5 * k.width_mm + d
+    # When the grown tip radius exceeds the depth, the tip arcs meet the side's edge
+    # directly (at a sharp inner corner) and the tab's straight sides vanish.
+    tc = depth - rk
+    cut = min(tc, 0.0)
+    reach = rk - math.sqrt(max(rk * rk - cut * cut, 0.0))
+    phi = -math.asin(cut / rk) if rk > 0 else 0.0
+    a_edge, b_edge = a + reach, b - reach
+    grown = f" when grown by {d:g} mm" if d > 0 else ""
+    if a_edge < cursor - 1e-9:
+        what = "a rounded corner" if cursor == rc else "another tab"
+        raise ValueError(
+            f"keys[{i}] ({side.value} side, position {k.position}, width {k.width_mm} mm) reaches "
+            f"{what}{grown}"
+        )
+    if b_edge > length - rc + 1e-9:
+        raise ValueError(
+            f"keys[{i}] ({side.value} side, position {k.position}, width {k.width_mm} mm) reaches "
+            f"a rounded corner{grown}"
+        )
+    _add_line(segs, at(cursor, 0.0), at(a_edge, 0.0))
+    if tc > 0:
+        _add_line(segs, at(a, 0.0), at(a, tc))
+    _add_arc(segs, at(a + rk, tc), rk, rot + math.pi + phi, 0.5 * math.pi - phi)
+    _add_line(segs, at(a + rk, depth), at(b - rk, depth))
+    _add_arc(segs, at(b - rk, tc), rk, rot + 1.5 * math.pi, 0.5 * math.pi - phi)
+    if tc > 0:
+        _add_line(segs, at(b, tc), at(b, 0.0))
+    return b_edge
 
 
 def _arc_steps(radius: float, sweep: float, chord_tol_mm: float) -> int:

@@ -155,7 +155,7 @@ def run_template(
         holes: A DotSet or CutLayer.
         outline: ``(M, 2)`` plate outline ring in mm.
         label_area: ``(x0, y0, x1, y1)`` mm, the label's free rectangle.
-        label: :class:`~stencil_cad.cad.plate.LabelInfo` or None.
+        label: :class:`~stencil_cad.cad.label.LabelInfo` or None.
         overrides: Parameter values by name.
         strict: Names that must exist in the template (the ``template_params``);
             other overrides the template does not define are skipped.

@@ -55,6 +55,69 @@ def brep_valid(shape) -> bool:
     return bool(BRepCheck_Analyzer(shape).IsValid())
 
 
+def _face_terms(face) -> tuple[int, int, float | None, bool]:
+    """One face's share of :func:`topology_checks`: ``(is cylinder, wires, flux term, flux ok)``.
+
+    The flux term is ``z n_z area`` of a horizontal plane (None for other faces); flux ok is
+    False for a face neither horizontal nor vertical.
+    """
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GeomAbs import GeomAbs_Cylinder, GeomAbs_Plane
+    from OCP.GProp import GProp_GProps
+    from OCP.TopAbs import TopAbs_REVERSED, TopAbs_WIRE
+    from OCP.TopExp import TopExp
+    from OCP.TopTools import TopTools_IndexedMapOfShape
+
+    surf = BRepAdaptor_Surface(face, False)
+    kind = surf.GetType()
+    if kind == GeomAbs_Cylinder:
+        return 1, 0, None, not abs(abs(surf.Cylinder().Axis().Direction().Z()) - 1.0) > 1e-12
+    if kind != GeomAbs_Plane:
+        return 0, 0, None, False
+    wm = TopTools_IndexedMapOfShape()
+    TopExp.MapShapes_s(face, TopAbs_WIRE, wm)
+    pos = surf.Plane().Position()
+    nz = pos.Direction().Z() * (1.0 if pos.Direct() else -1.0)
+    if abs(abs(nz) - 1.0) <= 1e-12:
+        props = GProp_GProps()
+        BRepGProp.SurfaceProperties_s(face, props)
+        sign = -1.0 if face.Orientation() == TopAbs_REVERSED else 1.0
+        return 0, wm.Extent(), sign * np.sign(nz) * pos.Location().Z() * props.Mass(), True
+    return 0, wm.Extent(), None, not abs(nz) > 1e-12
+
+
+def _count_edge_uses(face, edges, fwd: np.ndarray, rev: np.ndarray) -> None:
+    """Add the face's forward and reversed uses of each edge (by its index in ``edges``)."""
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FORWARD, TopAbs_REVERSED
+    from OCP.TopExp import TopExp_Explorer
+
+    eexp = TopExp_Explorer(face, TopAbs_EDGE)
+    while eexp.More():
+        e = eexp.Current()
+        i = edges.FindIndex(e)
+        o = e.Orientation()
+        if o == TopAbs_FORWARD:
+            fwd[i] += 1
+        elif o == TopAbs_REVERSED:
+            rev[i] += 1
+        eexp.Next()
+
+
+def _edge_faults(shape, fwd: np.ndarray, rev: np.ndarray, orientation: bool) -> tuple[int, int | None]:
+    """Edges not on exactly two faces, and (with ``orientation``) edges not used once each way."""
+    if orientation:
+        return int(((fwd + rev) != 2).sum()), int(((fwd != 1) | (rev != 1)).sum())
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopExp import TopExp
+    from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
+
+    anc = TopTools_IndexedDataMapOfShapeListOfShape()
+    TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, anc)
+    uses = np.fromiter((anc.FindFromIndex(i).Size() for i in range(1, anc.Extent() + 1)), dtype=np.int64)
+    return int((uses != 2).sum()), None
+
+
 def topology_checks(shape, orientation: bool = True) -> dict:
     """Linear topology figures of a shape.
 
@@ -72,19 +135,7 @@ def topology_checks(shape, orientation: bool = True) -> dict:
         faces by the divergence theorem, or None when a face is neither
         horizontal nor vertical).
     """
-    from OCP.BRepAdaptor import BRepAdaptor_Surface
-    from OCP.BRepGProp import BRepGProp
-    from OCP.GeomAbs import GeomAbs_Cylinder, GeomAbs_Plane
-    from OCP.GProp import GProp_GProps
-    from OCP.TopAbs import (
-        TopAbs_EDGE,
-        TopAbs_FACE,
-        TopAbs_FORWARD,
-        TopAbs_REVERSED,
-        TopAbs_SHELL,
-        TopAbs_SOLID,
-        TopAbs_WIRE,
-    )
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_SHELL, TopAbs_SOLID
     from OCP.TopExp import TopExp, TopExp_Explorer
     from OCP.TopoDS import TopoDS
     from OCP.TopTools import TopTools_IndexedMapOfShape
@@ -107,49 +158,17 @@ def topology_checks(shape, orientation: bool = True) -> dict:
     while fexp.More():
         face = TopoDS.Face_s(fexp.Current())
         nfaces += 1
-        surf = BRepAdaptor_Surface(face, False)
-        kind = surf.GetType()
-        if kind == GeomAbs_Cylinder:
-            ncyl += 1
-            if abs(abs(surf.Cylinder().Axis().Direction().Z()) - 1.0) > 1e-12:
-                flux_ok = False
-        elif kind == GeomAbs_Plane:
-            wm = TopTools_IndexedMapOfShape()
-            TopExp.MapShapes_s(face, TopAbs_WIRE, wm)
-            max_wires = max(max_wires, wm.Extent())
-            pos = surf.Plane().Position()
-            nz = pos.Direction().Z() * (1.0 if pos.Direct() else -1.0)
-            if abs(abs(nz) - 1.0) <= 1e-12:
-                props = GProp_GProps()
-                BRepGProp.SurfaceProperties_s(face, props)
-                sign = -1.0 if face.Orientation() == TopAbs_REVERSED else 1.0
-                flux += sign * np.sign(nz) * pos.Location().Z() * props.Mass()
-            elif abs(nz) > 1e-12:
-                flux_ok = False
-        else:
-            flux_ok = False
-        eexp = TopExp_Explorer(face, TopAbs_EDGE) if orientation else None
-        while eexp is not None and eexp.More():
-            e = eexp.Current()
-            i = edges.FindIndex(e)
-            o = e.Orientation()
-            if o == TopAbs_FORWARD:
-                fwd[i] += 1
-            elif o == TopAbs_REVERSED:
-                rev[i] += 1
-            eexp.Next()
+        cylinder, wires, term, face_ok = _face_terms(face)
+        ncyl += cylinder
+        max_wires = max(max_wires, wires)
+        if term is not None:
+            flux += term
+        flux_ok = flux_ok and face_ok
+        if orientation:
+            _count_edge_uses(face, edges, fwd, rev)
         fexp.Next()
     fwd, rev = fwd[1:], rev[1:]
-    if orientation:
-        not_two = int(((fwd + rev) != 2).sum())
-        misoriented = int(((fwd != 1) | (rev != 1)).sum())
-    else:
-        from OCP.TopTools import TopTools_IndexedDataMapOfShapeListOfShape
-
-        anc = TopTools_IndexedDataMapOfShapeListOfShape()
-        TopExp.MapShapesAndAncestors_s(shape, TopAbs_EDGE, TopAbs_FACE, anc)
-        uses = np.fromiter((anc.FindFromIndex(i).Size() for i in range(1, anc.Extent() + 1)), dtype=np.int64)
-        not_two, misoriented = int((uses != 2).sum()), None
+    not_two, misoriented = _edge_faults(shape, fwd, rev, orientation)
     return {
         "solids": count(TopAbs_SOLID),
         "shells": count(TopAbs_SHELL),
@@ -306,7 +325,7 @@ def _hole_fails(geom: PlateGeometry | None, topo: dict, dots: Holes | None) -> l
 
 def _check_tiles(geom: PlateGeometry, tile_holes: int) -> tuple[list[dict], list[str]]:
     """OCCT's full check on tiles of the same construction: ``(per-tile figures, failures)``."""
-    from .plate import make_solid
+    from .solid import make_solid
 
     tiles_info, fails = [], []
     for name, tg in _tiles(geom, tile_holes):
@@ -347,6 +366,76 @@ def _mesh_fails(mc: dict, holes: int | None, mref: float, allowed: float) -> lis
             f"mesh volume {mc['volume']:.4f} mm³ differs from {mref:.4f} mm³ by {mc['rel_error']:.2e}"
         )
     return fails
+
+
+def _volume_check(shape, topo: dict, n_big: bool, analytic: float | None, sec: dict, fails: list[str]):
+    """The B-rep volume, how it was computed and its relative error to ``analytic`` (None without)."""
+    t0 = time.perf_counter()
+    # GProp's volume integrates every face (1.8 s at 14,000 holes); for a plate of horizontal
+    # and vertical faces only, the flux through the horizontal faces is the same integral.
+    if n_big and topo["flux_volume"] is not None:
+        volume, volume_method = topo["flux_volume"], "divergence theorem over the horizontal faces"
+    else:
+        volume, volume_method = _volume(shape), "GProp"
+    sec["volume"] = time.perf_counter() - t0
+    rel = None if analytic is None else abs(volume - analytic) / abs(analytic)
+    if volume <= 0:
+        fails.append(f"volume {volume:.6g} mm³ is not positive (empty or inside-out solid)")
+    if rel is not None and rel > BREP_RTOL:
+        fails.append(
+            f"B-rep volume {volume:.6f} mm³ differs from the analytic {analytic:.6f} mm³ by {rel:.2e} (> {BREP_RTOL})"
+        )
+    return volume, volume_method, rel
+
+
+def _bbox_check(shape, geom: PlateGeometry | None, fails: list[str]):
+    """The shape's bounding box, compared with the configured one when ``geom`` is known."""
+    bbox = _bbox(shape)
+    if geom is not None:
+        want = np.array(geom.bbox)
+        if not np.allclose(np.array(bbox), want, atol=1e-5):
+            fails.append(
+                f"bounding box {np.round(bbox, 4).tolist()} differs from the configured {want.round(4).tolist()}"
+            )
+    return bbox
+
+
+def _full_check(shape, geom, n: int, full_check_max_holes: int, tile_holes: int, fails: list[str]):
+    """OCCT's full check on the whole plate (``n`` holes at most the limit) or on tiles; ``(valid, method, tiles)``.
+
+    Appends what fails to ``fails``.
+    """
+    if n <= full_check_max_holes or geom is None:
+        valid = brep_valid(shape)
+        method = "BRepCheck_Analyzer (whole plate)"
+        if not valid:
+            fails.append("BRepCheck_Analyzer: the B-rep is not valid")
+        tiles_info: list[dict] = []
+    else:
+        tiles_info, tile_fails = _check_tiles(geom, tile_holes)
+        fails += tile_fails
+        valid = all(t["valid"] for t in tiles_info) and not fails
+        method = (
+            "construction + linear checks on the whole plate; BRepCheck_Analyzer on "
+            f"{len(tiles_info)} tiles of the same construction"
+        )
+    return valid, method, tiles_info
+
+
+def _mesh_report(
+    model, shape, geom, tolerance_mm: float, mref: float, holes, sec: dict, fails: list[str]
+) -> dict:
+    """The plate's mesh checked against the reference volume ``mref``; times into ``sec``, failures into ``fails``."""
+    t0 = time.perf_counter()
+    mesh = model.mesh(tolerance_mm)
+    sec["mesh"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    mc = mesh_checks(mesh)
+    sec["mesh_check"] = time.perf_counter() - t0
+    mc["rel_error"] = abs(mc["volume"] - mref) / abs(mref)
+    mc["allowed_rel_error"] = _allowed_mesh_error(shape, geom, tolerance_mm, mref)
+    fails += _mesh_fails(mc, holes, mref, mc["allowed_rel_error"])
+    return mc
 
 
 def check_plate(
@@ -393,62 +482,19 @@ def check_plate(
     sec["topology"] = time.perf_counter() - t0
     fails += _topology_fails(topo)
 
-    t0 = time.perf_counter()
-    # GProp's volume integrates every face (1.8 s at 14,000 holes); for a plate of horizontal
-    # and vertical faces only, the flux through the horizontal faces is the same integral.
-    if n_big and topo["flux_volume"] is not None:
-        volume, volume_method = topo["flux_volume"], "divergence theorem over the horizontal faces"
-    else:
-        volume, volume_method = _volume(shape), "GProp"
-    sec["volume"] = time.perf_counter() - t0
     analytic = model.analytic_volume
-    rel = None if analytic is None else abs(volume - analytic) / abs(analytic)
-    if volume <= 0:
-        fails.append(f"volume {volume:.6g} mm³ is not positive (empty or inside-out solid)")
-    if rel is not None and rel > BREP_RTOL:
-        fails.append(
-            f"B-rep volume {volume:.6f} mm³ differs from the analytic {analytic:.6f} mm³ by {rel:.2e} (> {BREP_RTOL})"
-        )
-
-    bbox = _bbox(shape)
-    if geom is not None:
-        want = np.array(geom.bbox)
-        if not np.allclose(np.array(bbox), want, atol=1e-5):
-            fails.append(
-                f"bounding box {np.round(bbox, 4).tolist()} differs from the configured {want.round(4).tolist()}"
-            )
+    volume, volume_method, rel = _volume_check(shape, topo, n_big, analytic, sec, fails)
+    bbox = _bbox_check(shape, geom, fails)
     holes = None if geom is None else geom.hole_count
     fails += _hole_fails(geom, topo, dots)
 
     # Full B-rep check: whole plate when small, tiles of the same construction when large.
     t0 = time.perf_counter()
     n = holes if holes is not None else topo["faces"]
-    if n <= full_check_max_holes or geom is None:
-        valid = brep_valid(shape)
-        method = "BRepCheck_Analyzer (whole plate)"
-        if not valid:
-            fails.append("BRepCheck_Analyzer: the B-rep is not valid")
-        tiles_info: list[dict] = []
-    else:
-        tiles_info, tile_fails = _check_tiles(geom, tile_holes)
-        fails += tile_fails
-        valid = all(t["valid"] for t in tiles_info) and not fails
-        method = (
-            "construction + linear checks on the whole plate; BRepCheck_Analyzer on "
-            f"{len(tiles_info)} tiles of the same construction"
-        )
+    valid, method, tiles_info = _full_check(shape, geom, n, full_check_max_holes, tile_holes, fails)
     sec["brep_check"] = time.perf_counter() - t0
-
-    t0 = time.perf_counter()
-    mesh = model.mesh(tolerance_mm)
-    sec["mesh"] = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    mc = mesh_checks(mesh)
-    sec["mesh_check"] = time.perf_counter() - t0
     mref = analytic if analytic is not None else volume
-    mc["rel_error"] = abs(mc["volume"] - mref) / abs(mref)
-    mc["allowed_rel_error"] = _allowed_mesh_error(shape, geom, tolerance_mm, mref)
-    fails += _mesh_fails(mc, holes, mref, mc["allowed_rel_error"])
+    mc = _mesh_report(model, shape, geom, tolerance_mm, mref, holes, sec, fails)
 
     report = {
         "n_solids": topo["solids"],

@@ -248,30 +248,9 @@ def solve_layer(
     base = np.empty((h, w))
     gain = np.empty((h, w))
     keep = 1.0 - omega
-    two_s = 2.0 * g_smooth
-    for i in range(h):
-        for j in range(w):
-            t = trans[i, j]
-            dd = 0.0
-            dr = 0.0
-            for c in range(3):
-                bl = below[i, j, c]
-                d = t * (colour[c] - bl)
-                p = t * bl + above[i, j, c]
-                dd += d * d
-                dr += d * (target[i, j, c] - p)
-            other = total[i, j] - alpha[i, j]
-            deg = (min(i + 1, h - 1) - max(i - 1, 0) + 1) * (min(j + 1, w - 1) - max(j - 1, 0) + 1) - 1
-            num = g_data * dr + g_sparse * (1.0 - other)
-            den = g_data * dd + g_sparse + two_s * deg
-            if den > 0.0:
-                # Exact 1-D minimiser (num + 2 g_smooth nb) / den, over-relaxed.
-                base[i, j] = omega * num / den
-                gain[i, j] = omega * two_s / den
-            else:
-                # No term depends on this pixel: the step maps it onto itself.
-                base[i, j] = omega * alpha[i, j]
-                gain[i, j] = 0.0
+    _step_coefficients(
+        target, below, trans, above, colour, alpha, total, g_data, g_smooth, g_sparse, omega, base, gain
+    )
     nti = (h + TILE - 1) // TILE
     ntj = (w + TILE - 1) // TILE
     active = np.ones((nti, ntj), dtype=np.bool_)
@@ -300,18 +279,57 @@ def solve_layer(
                     )
                 else:
                     moved[ti, tj] = 0.0
-        any_active = False
-        for ti in range(nti):
-            for tj in range(ntj):
-                m = 0.0
-                for a in range(max(ti - 1, 0), min(ti + 1, nti - 1) + 1):
-                    for b in range(max(tj - 1, 0), min(tj + 1, ntj - 1) + 1):
-                        m = max(m, moved[a, b])
-                active[ti, tj] = m > tol
-                any_active = any_active or m > tol
-        if not any_active:
+        if not _update_active(moved, active, tol):
             break
     return sweeps
+
+
+@numba.njit(cache=True)
+def _step_coefficients(
+    target, below, trans, above, colour, alpha, total, g_data, g_smooth, g_sparse, omega, base, gain
+):
+    """Fill ``base`` and ``gain`` of every pixel's over-relaxed exact step (see :func:`_sweep_tile`)."""
+    h, w = alpha.shape
+    two_s = 2.0 * g_smooth
+    for i in range(h):
+        for j in range(w):
+            t = trans[i, j]
+            dd = 0.0
+            dr = 0.0
+            for c in range(3):
+                bl = below[i, j, c]
+                d = t * (colour[c] - bl)
+                p = t * bl + above[i, j, c]
+                dd += d * d
+                dr += d * (target[i, j, c] - p)
+            other = total[i, j] - alpha[i, j]
+            deg = (min(i + 1, h - 1) - max(i - 1, 0) + 1) * (min(j + 1, w - 1) - max(j - 1, 0) + 1) - 1
+            num = g_data * dr + g_sparse * (1.0 - other)
+            den = g_data * dd + g_sparse + two_s * deg
+            if den > 0.0:
+                # Exact 1-D minimiser (num + 2 g_smooth nb) / den, over-relaxed.
+                base[i, j] = omega * num / den
+                gain[i, j] = omega * two_s / den
+            else:
+                # No term depends on this pixel: the step maps it onto itself.
+                base[i, j] = omega * alpha[i, j]
+                gain[i, j] = 0.0
+
+
+@numba.njit(cache=True)
+def _update_active(moved, active, tol):
+    """Mark the tiles to sweep again (one of the 3 x 3 around moved by more than ``tol``); True if any."""
+    nti, ntj = moved.shape
+    any_active = False
+    for ti in range(nti):
+        for tj in range(ntj):
+            m = 0.0
+            for a in range(max(ti - 1, 0), min(ti + 1, nti - 1) + 1):
+                for b in range(max(tj - 1, 0), min(tj + 1, ntj - 1) + 1):
+                    m = max(m, moved[a, b])
+            active[ti, tj] = m > tol
+            any_active = any_active or m > tol
+    return any_active
 
 
 @numba.njit(cache=True)

@@ -104,6 +104,64 @@ def colour_step(state: State) -> None:
         state.colours = new[1:].copy()
 
 
+def _layer_steps(state: State, s: SolverSettings, trans, above, below, old) -> None:
+    """Solve every layer's opacity in turn, bottom up, the others fixed (scratch arrays given)."""
+    n_layers = state.alphas.shape[0]
+    en.suffix_products(state.colours, state.alphas, trans, above)
+    below[...] = state.primer
+    total = state.alphas.sum(axis=0)
+    for layer in range(n_layers):
+        alpha = state.alphas[layer]
+        old[...] = alpha
+        sweeps = en.solve_layer(
+            state.target,
+            below,
+            trans[layer],
+            above[layer],
+            state.colours[layer],
+            alpha,
+            total,
+            s.g_data,
+            s.g_smooth,
+            s.g_sparse,
+            en.SOR_OMEGA,
+            s.inner_tolerance,
+            s.inner_max_sweeps,
+        )
+        state.sweeps.append(int(sweeps))
+        en.finish_layer(below, total, state.colours[layer], alpha, old)
+
+
+def _extrapolated(
+    state: State,
+    s: SolverSettings,
+    e: float,
+    beta: float,
+    prev_alphas,
+    prev_primer,
+    prev_colours,
+    trial_alphas,
+):
+    """Try the step extrapolated by ``beta`` from the previous state; keep it if it lowers ``e``.
+
+    Returns:
+        ``(energy, next beta, scratch array for the next trial)``.
+    """
+    en.extrapolate(state.alphas, prev_alphas, beta, trial_alphas)
+    primer = np.clip(state.primer + beta * (state.primer - prev_primer), 0.0, 1.0)
+    colours = np.clip(state.colours + beta * (state.colours - prev_colours), 0.0, 1.0)
+    # Fixed colours must not move.
+    primer = np.where(state.free[0], primer, state.primer)
+    colours = np.ascontiguousarray(np.where(state.free[1:, None], colours, state.colours))
+    data, smooth, sparse = en.energy_terms(state.target, primer, colours, trial_alphas)
+    e_trial = s.g_data * data + s.g_smooth * smooth + s.g_sparse * sparse
+    if e_trial < e:
+        state.alphas, trial_alphas = trial_alphas, state.alphas
+        state.primer, state.colours = primer, colours
+        return e_trial, min(beta * 1.5, _BETA_MAX), trial_alphas
+    return e, max(beta * 0.5, _BETA_MIN), trial_alphas
+
+
 def iterate(
     state: State,
     s: SolverSettings,
@@ -146,47 +204,13 @@ def iterate(
         prev_alphas[...] = state.alphas
         prev_primer, prev_colours = state.primer.copy(), state.colours.copy()
         state.colours = np.ascontiguousarray(state.colours)
-        en.suffix_products(state.colours, state.alphas, trans, above)
-        below[...] = state.primer
-        total = state.alphas.sum(axis=0)
-        for layer in range(n_layers):
-            alpha = state.alphas[layer]
-            old[...] = alpha
-            sweeps = en.solve_layer(
-                state.target,
-                below,
-                trans[layer],
-                above[layer],
-                state.colours[layer],
-                alpha,
-                total,
-                s.g_data,
-                s.g_smooth,
-                s.g_sparse,
-                en.SOR_OMEGA,
-                s.inner_tolerance,
-                s.inner_max_sweeps,
-            )
-            state.sweeps.append(int(sweeps))
-            en.finish_layer(below, total, state.colours[layer], alpha, old)
+        _layer_steps(state, s, trans, above, below, old)
         colour_step(state)
         e = total_energy(state, s)
         if extrapolate:
-            en.extrapolate(state.alphas, prev_alphas, beta, trial_alphas)
-            primer = np.clip(state.primer + beta * (state.primer - prev_primer), 0.0, 1.0)
-            colours = np.clip(state.colours + beta * (state.colours - prev_colours), 0.0, 1.0)
-            # Fixed colours must not move.
-            primer = np.where(state.free[0], primer, state.primer)
-            colours = np.ascontiguousarray(np.where(state.free[1:, None], colours, state.colours))
-            data, smooth, sparse = en.energy_terms(state.target, primer, colours, trial_alphas)
-            e_trial = s.g_data * data + s.g_smooth * smooth + s.g_sparse * sparse
-            if e_trial < e:
-                state.alphas, trial_alphas = trial_alphas, state.alphas
-                state.primer, state.colours = primer, colours
-                e = e_trial
-                beta = min(beta * 1.5, _BETA_MAX)
-            else:
-                beta = max(beta * 0.5, _BETA_MIN)
+            e, beta, trial_alphas = _extrapolated(
+                state, s, e, beta, prev_alphas, prev_primer, prev_colours, trial_alphas
+            )
         state.trace.append(e)
         if progress is not None:
             progress(e)

@@ -264,6 +264,80 @@ def _add_score(doc, st: DxfStencil, shift: np.ndarray) -> int:
     return len(score)
 
 
+def _shifts(extents: list, arrange: str, gap_mm: float) -> list[np.ndarray]:
+    """Per-stencil shift into the +X/+Y quadrant: stacked stencils share one shift so they register."""
+    shifts = []
+    if arrange == "stack":
+        lo = np.min([e[0] for e in extents], axis=0)
+        shifts = [-lo] * len(extents)
+    else:
+        x = 0.0
+        for lo, hi in extents:
+            shifts.append(np.array([x - lo[0], -lo[1]]))
+            x += (hi[0] - lo[0]) + gap_mm
+    return shifts
+
+
+def _draw(doc, stencils: Sequence[DxfStencil], prepared: list, shifts: list, extents: list):
+    """Draw every stencil on a layer of its own; the first circle of each stands for all of them.
+
+    Returns:
+        ``(circles, polylines, score polylines)`` per stencil, the circle templates
+        ``(handle, layer, circles)`` and the drawing's extent ``(lo, hi)``.
+    """
+    msp = doc.modelspace()
+    counts_c, counts_p, scored = [], [], []
+    templates: list[tuple[str, str, np.ndarray]] = []
+    all_lo, all_hi = np.full(2, np.inf), np.full(2, -np.inf)
+    for i, (st, (outline, circles, rings), shift, (lo, hi)) in enumerate(
+        zip(stencils, prepared, shifts, extents, strict=True)
+    ):
+        doc.layers.add(st.layer_name, color=CUT_COLOURS[i % len(CUT_COLOURS)])
+        attribs = {"layer": st.layer_name}
+        # The label first: a laser that works in file order scores it while the sheet is still whole.
+        scored.append(_add_score(doc, st, shift))
+        if len(circles):
+            moved = circles.copy()
+            moved[:, :2] += shift
+            # ezdxf spends ~0.4 ms per entity (create + export); only the first circle of a
+            # layer is made by ezdxf, as a template whose text is replaced after writing.
+            first = msp.add_circle(tuple(moved[0, :2].tolist()), float(moved[0, 2]), dxfattribs=attribs)
+            templates.append((first.dxf.handle, st.layer_name, moved))
+        for ring in rings:
+            msp.add_lwpolyline((ring + shift).tolist(), format="xy", close=True, dxfattribs=attribs)
+        msp.add_lwpolyline((outline + shift).tolist(), format="xy", close=True, dxfattribs=attribs)
+        counts_c.append(len(circles))
+        counts_p.append(len(rings) + 1)
+        all_lo, all_hi = np.minimum(all_lo, lo + shift), np.maximum(all_hi, hi + shift)
+    return counts_c, counts_p, scored, templates, all_lo, all_hi
+
+
+def _text_with_circles(doc, templates: list[tuple[str, str, np.ndarray]], deterministic: bool) -> str:
+    """The document's DXF text, each template circle replaced by its layer's every circle."""
+    owner = doc.modelspace().layout_key
+    handles = doc.entitydb.handles
+    blocks = {}
+    for handle, layer, moved in templates:
+        start = int(str(handles), 16)
+        # The template keeps its handle; the others take fresh ones, reserved by advancing
+        # the generator so that $HANDSEED stays above every handle in the file.
+        hs = [int(handle, 16)] + list(range(start, start + len(moved) - 1))
+        handles.reset("%X" % (start + len(moved) - 1))
+        blocks[handle] = _circle_text(hs, owner, layer, moved)
+    stream = io.StringIO()
+    if deterministic:
+        _sorted_classes(doc)
+    with _fixed_metadata(deterministic):
+        doc.write(stream)
+    text = stream.getvalue()
+    for handle, block in blocks.items():
+        head = f"  0\nCIRCLE\n  5\n{handle}\n"
+        i = text.index(head)
+        j = text.index("\n  0\n", i + len(head)) + 1
+        text = text[:i] + block + text[j:]
+    return text
+
+
 def write_dxf_stencils(
     path: str | Path,
     stencils: Sequence[DxfStencil],
@@ -301,45 +375,13 @@ def write_dxf_stencils(
         raise ValueError(f"layer names must differ (DXF layer names ignore case), got {names}")
     prepared = [_prepare(s, kerf_mm) for s in stencils]
     extents = [_extent(*p) for p in prepared]
-    # Per-stencil shift: stacked stencils share one shift so they register.
-    shifts = []
-    if arrange == "stack":
-        lo = np.min([e[0] for e in extents], axis=0)
-        shifts = [-lo] * len(stencils)
-    else:
-        x = 0.0
-        for lo, hi in extents:
-            shifts.append(np.array([x - lo[0], -lo[1]]))
-            x += (hi[0] - lo[0]) + gap_mm
+    shifts = _shifts(extents, arrange, gap_mm)
 
     with _fixed_metadata(deterministic):  # ezdxf stamps its creation time in new()
         doc = ezdxf.new(DXF_VERSION, setup=False, units=units.MM)
     doc.header["$MEASUREMENT"] = 1
     doc.header["$LUNITS"] = 2
-    msp = doc.modelspace()
-    counts_c, counts_p, scored = [], [], []
-    templates: list[tuple[str, str, np.ndarray]] = []
-    all_lo, all_hi = np.full(2, np.inf), np.full(2, -np.inf)
-    for i, (st, (outline, circles, rings), shift, (lo, hi)) in enumerate(
-        zip(stencils, prepared, shifts, extents, strict=True)
-    ):
-        doc.layers.add(st.layer_name, color=CUT_COLOURS[i % len(CUT_COLOURS)])
-        attribs = {"layer": st.layer_name}
-        # The label first: a laser that works in file order scores it while the sheet is still whole.
-        scored.append(_add_score(doc, st, shift))
-        if len(circles):
-            moved = circles.copy()
-            moved[:, :2] += shift
-            # ezdxf spends ~0.4 ms per entity (create + export); only the first circle of a
-            # layer is made by ezdxf, as a template whose text is replaced after writing.
-            first = msp.add_circle(tuple(moved[0, :2].tolist()), float(moved[0, 2]), dxfattribs=attribs)
-            templates.append((first.dxf.handle, st.layer_name, moved))
-        for ring in rings:
-            msp.add_lwpolyline((ring + shift).tolist(), format="xy", close=True, dxfattribs=attribs)
-        msp.add_lwpolyline((outline + shift).tolist(), format="xy", close=True, dxfattribs=attribs)
-        counts_c.append(len(circles))
-        counts_p.append(len(rings) + 1)
-        all_lo, all_hi = np.minimum(all_lo, lo + shift), np.maximum(all_hi, hi + shift)
+    counts_c, counts_p, scored, templates, all_lo, all_hi = _draw(doc, stencils, prepared, shifts, extents)
 
     offset = (float(shifts[0][0]), float(shifts[0][1]))
     doc.header.custom_vars.append("STENCIL_OFFSET_X_MM", repr(offset[0]))
@@ -347,27 +389,7 @@ def write_dxf_stencils(
     doc.header.custom_vars.append("STENCIL_KERF_MM", repr(float(kerf_mm)))
     doc.header["$EXTMIN"] = (float(all_lo[0]), float(all_lo[1]), 0.0)
     doc.header["$EXTMAX"] = (float(all_hi[0]), float(all_hi[1]), 0.0)
-    owner = msp.layout_key
-    handles = doc.entitydb.handles
-    blocks = {}
-    for handle, layer, moved in templates:
-        start = int(str(handles), 16)
-        # The template keeps its handle; the others take fresh ones, reserved by advancing
-        # the generator so that $HANDSEED stays above every handle in the file.
-        hs = [int(handle, 16)] + list(range(start, start + len(moved) - 1))
-        handles.reset("%X" % (start + len(moved) - 1))
-        blocks[handle] = _circle_text(hs, owner, layer, moved)
-    stream = io.StringIO()
-    if deterministic:
-        _sorted_classes(doc)
-    with _fixed_metadata(deterministic):
-        doc.write(stream)
-    text = stream.getvalue()
-    for handle, block in blocks.items():
-        head = f"  0\nCIRCLE\n  5\n{handle}\n"
-        i = text.index(head)
-        j = text.index("\n  0\n", i + len(head)) + 1
-        text = text[:i] + block + text[j:]
+    text = _text_with_circles(doc, templates, deterministic)
     Path(path).write_bytes(doc.encode(text))
     info = DxfInfo(
         path=str(path),

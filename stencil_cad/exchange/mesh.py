@@ -36,7 +36,6 @@ the tolerance of the true circle on both sides.
 from __future__ import annotations
 
 import io
-import logging
 import os
 import re
 import struct
@@ -44,14 +43,10 @@ import zipfile
 from pathlib import Path
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
-from scipy.spatial import Delaunay
 
 from ..geometry import as_ccw, as_cw, genus, index_triangles
 from ..model import PlateGeometry, TriMesh
-
-log = logging.getLogger(__name__)
+from .triangulation import MeshError, _gabriel, _ring_edges, _triangulate
 
 __all__ = [
     "MeshError",
@@ -69,15 +64,9 @@ __all__ = [
 #: length, so almost no ring edge has to be recovered.
 MAX_RING_EDGE_MM = 1.0
 
-#: Rounds of midpoint insertion to recover ring edges missing from the triangulation.
-MAX_RECOVERY_ROUNDS = 12
 
 #: Fewest and most sides of a hole polygon.
 MIN_SIDES, MAX_SIDES = 8, 512
-
-
-class MeshError(RuntimeError):
-    """The mesher could not produce a closed, consistently wound mesh."""
 
 
 # ----------------------------------------------------------------------------- rings
@@ -135,165 +124,6 @@ def _subdivide(ring: np.ndarray, max_len: float) -> np.ndarray:
     return ring[e] + t[:, None] * (nxt[e] - ring[e])
 
 
-# ----------------------------------------------------------------------------- triangulation
-
-
-def _ring_edges(ring_id: np.ndarray) -> np.ndarray:
-    """Index of the next vertex of each vertex in flat rings (rings contiguous)."""
-    n = len(ring_id)
-    idx = np.arange(n)
-    nxt = idx + 1
-    last = np.flatnonzero(np.r_[ring_id[1:] != ring_id[:-1], True])
-    first = np.r_[0, last[:-1] + 1]
-    nxt[last] = first
-    return nxt
-
-
-def _member(keys: np.ndarray, sorted_keys: np.ndarray) -> np.ndarray:
-    """``np.isin`` for a sorted haystack (binary search; np.isin re-sorts both sides)."""
-    if len(sorted_keys) == 0:
-        return np.zeros(len(keys), dtype=bool)
-    pos = np.minimum(np.searchsorted(sorted_keys, keys), len(sorted_keys) - 1)
-    return sorted_keys[pos] == keys
-
-
-def _split(points, ring_id, left, right, split):
-    """Insert the midpoint of each ring edge flagged in ``split`` (same straight edge)."""
-    nxt = _ring_edges(ring_id)
-    reps = np.where(split, 2, 1)
-    new_pts = np.repeat(points, reps, axis=0)
-    pos = np.cumsum(reps) - 1
-    new_pts[pos[split]] = 0.5 * (points[split] + points[nxt[split]])
-    return new_pts, np.repeat(ring_id, reps), np.repeat(left, reps), np.repeat(right, reps)
-
-
-def _gabriel(points, ring_id, left, right, extra, rounds: int = 8, neighbours_count: bool = True):
-    """Split ring edges until no other vertex lies in any edge's diametral disc.
-
-    An edge whose diametral disc holds no other vertex (a Gabriel edge) is an edge
-    of every Delaunay triangulation of the set, so after this pass the
-    triangulation contains every ring edge without recovery rounds (each of
-    which would cost a whole triangulation). Found with a k-d tree: a vertex
-    inside the disc is nearer the edge's midpoint than its two end points are.
-    """
-    from scipy.spatial import cKDTree
-
-    for _ in range(rounds):
-        nxt = _ring_edges(ring_id)
-        allp = np.concatenate([points, extra]) if len(extra) else points
-        mid = 0.5 * (points + points[nxt])
-        half = 0.5 * np.linalg.norm(points[nxt] - points, axis=1)
-        dist, idx = cKDTree(allp).query(mid, k=3 if neighbours_count else 5)
-        prev = np.empty_like(nxt)
-        prev[nxt] = np.arange(len(points))
-        # Letters have sharp corners, where a ring's own neighbours sit inside the disc and
-        # splitting would never end; there the neighbours do not count (recovery catches the rest).
-        own = (idx == np.arange(len(points))[:, None]) | (idx == nxt[:, None])
-        if not neighbours_count:
-            own |= (idx == prev[:, None]) | (idx == nxt[nxt][:, None])
-        bad = ((dist < half[:, None] * (1.0 - 1e-9)) & ~own).any(axis=1)
-        if not bad.any():
-            break
-        points, ring_id, left, right = _split(points, ring_id, left, right, bad)
-    return points, ring_id, left, right
-
-
-def _triangulate(
-    points: np.ndarray, ring_id: np.ndarray, left: np.ndarray, right: np.ndarray, extra: np.ndarray
-):
-    """Constrained triangulation of flat rings, with a region label per triangle.
-
-    Args:
-        points: ``(P, 2)`` ring vertices, each ring contiguous.
-        ring_id: ``(P,)`` ring of each vertex.
-        left: ``(P,)`` label of the region on the left of the edge leaving each vertex.
-        right: ``(P,)`` label of the region on its right.
-        extra: ``(Q, 2)`` extra vertices (hole centres), on no ring.
-
-    Returns:
-        ``(points, ring_id, left, right, tris, labels)`` after edge recovery:
-        ``tris`` ``(T, 3)`` counter-clockwise into ``points ++ extra``; ``labels``
-        ``(T,)`` the region label of each triangle (0 where no ring bounds it).
-
-    Raises:
-        MeshError: When ring edges cannot be recovered, or a region sees two labels
-            (rings that cross or overlap).
-    """
-    for rounds in range(MAX_RECOVERY_ROUNDS + 1):
-        n_ring = len(points)
-        allp = np.concatenate([points, extra]) if len(extra) else points
-        nv = len(allp)
-        tri = Delaunay(allp).simplices.astype(np.int64)
-        a, b, c = allp[tri[:, 0]], allp[tri[:, 1]], allp[tri[:, 2]]
-        cross = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-        flip = cross < 0
-        tri[flip] = tri[flip][:, [0, 2, 1]]
-        tri = tri[cross != 0]
-
-        nxt = _ring_edges(ring_id)
-        src = np.arange(n_ring)
-        ckey = src * nv + nxt  # directed ring edges
-        ukey = np.minimum(src, nxt) * nv + np.maximum(src, nxt)
-        e0 = tri.reshape(-1)
-        e1 = tri[:, [1, 2, 0]].reshape(-1)
-        tkey_u = np.minimum(e0, e1) * nv + np.maximum(e0, e1)
-        tsorted = np.sort(tkey_u)
-        present = _member(ukey, tsorted)
-        if present.all():
-            break
-        if rounds == MAX_RECOVERY_ROUNDS:
-            miss = np.flatnonzero(~present)[:5]
-            raise MeshError(
-                f"{int((~present).sum())} ring edges still missing from the triangulation after "
-                f"{rounds} rounds; first at {[tuple(np.round(points[i], 4)) for i in miss]} mm"
-            )
-        # Split each missing edge at its midpoint (on the same straight edge, so the polygon
-        # does not change) and triangulate again: a conforming Delaunay triangulation.
-        points, ring_id, left, right = _split(points, ring_id, left, right, ~present)
-        split = ~present
-        log.debug("mesh: recovering %d ring edges (round %d)", int(split.sum()), rounds + 1)
-
-    # Which side of a ring edge each triangle lies on, hence its label.
-    order = np.argsort(ckey)
-    sk = ckey[order]
-
-    def lookup(keys):
-        pos = np.minimum(np.searchsorted(sk, keys), len(sk) - 1)
-        return sk[pos] == keys, order[pos]
-
-    tdir = e0 * nv + e1
-    trev = e1 * nv + e0
-    hit_l, which_l = lookup(tdir)  # the triangle is on the left of a ring edge
-    hit_r, which_r = lookup(trev)  # ... on its right
-    lab = np.full(len(tdir), -1, dtype=np.int64)
-    lab[hit_l] = left[which_l[hit_l]]
-    lab[hit_r] = right[which_r[hit_r]]
-
-    # Regions: triangles joined across edges that are not ring edges.
-    ntri = len(tri)
-    tid = np.repeat(np.arange(ntri), 3)
-    o = np.argsort(tkey_u, kind="stable")
-    ks = tkey_u[o]
-    same = np.flatnonzero(ks[1:] == ks[:-1])
-    same = same[~_member(ks[same], np.sort(ukey))]
-    t1, t2 = tid[o[same]], tid[o[same + 1]]
-    graph = coo_matrix((np.ones(len(t1), dtype=np.int8), (t1, t2)), shape=(ntri, ntri))
-    ncomp, comp = connected_components(graph, directed=False)
-    seen = lab >= 0
-    cmax = np.full(ncomp, -1, dtype=np.int64)
-    cmin = np.full(ncomp, np.iinfo(np.int64).max, dtype=np.int64)
-    np.maximum.at(cmax, comp[tid[seen]], lab[seen])
-    np.minimum.at(cmin, comp[tid[seen]], lab[seen])
-    clash = (cmax >= 0) & (cmin != cmax)
-    if clash.any():
-        raise MeshError(
-            f"{int(clash.sum())} triangle regions touch rings from both sides: rings cross or overlap "
-            "(holes overlapping each other, the outline or the label)"
-        )
-    labels = np.where(cmax >= 0, cmax, 0)[comp]
-    return points, ring_id, left, right, tri, labels
-
-
 def _walls(bottom: np.ndarray, top: np.ndarray, ring_id: np.ndarray) -> np.ndarray:
     """Side triangles between two copies of flat rings (material on the left), facing out."""
     nxt = _ring_edges(ring_id)
@@ -311,6 +141,78 @@ def _flat(rings: list[np.ndarray], lr: list[tuple[int, int]]):
     left = np.repeat([a for a, _ in lr], [len(r) for r in rings]).astype(np.int64)
     right = np.repeat([b for _, b in lr], [len(r) for r in rings]).astype(np.int64)
     return pts, rid, left, right
+
+
+def _sheet_rings(geom: PlateGeometry, relief: float) -> tuple[list[np.ndarray], list[tuple[int, int]]]:
+    """The sheet's fixed rings (outline, cut-outs, the label box with a relief) and their side labels.
+
+    Raises:
+        MeshError: When the letters reach outside the label box.
+    """
+    rings: list[np.ndarray] = [_subdivide(as_ccw(geom.outline), MAX_RING_EDGE_MM)]
+    lr: list[tuple[int, int]] = [(SHEET, VOID)]
+    for poly in geom.polygons:
+        rings.append(_subdivide(as_cw(np.asarray(poly, dtype=np.float64)), MAX_RING_EDGE_MM))
+        lr.append((SHEET, VOID))
+    if relief != 0.0 and geom.label_box is not None:
+        x0, y0, x1, y1 = geom.label_box
+        gpts = np.concatenate([np.asarray(o) for o, _ in geom.glyphs])
+        clear = min(
+            gpts[:, 0].min() - x0, x1 - gpts[:, 0].max(), gpts[:, 1].min() - y0, y1 - gpts[:, 1].max()
+        )
+        if clear <= 0:
+            raise MeshError(f"the label's letters reach outside the label box (clearance {clear:.3f} mm)")
+        box = np.array([[x0, y0], [x0, y1], [x1, y1], [x1, y0]], dtype=np.float64)  # clockwise
+        rings.append(_subdivide(box, min(MAX_RING_EDGE_MM, clear)))
+        lr.append((SHEET, BOX))
+    return rings, lr
+
+
+def _add_label(
+    geom: PlateGeometry,
+    points: np.ndarray,
+    right: np.ndarray,
+    nvp: int,
+    t: float,
+    relief: float,
+    layers: list[np.ndarray],
+    faces: list[np.ndarray],
+) -> int:
+    """Triangulate the letters inside the label box; add their vertex layers and faces. Returns their points.
+
+    Raises:
+        MeshError: When the box's edges were split inside the label (letters too close to the box).
+    """
+    bidx = np.flatnonzero(right == BOX)[::-1]  # the box ring after any splits, now counter-clockwise
+    grings: list[np.ndarray] = [points[bidx]]
+    glr: list[tuple[int, int]] = [(SHEET, VOID)]
+    for outer, inner in geom.glyphs:
+        grings.append(as_ccw(np.asarray(outer, dtype=np.float64)))
+        glr.append((GLYPH, SHEET))
+        for i in inner:
+            grings.append(as_cw(np.asarray(i, dtype=np.float64)))
+            glr.append((GLYPH, SHEET))
+    gp, grid, gl, gr = _flat(grings, glr)
+    nb = len(bidx)
+    gp, grid, gl, gr = _gabriel(gp, grid, gl, gr, np.zeros((0, 2)), neighbours_count=False)
+    gp, grid, gl, gr, gtri, glab = _triangulate(gp, grid, gl, gr, np.zeros((0, 2)))
+    if int((grid == 0).sum()) != nb:
+        raise MeshError("the label box's edges were split inside the label; letters too close to the box")
+    ng = len(gp)
+    base = 2 * nvp
+    # Ids: the box ring maps onto the sheet's top; glyph points get a top and a far layer.
+    top_id = np.concatenate([bidx + nvp, base + np.arange(nb, ng)])
+    far_id = np.concatenate([bidx + nvp, base + ng + np.arange(nb, ng)])
+    layers.append(np.column_stack([gp, np.full(ng, t)]))
+    layers.append(np.column_stack([gp, np.full(ng, t + relief)]))
+    faces.append(top_id[gtri[glab == SHEET]])
+    faces.append(far_id[gtri[glab == GLYPH]])
+    g = np.flatnonzero(gl == GLYPH)
+    if relief > 0:  # emboss: the glyph is material, on the left of its rings
+        faces.append(_walls(top_id[g], far_id[g], grid[g]))
+    else:  # engrave: the sheet is on the right, so the wall runs from the floor up, reversed
+        faces.append(_walls(far_id[g], top_id[g], grid[g])[:, [0, 2, 1]])
+    return int(ng)
 
 
 def plate_mesh(geom: PlateGeometry, tolerance_mm: float = 0.02) -> TriMesh:
@@ -334,22 +236,7 @@ def plate_mesh(geom: PlateGeometry, tolerance_mm: float = 0.02) -> TriMesh:
     """
     t = float(geom.thickness_mm)
     relief = float(geom.relief_mm) if geom.glyphs and geom.label_box is not None else 0.0
-    rings: list[np.ndarray] = [_subdivide(as_ccw(geom.outline), MAX_RING_EDGE_MM)]
-    lr: list[tuple[int, int]] = [(SHEET, VOID)]
-    for poly in geom.polygons:
-        rings.append(_subdivide(as_cw(np.asarray(poly, dtype=np.float64)), MAX_RING_EDGE_MM))
-        lr.append((SHEET, VOID))
-    if relief != 0.0 and geom.label_box is not None:
-        x0, y0, x1, y1 = geom.label_box
-        gpts = np.concatenate([np.asarray(o) for o, _ in geom.glyphs])
-        clear = min(
-            gpts[:, 0].min() - x0, x1 - gpts[:, 0].max(), gpts[:, 1].min() - y0, y1 - gpts[:, 1].max()
-        )
-        if clear <= 0:
-            raise MeshError(f"the label's letters reach outside the label box (clearance {clear:.3f} mm)")
-        box = np.array([[x0, y0], [x0, y1], [x1, y1], [x1, y0]], dtype=np.float64)  # clockwise
-        rings.append(_subdivide(box, min(MAX_RING_EDGE_MM, clear)))
-        lr.append((SHEET, BOX))
+    rings, lr = _sheet_rings(geom, relief)
     nfixed = len(rings)
     points, rid, left, right = _flat(rings, lr)
     cxy = np.asarray(geom.circles_xy, dtype=np.float64).reshape(-1, 2)
@@ -377,36 +264,7 @@ def plate_mesh(geom: PlateGeometry, tolerance_mm: float = 0.02) -> TriMesh:
     }
 
     if relief != 0.0:
-        bidx = np.flatnonzero(right == BOX)[::-1]  # the box ring after any splits, now counter-clockwise
-        grings: list[np.ndarray] = [points[bidx]]
-        glr: list[tuple[int, int]] = [(SHEET, VOID)]
-        for outer, inner in geom.glyphs:
-            grings.append(as_ccw(np.asarray(outer, dtype=np.float64)))
-            glr.append((GLYPH, SHEET))
-            for i in inner:
-                grings.append(as_cw(np.asarray(i, dtype=np.float64)))
-                glr.append((GLYPH, SHEET))
-        gp, grid, gl, gr = _flat(grings, glr)
-        nb = len(bidx)
-        gp, grid, gl, gr = _gabriel(gp, grid, gl, gr, np.zeros((0, 2)), neighbours_count=False)
-        gp, grid, gl, gr, gtri, glab = _triangulate(gp, grid, gl, gr, np.zeros((0, 2)))
-        if int((grid == 0).sum()) != nb:
-            raise MeshError("the label box's edges were split inside the label; letters too close to the box")
-        ng = len(gp)
-        base = 2 * nvp
-        # Ids: the box ring maps onto the sheet's top; glyph points get a top and a far layer.
-        top_id = np.concatenate([bidx + nvp, base + np.arange(nb, ng)])
-        far_id = np.concatenate([bidx + nvp, base + ng + np.arange(nb, ng)])
-        layers.append(np.column_stack([gp, np.full(ng, t)]))
-        layers.append(np.column_stack([gp, np.full(ng, t + relief)]))
-        faces.append(top_id[gtri[glab == SHEET]])
-        faces.append(far_id[gtri[glab == GLYPH]])
-        g = np.flatnonzero(gl == GLYPH)
-        if relief > 0:  # emboss: the glyph is material, on the left of its rings
-            faces.append(_walls(top_id[g], far_id[g], grid[g]))
-        else:  # engrave: the sheet is on the right, so the wall runs from the floor up, reversed
-            faces.append(_walls(far_id[g], top_id[g], grid[g])[:, [0, 2, 1]])
-        info["label_points"] = int(ng)
+        info["label_points"] = _add_label(geom, points, right, nvp, t, relief, layers, faces)
     vertices = np.concatenate(layers)
     f = np.concatenate(faces).astype(np.int64)
     # Drop vertices no triangle uses (hole centres, unused layer copies) and renumber.

@@ -290,18 +290,13 @@ def _unit_context(w: _Step) -> int:
     )
 
 
-def step_text(geom: PlateGeometry, name: str = "stencil_plate") -> str:
-    """The STEP AP214 text of a plate description (one manifold solid, mm).
-
-    Args:
-        geom: The plate.
-        name: Product name in the file.
+def _write_head(w: _Step, safe: str) -> tuple[int, int, dict[str, Any]]:
+    """The product records and the solid's placement (#1 to #15 and -z).
 
     Returns:
-        The file's text.
+        ``(line of #10, line of #15, ids)``: #10 and #15 are filled in once the context and
+        the shell exist; ``ids`` holds the directions and a cache of z vectors.
     """
-    w = _Step()
-    safe = "".join(ch for ch in name if ch.isalnum() or ch in " _-.")[:60] or "stencil_plate"
     head = [
         "APPLICATION_PROTOCOL_DEFINITION('international standard','automotive_design',2000,#2)",
         "APPLICATION_CONTEXT('core data for automotive mechanical design processes')",
@@ -324,29 +319,23 @@ def step_text(geom: PlateGeometry, name: str = "stencil_plate") -> str:
     msb_line = len(w.lines)
     w.one("MANIFOLD_SOLID_BREP('',#SHELL)")  # 15
     dzn = w.one("DIRECTION('',(0.,0.,-1.))")
-    ids: dict[str, Any] = {"dz": dz, "dx": dx, "dzn": dzn, "vz": {}}
+    return rep_line, msb_line, {"dz": dz, "dx": dx, "dzn": dzn, "vz": {}}
 
-    t = float(geom.thickness_mm)
-    relief = float(geom.relief_mm) if geom.glyphs else 0.0
-    faces: list[int] = []
 
-    def vz(z0, z1):
-        key = (z0, z1)
-        if key not in ids["vz"]:
-            ids["vz"][key] = w.one(f"VECTOR('',#{dz},{_f([z1 - z0])[0]})")
-        return ids["vz"][key]
+def _vector_z(w: _Step, ids: dict[str, Any], z0: float, z1: float) -> int:
+    """The VECTOR from ``z0`` to ``z1`` along +z, written once per pair."""
+    key = (z0, z1)
+    if key not in ids["vz"]:
+        ids["vz"][key] = w.one(f"VECTOR('',#{ids['dz']},{_f([z1 - z0])[0]})")
+    return ids["vz"][key]
 
-    vz(0.0, t)
-    outline = as_ccw(geom.outline)
-    out_ring = _Ring(xy=np.asarray(outline, dtype=np.float64), z0=0.0, z1=t)
-    hole_rings = []
-    for p in geom.polygons:
-        p = np.asarray(p, dtype=np.float64)
-        hole_rings.append(_Ring(xy=as_cw(p), z0=0.0, z1=t))
-    glyph_rings = []  # (outer ring, [inner rings]) with the material on the left
+
+def _glyph_rings(w: _Step, ids: dict[str, Any], geom: PlateGeometry, relief: float, t: float) -> list:
+    """The letters' rings ``(outer, [inners])`` between the top and the relief, material on the left."""
+    glyph_rings: list = []
     if relief != 0.0:
         za, zb = (t + relief, t) if relief < 0 else (t, t + relief)
-        vz(za, zb)
+        _vector_z(w, ids, za, zb)
         for outer, inner in geom.glyphs:
             oc = np.asarray(outer, dtype=np.float64)
             oc = as_ccw(oc)
@@ -355,6 +344,34 @@ def step_text(geom: PlateGeometry, name: str = "stencil_plate") -> str:
             if relief < 0:  # engraved: the sheet is outside the glyph
                 oc, ic = oc[::-1], [i[::-1] for i in ic]
             glyph_rings.append((_Ring(xy=oc, z0=za, z1=zb), [_Ring(xy=i, z0=za, z1=zb) for i in ic]))
+    return glyph_rings
+
+
+def step_text(geom: PlateGeometry, name: str = "stencil_plate") -> str:
+    """The STEP AP214 text of a plate description (one manifold solid, mm).
+
+    Args:
+        geom: The plate.
+        name: Product name in the file.
+
+    Returns:
+        The file's text.
+    """
+    w = _Step()
+    safe = "".join(ch for ch in name if ch.isalnum() or ch in " _-.")[:60] or "stencil_plate"
+    rep_line, msb_line, ids = _write_head(w, safe)
+    dz = ids["dz"]
+    t = float(geom.thickness_mm)
+    relief = float(geom.relief_mm) if geom.glyphs else 0.0
+    faces: list[int] = []
+    _vector_z(w, ids, 0.0, t)
+    outline = as_ccw(geom.outline)
+    out_ring = _Ring(xy=np.asarray(outline, dtype=np.float64), z0=0.0, z1=t)
+    hole_rings = []
+    for p in geom.polygons:
+        p = np.asarray(p, dtype=np.float64)
+        hole_rings.append(_Ring(xy=as_cw(p), z0=0.0, z1=t))
+    glyph_rings = _glyph_rings(w, ids, geom, relief, t)
     all_poly = [out_ring, *hole_rings] + [r for g in glyph_rings for r in (g[0], *g[1])]
     _write_polygon_rings(w, all_poly, dz, faces)
     ceb, cet = _write_circle_rings(

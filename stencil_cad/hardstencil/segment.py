@@ -260,17 +260,7 @@ def segment(
         labels, m = merge_small_regions(labels, centres, min_px)
         merged += m
         if not fixed:
-            counts = np.bincount(labels.ravel(), minlength=centres.shape[0])
-            sums = np.stack(
-                [
-                    np.bincount(labels.ravel(), weights=lab[..., j].ravel(), minlength=len(centres))
-                    for j in range(3)
-                ],
-                1,
-            )
-            used = counts > 0
-            centres = centres.copy()
-            centres[used] = sums[used] / counts[used, None]
+            centres = _mean_colours(lab, labels, centres)
     energy = potts_energy(data_costs(lab, centres), labels, smoothness)
     present = np.flatnonzero(np.bincount(labels.ravel(), minlength=centres.shape[0]) > 0)
     if present.size < centres.shape[0]:
@@ -278,9 +268,7 @@ def segment(
             f"{centres.shape[0] - present.size} of {centres.shape[0]} colours vanished in the segmentation "
             f"(smoothness {smoothness}, smallest region {min_px:.0f} px); {present.size} remain"
         )
-    remap = np.full(centres.shape[0], -1, dtype=np.intp)
-    remap[present] = np.arange(present.size)
-    labels = remap[labels]
+    labels = _renumbered(labels, present, centres.shape[0])
     if fixed:
         colours = np.asarray(palette, dtype=np.float64).reshape(-1, 3)[present]
     else:
@@ -298,3 +286,23 @@ def segment(
     for msg in warnings:
         log.warning(msg)
     return labels, colours, report
+
+
+def _mean_colours(lab: np.ndarray, labels: np.ndarray, centres: np.ndarray) -> np.ndarray:
+    """Each used label's centre moved to the mean CIELAB colour of its pixels (unused ones kept)."""
+    counts = np.bincount(labels.ravel(), minlength=centres.shape[0])
+    sums = np.stack(
+        [np.bincount(labels.ravel(), weights=lab[..., j].ravel(), minlength=len(centres)) for j in range(3)],
+        1,
+    )
+    used = counts > 0
+    centres = centres.copy()
+    centres[used] = sums[used] / counts[used, None]
+    return centres
+
+
+def _renumbered(labels: np.ndarray, present: np.ndarray, n: int) -> np.ndarray:
+    """Labels renumbered ``0 .. len(present) - 1`` over the ``present`` ones of ``n``."""
+    remap = np.full(n, -1, dtype=np.intp)
+    remap[present] = np.arange(present.size)
+    return remap[labels]

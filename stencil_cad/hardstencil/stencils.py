@@ -17,7 +17,7 @@ from skimage.color import rgb2lab
 from ..colour import to_hex
 from ..config.hard import HardConfig, SprayOrder
 from ..model import CutLayer, Picture, composite
-from ..simulate.spray import spray_mask
+from ..simulate.opacity import spray_mask
 from .segment import hex_to_rgb
 from .segment import segment as segment_image
 from .topology import (
@@ -114,15 +114,7 @@ def make_hard_stencils(
             is not positive.
     """
     s = float(picture.mm_per_px)
-    if not (s > 0 and min_feature_mm > 0 and bridge_min_mm > 0):
-        raise ValueError(
-            f"mm_per_px, min_feature_mm and bridge_min_mm must be > 0, got {s}, {min_feature_mm}, {bridge_min_mm}"
-        )
-    bridge_mm = float(bridge_min_mm if cfg.bridge_width_mm is None else cfg.bridge_width_mm)
-    if bridge_mm < bridge_min_mm - 1e-9:
-        raise ValueError(
-            f"hard.bridge_width_mm must be ≥ the process minimum bridge width ({bridge_min_mm} mm), got {bridge_mm}"
-        )
+    bridge_mm = _bridge_width(s, min_feature_mm, bridge_min_mm, cfg)
     rgb = np.clip(np.asarray(picture.rgb, dtype=np.float64), 0.0, 1.0)
     h, w = rgb.shape[:2]
     min_px = max(cfg.min_region_mm2, min_feature_mm**2) / s**2
@@ -133,48 +125,16 @@ def make_hard_stencils(
     )
     warnings = list(seg["warnings"])
     t_segment = time.perf_counter() - t0
-    order = _spray_order(colours, cfg.order)
-    rank = np.empty_like(order)
-    rank[order] = np.arange(order.size)
-    palette = colours[order]
-    labels = rank[labels]
+    palette, labels = _in_spray_order(labels, colours, cfg.order)
     k = palette.shape[0]
-    transparent = 0
-    if picture.alpha is not None:
-        # Transparent parts of the image are left unpainted: they keep the primer.
-        clear = np.asarray(picture.alpha) < 0.5
-        transparent = int(np.count_nonzero(clear))
-        labels = np.where(clear, 0, labels)
+    labels, transparent = _primer_where_clear(labels, picture.alpha)
     if k < 2:
         warnings.append("only one colour is left: the primer alone, no cut layers")
 
     bridge_px = bridge_mm / s
-    pal_lab = rgb2lab(palette.reshape(1, -1, 3))[0]
-    painted = np.zeros((h, w), dtype=np.intp)
-    masks, layers, idx, per_layer = [], [], [], []
-    for j in range(1, k):
-        # Bridges cost little where a later layer covers them, else by how much they show.
-        visible_de = np.linalg.norm(pal_lab[painted] - pal_lab[j], axis=-1)
-        cost = np.where(labels > j, CHEAP, 1.0 + cfg.bridge_visibility_weight * visible_de / 100.0)
-        cut, rep, polys = _cut_layer(labels == j, labels > j, cost, cfg, s, min_feature_mm, bridge_mm)
-        rep["palette_index"] = j
-        if not cut.any():
-            warnings.append(
-                f"colour {j} ({to_hex(palette[j])}) has nothing left to cut; its layer is skipped"
-            )
-            per_layer.append(rep)
-            continue
-        pieces = (rep["sheet_components"], rep["robust_components"], rep["polygon_held_components"])
-        if pieces != (1, 1, 1):
-            warnings.append(
-                f"layer of colour {j}: the sheet is in {pieces[0]} pieces ({pieces[1]} bridge-wide on the "
-                f"raster, {pieces[2]} on the polygons); expected 1"
-            )
-        painted[cut] = j
-        masks.append(cut)
-        idx.append(j)
-        per_layer.append(rep)
-        layers.append(CutLayer(polygons=polys, colour=palette[j].copy(), report=rep))
+    painted, masks, layers, idx, per_layer = _cut_layers(
+        labels, palette, cfg, s, min_feature_mm, bridge_mm, warnings
+    )
 
     t_layers = time.perf_counter() - t0 - t_segment
     report = _report(
@@ -207,6 +167,87 @@ def make_hard_stencils(
         mm_per_px=s,
         report=report,
     )
+
+
+def _in_spray_order(labels: np.ndarray, colours: np.ndarray, mode) -> tuple[np.ndarray, np.ndarray]:
+    """The palette in spray order (the primer first) and the labels renumbered to it."""
+    order = _spray_order(colours, mode)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    return colours[order], rank[labels]
+
+
+def _primer_where_clear(labels: np.ndarray, alpha) -> tuple[np.ndarray, int]:
+    """Labels with the transparent parts (alpha below 0.5) left unpainted, and how many pixels they are."""
+    if alpha is None:
+        return labels, 0
+    # Transparent parts of the image are left unpainted: they keep the primer.
+    clear = np.asarray(alpha) < 0.5
+    return np.where(clear, 0, labels), int(np.count_nonzero(clear))
+
+
+def _bridge_width(s: float, min_feature_mm: float, bridge_min_mm: float, cfg: HardConfig) -> float:
+    """The bridge width in mm: ``hard.bridge_width_mm``, or the process minimum.
+
+    Raises:
+        ValueError: A size is not positive, or the width is below the process minimum.
+    """
+    if not (s > 0 and min_feature_mm > 0 and bridge_min_mm > 0):
+        raise ValueError(
+            f"mm_per_px, min_feature_mm and bridge_min_mm must be > 0, got {s}, {min_feature_mm}, {bridge_min_mm}"
+        )
+    bridge_mm = float(bridge_min_mm if cfg.bridge_width_mm is None else cfg.bridge_width_mm)
+    if bridge_mm < bridge_min_mm - 1e-9:
+        raise ValueError(
+            f"hard.bridge_width_mm must be ≥ the process minimum bridge width ({bridge_min_mm} mm), got {bridge_mm}"
+        )
+    return bridge_mm
+
+
+def _cut_layers(
+    labels: np.ndarray,
+    palette: np.ndarray,
+    cfg: HardConfig,
+    s: float,
+    min_feature_mm: float,
+    bridge_mm: float,
+    warnings: list[str],
+):
+    """One bridged cut layer per paint colour (the primer, colour 0, has none), bottom up.
+
+    Returns:
+        ``(painted, masks, layers, palette indices, per-layer reports)``; ``painted`` is the
+        colour each pixel ends up with. Warnings are appended to ``warnings``.
+    """
+    h, w = labels.shape
+    k = palette.shape[0]
+    pal_lab = rgb2lab(palette.reshape(1, -1, 3))[0]
+    painted = np.zeros((h, w), dtype=np.intp)
+    masks, layers, idx, per_layer = [], [], [], []
+    for j in range(1, k):
+        # Bridges cost little where a later layer covers them, else by how much they show.
+        visible_de = np.linalg.norm(pal_lab[painted] - pal_lab[j], axis=-1)
+        cost = np.where(labels > j, CHEAP, 1.0 + cfg.bridge_visibility_weight * visible_de / 100.0)
+        cut, rep, polys = _cut_layer(labels == j, labels > j, cost, cfg, s, min_feature_mm, bridge_mm)
+        rep["palette_index"] = j
+        if not cut.any():
+            warnings.append(
+                f"colour {j} ({to_hex(palette[j])}) has nothing left to cut; its layer is skipped"
+            )
+            per_layer.append(rep)
+            continue
+        pieces = (rep["sheet_components"], rep["robust_components"], rep["polygon_held_components"])
+        if pieces != (1, 1, 1):
+            warnings.append(
+                f"layer of colour {j}: the sheet is in {pieces[0]} pieces ({pieces[1]} bridge-wide on the "
+                f"raster, {pieces[2]} on the polygons); expected 1"
+            )
+        painted[cut] = j
+        masks.append(cut)
+        idx.append(j)
+        per_layer.append(rep)
+        layers.append(CutLayer(polygons=polys, colour=palette[j].copy(), report=rep))
+    return painted, masks, layers, idx, per_layer
 
 
 def _cut_layer(

@@ -187,6 +187,47 @@ def _bridges(
     return cut & ~strip, {"islands": n - 1, "bridges": int(tree.nnz), "bridge_px": carved}
 
 
+def _cut_later_islands(cut: np.ndarray, later_p: np.ndarray) -> tuple[np.ndarray, int]:
+    """Also cut the sheet islands made only of later colours; how many there were."""
+    sheet = ~cut
+    comp, n, main = _components(sheet)
+    keep = np.bincount(comp[sheet & ~later_p], minlength=n + 1) > 0
+    island = ~keep
+    island[0] = False
+    island[main] = False
+    return cut | island[comp], int(np.count_nonzero(island))
+
+
+def _widen_or_drop(cut: np.ndarray, fm: np.ndarray, min_feature_px: float, pad: int):
+    """Cut parts thinner than the feature disc ``fm``: widened along their skeleton when long enough, else dropped.
+
+    Returns:
+        ``(cut, regions widened, regions dropped, pixels trimmed)``.
+    """
+    before = cut
+    core = ndi.binary_opening(cut, fm)
+    thin = cut & ~core
+    widened_n = 0
+    wide = np.zeros_like(cut)
+    if thin.any():
+        tl, tn = ndi.label(thin, structure=EIGHT)
+        skel = skeletonize(thin)
+        slen = np.bincount(tl[skel], minlength=tn + 1)
+        widen = slen >= max(2.0, 2.0 * min_feature_px)
+        widen[0] = False
+        widened_n = int(np.count_nonzero(widen))
+        if widened_n:
+            wide = ndi.binary_dilation(skel & widen[tl], fm)
+            # Never into the frame: the plate around the picture stays whole.
+            wide[:pad] = wide[-pad:] = False
+            wide[:, :pad] = wide[:, -pad:] = False
+    cut = core | wide
+    rl, rn = ndi.label(before, structure=EIGHT)
+    survived = np.bincount(rl[cut & before], minlength=rn + 1) > 0
+    dropped = int(rn - np.count_nonzero(survived[1:]))
+    return cut, widened_n, dropped, int(np.count_nonzero(before & ~cut))
+
+
 def process_layer(
     own: np.ndarray,
     later: np.ndarray,
@@ -227,39 +268,11 @@ def process_layer(
 
     n_union = 0
     if union_cut:
-        sheet = ~cut
-        comp, n, main = _components(sheet)
-        keep = np.bincount(comp[sheet & ~later_p], minlength=n + 1) > 0
-        island = ~keep
-        island[0] = False
-        island[main] = False
-        n_union = int(np.count_nonzero(island))
-        cut = cut | island[comp]
+        cut, n_union = _cut_later_islands(cut, later_p)
     rep["islands_cut_as_later"] = n_union
-
-    before = cut
-    core = ndi.binary_opening(cut, fm)
-    thin = cut & ~core
-    widened_n = 0
-    wide = np.zeros_like(cut)
-    if thin.any():
-        tl, tn = ndi.label(thin, structure=EIGHT)
-        skel = skeletonize(thin)
-        slen = np.bincount(tl[skel], minlength=tn + 1)
-        widen = slen >= max(2.0, 2.0 * min_feature_px)
-        widen[0] = False
-        widened_n = int(np.count_nonzero(widen))
-        if widened_n:
-            wide = ndi.binary_dilation(skel & widen[tl], fm)
-            # Never into the frame: the plate around the picture stays whole.
-            wide[:pad] = wide[-pad:] = False
-            wide[:, :pad] = wide[:, -pad:] = False
-    cut = core | wide
-    rl, rn = ndi.label(before, structure=EIGHT)
-    survived = np.bincount(rl[cut & before], minlength=rn + 1) > 0
+    cut, widened_n, dropped_n, trimmed = _widen_or_drop(cut, fm, min_feature_px, pad)
     rep["regions_widened"] = widened_n
-    rep["regions_dropped"] = int(rn - np.count_nonzero(survived[1:]))
-    trimmed = int(np.count_nonzero(before & ~cut))
+    rep["regions_dropped"] = dropped_n
 
     # Bridging adds sheet, and new sheet can make new places where a disc fits that
     # touch the rest only through a narrower overlap; a further round bridges those too

@@ -6,19 +6,16 @@
 the result with the input and :mod:`.previews` draws the preview images.
 """
 
+from .opacity import dot_sigma_mm, spray_mask, spray_opacity, tail_tolerance
 from .previews import colour_map, dots_preview, sweep, sweep_panels
 from .scores import delta_e_map, score
 from .spray import (
     SimResult,
-    dot_sigma_mm,
     hole_kernels,
     layer_rmse,
     resample,
     sim_shape,
     simulate,
-    spray_mask,
-    spray_opacity,
-    tail_tolerance,
     target_on_grid,
 )
 from .tone import (

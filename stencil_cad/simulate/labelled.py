@@ -302,6 +302,22 @@ def plate_card(
     w = int(math.ceil((hi[0] - lo[0]) * px_per_mm))
     h = int(math.ceil((hi[1] - lo[1]) * px_per_mm))
 
+    plate, d = _canvas(w, h)
+    count = _draw_plate(
+        d, ring, lo, hi, px_per_mm, label_box, picture_mm, f"LAYER {layer}/{layers}  {paint_hex}", polygons
+    )
+    arr = np.asarray(plate).copy()
+    if circles_xy_r is not None and len(circles_xy_r):
+        arr, count = _with_holes(arr, circles_xy_r, lo, hi, px_per_mm, w, h)
+    what = "holes" if circles_xy_r is not None else "cut-outs"
+    title = f"Plate {layer:02d} of {layers:02d}" + (f"  ·  {job}" if job else "")
+    sub = f"paint {paint_hex}" + (f" ({paint_name})" if paint_name else "") + f"  ·  {count} {what}"
+    return np.asarray(_with_key(_panel(arr, title, sub, None), what, px_per_mm, w))
+
+
+def _draw_plate(d, ring, lo, hi, px_per_mm: float, label_box, picture_mm, label: str, polygons) -> int:
+    """Draw the plate, its label area and the picture's edge (and hard-mode cut-outs); how many cut-outs."""
+
     def to_px(pts: np.ndarray) -> list[tuple[float, float]]:
         p = np.asarray(pts, dtype=np.float64)
         return list(
@@ -312,7 +328,6 @@ def plate_card(
             )
         )
 
-    plate, d = _canvas(w, h)
     d.polygon(to_px(ring), fill=(236, 236, 236), outline=(60, 60, 60), width=2)
     x0, y0, x1, y1 = label_box
     d.rectangle(
@@ -324,7 +339,6 @@ def plate_card(
         ],
         outline=GREY,
     )
-    label = f"LAYER {layer}/{layers}  {paint_hex}"
     ls = max(int((y1 - y0) * px_per_mm * 0.6), 8)
     d.text(((x0 - lo[0]) * px_per_mm + 4, (hi[1] - y1) * px_per_mm + 1), label, font=font(ls), fill=GREY)
     pw, ph = picture_mm
@@ -344,23 +358,26 @@ def plate_card(
             for hole in holes:
                 d.polygon(to_px(np.asarray(hole)), fill=(236, 236, 236))
             count += 1
-    arr = np.asarray(plate).copy()
-    if circles_xy_r is not None and len(circles_xy_r):
-        from ..model import DotSet
-        from .previews import dots_preview
+    return count
 
-        c = np.asarray(circles_xy_r, dtype=np.float64).reshape(-1, 3)
-        holes = dots_preview(
-            DotSet(c[:, :2], c[:, 2]), w / px_per_mm, h / px_per_mm, px_per_mm, (lo[0], hi[1] - h / px_per_mm)
-        )
-        cover = (1.0 - holes.astype(np.float64) / 255.0)[..., None]
-        arr = (arr * (1.0 - cover) + np.array(INK) * cover).astype(np.uint8)
-        count = len(c)
-    what = "holes" if circles_xy_r is not None else "cut-outs"
-    title = f"Plate {layer:02d} of {layers:02d}" + (f"  ·  {job}" if job else "")
-    sub = f"paint {paint_hex}" + (f" ({paint_name})" if paint_name else "") + f"  ·  {count} {what}"
-    panel = _panel(arr, title, sub, None)
-    # Key under the plate: what the drawing shows, which way is up, the scale.
+
+def _with_holes(
+    arr: np.ndarray, circles_xy_r, lo, hi, px_per_mm: float, w: int, h: int
+) -> tuple[np.ndarray, int]:
+    """The plate drawing with its round holes in ink, and how many there are."""
+    from ..model import DotSet
+    from .previews import dots_preview
+
+    c = np.asarray(circles_xy_r, dtype=np.float64).reshape(-1, 3)
+    holes = dots_preview(
+        DotSet(c[:, :2], c[:, 2]), w / px_per_mm, h / px_per_mm, px_per_mm, (lo[0], hi[1] - h / px_per_mm)
+    )
+    cover = (1.0 - holes.astype(np.float64) / 255.0)[..., None]
+    return (arr * (1.0 - cover) + np.array(INK) * cover).astype(np.uint8), len(c)
+
+
+def _with_key(panel: Image.Image, what: str, px_per_mm: float, w: int) -> Image.Image:
+    """The panel with a key under it: what the drawing shows, which way is up, the scale."""
     key_lines = [
         "seen from the top, as it sits in the wall; picture edge = thin line",
         f"black = {'hole' if what == 'holes' else 'cut-out'} (paint passes), grey = plate; tabs = key (fits one way)",
@@ -378,7 +395,7 @@ def plate_card(
     dd.line([ax, y + 36, ax, y + 6], fill=INK, width=3)
     dd.polygon([(ax - 7, y + 12), (ax + 7, y + 12), (ax, y + 2)], fill=INK)
     dd.text((ax - 40, y + 14), "up", font=font(12), fill=INK)
-    return np.asarray(out)
+    return out
 
 
 def swatch_card(

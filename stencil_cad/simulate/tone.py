@@ -46,7 +46,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..config.spray import Calibrate, SprayConfig, SprayModel
-from .spray import hole_kernels, spray_opacity
+from .opacity import spray_opacity
+from .spray import hole_kernels
 
 log = logging.getLogger(__name__)
 
@@ -307,6 +308,43 @@ class ToneChoice:
         }
 
 
+def _sampled(a: np.ndarray, weight: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+    """The opacities (and weights) flat, every k-th pixel beyond 200,000.
+
+    Raises:
+        ValueError: ``weight`` has another pixel count than ``a``.
+    """
+    flat = a.ravel()
+    w = None if weight is None else np.asarray(weight, dtype=np.float64).ravel()
+    if w is not None and w.shape != flat.shape:
+        raise ValueError(f"weight has {w.size} pixels, alpha {flat.size}")
+    if flat.size > 200_000:
+        step = flat.size // 200_000 + 1
+        flat = flat[::step]
+        w = None if w is None else w[::step]
+    return flat, w
+
+
+def _spray_time_candidates(mode: Calibrate, cfg: SprayConfig) -> list[float]:
+    """The spray times (or passes, under the physical model) the calibrated choice compares."""
+    if mode == Calibrate.spray_time and cfg.model == SprayModel.physical:
+        # A hand sprays whole passes, at most spray.max_passes of them.
+        return [float(n) for n in range(1, cfg.max_passes + 1)]
+    if mode == Calibrate.spray_time:
+        return sorted({min(100.0, cfg.spray_time * f) for f in _A_FACTORS})
+    return [cfg.amount]
+
+
+def _expected_dots(
+    t_eff: np.ndarray, radius_mm: float, r1: float, web_mm: float, spacing_factor: float, mm_per_px: float
+) -> int:
+    """Holes the stippler will place for open-area fractions ``t_eff``."""
+    rho = packing_density(r1, web_mm, spacing_factor)
+    # Holes per pixel as the stippler counts them: lambda(t) = rho_pack t (r1 / r(t))^2.
+    r_of_t = radius_mm + (r1 - radius_mm) * np.sqrt(t_eff)
+    return int(round(rho * float((t_eff * (r1 / r_of_t) ** 2).sum()) * mm_per_px * mm_per_px))
+
+
 def choose_tone(
     alpha: np.ndarray,
     mm_per_px: float,
@@ -345,56 +383,39 @@ def choose_tone(
     """
     mode = Calibrate(cfg.calibrate if mode is None else mode)
     a = np.clip(np.nan_to_num(np.asarray(alpha, dtype=np.float64)), 0.0, 1.0)
-    flat = a.ravel()
-    w = None if weight is None else np.asarray(weight, dtype=np.float64).ravel()
-    if w is not None and w.shape != flat.shape:
-        raise ValueError(f"weight has {w.size} pixels, alpha {flat.size}")
-    if flat.size > 200_000:
-        step = flat.size // 200_000 + 1
-        flat = flat[::step]
-        w = None if w is None else w[::step]
+    flat, w = _sampled(a, weight)
     allowed = flat >= opacity_threshold
     r1 = radius_mm if max_radius_mm is None else float(max_radius_mm)
 
-    def curve(spray_time: float) -> ToneCurve:
-        return tone_response(
-            radius_mm,
-            web_mm,
-            cfg,
-            spray_time=spray_time,
-            max_radius_mm=r1,
-            spacing_factor=spacing_factor,
-            geometry=geometry,
-        )
+    curve = functools.partial(
+        tone_response,
+        radius_mm,
+        web_mm,
+        cfg,
+        max_radius_mm=r1,
+        spacing_factor=spacing_factor,
+        geometry=geometry,
+    )
 
     def mse(c: ToneCurve, t: np.ndarray, weighted: bool = False) -> float:
         return c.predicted_mse(flat, np.where(allowed, t, 0.0), w if weighted else None)
 
-    base = curve(cfg.amount)
+    base = curve(spray_time=cfg.amount)
     linear_mse = mse(base, flat)
     chosen: ToneCurve | None = None
     if mode == Calibrate.none:
         best_a, best_curve, best_mse, density = cfg.amount, base, linear_mse, a
     else:
-        candidates = [cfg.amount]
-        if mode == Calibrate.spray_time and cfg.model == SprayModel.physical:
-            # A hand sprays whole passes, at most spray.max_passes of them.
-            candidates = [float(n) for n in range(1, cfg.max_passes + 1)]
-        elif mode == Calibrate.spray_time:
-            candidates = sorted({min(100.0, cfg.spray_time * f) for f in _A_FACTORS})
         scored = []
-        for spray_time in candidates:
-            c = curve(spray_time)
+        for spray_time in _spray_time_candidates(mode, cfg):
+            c = curve(spray_time=spray_time)
             scored.append((mse(c, c.inverse(flat), weighted=True), spray_time, c))
         best_a, best_curve = min(scored, key=lambda s: s[0])[1:]
         best_mse = mse(best_curve, best_curve.inverse(flat))
         density = best_curve.inverse(a)
         chosen = best_curve
-    rho = packing_density(r1, web_mm, spacing_factor)
     t_eff = np.where(a >= opacity_threshold, density, 0.0)
-    # Holes per pixel as the stippler counts them: lambda(t) = rho_pack t (r1 / r(t))^2.
-    r_of_t = radius_mm + (r1 - radius_mm) * np.sqrt(t_eff)
-    n_dots = int(round(rho * float((t_eff * (r1 / r_of_t) ** 2).sum()) * mm_per_px * mm_per_px))
+    n_dots = _expected_dots(t_eff, radius_mm, r1, web_mm, spacing_factor, mm_per_px)
     return ToneChoice(
         density=density,
         spray_time=float(best_a),

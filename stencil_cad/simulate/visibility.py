@@ -17,8 +17,9 @@ from skimage.color import rgb2xyz, xyz2rgb
 
 from ..config.spray import SprayConfig
 from ..model import composite
+from .opacity import spray_opacity
 from .scielab import scielab
-from .spray import hole_kernels, spray_opacity
+from .spray import hole_kernels
 
 __all__ = ["VISIBLE_DE", "blend_distance_m"]
 

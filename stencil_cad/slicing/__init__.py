@@ -2,6 +2,7 @@
 
 from .gcode import GcodeEstimate, LayerPaths, hole_open_areas, layer_paths, read_estimate
 from .placement import Placement, place, rotated_copy
+from .plates import export_3mf_project, plate_project, slice_plate
 from .profiles import (
     PROFILES,
     WALL_SETTINGS,
@@ -13,29 +14,21 @@ from .profiles import (
     part_settings,
     templates_dir,
 )
+from .reports import MeshInfo, gcode_summary, output_problem, parse_info, parse_messages, sla_layer_count
 from .slicers import (
     ENV_CURA,
     ENV_CURA_DEFINITIONS,
     ENV_PRUSA,
-    MeshInfo,
     SliceResult,
     SlicerNotFoundError,
     bed_size,
     build_command,
     cura_environment,
-    export_3mf_project,
     find_cura_definitions,
     find_slicer,
-    gcode_summary,
     inspect_mesh,
-    output_problem,
-    parse_info,
-    parse_messages,
-    plate_project,
     remove_partial,
-    sla_layer_count,
     slice_file,
-    slice_plate,
     stl_footprint,
 )
 from .tiling import HOLES_PER_TILE, SEAM_CLEARANCE_MM, choose_seam, hole_boxes, split_into_tiles, tile_grid

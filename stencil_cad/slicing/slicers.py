@@ -9,7 +9,7 @@ Profiles (see :data:`PROFILES` and ``docs/printing.md``):
 
 * ``prusa_fdm`` — PrusaSlicer 2.5+, FDM, 0.3 mm layers, Arachne walls with
   the per-loop overhang detection and the seam ray-casting off; plates with
-  many holes are sliced as touching tiles (:func:`slice_plate`), which keeps
+  many holes are sliced as touching tiles (:func:`.plates.slice_plate`), which keeps
   the slicing time linear in the hole count.
 * ``prusa_sla`` — PrusaSlicer 2.5+, SLA/MSLA resin, 0.1 mm layers, no supports
   and no pad: the plate lies flat on the build plate.
@@ -23,22 +23,18 @@ import contextlib
 import json
 import logging
 import os
-import re
 import shutil
 import subprocess
 import time
-import zipfile
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..exchange.mesh import read_stl
-from ..geometry import mesh_genus
-from .placement import rotated_copy
 from .profiles import Profile, Slicer, Technology, get_profile, templates_dir
-from .tiling import HOLES_PER_TILE, split_into_tiles
+from .reports import MeshInfo, output_problem, parse_info, parse_messages
 
 log = logging.getLogger(__name__)
 
@@ -261,111 +257,6 @@ def cura_environment() -> dict[str, str]:
     return env
 
 
-# PrusaSlicer writes log lines as "[date] [thread] [level]   message"; errors also
-# come bare on stderr ("file.stl: Loading of a model file failed.").
-_LOG_LINE = re.compile(r"^\[[^\]]*\]\s*\[[^\]]*\]\s*\[(?P<level>\w+)\]\s*(?P<msg>.*)$")
-_BARE_ERROR = re.compile(r"\b(error|failed|cannot|can't|could not|invalid)\b", re.IGNORECASE)
-# Progress and result lines that are not messages.
-_IGNORED_BARE = re.compile(
-    r"^(\d+% =>|Slicing result exported|Resident memory|PrusaSlicer-|https?://|Usage:|"
-    r"Cura_SteamEngine|Copyright|This program|it under|the Free|\(at your|but WITHOUT|MERCHANTABILITY|"
-    r"GNU Affero|along with|Print time|Filament|End of gcode|Gcode header)"
-)
-_CURA_LINE = re.compile(r"^\[(?P<level>error|warning)\]\s*(?P<msg>.*)$", re.IGNORECASE)
-
-
-def parse_messages(text: str, returncode: int | None = 0) -> tuple[list[str], list[str]]:
-    """Split a slicer's console output into error and warning messages.
-
-    Understands PrusaSlicer's Boost log lines (``[error]``, ``[fatal]``,
-    ``[warning]``), PrusaSlicer's bare message lines (a failed run prints its
-    reason without a prefix, e.g. a config validation message) and
-    CuraEngine's ``[ERROR]`` / ``[WARNING]`` lines.
-
-    Args:
-        text: Combined stdout and stderr.
-        returncode: The slicer's exit status. When it is non-zero, every bare
-            line counts as an error; otherwise only bare lines that read like
-            an error (``failed``, ``error``, ``cannot`` ...). Defaults to 0.
-
-    Returns:
-        ``(errors, warnings)``, each a list of message strings in order.
-    """
-    errors: list[str] = []
-    warnings: list[str] = []
-    for raw in text.splitlines():
-        line = raw.strip()
-        if not line:
-            continue
-        m = _LOG_LINE.match(line) or _CURA_LINE.match(line)
-        if m:
-            level = m.group("level").lower()
-            if level in ("error", "fatal"):
-                errors.append(m.group("msg").strip())
-            elif level == "warning":
-                warnings.append(m.group("msg").strip())
-            continue
-        if line.startswith("[") or _IGNORED_BARE.match(line):
-            continue
-        if returncode not in (0, None) or _BARE_ERROR.search(line):
-            errors.append(line)
-    return errors, warnings
-
-
-@dataclass(frozen=True)
-class MeshInfo:
-    """What ``prusa-slicer --info`` reports about a mesh before repairing it.
-
-    Attributes:
-        facets: Number of triangles.
-        manifold: True when PrusaSlicer found no open edges.
-        parts: Number of connected shells (one per plate).
-        volume_mm3: Enclosed volume in mm³.
-        size_mm: ``(x, y, z)`` bounding-box size in mm.
-        open_edges: Open edges reported (0 for a closed mesh).
-        raw: Every ``key = value`` pair as printed.
-    """
-
-    facets: int
-    manifold: bool
-    parts: int
-    volume_mm3: float
-    size_mm: tuple[float, float, float]
-    open_edges: int = 0
-    raw: dict[str, str] = field(default_factory=dict)
-
-
-def parse_info(text: str) -> MeshInfo:
-    """Parse the ``key = value`` block that ``prusa-slicer --info`` prints.
-
-    Raises:
-        ValueError: When the text holds no ``number_of_facets``.
-    """
-    raw: dict[str, str] = {}
-    for line in text.splitlines():
-        if "=" in line and not line.startswith("["):
-            key, _, value = line.partition("=")
-            raw[key.strip()] = value.strip()
-    if "number_of_facets" not in raw:
-        raise ValueError("no mesh information in the slicer output")
-
-    def num(key: str, default: float = 0.0) -> float:
-        try:
-            return float(raw[key])
-        except (KeyError, ValueError):
-            return default
-
-    return MeshInfo(
-        facets=int(num("number_of_facets")),
-        manifold=raw.get("manifold", "").lower() == "yes",
-        parts=int(num("number_of_parts", 1)),
-        volume_mm3=num("volume"),
-        size_mm=(num("size_x"), num("size_y"), num("size_z")),
-        open_edges=int(num("open_edges")),
-        raw=raw,
-    )
-
-
 def inspect_mesh(
     model: str | os.PathLike, *, executable: str | os.PathLike | None = None, timeout_s: float = 120.0
 ) -> MeshInfo:
@@ -495,6 +386,35 @@ def slice_file(
     log.info("slicing %s with profile %s: %s", model, prof.name, " ".join(cmd))
     cpu0 = _children_cpu()
     start = time.perf_counter()
+    text, returncode, timed_out = _run_slicer(cmd, env, output, timeout_s)
+    seconds = time.perf_counter() - start
+    cpu1 = _children_cpu()
+    cpu = None if cpu0 is None or cpu1 is None else cpu1 - cpu0
+    errors, warnings = _judge(text, returncode, timed_out, output, prof, timeout_s)
+    size = output.stat().st_size if output.is_file() else 0
+    result = SliceResult(
+        profile=prof.name,
+        command=tuple(cmd),
+        returncode=returncode,
+        seconds=seconds,
+        cpu_seconds=cpu,
+        timed_out=timed_out,
+        output=output,
+        output_bytes=size,
+        errors=tuple(errors),
+        warnings=tuple(warnings),
+        log=(text or "")[-4000:],
+    )
+    log.info("sliced in %.1f s (ok=%s, %d bytes)", seconds, result.ok, size)
+    return result
+
+
+def _run_slicer(cmd: list[str], env, output: Path, timeout_s: float) -> tuple[str, int | None, bool]:
+    """Run the slicer, killed at ``timeout_s``: ``(console text, exit status or None, timed out)``.
+
+    Interrupted (Ctrl-C, SIGTERM), it stops the slicer before it writes on, removes what it
+    wrote and re-raises.
+    """
     timed_out = False
     # start_new_session lets a timeout kill the slicer's whole process group.
     with subprocess.Popen(
@@ -520,11 +440,14 @@ def slice_file(
             remove_partial(output)
             raise
         returncode = None if timed_out else proc.returncode
-    seconds = time.perf_counter() - start
-    cpu1 = _children_cpu()
-    cpu = None if cpu0 is None or cpu1 is None else cpu1 - cpu0
+    return text, returncode, timed_out
+
+
+def _judge(
+    text: str | None, returncode: int | None, timed_out: bool, output: Path, prof: Profile, timeout_s: float
+) -> tuple[list[str], list[str]]:
+    """The run's errors and warnings, from its log, exit status and output."""
     errors, warnings = parse_messages(text or "", returncode)
-    size = output.stat().st_size if output.is_file() else 0
     # Success is the exit code and a complete output, not the log's words: PrusaSlicer logs
     # `[error]` lines on runs that exit 0 with complete G-code. Those become warnings.
     incomplete = output_problem(output, prof) if returncode == 0 and not timed_out else None
@@ -537,21 +460,7 @@ def slice_file(
         errors.append(f"{prof.slicer.value} exited with status {returncode}")
     elif incomplete is not None:
         errors.append(incomplete)
-    result = SliceResult(
-        profile=prof.name,
-        command=tuple(cmd),
-        returncode=returncode,
-        seconds=seconds,
-        cpu_seconds=cpu,
-        timed_out=timed_out,
-        output=output,
-        output_bytes=size,
-        errors=tuple(errors),
-        warnings=tuple(warnings),
-        log=(text or "")[-4000:],
-    )
-    log.info("sliced in %.1f s (ok=%s, %d bytes)", seconds, result.ok, size)
-    return result
+    return errors, warnings
 
 
 def _die_with_parent() -> None:
@@ -577,244 +486,3 @@ def _kill_group(proc: subprocess.Popen) -> None:
         os.killpg(proc.pid, 9)
     except (AttributeError, ProcessLookupError, PermissionError):
         proc.kill()
-
-
-def output_problem(output: str | os.PathLike, profile: str | Profile) -> str | None:
-    """Why a slicer's output file is not complete, or None when it is.
-
-    G-code is complete when it holds the slicer's closing block (PrusaSlicer's
-    ``; prusaslicer_config = end``, CuraEngine's ``;End of Gcode``); an ``.sl1`` when it
-    is a readable zip with ``config.ini`` and at least one layer image.
-    """
-    prof = get_profile(profile)
-    path = Path(output)
-    if not path.is_file() or path.stat().st_size == 0:
-        return f"{prof.slicer.value} wrote no output to {path}"
-    if prof.technology is Technology.SLA:
-        try:
-            with zipfile.ZipFile(path) as zf:
-                names = zf.namelist()
-        except (OSError, zipfile.BadZipFile):
-            return f"{path} is not a complete .sl1 archive"
-        if "config.ini" not in names or sla_layer_count(path) == 0:
-            return f"{path} has no layers"
-        return None
-    with path.open("rb") as fh:
-        fh.seek(max(0, path.stat().st_size - 65536))
-        tail = fh.read().decode("ascii", errors="replace")
-    if prof.slicer is Slicer.PRUSA:
-        if "prusaslicer_config = end" in tail:
-            return None
-        return f"{path} is cut short (no closing configuration block)"
-    return None if ";End of Gcode" in tail or ";TIME_ELAPSED" in tail else f"{path} is cut short"
-
-
-def sla_layer_count(sl1: str | os.PathLike) -> int:
-    """Number of PNG layer images in a PrusaSlicer ``.sl1`` archive."""
-    with zipfile.ZipFile(sl1) as zf:
-        return sum(1 for n in zf.namelist() if n.lower().endswith(".png") and "thumbnail" not in n.lower())
-
-
-def gcode_summary(gcode: str | os.PathLike) -> dict[str, float | int | str]:
-    """Figures from a G-code file: layers, moves and the slicer's own estimates.
-
-    Returns:
-        ``{"layers": int, "extrusion_moves": int, "bytes": int}`` plus
-        ``"print_time"`` (PrusaSlicer's ``; estimated printing time``, or
-        CuraEngine's last ``;TIME_ELAPSED:``) and ``"filament_mm"``
-        (PrusaSlicer) when the file holds them.
-    """
-    path = Path(gcode)
-    layers = 0
-    moves = 0
-    elapsed = None
-    summary: dict[str, float | int | str] = {"bytes": path.stat().st_size}
-    with path.open(errors="replace") as fh:
-        for line in fh:
-            if line.startswith(("G1 ", "G1\t")) and " E" in line:
-                moves += 1
-            elif line.startswith((";LAYER_CHANGE", ";LAYER:")):
-                layers += 1
-            elif line.startswith("; estimated printing time (normal mode)"):
-                summary["print_time"] = line.split("=", 1)[1].strip()
-            elif line.startswith(";TIME_ELAPSED:"):
-                # CuraEngine's command line leaves placeholders in its header (";TIME:6666");
-                # the elapsed time after the last layer is the real estimate.
-                elapsed = float(line[14:])
-            elif line.startswith("; filament used [mm]"):
-                summary["filament_mm"] = float(line.split("=", 1)[1].split(",")[0])
-    if elapsed is not None and "print_time" not in summary:
-        summary["print_time"] = f"{int(elapsed) // 3600}h {int(elapsed) % 3600 // 60}m {int(elapsed) % 60}s"
-    summary["layers"] = layers
-    summary["extrusion_moves"] = moves
-    return summary
-
-
-def export_3mf_project(
-    model: str | os.PathLike | Sequence[str | os.PathLike],
-    output: str | os.PathLike,
-    profile: str | Profile = "prusa_fdm",
-    *,
-    overrides: Mapping[str, object] | None = None,
-    timeout_s: float = 300.0,
-    executable: str | os.PathLike | None = None,
-) -> Path:
-    """Write a PrusaSlicer 3MF project: the plate (or its tiles) plus the profile's settings inside.
-
-    Opening the 3MF in PrusaSlicer loads the plate and every print, filament
-    and printer setting in one step, and ``prusa-slicer --export-gcode
-    plate.3mf`` slices it with those settings without ``--load``.
-    PrusaSlicer's own ``--export-3mf`` stores no settings, so the complete
-    configuration (``--save``) is added as ``Metadata/Slic3r_PE.config``, the
-    entry PrusaSlicer reads back from its projects.
-
-    Args:
-        model: One mesh, or the tiles of one plate (one object per tile,
-            positions kept, centred on the bed).
-        output: ``.3mf`` path to write.
-        profile: A PrusaSlicer profile name. Defaults to ``"prusa_fdm"``.
-        overrides: Settings that win over the profile (PrusaSlicer ini keys).
-        timeout_s: Seconds before each PrusaSlicer run is killed. Defaults to 300 s.
-        executable: PrusaSlicer binary; found with :func:`find_slicer` when None.
-
-    Returns:
-        The written path.
-
-    Raises:
-        ValueError: The profile is not a PrusaSlicer profile.
-        RuntimeError: PrusaSlicer failed or wrote nothing.
-    """
-    prof = get_profile(profile)
-    if prof.slicer is not Slicer.PRUSA:
-        raise ValueError(f"a 3MF project needs a PrusaSlicer profile, got {prof.name!r}")
-    exe = _require(Slicer.PRUSA, executable)
-    output = Path(output)
-    models = _models(model)
-    settings = [
-        f"--{k.replace('_', '-')}={_format_override(k, v).split('=', 1)[1]}"
-        for k, v in (overrides or {}).items()
-    ]
-    full_ini = output.with_name(output.name + ".ini")
-    try:
-        _run_checked([exe, "--load", str(prof.path), *settings, "--save", str(full_ini)], timeout_s, full_ini)
-        cmd = [exe, "--export-3mf", "--load", str(prof.path), *settings]
-        if len(models) > 1:
-            cmd += ["--merge", "--dont-arrange", f"--center={_bed_centre(prof, overrides or {})}"]
-        _run_checked([*cmd, "--output", str(output), *models], timeout_s, output)
-        lines = [f"; generated by stencil_cad from {prof.filename} (PrusaSlicer project settings)"]
-        for line in full_ini.read_text().splitlines():
-            if "=" in line and not line.lstrip().startswith("#"):
-                key, _, value = line.partition("=")
-                lines.append(f"; {key.strip()} = {value.strip()}")
-        with zipfile.ZipFile(output, "a", compression=zipfile.ZIP_DEFLATED) as zf:
-            zf.writestr("Metadata/Slic3r_PE.config", "\n".join(lines) + "\n")
-    finally:
-        full_ini.unlink(missing_ok=True)
-    return output
-
-
-def _run_checked(cmd: list[str], timeout_s: float, expected: Path) -> None:
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout_s, check=False)
-    errors, _ = parse_messages(proc.stdout + "\n" + proc.stderr, proc.returncode)
-    if proc.returncode != 0 or errors or not expected.is_file():
-        raise RuntimeError(f"{' '.join(cmd[:3])} ... failed (exit {proc.returncode}): {'; '.join(errors)}")
-
-
-def slice_plate(
-    model: str | os.PathLike,
-    output: str | os.PathLike,
-    profile: str | Profile = "prusa_fdm",
-    *,
-    tiles: bool | None = None,
-    holes_per_tile: int = HOLES_PER_TILE,
-    timeout_s: float = 600.0,
-    overrides: Mapping[str, object] | None = None,
-    executable: str | os.PathLike | None = None,
-    work_dir: str | os.PathLike | None = None,
-    rotate_deg: int = 0,
-) -> SliceResult:
-    """Slice one exported plate the recommended way: tiled when it has many holes.
-
-    Args:
-        model: The plate's STL, flat and plate-down as exported.
-        output: G-code or ``.sl1`` path to write.
-        profile: Name in :data:`PROFILES`. Defaults to ``"prusa_fdm"``.
-        tiles: True splits the plate into tiles (:func:`split_into_tiles`),
-            False slices it whole, None (default) tiles a PrusaSlicer FDM
-            plate with more than 1.5 x ``holes_per_tile`` holes when
-            ``manifold3d`` is installed.
-        holes_per_tile: Target holes per tile. Defaults to :data:`HOLES_PER_TILE`.
-        timeout_s: Seconds before the slicer is killed. Defaults to 600 s.
-        overrides: Settings that win over the profile.
-        executable: Slicer binary; found with :func:`find_slicer` when None.
-        work_dir: Folder for the tiles; a temporary folder when None.
-        rotate_deg: 90 slices the plate turned a quarter turn on the bed (a portrait part on a
-            landscape bed, see :func:`stencil_cad.slicing.placement.place`); 0 as exported.
-
-    Returns:
-        The :class:`SliceResult`; check ``.ok`` (``rotate_deg`` says how the plate lay).
-    """
-    import tempfile
-
-    prof = get_profile(profile)
-    with tempfile.TemporaryDirectory(prefix="stencil_tiles_", dir=work_dir) as tmp:
-        if rotate_deg:
-            model = rotated_copy(model, Path(tmp) / "turned.stl")
-        if tiles is None:
-            tiles = prof.slicer is Slicer.PRUSA and prof.technology is Technology.FFF and _has_manifold3d()
-            if tiles:
-                tiles = mesh_genus(read_stl(model)) > 1.5 * holes_per_tile
-        parts = split_into_tiles(model, tmp, holes_per_tile=holes_per_tile) if tiles else model
-        result = slice_file(
-            parts, output, prof, timeout_s=timeout_s, overrides=overrides, executable=executable
-        )
-    return replace(result, rotate_deg=int(rotate_deg))
-
-
-def plate_project(
-    model: str | os.PathLike,
-    output: str | os.PathLike,
-    profile: str | Profile = "prusa_fdm",
-    *,
-    holes_per_tile: int = HOLES_PER_TILE,
-    timeout_s: float = 300.0,
-    executable: str | os.PathLike | None = None,
-    rotate_deg: int = 0,
-    overrides: Mapping[str, object] | None = None,
-) -> Path:
-    """Write the PrusaSlicer 3MF project of one plate, tiled as :func:`slice_plate` would slice it.
-
-    Args:
-        model: The plate's STL.
-        output: ``.3mf`` path to write.
-        profile: A PrusaSlicer profile name. Defaults to ``"prusa_fdm"``.
-        holes_per_tile: Target holes per tile. Defaults to :data:`HOLES_PER_TILE`.
-        timeout_s: Seconds before each PrusaSlicer run is killed. Defaults to 300 s.
-        executable: PrusaSlicer binary; found with :func:`find_slicer` when None.
-        rotate_deg: 90 lays the plate turned a quarter turn on the bed; 0 as exported.
-        overrides: Settings that win over the profile (the bed's size, a wall's :data:`WALL_SETTINGS`).
-
-    Returns:
-        The written path (see :func:`export_3mf_project`).
-    """
-    import tempfile
-
-    prof = get_profile(profile)
-    with tempfile.TemporaryDirectory(prefix="stencil_tiles_") as tmp:
-        if rotate_deg:
-            model = rotated_copy(model, Path(tmp) / "turned.stl")
-        tiles = prof.technology is Technology.FFF and _has_manifold3d()
-        if tiles:
-            tiles = mesh_genus(read_stl(model)) > 1.5 * holes_per_tile
-        parts = split_into_tiles(model, tmp, holes_per_tile=holes_per_tile) if tiles else model
-        return export_3mf_project(
-            parts, output, prof, timeout_s=timeout_s, executable=executable, overrides=overrides
-        )
-
-
-def _has_manifold3d() -> bool:
-    try:
-        import manifold3d  # noqa: F401
-    except ImportError:
-        return False
-    return True

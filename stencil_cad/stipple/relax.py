@@ -33,156 +33,19 @@ import logging
 import math
 from collections.abc import Callable
 
-import numba
 import numpy as np
 from scipy import ndimage
 
 from ..config.stipple import StippleConfig, Tone
 from ..frames import mm_to_px, pixel_centres_mm, px_to_mm
 from ..model import DotSet
+from .relax_kernels import _accumulate, _nearest_seed
 from .rules import DesignRules, _keepout_clearance, enforce_rules
 
 log = logging.getLogger(__name__)
 
 #: Gersho's constant: normalised polar second moment of the regular hexagon.
 HEX_G = 5.0 / (18.0 * math.sqrt(3.0))
-
-
-# --------------------------------------------------------------------------- compiled kernels
-
-
-@numba.njit(cache=True)
-def _bucket_seeds(seeds, bsize, nby, nbx):  # pragma: no cover - compiled
-    """Counting-sort seed indices by grid bucket; returns (start, order)."""
-    n = seeds.shape[0]
-    key = np.empty(n, dtype=np.int64)
-    count = np.zeros(nby * nbx + 1, dtype=np.int64)
-    for i in range(n):
-        by = min(max(int(math.floor(seeds[i, 0] / bsize)), 0), nby - 1)
-        bx = min(max(int(math.floor(seeds[i, 1] / bsize)), 0), nbx - 1)
-        k = by * nbx + bx
-        key[i] = k
-        count[k + 1] += 1
-    for k in range(nby * nbx):
-        count[k + 1] += count[k]
-    order = np.empty(n, dtype=np.int64)
-    fill = count[:-1].copy()
-    for i in range(n):
-        k = key[i]
-        order[fill[k]] = i
-        fill[k] += 1
-    return count, order
-
-
-@numba.njit(cache=True, parallel=True)
-def _nearest_seed(w, seeds, bsize, label, dist2, warm):  # pragma: no cover - compiled
-    """Exact nearest seed of every pixel with ``w > 0`` (others get label -1).
-
-    Pixels are processed one ``bsize`` square tile at a time. Seeds are visited
-    ring by ring of buckets around the tile; a seed in ring ``k + 1`` is more
-    than ``k * bsize`` px away from every pixel of the tile, so the search stops
-    once the tile's worst current distance is within that bound. Seeds whose
-    distance to the tile's box already exceeds that worst distance are skipped.
-    With ``warm`` set, ``label`` holds the previous iteration's labels: the
-    distance to that (moved) seed is a valid starting bound, which prunes most
-    candidates from the first ring on.
-    """
-    h, wd = w.shape
-    nby = (h + bsize - 1) // bsize
-    nbx = (wd + bsize - 1) // bsize
-    start, order = _bucket_seeds(seeds, bsize, nby, nbx)
-    nring = max(nby, nbx)
-    for tile in numba.prange(nby * nbx):
-        ty = tile // nbx
-        tx = tile % nbx
-        r0 = ty * bsize
-        r1 = min(r0 + bsize, h)
-        c0 = tx * bsize
-        c1 = min(c0 + bsize, wd)
-        active = 0
-        worst = 0.0
-        for row in range(r0, r1):
-            for col in range(c0, c1):
-                if w[row, col] > 0.0:
-                    prev = label[row, col] if warm else -2
-                    if prev >= 0:
-                        dr = row - seeds[prev, 0]
-                        dc = col - seeds[prev, 1]
-                        d2 = dr * dr + dc * dc
-                    else:
-                        prev = -2
-                        d2 = np.inf
-                    label[row, col] = prev
-                    dist2[row, col] = d2
-                    worst = max(worst, d2)
-                    active += 1
-                else:
-                    label[row, col] = -1
-                    dist2[row, col] = 0.0
-        if active == 0:
-            continue
-        for ring in range(nring + 1):
-            for by in range(ty - ring, ty + ring + 1):
-                if by < 0 or by >= nby:
-                    continue
-                edge_row = by == ty - ring or by == ty + ring
-                step = 1 if edge_row else 2 * ring
-                bx = tx - ring
-                while bx <= tx + ring:
-                    if 0 <= bx < nbx:
-                        b = by * nbx + bx
-                        for q in range(start[b], start[b + 1]):
-                            s = order[q]
-                            sr = seeds[s, 0]
-                            sc = seeds[s, 1]
-                            # Distance from the seed to the tile's pixel-centre box.
-                            gr = max(r0 - sr, 0.0, sr - (r1 - 1))
-                            gc = max(c0 - sc, 0.0, sc - (c1 - 1))
-                            if gr * gr + gc * gc >= worst:
-                                continue
-                            for row in range(r0, r1):
-                                dr = row - sr
-                                dr2 = dr * dr
-                                for col in range(c0, c1):
-                                    if label[row, col] == -1:
-                                        continue
-                                    dc = col - sc
-                                    d2 = dr2 + dc * dc
-                                    if d2 < dist2[row, col]:
-                                        dist2[row, col] = d2
-                                        label[row, col] = s
-                    if ring == 0:
-                        break
-                    bx += step
-            worst = 0.0
-            for row in range(r0, r1):
-                for col in range(c0, c1):
-                    if label[row, col] != -1 and dist2[row, col] > worst:
-                        worst = dist2[row, col]
-            bound = ring * bsize
-            if worst <= bound * bound:
-                break
-
-
-@numba.njit(cache=True)
-def _accumulate(w, label, dist2, n):  # pragma: no cover - compiled
-    """Per-seed weight, first moments and energy: (mass, sum w*row, sum w*col, energy)."""
-    mass = np.zeros(n)
-    mr = np.zeros(n)
-    mc = np.zeros(n)
-    en = np.zeros(n)
-    h, wd = w.shape
-    for row in range(h):
-        for col in range(wd):
-            s = label[row, col]
-            if s < 0:
-                continue
-            v = w[row, col]
-            mass[s] += v
-            mr[s] += v * row
-            mc[s] += v * col
-            en[s] += v * dist2[row, col]
-    return mass, mr, mc, en
 
 
 # --------------------------------------------------------------------------- Lloyd relaxation
@@ -604,18 +467,10 @@ def place_holes(
         figures.
     """
     h, w = alpha.shape
-    r0 = cfg.resolved_radius_mm
     r1 = cfg.resolved_max_radius_mm
     fixed_xy_mm = np.zeros((0, 2)) if fixed_xy_mm is None else np.asarray(fixed_xy_mm, dtype=np.float64)
 
-    def prepare(alpha, density, mm_per_px):
-        t, mask = tone_map(alpha, cfg, density)
-        # sqrt keeps the packing feasible at every tone: spacing scales as r / sqrt(t) >= r_max.
-        r_of_t = r0 + (r1 - r0) * np.sqrt(t) if r1 > r0 else np.full(t.shape, r0)
-        t = np.where(_feasible(t, r_of_t, mm_per_px, rules, origin_mm), t, 0.0)
-        return t, mask, r_of_t
-
-    t, mask, r_of_t = prepare(alpha, density, mm_per_px)
+    t, mask, r_of_t = _tone_and_radius(alpha, density, mm_per_px, cfg, rules, origin_mm)
     nfix = len(fixed_xy_mm)
     if free is not None and nfix and t.any():
         free = free & ~_fixed_cells(fixed_xy_mm, _spacing_mm(t, r_of_t, cfg), mm_per_px)
@@ -632,12 +487,10 @@ def place_holes(
     # only for the last iterations did not (it settles into the coarse grid's fixed point).
     k = refine_factor(int(np.count_nonzero(t)), n_dots + nfix, h * w)
     if k > 1:
-        alpha = _upsample(alpha, k)
-        density = None if density is None else _upsample(np.asarray(density, dtype=np.float64), k)
-        free = None if free is None else np.repeat(np.repeat(free, k, axis=0), k, axis=1)
+        alpha, density, free = _upsample_inputs(alpha, density, free, k)
         mm_per_px = mm_per_px / k
         h, w = alpha.shape
-        t, mask, r_of_t = prepare(alpha, density, mm_per_px)
+        t, mask, r_of_t = _tone_and_radius(alpha, density, mm_per_px, cfg, rules, origin_mm)
     lam = t * (r1 / r_of_t) ** 2
     weight = lam * lam
     seeds = importance_sample(lam if free is None else np.where(free, lam, 0.0), n_dots, rng)
@@ -654,6 +507,34 @@ def place_holes(
         "refine": k,
         "bucket_px": info["bucket_px"],
     }
+    return _kept_holes(seeds, weight, nfix, mask, r_of_t, mm_per_px, report)
+
+
+def _upsample_inputs(alpha, density, free, k: int):
+    """``alpha``, ``density`` and ``free`` on a grid ``k`` times finer (None stays None)."""
+    alpha = _upsample(alpha, k)
+    density = None if density is None else _upsample(np.asarray(density, dtype=np.float64), k)
+    free = None if free is None else np.repeat(np.repeat(free, k, axis=0), k, axis=1)
+    return alpha, density, free
+
+
+def _tone_and_radius(alpha, density, mm_per_px, cfg: StippleConfig, rules: DesignRules, origin_mm):
+    """The open-area tone (0 where the rules cannot fit a hole), the ink mask and the radius per pixel."""
+    r0 = cfg.resolved_radius_mm
+    r1 = cfg.resolved_max_radius_mm
+    t, mask = tone_map(alpha, cfg, density)
+    # sqrt keeps the packing feasible at every tone: spacing scales as r / sqrt(t) >= r_max.
+    r_of_t = r0 + (r1 - r0) * np.sqrt(t) if r1 > r0 else np.full(t.shape, r0)
+    t = np.where(_feasible(t, r_of_t, mm_per_px, rules, origin_mm), t, 0.0)
+    return t, mask, r_of_t
+
+
+def _kept_holes(seeds, weight, nfix, mask, r_of_t, mm_per_px, report: dict):
+    """The relaxed seeds less the fixed ones, the empty cells' and those off ink, as holes in mm.
+
+    Adds the CVT quality and the removal counts to ``report``; returns ``(xy_mm, r_mm, report)``.
+    """
+    h, w = r_of_t.shape
     if len(seeds):
         mass, _, _, en, _ = voronoi_pass(weight, seeds)
         report["e_norm"] = float((en.sum() + weight.sum() / 6.0) / cvt_optimum(weight, len(seeds)))

@@ -292,6 +292,32 @@ def _nudge(xy: np.ndarray, r: np.ndarray, rules: DesignRules, max_nudge_mm: floa
         active[moved] = True
 
 
+def _drop_hopeless(xy: np.ndarray, r: np.ndarray, rules: DesignRules, max_nudge_mm: float):
+    """Remove the more crowded dot of each pair whose web is short by more than two full nudges.
+
+    Such a pair cannot be saved by nudging; removing first keeps an overfull set from costing
+    millions of pair pushes per sweep. Returns ``(xy, r, removed)``.
+    """
+    removed_web = 0
+    pairs, webs = web_violations(xy, r, rules.web_mm)
+    hopeless = pairs[(rules.web_mm - webs) > 2.0 * max_nudge_mm]
+    if len(hopeless):
+        alive = _alive_after_removal(hopeless, pairs, r)
+        removed_web += int((~alive).sum())
+        xy, r = xy[alive], r[alive]
+    return xy, r, removed_web
+
+
+def _drop_outside(xy: np.ndarray, r: np.ndarray, rules: DesignRules, report: dict):
+    """Remove the dots outside the margin box or in a keep-out; count them into ``report``."""
+    edge_out = _edge_excess(xy, r, rules) > 0
+    keep_out = (_keepout_clearance(xy, rules.keepouts) < r + rules.edge_margin_mm) & ~edge_out
+    report["removed_edge"] = int(edge_out.sum())
+    report["removed_keepout"] = int(keep_out.sum())
+    keep = ~(edge_out | keep_out)
+    return xy[keep], r[keep]
+
+
 def enforce_rules(
     xy: np.ndarray,
     r: np.ndarray,
@@ -345,26 +371,13 @@ def enforce_rules(
 
     xy, r, report["merged"] = _merge_fused(xy, r)
 
-    # A pair short by more than two full nudges cannot be saved by nudging: remove first,
-    # so that an overfull set does not cost millions of pair pushes per sweep.
-    removed_web = 0
-    pairs, webs = web_violations(xy, r, rules.web_mm)
-    hopeless = pairs[(rules.web_mm - webs) > 2.0 * max_nudge_mm]
-    if len(hopeless):
-        alive = _alive_after_removal(hopeless, pairs, r)
-        removed_web += int((~alive).sum())
-        xy, r = xy[alive], r[alive]
+    xy, r, removed_web = _drop_hopeless(xy, r, rules, max_nudge_mm)
 
     start = xy.copy()
     _nudge(xy, r, rules, max_nudge_mm, nudge_rounds)
     report["nudged"] = int((np.hypot(*(xy - start).T) > 1e-9).sum())
 
-    edge_out = _edge_excess(xy, r, rules) > 0
-    keep_out = (_keepout_clearance(xy, rules.keepouts) < r + rules.edge_margin_mm) & ~edge_out
-    report["removed_edge"] = int(edge_out.sum())
-    report["removed_keepout"] = int(keep_out.sum())
-    keep = ~(edge_out | keep_out)
-    xy, r = xy[keep], r[keep]
+    xy, r = _drop_outside(xy, r, rules, report)
 
     pairs, _ = web_violations(xy, r, rules.web_mm)
     if len(pairs):

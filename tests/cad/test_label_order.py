@@ -5,7 +5,7 @@ import pytest
 
 SCRIPT = """
 import hashlib
-from stencil_cad.cad.plate import DEFAULT_FONT, _text_glyphs
+from stencil_cad.cad.label import DEFAULT_FONT, _text_glyphs
 g = _text_glyphs("TILE A2 of 2x1 L2/2 SPRAY 2 #1A2B3C mural i:j", 3.0, DEFAULT_FONT, 0.01)
 print(hashlib.sha256(b"".join(o.tobytes() + b"".join(r.tobytes() for r in i) for o, i in g)).hexdigest())
 """

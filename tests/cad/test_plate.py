@@ -104,7 +104,7 @@ def test_label_glyph_area_close_to_the_font_outline():
 
     model = cad.build_plate(grid_dots(pitch=4.0), W, H, cfg(), LABEL)
     info = model.info["label"]
-    from stencil_cad.cad.plate import _bundled_font
+    from stencil_cad.cad.label import _bundled_font
 
     text = Text(
         info["text"],

@@ -5,6 +5,7 @@ import pytest
 
 from stencil_cad import compute
 from stencil_cad.cli import main
+from stencil_cad.compute import executors, planning
 from stencil_cad.config import JobConfig
 from stencil_cad.config.compute import ComputeConfig, parse_memory, with_command_line
 from stencil_cad.config.io import parse_config
@@ -35,8 +36,8 @@ def test_bad_compute_values_name_the_key():
 
 
 def test_small_jobs_stay_in_process_big_ones_start_a_cluster(monkeypatch):
-    monkeypatch.setattr(compute, "cores", lambda: 3)
-    monkeypatch.setattr(compute, "available_memory", lambda: 64e9)
+    monkeypatch.setattr(planning, "cores", lambda: 3)
+    monkeypatch.setattr(planning, "available_memory", lambda: 64e9)
     cfg = JobConfig().compute
     small = compute.plan(cfg, 2_000_000)
     assert small.kind == "in_process" and "not more than" in small.reason
@@ -77,7 +78,7 @@ def test_memory_per_task_too_small_for_a_decomposition_tile_exits_2(tmp_path, ca
 
 
 def test_unreachable_scheduler_is_a_clear_error(monkeypatch):
-    monkeypatch.setattr(compute, "CONNECT_TIMEOUT", "1s")
+    monkeypatch.setattr(executors, "CONNECT_TIMEOUT", "1s")
     with pytest.raises(
         UserError, match=r"cannot reach the Dask scheduler at tcp://127\.0\.0\.1:9.*dask scheduler"
     ):
@@ -108,9 +109,9 @@ def test_local_cluster_map_matches_in_process(monkeypatch):
         assert list(ex.map(_square, range(23), "squares")) == [i * i for i in range(23)]
         assert ex.tasks == 23
         # The workers run without Dask's stack sampler (it cost plate builds about 5 % of their CPU)
-        # and with the slower housekeeping of compute._LOCAL_DASK_CONFIG.
+        # and with the slower housekeeping of executors._LOCAL_DASK_CONFIG.
         assert set(ex.client.run(_profiling).values()) == {False}
-        assert list(ex.client.run(_housekeeping).values()) == [compute._LOCAL_DASK_CONFIG] * 2
+        assert list(ex.client.run(_housekeeping).values()) == [executors._LOCAL_DASK_CONFIG] * 2
         # Nor with Dask's malloc trim threshold, which made numpy-heavy tasks about 1.7x slower.
         assert set(ex.client.run(_trim_threshold).values()) == {None}
         # Small inputs travel inside their tasks, large ones are scattered to the least busy
@@ -122,8 +123,8 @@ def test_local_cluster_map_matches_in_process(monkeypatch):
             return scatter(item, **kw)
 
         monkeypatch.setattr(ex.client, "scatter", recording_scatter)
-        for inline in (compute.INLINE_BYTES, 0):
-            monkeypatch.setattr(compute, "INLINE_BYTES", inline)
+        for inline in (executors.INLINE_BYTES, 0):
+            monkeypatch.setattr(executors, "INLINE_BYTES", inline)
             items = [np.full(64, i, dtype=np.float64) for i in range(12)]
             out = list(ex.map(_total_and_worker, items, "totals"))
             assert [t for t, _ in out] == [64.0 * i for i in range(12)]
@@ -135,7 +136,7 @@ def test_local_cluster_map_matches_in_process(monkeypatch):
         assert sent_to[0] != sent_to[1]
         # A worker the nanny restarts (after running out of memory, say) keeps the settings.
         ex.client.restart()
-        assert list(ex.client.run(_housekeeping).values()) == [compute._LOCAL_DASK_CONFIG] * 2
+        assert list(ex.client.run(_housekeeping).values()) == [executors._LOCAL_DASK_CONFIG] * 2
 
 
 class _FakeClient:
@@ -191,7 +192,7 @@ def _trim_threshold():
 def _housekeeping(dask_worker):
     import dask
 
-    return {k: dask.config.get(k) for k in compute._LOCAL_DASK_CONFIG}
+    return {k: dask.config.get(k) for k in executors._LOCAL_DASK_CONFIG}
 
 
 def _total_and_worker(a):
@@ -233,18 +234,18 @@ def test_tiled_decomposition_on_two_workers_writes_the_in_process_bytes(tmp_path
 
 
 def test_workers_are_cut_to_the_cores_and_the_memory(monkeypatch, caplog):
-    monkeypatch.setattr(compute, "cores", lambda: 2)
-    monkeypatch.setattr(compute, "available_memory", lambda: 64e9)
+    monkeypatch.setattr(planning, "cores", lambda: 2)
+    monkeypatch.setattr(planning, "available_memory", lambda: 64e9)
     with caplog.at_level(logging.WARNING, logger="stencil_cad.compute"):
         p = compute.plan(ComputeConfig(workers=1000), 10)
     assert p.workers == 2 and "1000 workers asked, starting 2" in p.reason and "2 core(s)" in caplog.text
     # 6 GB free at 2 GB per task plus the start-up size: 2 workers of the 8 cores.
-    monkeypatch.setattr(compute, "cores", lambda: 8)
-    monkeypatch.setattr(compute, "available_memory", lambda: 6e9)
+    monkeypatch.setattr(planning, "cores", lambda: 8)
+    monkeypatch.setattr(planning, "available_memory", lambda: 6e9)
     p = compute.plan(ComputeConfig(workers=8), 10)
     assert p.workers == 2 and "6.0 GB of free memory" in p.reason and "memory_per_task" in p.reason
     # The automatic count (a big picture) is cut too; never below one worker.
-    monkeypatch.setattr(compute, "available_memory", lambda: 1e9)
+    monkeypatch.setattr(planning, "available_memory", lambda: 1e9)
     assert compute.plan(ComputeConfig(), 10**9).workers == 1
     assert compute.plan(ComputeConfig(workers=1), 10).reason == "compute.workers is 1"
 

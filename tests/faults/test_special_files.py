@@ -223,22 +223,22 @@ def test_a_failed_write_leaves_no_temporary_file(tmp_path, monkeypatch):
 
 
 def test_big_non_jpeg_photos_are_refused_with_the_numbers(tmp_path, monkeypatch):
-    from stencil_cad.testcard import fit
+    from stencil_cad.testcard import photo
 
-    monkeypatch.setattr(fit, "MAX_PHOTO_PIXELS", 1000 * 800)
-    with pytest.raises(fit.PhotoError, match=r"1200 × 900 px"):
-        fit.read_photo(_photo(tmp_path))
+    monkeypatch.setattr(photo, "MAX_PHOTO_PIXELS", 1000 * 800)
+    with pytest.raises(photo.PhotoError, match=r"1200 × 900 px"):
+        photo.read_photo(_photo(tmp_path))
 
 
 def test_big_jpeg_photos_are_decoded_at_reduced_size(tmp_path, monkeypatch):
     from PIL import Image
 
-    from stencil_cad.testcard import fit
+    from stencil_cad.testcard import photo
 
     p = tmp_path / "photo.jpg"
     Image.fromarray(np.full((1800, 2400, 3), 180, np.uint8)).save(p)
-    monkeypatch.setattr(fit, "MAX_PHOTO_PIXELS", 1300 * 1000)
-    assert fit.read_photo(p).shape == (900, 1200, 3)
+    monkeypatch.setattr(photo, "MAX_PHOTO_PIXELS", 1300 * 1000)
+    assert photo.read_photo(p).shape == (900, 1200, 3)
 
 
 # ----------------------------------------------------------------------------- spray.json

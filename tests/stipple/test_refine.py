@@ -9,7 +9,7 @@ from stencil_cad.config.spray import SprayConfig
 from stencil_cad.model import DotSet
 from stencil_cad.simulate import scielab, spray_opacity
 from stencil_cad.simulate.spray import hole_kernels
-from stencil_cad.stipple import refine
+from stencil_cad.stipple import refine, refine_kernels
 from stencil_cad.stipple.refine import RefineSettings, refine_dots
 from stencil_cad.stipple.rules import DesignRules, check_rules, enforce_rules
 
@@ -29,7 +29,7 @@ def test_transmittance_matches_the_simulator():
     pitch, shape = 0.25, (120, 120)
     layer = refine._Layer(x=xy[:, 0], y=xy[:, 1], r=r, rules=None, spray_time=0.8, rmax=1.0)
     rows, cols, sig, peak, _, _, exp_mode = refine._kernels_px(layer, _kernels(), pitch, shape[0])
-    t = refine._transmittance(np.ones(shape), rows, cols, sig, peak, exp_mode)
+    t = refine_kernels._transmittance(np.ones(shape), rows, cols, sig, peak, exp_mode)
     exact = spray_opacity(xy, r, shape, pitch, CFG, exact=True, spray_time=0.8)
     assert np.max(np.abs((1.0 - t) - exact)) < 2e-3
 

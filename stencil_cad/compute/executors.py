@@ -1,24 +1,7 @@
-"""Where the tasks of a job run: in this process, or on a Dask cluster (local or remote).
+"""The executors: tasks in this process (:class:`Executor`) or on a Dask cluster (:class:`DaskExecutor`).
 
-The only module that imports Dask. Stages never import it: they offer pure task functions
-over small inputs (a tile and its halo), and :mod:`stencil_cad.pipeline` hands those to
-:meth:`Executor.map`, which returns the results in task order whatever ran them. The
-result of a job therefore does not depend on where it ran: in this process, on a local
-cluster of any size or on a remote one, the same config gives byte-identical files.
-
-When a local cluster starts (see :func:`plan`):
-
-- ``compute.scheduler`` (or ``--scheduler``) set: connect to that scheduler;
-- ``compute.workers`` (or ``--workers``) 0: in this process; N >= 1: a local cluster of N
-  single-threaded worker processes;
-- ``compute.workers`` null (the default): one worker per core, but only when the working
-  picture has more than ``compute.dask_above_mpx`` megapixels. Smaller jobs run in this
-  process and pay no start-up cost (Dask's import and worker start take about 2 s here,
-  each worker then loads the compiled kernels again).
-
-Tasks are submitted a few per worker at a time and their results collected as they finish,
-so neither the workers nor this process ever hold every tile's inputs at once. One
-progress bar counts every task of the job.
+The only module that imports Dask (see :mod:`stencil_cad.compute` for when a cluster starts
+and how tasks are sent to it).
 """
 
 from __future__ import annotations
@@ -26,21 +9,17 @@ from __future__ import annotations
 import contextlib
 import copy
 import logging
-import os
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import CancelledError
-from dataclasses import dataclass
 from typing import Any
 
-from . import interrupts
-from .config.compute import ComputeConfig
-from .errors import UserError
+from .. import interrupts
+from ..config.compute import ComputeConfig
+from ..errors import UserError
+from .planning import WORKER_BASE_BYTES, Plan, plan
 
 log = logging.getLogger(__name__)
 
-# Memory a worker process needs before its first task (Python, numpy, numba and the
-# compiled kernels, Dask itself), in bytes; measured about 0.35 GB here, rounded up.
-WORKER_BASE_BYTES = int(0.6e9)
 
 # How long to wait for a remote scheduler to answer. A refused connection fails at once
 # (see _probe): Dask itself retries it until this timeout.
@@ -104,136 +83,6 @@ _LOCAL_DASK_CONFIG = {
     # this when it is made, so only the workers started with the cluster get it: it never scales.)
     "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
 }
-
-
-def cores() -> int:
-    """Cores this process may use (the affinity mask where the OS has one)."""
-    try:
-        return max(len(os.sched_getaffinity(0)), 1)
-    except AttributeError:  # pragma: no cover - not Linux
-        return max(os.cpu_count() or 1, 1)
-
-
-@dataclass(frozen=True)
-class Plan:
-    """Where a job runs.
-
-    Attributes:
-        kind: ``"in_process"``, ``"local"`` (a local cluster) or ``"remote"``.
-        workers: Worker processes of a local cluster (0 otherwise).
-        address: Scheduler address of a remote cluster, or None.
-        reason: Why, in words, for the log and the manifest.
-    """
-
-    kind: str
-    workers: int = 0
-    address: str | None = None
-    reason: str = ""
-
-    def summary(self) -> dict:
-        """For the manifest."""
-        return {"kind": self.kind, "workers": self.workers, "address": self.address, "reason": self.reason}
-
-
-def plan(cfg: ComputeConfig, picture_px: int) -> Plan:
-    """Decide where a job runs, before any work.
-
-    Args:
-        cfg: The ``compute`` section.
-        picture_px: Pixels of the working picture (H x W).
-
-    Returns:
-        The plan; nothing is started yet.
-    """
-    if cfg.scheduler is not None:
-        return Plan("remote", address=cfg.scheduler, reason="compute.scheduler is set")
-    if cfg.workers == 0:
-        return Plan("in_process", reason="compute.workers is 0")
-    if cfg.workers is not None:
-        n, cut = capped_workers(int(cfg.workers), cfg)
-        if cut:
-            log.warning("compute: %s", cut)
-        return Plan(
-            "local", workers=n, reason=f"compute.workers is {cfg.workers}" + (f"; {cut}" if cut else "")
-        )
-    mpx = picture_px / 1e6
-    if mpx <= cfg.dask_above_mpx:
-        return Plan(
-            "in_process",
-            reason=f"the picture has {mpx:.3g} MP, not more than compute.dask_above_mpx {cfg.dask_above_mpx:g}",
-        )
-    n, cut = capped_workers(cores(), cfg)
-    return Plan(
-        "local",
-        workers=n,
-        reason=f"the picture has {mpx:.3g} MP, more than compute.dask_above_mpx {cfg.dask_above_mpx:g}"
-        + (f"; {cut}" if cut else ""),
-    )
-
-
-def available_memory() -> int | None:
-    """Bytes the OS can give new processes without swapping (Linux ``MemAvailable``), or None."""
-    try:
-        with open("/proc/meminfo", encoding="ascii") as f:
-            return next(int(ln.split()[1]) * 1024 for ln in f if ln.startswith("MemAvailable:"))
-    except (OSError, ValueError, IndexError, StopIteration):
-        return None
-
-
-def capped_workers(asked: int, cfg: ComputeConfig) -> tuple[int, str]:
-    """Local worker processes to start: ``asked``, cut to the cores and to the memory they may use.
-
-    Each worker runs one task on one core and may use ``compute.memory_per_task`` plus its
-    start-up size, so more workers than cores only queue, and more than the memory holds
-    end in the OS killing them.
-
-    Returns:
-        ``(workers, why it was cut or "")``.
-    """
-    per_worker = cfg.memory_per_task_bytes + WORKER_BASE_BYTES
-    free = available_memory()
-    by_memory = max(1, int(free // per_worker)) if free is not None else asked
-    n_cores = cores()
-    n = max(1, min(asked, n_cores, by_memory))
-    if n == asked:
-        return n, ""
-    if free is not None and by_memory < min(asked, n_cores):
-        why = (
-            f"{free / 1e9:.1f} GB of free memory, {per_worker / 1e9:.1f} GB per worker "
-            "(compute.memory_per_task plus the worker's start-up size)"
-        )
-    else:
-        why = f"{n_cores} core(s), one worker per core"
-    return n, f"{asked} workers asked, starting {n}: this machine has {why}"
-
-
-class TaskMemoryError(UserError):
-    """A task cannot fit ``compute.memory_per_task``."""
-
-
-def check_fits(what: str, need_bytes: float, cfg: ComputeConfig) -> None:
-    """Stop before any work when one task needs more than ``compute.memory_per_task``.
-
-    Args:
-        what: The task, in words ("a decomposition tile of 320 x 320 px, 4 layers").
-        need_bytes: Its estimated peak in bytes.
-        cfg: The ``compute`` section.
-
-    Raises:
-        TaskMemoryError: Naming the task, what it needs and the setting to change.
-    """
-    if need_bytes > cfg.memory_per_task_bytes:
-        raise TaskMemoryError(
-            f"compute.memory_per_task: {what} needs about {need_bytes / 1e9:.2f} GB, more than the "
-            f"{cfg.memory_per_task:g} GB allowed; raise compute.memory_per_task to at least "
-            f"{_round_up_gb(need_bytes)} GB (or make the picture smaller)"
-        )
-
-
-def _round_up_gb(n_bytes: float) -> str:
-    import math
-
-    return f"{math.ceil(n_bytes / 1e8) / 10:g}"
 
 
 class Executor:
@@ -405,18 +254,7 @@ class DaskExecutor(Executor):
 
         def send(i: int, item: Any, sent: int) -> None:
             key = f"{tag}-{i}" if sent == 0 else f"{tag}-{i}-again{sent}"
-            if _pickled_size(item) <= inline:
-                # A small input travels with its task, which the scheduler then gives to
-                # whichever worker is free first (and runs again elsewhere if that worker dies).
-                data, where = None, None
-                fut = self.client.submit(fn, item, pure=False, key=key)
-            else:
-                # A large one goes to the cluster as data of its own, not inside the task graph
-                # (a decomposition tile is tens of MB), to the least busy worker; released with
-                # the result. It lives on that worker only: this process keeps the input until
-                # the result arrives, and sends both again if the worker dies first.
-                data, where = self._scatter(item, load)
-                fut = self.client.submit(fn, data, pure=False, key=key)
+            fut, data, where = self._submit(fn, item, key, inline, load)
             pending[fut] = (i, item if data is not None else None, data, where, sent)
             ac.add(fut)
 
@@ -458,6 +296,19 @@ class DaskExecutor(Executor):
         finally:
             for fut in pending:
                 fut.cancel()
+
+    def _submit(self, fn: Callable[[Any], Any], item: Any, key: str, inline: int, load: dict[str, int]):
+        """Submit one task under ``key``: ``(future, scattered input or None, its worker or None)``."""
+        if _pickled_size(item) <= inline:
+            # A small input travels with its task, which the scheduler then gives to
+            # whichever worker is free first (and runs again elsewhere if that worker dies).
+            return self.client.submit(fn, item, pure=False, key=key), None, None
+        # A large one goes to the cluster as data of its own, not inside the task graph
+        # (a decomposition tile is tens of MB), to the least busy worker; released with
+        # the result. It lives on that worker only: this process keeps the input until
+        # the result arrives, and sends both again if the worker dies first.
+        data, where = self._scatter(item, load)
+        return self.client.submit(fn, data, pure=False, key=key), data, where
 
     def _connected(self) -> bool:
         """True while the client is connected to its scheduler."""
