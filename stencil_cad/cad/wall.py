@@ -29,14 +29,9 @@ from ..config.cad import WallConfig
 from ..config.outline import OutlineConfig
 from ..outline import Segment, check_key, fits, min_clearance, outline_path, path_area, path_ring
 
-__all__ = ["Wall", "WallModel", "build_wall", "wall_heights", "wall_step", "wall_stl"]
+__all__ = ["Wall", "WallModel", "build_wall", "wall_step", "wall_stl"]
 
 log = logging.getLogger(__name__)
-
-
-def wall_heights(wall_cfg: WallConfig) -> list[float]:
-    """The stand-off heights (mm) to build a wall for, distinct and ascending."""
-    return wall_cfg.heights()
 
 
 @dataclass(frozen=True)
@@ -253,7 +248,7 @@ def build_wall(
         wall_cfg: Wall config.
         plate_thickness_mm: The plate's thickness in mm.
         height_mm_standoff: Height in mm of the plate's underside above the surface (one of
-            :func:`wall_heights`).
+            :meth:`~stencil_cad.config.WallConfig.heights`).
 
     Returns:
         The wall with its analytic volume and expected bounding box.

@@ -14,7 +14,7 @@ Every task is a pure function of its inputs (:func:`solve_tile`), so the opaciti
 depend on which process solved which tile. The tiles follow the picture's size and the
 memory allowed per task only.
 
-Stated tolerance (tests/test_decompose_tiled.py): with the colours fixed, the tiled opacities
+Stated tolerance (tests/decompose/test_tiled.py): with the colours fixed, the tiled opacities
 differ from the same problem solved on the whole picture by at most 0.005 on average and 0.04 at
 the 99th percentile, and the composites by at most 0.5 RMSE (0-255 units); end to end, the tiled
 composite's RMSE against the image is within 0.6 of the whole decomposition's. Measured, 4

@@ -48,7 +48,7 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 #: How many hole spacings of the densest tone the halo holds (plus the margin and a hole).
-#: Measured on the 500 × 300 mm flat grey and wave of ``tests/test_mural_stipple.py`` (mean
+#: Measured on the 500 × 300 mm flat grey and wave of ``tests/mural/test_stipple.py`` (mean
 #: nearest-neighbour distance within 5 mm of a seam over that inside the tiles): 2, 4, 8 and
 #: 12 spacings gave 0.975 / 0.971, 0.974 / 0.958, 0.976 / 0.962 and 0.981 / 0.966, so beyond
 #: two spacings the halo is not what sets the seams; eight leave room for tones that vary.
@@ -135,7 +135,7 @@ def place_tile(task: PlaceTask) -> PlaceResult:
     )
     xy = xy + off
     # A new hole that relaxed across a seam into an earlier tile's core goes too: keeping those
-    # (13 of 8,000 on the flat grey of tests/test_mural_stipple.py) doubled the share of
+    # (13 of 8,000 on the flat grey of tests/mural/test_stipple.py) doubled the share of
     # unusually close neighbours within 5 mm of the seams, to 2 %.
     own = task.grid.owner(xy) == task.tile if len(xy) else np.zeros(0, dtype=bool)
     report["outside_core"] = int((~own).sum())

@@ -5,7 +5,7 @@ from 1 m is upsampled 3 times, so a 1 m² mural's score converts and compares 9 
 per picture. scikit-image's ``xyz2lab`` and ``deltaE_ciede2000`` do it with a dozen whole-image
 temporaries; measured on a 1000 × 1000 px picture at 1 mm/px from 1 m (9 MP upsampled), they
 took 7.7 s of the score's 13.6 s; this kernel gives the same values for float64 XYZ (within
-1e-9 ΔE, 1e-5 for greys, whose hue is round-off, see ``tests/test_scielab.py``; other dtypes are taken as values, not rescaled as
+1e-9 ΔE, 1e-5 for greys, whose hue is round-off, see ``tests/simulate/test_scielab.py``; other dtypes are taken as values, not rescaled as
 scikit-image rescales integers) in one pass over the pixels, without the temporaries.
 
 The formulas are scikit-image's, step for step: ``xyz2lab`` with the D65 white of the 2°

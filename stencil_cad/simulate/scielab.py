@@ -42,7 +42,7 @@ twice at 1 m, would otherwise hold several 80-megapixel float copies. Against an
 filter (every Gaussian applied directly to the whole picture) the mean differs by at
 most 5e-4 ΔE on photos of 60 × 80 to 601 × 601 px (sizes that are and are not whole
 multiples of the averaging cell) at 0.25 and 0.71 mm/px from 1 m; one block against many
-agrees to 1e-12 (``tests/test_scielab.py``).
+agrees to 1e-12 (``tests/simulate/test_scielab.py``).
 """
 
 from __future__ import annotations

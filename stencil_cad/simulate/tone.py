@@ -18,7 +18,7 @@ For holes placed as a Poisson process of density ``lambda`` the mean is exact:
 of the Poisson process applied to ``1 - I = prod (1 - min(N_i, 1))``); the
 optical depth ``-ln(1 - m)`` grows linearly with hole density. A relaxed
 stipple is more regular than Poisson, so the patch measurement replaces the
-formula (they agree in the sparse limit, see tests/test_simulate.py). The calibrated density is the
+formula (they agree in the sparse limit, see tests/simulate/test_simulate.py). The calibrated density is the
 inverse ``t(alpha) = m^-1(alpha)``, clipped to ``t <= 1`` where the minimum web
 saturates it (no denser packing is possible). With ``spray.calibrate:
 spray_time`` the spray time A of each layer is chosen from a geometric grid

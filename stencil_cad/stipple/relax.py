@@ -406,7 +406,7 @@ def _fixed_cells(fixed_xy_mm: np.ndarray, spacing_mm: np.ndarray, mm_per_px: flo
     distance is capped at 1.5 times ``spacing_mm``, the ``(H, W)`` hexagonal hole spacing the
     tone asks for at each pixel: an isolated fixed hole beside dense ink does not own that ink
     (uncapped, a 1 m² mural had 1.3 % fewer holes than stippled in one piece; capped at the
-    spacing itself, the seams of the flat grey in tests/test_mural_stipple.py had ten times the
+    spacing itself, the seams of the flat grey in tests/mural/test_stipple.py had ten times the
     interior's share of unusually close neighbours).
     """
     from scipy.spatial import cKDTree

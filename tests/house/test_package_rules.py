@@ -9,7 +9,21 @@ import stencil_cad
 
 PACKAGE = Path(stencil_cad.__file__).parent
 #: Longest function or method, in lines from its ``def`` to its last line (docstring included).
-MAX_FUNCTION_LINES = 120
+MAX_FUNCTION_LINES = 80
+#: Longest module, in lines.
+MAX_MODULE_LINES = 600
+#: The stage glue of the orchestrator: none of it asks whether the job is a mural (the tiling decides).
+STAGE_MODULES = (
+    "decompose",
+    "stipple",
+    "refine",
+    "build",
+    "simulate",
+    "paints",
+    "picture",
+    "saved",
+    "manifest",
+)
 
 
 def _sources() -> list[Path]:
@@ -58,3 +72,29 @@ def test_package_inits_only_reexport():
         top = path.parent == PACKAGE
         bad += [f"{path.relative_to(PACKAGE)}:{n.lineno}" for n in tree.body if not _is_reexport(n, top)]
     assert not bad, "package __init__.py files hold only a docstring, imports and __all__: " + ", ".join(bad)
+
+
+def test_no_module_over_the_limit():
+    long = [
+        f"{p.relative_to(PACKAGE)} ({n} lines)"
+        for p in _sources()
+        if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_MODULE_LINES
+    ]
+    assert not long, f"modules over {MAX_MODULE_LINES} lines, split them: " + "; ".join(long)
+
+
+def test_murals_are_a_package_and_no_stage_asks_for_tiles():
+    assert not list(PACKAGE.glob("mural_*.py")), "mural modules belong in stencil_cad/mural/"
+    asking = []
+    for name in STAGE_MODULES:
+        path = PACKAGE / "pipeline" / f"{name}.py"
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        asking += [
+            f"pipeline/{name}.py:{n.lineno}"
+            for n in ast.walk(tree)
+            if isinstance(n, ast.Attribute) and n.attr == "tiled"
+        ]
+    assert not asking, (
+        "a stage takes the tiling and lets it decide (mural.stipple_layers, mural.refine_layers): "
+        + ", ".join(asking)
+    )
