@@ -285,9 +285,14 @@ def _card(args) -> int:
 
     cfg = cfg_io.load_config(args.config) if args.config is not None else cfg_io.parse_config({}, "defaults")
     if args.standoff:
-        bad = [g for g in args.standoff if not 0.5 <= g <= 300.0]
-        if bad:
-            raise UserError(f"--standoff must be in [0.5, 300] mm, got {bad[0]:g}")
+        from pydantic import ValidationError
+
+        from .config import WallConfig
+
+        try:  # the wall's own rule for a stand-off
+            WallConfig(standoff_mm=args.standoff)
+        except ValidationError as exc:
+            raise UserError(f"--standoff: {exc.errors()[0]['msg']}, got {args.standoff}") from None
         if len(set(args.standoff)) > 3:
             raise UserError(f"the card takes at most 3 stand-offs, got {len(set(args.standoff))}")
     out = OutputDir(args.out, force=args.force)

@@ -237,7 +237,7 @@ def build_wall(
     outline_cfg: OutlineConfig,
     wall_cfg: WallConfig,
     plate_thickness_mm: float,
-    height_mm_standoff: float,
+    standoff_mm: float,
 ) -> WallModel:
     """Build the wall for one stand-off height.
 
@@ -247,7 +247,7 @@ def build_wall(
         outline_cfg: The plate's outline config.
         wall_cfg: Wall config.
         plate_thickness_mm: The plate's thickness in mm.
-        height_mm_standoff: Height in mm of the plate's underside above the surface (one of
+        standoff_mm: Height in mm of the plate's underside above the surface (one of
             :meth:`~stencil_cad.config.WallConfig.heights`).
 
     Returns:
@@ -257,7 +257,7 @@ def build_wall(
         ValueError: If the config cannot make a wall, or the key does not stop a wrong placement.
     """
     check_key(width_mm, height_mm, outline_cfg, wall_cfg.clearance_mm)
-    wall = Wall(width_mm, height_mm, outline_cfg, wall_cfg, plate_thickness_mm, height_mm_standoff)
+    wall = Wall(width_mm, height_mm, outline_cfg, wall_cfg, plate_thickness_mm, standoff_mm)
     tol = outline_cfg.chord_tol_mm
     outer = path_ring(wall.rings.outer, tol)
     pocket = path_ring(wall.rings.pocket, tol)

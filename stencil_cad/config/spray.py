@@ -5,7 +5,7 @@ from __future__ import annotations
 import enum
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 from pydantic import Field, field_validator
 
@@ -39,6 +39,10 @@ class CanConstants(StrictModel):
 
     A spray profile file (``stencil-cad calibrate`` writes one) holds exactly these keys.
     """
+
+    #: ``standoff_mm`` read as a wall's stand-off (``wall.standoff_mm``): the card's is a record.
+    RENAMED: ClassVar[dict[str, str]] = {"standoff_mm": "card_standoff_mm"}
+    WHERE: ClassVar[str] = "spray.can (or a spray profile)"
 
     spread_k: float = Field(
         0.12,
@@ -92,12 +96,12 @@ class CanConstants(StrictModel):
             "Range [0.02, 10]."
         ),
     )
-    standoff_mm: float | None = Field(
+    card_standoff_mm: float | None = Field(
         None,
         ge=0.0,
         le=300.0,
         description=(
-            "Stand-off in mm of the card the constants were measured with (a record; the model carries "
+            "Stand-off in mm of the card's wall the constants were measured with (formerly standoff_mm) (a record; the model carries "
             "them to other stand-offs). null: not measured (the defaults are priors from the literature)."
         ),
     )

@@ -43,15 +43,15 @@ def _card_walls(run: Run, card) -> list[dict]:
 def _card_sheet(run: Run, card, paper: str) -> None:
     """Write the card's sheet (PNG and the PDF with its steps) and ``card.json``."""
     from ..testcard import layout as card_mod
-    from ..testcard import sheet as sheet_mod
+    from ..testcard import printout
 
     cfg = run.cfg
     heights = [fp.standoff_mm for fp in card.footprints]
-    run.out.write_png("card_sheet.png", sheet_mod.sheet_png(card))
+    run.out.write_png("card_sheet.png", printout.printout_png(card))
     sp = cfg.spray
-    steps = sheet_mod.card_steps(card, sp.can_distance_mm, sp.pass_speed_m_s)
+    steps = printout.card_steps(card, sp.can_distance_mm, sp.pass_speed_m_s)
     try:
-        pdf = sheet_mod.sheet_pdf(card, paper=paper, steps=steps)
+        pdf = printout.printout_pdf(card, paper=paper, steps=steps)
     except ValueError as exc:
         raise UserError(f"card sheet: {exc}") from exc
     run.out.write_bytes("card_sheet.pdf", pdf)

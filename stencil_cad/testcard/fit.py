@@ -268,9 +268,13 @@ def _solve(card: _CardModel, q: np.ndarray, fit_mask: np.ndarray):
     """
     from scipy.optimize import least_squares
 
+    from ..config.spray import CanConstants
+
     n = len(card.obs)
-    lo = np.array([math.log(0.01), math.log(1e-3), math.log(1e-3), 0.05] + [-5.0] * (2 * n))
-    hi = np.array([math.log(10.0), math.log(1.0), math.log(20.0), 1.0] + [5.0] * (2 * n))
+    # The schema's bounds of each constant (log space; open lower ends kept off zero).
+    box = [CanConstants.field_range(k) for k in ("bleed_sigma_mm", "spread_k", "deposit_per_pass")]
+    lo = np.array([math.log(max(a, 1e-3)) for a, _ in box] + [0.05] + [-5.0] * (2 * n))
+    hi = np.array([math.log(b) for _, b in box] + [1.0] + [5.0] * (2 * n))
     q = np.clip(q, lo + 1e-9, hi - 1e-9)
     active = np.ones(q.size, dtype=np.bool_)
     active[0] = card.many
@@ -458,7 +462,7 @@ def profile_yaml(fit: CardFit, paint: str, photo: str, passes: float) -> str:
     can = fit.can.model_copy(
         update={
             "paint": paint or "unnamed",
-            "standoff_mm": float(fit.info["standoffs_mm"][0]),
+            "card_standoff_mm": float(fit.info["standoffs_mm"][0]),
             "fit": {
                 "photo": photo,
                 "passes": passes,
@@ -515,12 +519,21 @@ def calibrate_command(
         raise UserError(f"{card}: {exc}") from None
     spray = desc.get("spray", {})
     n = float(passes if passes is not None else spray.get("passes", layout.passes))
-    d = float(distance_mm if distance_mm is not None else spray.get("can_distance_mm", 200.0))
-    v = float(speed_m_s if speed_m_s is not None else spray.get("pass_speed_m_s", 0.5))
+    from ..config.spray import SprayConfig
+
+    fields = SprayConfig.model_fields
+    d = float(
+        distance_mm
+        if distance_mm is not None
+        else spray.get("can_distance_mm", fields["can_distance_mm"].default)
+    )
+    v = float(
+        speed_m_s if speed_m_s is not None else spray.get("pass_speed_m_s", fields["pass_speed_m_s"].default)
+    )
     for name, val, lo, hi in (
         ("--passes", n, 0.1, 50),
-        ("--distance-mm", d, 50, 1000),
-        ("--speed", v, 0.05, 5),
+        ("--distance-mm", d, *SprayConfig.field_range("can_distance_mm")),
+        ("--speed", v, *SprayConfig.field_range("pass_speed_m_s")),
     ):
         if not lo <= val <= hi:
             raise UserError(f"{name} must be in [{lo:g}, {hi:g}], got {val:g}")

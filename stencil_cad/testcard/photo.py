@@ -16,7 +16,7 @@ import numpy as np
 from ..errors import UserError
 from ..files import DATA_LIMIT, open_input
 from .layout import MARKER_MM, CardLayout, Footprint
-from .sheet import aruco_dictionary, srgb_decode
+from .printout import aruco_dictionary, srgb_decode
 
 log = logging.getLogger(__name__)
 

@@ -16,7 +16,7 @@ import numpy as np
 from ..config.spray import SprayConfig
 from ..simulate.physical import SprayGeometry
 from .layout import CardLayout, Footprint
-from .sheet import sheet_reflectance, srgb_encode
+from .printout import printout_reflectance, srgb_encode
 
 __all__ = ["PhotoSettings", "card_opacity", "synthetic_photo"]
 
@@ -114,7 +114,7 @@ def synthetic_photo(
 
     s = settings or PhotoSettings()
     ppm = sheet_px_per_mm
-    ref = sheet_reflectance(layout, ppm)
+    ref = printout_reflectance(layout, ppm)
     hs, ws = ref.shape
     rgb = np.repeat(ref[..., None], 3, axis=2)
     contrast = np.asarray(s.paint_contrast, dtype=np.float64)

@@ -153,3 +153,16 @@ def test_template_leaves_the_nozzle_height_to_the_process(tmp_path):
     p = tmp_path / "c.yaml"
     p.write_text(yaml.safe_dump(data))
     assert load_config(p).spray.nozzle_height == 30.0
+
+
+def test_a_renamed_key_is_read_with_a_message_for_one_release(caplog):
+    import logging
+
+    from stencil_cad.config.spray import CanConstants
+
+    with caplog.at_level(logging.WARNING, logger="stencil_cad.config.base"):
+        can = CanConstants.model_validate({"standoff_mm": 10.0})
+    assert can.card_standoff_mm == 10.0
+    assert "spray.can (or a spray profile): standoff_mm is now called card_standoff_mm" in caplog.text
+    with pytest.raises(ValueError, match="standoff_mm is the old name of card_standoff_mm"):
+        CanConstants.model_validate({"standoff_mm": 10.0, "card_standoff_mm": 12.0})

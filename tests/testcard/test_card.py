@@ -15,7 +15,7 @@ from stencil_cad.config.spray import CanConstants, SprayConfig
 from stencil_cad.stipple import check_rules
 from stencil_cad.testcard import card_description, card_layout, layout_from_description
 from stencil_cad.testcard.fit import fit_card
-from stencil_cad.testcard.sheet import aruco_dictionary, sheet_reflectance
+from stencil_cad.testcard.printout import aruco_dictionary, printout_reflectance
 from stencil_cad.testcard.synthetic import PhotoSettings, card_opacity, synthetic_photo
 
 TRUTH = CanConstants(spread_k=0.1, bleed_sigma_mm=0.4, deposit_per_pass=0.55)
@@ -54,7 +54,7 @@ def test_layout_holds_the_jobs_holes_and_fits_every_bed(layout):
 
 
 def test_sheet_markers_are_readable(layout):
-    img = (sheet_reflectance(layout, 8.0) * 255).astype(np.uint8)
+    img = (printout_reflectance(layout, 8.0) * 255).astype(np.uint8)
     det = cv2.aruco.ArucoDetector(aruco_dictionary(), cv2.aruco.DetectorParameters())
     _, ids, _ = det.detectMarkers(img)
     want = {i for fp in layout.footprints for i in fp.marker_ids}
@@ -215,3 +215,10 @@ def test_a_photo_of_another_card_is_refused(layout, tmp_path, capsys):
     assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == sorted(
         ["card.json", photo.name]
     )
+
+
+def test_card_standoff_out_of_the_walls_range_is_refused_by_the_wall_rule(tmp_path, capsys):
+    out = tmp_path / "card"
+    assert main(["card", "--out", str(out), "--standoff", "400", "-q"]) == 2
+    assert "--standoff" in capsys.readouterr().err
+    assert not out.exists()

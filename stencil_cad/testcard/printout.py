@@ -1,7 +1,7 @@
-"""The printed sheet the card is sprayed on: wall outlines, ArUco markers, flat-field patches.
+"""The card's printout, the paper it is sprayed on: wall outlines, ArUco markers, flat-field patches.
 
-The sheet is drawn as reflectance (1 = paper white, 0 = full black) in the sheet frame
-(mm, x right, y up, origin at the sheet's bottom-left); :func:`sheet_pdf` writes it at its
+The printout (``card_sheet.pdf``; not the job's instruction sheet) is drawn as reflectance (1 = paper white, 0 = full black) in the sheet frame
+(mm, x right, y up, origin at the sheet's bottom-left); :func:`printout_pdf` writes it at its
 true size for printing at 100 %.
 """
 
@@ -19,9 +19,9 @@ __all__ = [
     "PAPER_MM",
     "aruco_dictionary",
     "card_steps",
-    "sheet_pdf",
-    "sheet_png",
-    "sheet_reflectance",
+    "printout_pdf",
+    "printout_png",
+    "printout_reflectance",
     "srgb_encode",
     "srgb_decode",
 ]
@@ -90,7 +90,7 @@ def _text(img: np.ndarray, text: str, x_mm: float, y_mm: float, size_mm: float, 
     img[...] = np.minimum(img, np.asarray(layer, dtype=np.float64) / 255.0 * 0.75 + 0.25)
 
 
-def sheet_reflectance(
+def printout_reflectance(
     layout: CardLayout, px_per_mm: float = SHEET_PX_PER_MM, text: bool = True
 ) -> np.ndarray:
     """The sheet as reflectance, row 0 at the top.
@@ -130,9 +130,9 @@ def sheet_reflectance(
     return img
 
 
-def sheet_png(layout: CardLayout, px_per_mm: float = SHEET_PX_PER_MM) -> np.ndarray:
+def printout_png(layout: CardLayout, px_per_mm: float = SHEET_PX_PER_MM) -> np.ndarray:
     """The sheet as an sRGB ``(H, W, 3)`` float image in [0, 1] for :meth:`OutputDir.write_png`."""
-    ref = srgb_encode(sheet_reflectance(layout, px_per_mm))
+    ref = srgb_encode(printout_reflectance(layout, px_per_mm))
     return np.repeat(ref[..., None], 3, axis=2)
 
 
@@ -171,7 +171,7 @@ def card_steps(layout: CardLayout, distance_mm: float, speed_m_s: float, paint: 
     ]
 
 
-def sheet_pdf(
+def printout_pdf(
     layout: CardLayout,
     px_per_mm: float = SHEET_PX_PER_MM,
     paper: str = "a4",
@@ -209,7 +209,7 @@ def sheet_pdf(
             f"the card's sheet ({sw:g} x {sh:g} mm) does not fit a {paper} page with {PAGE_MARGIN_MM:g} mm "
             "margins: use fewer stand-offs"
         )
-    ref = srgb_encode(sheet_reflectance(layout, px_per_mm))
+    ref = srgb_encode(printout_reflectance(layout, px_per_mm))
     im = Image.fromarray((ref * 255.0 + 0.5).astype(np.uint8), mode="L")
     buf = io.BytesIO()
     c = canvas.Canvas(buf, pagesize=(pw * mm, ph * mm), invariant=1, pageCompression=1)
