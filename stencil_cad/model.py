@@ -165,14 +165,22 @@ class DotSet:
         r_mm: ``(N,)`` ndarray of float, hole radii in mm (never below 0.5).
         report: Figures about how the dots were made and checked (removed,
             merged or nudged counts, smallest web achieved, iterations).
+        spray_time: The layer's amount of paint: whole passes (physical spray model) or
+            the paper model's spray time; None until the tone calibration or ``spray.json``
+            gives one (then the config's, see :meth:`amount`).
     """
 
     xy_mm: np.ndarray
     r_mm: np.ndarray
     report: dict = field(default_factory=dict)
+    spray_time: float | None = None
 
     def __len__(self) -> int:
         return int(self.r_mm.shape[0])
+
+    def amount(self, default: float) -> float:
+        """The layer's amount of paint (:attr:`spray_time`), or ``default`` (the config's) when unset."""
+        return float(default if self.spray_time is None else self.spray_time)
 
     @property
     def polygons(self) -> tuple[()]:

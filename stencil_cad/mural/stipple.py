@@ -362,9 +362,7 @@ def stipple_task(task: StippleTask) -> tuple[DotSet, dict | None]:
     choice, spray_time = layer_tone(task)
     density = None if choice is None else choice.density
     ds = stipple_layer(task.alpha, task.mm_per_px, task.cfg.stipple, task.rng, density=density)
-    return replace(
-        ds, report={**ds.report, "spray_time": spray_time}
-    ), None if choice is None else choice.summary()
+    return replace(ds, spray_time=spray_time), None if choice is None else choice.summary()
 
 
 def tone_task(task: StippleTask):
@@ -414,7 +412,7 @@ def stipple_layers(
     placed = stipple_mural(cfg, alphas, tasks[0].mm_per_px, grid, [c for c, _ in chosen], seeds, tasks_map)
     sets = []
     for ds, (choice, spray_time) in zip(placed, chosen, strict=True):
-        sets.append(replace(ds, report={**ds.report, "spray_time": spray_time}))
+        sets.append(replace(ds, spray_time=spray_time))
         if choice is not None:
             tones.append(choice.summary())
     return sets, tones

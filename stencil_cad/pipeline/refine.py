@@ -72,7 +72,7 @@ def stage_refine(
     cans = can_prior(cfg.spray) if rc.cans == "prior" else [("nominal", cfg.spray)]
     kernels = [mural_refine.HoleKernels(sp, geometry) for _, sp in cans]
 
-    times = [float(ds.report.get("spray_time", cfg.spray.amount)) for ds in dotsets]
+    times = [ds.amount(cfg.spray.amount) for ds in dotsets]
     problem = mural_refine.Problem(
         target=target,
         alpha_targets=alpha_targets,

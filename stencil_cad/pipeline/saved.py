@@ -71,7 +71,7 @@ def read_dots(folder: Path, count: int | None = None, max_time: float = 800.0) -
         from dataclasses import replace
 
         times = read_spray_times(spray, len(out), max_time)
-        out = [replace(ds, report={**ds.report, "spray_time": t}) for ds, t in zip(out, times, strict=True)]
+        out = [replace(ds, spray_time=t) for ds, t in zip(out, times, strict=True)]
     return out
 
 

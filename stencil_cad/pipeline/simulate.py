@@ -96,9 +96,7 @@ def stage_simulate(
         run.figures["simulate"]["scielab_worst"] = max(by_can.values())
     if per_wall:
         run.figures["simulate"]["walls"] = per_wall
-    run.figures["spraying"] = spraying_steps(
-        cfg, layers, [float(ds.report.get("spray_time", cfg.spray.amount)) for ds in dotsets]
-    )
+    run.figures["spraying"] = spraying_steps(cfg, layers, [ds.amount(cfg.spray.amount) for ds in dotsets])
     return (sim, ref) if keep else scores
 
 
@@ -214,7 +212,7 @@ def _dot_visibility(run: Run, layers: Layers, dotsets: list[DotSet]) -> dict:
     lum = np.array([0.2126, 0.7152, 0.0722])
     k = int(np.argmax(np.abs((layers.colours - layers.primer) @ lum)))
     r = cfg.stipple.resolved_hole_min_r_mm
-    a = float(dotsets[k].report.get("spray_time", cfg.spray.amount))
+    a = dotsets[k].amount(cfg.spray.amount)
     d = blend_distance_m(
         r,
         cfg.stipple.resolved_web_mm,

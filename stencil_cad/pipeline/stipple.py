@@ -60,7 +60,7 @@ def stage_stipple(
             tasks, layers.alphas, tiling, lambda i, k: run.seed_for("stipple", i, k), run.tasks.map
         )
     run.figures["dark_end"] = [
-        _dark_end(cfg, alpha, float(ds.report["spray_time"]))
+        _dark_end(cfg, alpha, ds.amount(cfg.spray.amount))
         for alpha, ds in zip(layers.alphas, sets, strict=True)
     ]
     if cfg.refine.enabled:
@@ -70,9 +70,10 @@ def stage_stipple(
         for i, ds in enumerate(sets):
             run.out.write_text(dots_name(i), dots_to_csv(ds))
             run.out.write_png(f"{layer_stem(i)}_dots.png", cards[i])
-        write_spray_order(run, layers.primer, layers.colours, [ds.report["spray_time"] for ds in sets])
+        write_spray_order(run, layers.primer, layers.colours, [ds.amount(cfg.spray.amount) for ds in sets])
     run.figures["stipple"] = [
-        {"layer": i + 1, "dots": len(ds), **_plain(ds.report)} for i, ds in enumerate(sets)
+        {"layer": i + 1, "dots": len(ds), **_plain(ds.report), "spray_time": ds.spray_time}
+        for i, ds in enumerate(sets)
     ]
     for i, ds in enumerate(sets):
         if len(ds) == 0:

@@ -198,7 +198,7 @@ def simulate(
         cfg: Spray settings.
         grid_mm_per_px: Simulation pixel size in mm. Defaults to ``1 / cfg.px_per_mm``.
         spray_times: Per-layer spray time A (e.g. chosen by the tone calibration).
-            Defaults to each DotSet's ``report["spray_time"]`` when present (where the
+            Defaults to each DotSet's ``spray_time`` when set (where the
             pipeline may record the calibration's choice), else ``cfg.spray_time``.
         time_factor: Multiplies every spray time (the sweep uses 0.5, 1, 2). Defaults to 1.
         geometry: Stand-off and plate thickness (:class:`~stencil_cad.simulate.physical.SprayGeometry`);
@@ -217,7 +217,7 @@ def simulate(
     if not g > 0:
         raise ValueError(f"grid_mm_per_px must be > 0, got {g}")
     if spray_times is None:
-        spray_times = [float(d.report.get("spray_time", cfg.amount)) for d in dotsets]
+        spray_times = [d.amount(cfg.amount) for d in dotsets]
     if len(spray_times) != layers.count:
         raise ValueError(f"need one spray time per layer: {layers.count} layers, {len(spray_times)} times")
     shape = sim_shape(layers.alphas.shape[1:], layers.mm_per_px, g)

@@ -263,7 +263,7 @@ def test_simulate_per_layer_spray_time():
     layers = _layers()
     xy = np.array([[5.0, 5.0]])
     cfg = SprayConfig(model="paper", px_per_mm=2.0)
-    timed = DotSet(xy_mm=xy, r_mm=np.array([1.0]), report={"spray_time": 0.25})
+    timed = DotSet(xy_mm=xy, r_mm=np.array([1.0]), spray_time=0.25)
     plain = DotSet(xy_mm=xy, r_mm=np.array([1.0]))
     res = sim.simulate(layers, [timed, plain], cfg)
     assert res.alphas[0].max() == pytest.approx(0.25 * res.alphas[1].max(), rel=1e-3)
