@@ -24,9 +24,11 @@ def dots_name(i: int) -> str:
     return f"layer_{i + 1:02d}_dots.csv"
 
 
-def wall_stems(standoffs_mm: list[float]) -> list[str]:
-    """File stems of the walls: ``wall`` for one stand-off height, ``wall_10mm`` … for several."""
-    heights = sorted(set(standoffs_mm))
+def wall_stems(heights: list[float]) -> list[str]:
+    """File stems of the walls (``heights``: :meth:`~stencil_cad.config.WallConfig.heights`).
+
+    ``wall`` for one stand-off height, ``wall_10mm`` … for several.
+    """
     return ["wall"] if len(heights) == 1 else [f"wall_{h:g}mm" for h in heights]
 
 
@@ -121,7 +123,7 @@ def stage_outputs(cfg: JobConfig, command: str, count: int, grid=None) -> list[s
     if command == "build":
         exts = cfg.export.plate_extensions()
         names = [layer_stem(i) + e for i in range(count) for e in exts]
-        return names + [s + e for s in wall_stems(cfg.wall.standoff_mm) for e in (".step", ".stl")]
+        return names + [s + e for s in wall_stems(cfg.wall.heights()) for e in (".step", ".stl")]
     if command == "simulate":
         return ["simulated.png", "preview.png", "sweep.png", *simulated_stems(cfg)] + [
             step_name(i) for i in range(count)
@@ -138,9 +140,8 @@ def tile_stem(tile: mural.Tile, i: int) -> str:
     return f"tile_{tile.name}_layer_{i + 1:02d}"
 
 
-def tile_wall_stems(tile: mural.Tile, standoffs_mm: list[float]) -> list[str]:
+def tile_wall_stems(tile: mural.Tile, heights: list[float]) -> list[str]:
     """Stems of a tile's walls: ``tile_B3_wall`` or ``tile_B3_wall_10mm`` … for several heights."""
-    heights = sorted(set(standoffs_mm))
     return (
         [f"tile_{tile.name}_wall"]
         if len(heights) == 1
@@ -154,5 +155,5 @@ def tile_outputs(cfg, grid: mural.TileGrid, count: int) -> list[str]:
     names = []
     for t in grid.tiles:
         names += [tile_stem(t, i) + e for i in range(count) for e in exts]
-        names += [s + e for s in tile_wall_stems(t, cfg.wall.standoff_mm) for e in (".step", ".stl")]
+        names += [s + e for s in tile_wall_stems(t, cfg.wall.heights()) for e in (".step", ".stl")]
     return names + ["mural_map.png"]

@@ -183,7 +183,7 @@ def _part_tasks(cfg, layers: Layers, grid: mural.TileGrid, per_tile, heights) ->
                 notches=notches,
                 **common,
             )
-        for standoff, stem in zip(heights, tile_wall_stems(t, cfg.wall.standoff_mm), strict=True):
+        for standoff, stem in zip(heights, tile_wall_stems(t, heights), strict=True):
             yield PartTask(kind="wall", stem=stem, standoff_mm=standoff, **common)
 
 
