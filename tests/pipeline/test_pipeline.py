@@ -152,12 +152,12 @@ def test_build_rejects_overlapping_dots_and_writes_nothing(small_run, tmp_path, 
 
 
 def test_interrupted_run_leaves_nothing(tmp_path, monkeypatch):
-    from stencil_cad.pipeline import build as pipeline_build
+    from stencil_cad.pipeline import run as pipeline_run
 
     def boom(*a, **k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(pipeline_build, "stage_build", boom)
+    monkeypatch.setattr(pipeline_run, "stage_build", boom)
     cfg = tmp_path / "c.yaml"
     cfg.write_text(SMALL)
     assert main(["run", str(cfg), "--out", str(tmp_path / "o"), "-q"]) == 130
