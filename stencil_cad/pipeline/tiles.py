@@ -27,6 +27,7 @@ from ..errors import UserError
 from ..model import DotSet, Layers, Picture
 from ..output import plain as _plain
 from .names import tile_stem, tile_wall_stems
+from .profiles import layer_sprays
 
 if TYPE_CHECKING:
     from ..cad import LabelInfo
@@ -339,11 +340,17 @@ def stage_mural_simulate(
     g = sim.mm_per_px
     shape = sim.alphas.shape[1:]
     times = [float(t) for t in sim.info["spray_time"]]
-    tols = [simulate.tail_tolerance(d.xy_mm, d.r_mm, shape, g, cfg) if len(d) else 0.0 for d in dotsets]
+    sprays = layer_sprays(run, layers.colours)
+    tols = [
+        simulate.tail_tolerance(d.xy_mm, d.r_mm, shape, g, sp) if len(d) else 0.0
+        for d, sp in zip(dotsets, sprays, strict=True)
+    ]
     out: dict = {}
     with run.stage("simulate_tiles"):
         t0 = time.perf_counter()
-        tiled = mural.simulate_tiles(shape, g, per_tile, grid, cfg, times, tols, geometry=geometry)
+        tiled = mural.simulate_tiles(
+            shape, g, per_tile, grid, cfg, times, tols, geometry=geometry, layer_sprays=sprays
+        )
         diff = float(np.max(np.abs(tiled - sim.alphas))) if tiled.size else 0.0
         out["tiled_vs_global_max_abs"] = diff
         out["tiled_equals_global"] = bool(diff <= 1e-6)
@@ -362,7 +369,7 @@ def stage_mural_simulate(
         for between in ("tiles", "layers"):
             for err in REGISTRATION_ERRORS_MM:
                 off = mural.registration_offsets(grid, err, between)
-                a = mural.simulate_tiles(shape, g, per_tile, grid, cfg, times, tols, off, geometry)
+                a = mural.simulate_tiles(shape, g, per_tile, grid, cfg, times, tols, off, geometry, sprays)
                 sc = scores(a)
                 del a
                 costs.append(
