@@ -27,13 +27,12 @@ def stage_simulate(
     layers: Layers,
     dotsets: list[DotSet],
     keep: bool = False,
-    as_made: bool = True,
 ):
     """Spray every plate in simulation, composite, score against the input, save previews.
 
-    Returns the scores, or with ``keep`` the simulation and the reference on its grid. With
-    ``as_made`` (a one-plate job) the holes are sprayed as the process makes them
-    (:func:`stencil_cad.stipple.made.made_dots`); a mural's are sprayed as asked.
+    Returns the scores, or with ``keep`` the simulation and the reference on its grid. The
+    holes are sprayed as the process makes them (:func:`stencil_cad.stipple.made.made_dots`),
+    a mural's as a one-plate job's.
 
     Under the physical model every wall height gets its own simulation and score
     (``simulated_wall_10mm.png`` …); the main pictures and scores are those of the design
@@ -45,10 +44,9 @@ def stage_simulate(
     cfg = run.cfg
     design = SprayGeometry.for_job(cfg)
     sprays = layer_sprays(run, layers.colours)
-    if as_made:
-        # Spray the holes as the process makes them (stipple.hole_offset_mm), not as asked.
-        size_mm = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
-        dotsets = [made_dots(d, cfg.stipple, size_mm) if isinstance(d, DotSet) else d for d in dotsets]
+    # Spray the holes as the process makes them (stipple.hole_offset_mm), not as asked.
+    size_mm = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
+    dotsets = [made_dots(d, cfg.stipple, size_mm) if isinstance(d, DotSet) else d for d in dotsets]
     with run.stage("simulate"):
         grid_mm = resolution.sim_mm_per_px(cfg)
         sim = simulate.simulate(layers, dotsets, cfg.spray, grid_mm, geometry=design, layer_sprays=sprays)
