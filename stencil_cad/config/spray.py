@@ -9,6 +9,7 @@ from typing import Any
 
 from pydantic import Field, field_validator, model_validator
 
+from ..errors import ConfigError
 from .base import StrictModel
 from .profiles import DEFAULT_KEY, profile_key
 from .stipple import Process
@@ -316,7 +317,14 @@ class SprayConfig(StrictModel):
             return self
         if key is None or key not in self.profile:
             return self.model_copy(update={"profile": None, "layer_cans": {}})
-        can = self.can if key == DEFAULT_KEY else self.layer_cans.get(key, self.can)
+        if key != DEFAULT_KEY and key not in self.layer_cans:
+            # The files are read with the config (config.io.load_config); a section built without
+            # them must not pass spray.can's priors off as the measured can.
+            raise ConfigError(
+                f"spray.profile: the file of key {key!r} was not read (spray.layer_cans has no {key!r}): "
+                "load the config with stencil_cad.config.io.load_config"
+            )
+        can = self.can if key == DEFAULT_KEY else self.layer_cans[key]
         return self.model_copy(update={"profile": self.profile[key], "can": can, "layer_cans": {}})
 
     def all_cans(self) -> list[CanConstants]:

@@ -10,9 +10,9 @@ from collections.abc import Mapping, Sequence
 
 __all__ = ["layer_can", "unmeasured_warning", "uses_profiles"]
 
-#: What a maker does to measure a can.
+#: What a maker does to measure a can ({paints}: which paints).
 MEASURE = (
-    "spray the calibration card (stencil-cad card) with each of those paints, photograph it, run "
+    "spray the calibration card (stencil-cad card) with {paints}, photograph it, run "
     "stencil-cad calibrate and key each profile to its layer in spray.profile"
 )
 
@@ -46,7 +46,12 @@ def unmeasured_warning(rows: Sequence[Mapping] | None) -> str | None:
     whole = len(bad) == len(rows)
     verb = "sprays" if len(bad) == 1 else "spray"
     who = "Every layer sprays" if whole else f"{_numbers(bad).capitalize()} {verb}"
+    these = "your cans" if whole else ("that paint" if len(bad) == 1 else "those paints")
+    each = (
+        {True: "each of the paints", False: "each of those paints"}[whole] if len(bad) > 1 else "that paint"
+    )
+    each = "the paint" if whole and len(bad) == 1 else each
     return (
         f"{who} with can constants nobody measured (the priors of spray.can): the simulated picture and "
-        f"the passes are a guess for {'your cans' if whole else 'those paints'}. To know, {MEASURE}."
+        f"the passes are a guess for {these}. To know, {MEASURE.format(paints=each)}."
     )

@@ -129,3 +129,12 @@ def test_a_key_naming_no_layer_is_refused_with_the_layers(tmp_path):
     both = _job(tmp_path, '{1: black.yaml, "#000000": black.yaml}')
     with pytest.raises(ConfigError, match="both name layer 1"):
         both.layer_spray(1, "#000000")
+
+
+def test_a_mapping_whose_files_were_not_read_is_refused():
+    from stencil_cad.config import io as cfg_io
+
+    cfg = cfg_io.parse_config({"spray": {"profile": {1: "black.yaml"}}}, "test")
+    with pytest.raises(ConfigError, match="file of key '1' was not read"):
+        cfg.layer_spray(1, "#000000")
+    assert cfg.layer_spray(2, "#ffffff").profile is None
