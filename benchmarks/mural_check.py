@@ -7,9 +7,13 @@ Usage: ``python -m benchmarks.mural_check OUT [--bed X Y]``. Prints one JSON obj
   ``all_valid`` (every plate and wall one valid solid);
 * ``holes_dxf``: the holes read back from every tile's DXF with ezdxf, and ``holes_csv``
   from the mural's ``layer_NN_dots.csv``; ``same_holes``: the DXFs' holes, moved from each
-  tile's sheet frame to mural coordinates, are the CSV's holes one to one (to 0.001 mm: the CSV keeps four decimals);
+  tile's sheet frame to mural coordinates, are the CSV's holes one to one as the plates draw
+  them (:func:`stencil_cad.stipple.made.drawn_dots`, compensated for the process; to 0.001 mm:
+  the CSV keeps four decimals);
 * ``union_rules``: :func:`stencil_cad.stipple.rules.check_rules` on the DXFs' holes of each
-  layer in mural coordinates (``"passed"`` or the error);
+  layer in mural coordinates as the process makes them (each radius less
+  ``stipple.hole_offset_mm``; the web at its minimum, no hole under the 0.5 mm floor) (``"passed"``
+  or the error);
 * ``seam_ratio_flank`` / ``seam_ratio_global``: the range of the hole density within 5 mm
   of each seam over the strips beside it, and over the whole mural;
 * ``tiled_vs_global_max_abs`` and the registration-cost rows from the manifest.
@@ -51,8 +55,12 @@ def _same_holes(
 
 
 def check(out: Path, bed: tuple[float, float] | None = None) -> dict:
+    from dataclasses import replace
+
     from stencil_cad.config import io as cfg_io
+    from stencil_cad.config.stipple import HOLE_FLOOR_MM
     from stencil_cad.exchange.dots_csv import dots_from_csv
+    from stencil_cad.stipple.made import drawn_dots
     from stencil_cad.stipple.rules import check_rules
 
     m = json.loads((out / "manifest.json").read_text())
@@ -73,7 +81,9 @@ def check(out: Path, bed: tuple[float, float] | None = None) -> dict:
     cfg = cfg_io.parse_config(m["config"], source="manifest")
     layers = len(m["stipple"])
     width, height = m["picture"]["width_mm"], m["picture"]["height_mm"]
-    rules = cfg.stipple.design_rules(width, height)
+    design = cfg.stipple.design_rules(width, height)
+    rules = replace(design, hole_min_r_mm=min(design.hole_min_r_mm, HOLE_FLOOR_MM))
+    offset = cfg.stipple.resolved_hole_offset_mm
     same, union_rules, n_dxf, n_csv = True, "passed", 0, 0
     for i in range(layers):
         xy_all, r_all = [], []
@@ -87,9 +97,10 @@ def check(out: Path, bed: tuple[float, float] | None = None) -> dict:
         n_dxf += len(r)
         ref = dots_from_csv((out / f"layer_{i + 1:02d}_dots.csv").read_text())
         n_csv += len(ref)
-        same &= _same_holes(xy, r, ref.xy_mm, ref.r_mm)
+        drawn = drawn_dots(ref, cfg.stipple, (width, height))
+        same &= _same_holes(xy, r, drawn.xy_mm, drawn.r_mm)
         try:
-            check_rules(xy, r, rules)
+            check_rules(xy, np.maximum(r - offset, 0.0), rules)
         except ValueError as exc:
             union_rules = f"layer {i + 1}: {exc}"
     seams = mural.get("seam_density", [])

@@ -276,7 +276,7 @@ def run(cases=None):
                     "holes": sum(map(len, refined)),
                     "layer_tone_rmse_stippled": sim0.info["layer_tone_rmse"],
                     "layer_tone_rmse_refined": sim1.info["layer_tone_rmse"],
-                    "spray_times": [round(float(d.report["spray_time"]), 4) for d in refined],
+                    "spray_times": [round(d.amount(cfg.spray.amount), 4) for d in refined],
                     "scielab_1m_by_can": _by_can(f, cfg, layers, refined, ref),
                 }
                 timing[h] = {"stipple_seconds": round(t_stipple, 3), "refine_seconds": round(t_refine, 3)}

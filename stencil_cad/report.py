@@ -43,12 +43,28 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
         )
     for step in f.get("spraying", []):
         lines.append(f"  {step['text']}")
+    lines += _can_lines(run, f.get("spray_profiles") or [])
     times = ", ".join(f"{k} {v:.1f} s" for k, v in run.times.items())
     lines.append(f"  time      {times}")
     lines += _folder_lines(run, files)
     for warning in getattr(run, "warnings", []) or []:
         lines.append(f"  warning   {warning}")
     return "\n".join(lines)
+
+
+def _can_lines(run: Run, rows: list) -> list[str]:
+    """The can each layer sprayed with (when the job keys profiles to paints), and the unmeasured ones."""
+    from .instructions.cans import layer_can, unmeasured_warning, uses_profiles
+
+    if not run.cfg.spray.is_physical or not rows:
+        return []
+    lines = []
+    if uses_profiles(rows):
+        lines.append("  cans      " + "; ".join(f"layer {r['layer']} {layer_can(r)}" for r in rows))
+    warning = unmeasured_warning(rows)
+    if warning:
+        lines.append(f"  warning   {warning}")
+    return lines
 
 
 def _layer_lines(run: Run, f: dict) -> list[str]:

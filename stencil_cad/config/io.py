@@ -284,7 +284,10 @@ def load_config(path: Path | str) -> JobConfig:
         plate = cfg.plate.model_copy(update={"template": path.parent / cfg.plate.template})
         cfg = cfg.model_copy(update={"plate": plate})
     if cfg.spray.profile is not None:
-        cfg = with_profile(cfg, path.parent, raw_can=(data.get("spray") or {}).get("can"), source=str(path))
+        raw = data.get("spray") or {}
+        cfg = with_profile(
+            cfg, path.parent, raw.get("can"), source=str(path), raw_layer_cans=raw.get("layer_cans")
+        )
     if cfg.plate.template is not None and not cfg.plate.template.is_file():
         raise ConfigError(
             f"{path}: plate.template: file not found: {cfg.plate.template} (copy templates/plate.py there, "
@@ -321,8 +324,11 @@ def load_profile(path: Path | str):
         raise ConfigError(format_validation_error(exc, str(path))) from None
 
 
-def with_profile(cfg, folder: Path, raw_can: Any = None, source: str = "config"):
-    """Resolve ``spray.profile`` (relative to ``folder``) and put its constants into ``spray.can``.
+def with_profile(cfg, folder: Path, raw_can: Any = None, source: str = "config", raw_layer_cans: Any = None):
+    """Resolve ``spray.profile`` (relative to ``folder``) and put its constants into the spray section.
+
+    One file's constants go to ``spray.can``; a mapping's ``default`` file's too, and every other
+    file's to ``spray.layer_cans`` under its key.
 
     Args:
         cfg: The validated job config.
@@ -330,30 +336,58 @@ def with_profile(cfg, folder: Path, raw_can: Any = None, source: str = "config")
         raw_can: The ``spray.can`` mapping as written in the file, if any: it must not
             contradict the profile.
         source: Name of the config, for messages.
+        raw_layer_cans: The ``spray.layer_cans`` mapping as written, if any: it must not
+            contradict the files.
 
     Returns:
-        The config with ``spray.profile`` absolute and ``spray.can`` from the file.
+        The config with ``spray.profile`` absolute and ``spray.can`` (and ``spray.layer_cans``) from
+        the files.
 
     Raises:
-        ConfigError: The profile cannot be read, or ``spray.can`` says something else.
+        ConfigError: A profile cannot be read, or ``spray.can`` or ``spray.layer_cans`` says something else.
     """
-    prof = cfg.spray.profile
-    if not prof.is_absolute():
-        prof = folder / prof
-    can = load_profile(prof)
-    if raw_can is not None:
-        from .spray import CanConstants
+    from .profiles import DEFAULT_KEY
 
+    sp = cfg.spray
+    paths = sp.profile if isinstance(sp.profile, dict) else {DEFAULT_KEY: sp.profile}
+    paths = {k: (p if p.is_absolute() else folder / p) for k, p in paths.items()}
+    cans = {}
+    for key, p in paths.items():
         try:
-            written = CanConstants.model_validate(raw_can)
-        except ValidationError:
-            written = None
-        if written != can:
-            raise ConfigError(
-                f"{source}: spray.can and spray.profile both set and they differ: remove spray.can "
-                "(the profile's constants are used) or remove spray.profile"
-            )
-    return cfg.model_copy(update={"spray": cfg.spray.model_copy(update={"profile": prof, "can": can})})
+            cans[key] = load_profile(p)
+        except ConfigError as exc:
+            if not isinstance(sp.profile, dict):
+                raise
+            raise ConfigError(f"{source}: spray.profile: key {key!r}: {exc}") from None
+    if raw_can is not None and DEFAULT_KEY in cans and _as_can(raw_can) != cans[DEFAULT_KEY]:
+        raise ConfigError(
+            f"{source}: spray.can and spray.profile both set and they differ: remove spray.can "
+            "(the profile's constants are used) or remove spray.profile"
+        )
+    layer_cans = {k: c for k, c in cans.items() if k != DEFAULT_KEY}
+    if raw_layer_cans:
+        for key, written in sp.layer_cans.items():
+            if written != layer_cans.get(key):
+                raise ConfigError(
+                    f"{source}: spray.layer_cans: key {key!r} differs from its file {paths[key].name}: remove "
+                    "spray.layer_cans (it is filled from spray.profile's files)"
+                )
+    update: dict[str, Any] = {"profile": paths if isinstance(sp.profile, dict) else paths[DEFAULT_KEY]}
+    if DEFAULT_KEY in cans:
+        update["can"] = cans[DEFAULT_KEY]
+    if isinstance(sp.profile, dict):
+        update["layer_cans"] = layer_cans
+    return cfg.model_copy(update={"spray": sp.model_copy(update=update)})
+
+
+def _as_can(raw: Any):
+    """``spray.can`` as written, validated (None when it is not a valid can)."""
+    from .spray import CanConstants
+
+    try:
+        return CanConstants.model_validate(raw)
+    except ValidationError:
+        return None
 
 
 def _resolve_can_lists(cfg, folder: Path):

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import enum
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Annotated, Literal
 
 from pydantic import Field, field_validator, model_validator
 
+from ..errors import ConfigError
+from . import profiles
 from .base import StrictModel
 from .bed import BED_DESCRIPTION, parse_bed
 from .cad import ExportConfig, PlateConfig, WallConfig
@@ -177,9 +179,71 @@ class JobConfig(StrictModel):
         """Whether each layer gets its own spray time: calibrated tone and ``spray.calibrate: spray_time``."""
         return self.stipple.is_calibrated and self.spray.calibrate == Calibrate.spray_time
 
+    def layer_spray(self, number: int, hex_code: str, name: str | None = None) -> SprayConfig:
+        """The spray settings layer ``number`` sprays with: its own profile's constants (``spray.profile``).
+
+        Args:
+            number: The layer's number in spray order, from 1.
+            hex_code: Its paint as ``#rrggbb``.
+            name: Its paint's name (the can's label), or None.
+
+        Returns:
+            ``spray`` itself with one profile file or none; with a mapping, ``spray`` with the
+            constants of the file whose key names the layer (:mod:`.profiles`) and that file as
+            ``profile``, or ``spray.can`` and no profile when no key does.
+
+        Raises:
+            ConfigError: Two keys name the layer.
+        """
+        if not self.spray.profile_keys:
+            return self.spray
+        return self.spray.for_profile_key(self.layer_profile_key(number, hex_code, name))
+
+    def layer_profile_key(self, number: int, hex_code: str, name: str | None = None) -> str | None:
+        """The key of the ``spray.profile`` mapping that names layer ``number`` (see :meth:`layer_spray`).
+
+        None without a mapping, or when no key (not even ``default``) names the layer.
+
+        Raises:
+            ConfigError: Two keys name the layer.
+        """
+        try:
+            return profiles.layer_key(self.spray.profile_keys, number, hex_code, name)
+        except ValueError as exc:
+            raise ConfigError(f"spray.profile: {exc}") from None
+
+    def check_profile_keys(self, hexes: Sequence[str], names: Mapping[str, str] | None = None) -> None:
+        """Refuse a ``spray.profile`` mapping with a key that names no layer of the job.
+
+        Args:
+            hexes: Each layer's paint as ``#rrggbb``, in spray order.
+            names: ``{hex: paint name}`` of the paints the job has names for.
+
+        Raises:
+            ConfigError: Naming the key, the job's layers and the fix.
+        """
+        bad = profiles.unmatched_keys(self.spray.profile_keys, hexes, names)
+        if not bad:
+            return
+        names = names or {}
+        have = ", ".join(
+            f"{i + 1} {h}" + (f" ({names[h]})" if names.get(h) else "") for i, h in enumerate(hexes)
+        )
+        raise ConfigError(
+            f"spray.profile: key {bad[0]!r} names no layer of this job (its layers: {have or 'none'}): "
+            "key each file by one of these layer numbers, hex codes or paint names, or by default"
+        )
+
     @model_validator(mode="after")
     def _cross_checks(self) -> JobConfig:
         self.wall.check_plate(self.plate.outline, self.plate.thickness_mm)
+        numbers = [int(k) for k in self.spray.profile_keys if k.isdigit()]
+        if self.mode == Mode.soft and numbers and max(numbers) > self.decompose.layers:
+            raise ValueError(
+                f"spray.profile: key {max(numbers)} names layer {max(numbers)}, but the job has "
+                f"decompose.layers {self.decompose.layers}: key the file by a layer from 1 to "
+                f"{self.decompose.layers}, or raise decompose.layers"
+            )
         return self
 
 

@@ -7,9 +7,11 @@ import math
 from pathlib import Path
 from typing import Any, ClassVar
 
-from pydantic import Field, field_validator
+from pydantic import Field, field_validator, model_validator
 
+from ..errors import ConfigError
 from .base import StrictModel
+from .profiles import DEFAULT_KEY, profile_key
 from .stipple import Process
 
 #: The nozzle height each process's soft stencils score best from, seen from 1 m (stipple.process ->
@@ -184,12 +186,25 @@ class SprayConfig(StrictModel):
             "values when spray.profile is set."
         ),
     )
-    profile: Path | None = Field(
+    profile: Path | dict[str, Path] | None = Field(
         None,
         description=(
             "Physical model: a spray profile YAML written by `stencil-cad calibrate` from a photo of the "
-            "sprayed calibration card (`stencil-cad card`); its constants replace spray.can. A relative path "
-            "is taken from the config file's folder. null: use spray.can."
+            "sprayed calibration card (`stencil-cad card`); its constants replace spray.can. One file for "
+            "every layer, or one per paint: a mapping from a layer to a file, keyed by the layer's number "
+            "in spray order (1, 2, ...), its paint's hex code in quotes (\"#ff6900\"), its paint's name "
+            "(the can's label in the can list or catalogue) or default (every layer no other key names; "
+            'its constants replace spray.can), e.g. {1: black.yaml, "#ff6900": orange.yaml}. A layer '
+            "no key names sprays with spray.can's unmeasured constants. A relative path is taken from the "
+            "config file's folder. null: use spray.can for every layer."
+        ),
+    )
+    layer_cans: dict[str, CanConstants] = Field(
+        default_factory=dict,
+        description=(
+            "Physical model: the constants of each file of a spray.profile mapping but default's, by its "
+            "key; filled from the files when the config is read (a record, so the resolved config says "
+            "what each layer sprayed with). Written by hand it must agree with the files. {}: none."
         ),
     )
 
@@ -279,8 +294,46 @@ class SprayConfig(StrictModel):
 
     @property
     def is_measured(self) -> bool:
-        """True when the can's constants come from a measured spray profile (``spray.profile``)."""
+        """True when ``spray.can`` comes from a measured spray profile (one file, or a mapping's default).
+
+        With a mapping, a layer's own settings (:meth:`for_profile_key`) say whether it is measured.
+        """
+        if isinstance(self.profile, dict):
+            return DEFAULT_KEY in self.profile or bool(self.can.fit)
         return self.profile is not None or bool(self.can.fit)
+
+    @property
+    def profile_keys(self) -> list[str]:
+        """The keys of a ``spray.profile`` mapping (empty for one file or none)."""
+        return list(self.profile) if isinstance(self.profile, dict) else []
+
+    def for_profile_key(self, key: str | None) -> SprayConfig:
+        """The settings a layer named by ``key`` of a ``spray.profile`` mapping sprays with.
+
+        Args:
+            key: A key of the mapping, ``default``, or None (no key names the layer).
+
+        Returns:
+            These settings with that file's constants in ``can`` and that file alone as ``profile``
+            (None: ``spray.can``, unmeasured); these settings themselves without a mapping.
+        """
+        if not isinstance(self.profile, dict):
+            return self
+        if key is None or key not in self.profile:
+            return self.model_copy(update={"profile": None, "layer_cans": {}})
+        if key != DEFAULT_KEY and key not in self.layer_cans:
+            # The files are read with the config (config.io.load_config); a section built without
+            # them must not pass spray.can's priors off as the measured can.
+            raise ConfigError(
+                f"spray.profile: the file of key {key!r} was not read (spray.layer_cans has no {key!r}): "
+                "load the config with stencil_cad.config.io.load_config"
+            )
+        can = self.can if key == DEFAULT_KEY else self.layer_cans[key]
+        return self.model_copy(update={"profile": self.profile[key], "can": can, "layer_cans": {}})
+
+    def all_cans(self) -> list[CanConstants]:
+        """Every can a layer may spray with: ``spray.can`` and each profile's constants."""
+        return [self.can, *self.layer_cans.values()]
 
     @property
     def dose_per_pass(self) -> float:
@@ -326,6 +379,39 @@ class SprayConfig(StrictModel):
     def _nozzle_default(cls, v: Any) -> Any:
         # A job fills null in with its process's value (JobConfig); alone, the SLA/laser one.
         return DEFAULT_NOZZLE_HEIGHT if v is None else v
+
+    @field_validator("profile", mode="before")
+    @classmethod
+    def _profile_keys(cls, v: Any) -> Any:
+        if not isinstance(v, dict):
+            return v
+        if not v:
+            raise ValueError("an empty mapping: give one file per layer (e.g. {1: black.yaml}) or null")
+        out: dict[str, Any] = {}
+        for key, path in v.items():
+            k = profile_key(key)
+            if k in out:
+                raise ValueError(f"keys {key!r} and another key both read as {k!r}: keep one of them")
+            if path is None or isinstance(path, (dict, list)):
+                raise ValueError(f"key {key!r}: give the path of a spray profile file, got {path!r}")
+            out[k] = path
+        return out
+
+    @field_validator("layer_cans", mode="before")
+    @classmethod
+    def _layer_can_keys(cls, v: Any) -> Any:
+        return {profile_key(k): c for k, c in v.items()} if isinstance(v, dict) else v
+
+    @model_validator(mode="after")
+    def _layer_cans_have_files(self) -> SprayConfig:
+        keys = set(self.profile_keys) - {DEFAULT_KEY}
+        extra = [k for k in self.layer_cans if k not in keys]
+        if extra:
+            raise ValueError(
+                f"layer_cans: key {extra[0]!r} has no file in spray.profile (layer_cans records the "
+                "constants of spray.profile's files): remove it, or name its file in spray.profile"
+            )
+        return self
 
     @field_validator("sweep_factors")
     @classmethod

@@ -332,20 +332,29 @@ def render_ideal(result: HardResult) -> np.ndarray:
     return result.palette[result.painted]
 
 
-def simulate_hard(result: HardResult, spray_cfg, *, geometry=None) -> tuple[np.ndarray, np.ndarray]:
+def simulate_hard(
+    result: HardResult, spray_cfg, *, geometry=None, layer_sprays=None
+) -> tuple[np.ndarray, np.ndarray]:
     """Spray every cut layer with the simulator's spray model and composite.
 
     Args:
         result: The hard stencils.
         spray_cfg: A :class:`~stencil_cad.config.spray.SprayConfig`.
         geometry: Stand-off and plate thickness (physical spray model only).
+        layer_sprays: Each cut layer's spray settings (its paint's profile), or None: ``spray_cfg``.
 
     Returns:
         ``(alphas, composite)``: ``(L, H, W)`` simulated opacities and the
         ``(H, W, 3)`` composite in [0, 1].
     """
+    from ..simulate.spray import per_layer
+
+    sprays = per_layer(spray_cfg, layer_sprays, len(result.cut_masks))
     alphas = np.stack(
-        [spray_mask(m, result.mm_per_px, spray_cfg, geometry=geometry) for m in result.cut_masks]
+        [
+            spray_mask(m, result.mm_per_px, sp, geometry=geometry)
+            for m, sp in zip(result.cut_masks, sprays, strict=True)
+        ]
     ).reshape(result.count, *result.labels.shape)
     comp = np.clip(composite(result.primer, result.colours, alphas), 0.0, 1.0)
     return alphas, comp

@@ -20,6 +20,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 from . import make, mural
+from .cans import layer_can, unmeasured_warning, uses_profiles
 
 # Rule of thumb for when separate dots blend for the eye: one arcminute, about 3,400 x the pitch.
 ARCMINUTE_FACTOR = 3438.0
@@ -233,6 +234,12 @@ def _steps(manifest: Mapping, mode: str, names: set[str]) -> list[Step]:
         for r in manifest.get("spraying", []) or []
         if isinstance(r, Mapping)
     }
+    # The can each layer sprays with, named when the job keys spray profiles to its paints.
+    cans = manifest.get("spray_profiles") or []
+    if _physical(manifest) and uses_profiles(cans):
+        for row in cans:
+            k = int(row.get("layer", 0))
+            how[k] = (how.get(k, "") + f"; can: {layer_can(row)}").lstrip("; ")
     steps = []
     for k, o in enumerate(order):
         plate = o["plate"]
@@ -395,6 +402,8 @@ def sheet_from_manifest(manifest: Mapping, tiles: Sequence[Mapping] | None = Non
     warnings = [str(w) for w in (_val(manifest, "decompose", "warnings", default=[]) or [])]
     warnings += [str(w) for w in (_val(manifest, "hard", "warnings", default=[]) or [])]
     warnings += _dark_end_warnings(manifest)
+    unmeasured = unmeasured_warning(manifest.get("spray_profiles")) if _physical(manifest) else None
+    warnings += [unmeasured] if unmeasured else []
     return Sheet(
         job=str(cfg.get("name", "stencil")),
         mode=mode,
@@ -422,6 +431,11 @@ def sheet_from_manifest(manifest: Mapping, tiles: Sequence[Mapping] | None = Non
             manifest, steps, lambda s: _amount(s, str(spray.get("unit", "spray time"))), names
         ),
     )
+
+
+def _physical(manifest: Mapping) -> bool:
+    """Whether the job sprays under the physical model (the only one with can constants)."""
+    return str(_val(manifest, "config", "spray", "model", default="physical")) == "physical"
 
 
 def _spray_how(cfg: Mapping, section: str, nozzle) -> str:

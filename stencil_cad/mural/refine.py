@@ -80,7 +80,7 @@ class Problem:
         primer: ``(3,)`` primer colour.
         colours: ``(L, 3)`` paint colours in spray order.
         rules: The design rules of each layer over the whole mural (picture frame).
-        kernels: The spray model's per-hole kernels.
+        kernels: Per can of the prior (the nominal can first), each layer's per-hole kernels.
         spray_times: Each layer's spray time.
         settings: The refinement settings (add/remove is turned off per tile).
     """
@@ -91,7 +91,7 @@ class Problem:
     primer: np.ndarray
     colours: np.ndarray
     rules: list[DesignRules]
-    kernels: tuple[HoleKernels, ...]
+    kernels: tuple[tuple[HoleKernels, ...], ...]
     spray_times: list[float]
     settings: RefineSettings
 

@@ -180,6 +180,7 @@ def simulate_tiles(
     tail_tols: list[float],
     offset: Callable[[int, int], tuple[float, float]] | None = None,
     geometry=None,
+    layer_sprays=None,
 ) -> np.ndarray:
     """Spray every tile's plates through their walls, layer by layer, on the mural's raster.
 
@@ -197,13 +198,16 @@ def simulate_tiles(
             (:func:`stencil_cad.simulate.tail_tolerance`), so both splat the same discs.
         offset: ``offset(tile_index, layer) -> (dx, dy)`` mm registration error, or None.
         geometry: The spray geometry (stand-off, plate) for the physical spray model, or None.
+        layer_sprays: Each layer's spray settings (its paint's profile), or None: ``spray_cfg``.
 
     Returns:
         ``(L, H, W)`` simulated opacities.
     """
     from ..simulate import spray_opacity
+    from ..simulate.spray import per_layer
 
     layers = len(spray_times)
+    sprays = per_layer(spray_cfg, layer_sprays, layers)
     alphas = np.empty((layers, *shape), dtype=np.float64)
     for i in range(layers):
         trans = np.ones(shape, dtype=np.float64)
@@ -221,7 +225,7 @@ def simulate_tiles(
                 ds.r_mm,
                 shape,
                 g,
-                spray_cfg,
+                sprays[i],
                 spray_time=spray_times[i],
                 crop=crop,
                 tail_tol=tail_tols[i],

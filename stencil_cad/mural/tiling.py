@@ -207,7 +207,9 @@ def spray_halo_mm(cfg) -> float:
         # One blur for every hole; the physical splat reaches 5 sigma past the hole's edge.
         from ..simulate.physical import spread_sigma_mm
 
-        sigma = spread_sigma_mm(sp, max(cfg.wall.heights()))
+        # The widest blur of any layer's can (each paint may have its own profile).
+        h = max(cfg.wall.heights())
+        sigma = max(spread_sigma_mm(sp.model_copy(update={"can": c}), h) for c in sp.all_cans())
         return 5.0 * sigma + cfg.stipple.resolved_max_radius_mm + 1.0
     a = sp.spray_time
     if cfg.chooses_spray_time:

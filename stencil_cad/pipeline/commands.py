@@ -17,6 +17,7 @@ from .decompose import _with_can_list
 from .manifest import finish
 from .names import CARD_JSON, card_stems, layer_stem
 from .paints import plate_cards, write_spray_order
+from .profiles import layer_sprays
 from .simulate import _scores, spraying_steps, write_previews, write_steps
 
 log = logging.getLogger(__name__)
@@ -168,7 +169,9 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
         colours = np.array([cl.colour for cl in hard.cut_layers]).reshape(-1, 3)
         for i, card in enumerate(plate_cards(run, colours, size, hard.cut_layers)):
             run.out.write_png(f"{layer_stem(i)}_cut.png", card)
-        write_spray_order(run, hard.primer, colours, [float(cfg.spray.amount)] * hard.count)
+        sprays = _hard_sprays(run, colours)
+        amounts = [float(sp.amount) for sp in sprays]
+        write_spray_order(run, hard.primer, colours, amounts)
     run.figures["hard"] = _plain(hard.report)
     run.figures["hard"]["warnings"] = [str(w) for w in hard.report.get("warnings", [])]
     run.figures["hard"]["per_layer"] = [_plain(r) for r in hard.report.get("per_layer", [])]
@@ -183,14 +186,24 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
         from ..simulate.physical import SprayGeometry
 
         geometry = SprayGeometry.for_job(cfg)
-        alphas, comp = hardstencil.simulate_hard(hard, cfg.spray, geometry=geometry)
+        alphas, comp = hardstencil.simulate_hard(hard, cfg.spray, geometry=geometry, layer_sprays=sprays)
         scores = _scores(run, picture.rgb, comp, picture.mm_per_px)
         run.out.write_png("simulated.png", comp)
         write_previews(run, picture.rgb, hardstencil.render_ideal(hard), comp, picture.mm_per_px, scores)
         write_steps(run, hard.primer, hard.colours, alphas, picture.mm_per_px)
     run.figures["simulate"] = _plain(scores)
-    run.figures["spraying"] = spraying_steps(cfg, layers, [float(cfg.spray.amount)] * layers.count)
+    run.figures["spraying"] = spraying_steps(cfg, layers, amounts)
     return finish(run, "hard")
+
+
+def _hard_sprays(run: Run, colours: np.ndarray) -> list:
+    """Each cut layer's spray settings: its paint's profile, with whole passes enough for its own cover."""
+    out = []
+    for sp in layer_sprays(run, colours):
+        if sp is not run.cfg.spray and sp.is_physical:
+            sp = sp.model_copy(update={"passes": float(sp.full_cover_passes())})
+        out.append(sp)
+    return out
 
 
 def _process_rules(cfg: JobConfig) -> dict:

@@ -12,6 +12,7 @@ from ..mural import TileGrid
 from ..output import plain as _plain
 from ..record import Run
 from .picture import source_reference
+from .profiles import layer_sprays
 
 if TYPE_CHECKING:
     from .. import mural
@@ -65,12 +66,14 @@ def stage_refine(
     alpha_targets = np.stack([spray.resample(a, shape) for a in layers.alphas]) if layers.count else None
 
     from ..mural import refine as mural_refine
-    from ..simulate.cans import can_prior
+    from ..simulate.cans import layer_can_prior
 
     geometry = SprayGeometry.for_job(cfg)
-    # refine.cans: prior refines for the expected error over a prior of cans (without a measured can).
-    cans = can_prior(cfg.spray) if rc.cans == "prior" else [("nominal", cfg.spray)]
-    kernels = [mural_refine.HoleKernels(sp, geometry) for _, sp in cans]
+    # refine.cans: prior refines for the expected error over a prior of cans (without a measured
+    # can); each layer sprays with its own paint's profile, and a measured layer keeps its can.
+    sprays = layer_sprays(run, layers.colours)
+    cans = layer_can_prior(sprays) if rc.cans == "prior" else [("nominal", sprays)]
+    kernels = [tuple(mural_refine.HoleKernels(sp, geometry) for sp in per_layer) for _, per_layer in cans]
 
     times = [ds.amount(cfg.spray.amount) for ds in dotsets]
     problem = mural_refine.Problem(

@@ -211,7 +211,7 @@ def _run_stage_command(
         elif command == "build":
             build_any(run, layers, dotsets, size, grid, picture, simulate=False)
         else:
-            stage_simulate(run, picture, layers, dotsets, as_made=not grid.tiled)
+            stage_simulate(run, picture, layers, dotsets)
         return finish(run, command)
 
 
@@ -236,6 +236,7 @@ def build_any(
     tiles.write_map(run, grid, layers, picture)
     if not simulate:
         return
-    # A mural's plates are drawn as asked (no compensation yet) and sprayed so.
-    sim, ref = stage_simulate(run, picture, layers, dotsets, keep=True, as_made=False)
-    tiles.stage_mural_simulate(run, sim, ref, layers, dotsets, grid, per_tile)
+    # A mural's plates are compensated like a one-plate job's, and sprayed as made.
+    sim, ref = stage_simulate(run, picture, layers, dotsets, keep=True)
+    made = tiles.drawn_and_made(run.cfg, dotsets, grid)[1]
+    tiles.stage_mural_simulate(run, sim, ref, layers, made, grid, per_tile)

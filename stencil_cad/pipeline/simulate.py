@@ -16,6 +16,7 @@ from ..record import Run
 from ..stipple.made import made_dots
 from .names import simulated_stems, step_name
 from .picture import _resample, source_reference
+from .profiles import layer_sprays
 
 log = logging.getLogger(__name__)
 
@@ -26,13 +27,12 @@ def stage_simulate(
     layers: Layers,
     dotsets: list[DotSet],
     keep: bool = False,
-    as_made: bool = True,
 ):
     """Spray every plate in simulation, composite, score against the input, save previews.
 
-    Returns the scores, or with ``keep`` the simulation and the reference on its grid. With
-    ``as_made`` (a one-plate job) the holes are sprayed as the process makes them
-    (:func:`stencil_cad.stipple.made.made_dots`); a mural's are sprayed as asked.
+    Returns the scores, or with ``keep`` the simulation and the reference on its grid. The
+    holes are sprayed as the process makes them (:func:`stencil_cad.stipple.made.made_dots`),
+    a mural's as a one-plate job's.
 
     Under the physical model every wall height gets its own simulation and score
     (``simulated_wall_10mm.png`` …); the main pictures and scores are those of the design
@@ -43,51 +43,33 @@ def stage_simulate(
 
     cfg = run.cfg
     design = SprayGeometry.for_job(cfg)
-    if as_made:
-        # Spray the holes as the process makes them (stipple.hole_offset_mm), not as asked.
-        size_mm = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
-        dotsets = [made_dots(d, cfg.stipple, size_mm) if isinstance(d, DotSet) else d for d in dotsets]
+    sprays = layer_sprays(run, layers.colours)
+    # Spray the holes as the process makes them (stipple.hole_offset_mm), not as asked.
+    size_mm = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
+    dotsets = [made_dots(d, cfg.stipple, size_mm) if isinstance(d, DotSet) else d for d in dotsets]
     with run.stage("simulate"):
         grid_mm = resolution.sim_mm_per_px(cfg)
-        sim = simulate.simulate(layers, dotsets, cfg.spray, grid_mm, geometry=design)
+        sim = simulate.simulate(layers, dotsets, cfg.spray, grid_mm, geometry=design, layer_sprays=sprays)
         ref = source_reference(cfg, picture, layers, sim.composite.shape[:2], sim.mm_per_px)
         scores = _scores(run, ref, sim.composite, sim.mm_per_px)
-        by_can = _scores_by_can(run, layers, dotsets, ref, grid_mm, design, scores)
+        by_can = _scores_by_can(run, layers, dotsets, ref, grid_mm, design, scores, sprays)
         run.out.write_png("simulated.png", sim.composite)
         ideal = _resample(layers.composite(), sim.composite.shape[:2])
         write_previews(run, ref, ideal, sim.composite, sim.mm_per_px, scores)
         factors = tuple(cfg.spray.sweep_factors)
-        panels = simulate.sweep_panels(layers, dotsets, cfg.spray, grid_mm, factors=factors, geometry=design)
+        panels = simulate.sweep_panels(
+            layers, dotsets, cfg.spray, grid_mm, factors=factors, geometry=design, layer_sprays=sprays
+        )
         from ..simulate import labelled
 
         run.out.write_png(
             "sweep.png", labelled.sweep_card(panels, factors, sim.mm_per_px, unit=cfg.spray.amount_unit)
         )
         write_steps(run, layers.primer, layers.colours, sim.alphas, sim.mm_per_px)
-        per_wall = []
-        stems = simulated_stems(cfg)
-        for h, name in zip(cfg.wall.heights() if stems else [], stems, strict=True):
-            # Extra walls exist only under the physical model, where design is set.
-            assert design is not None
-            if h == design.standoff_mm:
-                other, other_scores = sim, scores
-            else:
-                other = simulate.simulate(
-                    layers, dotsets, cfg.spray, grid_mm, geometry=SprayGeometry.of_job(cfg, h)
-                )
-                other_scores = simulate.score(ref, other.composite)
-            run.out.write_png(name, other.composite)
-            per_wall.append(
-                {
-                    "standoff_mm": h,
-                    "file": name,
-                    "blur_sigma_mm": other.info["blur_sigma_mm"],
-                    **_plain(other_scores),
-                }
-            )
+        per_wall = _walls(run, layers, dotsets, (sim, scores, ref), grid_mm, design, sprays)
     run.figures["simulate"] = {
         **_plain(scores),
-        **_dot_visibility(run, layers, dotsets),
+        **_dot_visibility(run, layers, dotsets, sprays),
         "layer_rmse": [float(x) for x in sim.layer_rmse],
         **{k: v for k, v in _plain(sim.info).items() if k not in scores},
     }
@@ -98,6 +80,41 @@ def stage_simulate(
         run.figures["simulate"]["walls"] = per_wall
     run.figures["spraying"] = spraying_steps(cfg, layers, [ds.amount(cfg.spray.amount) for ds in dotsets])
     return (sim, ref) if keep else scores
+
+
+def _walls(run: Run, layers: Layers, dotsets: list[DotSet], done, grid_mm, design, sprays) -> list[dict]:
+    """Every wall height's simulation and scores (``simulated_wall_10mm.png`` …), the design one reused.
+
+    ``done`` is the design stand-off's ``(simulation, scores, reference)``.
+    """
+    from .. import simulate
+    from ..simulate.physical import SprayGeometry
+
+    cfg = run.cfg
+    sim, scores, ref = done
+    per_wall = []
+    stems = simulated_stems(cfg)
+    for h, name in zip(cfg.wall.heights() if stems else [], stems, strict=True):
+        # Extra walls exist only under the physical model, where design is set.
+        assert design is not None
+        if h == design.standoff_mm:
+            other, other_scores = sim, scores
+        else:
+            geometry = SprayGeometry.of_job(cfg, h)
+            other = simulate.simulate(
+                layers, dotsets, cfg.spray, grid_mm, geometry=geometry, layer_sprays=sprays
+            )
+            other_scores = simulate.score(ref, other.composite)
+        run.out.write_png(name, other.composite)
+        per_wall.append(
+            {
+                "standoff_mm": h,
+                "file": name,
+                "blur_sigma_mm": other.info["blur_sigma_mm"],
+                **_plain(other_scores),
+            }
+        )
+    return per_wall
 
 
 #: Overshoot of a sweep past each edge of the picture, mm: a pass starts and ends off the plate.
@@ -117,25 +134,28 @@ def sweep_seconds(cfg: JobConfig, width_mm: float, height_mm: float) -> float:
 
 
 def _scores_by_can(
-    run: Run, layers: Layers, dotsets: list[DotSet], ref, grid_mm, design, nominal: dict
+    run: Run, layers: Layers, dotsets: list[DotSet], ref, grid_mm, design, nominal: dict, sprays
 ) -> dict:
     """S-CIELAB at the viewing distance for every can of the prior (:mod:`.simulate.cans`), by name.
 
-    Empty when the prior is one can (the paper model, or a measured spray profile).
+    Each can of the prior changes the layers without a measured profile (``sprays``: each
+    layer's settings). Empty when the prior is one can (the paper model, or every layer measured).
     """
     from .. import simulate
     from ..simulate import scielab
-    from ..simulate.cans import can_prior
+    from ..simulate.cans import layer_can_prior
 
-    cans = can_prior(run.cfg.spray)
+    cans = layer_can_prior(sprays)
     if len(cans) < 2:
         return {}
     out = {}
-    for name, sp in cans:
+    for name, per_layer in cans:
         if name == "nominal":  # the job's own can, already simulated and scored
             out[name] = float(nominal["scielab"])
             continue
-        other = simulate.simulate(layers, dotsets, sp, grid_mm, geometry=design)
+        other = simulate.simulate(
+            layers, dotsets, run.cfg.spray, grid_mm, geometry=design, layer_sprays=per_layer
+        )
         out[name] = float(
             scielab.scielab(
                 ref, other.composite, other.mm_per_px, run.cfg.view.distance_m, tasks_map=run.tasks.map
@@ -201,7 +221,7 @@ def _scores(run: Run, reference: np.ndarray, sprayed: np.ndarray, mm_per_px: flo
     return scores
 
 
-def _dot_visibility(run: Run, layers: Layers, dotsets: list[DotSet]) -> dict:
+def _dot_visibility(run: Run, layers: Layers, dotsets: list[DotSet], sprays) -> dict:
     """From how far the smallest holes in the most contrasting paint blend (see :mod:`.simulate.visibility`)."""
     from ..simulate.physical import SprayGeometry
     from ..simulate.visibility import blend_distance_m
@@ -216,7 +236,7 @@ def _dot_visibility(run: Run, layers: Layers, dotsets: list[DotSet]) -> dict:
     d = blend_distance_m(
         r,
         cfg.stipple.resolved_web_mm,
-        cfg.spray,
+        sprays[k],
         a,
         layers.colours[k],
         layers.primer,

@@ -15,6 +15,7 @@ from ..output import plain as _plain
 from ..record import Run
 from .names import dots_name, layer_stem
 from .paints import plate_cards, write_spray_order
+from .profiles import layer_sprays
 from .refine import stage_refine
 
 if TYPE_CHECKING:
@@ -51,8 +52,10 @@ def stage_stipple(
             if cfg.chooses_spray_time
             else [None] * layers.count
         )
+        # Each layer's tone is chosen under its own paint's can (spray.profile).
+        jobs = layer_jobs(cfg, layer_sprays(run, layers.colours))
         tasks = [
-            StippleTask(alpha, layers.mm_per_px, cfg, run.rng_for("stipple", i), weights[i])
+            StippleTask(alpha, layers.mm_per_px, jobs[i], run.rng_for("stipple", i), weights[i])
             for i, alpha in enumerate(layers.alphas)
         ]
         tiling = grid or TileGrid.whole(*picture_mm)
@@ -60,8 +63,8 @@ def stage_stipple(
             tasks, layers.alphas, tiling, lambda i, k: run.seed_for("stipple", i, k), run.tasks.map
         )
     run.figures["dark_end"] = [
-        _dark_end(cfg, alpha, ds.amount(cfg.spray.amount))
-        for alpha, ds in zip(layers.alphas, sets, strict=True)
+        _dark_end(job, alpha, ds.amount(job.spray.amount))
+        for job, alpha, ds in zip(jobs, layers.alphas, sets, strict=True)
     ]
     if cfg.refine.enabled:
         sets = stage_refine(run, layers, sets, picture_mm, picture, grid)
@@ -87,6 +90,11 @@ def stage_stipple(
     if tones:
         run.figures["tone_calibration"] = tones
     return sets
+
+
+def layer_jobs(cfg: JobConfig, sprays: list) -> list[JobConfig]:
+    """The job config each layer is stippled under: ``cfg`` with the layer's spray settings."""
+    return [cfg if sp is cfg.spray else cfg.model_copy(update={"spray": sp}) for sp in sprays]
 
 
 def _dark_end(cfg: JobConfig, alpha: np.ndarray, spray_time: float) -> dict:

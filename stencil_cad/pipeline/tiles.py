@@ -27,6 +27,7 @@ from ..errors import UserError
 from ..model import DotSet, Layers, Picture
 from ..output import plain as _plain
 from .names import tile_stem, tile_wall_stems
+from .profiles import layer_sprays
 
 if TYPE_CHECKING:
     from ..cad import LabelInfo
@@ -62,26 +63,17 @@ def plan(cfg, width_mm: float, height_mm: float, layers: int, work_px: int) -> t
 def stage_build_tiles(run, layers: Layers, dotsets: list[DotSet], grid: mural.TileGrid) -> list[list[DotSet]]:
     """Build, check and export every tile's plates (one per layer) and wall(s).
 
-    Returns:
-        Per tile, per layer, the tile's holes in the tile frame.
-    """
-    from ..stipple import rules as dots
+    The plates draw the holes compensated for the process (``stipple.compensate``, as a one-plate
+    job's): each hole is grown over the whole mural before the holes are split among the tiles,
+    so a hole at a seam keeps the web to its neighbours on the next tile's plate too.
 
+    Returns:
+        Per tile, per layer, the tile's holes as the process makes them, in the tile frame.
+    """
     cfg = run.cfg
-    split = [mural.split_dots(ds, grid) for ds in dotsets]  # [layer][tile]
-    per_tile = [[split[i][k] for i in range(len(dotsets))] for k in range(len(grid.tiles))]
-    # The union of the tiles' holes is the global set: same count, same rules.
-    union = [
-        mural.to_mural([per_tile[k][i] for k in range(len(grid.tiles))], grid) for i in range(len(dotsets))
-    ]
-    rules = cfg.stipple.design_rules(grid.width_mm, grid.height_mm)
-    for i, u in enumerate(union):
-        if len(u) != len(dotsets[i]):
-            raise RuntimeError(f"layer {i + 1}: tiles hold {len(u)} holes, the mural {len(dotsets[i])}")
-        try:
-            dots.check_rules(u.xy_mm, u.r_mm, rules)
-        except ValueError as exc:
-            raise UserError(f"layer {i + 1} (all tiles in mural coordinates): {exc}") from None
+    drawn, made = drawn_and_made(cfg, dotsets, grid)
+    _check_unions(cfg, grid, {"asked": dotsets, "made": made, "drawn": drawn})
+    per_tile = _per_tile(drawn, grid)
     plates: list[dict] = []
     walls: list[dict] = []
     heights = cfg.wall.heights()
@@ -95,6 +87,10 @@ def stage_build_tiles(run, layers: Layers, dotsets: list[DotSet], grid: mural.Ti
             for name, data in res.files:
                 run.out.write_bytes(name, data)
             (plates if res.kind == "plate" else walls).append(res.row)
+    for row in plates:
+        i = int(row["layer"]) - 1
+        if len(dotsets[i]):
+            row["drawn_minus_asked_mm"] = round(float(np.mean(drawn[i].r_mm - dotsets[i].r_mm)), 4)
     run.figures["build"] = {"plates": plates, "walls": walls}
     run.figures.setdefault("mural", {}).update(
         {
@@ -102,14 +98,67 @@ def stage_build_tiles(run, layers: Layers, dotsets: list[DotSet], grid: mural.Ti
             "holes_per_tile": {
                 t.name: [len(per_tile[k][i]) for i in range(len(dotsets))] for k, t in enumerate(grid.tiles)
             },
-            "holes_total": int(sum(len(d) for d in union)),
+            "holes_total": int(sum(len(d) for d in drawn)),
             "holes_global": int(sum(len(d) for d in dotsets)),
             "union_check_rules": "passed",
+            "compensated": bool(cfg.stipple.compensate),
             "seam_density": mural.seam_density(dotsets, grid),
             "order_of_work": mural.order_of_work(grid, len(dotsets)),
         }
     )
-    return per_tile
+    return _per_tile(made, grid)
+
+
+def drawn_and_made(cfg, dotsets: list[DotSet], grid: mural.TileGrid) -> tuple[list[DotSet], list[DotSet]]:
+    """Every layer's holes over the whole mural as the plates draw them and as the process makes them.
+
+    :func:`stencil_cad.stipple.made.drawn_dots` and :func:`~stencil_cad.stipple.made.made_dots`
+    over the mural's picture area, the same as the simulation's (:func:`stage_simulate` sprays
+    the made holes), so the tiled simulation equals the global one.
+    """
+    from ..stipple.made import drawn_dots, made_dots
+
+    size = (grid.width_mm, grid.height_mm)
+    return (
+        [drawn_dots(d, cfg.stipple, size) for d in dotsets],
+        [made_dots(d, cfg.stipple, size) for d in dotsets],
+    )
+
+
+def _per_tile(dotsets: list[DotSet], grid: mural.TileGrid) -> list[list[DotSet]]:
+    """Per tile, per layer, the tile's holes in the tile frame (each hole to the tile owning its centre)."""
+    split = [mural.split_dots(ds, grid) for ds in dotsets]  # [layer][tile]
+    return [[split[i][k] for i in range(len(dotsets))] for k in range(len(grid.tiles))]
+
+
+def _check_unions(cfg, grid: mural.TileGrid, sets: dict[str, list[DotSet]]) -> None:
+    """The union of the tiles' holes is the global set (same count) and keeps the rules across every seam.
+
+    ``sets`` holds the holes ``asked`` (the design rules), ``made`` by the process (the web never
+    under its minimum, the hole never under the 0.5 mm floor: a hole at the picture's margin is
+    not grown, so it is made a little under the stippler's radius, as on a one-plate job) and
+    ``drawn`` on the plates (the web less twice the process's offset, which the process gives back).
+    """
+    from dataclasses import replace
+
+    from ..config.stipple import HOLE_FLOOR_MM
+    from ..stipple import rules as dots
+
+    design = cfg.stipple.design_rules(grid.width_mm, grid.height_mm)
+    offset = max(cfg.stipple.resolved_hole_offset_mm, 0.0) if cfg.stipple.compensate else 0.0
+    floor = replace(design, hole_min_r_mm=min(design.hole_min_r_mm, HOLE_FLOOR_MM))
+    rules = {"asked": design, "made": floor, "drawn": replace(floor, web_mm=design.web_mm - 2.0 * offset)}
+    for kind, layer_sets in sets.items():
+        for i, ds in enumerate(layer_sets):
+            u = mural.to_mural(mural.split_dots(ds, grid), grid)
+            if len(u) != len(ds):
+                raise RuntimeError(f"layer {i + 1}: tiles hold {len(u)} {kind} holes, the mural {len(ds)}")
+            try:
+                dots.check_rules(u.xy_mm, u.r_mm, rules[kind])
+            except ValueError as exc:
+                raise UserError(
+                    f"layer {i + 1} ({kind} holes, all tiles in mural coordinates): {exc}"
+                ) from None
 
 
 @dataclass(frozen=True)
@@ -339,11 +388,17 @@ def stage_mural_simulate(
     g = sim.mm_per_px
     shape = sim.alphas.shape[1:]
     times = [float(t) for t in sim.info["spray_time"]]
-    tols = [simulate.tail_tolerance(d.xy_mm, d.r_mm, shape, g, cfg) if len(d) else 0.0 for d in dotsets]
+    sprays = layer_sprays(run, layers.colours)
+    tols = [
+        simulate.tail_tolerance(d.xy_mm, d.r_mm, shape, g, sp) if len(d) else 0.0
+        for d, sp in zip(dotsets, sprays, strict=True)
+    ]
     out: dict = {}
     with run.stage("simulate_tiles"):
         t0 = time.perf_counter()
-        tiled = mural.simulate_tiles(shape, g, per_tile, grid, cfg, times, tols, geometry=geometry)
+        tiled = mural.simulate_tiles(
+            shape, g, per_tile, grid, cfg, times, tols, geometry=geometry, layer_sprays=sprays
+        )
         diff = float(np.max(np.abs(tiled - sim.alphas))) if tiled.size else 0.0
         out["tiled_vs_global_max_abs"] = diff
         out["tiled_equals_global"] = bool(diff <= 1e-6)
@@ -362,7 +417,7 @@ def stage_mural_simulate(
         for between in ("tiles", "layers"):
             for err in REGISTRATION_ERRORS_MM:
                 off = mural.registration_offsets(grid, err, between)
-                a = mural.simulate_tiles(shape, g, per_tile, grid, cfg, times, tols, off, geometry)
+                a = mural.simulate_tiles(shape, g, per_tile, grid, cfg, times, tols, off, geometry, sprays)
                 sc = scores(a)
                 del a
                 costs.append(

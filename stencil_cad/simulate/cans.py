@@ -29,11 +29,12 @@ fat caps wet more, so their bleed is larger.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from ..config.spray import SprayConfig
 
-__all__ = ["CAN_PRIOR", "PriorCan", "can_prior"]
+__all__ = ["CAN_PRIOR", "PriorCan", "can_prior", "layer_can_prior"]
 
 
 @dataclass(frozen=True)
@@ -87,3 +88,23 @@ def can_prior(cfg: SprayConfig) -> list[tuple[str, SprayConfig]]:
         )
         out.append((can.name, cfg.model_copy(update={"can": changed})))
     return out
+
+
+def layer_can_prior(sprays: Sequence[SprayConfig]) -> list[tuple[str, list[SprayConfig]]]:
+    """Every can of the prior as each layer's spray settings, the nominal can first.
+
+    A layer with a measured profile (or under the paper model) sprays with its own can in every
+    entry; the others take the prior's can of that entry (:func:`can_prior`), so a prior entry
+    such as "fat heavy" changes only the layers whose can was not measured.
+
+    Args:
+        sprays: Each layer's spray settings, in spray order.
+
+    Returns:
+        ``(name, settings per layer)`` per can: one entry (``nominal``) when no layer's prior has
+        more than one can.
+    """
+    priors = [[sp for _, sp in can_prior(layer)] for layer in sprays]
+    n = max((len(p) for p in priors), default=1)
+    names = [can.name for can in CAN_PRIOR] if n > 1 else ["nominal"]
+    return [(names[c], [p[c] if len(p) > 1 else p[0] for p in priors]) for c in range(n)]

@@ -93,13 +93,24 @@ def sweep_panels(
     spray_times: list[float] | None = None,
     factors: tuple[float, ...] | None = None,
     geometry=None,
+    layer_sprays=None,
 ) -> list[np.ndarray]:
-    """The panels of :func:`sweep`, one ``(H, W, 3)`` uint8 image per factor, for labelling."""
+    """The panels of :func:`sweep`, one ``(H, W, 3)`` uint8 image per factor, for labelling.
+
+    ``layer_sprays``: each layer's spray settings (see :func:`stencil_cad.simulate.simulate`).
+    """
     factors = tuple(cfg.sweep_factors if factors is None else factors)
     panels = []
     for f in factors:
         res = simulate(
-            layers, dotsets, cfg, grid_mm_per_px, spray_times=spray_times, time_factor=f, geometry=geometry
+            layers,
+            dotsets,
+            cfg,
+            grid_mm_per_px,
+            spray_times=spray_times,
+            time_factor=f,
+            geometry=geometry,
+            layer_sprays=layer_sprays,
         )
         panels.append(_to_u8(res.composite))
     return panels

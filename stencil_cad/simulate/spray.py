@@ -38,6 +38,7 @@ from __future__ import annotations
 import logging
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -52,6 +53,7 @@ __all__ = [
     "SimResult",
     "hole_kernels",
     "layer_rmse",
+    "per_layer",
     "resample",
     "sim_shape",
     "simulate",
@@ -183,6 +185,7 @@ def simulate(
     spray_times: list[float] | None = None,
     time_factor: float = 1.0,
     geometry=None,
+    layer_sprays: Sequence[SprayConfig] | None = None,
 ) -> SimResult:
     """Spray every layer's stencil, composite the colours and score each layer's tone.
 
@@ -203,6 +206,8 @@ def simulate(
         time_factor: Multiplies every spray time (the sweep uses 0.5, 1, 2). Defaults to 1.
         geometry: Stand-off and plate thickness (:class:`~stencil_cad.simulate.physical.SprayGeometry`);
             needed by the physical model, whose spray times are passes.
+        layer_sprays: Each layer's spray settings (its paint's profile, see
+            :meth:`stencil_cad.config.JobConfig.layer_spray`), or None: ``cfg`` for every layer.
 
     Returns:
         The :class:`SimResult`.
@@ -213,13 +218,8 @@ def simulate(
     """
     if len(dotsets) != layers.count:
         raise ValueError(f"need one DotSet per layer: {layers.count} layers, {len(dotsets)} DotSets")
-    g = 1.0 / cfg.px_per_mm if grid_mm_per_px is None else float(grid_mm_per_px)
-    if not g > 0:
-        raise ValueError(f"grid_mm_per_px must be > 0, got {g}")
-    if spray_times is None:
-        spray_times = [d.amount(cfg.amount) for d in dotsets]
-    if len(spray_times) != layers.count:
-        raise ValueError(f"need one spray time per layer: {layers.count} layers, {len(spray_times)} times")
+    g = _grid(cfg, grid_mm_per_px)
+    spray_times, sprays = _spray_times(dotsets, cfg, spray_times), per_layer(cfg, layer_sprays, layers.count)
     shape = sim_shape(layers.alphas.shape[1:], layers.mm_per_px, g)
     physical = cfg.model == SprayModel.physical
     _check_scale(dotsets, cfg, g, geometry)
@@ -230,11 +230,13 @@ def simulate(
         a = float(spray_times[i]) * time_factor
         t0 = time.perf_counter()
         if len(dots):
-            alphas[i] = spray_opacity(dots.xy_mm, dots.r_mm, shape, g, cfg, spray_time=a, geometry=geometry)
+            alphas[i] = spray_opacity(
+                dots.xy_mm, dots.r_mm, shape, g, sprays[i], spray_time=a, geometry=geometry
+            )
         elif not physical:
             _check_params(a, cfg.nozzle_height)
         seconds.append(round(time.perf_counter() - t0, 4))
-        b = _blur_mm_for(dots, cfg, fallback_r, geometry)
+        b = _blur_mm_for(dots, sprays[i], fallback_r, geometry)
         layer_err, tone_err = _layer_errors(layers.alphas[i], alphas[i], shape, b, g)
         rmse.append(layer_err)
         tone_rmse.append(tone_err)
@@ -254,6 +256,36 @@ def simulate(
         "shape": list(shape),
     }
     return SimResult(alphas=alphas, composite=comp, layer_rmse=tuple(rmse), mm_per_px=g, info=info)
+
+
+def _grid(cfg: SprayConfig, grid_mm_per_px: float | None) -> float:
+    """The simulation's pixel size in mm: ``grid_mm_per_px``, else ``1 / cfg.px_per_mm``."""
+    g = 1.0 / cfg.px_per_mm if grid_mm_per_px is None else float(grid_mm_per_px)
+    if not g > 0:
+        raise ValueError(f"grid_mm_per_px must be > 0, got {g}")
+    return g
+
+
+def _spray_times(dotsets: list[DotSet], cfg: SprayConfig, spray_times: list[float] | None) -> list[float]:
+    """Each layer's spray time: ``spray_times``, else each DotSet's, else ``cfg``'s amount."""
+    if spray_times is None:
+        spray_times = [d.amount(cfg.amount) for d in dotsets]
+    if len(spray_times) != len(dotsets):
+        raise ValueError(f"need one spray time per layer: {len(dotsets)} layers, {len(spray_times)} times")
+    return spray_times
+
+
+def per_layer(cfg: SprayConfig, layer_sprays: Sequence[SprayConfig] | None, count: int) -> list[SprayConfig]:
+    """Each of ``count`` layers' spray settings: ``layer_sprays``, or ``cfg`` for every layer.
+
+    Raises:
+        ValueError: ``layer_sprays`` does not hold one entry per layer.
+    """
+    if layer_sprays is None:
+        return [cfg] * count
+    if len(layer_sprays) != count:
+        raise ValueError(f"need one spray setting per layer: {count} layers, {len(layer_sprays)} settings")
+    return list(layer_sprays)
 
 
 def _check_scale(dotsets: list[DotSet], cfg: SprayConfig, g: float, geometry) -> None:

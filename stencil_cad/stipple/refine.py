@@ -61,7 +61,7 @@ import numpy as np
 
 from ..frames import px_to_mm
 from ..model import DotSet
-from .refine_holes import Kernels, _kernels_px, _Layer, _project
+from .refine_holes import CanKernels, Kernels, _kernels_px, _Layer, _project, layer_kernels
 from .refine_kernels import _BAND, _greedy_add, _removal_change
 from .refine_objective import ViewFilters, _Eval, _evaluate, _g_and_q, _gauss, _hole_grads, _Viewer
 from .rules import NUDGE_SLACK_MM, DesignRules, _keepout_clearance, check_rules
@@ -235,10 +235,11 @@ def _add_and_remove(state, ev: _Eval, evaluate, kernels, mm_per_px: float, shape
     """One round of removals and additions per layer, each scored on the composite; the new evaluation."""
     for k, layer in enumerate(state):
         g, q = _g_and_q(ev, k)
-        layer.removed += _remove_holes(layer, g, q, ev.trans[k], kernels, mm_per_px, shape[0])
+        kern = layer_kernels(kernels, k)
+        layer.removed += _remove_holes(layer, g, q, ev.trans[k], kern, mm_per_px, shape[0])
         ev = evaluate(want_q=True)
         g, q = _g_and_q(ev, k)
-        layer.added += _add_holes(layer, g, q, ev.trans[k], kernels, mm_per_px, shape)
+        layer.added += _add_holes(layer, g, q, ev.trans[k], kern, mm_per_px, shape)
         ev = evaluate(want_q=True)
     return ev
 
@@ -259,9 +260,13 @@ def _refined(ds: DotSet, layer: _Layer) -> DotSet:
     return replace(ds, xy_mm=xy, r_mm=layer.r.copy(), report=rep)
 
 
-def _check_counts(dotsets, rules, colours, spray_times) -> None:
-    """Raise ValueError unless there is one rule set, colour and spray time per DotSet."""
+def _check_counts(dotsets, rules, colours, spray_times, cans) -> None:
+    """Raise ValueError unless there is one rule set, colour and spray time per DotSet, and a can's kernels."""
     n = len(dotsets)
+    if not cans:
+        raise ValueError("need the kernels of at least one can")
+    if any(not callable(c) and len(c) != n for c in cans):
+        raise ValueError(f"a can's kernels per layer need one entry per layer ({n})")
     if not (len(rules) == len(colours) == len(spray_times) == n):
         raise ValueError(
             f"need one rule set, colour and spray time per DotSet: {n} DotSets, {len(rules)} rules, "
@@ -274,7 +279,7 @@ class _Problem:
     """What the objective is evaluated on: the holes' state, the can whose kernels apply now, the targets."""
 
     state: list[_Layer]
-    kernels: Kernels
+    kernels: CanKernels
     mm_per_px: float
     target: np.ndarray
     alpha_targets: np.ndarray | None
@@ -301,7 +306,7 @@ class _Problem:
         )
 
 
-def _iterate(p: _Problem, cans: list[Kernels], ev: _Eval, settings: RefineSettings, progress) -> _Eval:
+def _iterate(p: _Problem, cans: list[CanKernels], ev: _Eval, settings: RefineSettings, progress) -> _Eval:
     """Run the Adam steps and the add/remove rounds from ``ev``; the final evaluation under the nominal can."""
     shape = p.target.shape[:2]
     iters = settings.iterations
@@ -338,7 +343,7 @@ def refine_dots(
     colours: np.ndarray,
     dotsets: list[DotSet],
     rules: list[DesignRules],
-    kernels: Kernels | Sequence[Kernels],
+    kernels: Kernels | Sequence[CanKernels],
     spray_times: list[float],
     settings: RefineSettings,
     progress: Callable[[int, int], None] | None = None,
@@ -359,7 +364,9 @@ def refine_dots(
             first. With several, the expected error over the cans is minimised stochastically:
             step ``i`` takes its gradient (and its add/remove moves) under can ``i mod n``, Adam's
             moments average the cans' gradients, and one step costs what one can costs. The
-            reported objectives are the first (nominal) can's.
+            reported objectives are the first (nominal) can's. A can's entry is one
+            :data:`Kernels` for every layer, or a sequence of one per layer (each paint sprayed
+            with its own profile).
         spray_times: Spray time of each layer.
         settings: Iterations, step sizes, largest radius, add/remove cadence, eye filter.
         progress: Called as ``progress(iteration, iterations)``.
@@ -377,10 +384,8 @@ def refine_dots(
         ValueError: The counts of DotSets, rules, colours and spray times differ.
     """
     t_start = time.perf_counter()
-    _check_counts(dotsets, rules, colours, spray_times)
-    cans = [kernels] if callable(kernels) else list(kernels)
-    if not cans:
-        raise ValueError("need the kernels of at least one can")
+    cans: list[CanKernels] = [kernels] if callable(kernels) else list(kernels)
+    _check_counts(dotsets, rules, colours, spray_times, cans)
     # float32 images: half the memory traffic of every whole-image pass (see the kernels' note).
     target = np.ascontiguousarray(target_rgb, dtype=np.float32)
     alpha_targets = None if alpha_targets is None else np.ascontiguousarray(alpha_targets, dtype=np.float32)

@@ -6,7 +6,7 @@ them back onto the rules after every step (see :mod:`.refine`).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -19,6 +19,13 @@ from .rules import NUDGE_SLACK_MM, DesignRules, _keepout_clearance, _push_out_of
 #: ``kernels(r_mm, spray_time) -> (sigma_mm, peak, dsigma_dr, dpeak_dr, combine)``
 #: (see :func:`stencil_cad.simulate.spray.hole_kernels`).
 Kernels = Callable[[np.ndarray, float], tuple]
+#: One can's kernels: the same for every layer, or one per layer (each paint its own profile).
+CanKernels = Kernels | Sequence[Kernels]
+
+
+def layer_kernels(kernels: CanKernels, k: int) -> Kernels:
+    """Layer ``k``'s kernels of one can: ``kernels`` itself, or its ``k``-th entry."""
+    return kernels if callable(kernels) else kernels[k]
 
 
 #: Rule tolerance of the refinement's own check, mm (a quarter of ``check_rules``' default).

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .refine_holes import _kernels_px
+from .refine_holes import _kernels_px, layer_kernels
 from .refine_kernels import _composite_residuals, _dot, _hole_gradients, _opacity_gradients, _transmittance
 
 # --------------------------------------------------------------------------- the objective
@@ -204,7 +204,7 @@ def _evaluate(
     trans = np.ones((n_l, h, w), dtype=dt)
     for k, layer in enumerate(state):
         if len(layer.x):
-            rows, cols, sig, peak, _, _, exp_mode = _kernels_px(layer, kernels, pitch, h)
+            rows, cols, sig, peak, _, _, exp_mode = _kernels_px(layer, layer_kernels(kernels, k), pitch, h)
             _transmittance(trans[k], rows, cols, sig, peak, exp_mode)
     n_t = n_l if lam > 0 else 0
     res = np.empty((h, w, 3), dtype=dt)
@@ -239,7 +239,9 @@ def _hole_grads(state, kernels, pitch, h, gt) -> list[np.ndarray]:
     for k, layer in enumerate(state):
         grad = np.zeros((len(layer.x), 3))
         if len(layer.x):
-            rows, cols, sig, peak, dsig, dpeak, exp_mode = _kernels_px(layer, kernels, pitch, h)
+            rows, cols, sig, peak, dsig, dpeak, exp_mode = _kernels_px(
+                layer, layer_kernels(kernels, k), pitch, h
+            )
             raw = _hole_gradients(gt[k], rows, cols, sig, peak, exp_mode)
             # px -> mm: x = (col + 0.5) s, y = (H - row - 0.5) s, sigma_mm = sigma_px s.
             grad[:, 0] = raw[:, 1] / pitch

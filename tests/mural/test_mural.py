@@ -285,6 +285,10 @@ def test_small_mural_end_to_end(tmp_path):
     assert [t["tile"] for t in mu["tiles"]] == ["A1", "A2"]
     assert mu["holes_total"] == mu["holes_global"] == sum(r["dots"] for r in m["stipple"])
     assert mu["union_check_rules"] == "passed"
+    # The tiles' plates are compensated like a one-plate job's, and the simulation sprays them as made.
+    assert mu["compensated"]
+    offset = cfg.stipple.resolved_hole_offset_mm
+    assert all(0 < p["drawn_minus_asked_mm"] <= offset + 1e-4 for p in m["build"]["plates"])
     sim = mu["simulation"]
     assert sim["tiled_equals_global"] and sim["tiled_vs_global_max_abs"] <= 1e-6
     assert {(c["between"], c["error_mm"]) for c in sim["registration_cost"]} == {

@@ -208,3 +208,37 @@ def test_job_in_the_makers_units_scores_every_wall(tmp_path, capsys):
     steps = man["spraying"]
     assert all(isinstance(s["passes"], int) and s["can_distance_cm"] == 25 for s in steps)
     assert json.loads((out / "spray.json").read_text())["unit"] == "passes"
+
+
+def test_a_layer_with_its_own_can_changes_only_its_own_simulation():
+    from stencil_cad.model import DotSet, Layers
+    from stencil_cad.simulate.cans import layer_can_prior
+
+    rng = np.random.default_rng(5)
+    alphas = rng.uniform(0.2, 0.8, (3, 40, 40))
+    layers = Layers(
+        primer=np.ones(3),
+        colours=np.array([[0.1, 0.1, 0.1], [0.9, 0.4, 0.0], [0.0, 0.2, 0.8]]),
+        alphas=alphas,
+        mm_per_px=0.5,
+    )
+    dots = [DotSet(xy_mm=rng.uniform(3, 17, (30, 2)), r_mm=np.full(30, 0.7), report={}) for _ in range(3)]
+    measured = PHYS.model_copy(
+        update={
+            "can": PHYS.can.model_copy(update={"deposit_per_pass": 0.6, "spread_k": 0.05, "fit": {"r": 1}})
+        }
+    )
+    base = sim.simulate(layers, dots, PHYS, 0.25, geometry=GEOM)
+    same = sim.simulate(layers, dots, PHYS, 0.25, geometry=GEOM, layer_sprays=[PHYS] * 3)
+    own = sim.simulate(layers, dots, PHYS, 0.25, geometry=GEOM, layer_sprays=[PHYS, measured, PHYS])
+    assert np.array_equal(base.alphas, same.alphas)
+    assert np.array_equal(own.alphas[[0, 2]], base.alphas[[0, 2]])
+    assert np.max(np.abs(own.alphas[1] - base.alphas[1])) > 0.05
+    with pytest.raises(ValueError, match="one spray setting per layer"):
+        sim.simulate(layers, dots, PHYS, 0.25, geometry=GEOM, layer_sprays=[PHYS])
+    # The prior of cans varies the unmeasured layers and keeps the measured one's can.
+    prior = layer_can_prior([PHYS, measured, PHYS])
+    assert len(prior) > 2 and prior[0][0] == "nominal"
+    assert all(per[1] is measured for _, per in prior)
+    assert len({per[0].can.spread_k for _, per in prior}) > 1
+    assert layer_can_prior([measured]) == [("nominal", [measured])]

@@ -185,3 +185,38 @@ def test_refinement_for_a_prior_of_cans_takes_every_can_and_reports_the_first():
     measured = SprayConfig(can={"fit": {"residual": 0.01}})
     assert [c for _, c in can_prior(measured)] == [measured]
     assert len(can_prior(SprayConfig(model="paper"))) == 1
+
+
+def test_each_layer_refines_under_its_own_kernels():
+    from stencil_cad.simulate.physical import SprayGeometry
+
+    rules, ramp, xy, r = _ramp_case(4)
+    geometry = SprayGeometry(standoff_mm=10.0, plate_thickness_mm=1.2)
+    nominal = SprayConfig()
+    heavy = SprayConfig(can={"deposit_per_pass": 4.0, "spread_k": 0.06})
+    seen: dict[int, set] = {0: set(), 1: set()}
+
+    def bound(cfg, layer):
+        def kernels(radii, a):
+            seen[layer].add(id(cfg))
+            return hole_kernels(radii, cfg, a, geometry=geometry)
+
+        return kernels
+
+    ds = [DotSet(xy_mm=xy, r_mm=r, report={}), DotSet(xy_mm=xy[::2], r_mm=r[::2], report={})]
+    s = RefineSettings(iterations=6, max_radius_mm=1.0, add_remove_every=3, eye_sigma_mm=0.3)
+    ink = np.array([[0.1, 0.1, 0.2], [0.8, 0.3, 0.1]])
+    args = (ramp, 0.25, PRIMER, ink, ds, [rules, rules])
+    same, _ = refine_dots(*args, [bound(nominal, 0)], [1.0, 1.0], s)
+    pair, _ = refine_dots(*args, [(bound(nominal, 0), bound(nominal, 1))], [1.0, 1.0], s)
+    # One entry per layer of the same can is the same refinement, byte for byte.
+    for a, b in zip(same, pair, strict=True):
+        assert np.array_equal(a.xy_mm, b.xy_mm) and np.array_equal(a.r_mm, b.r_mm)
+    seen = {0: set(), 1: set()}
+    mixed, _ = refine_dots(*args, [(bound(nominal, 0), bound(heavy, 1))], [1.0, 1.0], s)
+    assert seen == {0: {id(nominal)}, 1: {id(heavy)}}
+    assert not np.array_equal(mixed[1].r_mm, pair[1].r_mm)
+    for out in mixed:
+        check_rules(out.xy_mm, out.r_mm, rules)
+    with pytest.raises(ValueError, match="one entry per layer"):
+        refine_dots(*args, [(bound(nominal, 0),)], [1.0, 1.0], s)

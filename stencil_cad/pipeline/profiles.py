@@ -1,0 +1,75 @@
+"""Each layer's spray settings, resolved once per job: the profile of its paint (``spray.profile``).
+
+Every stage that sprays a layer (the tone calibration, the refinement, the simulation and its
+scores by can, hard mode) takes the layer's settings from :func:`layer_sprays`, so a layer
+keyed to its own profile sprays with that can's constants everywhere and the others do not
+change. The figures ``spray_profiles`` (per layer: the key, the file, whether measured) are
+what the manifest, the summary and the sheet read.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from ..colour import to_hex
+from ..config import SprayConfig
+from ..record import Run
+from .decompose import can_names
+
+__all__ = ["layer_sprays", "profile_rows"]
+
+
+def layer_sprays(run: Run, colours: np.ndarray | Sequence) -> list[SprayConfig]:
+    """The spray settings of every layer, in spray order, and the manifest's ``spray_profiles``.
+
+    Args:
+        run: The run (its config, and the can names the decompose stage recorded).
+        colours: ``(L, 3)`` the layers' paints in [0, 1], in spray order.
+
+    Returns:
+        One :class:`~stencil_cad.config.SprayConfig` per layer (``spray`` itself for every layer
+        without a ``spray.profile`` mapping).
+
+    Raises:
+        ConfigError: A key of ``spray.profile`` names no layer, or two keys name one.
+    """
+    cfg = run.cfg
+    hexes = [to_hex(c) for c in colours]
+    names = can_names(run.figures)
+    cfg.check_profile_keys(hexes, names)
+    keys = [cfg.layer_profile_key(i + 1, h, names.get(h)) for i, h in enumerate(hexes)]
+    sprays = [cfg.spray.for_profile_key(k) for k in keys]
+    run.figures["spray_profiles"] = profile_rows(hexes, keys, sprays)
+    return sprays
+
+
+def profile_rows(
+    hexes: Sequence[str], keys: Sequence[str | None], sprays: Sequence[SprayConfig]
+) -> list[dict]:
+    """Per layer: its paint, the profile file it sprays with (by name), whether measured, its constants.
+
+    Args:
+        hexes: Each layer's paint as ``#rrggbb``.
+        keys: The ``spray.profile`` key naming each layer (None: one file, none, or no key names it).
+        sprays: Each layer's settings (:func:`layer_sprays`).
+    """
+    rows = []
+    for i, (h, key, sp) in enumerate(zip(hexes, keys, sprays, strict=True)):
+        prof = sp.profile if isinstance(sp.profile, Path) else None
+        rows.append(
+            {
+                "layer": i + 1,
+                "hex": h,
+                "profile": prof.name if prof is not None else None,
+                "key": key,
+                "measured": bool(sp.is_measured),
+                "paint": sp.can.paint,
+                "spread_k": sp.can.spread_k,
+                "bleed_sigma_mm": sp.can.bleed_sigma_mm,
+                "deposit_per_pass": sp.can.deposit_per_pass,
+            }
+        )
+    return rows

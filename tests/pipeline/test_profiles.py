@@ -1,0 +1,88 @@
+"""One spray profile per paint through a whole job: the layer keyed to a profile changes, the others do not."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+import yaml
+
+from stencil_cad.cli import main
+
+JOB = """\
+name: profiles
+size: {width_mm: 30, px_per_mm: 2}
+decompose: {layers: 2}
+stipple: {process: sla}
+refine: {enabled: false}
+export: {instructions: true}
+"""
+
+
+def _profile(path):
+    path.write_text(
+        yaml.safe_dump(
+            {
+                "spread_k": 0.05,
+                "bleed_sigma_mm": 0.15,
+                "deposit_per_pass": 0.5,
+                "paint": "thin test",
+                "fit": {"r": 1},
+            }
+        )
+    )
+
+
+def _run(tmp_path, name, extra, capsys, quiet=True):
+    cfg = tmp_path / f"{name}.yaml"
+    cfg.write_text(JOB + extra)
+    code = main(["run", str(cfg), "--out", str(tmp_path / name), *(["-q"] if quiet else [])])
+    return code, capsys.readouterr()
+
+
+def _read(out, name):
+    return (out / name).read_text()
+
+
+@pytest.mark.slow
+def test_a_layer_keyed_to_its_profile_sprays_with_it_and_the_others_do_not(tmp_path, capsys):
+    _profile(tmp_path / "thin.yaml")
+    code, _ = _run(tmp_path, "plain", "", capsys)
+    assert code == 0
+    code, cap = _run(tmp_path, "keyed", "spray: {profile: {2: thin.yaml}}\n", capsys, quiet=False)
+    assert code == 0, cap.err
+    plain, keyed = tmp_path / "plain", tmp_path / "keyed"
+    # Layer 1 is stippled and sprayed as before; layer 2's thin can asks for more passes and holes.
+    assert _read(plain, "layer_01_dots.csv") == _read(keyed, "layer_01_dots.csv")
+    assert _read(plain, "layer_02_dots.csv") != _read(keyed, "layer_02_dots.csv")
+    before, after = (json.loads(_read(o, "spray.json"))["order"] for o in (plain, keyed))
+    assert before[0]["passes"] == after[0]["passes"] and after[1]["passes"] > before[1]["passes"]
+    m = json.loads(_read(keyed, "manifest.json"))
+    rows = m["spray_profiles"]
+    assert [r["profile"] for r in rows] == [None, "thin.yaml"] and [r["measured"] for r in rows] == [
+        False,
+        True,
+    ]
+    assert rows[1]["key"] == "2" and rows[1]["deposit_per_pass"] == 0.5
+    # Layer 1's can is still unmeasured: it alone gets the prior of cans.
+    assert len(m["simulate"]["scielab_by_can"]) > 2
+    html = _read(keyed, "instructions.html")
+    assert "thin.yaml" in html and "Layer 1 sprays with can constants nobody measured" in html
+    assert "layer 2 profile thin.yaml (measured: thin test)" in cap.out
+
+
+def test_a_key_for_a_layer_the_job_does_not_have_stops_it_with_exit_code_2(tmp_path, capsys):
+    _profile(tmp_path / "thin.yaml")
+    code, cap = _run(tmp_path, "three", "spray: {profile: {3: thin.yaml}}\n", capsys)
+    assert code == 2
+    assert "spray.profile: key 3 names layer 3, but the job has decompose.layers 2" in cap.err
+    assert not (tmp_path / "three").exists()
+
+
+@pytest.mark.slow
+def test_a_hex_key_naming_no_paint_stops_the_job_with_the_layers(tmp_path, capsys):
+    _profile(tmp_path / "thin.yaml")
+    code, cap = _run(tmp_path, "hex", "spray: {profile: {'#010203': thin.yaml}}\n", capsys)
+    assert code == 2
+    assert "spray.profile: key '#010203' names no layer of this job (its layers: 1 #" in cap.err
+    assert not (tmp_path / "hex" / "manifest.json").exists()
