@@ -11,7 +11,7 @@ import logging
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -33,15 +33,15 @@ class Run:
     out: OutputDir
     quiet: bool = False
     executor: Executor | None = None
-    times: dict = field(default_factory=dict)
-    figures: dict = field(default_factory=dict)
-    summary: list = field(default_factory=list)
+    times: dict[str, Any] = field(default_factory=dict[str, Any])
+    figures: dict[str, Any] = field(default_factory=dict[str, Any])
+    summary: list[Any] = field(default_factory=list[Any])
     #: The plate template in use: ``{"path", "sha256", "builtin"}`` (None before it is checked).
-    template: dict | None = None
+    template: dict[str, Any] | None = None
     #: Images for the instruction sheet that are not result files (PNG bytes by name).
-    sheet_images: dict = field(default_factory=dict)
+    sheet_images: dict[str, Any] = field(default_factory=dict[str, Any])
     #: Files of later stages this stage command left in the folder, made from older inputs.
-    stale: list = field(default_factory=list)
+    stale: list[Any] = field(default_factory=list[Any])
 
     def rng_for(self, stage: str, index: int = 0) -> np.random.Generator:
         """An independent generator per stage and layer, derived from the seed.
@@ -79,7 +79,7 @@ class Run:
             )
         return self.executor
 
-    def bar(self, total: int | None, desc: str):
+    def bar(self, total: int | None, desc: str) -> Any:
         """A progress bar on stderr (silent with -q)."""
         from tqdm.auto import tqdm
 

@@ -7,6 +7,7 @@ Read from the manifest's ``spray_profiles`` (one row per layer, see
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 __all__ = ["layer_can", "unmeasured_warning", "uses_profiles"]
 
@@ -17,12 +18,12 @@ MEASURE = (
 )
 
 
-def uses_profiles(rows: Sequence[Mapping] | None) -> bool:
+def uses_profiles(rows: Sequence[Mapping[str, Any]] | None) -> bool:
     """Whether any layer sprays with a spray profile file."""
     return any(r.get("profile") for r in rows or [])
 
 
-def layer_can(row: Mapping) -> str:
+def layer_can(row: Mapping[str, Any]) -> str:
     """One layer's can in words: ``profile black.yaml (measured: Montana Black)`` or ``spray.can, not measured``."""
     prof = row.get("profile")
     paint = str(row.get("paint") or "")
@@ -37,7 +38,7 @@ def _numbers(ks: Sequence[int]) -> str:
     return ("layer " if len(ks) == 1 else "layers ") + ", ".join(str(k) for k in ks)
 
 
-def unmeasured_warning(rows: Sequence[Mapping] | None) -> str | None:
+def unmeasured_warning(rows: Sequence[Mapping[str, Any]] | None) -> str | None:
     """The warning for the layers that spray with unmeasured can constants, or None when every one is measured."""
     rows = list(rows or [])
     bad = [int(r.get("layer", 0)) for r in rows if not r.get("measured")]

@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 from . import make, mural
 from .cans import layer_can, unmeasured_warning, uses_profiles
@@ -84,7 +85,7 @@ class Sheet:
     unit: str
     steps: list[Step]
     wall: list[str]
-    tiles: list[dict]
+    tiles: list[dict[str, Any]]
     prints: list[list[str]]
     print_head: list[str]
     paint: list[list[str]]
@@ -98,7 +99,7 @@ class Sheet:
     mural: mural.MuralPlan | None = None
 
 
-def _val(d: Mapping, *keys, default=None):
+def _val(d: Mapping[str, Any], *keys: str, default: Any = None) -> Any:
     for k in keys:
         if not isinstance(d, Mapping) or k not in d:
             return default
@@ -106,7 +107,7 @@ def _val(d: Mapping, *keys, default=None):
     return d
 
 
-def _viewing(manifest: Mapping) -> str:
+def _viewing(manifest: Mapping[str, Any]) -> str:
     """Viewing distance: the configured one (with its score) or the distance at which dots blend."""
     sim = manifest.get("simulate", {}) or {}
     d = _val(manifest, "config", "view", "distance_m") or sim.get("view_distance_m")
@@ -133,7 +134,7 @@ def _viewing(manifest: Mapping) -> str:
     return "any: the cut-outs have hard edges"
 
 
-def _wall_list(walls: Sequence[Mapping]) -> str:
+def _wall_list(walls: Sequence[Mapping[str, Any]]) -> str:
     tiled = [w for w in walls if w.get("tile")]
     if tiled:
         heights = ", ".join(f"{h:g}" for h in sorted({float(w.get("standoff_mm", 0)) for w in tiled}))
@@ -141,7 +142,7 @@ def _wall_list(walls: Sequence[Mapping]) -> str:
     return ", ".join(f"{w.get('file')}: stand-off {float(w.get('standoff_mm', 0)):g} mm" for w in walls)
 
 
-def _print_rows(manifest: Mapping, steps: list[Step]) -> tuple[list[str], list[list[str]]]:
+def _print_rows(manifest: Mapping[str, Any], steps: list[Step]) -> tuple[list[str], list[list[str]]]:
     """Per plate and per wall: files, hole count, and how to make it with a profile or bed it fits."""
     names = _file_names(manifest)
     kind = "cut-outs" if str(_val(manifest, "config", "mode", default="soft")) == "hard" else "holes"
@@ -175,11 +176,11 @@ def _print_rows(manifest: Mapping, steps: list[Step]) -> tuple[list[str], list[l
     return head, rows
 
 
-def _file_names(manifest: Mapping) -> set[str]:
+def _file_names(manifest: Mapping[str, Any]) -> set[str]:
     return {str(r.get("name")) for r in manifest.get("files", []) or [] if isinstance(r, Mapping)}
 
 
-def _checks(manifest: Mapping) -> list[tuple[str, bool]]:
+def _checks(manifest: Mapping[str, Any]) -> list[tuple[str, bool]]:
     out: list[tuple[str, bool]] = []
     build = manifest.get("build") or {}
     # A mural's plates and walls are checked tile by tile in the tile sections.
@@ -211,7 +212,7 @@ def _checks(manifest: Mapping) -> list[tuple[str, bool]]:
     return out
 
 
-def _scores(manifest: Mapping) -> list[tuple[str, str]]:
+def _scores(manifest: Mapping[str, Any]) -> list[tuple[str, str]]:
     sim = manifest.get("simulate") or {}
     rows = []
     for k, v in sim.items():
@@ -222,7 +223,7 @@ def _scores(manifest: Mapping) -> list[tuple[str, str]]:
     return rows
 
 
-def _steps(manifest: Mapping, mode: str, names: set[str]) -> list[Step]:
+def _steps(manifest: Mapping[str, Any], mode: str, names: set[str]) -> list[Step]:
     """One :class:`Step` per plate in spray order."""
     order = (manifest.get("spray_order") or {}).get("steps", [])
     holes = _val(manifest, "simulate", "holes", default=None) or []
@@ -262,7 +263,7 @@ def _steps(manifest: Mapping, mode: str, names: set[str]) -> list[Step]:
     return steps
 
 
-def _cutout_detail(fig: Mapping | None) -> str:
+def _cutout_detail(fig: Mapping[str, Any] | None) -> str:
     """A hard plate's cut-outs in words: ``2.0 to 31.5 mm across, 374 mm² open``."""
     if not fig or not fig.get("count"):
         return ""
@@ -279,7 +280,13 @@ def _plate_caption(step: Step, tiles: int = 0) -> str:
     return f"{what} ({step.holes:,} {step.kind}" + (f", {step.detail}" if step.detail else "") + ")"
 
 
-def _wall_steps(manifest: Mapping, cfg: Mapping, primer: Mapping, primer_hex: str, n_tiles: int) -> list[str]:
+def _wall_steps(
+    manifest: Mapping[str, Any],
+    cfg: Mapping[str, Any],
+    primer: Mapping[str, Any],
+    primer_hex: str,
+    n_tiles: int,
+) -> list[str]:
     """The set-up instructions: prime, set the wall, fit the plates, spray evenly (and the mural's tiles)."""
     nozzle = _val(cfg, "spray", "nozzle_height", default=None)
     # Hard mode sprays from its own nozzle height (the pipeline copies it into the spray section).
@@ -309,7 +316,7 @@ def _wall_steps(manifest: Mapping, cfg: Mapping, primer: Mapping, primer_hex: st
 
 
 def _paint_table(
-    manifest: Mapping, cfg: Mapping, primer_hex: str, steps: list[Step]
+    manifest: Mapping[str, Any], cfg: Mapping[str, Any], primer_hex: str, steps: list[Step]
 ) -> tuple[list[list[str]], str]:
     """The paint to buy: one row for the primer and one per layer, and the note on how it was counted."""
     paint = manifest.get("paint") or {}
@@ -352,7 +359,7 @@ def _paint_table(
     return paint_rows, paint_note
 
 
-def _snap_lines(manifest: Mapping) -> list[str]:
+def _snap_lines(manifest: Mapping[str, Any]) -> list[str]:
     """Which can each solved paint (and the primer) was snapped to, and what that cost."""
     snap = []
     sn = _val(manifest, "cans", "snap")
@@ -368,7 +375,9 @@ def _snap_lines(manifest: Mapping) -> list[str]:
     return snap
 
 
-def sheet_from_manifest(manifest: Mapping, tiles: Sequence[Mapping] | None = None) -> Sheet:
+def sheet_from_manifest(
+    manifest: Mapping[str, Any], tiles: Sequence[Mapping[str, Any]] | None = None
+) -> Sheet:
     """Collect what the sheet shows from a job's manifest.
 
     Args:
@@ -433,12 +442,12 @@ def sheet_from_manifest(manifest: Mapping, tiles: Sequence[Mapping] | None = Non
     )
 
 
-def _physical(manifest: Mapping) -> bool:
+def _physical(manifest: Mapping[str, Any]) -> bool:
     """Whether the job sprays under the physical model (the only one with can constants)."""
     return str(_val(manifest, "config", "spray", "model", default="physical")) == "physical"
 
 
-def _spray_how(cfg: Mapping, section: str, nozzle) -> str:
+def _spray_how(cfg: Mapping[str, Any], section: str, nozzle: float | None) -> str:
     """How to hold and move the can: the physical model's distance and speed, or the paper's height."""
     if str(_val(cfg, "spray", "model", default="physical")) == "physical":
         cm = float(_val(cfg, "spray", "can_distance_mm", default=200.0)) / 10.0
@@ -460,7 +469,7 @@ def _spray_how(cfg: Mapping, section: str, nozzle) -> str:
     )
 
 
-def _dark_end_warnings(manifest: Mapping) -> list[str]:
+def _dark_end_warnings(manifest: Mapping[str, Any]) -> list[str]:
     """A line per layer whose darkest tones its plate cannot spray in its passes: the layer and the shortfall."""
     out = []
     passes = {

@@ -5,12 +5,13 @@ from __future__ import annotations
 import base64
 import html
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 from . import mural
 from .content import _NO_CAN, Sheet, _amount, _drop, _plate_caption, _plates_text, _unit_note
 
 
-def _e(text) -> str:
+def _e(text: object) -> str:
     return html.escape(str(text), quote=True)
 
 
@@ -26,7 +27,7 @@ def _chip(hx: str) -> str:
     return f'<span class="chip" style="background:{_e(hx)}"></span>'
 
 
-def tile_map_svg(tiles: Sequence[Mapping], width_mm: float, height_mm: float, px: int = 480) -> str:
+def tile_map_svg(tiles: Sequence[Mapping[str, Any]], width_mm: float, height_mm: float, px: int = 480) -> str:
     """An inline SVG map of a mural's tiles (picture frame, y up drawn up)."""
     if not tiles or width_mm <= 0 or height_mm <= 0:
         return ""

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 from ..config.bed import Bed, resolve_bed
 from ..slicing import bed_size, place
@@ -70,7 +71,7 @@ class Part:
     filament_m: float | None = None
 
 
-def part_size(row: Mapping) -> tuple[float, float] | None:
+def part_size(row: Mapping[str, Any]) -> tuple[float, float] | None:
     """Footprint ``(w, h)`` in mm of a manifest plate or wall row (``bbox_mm`` or its ``bbox``)."""
     if row.get("bbox_mm"):
         w, h = row["bbox_mm"][:2]
@@ -87,7 +88,7 @@ def part_size(row: Mapping) -> tuple[float, float] | None:
     return float(x1) - float(x0), float(y1) - float(y0)
 
 
-def plate_parts(manifest: Mapping) -> list[Part]:
+def plate_parts(manifest: Mapping[str, Any]) -> list[Part]:
     """Every plate of the job in the manifest's order (a mural: tile by tile, layer by layer)."""
     out = []
     for p in (manifest.get("build") or {}).get("plates", []) or []:
@@ -110,7 +111,7 @@ def plate_parts(manifest: Mapping) -> list[Part]:
     return out
 
 
-def wall_parts(manifest: Mapping) -> list[Part]:
+def wall_parts(manifest: Mapping[str, Any]) -> list[Part]:
     """Every wall of the job (one per stand-off height, per tile for a mural)."""
     out = []
     for w in (manifest.get("build") or {}).get("walls", []) or []:
@@ -141,7 +142,7 @@ def print_text(hours: float | None, metres: float | None) -> str:
     return f"prints in about {hours_text(hours)}" + (f" with {metres:.1f} m of filament" if metres else "")
 
 
-def job_bed(manifest: Mapping) -> Bed | None:
+def job_bed(manifest: Mapping[str, Any]) -> Bed | None:
     """The bed the job was sized for (``bed`` in the config), or None."""
     cfg = manifest.get("config") or {}
     try:
@@ -232,7 +233,7 @@ def _laser(part: Part, kerf: float, kind: str) -> str:
     return text
 
 
-def part_advice(manifest: Mapping, part: Part) -> str:
+def part_advice(manifest: Mapping[str, Any], part: Part) -> str:
     """How to make one part with the job's process, naming only a profile or bed it fits.
 
     Args:
@@ -257,7 +258,7 @@ def part_advice(manifest: Mapping, part: Part) -> str:
     return _fdm(part, bed, thickness)
 
 
-def plate_checks(p: Mapping, label: str) -> list[tuple[str, bool]]:
+def plate_checks(p: Mapping[str, Any], label: str) -> list[tuple[str, bool]]:
     """The checks one built plate passed or failed, as sheet lines named ``label`` (e.g. ``plate 01``)."""
     out = [(f"{label}: one solid, valid B-rep ({p.get('n_solids', 0)} solid)", bool(p.get("valid")))]
     rel = p.get("rel_error")
@@ -277,13 +278,13 @@ def plate_checks(p: Mapping, label: str) -> list[tuple[str, bool]]:
     return out
 
 
-def wall_check(w: Mapping) -> tuple[str, bool]:
+def wall_check(w: Mapping[str, Any]) -> tuple[str, bool]:
     """The check of one built wall as a sheet line."""
     name = str(w.get("file", "wall"))
     return (f"{name}: valid wall (stand-off {float(w.get('standoff_mm', 0)):g} mm)", bool(w.get("valid")))
 
 
-def fit_check(manifest: Mapping, part: Part) -> tuple[str, bool] | None:
+def fit_check(manifest: Mapping[str, Any], part: Part) -> tuple[str, bool] | None:
     """Whether a part lies on the job's bed (as exported or turned 90°), as a sheet line; None without a bed."""
     bed = job_bed(manifest)
     if bed is None or part.size_mm is None:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 from . import make
 
@@ -70,7 +71,7 @@ class MuralPlan:
     checks: list[tuple[str, bool]] = field(default_factory=list)
 
 
-def map_tiles(rows: Sequence[Mapping]) -> list[dict]:
+def map_tiles(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     """Tiles for the tile map: ``name``, ``x_mm``, ``y_mm``, ``width_mm``, ``height_mm`` of each core.
 
     Takes the manifest's mural rows (``tile``, ``core_mm``) or tiles already in that form.
@@ -97,15 +98,15 @@ def _mm(v: float) -> str:
     return f"{v:.1f}"
 
 
-def _edges(rows: Sequence[Mapping], axis: int) -> list[float]:
+def _edges(rows: Sequence[Mapping[str, Any]], axis: int) -> list[float]:
     return sorted({round(float(t["core_mm"][i]), 3) for t in rows for i in (axis, axis + 2)})
 
 
-def _neighbours(rows: Sequence[Mapping]) -> dict[tuple[int, int], str]:
+def _neighbours(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[int, int], str]:
     return {(int(t["row"]), int(t["column"])): str(t["tile"]) for t in rows}
 
 
-def _sides(t: Mapping, near: Mapping[tuple[int, int], str]) -> list[str]:
+def _sides(t: Mapping[str, Any], near: Mapping[tuple[int, int], str]) -> list[str]:
     """Which grid line each side's notches meet, and the tile across it (or the picture's edge)."""
     x0, y0, x1, y1 = (float(v) for v in t["core_mm"])
     r, c = int(t["row"]), int(t["column"])
@@ -134,7 +135,9 @@ def _method(width: float, height: float) -> str:
     )
 
 
-def _registration(manifest: Mapping, rows: Sequence[Mapping], walls: Mapping[str, list]) -> list[str]:
+def _registration(
+    manifest: Mapping[str, Any], rows: Sequence[Mapping[str, Any]], walls: Mapping[str, list[Any]]
+) -> list[str]:
     """The registration steps, from the tiles' geometry."""
     mural = manifest.get("mural") or {}
     xs, ys = _edges(rows, 0), _edges(rows, 1)
@@ -178,7 +181,7 @@ def _registration(manifest: Mapping, rows: Sequence[Mapping], walls: Mapping[str
     return steps
 
 
-def _registration_cost(mural: Mapping) -> str:
+def _registration_cost(mural: Mapping[str, Any]) -> str:
     """What a misregistration costs in the simulation, as one sentence."""
     sim = mural.get("simulation") or {}
     base = (sim.get("zero_error_scores") or {}).get("scielab")
@@ -196,7 +199,7 @@ def _registration_cost(mural: Mapping) -> str:
     )
 
 
-def _rounds(rows: Sequence[Mapping], steps: Sequence, amount: Callable) -> list[str]:
+def _rounds(rows: Sequence[Mapping[str, Any]], steps: Sequence[Any], amount: Callable[..., Any]) -> list[str]:
     order = " ".join(str(t["tile"]) for t in rows)
     return [
         f"Round {s.number}: {s.plate} of every tile, paint {s.hex}"
@@ -207,13 +210,13 @@ def _rounds(rows: Sequence[Mapping], steps: Sequence, amount: Callable) -> list[
 
 
 def _section(
-    manifest: Mapping,
-    t: Mapping,
-    near: Mapping,
-    plates: list[Mapping],
-    walls: list[Mapping],
+    manifest: Mapping[str, Any],
+    t: Mapping[str, Any],
+    near: Mapping[tuple[int, int], str],
+    plates: list[Mapping[str, Any]],
+    walls: list[Mapping[str, Any]],
     steps: Mapping[int, object],
-    amount: Callable,
+    amount: Callable[..., Any],
     names: set[str],
 ) -> TileSection:
     """One tile's section: position, notches, wall, plates (paint, amount, holes, files) and checks."""
@@ -256,7 +259,9 @@ def _section(
     return TileSection(name, where, _sides(t, near), wall_lines, tile_plates, checks)
 
 
-def mural_plan(manifest: Mapping, steps: Sequence, amount: Callable, names: set[str]) -> MuralPlan | None:
+def mural_plan(
+    manifest: Mapping[str, Any], steps: Sequence[Any], amount: Callable[..., Any], names: set[str]
+) -> MuralPlan | None:
     """The mural's order of work, registration and tile sections, or None for a one-plate job.
 
     Args:
@@ -270,8 +275,8 @@ def mural_plan(manifest: Mapping, steps: Sequence, amount: Callable, names: set[
     if not mural.get("tiled") or not rows:
         return None
     build = manifest.get("build") or {}
-    plates: dict[str, list] = {}
-    walls: dict[str, list] = {}
+    plates: dict[str, list[Any]] = {}
+    walls: dict[str, list[Any]] = {}
     for p in build.get("plates", []) or []:
         plates.setdefault(str(p.get("tile")), []).append(p)
     for w in build.get("walls", []) or []:
@@ -366,7 +371,7 @@ def mural_html(plan: MuralPlan, e: Callable[[object], str], chip: Callable[[str]
     return "\n".join(out)
 
 
-def mural_pdf(plan: MuralPlan, k) -> list:
+def mural_pdf(plan: MuralPlan, k: Any) -> list[Any]:
     """The order of work, the registration steps and the tile sections as ReportLab flowables.
 
     Args:

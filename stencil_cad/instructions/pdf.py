@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import html
 import io
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 from . import mural
 from .content import _NO_CAN, Sheet, _amount, _drop, _plate_caption, _plates_text, _unit_note
@@ -24,7 +25,7 @@ def _pdf_fonts() -> tuple[str, str]:
     return "Helvetica", "StencilBold"
 
 
-def _latin(text: str) -> str:
+def _latin(text: object) -> str:
     """Helvetica (a standard PDF font) has no Δ, → or ≥: spell them."""
     return (
         str(text)
@@ -71,19 +72,19 @@ class _PdfKit:
             ]
         )
 
-    def p(self, text, style=None):
+    def p(self, text: object, style: Any = None) -> Any:
         """A paragraph of plain text (body style unless given)."""
         from reportlab.platypus import Paragraph
 
         return Paragraph(html.escape(_latin(text)), self.body if style is None else style)
 
-    def heading(self, text: str, style):
+    def heading(self, text: str, style: Any) -> Any:
         """A heading of the sheet's own fixed text, as given."""
         from reportlab.platypus import Paragraph
 
         return Paragraph(text, style)
 
-    def img(self, name: str, width: float):
+    def img(self, name: str, width: float) -> Any:
         """The named picture at ``width`` pt, or a note that it is missing."""
         from reportlab.lib.utils import ImageReader
         from reportlab.platypus import Image
@@ -95,7 +96,13 @@ class _PdfKit:
         iw, ih = reader.getSize()
         return Image(io.BytesIO(data), width=width, height=width * ih / iw)
 
-    def table(self, head, rows, widths=None, extra=()):
+    def table(
+        self,
+        head: Sequence[str],
+        rows: Sequence[Sequence[str]],
+        widths: Sequence[float] | None = None,
+        extra: Sequence[Any] = (),
+    ) -> Any:
         """A gridded table with a header row repeated on every page."""
         from reportlab.platypus import Table, TableStyle
 
@@ -109,7 +116,7 @@ class _PdfKit:
         return t
 
 
-def _pdf_paints(sheet: Sheet, k: _PdfKit) -> list:
+def _pdf_paints(sheet: Sheet, k: _PdfKit) -> list[Any]:
     """The paints in spray order, each with its colour chip, and the notes under them."""
     from reportlab.lib import colors
     from reportlab.lib.units import mm
@@ -127,7 +134,7 @@ def _pdf_paints(sheet: Sheet, k: _PdfKit) -> list:
                 _amount(s, sheet.unit, bare=True),
             ]
         )
-    chips: list[tuple] = [("BACKGROUND", (0, 1), (0, 1), colors.HexColor(sheet.primer_hex))]
+    chips: list[tuple[Any, ...]] = [("BACKGROUND", (0, 1), (0, 1), colors.HexColor(sheet.primer_hex))]
     chips += [
         ("BACKGROUND", (0, j + 2), (0, j + 2), colors.HexColor(s.hex)) for j, s in enumerate(sheet.steps)
     ]
@@ -149,7 +156,7 @@ def _pdf_paints(sheet: Sheet, k: _PdfKit) -> list:
     return story
 
 
-def _pdf_steps(sheet: Sheet, k: _PdfKit) -> list:
+def _pdf_steps(sheet: Sheet, k: _PdfKit) -> list[Any]:
     """Spray, plate by plate: per step its colour, what to do, the plate and the simulated result."""
     from reportlab.lib import colors
     from reportlab.lib.units import mm
@@ -197,7 +204,7 @@ def _pdf_steps(sheet: Sheet, k: _PdfKit) -> list:
     return story
 
 
-def _pdf_checks(sheet: Sheet, k: _PdfKit) -> list:
+def _pdf_checks(sheet: Sheet, k: _PdfKit) -> list[Any]:
     """The simulated quality, the preview, every check passed or failed, the warnings."""
     from reportlab.lib.units import mm
     from reportlab.platypus import Spacer
@@ -286,7 +293,9 @@ def render_pdf(sheet: Sheet, images: Mapping[str, bytes]) -> bytes:
     return buf.getvalue()
 
 
-def _tile_drawing(tiles, width_mm: float, height_mm: float, width_pt: float):
+def _tile_drawing(
+    tiles: Sequence[Mapping[str, Any]], width_mm: float, height_mm: float, width_pt: float
+) -> Any:
     from reportlab.graphics.shapes import Drawing, Rect, String
     from reportlab.lib import colors
 
