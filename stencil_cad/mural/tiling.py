@@ -39,11 +39,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..config.bed import Bed, resolve_bed
 from ..errors import UserError
+
+if TYPE_CHECKING:
+    from ..config import JobConfig
 
 #: A hole's spray is cut where its paint density falls below this fraction of the
 #: peak; the halo is that distance for the largest hole.
@@ -177,7 +181,9 @@ def phases(grid: TileGrid) -> list[list[int]]:
     return [p for p in out if p]
 
 
-def region_bounds(tile: Tile, grid: TileGrid, shape: tuple[int, int], g: float, halo: float):
+def region_bounds(
+    tile: Tile, grid: TileGrid, shape: tuple[int, int], g: float, halo: float
+) -> tuple[tuple[int, int, int, int], tuple[float, float, float, float]]:
     """Pixel bounds ``(r0, r1, c0, c1)`` of a tile's region on the simulation raster, and its mm box."""
     h, w = shape
     x0, y0, x1, y1 = tile.core
@@ -191,7 +197,7 @@ def region_bounds(tile: Tile, grid: TileGrid, shape: tuple[int, int], g: float, 
     return (r0, r1, c0, c1), (ox, oy, right, top)
 
 
-def spray_halo_mm(cfg) -> float:
+def spray_halo_mm(cfg: JobConfig) -> float:
     """How far a sheet must reach past its tile so that no hole's spray is cut, in mm.
 
     The largest hole's Gaussian at the largest spray time the job can use falls below
@@ -210,7 +216,7 @@ def spray_halo_mm(cfg) -> float:
         # The widest blur of any layer's can (each paint may have its own profile).
         h = max(cfg.wall.heights())
         sigma = max(spread_sigma_mm(sp.model_copy(update={"can": c}), h) for c in sp.all_cans())
-        return 5.0 * sigma + cfg.stipple.resolved_max_radius_mm + 1.0
+        return float(5.0 * sigma + cfg.stipple.resolved_max_radius_mm + 1.0)
     a = sp.spray_time
     if cfg.chooses_spray_time:
         a = min(100.0, a * _CALIBRATION_MAX_FACTOR)
@@ -218,7 +224,7 @@ def spray_halo_mm(cfg) -> float:
     return sigma * math.sqrt(2.0 * math.log(max(a, 1.0) / HALO_TAIL))
 
 
-def part_sizes(sheet_w: float, sheet_h: float, cfg) -> dict[str, tuple[float, float]]:
+def part_sizes(sheet_w: float, sheet_h: float, cfg: JobConfig) -> dict[str, tuple[float, float]]:
     """Bounding-box sizes ``(w, h)`` in mm of a sheet's plate and wall (kernel-free).
 
     The wall's outside follows the pocket at the wall thickness, or a rounded rectangle
@@ -242,7 +248,7 @@ def part_sizes(sheet_w: float, sheet_h: float, cfg) -> dict[str, tuple[float, fl
     return {"plate": size(plate), "wall": size(wall)}
 
 
-def plan_tiles(width_mm: float, height_mm: float, cfg) -> TileGrid:
+def plan_tiles(width_mm: float, height_mm: float, cfg: JobConfig) -> TileGrid:
     """Cut a picture into the fewest equal tiles whose plates and walls fit the bed.
 
     Args:
@@ -296,7 +302,7 @@ def plan_tiles(width_mm: float, height_mm: float, cfg) -> TileGrid:
     return best[1]
 
 
-def check_fits_bed(grid: TileGrid, cfg) -> list[dict]:
+def check_fits_bed(grid: TileGrid, cfg: JobConfig) -> list[dict[str, Any]]:
     """Check every tile's plate and wall against the bed, before any CAD.
 
     Returns:
@@ -340,7 +346,7 @@ _SECONDS_PER_HOLE = 2e-3
 _SECONDS_PER_MPX = 2.0
 
 
-def plan_cost(grid: TileGrid, cfg, layers: int, work_px: int) -> dict:
+def plan_cost(grid: TileGrid, cfg: JobConfig, layers: int, work_px: int) -> dict[str, Any]:
     """What a size costs before any work: tiles, plates, walls, holes (at most) and a time estimate.
 
     The hole count is the upper bound at full ink (every layer packed at the densest tone),
@@ -374,7 +380,7 @@ def order_of_work(grid: TileGrid, layers: int) -> list[str]:
     return [f"layer {i + 1:02d}: " + " ".join(t.name for t in grid.tiles) for i in range(layers)]
 
 
-def manifest_rows(grid: TileGrid) -> list[dict]:
+def manifest_rows(grid: TileGrid) -> list[dict[str, Any]]:
     """Each tile's name, core and sheet in mm from the mural's bottom-left corner."""
     rnd = lambda v: [round(float(x), 3) for x in v]  # noqa: E731
     return [

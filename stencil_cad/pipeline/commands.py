@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -20,10 +21,13 @@ from .paints import plate_cards, write_spray_order
 from .profiles import layer_sprays
 from .simulate import _scores, spraying_steps, write_previews, write_steps
 
+if TYPE_CHECKING:
+    from ..testcard.layout import CardLayout
+
 log = logging.getLogger(__name__)
 
 
-def _card_walls(run: Run, card) -> list[dict]:
+def _card_walls(run: Run, card: CardLayout) -> list[dict[str, Any]]:
     """Build, check and export the card's walls, one per stand-off; their manifest rows."""
     from ..cad import wall as wall_mod
 
@@ -41,7 +45,7 @@ def _card_walls(run: Run, card) -> list[dict]:
     return walls
 
 
-def _card_sheet(run: Run, card, paper: str) -> None:
+def _card_sheet(run: Run, card: CardLayout, paper: str) -> None:
     """Write the card's sheet (PNG and the PDF with its steps) and ``card.json``."""
     from ..testcard import layout as card_mod
     from ..testcard import printout
@@ -196,7 +200,7 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
     return finish(run, "hard")
 
 
-def _hard_sprays(run: Run, colours: np.ndarray) -> list:
+def _hard_sprays(run: Run, colours: np.ndarray) -> list[Any]:
     """Each cut layer's spray settings: its paint's profile, with whole passes enough for its own cover."""
     out = []
     for sp in layer_sprays(run, colours):
@@ -206,7 +210,7 @@ def _hard_sprays(run: Run, colours: np.ndarray) -> list:
     return out
 
 
-def _process_rules(cfg: JobConfig) -> dict:
+def _process_rules(cfg: JobConfig) -> dict[str, Any]:
 
     rules = cfg.stipple.design_rules(cfg.size.width_mm, cfg.size.height_mm or cfg.size.width_mm)
     return {"min_feature_mm": 2 * rules.hole_min_r_mm, "bridge_min_mm": max(rules.web_mm, 1.0)}

@@ -5,6 +5,7 @@ from __future__ import annotations
 import logging
 import platform
 from pathlib import Path
+from typing import Any
 
 import yaml
 
@@ -56,7 +57,7 @@ def finish(run: Run, command: str) -> list[Path]:
     return run.out.commit()
 
 
-def write_instructions(run: Run, manifest: dict, tiles: list | None = None) -> None:
+def write_instructions(run: Run, manifest: dict[str, Any], tiles: list[Any] | None = None) -> None:
     """Write the instruction sheet (HTML and PDF) from the manifest and the job's preview images.
 
     Args:
@@ -77,7 +78,7 @@ def write_instructions(run: Run, manifest: dict, tiles: list | None = None) -> N
     run.out.write_bytes(INSTRUCTIONS[1], instructions.render_pdf(data, images))
 
 
-def _merge_manifest(old_path: Path, new: dict, out: OutputDir) -> dict:
+def _merge_manifest(old_path: Path, new: dict[str, Any], out: OutputDir) -> dict[str, Any]:
     """A stage command adds its figures and files to the folder's existing manifest."""
     from ..output import read_manifest
 
@@ -128,7 +129,7 @@ def stale_files(command: str, kept: list[str], earlier: object, written: set[str
     return sorted(((before & set(kept)) | now) - written)
 
 
-def _versions() -> dict:
+def _versions() -> dict[str, Any]:
     from importlib.metadata import PackageNotFoundError, version
 
     out: dict[str, str | None] = {"python": platform.python_version()}

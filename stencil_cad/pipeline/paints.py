@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+from typing import Any
 
 import numpy as np
 
@@ -52,7 +53,7 @@ def write_spray_order(run: Run, primer: np.ndarray, colours: np.ndarray, spray_t
         for i, (c, t) in enumerate(zip(colours, spray_times, strict=True))
     ]
     sp = run.cfg.spray
-    how: dict = {"unit": sp.amount_unit}
+    how: dict[str, Any] = {"unit": sp.amount_unit}
     if sp.is_physical:
         for o, t in zip(order, spray_times, strict=True):
             o["passes"] = max(1, round(float(t)))
@@ -87,7 +88,7 @@ def write_spray_order(run: Run, primer: np.ndarray, colours: np.ndarray, spray_t
 
 
 def plate_cards(
-    run: Run, colours: np.ndarray, picture_mm: tuple[float, float], holes: list
+    run: Run, colours: np.ndarray, picture_mm: tuple[float, float], holes: list[Any]
 ) -> list[np.ndarray]:
     """The plate previews: outline with key tabs and label area, holes or cut-outs, header and scale."""
     from .. import outline

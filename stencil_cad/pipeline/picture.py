@@ -67,4 +67,5 @@ def _resample(img: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
 
     if img.shape[:2] == tuple(shape):
         return img
-    return np.clip(resize(img, (*shape, img.shape[2]), order=1, anti_aliasing=True), 0, 1)
+    out: np.ndarray = np.clip(resize(img, (*shape, img.shape[2]), order=1, anti_aliasing=True), 0, 1)
+    return out

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -22,7 +23,7 @@ from .decompose import can_names
 __all__ = ["layer_sprays", "profile_rows"]
 
 
-def layer_sprays(run: Run, colours: np.ndarray | Sequence) -> list[SprayConfig]:
+def layer_sprays(run: Run, colours: np.ndarray | Sequence[Any]) -> list[SprayConfig]:
     """The spray settings of every layer, in spray order, and the manifest's ``spray_profiles``.
 
     Args:
@@ -48,7 +49,7 @@ def layer_sprays(run: Run, colours: np.ndarray | Sequence) -> list[SprayConfig]:
 
 def profile_rows(
     hexes: Sequence[str], keys: Sequence[str | None], sprays: Sequence[SprayConfig]
-) -> list[dict]:
+) -> list[dict[str, Any]]:
     """Per layer: its paint, the profile file it sprays with (by name), whether measured, its constants.
 
     Args:

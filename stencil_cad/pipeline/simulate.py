@@ -5,6 +5,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -18,6 +19,10 @@ from .names import simulated_stems, step_name
 from .picture import _resample, source_reference
 from .profiles import layer_sprays
 
+if TYPE_CHECKING:
+    from ..config.spray import SprayConfig
+    from ..simulate.physical import SprayGeometry
+
 log = logging.getLogger(__name__)
 
 
@@ -27,7 +32,7 @@ def stage_simulate(
     layers: Layers,
     dotsets: list[DotSet],
     keep: bool = False,
-):
+) -> Any:
     """Spray every plate in simulation, composite, score against the input, save previews.
 
     Returns the scores, or with ``keep`` the simulation and the reference on its grid. The
@@ -82,7 +87,15 @@ def stage_simulate(
     return (sim, ref) if keep else scores
 
 
-def _walls(run: Run, layers: Layers, dotsets: list[DotSet], done, grid_mm, design, sprays) -> list[dict]:
+def _walls(
+    run: Run,
+    layers: Layers,
+    dotsets: list[DotSet],
+    done: tuple[Any, dict[str, Any], np.ndarray],
+    grid_mm: float | None,
+    design: SprayGeometry | None,
+    sprays: list[SprayConfig],
+) -> list[dict[str, Any]]:
     """Every wall height's simulation and scores (``simulated_wall_10mm.png`` …), the design one reused.
 
     ``done`` is the design stand-off's ``(simulation, scores, reference)``.
@@ -134,8 +147,15 @@ def sweep_seconds(cfg: JobConfig, width_mm: float, height_mm: float) -> float:
 
 
 def _scores_by_can(
-    run: Run, layers: Layers, dotsets: list[DotSet], ref, grid_mm, design, nominal: dict, sprays
-) -> dict:
+    run: Run,
+    layers: Layers,
+    dotsets: list[DotSet],
+    ref: np.ndarray,
+    grid_mm: float | None,
+    design: SprayGeometry | None,
+    nominal: dict[str, Any],
+    sprays: list[SprayConfig],
+) -> dict[str, Any]:
     """S-CIELAB at the viewing distance for every can of the prior (:mod:`.simulate.cans`), by name.
 
     Each can of the prior changes the layers without a measured profile (``sprays``: each
@@ -164,7 +184,7 @@ def _scores_by_can(
     return out
 
 
-def spraying_steps(cfg: JobConfig, layers: Layers, amounts: Sequence[float]) -> list[dict]:
+def spraying_steps(cfg: JobConfig, layers: Layers, amounts: Sequence[float]) -> list[dict[str, Any]]:
     """What the hand does for each layer, in the maker's units (physical model) or the model's.
 
     Args:
@@ -211,7 +231,7 @@ def spraying_steps(cfg: JobConfig, layers: Layers, amounts: Sequence[float]) -> 
     return out
 
 
-def _scores(run: Run, reference: np.ndarray, sprayed: np.ndarray, mm_per_px: float) -> dict:
+def _scores(run: Run, reference: np.ndarray, sprayed: np.ndarray, mm_per_px: float) -> dict[str, Any]:
     """Pixel scores and S-CIELAB at the viewing distance and twice it, on one grid."""
     from .. import simulate
     from ..simulate import scielab
@@ -221,7 +241,9 @@ def _scores(run: Run, reference: np.ndarray, sprayed: np.ndarray, mm_per_px: flo
     return scores
 
 
-def _dot_visibility(run: Run, layers: Layers, dotsets: list[DotSet], sprays) -> dict:
+def _dot_visibility(
+    run: Run, layers: Layers, dotsets: list[DotSet], sprays: list[SprayConfig]
+) -> dict[str, Any]:
     """From how far the smallest holes in the most contrasting paint blend (see :mod:`.simulate.visibility`)."""
     from ..simulate.physical import SprayGeometry
     from ..simulate.visibility import blend_distance_m
@@ -246,7 +268,7 @@ def _dot_visibility(run: Run, layers: Layers, dotsets: list[DotSet], sprays) -> 
     return {"dots_blend_m": d, "dots_blend_layer": k + 1, "dots_hole_r_mm": r}
 
 
-def _score_line(scores: dict) -> str:
+def _score_line(scores: dict[str, Any]) -> str:
     """The scores under the preview: what a viewer sees (S-CIELAB) and pixel by pixel (ΔE2000)."""
     d = scores["view_distance_m"]
     return (
@@ -255,7 +277,14 @@ def _score_line(scores: dict) -> str:
     )
 
 
-def write_previews(run: Run, reference, ideal, sprayed, mm_per_px: float, scores: dict) -> None:
+def write_previews(
+    run: Run,
+    reference: np.ndarray,
+    ideal: np.ndarray,
+    sprayed: np.ndarray,
+    mm_per_px: float,
+    scores: dict[str, Any],
+) -> None:
     """The labelled four-panel ``preview.png``: input, ideal layers, simulated spray, error map."""
     from .. import simulate
     from ..simulate import labelled

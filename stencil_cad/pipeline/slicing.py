@@ -5,12 +5,16 @@ from __future__ import annotations
 import logging
 from collections.abc import Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ..errors import OutputError, UserError
 from ..record import Run
 
 if TYPE_CHECKING:
+    from ..config.bed import Bed
+    from ..slicing.profiles import Profile
+
+    BedArg = str | tuple[float, float] | Bed | None
     from ..slicing import SliceResult
     from ..slicing.gcode import GcodeEstimate
 
@@ -131,7 +135,7 @@ def plate_projects(
 
 
 def _slice_jobs(
-    stls: list[Path], prof, bed, suffix: str, *, force: bool, timeout_s: float
+    stls: list[Path], prof: Profile, bed: BedArg, suffix: str, *, force: bool, timeout_s: float
 ) -> list[tuple[Path, Path, int]]:
     """``(stl, output, turn)`` per plate, every input and output checked before the first slicer run.
 
@@ -235,7 +239,7 @@ def print_estimate(path: Path) -> GcodeEstimate:
     return read_sl1_estimate(path) if path.suffix == ".sl1" else read_estimate(path)
 
 
-def _bed_xy(bed) -> tuple[float, float]:
+def _bed_xy(bed: BedArg) -> tuple[float, float]:
     from ..config.bed import resolve_bed
 
     b = resolve_bed(bed)
@@ -244,7 +248,7 @@ def _bed_xy(bed) -> tuple[float, float]:
     return (b.x_mm, b.y_mm)
 
 
-def _bed_overrides(prof, bed) -> dict:
+def _bed_overrides(prof: Profile, bed: BedArg) -> dict[str, Any]:
     """Slicer settings that set the bed size (PrusaSlicer ``bed_shape``, Cura machine width/depth)."""
     from .. import slicing
     from ..config.bed import resolve_bed

@@ -17,7 +17,7 @@ import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -33,11 +33,14 @@ if TYPE_CHECKING:
     from ..cad import LabelInfo
     from ..config.bed import Bed
     from ..config.job import JobConfig
+    from ..record import Run
 
 log = logging.getLogger(__name__)
 
 
-def plan(cfg, width_mm: float, height_mm: float, layers: int, work_px: int) -> tuple[mural.TileGrid, dict]:
+def plan(
+    cfg: JobConfig, width_mm: float, height_mm: float, layers: int, work_px: int
+) -> tuple[mural.TileGrid, dict[str, Any]]:
     """Tile the picture for the bed and check every part fits, before any work.
 
     Returns:
@@ -60,7 +63,9 @@ def plan(cfg, width_mm: float, height_mm: float, layers: int, work_px: int) -> t
     return grid, fig
 
 
-def stage_build_tiles(run, layers: Layers, dotsets: list[DotSet], grid: mural.TileGrid) -> list[list[DotSet]]:
+def stage_build_tiles(
+    run: Run, layers: Layers, dotsets: list[DotSet], grid: mural.TileGrid
+) -> list[list[DotSet]]:
     """Build, check and export every tile's plates (one per layer) and wall(s).
 
     The plates draw the holes compensated for the process (``stipple.compensate``, as a one-plate
@@ -74,8 +79,8 @@ def stage_build_tiles(run, layers: Layers, dotsets: list[DotSet], grid: mural.Ti
     drawn, made = drawn_and_made(cfg, dotsets, grid)
     _check_unions(cfg, grid, {"asked": dotsets, "made": made, "drawn": drawn})
     per_tile = _per_tile(drawn, grid)
-    plates: list[dict] = []
-    walls: list[dict] = []
+    plates: list[dict[str, Any]] = []
+    walls: list[dict[str, Any]] = []
     heights = cfg.wall.heights()
     tasks = _part_tasks(cfg, layers, grid, per_tile, heights)
     n_parts = len(grid.tiles) * (len(dotsets) + len(heights))
@@ -109,7 +114,9 @@ def stage_build_tiles(run, layers: Layers, dotsets: list[DotSet], grid: mural.Ti
     return _per_tile(made, grid)
 
 
-def drawn_and_made(cfg, dotsets: list[DotSet], grid: mural.TileGrid) -> tuple[list[DotSet], list[DotSet]]:
+def drawn_and_made(
+    cfg: JobConfig, dotsets: list[DotSet], grid: mural.TileGrid
+) -> tuple[list[DotSet], list[DotSet]]:
     """Every layer's holes over the whole mural as the plates draw them and as the process makes them.
 
     :func:`stencil_cad.stipple.made.drawn_dots` and :func:`~stencil_cad.stipple.made.made_dots`
@@ -131,7 +138,7 @@ def _per_tile(dotsets: list[DotSet], grid: mural.TileGrid) -> list[list[DotSet]]
     return [[split[i][k] for i in range(len(dotsets))] for k in range(len(grid.tiles))]
 
 
-def _check_unions(cfg, grid: mural.TileGrid, sets: dict[str, list[DotSet]]) -> None:
+def _check_unions(cfg: JobConfig, grid: mural.TileGrid, sets: dict[str, list[DotSet]]) -> None:
     """The union of the tiles' holes is the global set (same count) and keeps the rules across every seam.
 
     ``sets`` holds the holes ``asked`` (the design rules), ``made`` by the process (the web never
@@ -141,7 +148,7 @@ def _check_unions(cfg, grid: mural.TileGrid, sets: dict[str, list[DotSet]]) -> N
     """
     from dataclasses import replace
 
-    from ..config.stipple import HOLE_FLOOR_MM
+    from ..config.rules import HOLE_FLOOR_MM
     from ..stipple import rules as dots
 
     design = cfg.stipple.design_rules(grid.width_mm, grid.height_mm)
@@ -199,11 +206,13 @@ class PartResult:
     """What a :class:`PartTask` made: its files (name, bytes) in writing order and its manifest row."""
 
     kind: str
-    files: tuple
-    row: dict
+    files: tuple[Any, ...]
+    row: dict[str, Any]
 
 
-def _part_tasks(cfg, layers: Layers, grid: mural.TileGrid, per_tile, heights) -> Iterator[PartTask]:
+def _part_tasks(
+    cfg: JobConfig, layers: Layers, grid: mural.TileGrid, per_tile: list[list[DotSet]], heights: list[float]
+) -> Iterator[PartTask]:
     """Every tile's plates (one per layer) and walls, tile by tile, made one at a time."""
     from .. import cad, outline
 
@@ -214,7 +223,13 @@ def _part_tasks(cfg, layers: Layers, grid: mural.TileGrid, per_tile, heights) ->
         ring, notches = mural.notched_ring(
             outline.plate_outline(w, h, cfg.plate.outline), lines, mural.PLATE_NOTCH_MM
         )
-        common = {"cfg": cfg, "size_mm": (w, h), "lines": lines, "bed": grid.bed, "tile": t.name}
+        common: dict[str, Any] = {
+            "cfg": cfg,
+            "size_mm": (w, h),
+            "lines": lines,
+            "bed": grid.bed,
+            "tile": t.name,
+        }
         for i, holes in enumerate(per_tile[k]):
             label = cad.LabelInfo(
                 layer=i + 1,
@@ -252,7 +267,7 @@ class _Files:
     another machine) and read back, so the files travel with the task's result.
     """
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.files: list[tuple[str, bytes]] = []
 
     @contextlib.contextmanager
@@ -348,7 +363,7 @@ def _build_wall(task: PartTask) -> PartResult:
     return PartResult("wall", tuple(files.files), row)
 
 
-def write_map(run, grid: mural.TileGrid, layers: Layers, picture: Picture | None) -> None:
+def write_map(run: Run, grid: mural.TileGrid, layers: Layers, picture: Picture | None) -> None:
     """Write ``mural_map.png``: the grid over the picture, names, positions, order of work."""
     preview = picture.rgb if picture is not None else layers.composite()
     run.out.write_png("mural_map.png", mural.mural_map(grid, layers.count, preview))
@@ -359,7 +374,7 @@ REGISTRATION_ERRORS_MM = (0.5, 1.0)
 
 
 def stage_mural_simulate(
-    run,
+    run: Run,
     sim,
     reference: np.ndarray,
     layers: Layers,
@@ -393,7 +408,7 @@ def stage_mural_simulate(
         simulate.tail_tolerance(d.xy_mm, d.r_mm, shape, g, sp) if len(d) else 0.0
         for d, sp in zip(dotsets, sprays, strict=True)
     ]
-    out: dict = {}
+    out: dict[str, Any] = {}
     with run.stage("simulate_tiles"):
         t0 = time.perf_counter()
         tiled = mural.simulate_tiles(
@@ -404,7 +419,7 @@ def stage_mural_simulate(
         out["tiled_equals_global"] = bool(diff <= 1e-6)
         dist = run.cfg.view.distance_m
 
-        def scores(alphas: np.ndarray) -> dict:
+        def scores(alphas: np.ndarray) -> dict[str, Any]:
             comp = np.clip(composite(layers.primer, layers.colours, alphas), 0, 1)
             return {
                 **simulate.score(reference, comp),
@@ -439,7 +454,7 @@ def stage_mural_simulate(
         log.warning("tiled simulation differs from the global one by %.3g (max abs opacity)", diff)
 
 
-def plan_line(plan: dict) -> str:
+def plan_line(plan: dict[str, Any]) -> str:
     """One line, printed before the work starts: what this size costs."""
     c = plan["cost"]
     bed = plan.get("bed")
