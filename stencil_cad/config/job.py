@@ -191,6 +191,8 @@ class JobConfig(StrictModel):
         process = _process_of(data.get("stipple"))
         if not isinstance(plate, dict) or plate.get("thickness_mm") is not None or process is None:
             return handler(data)
+        if plate.get("template") is not None:
+            return handler(data)  # a plate template keeps its own THICKNESS_MM unless the config gives one
         try:
             size = SizeConfig.model_validate(data.get("size") or {})
             outline = OutlineConfig.model_validate(plate.get("outline") or {})
@@ -211,7 +213,11 @@ class JobConfig(StrictModel):
     @property
     def thickness_fill(self) -> Thickness:
         """The plate's thickness and why: filled in for the process and size, or as given."""
-        return self._thickness_fill or given_thickness(self.plate.thickness_mm)
+        if self._thickness_fill is not None:
+            return self._thickness_fill
+        if self.plate.template is not None and "thickness_mm" not in self.plate.model_fields_set:
+            return Thickness(self.plate.thickness_mm, 0.0, 0.0, "the plate template's THICKNESS_MM")
+        return given_thickness(self.plate.thickness_mm)
 
     def fit_plate_thickness(self, side_mm: float) -> JobConfig:
         """This config with a filled-in plate thickness chosen again for plates of longest side ``side_mm``.

@@ -117,3 +117,12 @@ def test_fit_to_the_planned_plates_and_overrides_fill_again():
 def test_template_leaves_the_thickness_to_the_process():
     text = default_yaml()
     assert "thickness_mm: null" in text
+
+
+def test_a_plate_template_keeps_its_own_thickness(tmp_path):
+    template = tmp_path / "my_plate.py"
+    template.write_text("THICKNESS_MM = 2.0\n")
+    cfg = JobConfig.model_validate({"plate": {"template": str(template)}})
+    assert "thickness_mm" not in cfg.plate.model_fields_set  # the template's THICKNESS_MM stands
+    assert not cfg.thickness_fill.filled
+    assert "template" in cfg.thickness_fill.reason
