@@ -25,6 +25,8 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
     lines = [f"stencil-cad: {run.cfg.name} → {out_path}/ ({len(files)} files)"]
     lines += _layer_lines(run, f)
     lines += _build_lines(run, f)
+    if (f.get("plate") or {}).get("thickness_reason"):
+        lines.append(f"  thickness {f['plate']['thickness_reason']}")
     sim = f.get("simulate")
     if sim:
         lines += _seen_lines(run, sim)

@@ -12,8 +12,9 @@ import cadquery as cq
 
 from stencil_cad.cad.plate import perforated_plate
 
-#: Plate thickness in mm. Range [0.4, 20].
-THICKNESS_MM = 1.2
+#: Plate thickness in mm. Range [0.4, 20]. A job replaces it with plate.thickness_mm (given, or
+#: filled in for its process and plate size).
+THICKNESS_MM = 0.9
 #: Label on the top face: "engrave", "emboss" or "none".
 LABEL = "engrave"
 #: Depth of an engraved label / height of an embossed one, in mm.

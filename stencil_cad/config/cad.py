@@ -11,6 +11,9 @@ from pydantic import Field, field_validator, model_validator
 from .base import StrictModel
 from .outline import OutlineConfig
 
+#: The plate's thickness outside a job, where no process or size is known, mm: the thinnest FDM plate
+#: (three 0.3 mm layers), which a job of the default size and process fills in too.
+DEFAULT_THICKNESS_MM = 0.9
 #: The wall's stand-off of a wall section outside a job, where no process or mode is known, mm.
 DEFAULT_STANDOFF_MM = 10.0
 
@@ -30,14 +33,20 @@ class PlateConfig(StrictModel):
         default_factory=OutlineConfig, description="Plate outline, margin and key."
     )
     thickness_mm: float = Field(
-        1.2,
+        DEFAULT_THICKNESS_MM,
         ge=0.4,
         le=20.0,
+        json_schema_extra={"anyOf": [{"type": "number"}, {"type": "null"}], "default": None},
         description=(
             "Plate thickness in mm. Range [0.4, 20]. Plates are exported flat, z from 0 to the thickness. "
-            "Thinner prints faster and shades the spray less: 0.9 mm is three 0.3 mm layers of the shipped "
-            "FDM profile, a quarter less print time than 1.2 mm (the bundled example's 173 mm plates use it; "
-            "a plate rests on the wall's ledge all round)."
+            "Thinner prints faster and shades the spray less; too thin sags on the wall's ledge. null: the "
+            "thinnest plate the process makes for the plate's longest side (picture plus margins, a mural's "
+            "tile), whose sag under its own weight stays within 5 % of the process's stand-off, and thick "
+            "enough for an engraved label: fdm in whole 0.3 mm layers, 0.9 mm up to a 213 mm side, 1.2 to "
+            "246, 1.5 to 275, 1.8 to 301; sla in 0.1 mm layers from 0.8 mm (0.8 up to 160 mm, 1.0 to 179, 1.2 "
+            "to 196); laser a stock sheet, 1 mm PETG up to 193 mm, 1.5 mm to 236, 2 mm to 273, "
+            "3 mm to 334 (for 0.25-0.5 mm film give its thickness and label: none). The summary and the "
+            "instruction sheet say which and why."
         ),
     )
     label: LabelMode = Field(
@@ -127,6 +136,12 @@ class PlateConfig(StrictModel):
             "A name the template does not define is an error."
         ),
     )
+
+    @field_validator("thickness_mm", mode="before")
+    @classmethod
+    def _thickness_default(cls, v):
+        # A job fills null in for its process and plate size (JobConfig); alone, the thinnest FDM plate.
+        return DEFAULT_THICKNESS_MM if v is None else v
 
     @model_validator(mode="after")
     def _check(self) -> PlateConfig:

@@ -7,21 +7,23 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import Field, PrivateAttr, ValidationError, field_validator, model_validator
 
 from ..errors import ConfigError
 from . import profiles
 from .base import StrictModel
-from .bed import BED_DESCRIPTION, parse_bed
-from .cad import ExportConfig, PlateConfig, WallConfig
+from .bed import BED_DESCRIPTION, parse_bed, resolve_bed
+from .cad import ExportConfig, LabelMode, PlateConfig, WallConfig
 from .compute import ComputeConfig
 from .decompose import DecomposeConfig
 from .hard import HardConfig
+from .outline import OutlineConfig
 from .paints import PaintsConfig
 from .refine import RefineConfig
 from .rules import DesignRules
 from .spray import NOZZLE_HEIGHT_BY_PROCESS, Calibrate, SprayConfig
 from .stipple import Process, StippleConfig
+from .thickness import LABEL_FLOOR_MM, Thickness, fill_thickness, given_thickness
 from .view import ViewConfig
 
 #: The wall's stand-off (mm) soft stencils of each process score best from at 1 m under the physical
@@ -138,6 +140,9 @@ class JobConfig(StrictModel):
 
     bed: str | tuple[float, float] | None = Field(None, description=BED_DESCRIPTION)
 
+    #: The filled-in plate thickness and why, or None when plate.thickness_mm was given.
+    _thickness_fill: Thickness | None = PrivateAttr(None)
+
     @field_validator("bed", mode="before")
     @classmethod
     def _bed(cls, value):
@@ -169,6 +174,65 @@ class JobConfig(StrictModel):
             if isinstance(raw, dict) and raw.get(key) is None:
                 data = {**data, section: {**raw, key: value}}
         return data
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _fill_thickness(cls, data, handler):
+        """``plate.thickness_mm`` left out (or null): the process's thinnest flat plate (:mod:`.thickness`).
+
+        Chosen for the plate's longest side as far as the config knows it: the picture's sides
+        (its width for both when ``size.height_mm`` follows the image, which is read later) plus
+        the margins, at most the bed's longer side (a mural's tiles fit the bed). The pipeline
+        re-fits it to the plates it plans (:meth:`fit_plate_thickness`).
+        """
+        if not isinstance(data, dict):
+            return handler(data)
+        plate = data.get("plate") or {}
+        process = _process_of(data.get("stipple"))
+        if not isinstance(plate, dict) or plate.get("thickness_mm") is not None or process is None:
+            return handler(data)
+        if plate.get("template") is not None:
+            return handler(data)  # a plate template keeps its own THICKNESS_MM unless the config gives one
+        try:
+            size = SizeConfig.model_validate(data.get("size") or {})
+            outline = OutlineConfig.model_validate(plate.get("outline") or {})
+            bed = resolve_bed(parse_bed(data.get("bed")))
+            probe = PlateConfig.model_validate(
+                {**plate, "thickness_mm": 20.0}
+            )  # its label, whatever the thickness
+        except (ValidationError, ValueError, TypeError):
+            return handler(data)  # the sections' own validation names what is wrong
+        side = max(size.width_mm, size.height_mm or size.width_mm) + 2.0 * outline.margin_mm
+        if bed is not None:
+            side = min(side, max(bed.x_mm, bed.y_mm))
+        fill = _thickness_for(process, side, probe)
+        cfg = handler({**data, "plate": {**plate, "thickness_mm": fill.thickness_mm}})
+        cfg._thickness_fill = fill
+        return cfg
+
+    @property
+    def thickness_fill(self) -> Thickness:
+        """The plate's thickness and why: filled in for the process and size, or as given."""
+        if self._thickness_fill is not None:
+            return self._thickness_fill
+        if self.plate.template is not None and "thickness_mm" not in self.plate.model_fields_set:
+            return Thickness(self.plate.thickness_mm, 0.0, 0.0, "the plate template's THICKNESS_MM")
+        return given_thickness(self.plate.thickness_mm)
+
+    def fit_plate_thickness(self, side_mm: float) -> JobConfig:
+        """This config with a filled-in plate thickness chosen again for plates of longest side ``side_mm``.
+
+        A thickness the config gives is kept: the same config comes back.
+        """
+        if self._thickness_fill is None:
+            return self
+        fill = _thickness_for(self.stipple.process, side_mm, self.plate)
+        data = {**self.plate.model_dump(), "thickness_mm": fill.thickness_mm}
+        plate = PlateConfig.model_validate(data)
+        self.wall.check_plate(plate.outline, plate.thickness_mm)
+        cfg = self.model_copy(update={"plate": plate})
+        cfg._thickness_fill = fill
+        return cfg
 
     def design_rules(self, width_mm: float, height_mm: float, keepouts: Sequence = ()) -> DesignRules:
         """The job's hole design rules over a picture area (see :meth:`StippleConfig.design_rules`)."""
@@ -247,6 +311,12 @@ class JobConfig(StrictModel):
         return self
 
 
+def _thickness_for(process: Process, side_mm: float, plate: PlateConfig) -> Thickness:
+    """The filled-in thickness of ``plate`` (its label's floor) for its process and longest side."""
+    floor = plate.label_depth_mm + LABEL_FLOOR_MM if plate.label is LabelMode.engrave else 0.0
+    return fill_thickness(process, side_mm, STANDOFF_BY_PROCESS[process], floor)
+
+
 def parse_overrides(
     cfg: JobConfig,
     image: Path | None = None,
@@ -281,4 +351,6 @@ def parse_overrides(
         data["mode"] = Mode.hard.value
     if bed is not None:
         data["bed"] = list(bed) if isinstance(bed, tuple) else bed
+    if cfg._thickness_fill is not None:
+        data["plate"]["thickness_mm"] = None  # filled in again for the new image, bed or mode
     return parse_config(data, source="command line")

@@ -169,6 +169,9 @@ def _print_rows(manifest: Mapping[str, Any], steps: list[Step]) -> tuple[list[st
         if said:
             advice += f"; PrusaSlicer: {said}"
         rows.append([part.stem, count, ", ".join(files) or "not written", cut, advice])
+    reason = (manifest.get("plate") or {}).get("thickness_reason")
+    if reason and any(p.kind == "plate" for p in parts):
+        rows.append(["plate thickness", "", "", "", str(reason)])
     total = (manifest.get("build") or {}).get("print") or {}
     if total.get("hours") is not None:
         said = make.print_text(float(total["hours"]), total.get("filament_m"))

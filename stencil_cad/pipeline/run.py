@@ -58,10 +58,11 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
             picture = load_picture(run.cfg)
     if run.template is None:
         check_template(run)
-    cfg = run.cfg
+    size = (picture.width_mm, picture.height_mm)
+    grid = plan_mural(run, size, picture.shape)
+    cfg = fit_thickness(run, grid)
     save_config(run)
     run.sheet_images["input.png"] = png_bytes(np.asarray(picture.rgb, dtype=np.float64))
-    size = (picture.width_mm, picture.height_mm)
     run.figures["picture"] = {
         "source": picture.source,
         "width_mm": round(size[0], 3),
@@ -69,7 +70,6 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
         "pixels": list(picture.shape),
         "mm_per_px": picture.mm_per_px,
     }
-    grid = plan_mural(run, size, picture.shape)
     if cfg.mode == Mode.hard:
         if grid.tiled:
             raise UserError(
@@ -91,6 +91,27 @@ def plan_mural(run: Run, picture_mm: tuple[float, float], shape_px: tuple[int, i
     grid, fig = tiles.plan(run.cfg, *picture_mm, plate_layers(run.cfg), int(shape_px[0]) * int(shape_px[1]))
     run.figures["mural"] = fig
     return grid
+
+
+def fit_thickness(run: Run, grid) -> JobConfig:
+    """Fill the plate thickness in for the plates the tiling plans (when the config leaves it to the process).
+
+    The config chose it for the plate size it knew (:meth:`JobConfig.fit_plate_thickness`); the picture's
+    height and the mural's tiles are known now. Records the thickness and why as figure ``plate``.
+    """
+    from ..mural.tiling import part_sizes
+
+    side = max(max(part_sizes(t.size[0], t.size[1], run.cfg)["plate"]) for t in grid.tiles)
+    run.cfg = run.cfg.fit_plate_thickness(side)
+    fill = run.cfg.thickness_fill
+    run.figures["plate"] = {
+        "thickness_mm": run.cfg.plate.thickness_mm,
+        "filled": fill.filled,
+        "side_mm": round(side, 1),
+        "sag_mm": round(fill.sag_mm, 3) if fill.filled else None,
+        "thickness_reason": fill.reason,
+    }
+    return run.cfg
 
 
 def plate_layers(cfg: JobConfig) -> int:
@@ -186,10 +207,10 @@ def run_command(
 def _run_stage_command(
     run: Run, command: str, src: Path, picture: Picture | None, where: ComputeConfig | None
 ) -> list[Path]:
-    cfg = run.cfg
     layers = read_layers(src)
     size = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
     grid = plan_mural(run, size, layers.alphas.shape[1:])
+    cfg = fit_thickness(run, grid)
     run.out.check_free(stage_outputs(cfg, command, layers.count, grid))
     if abs(size[0] - cfg.size.width_mm) > 0.01 * cfg.size.width_mm:
         log.warning(

@@ -36,7 +36,8 @@ def grid_dots(w=W, h=H, pitch=2.5, r=(0.5, 0.9), seed=0):
 
 
 def cfg(**kw):
-    return PlateConfig(**kw)
+    # A 1.2 mm plate: the oracles below are written for it (a plate section alone defaults thinner).
+    return PlateConfig(**{"thickness_mm": 1.2, **kw})
 
 
 @pytest.fixture(scope="module")
@@ -289,14 +290,14 @@ def test_builtin_template_defaults_match_the_config():
 def user_template(tmp_path):
     path = tmp_path / "my_plate.py"
     shutil.copy(builtin_template(), path)
-    text = path.read_text().replace("THICKNESS_MM = 1.2", "THICKNESS_MM = 2.0")
+    text = path.read_text().replace("THICKNESS_MM = 0.9", "THICKNESS_MM = 2.0")
     path.write_text(text)
     return path
 
 
 def test_user_template_values_stand_unless_the_config_sets_them(user_template):
     dots = grid_dots(pitch=5.0)
-    m = cad.build_plate(dots, W, H, cfg(template=user_template, label=LabelMode.none), LABEL)
+    m = cad.build_plate(dots, W, H, PlateConfig(template=user_template, label=LabelMode.none), LABEL)
     assert m.geometry.thickness_mm == 2.0
     m = cad.build_plate(dots, W, H, cfg(template=user_template, thickness_mm=1.6), LABEL)
     assert m.geometry.thickness_mm == 1.6

@@ -330,6 +330,15 @@ def test_sheet_takes_tiles_and_new_figures():
     assert pdf.startswith(b"%PDF") and len(pdf) > 2000
 
 
+def test_sheet_says_the_plate_thickness_and_why():
+    manifest = _synthetic_manifest()
+    reason = "0.9 mm: the thinnest fdm plate (whole 0.3 mm layers, PLA) whose 173 mm side sags ≤ 0.75 mm"
+    manifest["plate"] = {"thickness_mm": 0.9, "thickness_reason": reason}
+    rows = instructions.sheet_from_manifest(manifest).prints
+    assert ["plate thickness", "", "", "", reason] in rows
+    assert reason in instructions.render_html(instructions.sheet_from_manifest(manifest), {})
+
+
 def _synthetic_manifest():
     return {
         "config": {

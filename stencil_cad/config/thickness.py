@@ -1,0 +1,187 @@
+"""The plate thickness a process fills in for ``plate.thickness_mm: null``: the thinnest it makes that stays flat.
+
+A plate rests on the wall's ledge all round and sags under its own weight; the sag lowers its
+middle towards the sprayed surface, and under the physical spray model every hole's blur follows
+its stand-off (sigma = k * g). The fill-in takes the thinnest sheet the process makes (whole
+layers of the shipped profile, or a stock sheet for a laser) whose sag stays within
+:data:`SAG_LIMIT_FRACTION` of the process's stand-off, and never thinner than an engraved label
+needs (``label_depth_mm + 0.3``).
+
+The model (Timoshenko & Woinowsky-Krieger, *Theory of Plates and Shells*, table 8: a simply
+supported square plate of side a under a uniform load q): ``w = 0.00406 * q * a**4 / D`` with
+``q = rho * g * t`` (its own weight) and ``D = E * t**3 / (12 * (1 - nu**2))``, so the sag grows
+with a**4 / t**2. The longest side is taken as the square's side, which over-states a long
+narrow plate's sag (its short side governs it): the fill-in errs thick. Holes make the plate
+lighter by its open fraction phi and softer by about its ligament efficiency eta =
+(pitch - hole diameter) / pitch (the effective-modulus results for perforated plates, O'Donnell &
+Langer 1962, ASME Section VIII appendix): sag times (1 - phi) / eta. At the densest the stippler
+packs (hexagonal at the process's web: FDM r 1.0-2.0 mm at a 0.8 mm web gives phi 0.46-0.63, eta
+0.29-0.17) that is 1.9-2.2 over the whole plate; real plates are dense only in their dark patches
+and keep a solid border, so :data:`PERFORATION_FACTOR` 2 errs thick too.
+
+The sag limit, 5 % of the stand-off (0.75 mm under FDM's 15 mm, 0.5 mm under SLA's and a laser's
+10 mm), keeps the blur in a plate's middle within 5 % of the one designed; the blur moves
+S-CIELAB slowly (the FDM astronaut scores 10.8 / 9.1 at 1 m from 10 / 15 mm stand-offs, 16 % for
+a 50 % change of blur), so a 5 % change is far below what a viewer sees.
+
+Sag in mm from this model (solid plate; times 2 for the perforation), PLA E 3.5 GPa, 1240 kg/m3:
+
+==========  =======  =======  =======  =======  =======
+side (mm)     150      200      250      300      360
+==========  =======  =======  =======  =======  =======
+0.9 mm        0.09     0.29     0.71     1.47     3.05
+1.2 mm        0.05     0.16     0.40     0.83     1.72
+1.5 mm        0.03     0.10     0.26     0.53     1.10
+1.8 mm        0.02     0.07     0.18     0.37     0.76
+2.1 mm        0.02     0.05     0.13     0.27     0.56
+==========  =======  =======  =======  =======  =======
+
+So with the perforation and the 0.75 mm limit an FDM plate is 0.9 mm up to a 213 mm side (the
+bundled example's 173 mm plates, a Prusa MINI's bed), 1.2 mm to 246 mm (a Prusa MK4's bed),
+1.5 mm to 275 mm, 1.8 mm to 301 mm, 2.1 mm to 325 mm, 2.4 mm to 348 mm and 2.7 mm on a 360 mm bed (Prusa XL).
+Measured on the bundled example with the shipped FDM profile (PrusaSlicer 2.5, `stencil-cad
+slice`): a 154 x 183 mm plate of about 590 holes printed in 1 h 40 / 12.6 m of filament at
+1.2 mm and 1 h 18 / 9.5 m at 0.9 mm (-22 % time, -25 % filament) with S-CIELAB at 1 m unchanged
+(7.94 vs 7.92). The default `--image` job (FDM, 173 mm plates; `stencil-cad run --image
+stencil_cad/data/example.png`, then `stencil-cad slice layer_0*.stl wall.stl --bed prusa_mk4`): 0.9 mm
+plates print in 1 h 27 / 1 h 22 / 1 h 14 / 1 h 17 with 41.3 m of filament, 1.2 mm ones in 1 h 53 /
+1 h 45 / 1 h 33 / 1 h 38 with 55.0 m (-22 % time, -25 % filament), the wall 1 h 54 against 1 h 55;
+S-CIELAB at 1 m 9.09 against 9.06, at 2 m 7.43 against 7.42. Each layer the sag lets go saves about
+a fifth of a plate's print.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .stipple import Process
+
+#: Sag coefficient of a simply supported square plate under a uniform load (Timoshenko, table 8).
+SQUARE_SAG_COEFFICIENT = 0.00406
+#: How much a stippled plate sags more than a solid one: (1 - open fraction) / ligament efficiency.
+PERFORATION_FACTOR = 2.0
+#: Largest sag as a fraction of the process's stand-off (see the module's text).
+SAG_LIMIT_FRACTION = 0.05
+#: An engraved label leaves this much plate under it (``plate.label_depth_mm`` is at most the thickness less this).
+LABEL_FLOOR_MM = 0.3
+_G = 9.81
+
+
+@dataclass(frozen=True)
+class Sheet:
+    """The sheets a process makes a plate from.
+
+    Attributes:
+        material: In words, for the reason line.
+        modulus_gpa: Young's modulus E in GPa.
+        density_kg_m3: Density in kg/m³.
+        poisson: Poisson's ratio.
+        thicknesses_mm: The thicknesses it makes, thinnest first.
+        made_as: How the thicknesses come about, for the reason line.
+    """
+
+    material: str
+    modulus_gpa: float
+    density_kg_m3: float
+    poisson: float
+    thicknesses_mm: tuple[float, ...]
+    made_as: str
+
+
+def _layers(height_mm: float, first: int, last: int) -> tuple[float, ...]:
+    return tuple(round(n * height_mm, 3) for n in range(first, last + 1))
+
+
+#: Per process: FDM in PLA (E 3.5 GPa), whole 0.3 mm layers of the shipped prusa_fdm profile from
+#: three (its top and bottom solid layers; two would leave no plate under the label); SLA in a standard
+#: resin (E about 2 GPa after post-cure), whole 0.1 mm layers of prusa_sla from 0.8 mm (the label's
+#: 0.7 mm; resin sheets thinner than that curl in the post-cure, a prior not measured here); a laser
+#: cuts stock sheet, PETG/PET 1 mm or acrylic and plywood 1.5-6 mm (E about 3 GPa). Thinner film
+#: (mylar 0.25-0.5 mm) cuts well but cannot hold an engraved label: give it as plate.thickness_mm
+#: with plate.label none.
+SHEETS: dict[Process, Sheet] = {
+    Process.fdm: Sheet("PLA", 3.5, 1240.0, 0.36, _layers(0.3, 3, 20), "whole 0.3 mm layers"),
+    Process.sla: Sheet("resin", 2.0, 1150.0, 0.35, _layers(0.1, 8, 60), "whole 0.1 mm layers"),
+    Process.laser: Sheet(
+        "PETG, acrylic or plywood", 3.0, 1300.0, 0.37, (1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0), "stock sheet"
+    ),
+}
+
+
+def sag_mm(side_mm: float, thickness_mm: float, sheet: Sheet, perforated: bool = True) -> float:
+    """Sag in mm of a square plate of ``side_mm`` resting on its edges, under its own weight.
+
+    Args:
+        side_mm: The plate's side in mm (its longest side stands in for a rectangle's).
+        thickness_mm: Its thickness in mm.
+        sheet: Its material.
+        perforated: Times :data:`PERFORATION_FACTOR` for the holes.
+    """
+    a, t = side_mm / 1000.0, thickness_mm / 1000.0
+    q = sheet.density_kg_m3 * _G * t
+    rigidity = sheet.modulus_gpa * 1e9 * t**3 / (12.0 * (1.0 - sheet.poisson**2))
+    w = SQUARE_SAG_COEFFICIENT * q * a**4 / rigidity * 1000.0
+    return w * (PERFORATION_FACTOR if perforated else 1.0)
+
+
+@dataclass(frozen=True)
+class Thickness:
+    """A filled-in plate thickness and why.
+
+    Attributes:
+        thickness_mm: The plate's thickness in mm.
+        side_mm: The plate side it was chosen for, in mm (0 when the config gives the thickness).
+        sag_mm: The model's sag of a perforated plate at that side, in mm.
+        reason: One line for the summary and the instruction sheet.
+    """
+
+    thickness_mm: float
+    side_mm: float
+    sag_mm: float
+    reason: str
+
+    @property
+    def filled(self) -> bool:
+        """Whether the process filled it in (False: ``plate.thickness_mm`` gave it)."""
+        return self.side_mm > 0.0
+
+
+def fill_thickness(
+    process: Process, side_mm: float, standoff_mm: float, at_least_mm: float = 0.0
+) -> Thickness:
+    """The thinnest plate ``process`` makes whose sag at ``side_mm`` stays within the limit.
+
+    Args:
+        process: The plate's process.
+        side_mm: The plate's longest side in mm.
+        standoff_mm: The process's stand-off in mm; the sag limit is :data:`SAG_LIMIT_FRACTION` of it.
+        at_least_mm: The thinnest plate the label allows (``label_depth_mm + 0.3`` for an engraving).
+
+    Returns:
+        The thickness, or the process's thickest when none stays within the limit (said in the reason).
+    """
+    sheet = SHEETS[process]
+    limit = SAG_LIMIT_FRACTION * standoff_mm
+    flat = [t for t in sheet.thicknesses_mm if sag_mm(side_mm, t, sheet) <= limit]
+    labelled = [t for t in sheet.thicknesses_mm if t >= at_least_mm - 1e-9] or [sheet.thicknesses_mm[-1]]
+    by_sag = flat[0] if flat else sheet.thicknesses_mm[-1]
+    t = max(by_sag, labelled[0])
+    sag = sag_mm(side_mm, by_sag, sheet)
+    if not flat:
+        why = (
+            f"the thickest {process.value} plate; it still sags about {sag:.1f} mm, more than {limit:.2f} mm"
+        )
+    else:
+        why = (
+            f"the thinnest {process.value} plate ({sheet.made_as}, {sheet.material}) whose {side_mm:.0f} mm side "
+            f"sags ≤ {limit:.2f} mm under its own weight (about {sag:.2f} mm)"
+        )
+    if t > by_sag:
+        why = f"{by_sag:g} mm is {why}, raised for the engraved label (label_depth_mm + {LABEL_FLOOR_MM:g})"
+        sag = sag_mm(side_mm, t, sheet)
+    return Thickness(t, float(side_mm), float(sag), f"{t:g} mm: {why}")
+
+
+def given_thickness(thickness_mm: float) -> Thickness:
+    """An explicit ``plate.thickness_mm``, kept as given."""
+    return Thickness(float(thickness_mm), 0.0, 0.0, f"{thickness_mm:g} mm, as plate.thickness_mm gives")

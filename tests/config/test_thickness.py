@@ -1,0 +1,128 @@
+"""The plate thickness filled in per process and plate size, and the label rule it keeps."""
+
+import pytest
+
+from stencil_cad.config import JobConfig
+from stencil_cad.config.io import default_yaml, parse_config
+from stencil_cad.config.job import STANDOFF_BY_PROCESS, parse_overrides
+from stencil_cad.config.stipple import Process
+from stencil_cad.config.thickness import (
+    LABEL_FLOOR_MM,
+    SAG_LIMIT_FRACTION,
+    SHEETS,
+    fill_thickness,
+    sag_mm,
+)
+
+
+def test_sag_follows_plate_theory():
+    # Solid PLA, 150 mm square, 0.9 mm: 0.00406 q a^4 / D by hand is 0.092 mm; sag ~ a^4 / t^2.
+    pla = SHEETS[Process.fdm]
+    assert sag_mm(150.0, 0.9, pla, perforated=False) == pytest.approx(0.092, abs=0.002)
+    assert sag_mm(300.0, 0.9, pla, perforated=False) == pytest.approx(16 * sag_mm(150.0, 0.9, pla, False))
+    assert sag_mm(150.0, 1.8, pla, perforated=False) == pytest.approx(sag_mm(150.0, 0.9, pla, False) / 4)
+    assert sag_mm(150.0, 0.9, pla) > sag_mm(150.0, 0.9, pla, perforated=False)
+
+
+@pytest.mark.parametrize(
+    "process, side, want",
+    [
+        (Process.fdm, 100.0, 0.9),
+        (Process.fdm, 173.0, 0.9),  # the bundled example's plate
+        (Process.fdm, 213.0, 0.9),
+        (Process.fdm, 230.0, 1.2),
+        (Process.fdm, 260.0, 1.5),
+        (Process.fdm, 360.0, 2.7),
+        (Process.sla, 120.0, 0.8),
+        (Process.sla, 175.0, 1.0),
+        (Process.laser, 150.0, 1.0),
+        (Process.laser, 250.0, 2.0),
+        (Process.laser, 280.0, 3.0),
+    ],
+)
+def test_fill_is_the_thinnest_flat_plate(process, side, want):
+    got = fill_thickness(process, side, STANDOFF_BY_PROCESS[process])
+    assert got.thickness_mm == pytest.approx(want)
+    limit = SAG_LIMIT_FRACTION * STANDOFF_BY_PROCESS[process]
+    sheet = SHEETS[process]
+    assert sag_mm(side, got.thickness_mm, sheet) <= limit
+    thinner = [t for t in sheet.thicknesses_mm if t < got.thickness_mm]
+    assert all(sag_mm(side, t, sheet) > limit for t in thinner)
+    assert f"{side:.0f} mm side" in got.reason
+
+
+def test_fdm_fills_whole_layers_of_the_shipped_profile():
+    from stencil_cad.slicing.profiles import PROFILES
+
+    layer = PROFILES["prusa_fdm"].layer_height_mm
+    for side in range(50, 400, 7):
+        t = fill_thickness(Process.fdm, side, 15.0).thickness_mm
+        assert t / layer == pytest.approx(round(t / layer))
+
+
+def test_too_large_for_any_sheet_says_so():
+    got = fill_thickness(Process.laser, 900.0, 10.0)
+    assert got.thickness_mm == SHEETS[Process.laser].thicknesses_mm[-1]
+    assert "thickest" in got.reason
+
+
+@pytest.mark.parametrize("process", list(Process))
+@pytest.mark.parametrize("width", [20.0, 150.0, 240.0, 400.0, 1000.0])
+def test_every_filled_thickness_holds_the_default_label(process, width):
+    cfg = parse_config({"stipple": {"process": process.value}, "size": {"width_mm": width}}, source="test")
+    assert cfg.thickness_fill.filled
+    assert cfg.plate.label_depth_mm <= cfg.plate.thickness_mm - LABEL_FLOOR_MM
+
+
+def test_a_deeper_label_raises_the_filled_thickness():
+    cfg = parse_config({"plate": {"label_depth_mm": 1.0}}, source="test")
+    assert cfg.plate.thickness_mm == pytest.approx(1.5)  # 1.3 rounded up to whole 0.3 mm layers
+    assert "label" in cfg.thickness_fill.reason
+
+
+def test_default_job_fills_in_by_the_picture_and_margins():
+    cfg = JobConfig()
+    assert cfg.plate.thickness_mm == 0.9
+    assert cfg.thickness_fill.side_mm == pytest.approx(150.0 + 2 * cfg.plate.outline.margin_mm)
+    tall = parse_config({"size": {"width_mm": 150.0, "height_mm": 300.0}}, source="test")
+    assert tall.plate.thickness_mm == pytest.approx(2.1)  # 320 mm side
+    # A mural's plates are tiles that fit the bed: the bed's side bounds the plate's.
+    mural = parse_config({"size": {"width_mm": 1000.0}, "bed": "prusa_mini"}, source="test")
+    assert mural.thickness_fill.side_mm == pytest.approx(180.0)
+    assert mural.plate.thickness_mm == 0.9
+
+
+def test_explicit_thickness_is_kept():
+    for t in (0.6, 1.2, 4.0):
+        data = {"plate": {"thickness_mm": t, "label": "none"}, "size": {"width_mm": 1000.0}}
+        cfg = parse_config(data, source="test")
+        assert cfg.plate.thickness_mm == t
+        assert not cfg.thickness_fill.filled
+        assert cfg.fit_plate_thickness(400.0) is cfg
+        assert parse_overrides(cfg, bed="prusa_xl").plate.thickness_mm == t
+
+
+def test_fit_to_the_planned_plates_and_overrides_fill_again():
+    cfg = JobConfig()
+    big = cfg.fit_plate_thickness(310.0)
+    assert big.plate.thickness_mm == pytest.approx(2.1)
+    assert big.thickness_fill.side_mm == 310.0
+    assert big.fit_plate_thickness(170.0).plate.thickness_mm == 0.9
+    # A filled value is filled again for the new bed, not kept as if given.
+    wide = parse_config({"size": {"width_mm": 1000.0}}, source="test")
+    assert wide.plate.thickness_mm > 3.0
+    assert parse_overrides(wide, bed="prusa_mini").plate.thickness_mm == 0.9
+
+
+def test_template_leaves_the_thickness_to_the_process():
+    text = default_yaml()
+    assert "thickness_mm: null" in text
+
+
+def test_a_plate_template_keeps_its_own_thickness(tmp_path):
+    template = tmp_path / "my_plate.py"
+    template.write_text("THICKNESS_MM = 2.0\n")
+    cfg = JobConfig.model_validate({"plate": {"template": str(template)}})
+    assert "thickness_mm" not in cfg.plate.model_fields_set  # the template's THICKNESS_MM stands
+    assert not cfg.thickness_fill.filled
+    assert "template" in cfg.thickness_fill.reason

@@ -1,0 +1,28 @@
+"""The order of the stages: the plate thickness chosen again for the plates the tiling plans."""
+
+import pytest
+
+from stencil_cad.config.io import parse_config
+from stencil_cad.mural import TileGrid
+from stencil_cad.pipeline.run import fit_thickness
+from stencil_cad.record import Run
+
+
+def test_a_tall_picture_gets_the_thickness_of_its_long_side():
+    # The config knew only the width (the height follows the image): 170 mm, 0.9 mm.
+    run = Run(cfg=parse_config({}, source="test"), out=None)  # type: ignore[arg-type]
+    assert run.cfg.plate.thickness_mm == 0.9
+    cfg = fit_thickness(run, TileGrid.whole(150.0, 300.0))
+    assert cfg is run.cfg
+    assert cfg.plate.thickness_mm == pytest.approx(2.1)  # a 323 mm plate (margins and key)
+    fig = run.figures["plate"]
+    assert fig["filled"] and fig["thickness_mm"] == cfg.plate.thickness_mm and fig["side_mm"] > 320.0
+    assert fig["thickness_reason"].startswith("2.1 mm: the thinnest fdm plate")
+
+
+def test_a_given_thickness_is_built_as_given():
+    run = Run(cfg=parse_config({"plate": {"thickness_mm": 1.2}}, source="test"), out=None)  # type: ignore[arg-type]
+    cfg = fit_thickness(run, TileGrid.whole(150.0, 300.0))
+    assert cfg.plate.thickness_mm == 1.2
+    assert not run.figures["plate"]["filled"]
+    assert run.figures["plate"]["thickness_reason"] == "1.2 mm, as plate.thickness_mm gives"
