@@ -34,6 +34,7 @@ if TYPE_CHECKING:
     from ..config.bed import Bed
     from ..config.job import JobConfig
     from ..record import Run
+    from ..simulate import SimResult
 
 log = logging.getLogger(__name__)
 
@@ -375,7 +376,7 @@ REGISTRATION_ERRORS_MM = (0.5, 1.0)
 
 def stage_mural_simulate(
     run: Run,
-    sim,
+    sim: SimResult,
     reference: np.ndarray,
     layers: Layers,
     dotsets: list[DotSet],
