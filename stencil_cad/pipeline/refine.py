@@ -26,13 +26,15 @@ def stage_refine(
     picture_mm: tuple[float, float],
     picture: Picture | None = None,
     grid: mural.TileGrid | None = None,
+    windows: list | None = None,
 ) -> list[DotSet]:
     """Refine every layer's holes against the spray model so the composite matches the picture.
 
     The objective lives on the simulation grid, its eye filter is the viewer's at
     ``view.distance_m``, and the holes keep the stipple rules (the largest radius is
     ``refine.max_radius_factor`` times the hole floor). A mural (``grid`` of several tiles)
-    is refined tile by tile (:mod:`stencil_cad.mural.refine`), each tile a task.
+    is refined tile by tile (:mod:`stencil_cad.mural.refine`), each tile a task. ``windows``
+    (per layer, a hybrid plate's windows in picture mm) spray with the holes and stay fixed.
     """
     from .. import resolution
     from ..simulate import scielab, spray
@@ -73,6 +75,7 @@ def stage_refine(
     kernels = [mural_refine.HoleKernels(sp, geometry) for _, sp in cans]
 
     times = [float(ds.report.get("spray_time", cfg.spray.amount)) for ds in dotsets]
+    fixed = windows_transmittance(cfg, windows, times, shape, grid_mm, geometry)
     problem = mural_refine.Problem(
         target=target,
         alpha_targets=alpha_targets,
@@ -83,6 +86,7 @@ def stage_refine(
         kernels=tuple(kernels),
         spray_times=times,
         settings=settings,
+        fixed_trans=fixed,
     )
     tiling = grid or TileGrid.whole(*picture_mm)
     with run.stage("refine"), run.bar(rc.iterations, "refine") as bar:
@@ -91,3 +95,17 @@ def stage_refine(
         )
     run.figures["refine"] = _plain(report)
     return out
+
+
+def windows_transmittance(cfg, windows: list | None, times: list[float], shape, grid_mm: float, geometry):
+    """``(L, H, W)`` transmittance of each layer's windows on the simulation grid, or None without windows."""
+    if not windows or not any(len(w) for w in windows):
+        return None
+    from ..simulate.opacity import windows_opacity
+
+    return np.stack(
+        [
+            1.0 - windows_opacity(w, shape, grid_mm, cfg.spray, spray_time=t, geometry=geometry)
+            for w, t in zip(windows, times, strict=True)
+        ]
+    )

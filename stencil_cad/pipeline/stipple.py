@@ -13,6 +13,7 @@ from ..mural import TileGrid
 from ..mural.stipple import StippleTask, stipple_layers
 from ..output import plain as _plain
 from ..record import Run
+from ..stipple.windows import with_windows
 from .names import dots_name, layer_stem
 from .paints import plate_cards, write_spray_order
 from .refine import stage_refine
@@ -51,20 +52,27 @@ def stage_stipple(
             if cfg.chooses_spray_time
             else [None] * layers.count
         )
+        tiling = grid or TileGrid.whole(*picture_mm)
+        # Hybrid plates: each layer's wide solid regions become windows; the holes take the rest.
+        windows, hole_alphas = layer_windows(cfg, layers, tiling, picture_mm)
         tasks = [
             StippleTask(alpha, layers.mm_per_px, cfg, run.rng_for("stipple", i), weights[i])
-            for i, alpha in enumerate(layers.alphas)
+            for i, alpha in enumerate(hole_alphas)
         ]
-        tiling = grid or TileGrid.whole(*picture_mm)
         sets, tones = stipple_layers(
-            tasks, layers.alphas, tiling, lambda i, k: run.seed_for("stipple", i, k), run.tasks.map
+            tasks, hole_alphas, tiling, lambda i, k: run.seed_for("stipple", i, k), run.tasks.map
         )
     run.figures["dark_end"] = [
         _dark_end(cfg, alpha, float(ds.report["spray_time"]))
         for alpha, ds in zip(layers.alphas, sets, strict=True)
     ]
+    polygons = [w.polygons for w in windows]
     if cfg.refine.enabled:
-        sets = stage_refine(run, layers, sets, picture_mm, picture, grid)
+        sets = stage_refine(run, layers, sets, picture_mm, picture, grid, windows=polygons)
+    # The plate draws each hole larger by the process's offset: the web to a window holds as drawn.
+    web = cfg.stipple.resolved_web_mm + max(cfg.stipple.resolved_hole_offset_mm, 0.0)
+    sets = [with_windows(ds, p, web) for ds, p in zip(sets, polygons, strict=True)]
+    run.figures["windows"] = [{"layer": i + 1, **_plain(w.report)} for i, w in enumerate(windows)]
     with run.stage("stipple"):
         cards = plate_cards(run, layers.colours, picture_mm, sets)
         for i, ds in enumerate(sets):
@@ -86,6 +94,38 @@ def stage_stipple(
     if tones:
         run.figures["tone_calibration"] = tones
     return sets
+
+
+def layer_windows(
+    cfg: JobConfig, layers: Layers, tiling: TileGrid, picture_mm: tuple[float, float]
+) -> tuple[list, np.ndarray]:
+    """Every layer's windows (:mod:`stencil_cad.hardstencil.windows`) and the opacity left to its holes.
+
+    A window stays inside one tile's core, a bridge width clear of its seams.
+
+    Returns:
+        ``(windows per layer, (L, H, W) opacities for the stippler)``.
+    """
+    from ..hardstencil.windows import allowed_area, find_windows, window_sizes
+    from ..stipple.windows import hole_alpha
+
+    s = layers.mm_per_px
+    shape = layers.alphas.shape[1:]
+    _, _, bridge = window_sizes(cfg.stipple)
+    allowed = allowed_area(shape, s, [t.core for t in tiling.tiles], picture_mm, bridge)
+    clear = cfg.stipple.resolved_hole_min_r_mm + cfg.stipple.resolved_web_mm
+    windows = [find_windows(a, s, cfg.stipple, allowed) for a in layers.alphas]
+    if not any(w.polygons for w in windows):
+        return windows, layers.alphas
+    hole_alphas = np.stack(
+        [hole_alpha(a, w.mask, s, clear) for a, w in zip(layers.alphas, windows, strict=True)]
+    )
+    for i, w in enumerate(windows):
+        if w.polygons:
+            log.info(
+                "%s: %d window(s), %.0f mm² open", layer_stem(i), len(w.polygons), w.report["window_area_mm2"]
+            )
+    return windows, hole_alphas
 
 
 def _dark_end(cfg: JobConfig, alpha: np.ndarray, spray_time: float) -> dict:
