@@ -31,8 +31,6 @@ def admesh_counts(path):
     import re
 
     out = run([need("admesh"), str(path)]).stdout
-    counts = {
-        k.strip(): int(v) for k, v in re.findall(r"([A-Za-z][A-Za-z ]*?)\s*:\s*(\d+)", out)
-    }
+    counts = {k.strip(): int(v) for k, v in re.findall(r"([A-Za-z][A-Za-z ]*?)\s*:\s*(\d+)", out)}
     assert "Number of parts" in counts, out
     return counts
