@@ -288,6 +288,14 @@ class StippleConfig(StrictModel):
             return float(self.web_mm)
         return PROCESS_PRESETS[self.process][1]
 
+    def window_web_mm(self) -> float:
+        """The web kept between a hole and a window, in mm.
+
+        The plate draws each hole larger by the process's offset, so the web is kept with that
+        offset on top and holds as drawn.
+        """
+        return self.resolved_web_mm + max(self.resolved_hole_offset_mm, 0.0)
+
     @property
     def resolved_hole_offset_mm(self) -> float:
         """Radius in mm the process takes off each drawn hole (given value or the process preset)."""

@@ -26,15 +26,15 @@ def stage_refine(
     picture_mm: tuple[float, float],
     picture: Picture | None = None,
     grid: mural.TileGrid | None = None,
-    windows: list | None = None,
 ) -> list[DotSet]:
     """Refine every layer's holes against the spray model so the composite matches the picture.
 
     The objective lives on the simulation grid, its eye filter is the viewer's at
     ``view.distance_m``, and the holes keep the stipple rules (the largest radius is
     ``refine.max_radius_factor`` times the hole floor). A mural (``grid`` of several tiles)
-    is refined tile by tile (:mod:`stencil_cad.mural.refine`), each tile a task. ``windows``
-    (per layer, a hybrid plate's windows in picture mm) spray with the holes and stay fixed.
+    is refined tile by tile (:mod:`stencil_cad.mural.refine`), each tile a task. A hybrid
+    plate's windows (each DotSet's ``windows``) spray with the holes and stay fixed; the holes
+    refined too close to one are left out.
     """
     from .. import resolution
     from ..simulate import scielab, spray
@@ -75,6 +75,7 @@ def stage_refine(
     kernels = [mural_refine.HoleKernels(sp, geometry) for _, sp in cans]
 
     times = [float(ds.report.get("spray_time", cfg.spray.amount)) for ds in dotsets]
+    windows = [ds.windows for ds in dotsets]
     fixed = windows_transmittance(cfg, windows, times, shape, grid_mm, geometry)
     problem = mural_refine.Problem(
         target=target,
@@ -94,7 +95,9 @@ def stage_refine(
             problem, tiling, dotsets, cfg, run.tasks.map, progress=lambda it, total: bar.update(1)
         )
     run.figures["refine"] = _plain(report)
-    return out
+    from ..stipple.windows import with_windows
+
+    return [with_windows(ds, w, cfg.stipple.window_web_mm()) for ds, w in zip(out, windows, strict=True)]
 
 
 def windows_transmittance(cfg, windows: list | None, times: list[float], shape, grid_mm: float, geometry):

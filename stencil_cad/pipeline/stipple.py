@@ -54,24 +54,26 @@ def stage_stipple(
         )
         tiling = grid or TileGrid.whole(*picture_mm)
         # Hybrid plates: each layer's wide solid regions become windows; the holes take the rest.
-        windows, hole_alphas = layer_windows(cfg, layers, tiling, picture_mm)
+        windows, closed = layer_windows(cfg, layers, tiling, picture_mm)
         tasks = [
-            StippleTask(alpha, layers.mm_per_px, cfg, run.rng_for("stipple", i), weights[i])
-            for i, alpha in enumerate(hole_alphas)
+            StippleTask(alpha, layers.mm_per_px, cfg, run.rng_for("stipple", i), weights[i], closed[i])
+            for i, alpha in enumerate(layers.alphas)
         ]
+        hole_alphas = np.stack(
+            [a if c is None else np.where(c, 0.0, a) for a, c in zip(layers.alphas, closed, strict=True)]
+        ).astype(layers.alphas.dtype, copy=False)
         sets, tones = stipple_layers(
             tasks, hole_alphas, tiling, lambda i, k: run.seed_for("stipple", i, k), run.tasks.map
         )
     run.figures["dark_end"] = [
-        _dark_end(cfg, alpha, float(ds.report["spray_time"]))
-        for alpha, ds in zip(layers.alphas, sets, strict=True)
+        _dark_end(cfg, alpha, float(ds.report["spray_time"]), w.mask)
+        for alpha, ds, w in zip(layers.alphas, sets, windows, strict=True)
     ]
-    polygons = [w.polygons for w in windows]
+    sets = [
+        with_windows(ds, w.polygons, cfg.stipple.window_web_mm()) for ds, w in zip(sets, windows, strict=True)
+    ]
     if cfg.refine.enabled:
-        sets = stage_refine(run, layers, sets, picture_mm, picture, grid, windows=polygons)
-    # The plate draws each hole larger by the process's offset: the web to a window holds as drawn.
-    web = cfg.stipple.resolved_web_mm + max(cfg.stipple.resolved_hole_offset_mm, 0.0)
-    sets = [with_windows(ds, p, web) for ds, p in zip(sets, polygons, strict=True)]
+        sets = stage_refine(run, layers, sets, picture_mm, picture, grid)
     run.figures["windows"] = [{"layer": i + 1, **_plain(w.report)} for i, w in enumerate(windows)]
     with run.stage("stipple"):
         cards = plate_cards(run, layers.colours, picture_mm, sets)
@@ -98,16 +100,16 @@ def stage_stipple(
 
 def layer_windows(
     cfg: JobConfig, layers: Layers, tiling: TileGrid, picture_mm: tuple[float, float]
-) -> tuple[list, np.ndarray]:
-    """Every layer's windows (:mod:`stencil_cad.hardstencil.windows`) and the opacity left to its holes.
+) -> tuple[list, list]:
+    """Every layer's windows (:mod:`stencil_cad.hardstencil.windows`) and where its holes may not go.
 
     A window stays inside one tile's core, a bridge width clear of its seams.
 
     Returns:
-        ``(windows per layer, (L, H, W) opacities for the stippler)``.
+        ``(windows per layer, per layer an (H, W) bool mask closed to holes or None)``.
     """
     from ..hardstencil.windows import allowed_area, find_windows, window_sizes
-    from ..stipple.windows import hole_alpha
+    from ..stipple.windows import closed_to_holes
 
     s = layers.mm_per_px
     shape = layers.alphas.shape[1:]
@@ -115,21 +117,19 @@ def layer_windows(
     allowed = allowed_area(shape, s, [t.core for t in tiling.tiles], picture_mm, bridge)
     clear = cfg.stipple.resolved_hole_min_r_mm + cfg.stipple.resolved_web_mm
     windows = [find_windows(a, s, cfg.stipple, allowed) for a in layers.alphas]
-    if not any(w.polygons for w in windows):
-        return windows, layers.alphas
-    hole_alphas = np.stack(
-        [hole_alpha(a, w.mask, s, clear) for a, w in zip(layers.alphas, windows, strict=True)]
-    )
+    closed = [closed_to_holes(w.mask, s, clear) if w.polygons else None for w in windows]
     for i, w in enumerate(windows):
         if w.polygons:
             log.info(
                 "%s: %d window(s), %.0f mm² open", layer_stem(i), len(w.polygons), w.report["window_area_mm2"]
             )
-    return windows, hole_alphas
+    return windows, closed
 
 
-def _dark_end(cfg: JobConfig, alpha: np.ndarray, spray_time: float) -> dict:
-    """How much of a layer is darker than its stencil can spray at its spray time.
+def _dark_end(
+    cfg: JobConfig, alpha: np.ndarray, spray_time: float, windows: np.ndarray | None = None
+) -> dict:
+    """How much of a layer is darker than its holes can spray at its spray time (its windows left out).
 
     The darkest mean opacity is that of the densest pattern the rules allow, with holes up to
     the refinement's largest radius when it is on (the stippler's otherwise), measured with
@@ -155,6 +155,8 @@ def _dark_end(cfg: JobConfig, alpha: np.ndarray, spray_time: float) -> dict:
     top = curve.max_opacity
     a = np.asarray(alpha, dtype=np.float64)
     over = a > top + 1e-6
+    if windows is not None:
+        over &= ~windows
     return {
         "darkest_sprayable": round(top, 4),
         "unreachable_share": round(float(over.mean()), 4),

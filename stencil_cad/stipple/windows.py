@@ -83,6 +83,25 @@ def with_windows(ds: DotSet, windows: Sequence, web_mm: float) -> DotSet:
     return replace(ds, xy_mm=ds.xy_mm[ok].copy(), r_mm=ds.r_mm[ok].copy(), report=report, windows=windows)
 
 
+def closed_to_holes(window_mask: np.ndarray, mm_per_px: float, clear_mm: float) -> np.ndarray:
+    """Where no hole centre may lie: inside a window or within ``clear_mm`` of one.
+
+    Args:
+        window_mask: ``(H, W)`` bool, the windows' pixels.
+        mm_per_px: Pixel size in mm.
+        clear_mm: The smallest hole's radius plus the web, in mm.
+
+    Returns:
+        ``(H, W)`` bool.
+    """
+    mask = np.asarray(window_mask, dtype=bool)
+    if not mask.any():
+        return mask
+    # Distance in mm from each pixel centre to the nearest window pixel's edge (half a pixel in).
+    dist = ndi.distance_transform_edt(~mask) * mm_per_px - 0.5 * mm_per_px
+    return dist < clear_mm
+
+
 def hole_alpha(alpha: np.ndarray, window_mask: np.ndarray, mm_per_px: float, clear_mm: float) -> np.ndarray:
     """The opacity left for the holes: none inside a window or within ``clear_mm`` of one.
 
@@ -96,11 +115,7 @@ def hole_alpha(alpha: np.ndarray, window_mask: np.ndarray, mm_per_px: float, cle
     Returns:
         ``(H, W)`` opacity (a copy; ``alpha`` itself when there is no window).
     """
-    mask = np.asarray(window_mask, dtype=bool)
-    if not mask.any():
+    closed = closed_to_holes(window_mask, mm_per_px, clear_mm)
+    if not closed.any():
         return alpha
-    # Distance in mm from each pixel centre to the nearest window pixel's edge (half a pixel in).
-    dist = ndi.distance_transform_edt(~mask) * mm_per_px - 0.5 * mm_per_px
-    out = np.array(alpha, dtype=np.asarray(alpha).dtype, copy=True)
-    out[dist < clear_mm] = 0.0
-    return out
+    return np.where(closed, 0.0, alpha).astype(np.asarray(alpha).dtype, copy=False)
