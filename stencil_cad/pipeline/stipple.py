@@ -85,7 +85,7 @@ def stage_stipple(
         {"layer": i + 1, "dots": len(ds), **_plain(ds.report)} for i, ds in enumerate(sets)
     ]
     for i, ds in enumerate(sets):
-        if len(ds) == 0:
+        if len(ds) == 0 and not ds.windows:
             removed = {k: v for k, v in ds.report.items() if k.startswith("removed_") and v}
             log.warning(
                 "%s has no holes (%s): its plate sprays nothing; lower stipple.edge_margin_mm or "
