@@ -14,7 +14,7 @@ from ..mural.stipple import StippleTask, stipple_layers
 from ..output import plain as _plain
 from ..record import Run
 from ..stipple.windows import with_windows
-from .names import dots_name, layer_stem
+from .names import dots_name, layer_stem, windows_name
 from .paints import plate_cards, write_spray_order
 from .refine import stage_refine
 
@@ -39,7 +39,7 @@ def stage_stipple(
     ``refine.enabled`` the holes are then refined against the spray model
     (:func:`stage_refine`) towards ``picture`` (the decomposition's composite without one).
     """
-    from ..exchange.dots_csv import dots_to_csv
+    from ..exchange.dots_csv import dots_to_csv, windows_to_json
 
     bound_dots(run, picture_mm)
     cfg = run.cfg
@@ -79,6 +79,8 @@ def stage_stipple(
         cards = plate_cards(run, layers.colours, picture_mm, sets)
         for i, ds in enumerate(sets):
             run.out.write_text(dots_name(i), dots_to_csv(ds))
+            if ds.windows:
+                run.out.write_text(windows_name(i), windows_to_json(ds.windows))
             run.out.write_png(f"{layer_stem(i)}_dots.png", cards[i])
         write_spray_order(run, layers.primer, layers.colours, [ds.report["spray_time"] for ds in sets])
     run.figures["stipple"] = [
