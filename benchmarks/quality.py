@@ -358,7 +358,9 @@ def run(cases=None):
             mm_per_px = sim1.mm_per_px
 
             t0 = time.perf_counter()
-            rules = pipeline._process_rules(cfg0)
+            from stencil_cad.pipeline.commands import _process_rules
+
+            rules = _process_rules(cfg0)
             hard_cfg = cfg0.hard.model_copy(update={"colours": layers.count + 1})
             res = f["make_hard_stencils"](
                 pic, hard_cfg, rules["min_feature_mm"], rules["bridge_min_mm"], run_.rng_for("hard")
