@@ -63,8 +63,11 @@ def allowed_area(
     cores: Sequence[tuple[float, float, float, float]],
     picture_mm: tuple[float, float],
     seam_margin_mm: float,
+    keepouts: Sequence[tuple[float, float, float, float]] = (),
 ) -> np.ndarray:
     """Pixels a window may cover: inside one tile's core, ``seam_margin_mm`` clear of its seams.
+
+    Nor in a keep-out rectangle (``stipple.keepouts_mm``) grown by the same margin.
 
     Args:
         shape: ``(H, W)`` of the working grid.
@@ -73,7 +76,8 @@ def allowed_area(
             one-plate job).
         picture_mm: ``(width, height)`` of the picture in mm: a core's side on the picture's edge
             is not a seam.
-        seam_margin_mm: Sheet kept between a window and a seam, in mm.
+        seam_margin_mm: Sheet kept between a window and a seam or a keep-out, in mm.
+        keepouts: Keep-out rectangles ``(x0, y0, x1, y1)`` in picture mm.
 
     Returns:
         ``(H, W)`` bool.
@@ -91,6 +95,9 @@ def allowed_area(
         a1 = x1 - (m if x1 < width - eps else -1.0)
         b1 = y1 - (m if y1 < height - eps else -1.0)
         out |= (xx >= a0) & (xx < a1) & (yy >= b0) & (yy < b1)
+    m = seam_margin_mm
+    for x0, y0, x1, y1 in keepouts:
+        out &= ~((xx > x0 - m) & (xx < x1 + m) & (yy > y0 - m) & (yy < y1 + m))
     return out
 
 

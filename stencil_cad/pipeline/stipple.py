@@ -116,7 +116,8 @@ def layer_windows(
     s = layers.mm_per_px
     shape = layers.alphas.shape[1:]
     _, _, bridge = window_sizes(cfg.stipple)
-    allowed = allowed_area(shape, s, [t.core for t in tiling.tiles], picture_mm, bridge)
+    keepouts = cfg.stipple.design_rules(*picture_mm).keepouts
+    allowed = allowed_area(shape, s, [t.core for t in tiling.tiles], picture_mm, bridge, keepouts)
     clear = cfg.stipple.resolved_hole_min_r_mm + cfg.stipple.resolved_web_mm
     windows = [find_windows(a, s, cfg.stipple, allowed) for a in layers.alphas]
     closed = [closed_to_holes(w.mask, s, clear) if w.polygons else None for w in windows]

@@ -66,6 +66,20 @@ def test_windows_stay_clear_of_seams():
         assert x1 <= 34.0 + 1e-9 or x0 >= 36.0 - 1e-9
 
 
+def test_windows_stay_out_of_keepouts():
+    allowed = allowed_area((H, W), S, [(0.0, 0.0, 70.0, 50.0)], (70.0, 50.0), 1.0, [(20.0, 10.0, 30.0, 20.0)])
+    win = find_windows(np.ones((H, W)), S, sla(), allowed)
+    ring = np.vstack([o for o, _ in win.polygons])
+    inside = (
+        (ring[:, 0] > 19.0 + 1e-9)
+        & (ring[:, 0] < 31.0 - 1e-9)
+        & (ring[:, 1] > 9.0 + 1e-9)
+        & (ring[:, 1] < 21.0 - 1e-9)
+    )
+    assert not inside.any()
+    assert not win.mask[int(H - 15 / S), int(25 / S)]
+
+
 def hybrid_layer():
     """A stippled layer with a window: holes around it, every hole a web from it."""
     cfg = sla().model_copy(update={"tone": "linear"})
