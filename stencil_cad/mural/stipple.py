@@ -332,10 +332,11 @@ class StippleTask:
     rng: np.random.Generator
     weight: np.ndarray | None = None
     #: ``(H, W)`` bool where no hole may be placed (a hybrid plate's windows and the web around
-    #: them), or None. The tone and spray time are chosen for the holes' part of the layer: chosen
-    #: for the whole layer, the example's darkest layer took 6 passes instead of 4 and scored
-    #: S-CIELAB 6.22 at 1 m instead of 5.83 (its windows sprayed darker than the picture).
+    #: them), or None. The holes' tone is chosen for the rest of the layer; the spray time for
+    #: both, the windows counted as a full coat (:func:`stencil_cad.simulate.tone.choose_tone`).
     closed: np.ndarray | None = None
+    #: ``(H, W)`` bool, the windows' own pixels, or None.
+    windows: np.ndarray | None = None
 
     def holes_alpha(self) -> np.ndarray:
         """The opacity left to the holes: none where they may not go."""
@@ -353,7 +354,8 @@ def layer_tone(task: StippleTask):
         return None, cfg.spray.amount
     from ..simulate import tone
 
-    choice = tone.calibrated_tone_for(task.holes_alpha(), task.mm_per_px, cfg, task.weight)
+    windows = None if task.windows is None else (task.windows, task.alpha)
+    choice = tone.calibrated_tone_for(task.holes_alpha(), task.mm_per_px, cfg, task.weight, windows)
     if cfg.chooses_spray_time:
         return choice, float(choice.spray_time)
     return choice, cfg.spray.amount

@@ -44,24 +44,8 @@ def stage_stipple(
     bound_dots(run, picture_mm)
     cfg = run.cfg
     with run.stage("stipple"):
-        # One task per layer (on a cluster the layers stipple side by side); each layer's
-        # generator comes from the seed, so any number of workers gives the same holes.
-        # The colour weights only steer the choice of each layer's spray time.
-        weights = (
-            coat_contrast(layers.primer, layers.colours, layers.alphas)
-            if cfg.chooses_spray_time
-            else [None] * layers.count
-        )
         tiling = grid or TileGrid.whole(*picture_mm)
-        # Hybrid plates: each layer's wide solid regions become windows; the holes take the rest.
-        windows, closed = layer_windows(cfg, layers, tiling, picture_mm)
-        tasks = [
-            StippleTask(alpha, layers.mm_per_px, cfg, run.rng_for("stipple", i), weights[i], closed[i])
-            for i, alpha in enumerate(layers.alphas)
-        ]
-        hole_alphas = np.stack(
-            [a if c is None else np.where(c, 0.0, a) for a, c in zip(layers.alphas, closed, strict=True)]
-        ).astype(layers.alphas.dtype, copy=False)
+        tasks, windows, hole_alphas = _tasks(run, layers, tiling, picture_mm)
         sets, tones = stipple_layers(
             tasks, hole_alphas, tiling, lambda i, k: run.seed_for("stipple", i, k), run.tasks.map
         )
@@ -98,6 +82,37 @@ def stage_stipple(
     if tones:
         run.figures["tone_calibration"] = tones
     return sets
+
+
+def _tasks(run: Run, layers: Layers, tiling: TileGrid, picture_mm: tuple[float, float]):
+    """One stipple task per layer, each layer's windows and the opacities left to the holes."""
+    cfg = run.cfg
+    # One task per layer (on a cluster the layers stipple side by side); each layer's
+    # generator comes from the seed, so any number of workers gives the same holes.
+    # The colour weights only steer the choice of each layer's spray time.
+    weights = (
+        coat_contrast(layers.primer, layers.colours, layers.alphas)
+        if cfg.chooses_spray_time
+        else [None] * layers.count
+    )
+    # Hybrid plates: each layer's wide solid regions become windows; the holes take the rest.
+    windows, closed = layer_windows(cfg, layers, tiling, picture_mm)
+    tasks = [
+        StippleTask(
+            alpha,
+            layers.mm_per_px,
+            cfg,
+            run.rng_for("stipple", i),
+            weights[i],
+            closed[i],
+            windows[i].mask if closed[i] is not None else None,
+        )
+        for i, alpha in enumerate(layers.alphas)
+    ]
+    hole_alphas = np.stack(
+        [a if c is None else np.where(c, 0.0, a) for a, c in zip(layers.alphas, closed, strict=True)]
+    ).astype(layers.alphas.dtype, copy=False)
+    return tasks, windows, hole_alphas
 
 
 def layer_windows(
