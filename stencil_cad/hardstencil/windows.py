@@ -119,6 +119,7 @@ def find_windows(
     mm_per_px: float,
     cfg: StippleConfig,
     allowed: np.ndarray | None = None,
+    inset_mm: float = 0.0,
 ) -> LayerWindows:
     """Find one layer's windows: its wide, near-solid regions as bridged polygon cut-outs.
 
@@ -128,6 +129,10 @@ def find_windows(
         cfg: The stipple section (``windows``, ``min_window_mm``, ``window_opacity``, the rules).
         allowed: ``(H, W)`` bool, where a window may lie (:func:`allowed_area`), or None for
             anywhere.
+        inset_mm: How far a window's edge stays inside the solid region, in mm: the spray's
+            stand-off blur, so the coat a window throws past its edge lands on the region's edge
+            and not beyond (at the picture's edge no inset: the plate's border is there).
+            Defaults to 0.
 
     Returns:
         The :class:`LayerWindows` (none with ``stipple.windows: off``).
@@ -142,6 +147,8 @@ def find_windows(
     if allowed is not None:
         solid &= allowed
     cut = _opening(solid, min_window / s)
+    if inset_mm > 0.0 and cut.any():
+        cut &= ndi.distance_transform_edt(cut) > inset_mm / s
     if not cut.any():
         return empty
     ones = np.ones(a.shape)
