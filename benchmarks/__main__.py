@@ -14,6 +14,7 @@ import sys
 
 NAMES = [
     "decompose",
+    "decompose_choice",
     "stipple",
     "spray",
     "cad",

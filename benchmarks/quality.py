@@ -22,6 +22,12 @@ pipeline (refinement on), ``soft_norefine_*`` the same without the refinement (a
 own best height), so the refinement's gain and cost (``refine_seconds`` beside
 ``stipple_seconds``) are measured in the same run.
 
+Two pictures are generated here: ``dark_sky`` (black, with small bright sources of several sizes
+and colours) and ``logo`` (flat colours). Each row reports ``soft_*`` (holes only,
+``stipple.windows: off``), ``hybrid_*`` (the shipped default: windows where a layer is solid),
+``hard_*``, ``best_over_hard_1m`` (the better of soft and hybrid over hard, at 1 m) and
+``floor_*`` (the decomposition's own layers composited ideally: what no stencil can beat).
+
 Case names are ``<image>-<settings>``; ``--case astronaut`` runs both settings of one image.
 The soft side runs the pipeline's own stage functions with an output that writes nothing;
 the hard side calls the same functions as ``pipeline.run_hard`` without the CAD.
@@ -37,7 +43,9 @@ from pathlib import Path
 
 import numpy as np
 
-IMAGES = ("astronaut", "coffee", "chelsea", "rocket")
+IMAGES = ("astronaut", "coffee", "chelsea", "rocket", "dark_sky", "logo")
+#: Pictures made by code here (no download): see :func:`dark_sky` and :func:`logo`.
+GENERATED = ("dark_sky", "logo")
 SETTINGS = ("fdm", "sla")
 #: Nozzle heights h each mode is sprayed at; each reports its best. Soft stencils only gain
 #: from higher nozzles (their dots blend), hard ones from lower (their edges stay sharp), so
@@ -126,10 +134,11 @@ def _heights(cfg, hard: bool) -> tuple[float, ...]:
     return HARD_HEIGHTS if hard else SOFT_HEIGHTS
 
 
-def _at_height(cfg, h: float, refine: bool):
+def _at_height(cfg, h: float, refine: bool, windows: str = "off"):
     from stencil_cad.config.io import parse_config
 
     data = cfg.model_dump(mode="json")
+    data["stipple"]["windows"] = windows
     if cfg.spray.is_physical:
         data["wall"]["standoff_mm"] = [h]
     else:
@@ -157,12 +166,64 @@ def _by_can(f, cfg, layers, dotsets, ref) -> dict:
     return out
 
 
+def dark_sky(size: int = 512) -> np.ndarray:
+    """A night sky: near-black with bright sources of several sizes and colours, ``(size, size, 3)`` in [0, 1]."""
+    rng = np.random.default_rng(34)
+    rgb = np.full((size, size, 3), 0.02)
+    yy, xx = np.mgrid[0:size, 0:size].astype(np.float64)
+    colours = np.array(
+        [[1.0, 1.0, 1.0], [1.0, 0.85, 0.45], [0.55, 0.7, 1.0], [1.0, 0.4, 0.3], [0.6, 1.0, 0.7]]
+    )
+    # Many pin-points, fewer mid-sized stars, a few large glows (a moon, a planet, a nebula core).
+    for count, (lo, hi) in ((60, (1.0, 2.5)), (14, (3.0, 7.0)), (3, (12.0, 28.0))):
+        for _ in range(count):
+            cy, cx = rng.uniform(0, size, 2)
+            rad = rng.uniform(lo, hi)
+            c = colours[rng.integers(len(colours))]
+            d2 = (yy - cy) ** 2 + (xx - cx) ** 2
+            glow = np.exp(-d2 / (2.0 * (0.6 * rad) ** 2))
+            disc = np.clip(rad - np.sqrt(d2) + 0.5, 0.0, 1.0)
+            a = np.maximum(disc, 0.7 * glow)[..., None]
+            rgb = rgb * (1.0 - a) + a * c
+    return np.clip(rgb, 0.0, 1.0)
+
+
+def logo(size: int = 512) -> np.ndarray:
+    """A flat-colour logo on white: a ring, a bar, a triangle and a square, ``(size, size, 3)`` in [0, 1]."""
+    rgb = np.ones((size, size, 3))
+    yy, xx = np.mgrid[0:size, 0:size].astype(np.float64) / size
+    rho = np.hypot(yy - 0.4, xx - 0.4)
+    rgb[(rho < 0.3) & (rho > 0.18)] = (0.85, 0.1, 0.12)  # red ring
+    rgb[(yy > 0.75) & (yy < 0.88) & (xx > 0.08) & (xx < 0.92)] = (0.05, 0.2, 0.6)  # blue bar
+    tri = (
+        (yy > 0.1)
+        & (yy < 0.6)
+        & (xx > 0.6 + 0.3 * (0.6 - yy) / 0.5 * 0.5)
+        & (xx < 0.95 - 0.3 * (0.6 - yy) / 0.5 * 0.5)
+    )
+    rgb[tri] = (0.98, 0.78, 0.1)  # yellow triangle
+    rgb[(np.abs(yy - 0.4) < 0.06) & (np.abs(xx - 0.4) < 0.06)] = (
+        0.08,
+        0.08,
+        0.08,
+    )  # black square in the ring
+    return rgb
+
+
+def _picture_rgb(name: str) -> np.ndarray:
+    """The picture ``name``: one of scikit-image's photos, or one generated here."""
+    if name in GENERATED:
+        return dark_sky() if name == "dark_sky" else logo()
+    from skimage import data
+
+    return getattr(data, name)().astype(np.float64) / 255.0
+
+
 def _source_on_grid(name: str, cfg, shape, fit_to_size) -> np.ndarray:
     """The source photo resized to the simulated grid: the reference every score is taken against."""
-    from skimage import data
     from skimage.transform import resize
 
-    rgb = getattr(data, name)().astype(np.float64) / 255.0
+    rgb = _picture_rgb(name)
     px = shape[1] / cfg.size.width_mm
     rgb, _, _, _ = fit_to_size(rgb, None, cfg.size.width_mm, cfg.size.height_mm, px, max_upscale=np.inf)
     if rgb.shape[:2] != tuple(shape):
@@ -179,15 +240,18 @@ def _nearest_resize(mask: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
 
 
 def _load(name: str, cfg, fit_to_size):
-    from skimage import data
-
     from stencil_cad.model import Picture
 
-    rgb = getattr(data, name)().astype(np.float64) / 255.0
+    rgb = _picture_rgb(name)
     rgb, alpha, mm_per_px, _ = fit_to_size(
         rgb, None, cfg.size.width_mm, cfg.size.height_mm, cfg.size.px_per_mm
     )
-    return Picture(rgb=rgb, mm_per_px=mm_per_px, alpha=alpha, source=f"skimage.data.{name}")
+    return Picture(
+        rgb=rgb,
+        mm_per_px=mm_per_px,
+        alpha=alpha,
+        source=name if name in GENERATED else f"skimage.data.{name}",
+    )
 
 
 def _select(cases) -> list[tuple[str, str]]:
@@ -233,6 +297,42 @@ def _best(by_height: dict) -> tuple[float, dict]:
     return h, by_height[h]
 
 
+def _soft(f, pipeline, cfg0, layers, pic, image: str, windows: str, by_can: bool = True):
+    """The soft stencil at each stand-off: ``(refined, stippled, timing, last simulation, reference, run)``."""
+    size = (pic.width_mm, pic.height_mm)
+    soft, plain, timing = {}, {}, {}
+    for h in _heights(cfg0, hard=False):
+        cfg = _at_height(cfg0, h, refine=False, windows=windows)
+        run_ = pipeline.Run(cfg=cfg, out=_NullOut(), quiet=True)
+        t0 = time.perf_counter()
+        stippled = pipeline.stage_stipple(run_, layers, size, pic)
+        t_stipple = time.perf_counter() - t0
+        run_r = pipeline.Run(
+            cfg=_at_height(cfg0, h, refine=True, windows=windows), out=_NullOut(), quiet=True
+        )
+        t0 = time.perf_counter()
+        refined = pipeline.stage_refine(run_r, layers, stippled, size, pic)
+        t_refine = time.perf_counter() - t0
+        sim0 = f["simulate"](layers, stippled, cfg.spray, geometry=_geometry(cfg))
+        sim1 = f["simulate"](layers, refined, cfg.spray, geometry=_geometry(cfg))
+        ref = _source_on_grid(image, cfg, sim1.composite.shape[:2], f["fit_to_size"])
+        plain[h] = {
+            **_scores(f, ref, sim0.composite, sim0.mm_per_px),
+            "holes": sum(map(len, stippled)),
+        }
+        soft[h] = {
+            **_scores(f, ref, sim1.composite, sim1.mm_per_px),
+            "holes": sum(map(len, refined)),
+            "layer_tone_rmse_stippled": sim0.info["layer_tone_rmse"],
+            "layer_tone_rmse_refined": sim1.info["layer_tone_rmse"],
+            "spray_times": [round(d.amount(cfg.spray.amount), 4) for d in refined],
+            "scielab_1m_by_can": _by_can(f, cfg, layers, refined, ref) if by_can else {},
+            "windows": [len(d.windows) for d in refined],
+        }
+        timing[h] = {"stipple_seconds": round(t_stipple, 3), "refine_seconds": round(t_refine, 3)}
+    return soft, plain, timing, sim1, ref, run_
+
+
 def run(cases=None):
     """Yield one dict per image and settings: soft and hard scores at each mode's best nozzle height."""
     from stencil_cad.model import composite
@@ -249,42 +349,18 @@ def run(cases=None):
         t0 = time.perf_counter()
         layers = pipeline.stage_decompose(pipeline.Run(cfg=base, out=_NullOut(), quiet=True), pic)
         t_decompose = time.perf_counter() - t0
-        size = (pic.width_mm, pic.height_mm)
         for settings in [s for i, s in pairs if i == image]:
             cfg0 = configs[settings]
             assert cfg0.decompose == base.decompose and cfg0.seed == base.seed and cfg0.size == base.size
-            soft, plain, timing = {}, {}, {}
-            for h in _heights(cfg0, hard=False):
-                cfg = _at_height(cfg0, h, refine=False)
-                run_ = pipeline.Run(cfg=cfg, out=_NullOut(), quiet=True)
-                t0 = time.perf_counter()
-                stippled = pipeline.stage_stipple(run_, layers, size, pic)
-                t_stipple = time.perf_counter() - t0
-                run_r = pipeline.Run(cfg=_at_height(cfg0, h, refine=True), out=_NullOut(), quiet=True)
-                t0 = time.perf_counter()
-                refined = pipeline.stage_refine(run_r, layers, stippled, size, pic)
-                t_refine = time.perf_counter() - t0
-                sim0 = f["simulate"](layers, stippled, cfg.spray, geometry=_geometry(cfg))
-                sim1 = f["simulate"](layers, refined, cfg.spray, geometry=_geometry(cfg))
-                ref = _source_on_grid(image, cfg, sim1.composite.shape[:2], f["fit_to_size"])
-                plain[h] = {
-                    **_scores(f, ref, sim0.composite, sim0.mm_per_px),
-                    "holes": sum(map(len, stippled)),
-                }
-                soft[h] = {
-                    **_scores(f, ref, sim1.composite, sim1.mm_per_px),
-                    "holes": sum(map(len, refined)),
-                    "layer_tone_rmse_stippled": sim0.info["layer_tone_rmse"],
-                    "layer_tone_rmse_refined": sim1.info["layer_tone_rmse"],
-                    "spray_times": [round(d.amount(cfg.spray.amount), 4) for d in refined],
-                    "scielab_1m_by_can": _by_can(f, cfg, layers, refined, ref),
-                }
-                timing[h] = {"stipple_seconds": round(t_stipple, 3), "refine_seconds": round(t_refine, 3)}
+            soft, plain, timing, sim1, ref, run_ = _soft(f, pipeline, cfg0, layers, pic, image, "off")
+            hybrid, _, htiming, _, _, _ = _soft(f, pipeline, cfg0, layers, pic, image, "auto", by_can=False)
             shape = sim1.composite.shape[:2]
             mm_per_px = sim1.mm_per_px
 
             t0 = time.perf_counter()
-            rules = pipeline._process_rules(cfg0)
+            from stencil_cad.pipeline.commands import _process_rules
+
+            rules = _process_rules(cfg0)
             hard_cfg = cfg0.hard.model_copy(update={"colours": layers.count + 1})
             res = f["make_hard_stencils"](
                 pic, hard_cfg, rules["min_feature_mm"], rules["bridge_min_mm"], run_.rng_for("hard")
@@ -307,6 +383,9 @@ def run(cases=None):
                 hard_comp = np.clip(composite(res.primer, res.colours, alphas), 0.0, 1.0)
                 hard[h] = _scores(f, ref, hard_comp, mm_per_px)
 
+            hy, best_hybrid = _best(hybrid)
+            floor_rgb = np.clip(f["resample"](layers.composite(), shape), 0.0, 1.0)
+            floor = _scores(f, ref, floor_rgb, mm_per_px)
             hs, best_soft = _best(soft)
             hp, best_plain = _best(plain)
             hh, best_hard = _best(hard)
@@ -324,6 +403,18 @@ def run(cases=None):
             for prefix, best in (("soft", best_soft), ("hard", best_hard), ("soft_norefine", best_plain)):
                 for key in ("scielab_1m", "scielab_2m", "de2000"):
                     row[f"{prefix}_{key}"] = best[key]
+            for key in ("scielab_1m", "scielab_2m", "de2000"):
+                row[f"hybrid_{key}"] = best_hybrid[key]
+                row[f"floor_{key}"] = floor[key]
+            row["hybrid_nozzle_height"] = hy
+            row["hybrid_windows"] = best_hybrid["windows"]
+            row["best_over_hard_1m"] = round(
+                min(best_soft["scielab_1m"], best_hybrid["scielab_1m"]) / best_hard["scielab_1m"], 3
+            )
+            row["soft_over_hard_1m"] = round(best_soft["scielab_1m"] / best_hard["scielab_1m"], 3)
+            row["hybrid_seconds"] = round(
+                sum(t["stipple_seconds"] + t["refine_seconds"] for t in htiming.values()), 3
+            )
             row["soft_minus_hard_scielab_1m"] = round(best_hard["scielab_1m"] - best_soft["scielab_1m"], 3)
             row["soft_minus_hard_scielab_2m"] = round(best_hard["scielab_2m"] - best_soft["scielab_2m"], 3)
             row["soft_holes"] = best_soft["holes"]

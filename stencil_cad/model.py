@@ -153,7 +153,7 @@ def coat_contrast(primer: np.ndarray, colours: np.ndarray, alphas: np.ndarray) -
 
 @dataclass(frozen=True)
 class DotSet:
-    """The holes of one soft-stencil layer: round holes only.
+    """The holes of one soft-stencil layer: round holes, and windows on a hybrid plate.
 
     Like :class:`CutLayer` it has ``xy_mm``, ``r_mm``, ``polygons`` and
     ``hole_count``, so the plate builder, its checks and the DXF writer take either
@@ -168,12 +168,17 @@ class DotSet:
         spray_time: The layer's amount of paint: whole passes (physical spray model) or
             the paper model's spray time; None until the tone calibration or ``spray.json``
             gives one (then the config's, see :meth:`amount`).
+        windows: Open windows of a hybrid plate (:mod:`stencil_cad.stipple.windows`), each
+            ``(outer, ())``: ``outer`` an ``(M, 2)`` ring of (x, y) mm, counter-clockwise, its
+            islands held by bridges (so no inner rings); every hole keeps a web's distance from
+            them. Empty for a plate of holes only.
     """
 
     xy_mm: np.ndarray
     r_mm: np.ndarray
     report: dict = field(default_factory=dict)
     spray_time: float | None = None
+    windows: tuple = ()
 
     def __len__(self) -> int:
         return int(self.r_mm.shape[0])
@@ -183,14 +188,14 @@ class DotSet:
         return float(default if self.spray_time is None else self.spray_time)
 
     @property
-    def polygons(self) -> tuple[()]:
-        """Polygon cut-outs: none (a soft layer has round holes only)."""
-        return ()
+    def polygons(self) -> tuple:
+        """Polygon cut-outs: the windows (none on a plate of holes only)."""
+        return self.windows
 
     @property
     def hole_count(self) -> int:
-        """Number of holes."""
-        return len(self)
+        """Number of through holes: round holes and windows."""
+        return len(self) + len(self.windows)
 
 
 @dataclass(frozen=True)

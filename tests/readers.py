@@ -24,3 +24,13 @@ def run(args, timeout=600, **kw):
     runs on into the facet count, whose bytes need not be UTF-8.
     """
     return subprocess.run(args, capture_output=True, text=True, errors="replace", timeout=timeout, **kw)
+
+
+def admesh_counts(path):
+    """admesh's report on an STL as ``{label: count}`` (parts, facets fixed, reversed, ...)."""
+    import re
+
+    out = run([need("admesh"), str(path)]).stdout
+    counts = {k.strip(): int(v) for k, v in re.findall(r"([A-Za-z][A-Za-z ]*?)\s*:\s*(\d+)", out)}
+    assert "Number of parts" in counts, out
+    return counts

@@ -35,6 +35,7 @@ from ..exchange.mesh import plate_mesh
 from ..geometry import as_ccw, point_ring_distance, points_in_ring, polygon_area, rings_cross
 from ..model import Holes, PlateGeometry, TriMesh
 from ..stipple.rules import DesignRules, DotRuleError, check_rules
+from ..stipple.windows import window_clearance
 from .label import LabelInfo, label_glyphs, label_text
 from .solid import PlateBuildError, make_solid
 
@@ -282,6 +283,13 @@ def check_holes(
                 bad.append(f"polygon {i}: degenerate ({len(outer)} vertices)")
         if not bad and holes.polygons and rings_cross([p[0] for p in holes.polygons]):
             bad.append("cut-out polygons cross each other or themselves")
+        if not bad and len(holes.r_mm):
+            # A hybrid plate: every round hole keeps a web of sheet from every window.
+            web = min_web_mm if rules is None else rules.web_mm
+            ok = window_clearance(holes.xy_mm, holes.r_mm, holes.polygons, web)
+            for i in np.flatnonzero(~ok)[:5]:
+                x, y = holes.xy_mm[i]
+                bad.append(f"hole {i} at ({x:.3f}, {y:.3f}) mm is closer than {web:g} mm to a window")
         if bad:
             raise PlateBuildError(
                 f"{len(bad)} cut-out problem(s); first:\n  " + "\n  ".join(bad[:5]),

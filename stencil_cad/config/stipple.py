@@ -70,6 +70,13 @@ PROCESS_HOLE_OFFSET_MM: dict[Process, float] = {
 }
 
 
+class Windows(str, enum.Enum):
+    """Whether a layer's plate may open windows where it is solid."""
+
+    auto = "auto"
+    off = "off"
+
+
 class StippleConfig(StrictModel):
     """Settings of the stipple stage: dot count, hole sizes and design rules."""
 
@@ -209,6 +216,33 @@ class StippleConfig(StrictModel):
         ),
     )
 
+    windows: Windows = Field(
+        Windows.auto,
+        description=(
+            "Open windows (polygon cut-outs, islands held by bridges) where a layer is near fully opaque "
+            "over an area at least min_window_mm across, holes around them. Choices: auto (the best the "
+            "tool knows), off (holes only)."
+        ),
+    )
+    min_window_mm: float = Field(
+        6.0,
+        ge=2.0,
+        le=500.0,
+        description=(
+            "Smallest window, in mm: a disc this wide must fit inside a window's solid area. Range "
+            "[2, 500]; raised to 4 hole pitches when that is larger."
+        ),
+    )
+    window_opacity: float = Field(
+        0.85,
+        ge=0.5,
+        le=1.0,
+        description=(
+            "A layer's opacity from which it counts as solid for a window (1 = only full coats). "
+            "Range [0.5, 1]."
+        ),
+    )
+
     @field_validator("keepouts_mm")
     @classmethod
     def _check_keepouts(cls, value: list[tuple[float, float, float, float]]):
@@ -253,6 +287,14 @@ class StippleConfig(StrictModel):
         if self.web_mm is not None:
             return float(self.web_mm)
         return PROCESS_PRESETS[self.process][1]
+
+    def window_web_mm(self) -> float:
+        """The web kept between a hole and a window, in mm.
+
+        The plate draws each hole larger by the process's offset, so the web is kept with that
+        offset on top and holds as drawn.
+        """
+        return self.resolved_web_mm + max(self.resolved_hole_offset_mm, 0.0)
 
     @property
     def resolved_hole_offset_mm(self) -> float:

@@ -22,6 +22,7 @@ from ..config.decompose import DecomposeConfig, OpacitySource
 from ..model import Layers, Picture
 from . import energy, solver
 from .solver import SolverSettings, State
+from .sprayed import PlateReach
 from .start import _best_start, _state
 
 __all__ = ["decompose", "energy_of"]
@@ -209,6 +210,7 @@ def decompose(
     cfg: DecomposeConfig,
     rng: np.random.Generator,
     progress: Callable[[int, float], None] | None = None,
+    reach: PlateReach | None = None,
 ) -> Layers:
     """Decompose a picture into a primer and L paint layers.
 
@@ -218,6 +220,9 @@ def decompose(
         rng: Random generator (K-means sampling and seeding).
         progress: Optional ``progress(iteration, energy)`` called after every
             solver iteration (iterations count across pyramid levels).
+        reach: What the plates can spray (:class:`~stencil_cad.decompose.sprayed.PlateReach`), or
+            None. With it, candidate starts are ranked by the predicted sprayed result of their
+            trial solves instead of the ideal layers' fit.
 
     Returns:
         Layers in spray order. ``info`` holds ``rmse`` (0-255 units, RMS over
@@ -256,7 +261,7 @@ def decompose(
     s = _settings(cfg)
     target = np.ascontiguousarray(np.clip(np.nan_to_num(picture.rgb, nan=0.0), 0.0, 1.0), dtype=np.float64)
     order_info: dict = {}
-    best, free = _best_start(picture, cfg, target, s, rng, warnings, order_info)
+    best, free = _best_start(picture, cfg, target, s, rng, warnings, order_info, reach)
     levels: list[dict] = []
     counter = [0]
 

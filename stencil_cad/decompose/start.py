@@ -14,6 +14,7 @@ from ..config.decompose import DecomposeConfig, LayerOrder
 from ..model import Picture
 from . import energy, palette, solver
 from .solver import SolverSettings, State
+from .sprayed import PlateReach
 
 # Longer side in px of the grid on which cans are chosen from a long palette
 # and candidate spray orders are compared: enough to see the image's colour
@@ -98,12 +99,16 @@ def _best_start(
     rng: np.random.Generator,
     warnings: list[str],
     order_info: dict,
+    reach: PlateReach | None = None,
 ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], np.ndarray]:
-    """The start ``(primer, paints, order)`` whose short trial solve does best, and which colours move."""
+    """The start ``(primer, paints, order)`` whose short trial solve does best, and which colours move.
+
+    With ``reach`` the trials are ranked by what plates would spray of them (:mod:`.sprayed`).
+    """
     trial_shape = solver.pyramid_shapes(target.shape[:2], _TRIAL_SIZE_PX)[0]
     trial_target = solver.downsample(target, trial_shape)
     candidates, free = _start_candidates(picture, cfg, target, trial_target, s, rng, warnings, order_info)
-    return _pick_order(candidates, free, trial_target, s, order_info), free
+    return _pick_order(candidates, free, trial_target, s, order_info, reach), free
 
 
 def _start_candidates(
@@ -182,11 +187,17 @@ def _pick_order(
     trial_target: np.ndarray,
     s: SolverSettings,
     order_info: dict,
+    reach: PlateReach | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Compare candidate spray orders by the energy a short solve reaches; the best one."""
+    """Compare candidate spray orders by a short solve; the best one.
+
+    Without ``reach``, by the energy the solve reaches (the ideal layers' fit). With it, by the
+    predicted error of what plates would spray of the trial layers
+    (:meth:`stencil_cad.decompose.sprayed.PlateReach.error`).
+    """
     if len(candidates) == 1:
         return candidates[0]
-    trial_e, trial_rmse, trial_paint = [], [], []
+    trial_e, trial_rmse, trial_paint, sprayed = [], [], [], []
     for p0, c0, _ in candidates:
         st = _state(trial_target, p0, c0, free)
         solver.iterate(st, s, _TRIAL_ITERATIONS, s.tolerance)
@@ -194,6 +205,13 @@ def _pick_order(
         d, _, _ = energy.energy_terms(st.target, st.primer, st.colours, st.alphas)
         trial_rmse.append(float(np.sqrt(d / st.target.size) * 255.0))
         trial_paint.append(float(st.alphas.sum(axis=0).mean()))
+        if reach is not None:
+            sprayed.append(reach.error(st.target, st.primer, st.colours, st.alphas))
+    if reach is not None:
+        # RMS over the channels in 0-255 levels, comparable with trial_rmse.
+        order_info["trial_sprayed_rmse"] = [round(float(np.sqrt(e / 3.0) * 255.0), 3) for e in sprayed]
+        order_info["trial_rmse"] = trial_rmse
+        return candidates[int(np.argmin(sprayed))]
     pick = int(np.argmin(trial_e))
     # Equally faithful orders: the one spraying the least paint (mean total
     # opacity, to 0.01) wins, so the primer is the colour covering most of

@@ -75,3 +75,35 @@ def dots_from_csv(text: str) -> DotSet:
         if values[k, 2] < HOLE_FLOOR_MM:
             raise DotFileError(f"dot CSV line {n}: r_mm must be ≥ {HOLE_FLOOR_MM} mm, got {values[k, 2]:g}")
     return DotSet(xy_mm=values[:, :2].copy(), r_mm=values[:, 2].copy(), report={"source": "csv"})
+
+
+def windows_to_json(windows) -> str:
+    """A hybrid plate's windows as JSON text: ``{"windows": [[[x, y], ...], ...]}`` in picture mm.
+
+    Args:
+        windows: Each ``(outer, inner rings)``; a window's islands are bridged, so only the outer
+            ring is written.
+    """
+    import json
+
+    rings = [[[round(float(x), 6), round(float(y), 6)] for x, y in np.asarray(o)] for o, _ in windows]
+    return json.dumps({"windows": rings}, separators=(",", ":"))
+
+
+def windows_from_json(text: str) -> tuple:
+    """The windows :func:`windows_to_json` wrote, each ``(outer, ())``.
+
+    Raises:
+        DotFileError: Not that JSON, or a ring of fewer than 3 finite points.
+    """
+    import json
+
+    try:
+        rings = json.loads(text)["windows"]
+        out = tuple((np.asarray(r, dtype=np.float64).reshape(-1, 2), ()) for r in rings)
+    except (ValueError, KeyError, TypeError) as exc:
+        raise DotFileError(f"windows file: expected {{'windows': [[[x, y], ...], ...]}} ({exc})") from None
+    for k, (ring, _) in enumerate(out):
+        if len(ring) < 3 or not np.isfinite(ring).all():
+            raise DotFileError(f"windows file: window {k} needs at least 3 finite points")
+    return out

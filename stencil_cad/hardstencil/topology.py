@@ -38,10 +38,11 @@ from skimage.graph import MCP_Geometric
 from skimage.measure import find_contours, points_in_poly
 from skimage.morphology import skeletonize
 
-from ..frames import mm_to_px, px_to_mm
+from ..frames import px_to_mm, rasterise_polygons
 from ..geometry import polygon_area
 
 log = logging.getLogger(__name__)
+
 
 FOUR = ndi.generate_binary_structure(2, 1)
 EIGHT = ndi.generate_binary_structure(2, 2)
@@ -456,41 +457,3 @@ def mask_to_polygons(mask: np.ndarray, mm_per_px: float, tolerance_mm: float) ->
             best = min(inside, key=lambda i: areas[i])
             polys[best][1].append(hole)
     return polys
-
-
-def rasterise_polygons(polygons: list, shape: tuple[int, int], mm_per_px: float) -> np.ndarray:
-    """Pixels whose centres lie inside the polygons (even-odd rule): the inverse of :func:`mask_to_polygons`.
-
-    A vectorised scan-line fill: every ring edge crossing a row of pixel centres
-    toggles the parity of the pixels to the right of the crossing.
-
-    Args:
-        polygons: As returned by :func:`mask_to_polygons`.
-        shape: ``(H, W)`` of the raster.
-        mm_per_px: Pixel size in mm.
-
-    Returns:
-        ``(H, W)`` bool.
-    """
-    h, w = shape
-    rings = [ring for outer, holes in polygons for ring in (outer, *holes) if len(ring) >= 3]
-    if not rings:
-        return np.zeros((h, w), dtype=bool)
-    rc = [mm_to_px(ring, h, mm_per_px) for ring in rings]
-    r0 = np.concatenate([p[:, 0] for p in rc])
-    c0 = np.concatenate([p[:, 1] for p in rc])
-    r1 = np.concatenate([np.roll(p[:, 0], -1) for p in rc])
-    c1 = np.concatenate([np.roll(p[:, 1], -1) for p in rc])
-    # Rows r with lo <= r < hi: each crossing counted once, horizontal edges never.
-    start = np.maximum(np.ceil(np.minimum(r0, r1)), 0).astype(np.int64)
-    end = np.minimum(np.ceil(np.maximum(r0, r1)), h).astype(np.int64)
-    count = np.maximum(end - start, 0)
-    edge = np.repeat(np.arange(r0.size), count)
-    first = np.cumsum(count) - count
-    rows = start[edge] + (np.arange(edge.size) - first[edge])
-    t = (rows - r0[edge]) / (r1[edge] - r0[edge])
-    x = c0[edge] + t * (c1[edge] - c0[edge])
-    col = np.clip(np.ceil(x), 0, w).astype(np.int64)
-    toggles = np.zeros((h, w + 1), dtype=np.int64)
-    np.add.at(toggles, (rows, col), 1)
-    return (np.cumsum(toggles, axis=1)[:, :w] & 1).astype(bool)

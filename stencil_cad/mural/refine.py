@@ -83,6 +83,7 @@ class Problem:
         kernels: Per can of the prior (the nominal can first), each layer's per-hole kernels.
         spray_times: Each layer's spray time.
         settings: The refinement settings (add/remove is turned off per tile).
+        fixed_trans: ``(L, H, W)`` transmittance of each layer's windows on that grid, or None.
     """
 
     target: np.ndarray
@@ -94,6 +95,7 @@ class Problem:
     kernels: tuple[tuple[HoleKernels, ...], ...]
     spray_times: list[float]
     settings: RefineSettings
+    fixed_trans: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -121,6 +123,7 @@ class TileTask:
     index: list[np.ndarray]
     rules: list[DesignRules]
     problem: Problem
+    fixed_trans: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -162,7 +165,7 @@ def tile_tasks(
     shape = problem.target.shape[:2]
     g = problem.mm_per_px
     # What every task shares, without the mural's rasters (each task carries its own crop).
-    shared = replace(problem, target=np.zeros((0, 0, 3)), alpha_targets=None)
+    shared = replace(problem, target=np.zeros((0, 0, 3)), alpha_targets=None, fixed_trans=None)
     tasks = []
     for k in tiles:
         t = grid.tiles[k]
@@ -201,6 +204,9 @@ def tile_tasks(
                 index=idx,
                 rules=rules,
                 problem=shared,
+                fixed_trans=None
+                if problem.fixed_trans is None
+                else np.ascontiguousarray(problem.fixed_trans[:, r0:r1, c0:c1]),
             )
         )
     return tasks
@@ -223,6 +229,7 @@ def refine_tile(task: TileTask) -> TileResult:
         p.spray_times,
         settings,
         alpha_targets=task.alpha_targets,
+        fixed_trans=task.fixed_trans,
     )
     off = np.array(task.offset_mm)
     idx, xy, r = [], [], []
@@ -378,4 +385,5 @@ def refine_layers(
         problem.settings,
         progress=progress,
         alpha_targets=problem.alpha_targets,
+        fixed_trans=problem.fixed_trans,
     )

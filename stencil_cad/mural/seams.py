@@ -26,12 +26,24 @@ def split_dots(dotset: DotSet, grid: TileGrid) -> list[DotSet]:
         (origin at the sheet's bottom-left).
     """
     owner = grid.owner(dotset.xy_mm)
+    # A window lies inside one tile's core (see stencil_cad.hardstencil.windows): its box's centre names the tile.
+    boxes = [np.asarray(o, dtype=np.float64) for o, _ in dotset.windows]
+    centres = np.array([(b.min(axis=0) + b.max(axis=0)) / 2 for b in boxes]).reshape(-1, 2)
+    win_owner = grid.owner(centres) if len(boxes) else np.zeros(0, dtype=np.int64)
     out = []
     for k, t in enumerate(grid.tiles):
         sel = owner == k
         ox, oy = t.origin
         xy = dotset.xy_mm[sel] - np.array([ox, oy])
-        out.append(DotSet(xy_mm=xy, r_mm=dotset.r_mm[sel].copy(), report={**dotset.report, "tile": t.name}))
+        windows = tuple((b - np.array([ox, oy]), ()) for b, w in zip(boxes, win_owner, strict=True) if w == k)
+        out.append(
+            DotSet(
+                xy_mm=xy,
+                r_mm=dotset.r_mm[sel].copy(),
+                report={**dotset.report, "tile": t.name},
+                windows=windows,
+            )
+        )
     return out
 
 
@@ -39,7 +51,12 @@ def to_mural(tile_sets: list[DotSet], grid: TileGrid) -> DotSet:
     """The union of tiles' holes (tile frames) in the mural frame."""
     xy = [d.xy_mm + np.array(t.origin) for d, t in zip(tile_sets, grid.tiles, strict=True)]
     r = [d.r_mm for d in tile_sets]
-    return DotSet(xy_mm=np.concatenate(xy).reshape(-1, 2), r_mm=np.concatenate(r))
+    windows = tuple(
+        (np.asarray(o) + np.array(t.origin), ())
+        for d, t in zip(tile_sets, grid.tiles, strict=True)
+        for o, _ in d.windows
+    )
+    return DotSet(xy_mm=np.concatenate(xy).reshape(-1, 2), r_mm=np.concatenate(r), windows=windows)
 
 
 def seam_density(
@@ -204,6 +221,7 @@ def simulate_tiles(
         ``(L, H, W)`` simulated opacities.
     """
     from ..simulate import spray_opacity
+    from ..simulate.opacity import windows_opacity
     from ..simulate.spray import per_layer
 
     layers = len(spray_times)
@@ -213,9 +231,16 @@ def simulate_tiles(
         trans = np.ones(shape, dtype=np.float64)
         for k, t in enumerate(grid.tiles):
             ds = tile_sets[k][i]
+            dx, dy = offset(k, i) if offset is not None else (0.0, 0.0)
+            if ds.windows:
+                # A window lies inside its tile's core, so inside the sheet the wall lets paint through.
+                shift = np.array([t.origin[0] + dx, t.origin[1] + dy])
+                wins = [(np.asarray(o) + shift, ()) for o, _ in ds.windows]
+                trans *= 1.0 - windows_opacity(
+                    wins, shape, g, sprays[i], spray_time=spray_times[i], geometry=geometry
+                )
             if len(ds) == 0:
                 continue
-            dx, dy = offset(k, i) if offset is not None else (0.0, 0.0)
             crop = _sheet_crop(t.sheet, shape, g, dx, dy)
             if crop is None:
                 continue

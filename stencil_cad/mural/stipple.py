@@ -331,6 +331,16 @@ class StippleTask:
     cfg: JobConfig
     rng: np.random.Generator
     weight: np.ndarray | None = None
+    #: ``(H, W)`` bool where no hole may be placed (a hybrid plate's windows and the web around
+    #: them), or None. The holes' tone is chosen for the rest of the layer; the spray time for
+    #: both, the windows counted as a full coat (:func:`stencil_cad.simulate.tone.choose_tone`).
+    closed: np.ndarray | None = None
+    #: ``(H, W)`` bool, the windows' own pixels, or None.
+    windows: np.ndarray | None = None
+
+    def holes_alpha(self) -> np.ndarray:
+        """The opacity left to the holes: none where they may not go."""
+        return self.alpha if self.closed is None else np.where(self.closed, 0.0, self.alpha)
 
 
 def layer_tone(task: StippleTask):
@@ -344,7 +354,8 @@ def layer_tone(task: StippleTask):
         return None, cfg.spray.amount
     from ..simulate import tone
 
-    choice = tone.calibrated_tone_for(task.alpha, task.mm_per_px, cfg, task.weight)
+    windows = None if task.windows is None else (task.windows, task.alpha)
+    choice = tone.calibrated_tone_for(task.holes_alpha(), task.mm_per_px, cfg, task.weight, windows)
     if cfg.chooses_spray_time:
         return choice, float(choice.spray_time)
     return choice, cfg.spray.amount
@@ -361,7 +372,7 @@ def stipple_task(task: StippleTask) -> tuple[DotSet, dict | None]:
 
     choice, spray_time = layer_tone(task)
     density = None if choice is None else choice.density
-    ds = stipple_layer(task.alpha, task.mm_per_px, task.cfg.stipple, task.rng, density=density)
+    ds = stipple_layer(task.holes_alpha(), task.mm_per_px, task.cfg.stipple, task.rng, density=density)
     return replace(ds, spray_time=spray_time), None if choice is None else choice.summary()
 
 

@@ -72,6 +72,7 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
                 (x0, y0, _), (x1, y1, _) = check["bbox"]
                 size = [round(x1 - x0, 3), round(y1 - y0, 3)]
                 row = {"layer": i + 1, **_plain(check), **dxf_info, "cut_length_mm": cut, "bbox_mm": size}
+                row["windows"] = len(getattr(h, "windows", ()))
                 if isinstance(h, CutLayer):
                     row["cutouts"] = h.cutout_figures()
                 elif len(h.r_mm):

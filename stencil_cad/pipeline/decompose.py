@@ -6,6 +6,7 @@ import logging
 from pathlib import Path
 
 from ..colour import to_hex
+from ..config import JobConfig
 from ..errors import ConfigError, UserError
 from ..model import Layers, Picture
 from ..output import plain as _plain
@@ -31,13 +32,16 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
                 bar.set_postfix(energy=f"{energy:.4g}", refresh=False)
 
             dcfg = _with_can_list(run, run.cfg.decompose, "decompose.palette")
+            reach = plate_reach(run.cfg)
             try:
                 tiles = _decompose_tiles(run, picture)
 
                 def solve(section) -> Layers:
                     if tiles is None:
-                        return dec.decompose(picture, section, run.rng_for("decompose"), progress=progress)
-                    return _decompose_tiled(run, picture, tiles, progress, section)
+                        return dec.decompose(
+                            picture, section, run.rng_for("decompose"), progress=progress, reach=reach
+                        )
+                    return _decompose_tiled(run, picture, tiles, progress, section, reach)
 
                 layers = solve(dcfg)
                 if dcfg.palette == "auto" and run.cfg.paints.catalogue is not None:
@@ -100,7 +104,37 @@ def _decompose_tiles(run: Run, picture: Picture):
     return tiles
 
 
-def _decompose_tiled(run: Run, picture: Picture, tiles, progress, cfg=None) -> Layers:
+def plate_reach(cfg: JobConfig):
+    """What this job's plates can spray (:class:`stencil_cad.decompose.sprayed.PlateReach`), for ranking starts.
+
+    The darkest tone is the densest hole pattern the rules allow at the most passes (or the paper
+    model's spray time), measured with the spray model as the stipple stage's dark-end figures are.
+    """
+    from ..decompose.sprayed import PlateReach
+    from ..simulate import tone
+    from ..simulate.physical import SprayGeometry
+
+    st = cfg.stipple
+    r1 = st.resolved_max_radius_mm
+    if cfg.refine.enabled:
+        r1 = max(r1, cfg.refine.max_radius_factor * st.resolved_hole_min_r_mm)
+    curve = tone.tone_response(
+        st.resolved_radius_mm,
+        st.resolved_web_mm,
+        cfg.spray,
+        spray_time=float(cfg.spray.max_passes) if cfg.spray.is_physical else cfg.spray.amount,
+        max_radius_mm=r1,
+        spacing_factor=st.auto_spacing_factor,
+        geometry=SprayGeometry.for_job(cfg),
+    )
+    return PlateReach(
+        darkest=float(curve.max_opacity),
+        threshold=st.opacity_threshold,
+        window_from=None if st.windows == "off" else st.window_opacity,
+    )
+
+
+def _decompose_tiled(run: Run, picture: Picture, tiles, progress, cfg=None, reach=None) -> Layers:
     """Colours on a small copy of the picture, then the opacities tile by tile as tasks.
 
     ``cfg`` is the decompose section to solve with (defaults to the job's; a can list or the
@@ -111,7 +145,7 @@ def _decompose_tiled(run: Run, picture: Picture, tiles, progress, cfg=None) -> L
 
     cfg = run.cfg.decompose if cfg is None else cfg
     coarse = dec.decompose(
-        tiled.coarse_picture(picture, tiles), cfg, run.rng_for("decompose"), progress=progress
+        tiled.coarse_picture(picture, tiles), cfg, run.rng_for("decompose"), progress=progress, reach=reach
     )
     results = run.tasks.map(
         tiled.solve_tile, tiled.tasks(picture, coarse, tiles, cfg), "decompose tiles", count=tiles.count

@@ -24,6 +24,11 @@ def dots_name(i: int) -> str:
     return f"layer_{i + 1:02d}_dots.csv"
 
 
+def windows_name(i: int) -> str:
+    """File name of layer ``i``'s windows (a hybrid plate's cut-outs), written when it has any."""
+    return f"layer_{i + 1:02d}_windows.json"
+
+
 def wall_stems(heights: list[float]) -> list[str]:
     """File stems of the walls (``heights``: :meth:`~stencil_cad.config.WallConfig.heights`).
 
@@ -58,7 +63,7 @@ INSTRUCTIONS = ("instructions.html", "instructions.pdf")
 
 #: The files each stage writes (shell patterns), for telling which files a re-run makes stale.
 STAGE_FILES = {
-    "stipple": ("layer_*_dots.csv", "layer_*_dots.png", SPRAY_JSON, "swatch.png"),
+    "stipple": ("layer_*_dots.csv", "layer_*_windows.json", "layer_*_dots.png", SPRAY_JSON, "swatch.png"),
     "build": ("layer_[0-9][0-9].*", "wall*.step", "wall*.stl", "tile_*", "mural_map.png"),
     "simulate": ("simulated*.png", "preview.png", "sweep.png", "layer_*_after.png"),
     "instructions": INSTRUCTIONS,

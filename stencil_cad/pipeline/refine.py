@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import logging
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -16,6 +16,9 @@ from .profiles import layer_sprays
 
 if TYPE_CHECKING:
     from .. import mural
+    from ..config import JobConfig
+    from ..config.spray import SprayConfig
+    from ..simulate.physical import SprayGeometry
 
 log = logging.getLogger(__name__)
 
@@ -33,12 +36,13 @@ def stage_refine(
     The objective lives on the simulation grid, its eye filter is the viewer's at
     ``view.distance_m``, and the holes keep the stipple rules (the largest radius is
     ``refine.max_radius_factor`` times the hole floor). A mural (``grid`` of several tiles)
-    is refined tile by tile (:mod:`stencil_cad.mural.refine`), each tile a task.
+    is refined tile by tile (:mod:`stencil_cad.mural.refine`), each tile a task. A hybrid
+    plate's windows (each DotSet's ``windows``) spray with the holes and stay fixed; the holes
+    refined too close to one are left out.
     """
     from .. import resolution
-    from ..simulate import scielab, spray
+    from ..simulate import spray
     from ..simulate.physical import SprayGeometry
-    from ..stipple import refine
 
     cfg = run.cfg
     # The simulation's grid: with ``size.px_per_mm: auto`` it follows the dots' spray sigma
@@ -49,20 +53,7 @@ def stage_refine(
     target = source_reference(cfg, picture, layers, shape, grid_mm)
     rules = cfg.stipple.design_rules(*picture_mm)
     rc = cfg.refine
-    settings = refine.RefineSettings(
-        iterations=rc.iterations,
-        step_mm=rc.step_mm,
-        radius_step_mm=rc.radius_step_mm,
-        max_radius_mm=max(rc.max_radius_factor * rules.hole_min_r_mm, cfg.stipple.resolved_max_radius_mm),
-        add_remove_every=rc.add_remove_every,
-        eye_sigma_mm=scielab.smallest_sigma_mm(cfg.view.distance_m),
-        layer_weight=rc.layer_weight,
-        view=(
-            refine.ViewFilters(scielab.filters_mm(cfg.view.distance_m), rc.pixel_weight)
-            if rc.objective == "viewer"
-            else None
-        ),
-    )
+    settings = refine_settings(cfg, rules.hole_min_r_mm)
     alpha_targets = np.stack([spray.resample(a, shape) for a in layers.alphas]) if layers.count else None
 
     from ..mural import refine as mural_refine
@@ -76,6 +67,8 @@ def stage_refine(
     kernels = [tuple(mural_refine.HoleKernels(sp, geometry) for sp in per_layer) for _, per_layer in cans]
 
     times = [ds.amount(cfg.spray.amount) for ds in dotsets]
+    windows = [ds.windows for ds in dotsets]
+    fixed = windows_transmittance(sprays, windows, times, shape, grid_mm, geometry)
     problem = mural_refine.Problem(
         target=target,
         alpha_targets=alpha_targets,
@@ -86,6 +79,7 @@ def stage_refine(
         kernels=tuple(kernels),
         spray_times=times,
         settings=settings,
+        fixed_trans=fixed,
     )
     tiling = grid or TileGrid.whole(*picture_mm)
     with run.stage("refine"), run.bar(rc.iterations, "refine") as bar:
@@ -93,4 +87,50 @@ def stage_refine(
             problem, tiling, dotsets, cfg, run.tasks.map, progress=lambda it, total: bar.update(1)
         )
     run.figures["refine"] = _plain(report)
-    return out
+    from ..stipple.windows import with_windows
+
+    return [with_windows(ds, w, cfg.stipple.window_web_mm()) for ds, w in zip(out, windows, strict=True)]
+
+
+def refine_settings(cfg: JobConfig, hole_min_r_mm: float) -> Any:
+    """The refinement's settings from the ``refine`` section and the viewer's filters at ``view.distance_m``."""
+    from ..simulate import scielab
+    from ..stipple import refine
+
+    rules_floor = hole_min_r_mm
+    rc = cfg.refine
+    return refine.RefineSettings(
+        iterations=rc.iterations,
+        step_mm=rc.step_mm,
+        radius_step_mm=rc.radius_step_mm,
+        max_radius_mm=max(rc.max_radius_factor * rules_floor, cfg.stipple.resolved_max_radius_mm),
+        add_remove_every=rc.add_remove_every,
+        eye_sigma_mm=scielab.smallest_sigma_mm(cfg.view.distance_m),
+        layer_weight=rc.layer_weight,
+        view=(
+            refine.ViewFilters(scielab.filters_mm(cfg.view.distance_m), rc.pixel_weight)
+            if rc.objective == "viewer"
+            else None
+        ),
+    )
+
+
+def windows_transmittance(
+    sprays: list[SprayConfig],
+    windows: list[Any] | None,
+    times: list[float],
+    shape: tuple[int, int],
+    grid_mm: float,
+    geometry: SprayGeometry | None,
+) -> np.ndarray | None:
+    """``(L, H, W)`` transmittance of each layer's windows (sprayed with its own can), or None without windows."""
+    if not windows or not any(len(w) for w in windows):
+        return None
+    from ..simulate.opacity import windows_opacity
+
+    return np.stack(
+        [
+            1.0 - windows_opacity(w, shape, grid_mm, sp, spray_time=t, geometry=geometry)
+            for w, t, sp in zip(windows, times, sprays, strict=True)
+        ]
+    )

@@ -60,7 +60,20 @@ def read_dots(folder: Path, count: int | None = None, max_time: float = 800.0) -
             out.append(dots_from_csv(text))
         except ValueError as exc:
             raise UserError(f"{f}: {str(exc)[:300]}") from None
-        if len(out[-1]) == 0:
+        windows = f.with_name(f.name.replace("_dots.csv", "_windows.json"))
+        if windows.exists():
+            from dataclasses import replace as _replace
+
+            from ..exchange.dots_csv import windows_from_json
+
+            wtext = read_checked(
+                windows, "windows file", limit=DATA_LIMIT, fix="re-run `stencil-cad stipple`"
+            )
+            try:
+                out[-1] = _replace(out[-1], windows=windows_from_json(wtext))
+            except ValueError as exc:
+                raise UserError(f"{windows}: {str(exc)[:300]}") from None
+        if len(out[-1]) == 0 and not out[-1].windows:
             log.warning(
                 "%s has no holes: its plate will spray nothing (re-run `stencil-cad stipple`, or add rows "
                 "x_mm,y_mm,r_mm)",

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import logging
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -13,7 +13,8 @@ from ..mural import TileGrid
 from ..mural.stipple import StippleTask, stipple_layers
 from ..output import plain as _plain
 from ..record import Run
-from .names import dots_name, layer_stem
+from ..stipple.windows import with_windows
+from .names import dots_name, layer_stem, windows_name
 from .paints import plate_cards, write_spray_order
 from .profiles import layer_sprays
 from .refine import stage_refine
@@ -39,39 +40,34 @@ def stage_stipple(
     ``refine.enabled`` the holes are then refined against the spray model
     (:func:`stage_refine`) towards ``picture`` (the decomposition's composite without one).
     """
-    from ..exchange.dots_csv import dots_to_csv
+    from ..exchange.dots_csv import dots_to_csv, windows_to_json
 
     bound_dots(run, picture_mm)
     cfg = run.cfg
     with run.stage("stipple"):
-        # One task per layer (on a cluster the layers stipple side by side); each layer's
-        # generator comes from the seed, so any number of workers gives the same holes.
-        # The colour weights only steer the choice of each layer's spray time.
-        weights = (
-            coat_contrast(layers.primer, layers.colours, layers.alphas)
-            if cfg.chooses_spray_time
-            else [None] * layers.count
-        )
         # Each layer's tone is chosen under its own paint's can (spray.profile).
         jobs = layer_jobs(cfg, layer_sprays(run, layers.colours))
-        tasks = [
-            StippleTask(alpha, layers.mm_per_px, jobs[i], run.rng_for("stipple", i), weights[i])
-            for i, alpha in enumerate(layers.alphas)
-        ]
         tiling = grid or TileGrid.whole(*picture_mm)
+        tasks, windows, hole_alphas = _tasks(run, layers, tiling, picture_mm, jobs)
         sets, tones = stipple_layers(
-            tasks, layers.alphas, tiling, lambda i, k: run.seed_for("stipple", i, k), run.tasks.map
+            tasks, hole_alphas, tiling, lambda i, k: run.seed_for("stipple", i, k), run.tasks.map
         )
     run.figures["dark_end"] = [
-        _dark_end(job, alpha, ds.amount(job.spray.amount))
-        for job, alpha, ds in zip(jobs, layers.alphas, sets, strict=True)
+        _dark_end(job, alpha, ds.amount(job.spray.amount), w.mask)
+        for job, alpha, ds, w in zip(jobs, layers.alphas, sets, windows, strict=True)
+    ]
+    sets = [
+        with_windows(ds, w.polygons, cfg.stipple.window_web_mm()) for ds, w in zip(sets, windows, strict=True)
     ]
     if cfg.refine.enabled:
         sets = stage_refine(run, layers, sets, picture_mm, picture, grid)
+    run.figures["windows"] = [{"layer": i + 1, **_plain(w.report)} for i, w in enumerate(windows)]
     with run.stage("stipple"):
         cards = plate_cards(run, layers.colours, picture_mm, sets)
         for i, ds in enumerate(sets):
             run.out.write_text(dots_name(i), dots_to_csv(ds))
+            if ds.windows:
+                run.out.write_text(windows_name(i), windows_to_json(ds.windows))
             run.out.write_png(f"{layer_stem(i)}_dots.png", cards[i])
         write_spray_order(run, layers.primer, layers.colours, [ds.amount(cfg.spray.amount) for ds in sets])
     run.figures["stipple"] = [
@@ -79,7 +75,7 @@ def stage_stipple(
         for i, ds in enumerate(sets)
     ]
     for i, ds in enumerate(sets):
-        if len(ds) == 0:
+        if len(ds) == 0 and not ds.windows:
             removed = {k: v for k, v in ds.report.items() if k.startswith("removed_") and v}
             log.warning(
                 "%s has no holes (%s): its plate sprays nothing; lower stipple.edge_margin_mm or "
@@ -97,8 +93,94 @@ def layer_jobs(cfg: JobConfig, sprays: list) -> list[JobConfig]:
     return [cfg if sp is cfg.spray else cfg.model_copy(update={"spray": sp}) for sp in sprays]
 
 
-def _dark_end(cfg: JobConfig, alpha: np.ndarray, spray_time: float) -> dict:
-    """How much of a layer is darker than its stencil can spray at its spray time.
+def _tasks(
+    run: Run, layers: Layers, tiling: TileGrid, picture_mm: tuple[float, float], jobs: list[JobConfig]
+) -> tuple[list[StippleTask], list[Any], np.ndarray]:
+    """One stipple task per layer (under its own can: ``jobs``), its windows and the opacities left to the holes."""
+    cfg = run.cfg
+    # One task per layer (on a cluster the layers stipple side by side); each layer's
+    # generator comes from the seed, so any number of workers gives the same holes.
+    # The colour weights only steer the choice of each layer's spray time.
+    weights = (
+        coat_contrast(layers.primer, layers.colours, layers.alphas)
+        if cfg.chooses_spray_time
+        else [None] * layers.count
+    )
+    # Hybrid plates: each layer's wide solid regions become windows; the holes take the rest.
+    windows, closed = layer_windows(cfg, layers, tiling, picture_mm, jobs)
+    tasks = [
+        StippleTask(
+            alpha,
+            layers.mm_per_px,
+            jobs[i],
+            run.rng_for("stipple", i),
+            weights[i],
+            closed[i],
+            windows[i].mask if closed[i] is not None else None,
+        )
+        for i, alpha in enumerate(layers.alphas)
+    ]
+    hole_alphas = np.stack(
+        [a if c is None else np.where(c, 0.0, a) for a, c in zip(layers.alphas, closed, strict=True)]
+    ).astype(layers.alphas.dtype, copy=False)
+    return tasks, windows, hole_alphas
+
+
+def layer_windows(
+    cfg: JobConfig,
+    layers: Layers,
+    tiling: TileGrid,
+    picture_mm: tuple[float, float],
+    jobs: list[JobConfig] | None = None,
+) -> tuple[list[Any], list[Any]]:
+    """Every layer's windows (:mod:`stencil_cad.hardstencil.windows`) and where its holes may not go.
+
+    A window stays inside one tile's core, a bridge width clear of its seams.
+
+    Returns:
+        ``(windows per layer, per layer an (H, W) bool mask closed to holes or None)``.
+    """
+    from ..hardstencil.windows import allowed_area, find_windows, window_sizes
+    from ..stipple.windows import closed_to_holes
+
+    s = layers.mm_per_px
+    shape = layers.alphas.shape[1:]
+    _, _, bridge = window_sizes(cfg.stipple)
+    keepouts = cfg.stipple.design_rules(*picture_mm).keepouts
+    allowed = allowed_area(shape, s, [t.core for t in tiling.tiles], picture_mm, bridge, keepouts)
+    clear = cfg.stipple.resolved_hole_min_r_mm + cfg.stipple.resolved_web_mm
+    # Each window's edge is pulled in by its own paint's blur (spray.profile).
+    jobs = jobs or [cfg] * layers.count
+    windows = [
+        find_windows(a, s, cfg.stipple, allowed, window_inset_mm(job))
+        for a, job in zip(layers.alphas, jobs, strict=True)
+    ]
+    closed = [closed_to_holes(w.mask, s, clear) if w.polygons else None for w in windows]
+    for i, w in enumerate(windows):
+        if w.polygons:
+            log.info(
+                "%s: %d window(s), %.0f mm² open", layer_stem(i), len(w.polygons), w.report["window_area_mm2"]
+            )
+    return windows, closed
+
+
+def window_inset_mm(cfg: JobConfig) -> float:
+    """How far a window's edge stays inside its solid region: the stand-off blur's sigma, in mm.
+
+    A window running right to the region's edge threw its blurred coat past it: on the generated
+    logo the white around the shapes came out pink and grey, and the hybrid plates scored worse
+    than holes alone. Under the paper's model (no stand-off) no inset.
+    """
+    from ..simulate.physical import SprayGeometry, spread_sigma_mm
+
+    geometry = SprayGeometry.for_job(cfg)
+    return 0.0 if geometry is None else float(spread_sigma_mm(cfg.spray, geometry.standoff_mm))
+
+
+def _dark_end(
+    cfg: JobConfig, alpha: np.ndarray, spray_time: float, windows: np.ndarray | None = None
+) -> dict:
+    """How much of a layer is darker than its holes can spray at its spray time (its windows left out).
 
     The darkest mean opacity is that of the densest pattern the rules allow, with holes up to
     the refinement's largest radius when it is on (the stippler's otherwise), measured with
@@ -124,6 +206,8 @@ def _dark_end(cfg: JobConfig, alpha: np.ndarray, spray_time: float) -> dict:
     top = curve.max_opacity
     a = np.asarray(alpha, dtype=np.float64)
     over = a > top + 1e-6
+    if windows is not None:
+        over &= ~windows
     return {
         "darkest_sprayable": round(top, 4),
         "unreachable_share": round(float(over.mean()), 4),

@@ -305,6 +305,8 @@ def _build_plate(task: PartTask) -> PartResult:
         "file": stem,
         "notches": task.notches,
         "bbox_mm": [round(x1 - x0, 3), round(y1 - y0, 3)],
+        # A hybrid plate's windows: through holes beside the round ones.
+        "windows": len(getattr(holes, "windows", ())),
     }
     drawing = dxf.stencil_for(holes, ring, stem.upper(), *model.cut_label())
     row["cut_length_mm"] = round(dxf.cut_length_mm(holes, ring), 1)

@@ -45,7 +45,7 @@ import numpy as np
 
 from ..config.spray import SprayConfig, SprayModel
 from ..model import DotSet, Layers, composite
-from .opacity import _check_params, _need, dot_sigma_mm, spray_opacity
+from .opacity import _check_params, _need, dot_sigma_mm, spray_opacity, windows_opacity
 
 log = logging.getLogger(__name__)
 
@@ -229,12 +229,7 @@ def simulate(
     for i, dots in enumerate(dotsets):
         a = float(spray_times[i]) * time_factor
         t0 = time.perf_counter()
-        if len(dots):
-            alphas[i] = spray_opacity(
-                dots.xy_mm, dots.r_mm, shape, g, sprays[i], spray_time=a, geometry=geometry
-            )
-        elif not physical:
-            _check_params(a, cfg.nozzle_height)
+        alphas[i] = _layer_opacity(dots, shape, g, sprays[i], a, geometry)
         seconds.append(round(time.perf_counter() - t0, 4))
         b = _blur_mm_for(dots, sprays[i], fallback_r, geometry)
         layer_err, tone_err = _layer_errors(layers.alphas[i], alphas[i], shape, b, g)
@@ -286,6 +281,19 @@ def per_layer(cfg: SprayConfig, layer_sprays: Sequence[SprayConfig] | None, coun
     if len(layer_sprays) != count:
         raise ValueError(f"need one spray setting per layer: {count} layers, {len(layer_sprays)} settings")
     return list(layer_sprays)
+
+
+def _layer_opacity(dots: DotSet, shape, g: float, cfg: SprayConfig, a: float, geometry) -> np.ndarray:
+    """One layer's sprayed opacity: its holes and its windows (a hybrid plate), as independent deposits."""
+    out = np.zeros(shape)
+    if len(dots):
+        out = spray_opacity(dots.xy_mm, dots.r_mm, shape, g, cfg, spray_time=a, geometry=geometry)
+    elif cfg.model != SprayModel.physical:
+        _check_params(a, cfg.nozzle_height)
+    if dots.windows:
+        win = windows_opacity(dots.windows, shape, g, cfg, spray_time=a, geometry=geometry)
+        out = 1.0 - (1.0 - out) * (1.0 - win)
+    return out
 
 
 def _check_scale(dotsets: list[DotSet], cfg: SprayConfig, g: float, geometry) -> None:

@@ -325,6 +325,28 @@ def _sampled(a: np.ndarray, weight: np.ndarray | None) -> tuple[np.ndarray, np.n
     return flat, w
 
 
+def full_coat(cfg: SprayConfig, amount: float) -> float:
+    """The opacity an open area gets at a spray amount (passes under the physical model)."""
+    if cfg.model == SprayModel.physical:
+        return float(-math.expm1(-amount * cfg.dose_per_pass))
+    return float(-math.expm1(-amount * (1.0 + cfg.nozzle_height) / 2.0))
+
+
+def _windows_mse(windows, weight, cfg: SprayConfig, amount: float) -> float:
+    """The windows' squared opacity error at a full coat, as a share of the whole layer's mean."""
+    if windows is None:
+        return 0.0
+    mask, target = (np.asarray(v) for v in windows)
+    if not mask.any():
+        return 0.0
+    err = (np.asarray(target, dtype=np.float64)[mask] - full_coat(cfg, amount)) ** 2
+    if weight is None:
+        return float(err.sum()) / mask.size
+    w = np.asarray(weight, dtype=np.float64)
+    total = float(w.sum())
+    return float((w[mask] * err).sum()) / total if total > 0.0 else float(err.sum()) / mask.size
+
+
 def _spray_time_candidates(mode: Calibrate, cfg: SprayConfig) -> list[float]:
     """The spray times (or passes, under the physical model) the calibrated choice compares."""
     if mode == Calibrate.spray_time and cfg.model == SprayModel.physical:
@@ -358,6 +380,7 @@ def choose_tone(
     opacity_threshold: float = 0.0,
     geometry=None,
     weight: np.ndarray | None = None,
+    windows: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> ToneChoice:
     """Choose the density (and, with ``mode=spray_time``, the spray time) of one layer.
 
@@ -367,9 +390,8 @@ def choose_tone(
         radius_mm: Hole radius in mm (smallest with variable radius).
         web_mm: Minimum web in mm.
         cfg: Spray settings.
-        mode: ``none`` (linear density at ``cfg.spray_time``), ``dots`` (calibrated
-            density at ``cfg.spray_time``) or ``spray_time`` (calibrated density at the
-            spray time with the lowest predicted RMSE). Defaults to ``cfg.calibrate``.
+        mode: ``none`` (linear density), ``dots`` (calibrated density, both at ``cfg.spray_time``)
+            or ``spray_time`` (and the best spray time). Defaults to ``cfg.calibrate``.
         max_radius_mm: Largest hole radius in mm. Defaults to ``radius_mm``.
         spacing_factor: ``stipple.auto_spacing_factor``. Defaults to 1.15.
         opacity_threshold: The stippler puts no hole below this opacity.
@@ -377,6 +399,7 @@ def choose_tone(
         weight: ``(H, W)`` weight of each pixel's error in the spray-time choice (the pipeline
             passes :func:`stencil_cad.model.coat_contrast`); ``None`` weighs all alike.
             ``predicted_rmse`` stays unweighted.
+        windows: ``(mask, target)`` of windows spraying a full coat (their error counts), or None.
 
     Returns:
         The :class:`ToneChoice`.
@@ -386,7 +409,6 @@ def choose_tone(
     flat, w = _sampled(a, weight)
     allowed = flat >= opacity_threshold
     r1 = radius_mm if max_radius_mm is None else float(max_radius_mm)
-
     curve = functools.partial(
         tone_response,
         radius_mm,
@@ -406,10 +428,10 @@ def choose_tone(
     if mode == Calibrate.none:
         best_a, best_curve, best_mse, density = cfg.amount, base, linear_mse, a
     else:
-        scored = []
-        for spray_time in _spray_time_candidates(mode, cfg):
-            c = curve(spray_time=spray_time)
-            scored.append((mse(c, c.inverse(flat), weighted=True), spray_time, c))
+        scored = [
+            (mse(c, c.inverse(flat), weighted=True) + _windows_mse(windows, weight, cfg, t), t, c)
+            for t, c in ((t, curve(spray_time=t)) for t in _spray_time_candidates(mode, cfg))
+        ]
         best_a, best_curve = min(scored, key=lambda s: s[0])[1:]
         best_mse = mse(best_curve, best_curve.inverse(flat))
         density = best_curve.inverse(a)
@@ -428,7 +450,7 @@ def choose_tone(
 
 
 def calibrated_tone_for(
-    alpha: np.ndarray, mm_per_px: float, job_cfg, weight: np.ndarray | None = None
+    alpha: np.ndarray, mm_per_px: float, job_cfg, weight: np.ndarray | None = None, windows=None
 ) -> ToneChoice:
     """:func:`choose_tone` with the hole sizes, web and spacing of a whole job config.
 
@@ -437,6 +459,7 @@ def calibrated_tone_for(
         mm_per_px: Pixel size of ``alpha`` in mm.
         job_cfg: The :class:`~stencil_cad.config.JobConfig` (``stipple`` and ``spray``).
         weight: Per-pixel weight of the spray-time choice (see :func:`choose_tone`).
+        windows: ``(mask, target)`` of a hybrid plate's windows (see :func:`choose_tone`), or None.
 
     Returns:
         The :class:`ToneChoice` (density, spray time, dot count).
@@ -455,6 +478,7 @@ def calibrated_tone_for(
         opacity_threshold=st.opacity_threshold,
         geometry=SprayGeometry.of_job(job_cfg),
         weight=weight,
+        windows=windows,
     )
 
 

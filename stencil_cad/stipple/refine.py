@@ -288,6 +288,7 @@ class _Problem:
     colours: np.ndarray
     eye_px: float
     viewer: _Viewer | None
+    fixed_trans: np.ndarray | None = None
 
     def evaluate(self, want_q: bool = False) -> _Eval:
         """The objective and its gradients at the current state, under the current can."""
@@ -303,6 +304,7 @@ class _Problem:
             self.eye_px,
             want_q,
             self.viewer,
+            self.fixed_trans,
         )
 
 
@@ -348,6 +350,7 @@ def refine_dots(
     settings: RefineSettings,
     progress: Callable[[int, int], None] | None = None,
     alpha_targets: np.ndarray | None = None,
+    fixed_trans: np.ndarray | None = None,
 ) -> tuple[list[DotSet], dict]:
     """Move and resize every layer's holes so the sprayed composite matches the target.
 
@@ -373,6 +376,7 @@ def refine_dots(
         alpha_targets: ``(L, H, W)`` target opacity of each layer on the grid, or None. With
             it, each layer's own filtered opacity error is added to the objective, weighted
             by ``settings.layer_weight``.
+        fixed_trans: ``(L, H, W)`` transmittance of each layer's windows (fixed open area), or None.
 
     Returns:
         ``(dotsets, report)``: the refined DotSets (each passes :func:`check_rules` of its
@@ -400,10 +404,10 @@ def refine_dots(
         colours=np.asarray(colours, dtype=np.float64).reshape(-1, 3),
         eye_px=settings.eye_sigma_mm / mm_per_px,
         viewer=_Viewer(target, mm_per_px, settings.view) if settings.view is not None else None,
+        fixed_trans=None if fixed_trans is None else np.ascontiguousarray(fixed_trans, dtype=np.float32),
     )
     npx = float(target.shape[0] * target.shape[1] * 3)
-    ev = problem.evaluate()
-    e_start = ev.e
+    e_start = (ev := problem.evaluate()).e
     ev = _iterate(problem, cans, ev, settings, progress)
     out = [_refined(ds, layer) for ds, layer in zip(dotsets, problem.state, strict=True)]
     report = {

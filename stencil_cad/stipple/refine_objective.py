@@ -191,12 +191,26 @@ class _Eval:
 
 
 def _evaluate(
-    state, kernels, pitch, target, alpha_targets, lam, primer, colours, eye_px, want_q=False, viewer=None
+    state,
+    kernels,
+    pitch,
+    target,
+    alpha_targets,
+    lam,
+    primer,
+    colours,
+    eye_px,
+    want_q=False,
+    viewer=None,
+    fixed_trans=None,
 ) -> _Eval:
     """The composite's filtered squared error plus ``lam`` times each layer's, and its gradients.
 
     Images are of ``target``'s dtype. ``G = dE/dalpha_l`` and ``Q`` the curvature along it
     (see the module doc); ``alpha_targets`` (L, H, W) is read only when ``lam > 0``.
+    ``fixed_trans`` (L, H, W) or None multiplies each layer's transmittance: the open area that
+    does not move (a hybrid plate's windows). A hole's ``dalpha/dN_i`` is ``T`` (or
+    ``T / (1 - N_i)``) with ``T`` the layer's whole transmittance, so the gradients stay exact.
     """
     h, w = target.shape[:2]
     dt = target.dtype
@@ -206,6 +220,8 @@ def _evaluate(
         if len(layer.x):
             rows, cols, sig, peak, _, _, exp_mode = _kernels_px(layer, layer_kernels(kernels, k), pitch, h)
             _transmittance(trans[k], rows, cols, sig, peak, exp_mode)
+    if fixed_trans is not None:
+        trans *= fixed_trans
     n_t = n_l if lam > 0 else 0
     res = np.empty((h, w, 3), dtype=dt)
     lres = np.empty((n_t, h, w), dtype=dt)

@@ -49,3 +49,15 @@ def test_csv_accepts_bom_blank_lines_and_spaces():
     ds = dots_from_csv("\ufeffx_mm, y_mm, r_mm\n\n 1.5, 2.5 ,0.5\n")
     np.testing.assert_array_equal(ds.xy_mm, [[1.5, 2.5]])
     np.testing.assert_array_equal(ds.r_mm, [0.5])
+
+
+def test_windows_round_trip_and_bad_files_fail():
+    from stencil_cad.exchange.dots_csv import windows_from_json, windows_to_json
+
+    ring = np.array([[1.0, 2.0], [5.5, 2.0], [5.5, 7.25], [1.0, 7.25]])
+    back = windows_from_json(windows_to_json([(ring, ())]))
+    assert len(back) == 1 and back[0][1] == ()
+    np.testing.assert_allclose(back[0][0], ring)
+    for bad in ("{}", '{"windows": [[[0, 0], [1, 1]]]}', "not json"):
+        with pytest.raises(DotFileError):
+            windows_from_json(bad)
