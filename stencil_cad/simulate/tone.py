@@ -151,7 +151,9 @@ def _hex_patch(spacing: float, width: float, margin: float, rng: np.random.Gener
 
 def _model_key(cfg: SprayConfig) -> str:
     """What the spray response depends on, hashable (the records in ``can`` are left out)."""
-    return cfg.model_dump_json(exclude={"profile": True, "can": {"fit", "paint", "card_standoff_mm"}})
+    return cfg.model_dump_json(
+        exclude={"profile": True, "layer_cans": True, "can": {"fit", "paint", "card_standoff_mm"}}
+    )
 
 
 @functools.lru_cache(maxsize=256)

@@ -50,7 +50,9 @@ def test_hanging_hole_on_a_labelled_plate_with_thousands_of_holes(tmp_path):
     assert rep["valid"] and rep["hole_count"] == len(dots) + 1
     ring = plate_outline(w, h, cfg.outline)
     g = model.geometry
-    want = (polygon_area(ring) - math.pi * (np.sum(dots.r_mm**2) + 1.5**2)) * 1.2 + g.glyph_area * g.relief_mm
+    want = (
+        polygon_area(ring) - math.pi * (np.sum(dots.r_mm**2) + 1.5**2)
+    ) * g.thickness_mm + g.glyph_area * g.relief_mm
     assert rep["volume"] == pytest.approx(want, rel=1e-6)
     mesh = plate_mesh(g, 0.02)
     assert mesh_genus(mesh.vertices[mesh.faces]) == len(dots) + 1
