@@ -98,3 +98,21 @@ def test_murals_are_a_package_and_no_stage_asks_for_tiles():
         "a stage takes the tiling and lets it decide (mural.stipple_layers, mural.refine_layers): "
         + ", ".join(asking)
     )
+
+
+def test_every_subpackage_is_installed():
+    # `pip install .` (the README's first command) installs only the packages pyproject.toml lists.
+    import sys
+
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:
+        import tomli as tomllib
+
+    config = tomllib.loads((PACKAGE.parent / "pyproject.toml").read_text(encoding="utf-8"))
+    listed = set(config["tool"]["setuptools"]["packages"])
+    found = {
+        "stencil_cad." + p.parent.relative_to(PACKAGE).as_posix().replace("/", ".")
+        for p in PACKAGE.rglob("*/__init__.py")
+    }
+    assert not found - listed, "add to [tool.setuptools] packages: " + ", ".join(sorted(found - listed))
