@@ -23,6 +23,7 @@ NAMES = [
     "refine",
     "slicer",
     "e2e",
+    "cans",
     "limits",
     "calibrate",
     "mural",

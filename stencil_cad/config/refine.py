@@ -83,9 +83,9 @@ class RefineConfig(StrictModel):
             "nominal: spray.can alone (the default). prior: the expected error over the prior of cans of "
             "stencil_cad.simulate.cans (one can per step, in turn; the same time as one can). Every job is "
             "scored for each can of the prior either way (simulate.scielab_by_can). On the bundled example "
-            "(python -m benchmarks e2e), prior scored S-CIELAB 6.33 at 1 m with the nominal can against 6.12 "
-            "for nominal, and its worst can 8.54 against 8.43: the cans differ mostly in how dark a coat is, "
-            "which moving holes cannot undo."
+            "(python -m benchmarks e2e), prior scored S-CIELAB 4.33 at 1 m with the nominal can against 3.70 "
+            "for nominal, and its worst can 8.19 against 7.98: the cans differ mostly in how dark a coat is "
+            "(python -m benchmarks cans), which moving holes cannot undo."
         ),
     )
     pixel_weight: float = Field(
