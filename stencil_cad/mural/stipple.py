@@ -84,7 +84,7 @@ class PlaceTask:
         grid: The mural's tiles (ownership of the new holes).
         rules: The mural's design rules.
         cfg: The job config.
-        tone: The layer's tone choice (its density for ``stipple.tone: calibrated``), or None.
+        tone: The layer's tone choice (its density for ``stipple.tone: response``), or None.
         seed: The task's seed sequence (job seed, layer, tile).
     """
 
@@ -346,16 +346,16 @@ class StippleTask:
 def layer_tone(task: StippleTask):
     """``(tone choice or None, spray time)`` of one layer.
 
-    With ``stipple.tone: calibrated`` the density comes from the spray response, and with
+    With ``stipple.tone: response`` the density comes from the spray response, and with
     ``spray.calibrate: spray_time`` the layer gets its own spray time.
     """
     cfg = task.cfg
-    if not cfg.stipple.is_calibrated:
+    if not cfg.stipple.tone_from_response:
         return None, cfg.spray.amount
     from ..simulate import tone
 
     windows = None if task.windows is None else (task.windows, task.alpha)
-    choice = tone.calibrated_tone_for(task.holes_alpha(), task.mm_per_px, cfg, task.weight, windows)
+    choice = tone.response_tone_for(task.holes_alpha(), task.mm_per_px, cfg, task.weight, windows)
     if cfg.chooses_spray_time:
         return choice, float(choice.spray_time)
     return choice, cfg.spray.amount

@@ -34,7 +34,7 @@ def stage_stipple(
 ) -> list[DotSet]:
     """Stipple every layer's opacity into holes, enforce the design rules, refine, save CSV + previews.
 
-    With ``stipple.tone: calibrated`` the density comes from the spray response
+    With ``stipple.tone: response`` the density comes from the spray response
     (:mod:`stencil_cad.simulate.tone`), and with ``spray.calibrate: spray_time`` each layer also
     gets its own spray time, saved in ``spray.json`` and in the dots' report. With
     ``refine.enabled`` the holes are then refined against the spray model
