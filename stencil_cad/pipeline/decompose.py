@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 from pathlib import Path
 
 from ..colour import to_hex
 from ..config import JobConfig
 from ..errors import ConfigError, UserError
+from ..figures import CansFigures, DecomposeFigures, Figures
 from ..model import Layers, Picture
 from ..output import plain as _plain
 from ..record import Run
@@ -67,15 +69,14 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
         trace = "iteration,energy\n" + "".join(f"{k},{e:.10g}\n" for k, e in enumerate(layers.energy_trace))
         out.write_text("energy.csv", trace)
     info = dict(layers.info)
-    run.figures["decompose"] = {
-        "layers": layers.count,
-        "primer": to_hex(layers.primer),
-        "colours": [to_hex(c) for c in layers.colours],
-        "iterations": layers.iterations,
-        **{k: v for k, v in info.items() if isinstance(v, (int, float, str, list))},
-    }
-    if "tiled" in info:
-        run.figures["decompose"]["tiled"] = _plain(info["tiled"])
+    run.figures.decompose = DecomposeFigures(
+        layers=layers.count,
+        primer=to_hex(layers.primer),
+        colours=[to_hex(c) for c in layers.colours],
+        iterations=layers.iterations,
+        solver={k: v for k, v in info.items() if isinstance(v, (int, float, str, list))},
+        tiled=_plain(info["tiled"]) if "tiled" in info else None,
+    )
     return layers
 
 
@@ -163,7 +164,7 @@ def _with_can_list(run: Run, section, where: str):
         cans = paints.load_cans(section.palette)
     except (ValueError, ConfigError) as exc:
         raise ConfigError(f"{where}: {exc}") from None
-    run.figures.setdefault("cans", {})["list"] = [c.__dict__ for c in cans]
+    run.figures.cans = replace(run.figures.cans or CansFigures(), can_list=[c.__dict__ for c in cans])
     hexes = paints.to_hex_list(cans)
     return section.model_copy(update={"palette": hexes if where.startswith("decompose") else list(hexes)})
 
@@ -177,7 +178,7 @@ def _catalogue(run: Run) -> list:
         cans = paints.load_cans(catalogue)
     except (ValueError, ConfigError) as exc:
         raise ConfigError(f"paints.catalogue: {exc}") from None
-    run.figures.setdefault("cans", {})["catalogue"] = [c.__dict__ for c in cans]
+    run.figures.cans = replace(run.figures.cans or CansFigures(), catalogue=[c.__dict__ for c in cans])
     return cans
 
 
@@ -208,7 +209,7 @@ def _snap_to_catalogue(run: Run, dcfg, layers: Layers, solve) -> Layers:
     snapped = solve(dcfg.model_validate({**dcfg.model_dump(), **update}))
     before = float(layers.info.get("rmse", float("nan")))
     after = float(snapped.info.get("rmse", float("nan")))
-    run.figures.setdefault("cans", {})["snap"] = {
+    snap = {
         "paints": paint_snap,
         "primer": primer_snap,
         "rmse_solved": before,
@@ -216,14 +217,15 @@ def _snap_to_catalogue(run: Run, dcfg, layers: Layers, solve) -> Layers:
         "rmse_cost": after - before,
         "de2000_mean_shift": float(sum(r["delta_e2000"] for r in paint_snap) / len(paint_snap)),
     }
+    run.figures.cans = replace(run.figures.cans or CansFigures(), snap=snap)
     log.info("paints: snapped to the catalogue, composite RMSE %.2f → %.2f (0-255 units)", before, after)
     return snapped
 
 
-def can_names(figures: dict) -> dict[str, str]:
+def can_names(figures: Figures) -> dict[str, str]:
     """``{hex: can label}`` of every can this job knows (its can list and catalogue)."""
     from ..decompose import paints
 
-    known = figures.get("cans", {})
-    rows = [*known.get("list", []), *known.get("catalogue", [])]
+    known = figures.cans or CansFigures()
+    rows = [*(known.can_list or []), *(known.catalogue or [])]
     return paints.names_by_hex([paints.Can(**r) for r in rows])
