@@ -3,17 +3,27 @@
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING, TypeVar
 
 from ..colour import to_hex
-from ..config import JobConfig
+from ..config import DecomposeConfig, HardConfig, JobConfig
 from ..errors import ConfigError, UserError
 from ..figures import CansFigures, DecomposeFigures, Figures
 from ..model import Layers, Picture
 from ..output import plain as _plain
 from ..record import Run
 from .names import LAYERS_NPZ, layer_stem
+
+if TYPE_CHECKING:
+    from ..decompose.paints import Can
+    from ..decompose.sprayed import PlateReach
+    from ..decompose.tiled import TilePlan
+
+#: A config section with a palette that may name a can list (the decomposition's or hard mode's).
+Section = TypeVar("Section", DecomposeConfig, HardConfig)
 
 log = logging.getLogger(__name__)
 
@@ -38,7 +48,7 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
             try:
                 tiles = _decompose_tiles(run, picture)
 
-                def solve(section) -> Layers:
+                def solve(section: DecomposeConfig) -> Layers:
                     if tiles is None:
                         return dec.decompose(
                             picture, section, run.rng_for("decompose"), progress=progress, reach=reach
@@ -80,7 +90,7 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
     return layers
 
 
-def _decompose_tiles(run: Run, picture: Picture):
+def _decompose_tiles(run: Run, picture: Picture) -> TilePlan | None:
     """The decomposition's tiles for a big picture (None: solved whole), checked against the memory per task."""
     from .. import compute
     from ..decompose import tiled
@@ -105,7 +115,7 @@ def _decompose_tiles(run: Run, picture: Picture):
     return tiles
 
 
-def plate_reach(cfg: JobConfig):
+def plate_reach(cfg: JobConfig) -> PlateReach:
     """What this job's plates can spray (:class:`stencil_cad.decompose.sprayed.PlateReach`), for ranking starts.
 
     The darkest tone is the densest hole pattern the rules allow at the most passes (or the paper
@@ -135,7 +145,14 @@ def plate_reach(cfg: JobConfig):
     )
 
 
-def _decompose_tiled(run: Run, picture: Picture, tiles, progress, cfg=None, reach=None) -> Layers:
+def _decompose_tiled(
+    run: Run,
+    picture: Picture,
+    tiles: TilePlan,
+    progress: Callable[[int, float], None],
+    cfg: DecomposeConfig | None = None,
+    reach: PlateReach | None = None,
+) -> Layers:
     """Colours on a small copy of the picture, then the opacities tile by tile as tasks.
 
     ``cfg`` is the decompose section to solve with (defaults to the job's; a can list or the
@@ -154,7 +171,7 @@ def _decompose_tiled(run: Run, picture: Picture, tiles, progress, cfg=None, reac
     return tiled.assemble(coarse, tiles, results, picture.mm_per_px)
 
 
-def _with_can_list(run: Run, section, where: str):
+def _with_can_list(run: Run, section: Section, where: str) -> Section:
     """A config section whose palette CSV (a can list) is replaced by its colours; the cans are noted."""
     from ..decompose import paints
 
@@ -169,7 +186,7 @@ def _with_can_list(run: Run, section, where: str):
     return section.model_copy(update={"palette": hexes if where.startswith("decompose") else list(hexes)})
 
 
-def _catalogue(run: Run) -> list:
+def _catalogue(run: Run) -> list[Can]:
     from ..decompose import paints
 
     catalogue = run.cfg.paints.catalogue
@@ -182,7 +199,9 @@ def _catalogue(run: Run) -> list:
     return cans
 
 
-def _snap_to_catalogue(run: Run, dcfg, layers: Layers, solve) -> Layers:
+def _snap_to_catalogue(
+    run: Run, dcfg: DecomposeConfig, layers: Layers, solve: Callable[[DecomposeConfig], Layers]
+) -> Layers:
     """Snap the solved paints (and an 'auto' primer) to their nearest cans and solve the opacities again.
 
     ``solve(section)`` decomposes the picture with a decompose section (whole or in tiles).

@@ -15,6 +15,7 @@ from ..errors import UserError
 from ..exchange.png import png_bytes
 from ..figures import ComputeFigures, PictureFigures, PlateFigures
 from ..model import DotSet, Layers, Picture
+from ..mural import TileGrid
 from ..output import OutputDir
 from ..record import Run
 from . import tiles
@@ -85,7 +86,7 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
     return finish(run, "run")
 
 
-def plan_mural(run: Run, picture_mm: tuple[float, float], shape_px: tuple[int, int]):
+def plan_mural(run: Run, picture_mm: tuple[float, float], shape_px: tuple[int, ...]) -> TileGrid:
     """Tile the picture for the bed (one tile when it fits) and check every part fits, before any work."""
     from . import tiles
 
@@ -94,7 +95,7 @@ def plan_mural(run: Run, picture_mm: tuple[float, float], shape_px: tuple[int, i
     return grid
 
 
-def fit_thickness(run: Run, grid) -> JobConfig:
+def fit_thickness(run: Run, grid: TileGrid) -> JobConfig:
     """Fill the plate thickness in for the plates the tiling plans (when the config leaves it to the process).
 
     The config chose it for the plate size it knew (:meth:`JobConfig.fit_plate_thickness`); the picture's
@@ -242,8 +243,8 @@ def build_any(
     layers: Layers,
     dotsets: list[DotSet],
     picture_mm: tuple[float, float],
-    grid,
-    picture=None,
+    grid: TileGrid,
+    picture: Picture | None = None,
     simulate: bool = True,
 ) -> None:
     """Build (and simulate): one plate per layer, or per tile and layer for a mural."""

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..config import JobConfig
+from ..config import JobConfig, SprayConfig
 from ..figures import DarkEnd, LayerStipple, LayerWindows
 from ..model import DotSet, Layers, Picture, coat_contrast
 from ..mural import TileGrid
@@ -89,7 +90,7 @@ def stage_stipple(
     return sets
 
 
-def layer_jobs(cfg: JobConfig, sprays: list) -> list[JobConfig]:
+def layer_jobs(cfg: JobConfig, sprays: Sequence[SprayConfig]) -> list[JobConfig]:
     """The job config each layer is stippled under: ``cfg`` with the layer's spray settings."""
     return [cfg if sp is cfg.spray else cfg.model_copy(update={"spray": sp}) for sp in sprays]
 
