@@ -273,7 +273,7 @@ def _settings_fields(cfg) -> dict:
     return {
         "process": st.process.value,
         "tone": st.tone.value,
-        "calibrate": sp.calibrate.value if st.tone.value == "calibrated" else "n/a (linear tone)",
+        "calibrate": sp.calibrate.value if st.tone.value == "response" else "n/a (linear tone)",
         "spray_model": sp.model.value,
         "spray_time": sp.spray_time,
         "hole_min_r_mm": st.resolved_hole_min_r_mm,

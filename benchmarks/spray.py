@@ -121,7 +121,7 @@ def _stipple_all(layers, cfg, density_of=None):
                 stipple_layer(
                     alpha,
                     layers.mm_per_px,
-                    st.model_copy(update={"tone": "calibrated"}),
+                    st.model_copy(update={"tone": "response"}),
                     np.random.default_rng(cfg.seed + i),
                     density=density_of(i),
                 )
@@ -159,7 +159,7 @@ def _example_case() -> dict:
 
 
 def _calibration_row(image: str, cfg, pic, layers) -> dict:
-    from stencil_cad.simulate.tone import calibrated_tone_for
+    from stencil_cad.simulate.tone import response_tone_for
 
     t0 = time.perf_counter()
     lin = _stipple_all(layers, cfg)
@@ -175,7 +175,7 @@ def _calibration_row(image: str, cfg, pic, layers) -> dict:
     scores_lin = sim.score(pic.rgb, r_lin.composite)
     for mode in ("dots", "spray_time"):
         job = cfg.model_copy(update={"spray": cfg.spray.model_copy(update={"calibrate": mode})})
-        choices = [calibrated_tone_for(a, layers.mm_per_px, job) for a in layers.alphas]
+        choices = [response_tone_for(a, layers.mm_per_px, job) for a in layers.alphas]
         dots = _stipple_all(layers, job, density_of=lambda i, c=choices: c[i].density)
         res = sim.simulate(layers, dots, job.spray, spray_times=[c.spray_time for c in choices])
         key = "calibrated" if mode == "dots" else "calibrated_spray_time"
@@ -213,7 +213,7 @@ def _calibration_case():
 def _standoff_case():
     from stencil_cad.config.io import load_config
     from stencil_cad.imaging import example_config_path
-    from stencil_cad.simulate import calibrated_tone_for
+    from stencil_cad.simulate import response_tone_for
     from stencil_cad.simulate.physical import SprayGeometry
 
     base = load_config(example_config_path())
@@ -224,7 +224,7 @@ def _standoff_case():
         }
     )
     pic, layers = _example_layers(cfg)
-    choices = [calibrated_tone_for(a, layers.mm_per_px, cfg) for a in layers.alphas]
+    choices = [response_tone_for(a, layers.mm_per_px, cfg) for a in layers.alphas]
     dots = _stipple_all(layers, cfg, density_of=lambda i: choices[i].density)
     passes = [c.spray_time for c in choices]
     for g in (6.0, 15.0):

@@ -304,7 +304,7 @@ def _card(args) -> int:
         out.abort()
         raise
     if not args.quiet:
-        c = run.figures["card"]
+        c = run.figures.card or {}
         ok = c["plate"].get("valid") and all(w.get("valid") for w in c["walls"])
         print(
             f"stencil-cad: calibration card → {args.out}/ ({len(files)} files, {time.perf_counter() - t0:.1f} s)\n"

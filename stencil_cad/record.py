@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from . import interrupts
+from .figures import Figures
 
 if TYPE_CHECKING:
     from .compute import Executor
@@ -34,7 +35,8 @@ class Run:
     quiet: bool = False
     executor: Executor | None = None
     times: dict[str, Any] = field(default_factory=dict[str, Any])
-    figures: dict[str, Any] = field(default_factory=dict[str, Any])
+    #: What each stage recorded, typed per stage; written as the manifest's stage sections.
+    figures: Figures = field(default_factory=Figures)
     summary: list[Any] = field(default_factory=list[Any])
     #: The plate template in use: ``{"path", "sha256", "builtin"}`` (None before it is checked).
     template: dict[str, Any] | None = None

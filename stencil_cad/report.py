@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .config import Mode
 
 if TYPE_CHECKING:
+    from .figures import BuildFigures, Figures, LayerProfile, MuralFigures, SimulateFigures
     from .record import Run
 
 
@@ -25,27 +27,27 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
     lines = [f"stencil-cad: {run.cfg.name} → {out_path}/ ({len(files)} files)"]
     lines += _layer_lines(run, f)
     lines += _build_lines(run, f)
-    if (f.get("plate") or {}).get("thickness_reason"):
-        lines.append(f"  thickness {f['plate']['thickness_reason']}")
-    sim = f.get("simulate")
-    if sim:
+    if f.plate is not None and f.plate.thickness_reason:
+        lines.append(f"  thickness {f.plate.thickness_reason}")
+    sim = f.simulate
+    if sim is not None:
         lines += _seen_lines(run, sim)
-    where = f.get("compute")
-    if where and where.get("kind") != "in_process":
+    where = f.compute
+    if where is not None and where.kind != "in_process":
         place = (
-            f"local cluster of {where['workers']} workers"
-            if where["kind"] == "local"
-            else f"cluster at {where['address']}"
+            f"local cluster of {where.workers} workers"
+            if where.kind == "local"
+            else f"cluster at {where.address}"
         )
-        lines.append(f"  compute   {place}, {where.get('tasks', 0)} tasks")
-    for w in (sim or {}).get("walls", []):
+        lines.append(f"  compute   {place}, {where.tasks or 0} tasks")
+    for w in (sim.walls or []) if sim is not None else []:
         lines.append(
             f"  wall {w['standoff_mm']:g} mm  ΔE2000 mean {_fmt(w.get('de2000_mean'))}, "
             f"PSNR {_fmt(w.get('psnr'))} dB, SSIM {_fmt(w.get('ssim'))}  ({w['file']})"
         )
-    for step in f.get("spraying", []):
-        lines.append(f"  {step['text']}")
-    lines += _can_lines(run, f.get("spray_profiles") or [])
+    for step in f.spraying or ():
+        lines.append(f"  {step.text}")
+    lines += _can_lines(run, f.spray_profiles or ())
     times = ", ".join(f"{k} {v:.1f} s" for k, v in run.times.items())
     lines.append(f"  time      {times}")
     lines += _folder_lines(run, files)
@@ -54,7 +56,7 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
     return "\n".join(lines)
 
 
-def _can_lines(run: Run, rows: list) -> list[str]:
+def _can_lines(run: Run, rows: Sequence[LayerProfile]) -> list[str]:
     """The can each layer sprayed with (when the job keys profiles to paints), and the unmeasured ones."""
     from .instructions.cans import layer_can, unmeasured_warning, uses_profiles
 
@@ -62,80 +64,75 @@ def _can_lines(run: Run, rows: list) -> list[str]:
         return []
     lines = []
     if uses_profiles(rows):
-        lines.append("  cans      " + "; ".join(f"layer {r['layer']} {layer_can(r)}" for r in rows))
+        lines.append("  cans      " + "; ".join(f"layer {r.layer} {layer_can(r)}" for r in rows))
     warning = unmeasured_warning(rows)
     if warning:
         lines.append(f"  warning   {warning}")
     return lines
 
 
-def _layer_lines(run: Run, f: dict) -> list[str]:
+def _layer_lines(run: Run, f: Figures) -> list[str]:
     """The picture, the decomposition and each layer's holes and dark end."""
     lines: list[str] = []
-    pic = f.get("picture")
-    if pic:
+    pic = f.picture
+    if pic is not None:
         lines.append(
-            f"  picture   {pic['width_mm']:g} × {pic['height_mm']:g} mm, {pic['pixels'][1]}×{pic['pixels'][0]} px "
-            f"({pic['source']})"
+            f"  picture   {pic.width_mm:g} × {pic.height_mm:g} mm, {pic.pixels[1]}×{pic.pixels[0]} px ({pic.source})"
         )
-    dec = f.get("decompose")
-    if dec:
-        rmse = dec.get("rmse")
+    dec = f.decompose
+    if dec is not None:
+        rmse = dec.solver.get("rmse")
         lines.append(
-            f"  layers    {dec['layers']} on primer {dec['primer']}: {' '.join(dec['colours'])}"
+            f"  layers    {dec.layers} on primer {dec.primer}: {' '.join(dec.colours)}"
             + (
-                f"  (composite RMSE {_fmt(rmse)} /255, {dec['iterations']} iterations)"
+                f"  (composite RMSE {_fmt(rmse)} /255, {dec.iterations} iterations)"
                 if rmse is not None
                 else ""
             )
         )
-    for row in f.get("stipple", []):
+    for row in f.stipple or ():
         lines.append(
-            f"  layer {row['layer']:02d}  {row['dots']:6d} holes  smallest web {_fmt(row.get('min_web_mm'))} mm"
-            f"  removed {row.get('removed', 0)}  merged {row.get('merged', 0)}  nudged {row.get('nudged', 0)}"
-            + (
-                f"  {run.cfg.spray.amount_unit} {_fmt(row['spray_time'])}"
-                if row.get("spray_time") is not None
-                else ""
-            )
+            f"  layer {row.layer:02d}  {row.dots:6d} holes  smallest web {_fmt(row.report.get('min_web_mm'))} mm"
+            f"  removed {row.count('removed')}  merged {row.count('merged')}  nudged {row.count('nudged')}"
+            + (f"  {run.cfg.spray.amount_unit} {_fmt(row.spray_time)}" if row.spray_time is not None else "")
         )
-    for k, row in enumerate(f.get("dark_end", [])):
-        if row["unreachable_share"] >= 0.005:
+    for k, end in enumerate(f.dark_end or ()):
+        if end.unreachable_share >= 0.005:
             lines.append(
-                f"  layer {k + 1:02d}  {100 * row['unreachable_share']:.0f} % of its pixels are darker than this "
-                f"stencil can spray (darkest {row['darkest_sprayable']:.2f}; short by {row['unreachable_by']:.2f} "
+                f"  layer {k + 1:02d}  {100 * end.unreachable_share:.0f} % of its pixels are darker than this "
+                f"stencil can spray (darkest {end.darkest_sprayable:.2f}; short by {end.unreachable_by:.2f} "
                 "on average)"
             )
     return lines
 
 
-def _build_lines(run: Run, f: dict) -> list[str]:
+def _build_lines(run: Run, f: Figures) -> list[str]:
     """Hard-mode figures, then every plate and wall and whether each solid is valid."""
     lines: list[str] = []
-    hard = f.get("hard")
+    hard = f.hard
     if hard:
         lines.append(
             "  hard      "
             + ", ".join(f"{k} {_fmt(v)}" for k, v in hard.items() if not isinstance(v, (list, dict)))
         )
-    build = f.get("build")
-    if build and any("tile" in p for p in build["plates"]):
-        lines += _mural_lines(f)
-    elif build:
-        ok = all(p.get("valid", False) for p in build["plates"])
-        for p in build["plates"]:
+    build = f.build
+    if build is not None and build.tiled:
+        lines += _mural_lines(build, f.mural)
+    elif build is not None:
+        ok = all(p.valid for p in build.plates)
+        for p in build.plates:
             lines.append(
-                f"  plate {p['layer']:02d}  {'valid' if p.get('valid') else 'INVALID'}, {p.get('n_solids', '?')} solid, "
+                f"  plate {p.layer:02d}  {'valid' if p.valid else 'INVALID'}, {p.get('n_solids', '?')} solid, "
                 f"{_kind(run)} {p.get('hole_count', 'not counted')}, volume error {_fmt(p.get('rel_error'))}"
             )
         lines.append(
             "  walls     "
             + ", ".join(
-                f"{w['file']} (stand-off {w['standoff_mm']:g} mm, {'valid' if w.get('valid') else 'INVALID'})"
-                for w in build["walls"]
+                f"{w.file} (stand-off {w.standoff_mm:g} mm, {'valid' if w.valid else 'INVALID'})"
+                for w in build.walls
             )
         )
-        ok = ok and all(w.get("valid", False) for w in build["walls"])
+        ok = ok and all(w.valid for w in build.walls)
         lines.append(f"  checks    {'all solids valid' if ok else 'SOME SOLIDS FAILED — see manifest.json'}")
     return lines
 
@@ -171,16 +168,16 @@ def _kind(run) -> str:
     return "cut-outs" if run.cfg.mode == Mode.hard else "holes"
 
 
-def _cutout_advice(f: dict) -> str:
+def _cutout_advice(f: Figures) -> str:
     """Hard mode in plain words: the cut-outs per plate and their sizes; hard edges read from any distance."""
     rows = []
-    for p in (f.get("build") or {}).get("plates", []):
+    for p in f.build.plates if f.build is not None else ():
         c = p.get("cutouts") or {}
         if c.get("count"):
             rows.append(
-                f"plate {p['layer']:02d} {c['count']} from {c['span_min_mm']:g} to {c['span_max_mm']:g} mm across"
+                f"plate {p.layer:02d} {c['count']} from {c['span_min_mm']:g} to {c['span_max_mm']:g} mm across"
             )
-    hard = f.get("hard") or {}
+    hard = f.hard or {}
     bridge = hard.get("bridge_drawn_mm")
     return (
         "; ".join(rows or ["no cut-outs"])
@@ -189,20 +186,20 @@ def _cutout_advice(f: dict) -> str:
     )
 
 
-def _seen_lines(run: Run, sim: dict) -> list[str]:
+def _seen_lines(run: Run, sim: SimulateFigures) -> list[str]:
     """The simulation's scores: pixel by pixel, as a viewer sees them, by can, and the dots or cut-outs."""
     lines = [
-        f"  spray     ΔE2000 mean {_fmt(sim.get('de2000_mean'))}, p95 {_fmt(sim.get('de2000_p95'))}, "
-        f"PSNR {_fmt(sim.get('psnr'))} dB, SSIM {_fmt(sim.get('ssim'))}"
+        f"  spray     ΔE2000 mean {_fmt(sim.score('de2000_mean'))}, p95 {_fmt(sim.score('de2000_p95'))}, "
+        f"PSNR {_fmt(sim.score('psnr'))} dB, SSIM {_fmt(sim.score('ssim'))}"
     ]
-    if sim.get("scielab") is None:
+    if sim.score("scielab") is None:
         return lines
-    d = sim["view_distance_m"]
+    d = sim.view_distance_m
     lines.append(
-        f"  seen      S-CIELAB ΔE {_fmt(sim['scielab'])} at {d:g} m, {_fmt(sim['scielab_2x'])} at {2 * d:g} m"
+        f"  seen      S-CIELAB ΔE {_fmt(sim.score('scielab'))} at {d:g} m, {_fmt(sim.score('scielab_2x'))} at {2 * d:g} m"
         " (what a viewer sees; pixel ΔE2000 above scores every dot)"
     )
-    by_can = sim.get("scielab_by_can") or {}
+    by_can = sim.scielab_by_can or {}
     if len(by_can) > 1:
         lines.append(
             f"  can       S-CIELAB at {d:g} m between {_fmt(min(by_can.values()))} and "
@@ -216,12 +213,12 @@ def _seen_lines(run: Run, sim: dict) -> list[str]:
     return lines
 
 
-def _dots_advice(run, sim: dict, distance_m: float) -> str:
+def _dots_advice(run: Run, sim: SimulateFigures, distance_m: float) -> str:
     """Plain words: do the smallest holes show as dots from the viewing distance, and from how far they blend."""
-    hole = 2.0 * sim.get("dots_hole_r_mm", 0.0)
-    blend = sim.get("dots_blend_m")
-    pic = run.figures.get("picture", {})
-    size = f"this {pic['width_mm']:g} mm picture" if pic else "the picture"
+    hole = 2.0 * (sim.score("dots_hole_r_mm") or 0.0)
+    blend = sim.score("dots_blend_m")
+    pic = run.figures.picture
+    size = f"this {pic.width_mm:g} mm picture" if pic is not None else "the picture"
     process = run.cfg.stipple.process.value
     finer = " — or use resin or laser holes (stipple.process: sla or laser)" if process == "fdm" else ""
     if blend is None:
@@ -277,18 +274,20 @@ def _wrap(names: list[str], width: int = 100) -> str:
     return "\n            ".join(out)
 
 
-def _mural_lines(f: dict) -> list[str]:
+def _mural_lines(build: BuildFigures, m: MuralFigures | None) -> list[str]:
     """The build and mural part of the summary for a tiled job."""
-    build, m = f["build"], f.get("mural", {})
-    plates, walls = build["plates"], build["walls"]
-    ok = all(p.get("valid", False) for p in plates) and all(w.get("valid", False) for w in walls)
-    tiles = m.get("tiles", [])
+    plates, walls = build.plates, build.walls
+    ok = all(p.valid for p in plates) and all(w.valid for w in walls)
+    built = m.built if m is not None else None
+    bed = (m.bed if m is not None else None) or {}
+    tiles = built.tiles if built is not None else []
+    holes = (built.holes_total, built.holes_global, built.union_check_rules) if built else (None, None, None)
     lines = [
-        f"  mural     {len(tiles)} tiles, {len(plates)} plates, {len(walls)} walls on {m.get('bed', {}).get('name')}; "
-        f"holes {m.get('holes_total')} (global {m.get('holes_global')}); rules on the union: {m.get('union_check_rules')}",
+        f"  mural     {len(tiles)} tiles, {len(plates)} plates, {len(walls)} walls on {bed.get('name')}; "
+        f"holes {holes[0]} (global {holes[1]}); rules on the union: {holes[2]}",
         f"  checks    {'all solids valid' if ok else 'SOME SOLIDS FAILED — see manifest.json'}",
     ]
-    sim = m.get("simulation")
+    sim = m.simulation if m is not None else None
     if sim:
         lines.append(
             f"  tiles     simulated mural vs global: max difference {sim['tiled_vs_global_max_abs']:.2g}"
@@ -300,7 +299,6 @@ def _mural_lines(f: dict) -> list[str]:
                 f"PSNR {c['cost_psnr']:+.3g} dB, SSIM {c['cost_ssim']:+.3g}"
             )
     lines.append("  map       mural_map.png (tile grid, positions, order of work)")
-    bed = m.get("bed") or {}
     if bed:
         from .slicing import place
 

@@ -240,8 +240,8 @@ class JobConfig(StrictModel):
 
     @property
     def chooses_spray_time(self) -> bool:
-        """Whether each layer gets its own spray time: calibrated tone and ``spray.calibrate: spray_time``."""
-        return self.stipple.is_calibrated and self.spray.calibrate == Calibrate.spray_time
+        """Whether each layer gets its own spray time: response tone and ``spray.calibrate: spray_time``."""
+        return self.stipple.tone_from_response and self.spray.calibrate == Calibrate.spray_time
 
     def layer_spray(self, number: int, hex_code: str, name: str | None = None) -> SprayConfig:
         """The spray settings layer ``number`` sprays with: its own profile's constants (``spray.profile``).

@@ -260,7 +260,7 @@ class SprayConfig(StrictModel):
     calibrate: Calibrate = Field(
         Calibrate.spray_time,
         description=(
-            "Used when stipple.tone is calibrated. Choices: none (keep the paper's linear density, "
+            "Used when stipple.tone is response. Choices: none (keep the paper's linear density, "
             "density proportional to opacity), dots (keep spray_time and derive the hole density and count "
             "from the spray response), spray_time (also choose each layer's spray time, from 1/64 to 8 times "
             "spray_time, that minimises the layer's predicted error in composite colour: each pixel's opacity "

@@ -25,12 +25,15 @@ smaller than 1 mm across clogs with paint.
 from __future__ import annotations
 
 import enum
+import logging
 from collections.abc import Sequence
 
 from pydantic import Field, field_validator, model_validator
 
 from .base import StrictModel
 from .rules import HOLE_FLOOR_MM, DesignRules, as_rect
+
+log = logging.getLogger(__name__)
 
 
 class Process(str, enum.Enum):
@@ -45,7 +48,12 @@ class Tone(str, enum.Enum):
     """How a layer's opacity becomes the stippling density."""
 
     linear = "linear"
-    calibrated = "calibrated"
+    response = "response"
+
+
+#: Old values of ``stipple.tone`` read for one release (old -> new): the tone mode was called
+#: ``calibrated``, a word that also names the photo-fit command ``stencil-cad calibrate``.
+TONE_RENAMED: dict[str, Tone] = {"calibrated": Tone.response}
 
 
 #: Preset values per process: (hole_min_r_mm, web_mm, edge_margin_mm). The edge margin is 0:
@@ -184,10 +192,10 @@ class StippleConfig(StrictModel):
         description="No hole where the layer opacity is below this value. Range [0, 1).",
     )
     tone: Tone = Field(
-        Tone.calibrated,
+        Tone.response,
         description=(
-            "Opacity-to-density curve. Choices: calibrated (the density the spray simulator derives, the "
-            "best the tool knows), linear (open area proportional to opacity, as in Secord 2002 and the "
+            "Opacity-to-density curve. Choices: response (the density the spray simulator derives from the "
+            "spray response, the best the tool knows; called calibrated before), linear (open area proportional to opacity, as in Secord 2002 and the "
             "paper)."
         ),
     )
@@ -243,6 +251,20 @@ class StippleConfig(StrictModel):
         ),
     )
 
+    @field_validator("tone", mode="before")
+    @classmethod
+    def _renamed_tone(cls, value: object) -> object:
+        """Read a tone by its old name and say so (``calibrated`` is now ``response``)."""
+        new = TONE_RENAMED.get(value) if isinstance(value, str) else None
+        if new is None:
+            return value
+        log.warning(
+            "stipple.tone: %s is now called %s; the old value is read until the next release, change it",
+            value,
+            new.value,
+        )
+        return new
+
     @field_validator("keepouts_mm")
     @classmethod
     def _check_keepouts(cls, value: list[tuple[float, float, float, float]]):
@@ -259,9 +281,9 @@ class StippleConfig(StrictModel):
         return PROCESS_PRESETS[self.process][0]
 
     @property
-    def is_calibrated(self) -> bool:
-        """True when the density comes from the spray response (``tone: calibrated``)."""
-        return self.tone == Tone.calibrated
+    def tone_from_response(self) -> bool:
+        """True when the density comes from the spray response (``tone: response``)."""
+        return self.tone == Tone.response
 
     def design_rules(self, width_mm: float, height_mm: float, keepouts: Sequence = ()) -> DesignRules:
         """The design rules of a hole set over a picture area (process presets resolved).

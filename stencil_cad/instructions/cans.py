@@ -6,8 +6,9 @@ Read from the manifest's ``spray_profiles`` (one row per layer, see
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
-from typing import Any
+from collections.abc import Sequence
+
+from ..figures import LayerProfile
 
 __all__ = ["layer_can", "unmeasured_warning", "uses_profiles"]
 
@@ -18,30 +19,29 @@ MEASURE = (
 )
 
 
-def uses_profiles(rows: Sequence[Mapping[str, Any]] | None) -> bool:
+def uses_profiles(rows: Sequence[LayerProfile] | None) -> bool:
     """Whether any layer sprays with a spray profile file."""
-    return any(r.get("profile") for r in rows or [])
+    return any(r.profile for r in rows or [])
 
 
-def layer_can(row: Mapping[str, Any]) -> str:
+def layer_can(row: LayerProfile) -> str:
     """One layer's can in words: ``profile black.yaml (measured: Montana Black)`` or ``spray.can, not measured``."""
-    prof = row.get("profile")
-    paint = str(row.get("paint") or "")
+    paint = str(row.paint or "")
     named = f": {paint}" if paint and paint != "unmeasured" else ""
-    if prof:
-        state = "measured" if row.get("measured") else "not measured"
-        return f"profile {prof} ({state}{named})"
-    return "spray.can (measured" + named + ")" if row.get("measured") else "spray.can, not measured"
+    if row.profile:
+        state = "measured" if row.measured else "not measured"
+        return f"profile {row.profile} ({state}{named})"
+    return "spray.can (measured" + named + ")" if row.measured else "spray.can, not measured"
 
 
 def _numbers(ks: Sequence[int]) -> str:
     return ("layer " if len(ks) == 1 else "layers ") + ", ".join(str(k) for k in ks)
 
 
-def unmeasured_warning(rows: Sequence[Mapping[str, Any]] | None) -> str | None:
+def unmeasured_warning(rows: Sequence[LayerProfile] | None) -> str | None:
     """The warning for the layers that spray with unmeasured can constants, or None when every one is measured."""
     rows = list(rows or [])
-    bad = [int(r.get("layer", 0)) for r in rows if not r.get("measured")]
+    bad = [r.layer for r in rows if not r.measured]
     if not bad:
         return None
     whole = len(bad) == len(rows)

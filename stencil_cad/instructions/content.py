@@ -20,6 +20,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from ..figures import LayerProfile
 from . import make, mural
 from .cans import layer_can, unmeasured_warning, uses_profiles
 
@@ -239,11 +240,10 @@ def _steps(manifest: Mapping[str, Any], mode: str, names: set[str]) -> list[Step
         if isinstance(r, Mapping)
     }
     # The can each layer sprays with, named when the job keys spray profiles to its paints.
-    cans = manifest.get("spray_profiles") or []
+    cans = _profiles(manifest)
     if _physical(manifest) and uses_profiles(cans):
         for row in cans:
-            k = int(row.get("layer", 0))
-            how[k] = (how.get(k, "") + f"; can: {layer_can(row)}").lstrip("; ")
+            how[row.layer] = (how.get(row.layer, "") + f"; can: {layer_can(row)}").lstrip("; ")
     steps = []
     for k, o in enumerate(order):
         plate = o["plate"]
@@ -378,6 +378,12 @@ def _snap_lines(manifest: Mapping[str, Any]) -> list[str]:
     return snap
 
 
+def _profiles(manifest: Mapping[str, Any]) -> list[LayerProfile]:
+    """The manifest's ``spray_profiles``: the spray settings each layer sprayed with."""
+    rows = manifest.get("spray_profiles") or []
+    return [LayerProfile.from_json(r) for r in rows if isinstance(r, Mapping)]
+
+
 def sheet_from_manifest(
     manifest: Mapping[str, Any], tiles: Sequence[Mapping[str, Any]] | None = None
 ) -> Sheet:
@@ -414,7 +420,7 @@ def sheet_from_manifest(
     warnings = [str(w) for w in (_val(manifest, "decompose", "warnings", default=[]) or [])]
     warnings += [str(w) for w in (_val(manifest, "hard", "warnings", default=[]) or [])]
     warnings += _dark_end_warnings(manifest)
-    unmeasured = unmeasured_warning(manifest.get("spray_profiles")) if _physical(manifest) else None
+    unmeasured = unmeasured_warning(_profiles(manifest)) if _physical(manifest) else None
     warnings += [unmeasured] if unmeasured else []
     return Sheet(
         job=str(cfg.get("name", "stencil")),

@@ -41,6 +41,7 @@ from ..model import DotSet
 from . import tiling
 
 if TYPE_CHECKING:
+    from ..config import JobConfig
     from ..config.spray import SprayConfig
     from ..stipple.refine import RefineSettings
     from ..stipple.rules import DesignRules
@@ -62,7 +63,9 @@ class HoleKernels:
     spray: SprayConfig
     geometry: Any = None
 
-    def __call__(self, r_mm: np.ndarray, spray_time: float) -> tuple:
+    def __call__(
+        self, r_mm: np.ndarray, spray_time: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, str]:
         """``(sigma_mm, peak, dsigma_dr, dpeak_dr, combine)`` of holes of radii ``r_mm``."""
         from ..simulate import spray
 
@@ -134,10 +137,10 @@ class TileResult:
     index: list[np.ndarray]
     xy_mm: list[np.ndarray]
     r_mm: list[np.ndarray]
-    report: dict
+    report: dict[str, Any]
 
 
-def refine_halo_mm(cfg, eye_sigma_mm: float) -> float:
+def refine_halo_mm(cfg: JobConfig, eye_sigma_mm: float) -> float:
     """How far a tile's refinement region reaches past its core, in mm.
 
     Twice the spray's reach (:func:`stencil_cad.mural.spray_halo_mm`: a hole left out at the
@@ -277,8 +280,13 @@ def seam_pass(
 
 
 def refine_mural(
-    problem: Problem, grid: tiling.TileGrid, dotsets: list[DotSet], halo: float, tasks_map, bar=None
-) -> tuple[list[DotSet], dict]:
+    problem: Problem,
+    grid: tiling.TileGrid,
+    dotsets: list[DotSet],
+    halo: float,
+    tasks_map: tiling.TaskMap,
+    bar: tiling.Progress | None = None,
+) -> tuple[list[DotSet], dict[str, Any]]:
     """Refine a mural's holes tile by tile in four phases, then the seam pass.
 
     Args:
@@ -297,7 +305,7 @@ def refine_mural(
     from ..stipple.rules import check_rules
 
     state = [(ds.xy_mm.copy(), ds.r_mm.copy()) for ds in dotsets]
-    rows: list[dict] = []
+    rows: list[dict[str, Any]] = []
     reverted = [0] * len(dotsets)
     for phase in tiling.phases(grid):
         before = [(xy.copy(), r.copy()) for xy, r in state]
@@ -351,10 +359,10 @@ def refine_layers(
     problem: Problem,
     grid: tiling.TileGrid,
     dotsets: list[DotSet],
-    cfg,
-    tasks_map,
+    cfg: JobConfig,
+    tasks_map: tiling.TaskMap,
     progress: Callable[[int, int], None] | None = None,
-) -> tuple[list[DotSet], dict]:
+) -> tuple[list[DotSet], dict[str, Any]]:
     """Refine every layer's holes over a tiling: a 1 × 1 tiling in one piece, a mural tile by tile.
 
     Args:

@@ -5,13 +5,18 @@ See :mod:`stencil_cad.mural.tiling` for the partition and registration scheme.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import replace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..model import DotSet
 from .tiling import TileGrid
+
+if TYPE_CHECKING:
+    from ..config import SprayConfig
+    from ..simulate.physical import SprayGeometry
 
 # --------------------------------------------------------------------------- holes
 
@@ -61,7 +66,7 @@ def to_mural(tile_sets: list[DotSet], grid: TileGrid) -> DotSet:
 
 def seam_density(
     dotsets: list[DotSet], grid: TileGrid, band_mm: float = 5.0, flank_mm: float = 10.0
-) -> list[dict]:
+) -> list[dict[str, Any]]:
     """Hole density within ``band_mm`` of each seam, against the flanks beside it and the mural.
 
     Density is holes per m², all layers together. ``ratio_flank`` compares the band with the
@@ -95,7 +100,9 @@ def seam_density(
 # --------------------------------------------------------------------------- registration
 
 
-def _crossings(ring: np.ndarray, value: float, axis: int, depth: float, tol: float = 1e-7):
+def _crossings(
+    ring: np.ndarray, value: float, axis: int, depth: float, tol: float = 1e-7
+) -> list[tuple[int, np.ndarray]]:
     """Straight ring edges along ``axis`` crossed by the line ``coord[axis] = value``.
 
     Returns the first and last such edge along the other axis (the two sides of the
@@ -113,7 +120,7 @@ def _crossings(ring: np.ndarray, value: float, axis: int, depth: float, tol: flo
         return []
     pos = a[idx, other]
     picks = {int(idx[np.argmin(pos)]), int(idx[np.argmax(pos)])}
-    out = []
+    out: list[tuple[int, np.ndarray]] = []
     for i in sorted(picks):
         p = np.empty(2)
         p[axis] = value
@@ -174,7 +181,9 @@ def notched_ring(
 # --------------------------------------------------------------------------- simulation
 
 
-def _sheet_crop(sheet, shape: tuple[int, int], g: float, dx: float = 0.0, dy: float = 0.0):
+def _sheet_crop(
+    sheet: Sequence[float], shape: tuple[int, int], g: float, dx: float = 0.0, dy: float = 0.0
+) -> tuple[int, int, int, int] | None:
     """Pixel window ``(r0, r1, c0, c1)`` whose centres lie on a (shifted) sheet, or None."""
     h, w = shape
     x0, y0, x1, y1 = sheet[0] + dx, sheet[1] + dy, sheet[2] + dx, sheet[3] + dy
@@ -192,12 +201,12 @@ def simulate_tiles(
     g: float,
     tile_sets: list[list[DotSet]],
     grid: TileGrid,
-    spray_cfg,
+    spray_cfg: SprayConfig,
     spray_times: list[float],
     tail_tols: list[float],
     offset: Callable[[int, int], tuple[float, float]] | None = None,
-    geometry=None,
-    layer_sprays=None,
+    geometry: SprayGeometry | None = None,
+    layer_sprays: Sequence[SprayConfig] | None = None,
 ) -> np.ndarray:
     """Spray every tile's plates through their walls, layer by layer, on the mural's raster.
 

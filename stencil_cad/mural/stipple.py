@@ -31,9 +31,9 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -84,7 +84,7 @@ class PlaceTask:
         grid: The mural's tiles (ownership of the new holes).
         rules: The mural's design rules.
         cfg: The job config.
-        tone: The layer's tone choice (its density for ``stipple.tone: calibrated``), or None.
+        tone: The layer's tone choice (its density for ``stipple.tone: response``), or None.
         seed: The task's seed sequence (job seed, layer, tile).
     """
 
@@ -111,7 +111,7 @@ class PlaceResult:
     tile: int
     xy_mm: np.ndarray
     r_mm: np.ndarray
-    report: dict
+    report: dict[str, Any]
 
 
 def place_tile(task: PlaceTask) -> PlaceResult:
@@ -162,13 +162,20 @@ def place_tile(task: PlaceTask) -> PlaceResult:
     return PlaceResult(task.layer, task.tile, xy, r, report)
 
 
-def _free_mask(grid: tiling.TileGrid, placed: np.ndarray, bounds, shape, g: float) -> np.ndarray:
+def _free_mask(
+    grid: tiling.TileGrid,
+    placed: np.ndarray,
+    bounds: tuple[int, int, int, int],
+    shape: tuple[int, ...],
+    g: float,
+) -> np.ndarray:
     """Pixels of a region that no placed tile owns (by their centres)."""
     r0, r1, c0, c1 = bounds
     h = shape[0]
     x, y = np.meshgrid((np.arange(c0, c1) + 0.5) * g, (h - np.arange(r0, r1) - 0.5) * g)
     owner = grid.owner(np.column_stack([x.ravel(), y.ravel()])).reshape(x.shape)
-    return ~placed[owner]
+    free: np.ndarray = ~placed[owner]
+    return free
 
 
 def place_tasks(
@@ -183,7 +190,7 @@ def place_tasks(
     tones: list[ToneChoice | None],
     seeds: list[list[np.random.SeedSequence]],
     halo: float,
-):
+) -> Iterator[PlaceTask]:
     """The tasks of one phase, made as the executor consumes them (one region's crop at a time).
 
     Args:
@@ -250,7 +257,7 @@ def stipple_mural(
     grid: tiling.TileGrid,
     tones: list[ToneChoice | None],
     seeds: list[list[np.random.SeedSequence]],
-    tasks_map,
+    tasks_map: tiling.TaskMap,
 ) -> list[DotSet]:
     """Stipple every layer of a mural tile by tile in four phases (see the module's text).
 
@@ -280,7 +287,7 @@ def stipple_mural(
     layers = len(alphas)
     state = [(np.zeros((0, 2)), np.zeros(0)) for _ in range(layers)]
     placed = np.zeros(len(grid.tiles), dtype=bool)
-    reports: list[list[dict]] = [[] for _ in range(layers)]
+    reports: list[list[dict[str, Any]]] = [[] for _ in range(layers)]
     for phase in tiling.phases(grid):
         tasks = place_tasks(cfg, alphas, mm_per_px, grid, phase, placed, state, rules, tones, seeds, halo)
         new: list[list[PlaceResult]] = [[] for _ in range(layers)]
@@ -300,7 +307,7 @@ def stipple_mural(
         order = np.lexsort((xy[:, 0], -xy[:, 1], grid.owner(xy))) if len(r) else np.zeros(0, dtype=np.int64)
         xy, r = xy[order], r[order]
         check_rules(xy, r, rules)
-        report: dict = {key: sum(int(row.get(key, 0)) for row in rows) for key in _SUMMED}
+        report: dict[str, Any] = {key: sum(int(row.get(key, 0)) for row in rows) for key in _SUMMED}
         held = [row for row in rows if row["n_final"] and math.isfinite(row["e_norm"])]
         weight = sum(row["n_final"] for row in held)
         report.update(
@@ -343,28 +350,28 @@ class StippleTask:
         return self.alpha if self.closed is None else np.where(self.closed, 0.0, self.alpha)
 
 
-def layer_tone(task: StippleTask):
+def layer_tone(task: StippleTask) -> tuple[ToneChoice | None, float]:
     """``(tone choice or None, spray time)`` of one layer.
 
-    With ``stipple.tone: calibrated`` the density comes from the spray response, and with
+    With ``stipple.tone: response`` the density comes from the spray response, and with
     ``spray.calibrate: spray_time`` the layer gets its own spray time.
     """
     cfg = task.cfg
-    if not cfg.stipple.is_calibrated:
+    if not cfg.stipple.tone_from_response:
         return None, cfg.spray.amount
     from ..simulate import tone
 
     windows = None if task.windows is None else (task.windows, task.alpha)
-    choice = tone.calibrated_tone_for(task.holes_alpha(), task.mm_per_px, cfg, task.weight, windows)
+    choice = tone.response_tone_for(task.holes_alpha(), task.mm_per_px, cfg, task.weight, windows)
     if cfg.chooses_spray_time:
         return choice, float(choice.spray_time)
     return choice, cfg.spray.amount
 
 
-def stipple_task(task: StippleTask) -> tuple[DotSet, dict | None]:
+def stipple_task(task: StippleTask) -> tuple[DotSet, dict[str, Any] | None]:
     """Stipple one layer (a task): ``(holes, tone choice summary or None)``.
 
-    The spray time (:func:`layer_tone`) is in the holes' report.
+    The spray time (:func:`layer_tone`) is the holes' ``spray_time``.
     """
     from dataclasses import replace
 
@@ -376,7 +383,7 @@ def stipple_task(task: StippleTask) -> tuple[DotSet, dict | None]:
     return replace(ds, spray_time=spray_time), None if choice is None else choice.summary()
 
 
-def tone_task(task: StippleTask):
+def tone_task(task: StippleTask) -> tuple[ToneChoice | None, float]:
     """One layer's tone choice without its density map (a task): ``(choice or None, spray time)``."""
     from dataclasses import replace
 
@@ -389,8 +396,8 @@ def stipple_layers(
     alphas: np.ndarray,
     grid: tiling.TileGrid,
     seed_for: Callable[[int, int], np.random.SeedSequence],
-    tasks_map,
-) -> tuple[list[DotSet], list[dict]]:
+    tasks_map: tiling.TaskMap,
+) -> tuple[list[DotSet], list[dict[str, Any]]]:
     """Every layer's holes over a tiling, each with its spray time in its report.
 
     A 1 × 1 tiling stipples each layer in one piece, one task per layer (so does
@@ -410,7 +417,7 @@ def stipple_layers(
     if not tasks:
         return [], []
     cfg = tasks[0].cfg
-    tones: list[dict] = []
+    tones: list[dict[str, Any]] = []
     if len(grid.tiles) == 1 or cfg.stipple.dots is not None:
         sets = []
         for ds, tone_summary in tasks_map(stipple_task, tasks, "stipple"):

@@ -38,8 +38,9 @@ Kernel-free: no build123d here; :mod:`stencil_cad.cad.registration` cuts the wal
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -48,6 +49,25 @@ from ..errors import UserError
 
 if TYPE_CHECKING:
     from ..config import JobConfig
+
+
+class TaskMap(Protocol):
+    """Runs a task function over items and yields the results in item order (the job's executor's ``map``)."""
+
+    def __call__(
+        self, fn: Callable[[Any], Any], items: Iterable[Any], desc: str, count: int | None = None
+    ) -> Iterator[Any]:
+        """Apply ``fn`` to every item; yield the results in item order."""
+        ...
+
+
+class Progress(Protocol):
+    """A progress bar: told each time a unit of work is done."""
+
+    def update(self, n: int = 1) -> object:
+        """Count ``n`` more units done."""
+        ...
+
 
 #: A hole's spray is cut where its paint density falls below this fraction of the
 #: peak; the halo is that distance for the largest hole.

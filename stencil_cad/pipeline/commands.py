@@ -10,6 +10,7 @@ import numpy as np
 
 from ..config import JobConfig
 from ..errors import OutputError, UserError
+from ..figures import SimulateFigures
 from ..model import Layers, Picture
 from ..output import plain as _plain
 from ..record import Run
@@ -121,7 +122,7 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
         heights = [fp.standoff_mm for fp in card.footprints]
         _card_sheet(run, card, paper)
     size = ring.max(axis=0) - ring.min(axis=0)
-    run.figures["card"] = {
+    run.figures.card = {
         "holes": len(card.dots),
         "plate_mm": [round(float(v), 2) for v in size],
         "standoffs_mm": heights,
@@ -176,9 +177,11 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
         sprays = _hard_sprays(run, colours)
         amounts = [float(sp.amount) for sp in sprays]
         write_spray_order(run, hard.primer, colours, amounts)
-    run.figures["hard"] = _plain(hard.report)
-    run.figures["hard"]["warnings"] = [str(w) for w in hard.report.get("warnings", [])]
-    run.figures["hard"]["per_layer"] = [_plain(r) for r in hard.report.get("per_layer", [])]
+    run.figures.hard = {
+        **_plain(hard.report),
+        "warnings": [str(w) for w in hard.report.get("warnings", [])],
+        "per_layer": [_plain(r) for r in hard.report.get("per_layer", [])],
+    }
     layers = Layers(
         primer=hard.primer,
         colours=np.array([cl.colour for cl in hard.cut_layers]).reshape(-1, 3),
@@ -195,8 +198,8 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
         run.out.write_png("simulated.png", comp)
         write_previews(run, picture.rgb, hardstencil.render_ideal(hard), comp, picture.mm_per_px, scores)
         write_steps(run, hard.primer, hard.colours, alphas, picture.mm_per_px)
-    run.figures["simulate"] = _plain(scores)
-    run.figures["spraying"] = spraying_steps(cfg, layers, amounts)
+    run.figures.simulate = SimulateFigures(_plain(scores))
+    run.figures.spraying = spraying_steps(cfg, layers, amounts)
     return finish(run, "hard")
 
 

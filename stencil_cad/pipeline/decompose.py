@@ -3,15 +3,27 @@
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING, TypeVar
 
 from ..colour import to_hex
-from ..config import JobConfig
+from ..config import DecomposeConfig, HardConfig, JobConfig
 from ..errors import ConfigError, UserError
+from ..figures import CansFigures, DecomposeFigures, Figures
 from ..model import Layers, Picture
 from ..output import plain as _plain
 from ..record import Run
 from .names import LAYERS_NPZ, layer_stem
+
+if TYPE_CHECKING:
+    from ..decompose.paints import Can
+    from ..decompose.sprayed import PlateReach
+    from ..decompose.tiled import TilePlan
+
+#: A config section with a palette that may name a can list (the decomposition's or hard mode's).
+Section = TypeVar("Section", DecomposeConfig, HardConfig)
 
 log = logging.getLogger(__name__)
 
@@ -36,7 +48,7 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
             try:
                 tiles = _decompose_tiles(run, picture)
 
-                def solve(section) -> Layers:
+                def solve(section: DecomposeConfig) -> Layers:
                     if tiles is None:
                         return dec.decompose(
                             picture, section, run.rng_for("decompose"), progress=progress, reach=reach
@@ -67,19 +79,18 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
         trace = "iteration,energy\n" + "".join(f"{k},{e:.10g}\n" for k, e in enumerate(layers.energy_trace))
         out.write_text("energy.csv", trace)
     info = dict(layers.info)
-    run.figures["decompose"] = {
-        "layers": layers.count,
-        "primer": to_hex(layers.primer),
-        "colours": [to_hex(c) for c in layers.colours],
-        "iterations": layers.iterations,
-        **{k: v for k, v in info.items() if isinstance(v, (int, float, str, list))},
-    }
-    if "tiled" in info:
-        run.figures["decompose"]["tiled"] = _plain(info["tiled"])
+    run.figures.decompose = DecomposeFigures(
+        layers=layers.count,
+        primer=to_hex(layers.primer),
+        colours=[to_hex(c) for c in layers.colours],
+        iterations=layers.iterations,
+        solver={k: v for k, v in info.items() if isinstance(v, (int, float, str, list))},
+        tiled=_plain(info["tiled"]) if "tiled" in info else None,
+    )
     return layers
 
 
-def _decompose_tiles(run: Run, picture: Picture):
+def _decompose_tiles(run: Run, picture: Picture) -> TilePlan | None:
     """The decomposition's tiles for a big picture (None: solved whole), checked against the memory per task."""
     from .. import compute
     from ..decompose import tiled
@@ -104,7 +115,7 @@ def _decompose_tiles(run: Run, picture: Picture):
     return tiles
 
 
-def plate_reach(cfg: JobConfig):
+def plate_reach(cfg: JobConfig) -> PlateReach:
     """What this job's plates can spray (:class:`stencil_cad.decompose.sprayed.PlateReach`), for ranking starts.
 
     The darkest tone is the densest hole pattern the rules allow at the most passes (or the paper
@@ -134,7 +145,14 @@ def plate_reach(cfg: JobConfig):
     )
 
 
-def _decompose_tiled(run: Run, picture: Picture, tiles, progress, cfg=None, reach=None) -> Layers:
+def _decompose_tiled(
+    run: Run,
+    picture: Picture,
+    tiles: TilePlan,
+    progress: Callable[[int, float], None],
+    cfg: DecomposeConfig | None = None,
+    reach: PlateReach | None = None,
+) -> Layers:
     """Colours on a small copy of the picture, then the opacities tile by tile as tasks.
 
     ``cfg`` is the decompose section to solve with (defaults to the job's; a can list or the
@@ -153,7 +171,7 @@ def _decompose_tiled(run: Run, picture: Picture, tiles, progress, cfg=None, reac
     return tiled.assemble(coarse, tiles, results, picture.mm_per_px)
 
 
-def _with_can_list(run: Run, section, where: str):
+def _with_can_list(run: Run, section: Section, where: str) -> Section:
     """A config section whose palette CSV (a can list) is replaced by its colours; the cans are noted."""
     from ..decompose import paints
 
@@ -163,12 +181,12 @@ def _with_can_list(run: Run, section, where: str):
         cans = paints.load_cans(section.palette)
     except (ValueError, ConfigError) as exc:
         raise ConfigError(f"{where}: {exc}") from None
-    run.figures.setdefault("cans", {})["list"] = [c.__dict__ for c in cans]
+    run.figures.cans = replace(run.figures.cans or CansFigures(), can_list=[c.__dict__ for c in cans])
     hexes = paints.to_hex_list(cans)
     return section.model_copy(update={"palette": hexes if where.startswith("decompose") else list(hexes)})
 
 
-def _catalogue(run: Run) -> list:
+def _catalogue(run: Run) -> list[Can]:
     from ..decompose import paints
 
     catalogue = run.cfg.paints.catalogue
@@ -177,11 +195,13 @@ def _catalogue(run: Run) -> list:
         cans = paints.load_cans(catalogue)
     except (ValueError, ConfigError) as exc:
         raise ConfigError(f"paints.catalogue: {exc}") from None
-    run.figures.setdefault("cans", {})["catalogue"] = [c.__dict__ for c in cans]
+    run.figures.cans = replace(run.figures.cans or CansFigures(), catalogue=[c.__dict__ for c in cans])
     return cans
 
 
-def _snap_to_catalogue(run: Run, dcfg, layers: Layers, solve) -> Layers:
+def _snap_to_catalogue(
+    run: Run, dcfg: DecomposeConfig, layers: Layers, solve: Callable[[DecomposeConfig], Layers]
+) -> Layers:
     """Snap the solved paints (and an 'auto' primer) to their nearest cans and solve the opacities again.
 
     ``solve(section)`` decomposes the picture with a decompose section (whole or in tiles).
@@ -208,7 +228,7 @@ def _snap_to_catalogue(run: Run, dcfg, layers: Layers, solve) -> Layers:
     snapped = solve(dcfg.model_validate({**dcfg.model_dump(), **update}))
     before = float(layers.info.get("rmse", float("nan")))
     after = float(snapped.info.get("rmse", float("nan")))
-    run.figures.setdefault("cans", {})["snap"] = {
+    snap = {
         "paints": paint_snap,
         "primer": primer_snap,
         "rmse_solved": before,
@@ -216,14 +236,15 @@ def _snap_to_catalogue(run: Run, dcfg, layers: Layers, solve) -> Layers:
         "rmse_cost": after - before,
         "de2000_mean_shift": float(sum(r["delta_e2000"] for r in paint_snap) / len(paint_snap)),
     }
+    run.figures.cans = replace(run.figures.cans or CansFigures(), snap=snap)
     log.info("paints: snapped to the catalogue, composite RMSE %.2f → %.2f (0-255 units)", before, after)
     return snapped
 
 
-def can_names(figures: dict) -> dict[str, str]:
+def can_names(figures: Figures) -> dict[str, str]:
     """``{hex: can label}`` of every can this job knows (its can list and catalogue)."""
     from ..decompose import paints
 
-    known = figures.get("cans", {})
-    rows = [*known.get("list", []), *known.get("catalogue", [])]
+    known = figures.cans or CansFigures()
+    rows = [*(known.can_list or []), *(known.catalogue or [])]
     return paints.names_by_hex([paints.Can(**r) for r in rows])

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import platform
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -30,8 +31,8 @@ def save_config(run: Run) -> None:
 
 def finish(run: Run, command: str) -> list[Path]:
     """Write the manifest and move every file into place."""
-    if run.executor is not None and "compute" in run.figures:
-        run.figures["compute"]["tasks"] = run.executor.tasks
+    if run.executor is not None and run.figures.compute is not None:
+        run.figures.compute = replace(run.figures.compute, tasks=run.executor.tasks)
     manifest = {
         **manifest_header(),
         "command": command,
@@ -39,7 +40,7 @@ def finish(run: Run, command: str) -> list[Path]:
         "versions": _versions(),
         "config": run.cfg.model_dump(mode="json"),
         "seconds": run.times,
-        **run.figures,
+        **run.figures.to_json(),
         "files": run.out.file_table(),
     }
     if run.template is not None:

@@ -116,7 +116,7 @@ def run_outputs(cfg: JobConfig, command: str) -> list[str]:
     return [*RUN_FILES, "layer_*", "wall*", "tile_*", "mural_map.png"]
 
 
-def stage_outputs(cfg: JobConfig, command: str, count: int, grid=None) -> list[str]:
+def stage_outputs(cfg: JobConfig, command: str, count: int, grid: mural.TileGrid | None = None) -> list[str]:
     """Names a stage command will write, so it can refuse before doing the work."""
     if command == "build" and grid is not None and grid.tiled:
         return tile_outputs(cfg, grid, count)
@@ -154,7 +154,7 @@ def tile_wall_stems(tile: mural.Tile, heights: list[float]) -> list[str]:
     )
 
 
-def tile_outputs(cfg, grid: mural.TileGrid, count: int) -> list[str]:
+def tile_outputs(cfg: JobConfig, grid: mural.TileGrid, count: int) -> list[str]:
     """Names the tiled build writes (so a stage command can refuse before the work)."""
     exts = cfg.export.plate_extensions()
     names = []

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..colour import to_hex
 from ..config import JobConfig, Mode
+from ..figures import SprayOrderFigures
 from ..model import DotSet
 from ..record import Run
 from .decompose import can_names
@@ -69,12 +70,12 @@ def write_spray_order(run: Run, primer: np.ndarray, colours: np.ndarray, spray_t
             **how,
         },
     )
-    run.figures["spray_order"] = {
-        "primer": {"hex": to_hex(primer), "name": names.get(to_hex(primer), "")},
-        "note": _order_note(run.cfg),
-        "unit": run.cfg.spray.amount_unit,
-        "steps": order,
-    }
+    run.figures.spray_order = SprayOrderFigures(
+        primer={"hex": to_hex(primer), "name": names.get(to_hex(primer), "")},
+        note=_order_note(run.cfg),
+        unit=run.cfg.spray.amount_unit,
+        steps=order,
+    )
     run.out.write_png(
         "swatch.png",
         labelled.swatch_card(

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..colour import to_hex
 from ..config import SprayConfig
+from ..figures import LayerProfile
 from ..record import Run
 from .decompose import can_names
 
@@ -43,13 +44,13 @@ def layer_sprays(run: Run, colours: np.ndarray | Sequence[Any]) -> list[SprayCon
     cfg.check_profile_keys(hexes, names)
     keys = [cfg.layer_profile_key(i + 1, h, names.get(h)) for i, h in enumerate(hexes)]
     sprays = [cfg.spray.for_profile_key(k) for k in keys]
-    run.figures["spray_profiles"] = profile_rows(hexes, keys, sprays)
+    run.figures.spray_profiles = profile_rows(hexes, keys, sprays)
     return sprays
 
 
 def profile_rows(
     hexes: Sequence[str], keys: Sequence[str | None], sprays: Sequence[SprayConfig]
-) -> list[dict[str, Any]]:
+) -> tuple[LayerProfile, ...]:
     """Per layer: its paint, the profile file it sprays with (by name), whether measured, its constants.
 
     Args:
@@ -57,20 +58,20 @@ def profile_rows(
         keys: The ``spray.profile`` key naming each layer (None: one file, none, or no key names it).
         sprays: Each layer's settings (:func:`layer_sprays`).
     """
-    rows = []
+    rows: list[LayerProfile] = []
     for i, (h, key, sp) in enumerate(zip(hexes, keys, sprays, strict=True)):
         prof = sp.profile if isinstance(sp.profile, Path) else None
         rows.append(
-            {
-                "layer": i + 1,
-                "hex": h,
-                "profile": prof.name if prof is not None else None,
-                "key": key,
-                "measured": bool(sp.is_measured),
-                "paint": sp.can.paint,
-                "spread_k": sp.can.spread_k,
-                "bleed_sigma_mm": sp.can.bleed_sigma_mm,
-                "deposit_per_pass": sp.can.deposit_per_pass,
-            }
+            LayerProfile(
+                layer=i + 1,
+                hex=h,
+                profile=prof.name if prof is not None else None,
+                key=key,
+                measured=bool(sp.is_measured),
+                paint=sp.can.paint,
+                spread_k=sp.can.spread_k,
+                bleed_sigma_mm=sp.can.bleed_sigma_mm,
+                deposit_per_pass=sp.can.deposit_per_pass,
+            )
         )
-    return rows
+    return tuple(rows)

@@ -86,7 +86,7 @@ def stage_refine(
         out, report = mural_refine.refine_layers(
             problem, tiling, dotsets, cfg, run.tasks.map, progress=lambda it, total: bar.update(1)
         )
-    run.figures["refine"] = _plain(report)
+    run.figures.refine = _plain(report)
     from ..stipple.windows import with_windows
 
     return [with_windows(ds, w, cfg.stipple.window_web_mm()) for ds, w in zip(out, windows, strict=True)]

@@ -13,7 +13,9 @@ import numpy as np
 from ..config import ComputeConfig, JobConfig, Mode
 from ..errors import UserError
 from ..exchange.png import png_bytes
+from ..figures import ComputeFigures, PictureFigures, PlateFigures
 from ..model import DotSet, Layers, Picture
+from ..mural import TileGrid
 from ..output import OutputDir
 from ..record import Run
 from . import tiles
@@ -44,7 +46,7 @@ def computing(run: Run, picture_px: int, where: ComputeConfig | None = None) -> 
 
     with compute.executor(where or run.cfg.compute, picture_px, run.quiet) as ex:
         run.executor = ex
-        run.figures["compute"] = ex.plan.summary()
+        run.figures.compute = ComputeFigures(**ex.plan.summary())
         try:
             yield
         finally:
@@ -63,13 +65,13 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
     cfg = fit_thickness(run, grid)
     save_config(run)
     run.sheet_images["input.png"] = png_bytes(np.asarray(picture.rgb, dtype=np.float64))
-    run.figures["picture"] = {
-        "source": picture.source,
-        "width_mm": round(size[0], 3),
-        "height_mm": round(size[1], 3),
-        "pixels": list(picture.shape),
-        "mm_per_px": picture.mm_per_px,
-    }
+    run.figures.picture = PictureFigures(
+        source=picture.source,
+        width_mm=round(size[0], 3),
+        height_mm=round(size[1], 3),
+        pixels=picture.shape,
+        mm_per_px=picture.mm_per_px,
+    )
     if cfg.mode == Mode.hard:
         if grid.tiled:
             raise UserError(
@@ -84,16 +86,16 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
     return finish(run, "run")
 
 
-def plan_mural(run: Run, picture_mm: tuple[float, float], shape_px: tuple[int, int]):
+def plan_mural(run: Run, picture_mm: tuple[float, float], shape_px: tuple[int, ...]) -> TileGrid:
     """Tile the picture for the bed (one tile when it fits) and check every part fits, before any work."""
     from . import tiles
 
     grid, fig = tiles.plan(run.cfg, *picture_mm, plate_layers(run.cfg), int(shape_px[0]) * int(shape_px[1]))
-    run.figures["mural"] = fig
+    run.figures.mural = fig
     return grid
 
 
-def fit_thickness(run: Run, grid) -> JobConfig:
+def fit_thickness(run: Run, grid: TileGrid) -> JobConfig:
     """Fill the plate thickness in for the plates the tiling plans (when the config leaves it to the process).
 
     The config chose it for the plate size it knew (:meth:`JobConfig.fit_plate_thickness`); the picture's
@@ -104,13 +106,13 @@ def fit_thickness(run: Run, grid) -> JobConfig:
     side = max(max(part_sizes(t.size[0], t.size[1], run.cfg)["plate"]) for t in grid.tiles)
     run.cfg = run.cfg.fit_plate_thickness(side)
     fill = run.cfg.thickness_fill
-    run.figures["plate"] = {
-        "thickness_mm": run.cfg.plate.thickness_mm,
-        "filled": fill.filled,
-        "side_mm": round(side, 1),
-        "sag_mm": round(fill.sag_mm, 3) if fill.filled else None,
-        "thickness_reason": fill.reason,
-    }
+    run.figures.plate = PlateFigures(
+        thickness_mm=run.cfg.plate.thickness_mm,
+        filled=fill.filled,
+        side_mm=round(side, 1),
+        sag_mm=round(fill.sag_mm, 3) if fill.filled else None,
+        thickness_reason=fill.reason,
+    )
     return run.cfg
 
 
@@ -241,8 +243,8 @@ def build_any(
     layers: Layers,
     dotsets: list[DotSet],
     picture_mm: tuple[float, float],
-    grid,
-    picture=None,
+    grid: TileGrid,
+    picture: Picture | None = None,
     simulate: bool = True,
 ) -> None:
     """Build (and simulate): one plate per layer, or per tile and layer for a mural."""

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..colour import to_hex
 from ..config import JobConfig
+from ..figures import PaintFigures, SimulateFigures, SprayStep
 from ..model import DotSet, Layers, Picture
 from ..output import plain as _plain
 from ..record import Run
@@ -72,18 +73,14 @@ def stage_simulate(
         )
         write_steps(run, layers.primer, layers.colours, sim.alphas, sim.mm_per_px)
         per_wall = _walls(run, layers, dotsets, (sim, scores, ref), grid_mm, design, sprays)
-    run.figures["simulate"] = {
+    seen = {
         **_plain(scores),
         **_dot_visibility(run, layers, dotsets, sprays),
         "layer_rmse": [float(x) for x in sim.layer_rmse],
         **{k: v for k, v in _plain(sim.info).items() if k not in scores},
     }
-    if by_can:
-        run.figures["simulate"]["scielab_by_can"] = by_can
-        run.figures["simulate"]["scielab_worst"] = max(by_can.values())
-    if per_wall:
-        run.figures["simulate"]["walls"] = per_wall
-    run.figures["spraying"] = spraying_steps(cfg, layers, [ds.amount(cfg.spray.amount) for ds in dotsets])
+    run.figures.simulate = SimulateFigures(seen, scielab_by_can=by_can or None, walls=per_wall or None)
+    run.figures.spraying = spraying_steps(cfg, layers, [ds.amount(cfg.spray.amount) for ds in dotsets])
     return (sim, ref) if keep else scores
 
 
@@ -184,7 +181,7 @@ def _scores_by_can(
     return out
 
 
-def spraying_steps(cfg: JobConfig, layers: Layers, amounts: Sequence[float]) -> list[dict[str, Any]]:
+def spraying_steps(cfg: JobConfig, layers: Layers, amounts: Sequence[float]) -> tuple[SprayStep, ...]:
     """What the hand does for each layer, in the maker's units (physical model) or the model's.
 
     Args:
@@ -193,11 +190,11 @@ def spraying_steps(cfg: JobConfig, layers: Layers, amounts: Sequence[float]) -> 
         amounts: Each layer's amount of paint: passes (physical) or spray time (paper).
 
     Returns:
-        One dict per layer: ``layer``, ``paint``, and ``passes``, ``can_distance_cm``,
+        One step per layer: its ``text`` and figures ``layer``, ``paint``, and ``passes``, ``can_distance_cm``,
         ``pass_speed_m_s``, ``spray_seconds`` (physical) or ``spray_time`` (paper), and ``text``.
     """
     sp = cfg.spray
-    out = []
+    out: list[SprayStep] = []
     h_px, w_px = layers.alphas.shape[1:] if layers.count else (0, 0)
     per_pass = sweep_seconds(cfg, w_px * layers.mm_per_px, h_px * layers.mm_per_px)
     for i, amount in enumerate(amounts):
@@ -212,23 +209,30 @@ def spraying_steps(cfg: JobConfig, layers: Layers, amounts: Sequence[float]) -> 
                 + ("; let each pass flash off (about a minute) before the next" if n > 1 else "")
             )
             out.append(
-                {
-                    "layer": i + 1,
-                    "paint": paint,
-                    "passes": n,
-                    "can_distance_cm": cm,
-                    "pass_speed_m_s": sp.pass_speed_m_s,
-                    "spray_seconds": round(seconds, 1),
-                    "text": text,
-                }
+                SprayStep(
+                    text,
+                    {
+                        "layer": i + 1,
+                        "paint": paint,
+                        "passes": n,
+                        "can_distance_cm": cm,
+                        "pass_speed_m_s": sp.pass_speed_m_s,
+                        "spray_seconds": round(seconds, 1),
+                        "text": text,
+                    },
+                )
             )
         else:
             text = (
                 f"spray layer {i + 1} ({paint}) for spray time {amount:.3g} (paper model units; "
                 "spray.model: physical gives passes and distances)"
             )
-            out.append({"layer": i + 1, "paint": paint, "spray_time": round(amount, 4), "text": text})
-    return out
+            out.append(
+                SprayStep(
+                    text, {"layer": i + 1, "paint": paint, "spray_time": round(amount, 4), "text": text}
+                )
+            )
+    return tuple(out)
 
 
 def _scores(run: Run, reference: np.ndarray, sprayed: np.ndarray, mm_per_px: float) -> dict[str, Any]:
@@ -327,9 +331,9 @@ def write_steps(
         mean = float(np.mean(alphas[i]))
         est = paints.paint_estimate(area, mean, cfg.coverage_m2_per_can, cfg.can_ml)
         rows.append({"layer": i + 1, "hex": to_hex(colours[i]), "mean_opacity": mean, **est})
-    run.figures["paint"] = {
-        "sprayed_area_m2": area * 1e-6,
-        "coverage_m2_per_can": cfg.coverage_m2_per_can,
-        "can_ml": cfg.can_ml,
-        "layers": rows,
-    }
+    run.figures.paint = PaintFigures(
+        sprayed_area_m2=area * 1e-6,
+        coverage_m2_per_can=cfg.coverage_m2_per_can,
+        can_ml=cfg.can_ml,
+        layers=rows,
+    )

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..errors import OutputError, UserError
+from ..figures import BuildFigures, PartRow
 from ..record import Run
 
 if TYPE_CHECKING:
@@ -203,9 +204,14 @@ def stage_print_estimate(run: Run) -> None:
         raise UserError("export.print_estimate slices the STL files: set export.stl: true")
     if slicing.find_slicer(prof.slicer) is None:
         raise UserError("export.print_estimate needs PrusaSlicer (Debian/Ubuntu: apt install prusa-slicer)")
-    build = run.figures["build"]
-    parts = [(row, f"layer_{int(row['layer']):02d}") for row in build["plates"]]
-    parts += [(row, str(row["file"]).rsplit(".", 1)[0]) for row in build["walls"]]
+    build = run.figures.build
+    if build is None:
+        raise AssertionError("the print estimate slices the plates the build stage made")
+    # Copies of the rows, which the estimate adds to; the build's figures are then replaced.
+    plates = [dict(p.values) for p in build.plates]
+    walls = [dict(w.values) for w in build.walls]
+    parts = [(row, f"layer_{int(row['layer']):02d}") for row in plates]
+    parts += [(row, str(row["file"]).rsplit(".", 1)[0]) for row in walls]
     bed = _bed_overrides(prof, cfg.bed) if cfg.bed is not None else {}
     bed_xy = slicing.bed_size(prof) if cfg.bed is None else _bed_xy(cfg.bed)
     total_h = total_m = 0.0
@@ -229,7 +235,11 @@ def stage_print_estimate(run: Run) -> None:
             total_h += est.print_hours or 0.0
             total_m += est.filament_m or 0.0
             out.unlink()
-    build["print"] = {"profile": prof.name, "hours": round(total_h, 3), "filament_m": round(total_m, 2)}
+    run.figures.build = BuildFigures(
+        [PartRow(r) for r in plates],
+        [PartRow(w) for w in walls],
+        print_estimate={"profile": prof.name, "hours": round(total_h, 3), "filament_m": round(total_m, 2)},
+    )
 
 
 def print_estimate(path: Path) -> GcodeEstimate:

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..config import JobConfig
+from ..config import JobConfig, SprayConfig
+from ..figures import DarkEnd, LayerStipple, LayerWindows
 from ..model import DotSet, Layers, Picture, coat_contrast
 from ..mural import TileGrid
 from ..mural.stipple import StippleTask, stipple_layers
@@ -34,7 +36,7 @@ def stage_stipple(
 ) -> list[DotSet]:
     """Stipple every layer's opacity into holes, enforce the design rules, refine, save CSV + previews.
 
-    With ``stipple.tone: calibrated`` the density comes from the spray response
+    With ``stipple.tone: response`` the density comes from the spray response
     (:mod:`stencil_cad.simulate.tone`), and with ``spray.calibrate: spray_time`` each layer also
     gets its own spray time, saved in ``spray.json`` and in the dots' report. With
     ``refine.enabled`` the holes are then refined against the spray model
@@ -52,16 +54,16 @@ def stage_stipple(
         sets, tones = stipple_layers(
             tasks, hole_alphas, tiling, lambda i, k: run.seed_for("stipple", i, k), run.tasks.map
         )
-    run.figures["dark_end"] = [
+    run.figures.dark_end = tuple(
         _dark_end(job, alpha, ds.amount(job.spray.amount), w.mask)
         for job, alpha, ds, w in zip(jobs, layers.alphas, sets, windows, strict=True)
-    ]
+    )
     sets = [
         with_windows(ds, w.polygons, cfg.stipple.window_web_mm()) for ds, w in zip(sets, windows, strict=True)
     ]
     if cfg.refine.enabled:
         sets = stage_refine(run, layers, sets, picture_mm, picture, grid)
-    run.figures["windows"] = [{"layer": i + 1, **_plain(w.report)} for i, w in enumerate(windows)]
+    run.figures.windows = tuple(LayerWindows(i + 1, _plain(w.report)) for i, w in enumerate(windows))
     with run.stage("stipple"):
         cards = plate_cards(run, layers.colours, picture_mm, sets)
         for i, ds in enumerate(sets):
@@ -70,10 +72,10 @@ def stage_stipple(
                 run.out.write_text(windows_name(i), windows_to_json(ds.windows))
             run.out.write_png(f"{layer_stem(i)}_dots.png", cards[i])
         write_spray_order(run, layers.primer, layers.colours, [ds.amount(cfg.spray.amount) for ds in sets])
-    run.figures["stipple"] = [
-        {"layer": i + 1, "dots": len(ds), **_plain(ds.report), "spray_time": ds.spray_time}
+    run.figures.stipple = tuple(
+        LayerStipple(layer=i + 1, dots=len(ds), report=_plain(ds.report), spray_time=ds.spray_time)
         for i, ds in enumerate(sets)
-    ]
+    )
     for i, ds in enumerate(sets):
         if len(ds) == 0 and not ds.windows:
             removed = {k: v for k, v in ds.report.items() if k.startswith("removed_") and v}
@@ -84,11 +86,11 @@ def stage_stipple(
                 ", ".join(f"{k} {v}" for k, v in removed.items()) or "no ink above the opacity threshold",
             )
     if tones:
-        run.figures["tone_calibration"] = tones
+        run.figures.tone_calibration = tones
     return sets
 
 
-def layer_jobs(cfg: JobConfig, sprays: list) -> list[JobConfig]:
+def layer_jobs(cfg: JobConfig, sprays: Sequence[SprayConfig]) -> list[JobConfig]:
     """The job config each layer is stippled under: ``cfg`` with the layer's spray settings."""
     return [cfg if sp is cfg.spray else cfg.model_copy(update={"spray": sp}) for sp in sprays]
 
@@ -179,7 +181,7 @@ def window_inset_mm(cfg: JobConfig) -> float:
 
 def _dark_end(
     cfg: JobConfig, alpha: np.ndarray, spray_time: float, windows: np.ndarray | None = None
-) -> dict:
+) -> DarkEnd:
     """How much of a layer is darker than its holes can spray at its spray time (its windows left out).
 
     The darkest mean opacity is that of the densest pattern the rules allow, with holes up to
@@ -208,11 +210,11 @@ def _dark_end(
     over = a > top + 1e-6
     if windows is not None:
         over &= ~windows
-    return {
-        "darkest_sprayable": round(top, 4),
-        "unreachable_share": round(float(over.mean()), 4),
-        "unreachable_by": round(float((a[over] - top).mean()), 4) if over.any() else 0.0,
-    }
+    return DarkEnd(
+        darkest_sprayable=round(top, 4),
+        unreachable_share=round(float(over.mean()), 4),
+        unreachable_by=round(float((a[over] - top).mean()), 4) if over.any() else 0.0,
+    )
 
 
 def bound_dots(run: Run, picture_mm: tuple[float, float]) -> None:

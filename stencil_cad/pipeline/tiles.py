@@ -15,7 +15,7 @@ import logging
 import tempfile
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -24,6 +24,7 @@ import numpy as np
 from .. import mural
 from ..colour import to_hex
 from ..errors import UserError
+from ..figures import BuildFigures, MuralBuildFigures, MuralFigures, PartRow
 from ..model import DotSet, Layers, Picture
 from ..output import plain as _plain
 from .names import tile_stem, tile_wall_stems
@@ -41,7 +42,7 @@ log = logging.getLogger(__name__)
 
 def plan(
     cfg: JobConfig, width_mm: float, height_mm: float, layers: int, work_px: int
-) -> tuple[mural.TileGrid, dict[str, Any]]:
+) -> tuple[mural.TileGrid, MuralFigures]:
     """Tile the picture for the bed and check every part fits, before any work.
 
     Returns:
@@ -52,15 +53,15 @@ def plan(
     """
     grid = mural.plan_tiles(width_mm, height_mm, cfg)
     sizes = mural.check_fits_bed(grid, cfg)
-    fig = {
-        "bed": None
+    fig = MuralFigures(
+        bed=None
         if grid.bed is None
         else {"name": grid.bed.name, "x_mm": grid.bed.x_mm, "y_mm": grid.bed.y_mm},
-        "tiled": grid.tiled,
-        "halo_mm": round(grid.halo_mm, 3),
-        "cost": mural.plan_cost(grid, cfg, layers, work_px),
-        "part_sizes": sizes,
-    }
+        tiled=grid.tiled,
+        halo_mm=round(grid.halo_mm, 3),
+        cost=mural.plan_cost(grid, cfg, layers, work_px),
+        part_sizes=sizes,
+    )
     return grid, fig
 
 
@@ -97,21 +98,20 @@ def stage_build_tiles(
         i = int(row["layer"]) - 1
         if len(dotsets[i]):
             row["drawn_minus_asked_mm"] = round(float(np.mean(drawn[i].r_mm - dotsets[i].r_mm)), 4)
-    run.figures["build"] = {"plates": plates, "walls": walls}
-    run.figures.setdefault("mural", {}).update(
-        {
-            "tiles": mural.manifest_rows(grid),
-            "holes_per_tile": {
-                t.name: [len(per_tile[k][i]) for i in range(len(dotsets))] for k, t in enumerate(grid.tiles)
-            },
-            "holes_total": int(sum(len(d) for d in drawn)),
-            "holes_global": int(sum(len(d) for d in dotsets)),
-            "union_check_rules": "passed",
-            "compensated": bool(cfg.stipple.compensate),
-            "seam_density": mural.seam_density(dotsets, grid),
-            "order_of_work": mural.order_of_work(grid, len(dotsets)),
-        }
+    run.figures.build = BuildFigures([PartRow(r) for r in plates], [PartRow(w) for w in walls])
+    built = MuralBuildFigures(
+        tiles=mural.manifest_rows(grid),
+        holes_per_tile={
+            t.name: [len(per_tile[k][i]) for i in range(len(dotsets))] for k, t in enumerate(grid.tiles)
+        },
+        holes_total=int(sum(len(d) for d in drawn)),
+        holes_global=int(sum(len(d) for d in dotsets)),
+        union_check_rules="passed",
+        compensated=bool(cfg.stipple.compensate),
+        seam_density=mural.seam_density(dotsets, grid),
+        order_of_work=mural.order_of_work(grid, len(dotsets)),
     )
+    run.figures.mural = replace(_planned(run), built=built)
     return _per_tile(made, grid)
 
 
@@ -452,15 +452,23 @@ def stage_mural_simulate(
         out["zero_error_scores"] = {k: round(v, 5) for k, v in base.items()}
         out["registration_cost"] = costs
         out["seconds"] = round(time.perf_counter() - t0, 2)
-    run.figures.setdefault("mural", {})["simulation"] = out
+    run.figures.mural = replace(_planned(run), simulation=out)
     if not out["tiled_equals_global"]:
         log.warning("tiled simulation differs from the global one by %.3g (max abs opacity)", diff)
 
 
-def plan_line(plan: dict[str, Any]) -> str:
+def _planned(run: Run) -> MuralFigures:
+    """The mural's plan as the run recorded it (every tiled job is planned before its stages)."""
+    fig = run.figures.mural
+    if fig is None:
+        raise AssertionError("a tiled stage ran before the mural was planned")
+    return fig
+
+
+def plan_line(plan: MuralFigures) -> str:
     """One line, printed before the work starts: what this size costs."""
-    c = plan["cost"]
-    bed = plan.get("bed")
+    c = plan.cost
+    bed = plan.bed
     where = f"bed {bed['name']} ({bed['x_mm']:g} × {bed['y_mm']:g} mm)" if bed else "no bed given"
     if bed and "×" in bed["name"]:
         where = f"bed {bed['name']}"

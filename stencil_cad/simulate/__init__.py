@@ -23,9 +23,9 @@ from .tone import (
     ToneCurve,
     calibrated_density,
     calibrated_density_for,
-    calibrated_tone_for,
     choose_tone,
     packing_density,
+    response_tone_for,
     tone_response,
 )
 
@@ -35,7 +35,7 @@ __all__ = [
     "ToneCurve",
     "calibrated_density",
     "calibrated_density_for",
-    "calibrated_tone_for",
+    "response_tone_for",
     "choose_tone",
     "colour_map",
     "delta_e_map",

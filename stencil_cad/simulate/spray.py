@@ -40,12 +40,16 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..config.spray import SprayConfig, SprayModel
 from ..model import DotSet, Layers, composite
 from .opacity import _check_params, _need, dot_sigma_mm, spray_opacity, windows_opacity
+
+if TYPE_CHECKING:
+    from .physical import SprayGeometry
 
 log = logging.getLogger(__name__)
 
@@ -145,7 +149,13 @@ def _blur_mm_for(dots: DotSet, cfg: SprayConfig, fallback_r_mm: float, geometry=
     return float(dot_sigma_mm(r, cfg.nozzle_height))
 
 
-def hole_kernels(r_mm, spray_cfg: SprayConfig, layer_spray_time: float, *, geometry=None):
+def hole_kernels(
+    r_mm: np.ndarray | float,
+    spray_cfg: SprayConfig,
+    layer_spray_time: float,
+    *,
+    geometry: SprayGeometry | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, str]:
     """Every hole's deposit as one Gaussian, for refinement: the per-hole contract of both models.
 
     Hole ``i`` deposits ``N_i(p) = peak_i exp(-|p - c_i|^2 / (2 sigma_i^2))`` and the layer's

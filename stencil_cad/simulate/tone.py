@@ -56,7 +56,7 @@ __all__ = [
     "ToneCurve",
     "calibrated_density",
     "calibrated_density_for",
-    "calibrated_tone_for",
+    "response_tone_for",
     "choose_tone",
     "packing_density",
     "tone_response",
@@ -451,7 +451,7 @@ def choose_tone(
     )
 
 
-def calibrated_tone_for(
+def response_tone_for(
     alpha: np.ndarray, mm_per_px: float, job_cfg, weight: np.ndarray | None = None, windows=None
 ) -> ToneChoice:
     """:func:`choose_tone` with the hole sizes, web and spacing of a whole job config.
@@ -494,6 +494,6 @@ def calibrated_density_for(alpha: np.ndarray, mm_per_px: float, job_cfg) -> np.n
 
     Returns:
         ``(H, W)`` open-area tone in [0, 1]. With ``spray.calibrate: spray_time`` the
-        matching spray time is in :func:`calibrated_tone_for`'s result.
+        matching spray time is in :func:`response_tone_for`'s result.
     """
-    return calibrated_tone_for(alpha, mm_per_px, job_cfg).density
+    return response_tone_for(alpha, mm_per_px, job_cfg).density

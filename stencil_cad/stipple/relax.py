@@ -295,16 +295,16 @@ def tone_map(
         ``alpha >= opacity_threshold``.
 
     Raises:
-        ValueError: when ``tone`` is ``calibrated`` and no density is given, or
+        ValueError: when ``tone`` is ``response`` and no density is given, or
             on shape mismatch.
     """
     alpha = np.asarray(alpha, dtype=np.float64)
     if alpha.ndim != 2:
         raise ValueError(f"alpha must be a 2-D (H, W) array, got shape {alpha.shape}")
     if density is None:
-        if cfg.tone == Tone.calibrated:
+        if cfg.tone == Tone.response:
             raise ValueError(
-                "stipple.tone is 'calibrated' but no density map was given: the pipeline must pass the "
+                "stipple.tone is 'response' but no density map was given: the pipeline must pass the "
                 "density derived by the spray calibration"
             )
         t = np.clip(np.nan_to_num(alpha), 0.0, 1.0)
@@ -380,7 +380,7 @@ def stipple_layer(
 
     Raises:
         ValueError: on a non-2-D ``alpha``, ``mm_per_px <= 0``, a ``density`` of another shape, or
-            ``tone: calibrated`` without a ``density``.
+            ``tone: response`` without a ``density``.
     """
     alpha = np.asarray(alpha, dtype=np.float64)
     if alpha.ndim != 2:

@@ -166,3 +166,19 @@ def test_a_renamed_key_is_read_with_a_message_for_one_release(caplog):
     assert "spray.can (or a spray profile): standoff_mm is now called card_standoff_mm" in caplog.text
     with pytest.raises(ValueError, match="standoff_mm is the old name of card_standoff_mm"):
         CanConstants.model_validate({"standoff_mm": 10.0, "card_standoff_mm": 12.0})
+
+
+def test_the_old_tone_name_is_read_with_a_message_for_one_release(caplog):
+    """``stipple.tone: calibrated`` (a word the photo-fit command also uses) is now ``response``."""
+    import logging
+
+    from stencil_cad.config import StippleConfig
+    from stencil_cad.config.stipple import Tone
+
+    with caplog.at_level(logging.WARNING, logger="stencil_cad.config.stipple"):
+        st = StippleConfig.model_validate({"tone": "calibrated"})
+    assert st.tone == Tone.response and st.tone_from_response
+    assert "stipple.tone: calibrated is now called response" in caplog.text
+    assert StippleConfig().tone == Tone.response
+    with pytest.raises(ValueError, match="tone"):
+        StippleConfig.model_validate({"tone": "measured"})

@@ -5,6 +5,7 @@ from __future__ import annotations
 import copy
 
 from stencil_cad import instructions
+from stencil_cad.figures import LayerProfile
 from stencil_cad.instructions.cans import layer_can, unmeasured_warning, uses_profiles
 
 MEASURED = {
@@ -46,17 +47,19 @@ MANIFEST = {
 
 
 def test_words_for_each_layers_can():
-    assert layer_can(MEASURED) == "profile black.yaml (measured: Ink)"
-    assert layer_can(GUESSED) == "spray.can, not measured"
-    assert uses_profiles([MEASURED, GUESSED]) and not uses_profiles([GUESSED])
-    warning = unmeasured_warning([MEASURED, GUESSED])
+    measured, guessed = LayerProfile.from_json(MEASURED), LayerProfile.from_json(GUESSED)
+    assert layer_can(measured) == "profile black.yaml (measured: Ink)"
+    assert layer_can(guessed) == "spray.can, not measured"
+    assert uses_profiles([measured, guessed]) and not uses_profiles([guessed])
+    warning = unmeasured_warning([measured, guessed])
     assert (
         warning is not None
         and warning.startswith("Layer 2 sprays with")
         and "stencil-cad calibrate" in warning
     )
-    assert unmeasured_warning([GUESSED, {**GUESSED, "layer": 3}]).startswith("Every layer")
-    assert unmeasured_warning([MEASURED]) is None
+    third = LayerProfile.from_json({**GUESSED, "layer": 3})
+    assert (unmeasured_warning([guessed, third]) or "").startswith("Every layer")
+    assert unmeasured_warning([measured]) is None
 
 
 def test_the_sheet_names_each_layers_profile_and_warns():

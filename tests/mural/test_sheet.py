@@ -151,9 +151,27 @@ def test_unnamed_paints_are_said_to_be_unnamed():
 
 
 def test_the_summary_says_which_parts_lie_turned():
+    from stencil_cad.figures import BuildFigures, MuralBuildFigures, MuralFigures, PartRow
     from stencil_cad.report import _mural_lines
 
-    lines = _mural_lines(_two_tile_manifest())
+    m = _two_tile_manifest()
+    build = BuildFigures(
+        [PartRow(p) for p in m["build"]["plates"]], [PartRow(w) for w in m["build"]["walls"]]
+    )
+    mm = m["mural"]
+    built = MuralBuildFigures(
+        tiles=mm["tiles"],
+        holes_per_tile={},
+        holes_total=mm["holes_total"],
+        holes_global=mm["holes_global"],
+        union_check_rules=mm["union_check_rules"],
+        compensated=False,
+        seam_density=[],
+        order_of_work=[],
+    )
+    plan = MuralFigures(bed=mm["bed"], tiled=True, halo_mm=mm["halo_mm"], cost={}, part_sizes={}, built=built)
+    lines = _mural_lines(build, plan)
+    assert any("2 tiles" in line and "holes 600 (global 600)" in line for line in lines)
     assert any("6 of 6 parts fit the 250 × 210 mm bed turned 90°" in line for line in lines)
 
 

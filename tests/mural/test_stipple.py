@@ -151,7 +151,7 @@ def test_calibrated_tone_per_tile_is_the_layers():
         cfg = _job(size={"width_mm": 200, "height_mm": 100}, spray={"calibrate": calibrate})
         yy, xx = np.mgrid[0:100, 0:200]
         alpha = np.clip(xx / 200.0 + 0.1 * np.sin(yy / 7.0), 0, 1)
-        choice = tone.calibrated_tone_for(alpha, 1.0, cfg)
+        choice = tone.response_tone_for(alpha, 1.0, cfg)
         np.testing.assert_array_equal(choice.density_of(alpha[20:70, 50:150]), choice.density[20:70, 50:150])
 
 

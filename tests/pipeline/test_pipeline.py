@@ -20,7 +20,7 @@ decompose:
   layers: 2
 stipple:
   process: sla
-  tone: calibrated
+  tone: response
 """
 
 

@@ -15,14 +15,16 @@ def test_a_tall_picture_gets_the_thickness_of_its_long_side():
     cfg = fit_thickness(run, TileGrid.whole(150.0, 300.0))
     assert cfg is run.cfg
     assert cfg.plate.thickness_mm == pytest.approx(2.1)  # a 323 mm plate (margins and key)
-    fig = run.figures["plate"]
-    assert fig["filled"] and fig["thickness_mm"] == cfg.plate.thickness_mm and fig["side_mm"] > 320.0
-    assert fig["thickness_reason"].startswith("2.1 mm: the thinnest fdm plate")
+    fig = run.figures.plate
+    assert fig is not None
+    assert fig.filled and fig.thickness_mm == cfg.plate.thickness_mm and fig.side_mm > 320.0
+    assert fig.thickness_reason.startswith("2.1 mm: the thinnest fdm plate")
 
 
 def test_a_given_thickness_is_built_as_given():
     run = Run(cfg=parse_config({"plate": {"thickness_mm": 1.2}}, source="test"), out=None)  # type: ignore[arg-type]
     cfg = fit_thickness(run, TileGrid.whole(150.0, 300.0))
     assert cfg.plate.thickness_mm == 1.2
-    assert not run.figures["plate"]["filled"]
-    assert run.figures["plate"]["thickness_reason"] == "1.2 mm, as plate.thickness_mm gives"
+    fig = run.figures.plate
+    assert fig is not None and not fig.filled
+    assert fig.thickness_reason == "1.2 mm, as plate.thickness_mm gives"

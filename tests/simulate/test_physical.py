@@ -144,11 +144,11 @@ def test_gaussian_kernel_error_as_documented():
 
 @pytest.mark.slow
 def test_physical_tone_calibration_chooses_whole_passes():
-    from stencil_cad.simulate import calibrated_tone_for
+    from stencil_cad.simulate import response_tone_for
 
-    job = JobConfig(spray={"model": "physical"}, stipple={"process": "sla", "tone": "calibrated"})
+    job = JobConfig(spray={"model": "physical"}, stipple={"process": "sla", "tone": "response"})
     alpha = np.linspace(0.0, 0.8, 40 * 40).reshape(40, 40)
-    choice = calibrated_tone_for(alpha, 0.5, job)
+    choice = response_tone_for(alpha, 0.5, job)
     assert choice.spray_time == int(choice.spray_time) and 1 <= choice.spray_time <= 12
     assert choice.predicted_rmse <= choice.predicted_rmse_linear + 1e-12
 
@@ -192,7 +192,7 @@ def test_job_in_the_makers_units_scores_every_wall(tmp_path, capsys):
     cfg = tmp_path / "job.yaml"
     cfg.write_text(
         "name: walls\nsize:\n  width_mm: 40\n  px_per_mm: 2\ndecompose:\n  layers: 2\n"
-        "stipple:\n  process: sla\n  tone: calibrated\nwall:\n  standoff_mm: [4, 16]\n"
+        "stipple:\n  process: sla\n  tone: response\nwall:\n  standoff_mm: [4, 16]\n"
         "spray:\n  model: physical\n  can_distance_mm: 250\n"
     )
     out = tmp_path / "out"

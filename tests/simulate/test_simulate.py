@@ -387,7 +387,7 @@ def test_calibrated_stipple_sprays_closer_than_linear():
     calibrated = stipple_layer(
         alpha,
         s,
-        stc.model_copy(update={"tone": "calibrated"}),
+        stc.model_copy(update={"tone": "response"}),
         np.random.default_rng(0),
         density=choice.density,
     )

@@ -124,10 +124,10 @@ def test_tone_map_threshold_and_density_hook():
     np.testing.assert_array_equal(mask, [[False, False, True, True, True]])
     np.testing.assert_allclose(t, [[0, 0, 0.05, 0.5, 1.0]])
     dens = np.array([[4.0, 4.0, 2.0, 1.0, 0.0]])
-    t, _ = sp.tone_map(alpha, StippleConfig(tone="calibrated"), density=dens)
+    t, _ = sp.tone_map(alpha, StippleConfig(tone="response"), density=dens)
     np.testing.assert_allclose(t, [[0, 0, 0.5, 0.25, 0.0]])
-    with pytest.raises(ValueError, match="calibrated"):
-        sp.tone_map(alpha, StippleConfig(tone="calibrated"))
+    with pytest.raises(ValueError, match="response"):
+        sp.tone_map(alpha, StippleConfig(tone="response"))
     with pytest.raises(ValueError, match="shape"):
         sp.tone_map(alpha, StippleConfig(tone="linear"), density=np.ones((2, 2)))
 
@@ -257,9 +257,9 @@ def test_empty_layer_and_progress():
     assert calls and calls[-1][1] == SLA.max_iterations and calls[-1][0] == ds.report["iterations"]
 
 
-def test_calibrated_tone_needs_density():
-    with pytest.raises(ValueError, match="calibrated"):
-        sp.stipple_layer(np.ones((10, 10)), 0.5, StippleConfig(tone="calibrated"), rng())
+def test_response_tone_needs_density():
+    with pytest.raises(ValueError, match="response"):
+        sp.stipple_layer(np.ones((10, 10)), 0.5, StippleConfig(tone="response"), rng())
 
 
 @pytest.mark.parametrize(
