@@ -77,14 +77,7 @@ def _cans(cfg, case: str) -> list[tuple[str, object]]:
 
     if case == "prior":
         return can_prior(cfg.spray)
-    import stencil_cad.simulate.cans as cans_module
-
-    kept = cans_module.CAN_PRIOR
-    try:
-        cans_module.CAN_PRIOR = tuple(PriorCan(*c) for c in ONE_CONSTANT)
-        return can_prior(cfg.spray)
-    finally:
-        cans_module.CAN_PRIOR = kept
+    return can_prior(cfg.spray, tuple(PriorCan(*c) for c in ONE_CONSTANT))
 
 
 def _rows(folder: Path, case: str):

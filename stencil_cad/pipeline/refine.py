@@ -57,13 +57,13 @@ def stage_refine(
     alpha_targets = np.stack([spray.resample(a, shape) for a in layers.alphas]) if layers.count else None
 
     from ..mural import refine as mural_refine
-    from ..simulate.cans import layer_can_prior
+    from ..simulate.cans import CAP_PRIOR, layer_can_prior
 
     geometry = SprayGeometry.for_job(cfg)
-    # refine.cans: prior refines for the expected error over a prior of cans (without a measured
+    # refine.cans: prior refines for the expected error over the prior's caps (without a measured
     # can); each layer sprays with its own paint's profile, and a measured layer keeps its can.
     sprays = layer_sprays(run, layers.colours)
-    cans = layer_can_prior(sprays) if rc.cans == "prior" else [("nominal", sprays)]
+    cans = layer_can_prior(sprays, CAP_PRIOR) if rc.cans == "prior" else [("nominal", sprays)]
     kernels = [tuple(mural_refine.HoleKernels(sp, geometry) for sp in per_layer) for _, per_layer in cans]
 
     times = [ds.amount(cfg.spray.amount) for ds in dotsets]
