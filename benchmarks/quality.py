@@ -24,9 +24,14 @@ own best height), so the refinement's gain and cost (``refine_seconds`` beside
 
 Two pictures are generated here: ``dark_sky`` (black, with small bright sources of several sizes
 and colours) and ``logo`` (flat colours). Each row reports ``soft_*`` (holes only,
-``stipple.windows: off``), ``hybrid_*`` (the shipped default: windows where a layer is solid),
+``stipple.windows: off``, at its best stand-off), ``hybrid_*`` (the shipped default: windows where a
+layer is solid, at the stand-off the job chooses for the picture, ``hybrid_standoff_chosen``: see
+``stencil_cad.pipeline.standoff``),
 ``hard_*``, ``best_over_hard_1m`` (the better of soft and hybrid over hard, at 1 m) and
 ``floor_*`` (the decomposition's own layers composited ideally: what no stencil can beat).
+
+Each setting decomposes the picture itself, as its job would: the start is chosen by what that
+setting's plates can spray.
 
 Case names are ``<image>-<settings>``; ``--case astronaut`` runs both settings of one image.
 The soft side runs the pipeline's own stage functions with an output that writes nothing;

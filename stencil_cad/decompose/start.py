@@ -33,7 +33,8 @@ _ORDER_TIE_RMSE = 0.5
 
 #: A pixel is flat when its 3 x 3 neighbourhood spans at most this (two 8-bit levels) per channel,
 #: and a picture is flat-coloured (a logo, a poster) when this share of its pixels are flat: photos
-#: have grain and gradients nearly everywhere (the example: FLATSHARE).
+#: have grain and gradients nearly everywhere (flat share: the bundled example 0.10, astronaut 0.10,
+#: rocket 0.27, coffee 0.02; the generated logo 0.93 and dark sky 0.94).
 _FLAT_TOL = 2.0 / 255.0
 _FLAT_SHARE = 0.8
 
