@@ -24,9 +24,14 @@ own best height), so the refinement's gain and cost (``refine_seconds`` beside
 
 Two pictures are generated here: ``dark_sky`` (black, with small bright sources of several sizes
 and colours) and ``logo`` (flat colours). Each row reports ``soft_*`` (holes only,
-``stipple.windows: off``), ``hybrid_*`` (the shipped default: windows where a layer is solid),
+``stipple.windows: off``, at its best stand-off), ``hybrid_*`` (the shipped default: windows where a
+layer is solid, at the stand-off the job chooses for the picture, ``hybrid_standoff_chosen``: see
+``stencil_cad.pipeline.standoff``),
 ``hard_*``, ``best_over_hard_1m`` (the better of soft and hybrid over hard, at 1 m) and
 ``floor_*`` (the decomposition's own layers composited ideally: what no stencil can beat).
+
+Each setting decomposes the picture itself, as its job would: the start is chosen by what that
+setting's plates can spray.
 
 Case names are ``<image>-<settings>``; ``--case astronaut`` runs both settings of one image.
 The soft side runs the pipeline's own stage functions with an output that writes nothing;
@@ -297,11 +302,21 @@ def _best(by_height: dict) -> tuple[float, dict]:
     return h, by_height[h]
 
 
-def _soft(f, pipeline, cfg0, layers, pic, image: str, windows: str, by_can: bool = True):
+def _chosen_standoff(pipeline, cfg0, layers, pic) -> float | None:
+    """The stand-off a job with these settings chooses for the picture (``wall.standoff_mm: null``)."""
+    if not cfg0.spray.is_physical:
+        return None
+    from stencil_cad.pipeline.standoff import choose_standoff
+
+    run_ = pipeline.Run(cfg=cfg0, out=_NullOut(), quiet=True)
+    return float(choose_standoff(run_, layers, (pic.width_mm, pic.height_mm), pic, None).wall.standoff_mm[0])
+
+
+def _soft(f, pipeline, cfg0, layers, pic, image: str, windows: str, by_can: bool = True, heights=None):
     """The soft stencil at each stand-off: ``(refined, stippled, timing, last simulation, reference, run)``."""
     size = (pic.width_mm, pic.height_mm)
     soft, plain, timing = {}, {}, {}
-    for h in _heights(cfg0, hard=False):
+    for h in heights or _heights(cfg0, hard=False):
         cfg = _at_height(cfg0, h, refine=False, windows=windows)
         run_ = pipeline.Run(cfg=cfg, out=_NullOut(), quiet=True)
         t0 = time.perf_counter()
@@ -342,18 +357,19 @@ def run(cases=None):
     pairs = _select(cases)
     configs = _configs()
     for image in dict.fromkeys(i for i, _ in pairs):
-        # The decomposition depends only on the picture, the decompose section and the seed,
-        # which every setting shares: decompose once per image.
-        base = configs[SETTINGS[0]]
-        pic = _load(image, base, f["fit_to_size"])
-        t0 = time.perf_counter()
-        layers = pipeline.stage_decompose(pipeline.Run(cfg=base, out=_NullOut(), quiet=True), pic)
-        t_decompose = time.perf_counter() - t0
         for settings in [s for i, s in pairs if i == image]:
+            # Decomposed as the job would: the start is chosen by what this setting's plates spray.
             cfg0 = configs[settings]
-            assert cfg0.decompose == base.decompose and cfg0.seed == base.seed and cfg0.size == base.size
+            pic = _load(image, cfg0, f["fit_to_size"])
+            t0 = time.perf_counter()
+            layers = pipeline.stage_decompose(pipeline.Run(cfg=cfg0, out=_NullOut(), quiet=True), pic)
+            t_decompose = time.perf_counter() - t0
             soft, plain, timing, sim1, ref, run_ = _soft(f, pipeline, cfg0, layers, pic, image, "off")
-            hybrid, _, htiming, _, _, _ = _soft(f, pipeline, cfg0, layers, pic, image, "auto", by_can=False)
+            # The hybrid plates (the shipped default) at the stand-off the job chooses for the picture.
+            chosen = _chosen_standoff(pipeline, cfg0, layers, pic)
+            hybrid, _, htiming, _, _, _ = _soft(
+                f, pipeline, cfg0, layers, pic, image, "auto", by_can=False, heights=chosen and (chosen,)
+            )
             shape = sim1.composite.shape[:2]
             mm_per_px = sim1.mm_per_px
 
@@ -407,6 +423,7 @@ def run(cases=None):
                 row[f"hybrid_{key}"] = best_hybrid[key]
                 row[f"floor_{key}"] = floor[key]
             row["hybrid_nozzle_height"] = hy
+            row["hybrid_standoff_chosen"] = chosen
             row["hybrid_windows"] = best_hybrid["windows"]
             row["best_over_hard_1m"] = round(
                 min(best_soft["scielab_1m"], best_hybrid["scielab_1m"]) / best_hard["scielab_1m"], 3

@@ -142,6 +142,9 @@ class JobConfig(StrictModel):
 
     #: The filled-in plate thickness and why, or None when plate.thickness_mm was given.
     _thickness_fill: Thickness | None = PrivateAttr(None)
+    #: Whether ``wall.standoff_mm`` was left to the job (null): a soft job may then choose it for
+    #: its picture (:meth:`with_standoff`, ``pipeline.standoff``).
+    _standoff_filled: bool = PrivateAttr(False)
 
     @field_validator("bed", mode="before")
     @classmethod
@@ -208,6 +211,31 @@ class JobConfig(StrictModel):
         fill = _thickness_for(process, side, probe)
         cfg = handler({**data, "plate": {**plate, "thickness_mm": fill.thickness_mm}})
         cfg._thickness_fill = fill
+        return cfg
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _note_standoff(cls, data, handler):
+        """Remember that ``wall.standoff_mm`` was left out (or null), so a soft job may choose it."""
+        wall = data.get("wall") if isinstance(data, dict) else None
+        filled = isinstance(data, dict) and (
+            wall is None or (isinstance(wall, dict) and wall.get("standoff_mm") is None)
+        )
+        cfg = handler(data)
+        cfg._standoff_filled = bool(filled)
+        return cfg
+
+    @property
+    def chooses_standoff(self) -> bool:
+        """Whether the job chooses its wall's stand-off for the picture: left null, soft, physical spray."""
+        return self._standoff_filled and self.mode == Mode.soft and self.spray.is_physical
+
+    def with_standoff(self, standoff_mm: float) -> JobConfig:
+        """This config with the wall at one stand-off in mm (still marked as chosen by the job)."""
+        wall = WallConfig.model_validate({**self.wall.model_dump(), "standoff_mm": [float(standoff_mm)]})
+        cfg = self.model_copy(update={"wall": wall})
+        cfg._standoff_filled = self._standoff_filled
+        cfg._thickness_fill = self._thickness_fill
         return cfg
 
     @property
@@ -351,6 +379,8 @@ def parse_overrides(
         data["mode"] = Mode.hard.value
     if bed is not None:
         data["bed"] = list(bed) if isinstance(bed, tuple) else bed
+    if cfg._standoff_filled:
+        data["wall"]["standoff_mm"] = None  # filled in again (and chosen for the picture) for the new mode
     if cfg._thickness_fill is not None:
         data["plate"]["thickness_mm"] = None  # filled in again for the new image, bed or mode
     return parse_config(data, source="command line")

@@ -28,6 +28,7 @@ from .picture import load_picture
 from .saved import check_dots, read_dots, read_layers
 from .simulate import stage_simulate
 from .slicing import stage_print_estimate
+from .standoff import choose_standoff
 from .stipple import bound_dots, stage_stipple
 
 log = logging.getLogger(__name__)
@@ -63,7 +64,6 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
     size = (picture.width_mm, picture.height_mm)
     grid = plan_mural(run, size, picture.shape)
     cfg = fit_thickness(run, grid)
-    save_config(run)
     run.sheet_images["input.png"] = png_bytes(np.asarray(picture.rgb, dtype=np.float64))
     run.figures.picture = PictureFigures(
         source=picture.source,
@@ -78,9 +78,13 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
                 f"hard mode makes one plate per layer, and a {size[0]:.0f} × {size[1]:.0f} mm picture's plate does "
                 f"not fit the bed {grid.bed}; use soft mode for a tiled mural, a larger bed or a smaller size"
             )
+        save_config(run)
         return run_hard(run, picture)
     bound_dots(run, size)
     layers = stage_decompose(run, picture)
+    # The wall's stand-off left to the job is chosen for the picture; the saved config records it.
+    choose_standoff(run, layers, size, picture, grid)
+    save_config(run)
     dotsets = stage_stipple(run, layers, size, picture, grid)
     build_any(run, layers, dotsets, size, grid, picture)
     return finish(run, "run")
