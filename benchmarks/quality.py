@@ -309,7 +309,7 @@ def _chosen_standoff(pipeline, cfg0, layers, pic) -> float | None:
     from stencil_cad.pipeline.standoff import choose_standoff
 
     run_ = pipeline.Run(cfg=cfg0, out=_NullOut(), quiet=True)
-    return float(choose_standoff(run_, layers, (pic.width_mm, pic.height_mm), pic, None).wall.standoff_mm[0])
+    return float(choose_standoff(run_, layers, (pic.width_mm, pic.height_mm), pic).wall.standoff_mm[0])
 
 
 def _soft(f, pipeline, cfg0, layers, pic, image: str, windows: str, by_can: bool = True, heights=None):

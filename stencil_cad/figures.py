@@ -140,6 +140,26 @@ class MuralFigures:
 
 
 @dataclass(frozen=True)
+class StandoffFigures:
+    """The wall stand-off a job left to itself: the windows' share of the paint, the trials, the choice."""
+
+    window_share: float
+    standoff_mm: float
+    #: S-CIELAB of the unrefined plates per tried stand-off (mm as text); empty without trials.
+    trials: Mapping[str, float]
+    reason: str
+
+    def to_json(self) -> dict[str, Any]:
+        """The manifest's ``standoff`` section."""
+        return {
+            "window_share": self.window_share,
+            "standoff_mm": self.standoff_mm,
+            "trials": dict(self.trials),
+            "reason": self.reason,
+        }
+
+
+@dataclass(frozen=True)
 class DecomposeFigures:
     """The decomposition: layer count, primer and paints, iterations and the solver's figures."""
 
@@ -455,6 +475,7 @@ class Figures:
     picture: PictureFigures | None = None
     mural: MuralFigures | None = None
     plate: PlateFigures | None = None
+    standoff: StandoffFigures | None = None
     decompose: DecomposeFigures | None = None
     cans: CansFigures | None = None
     dark_end: tuple[DarkEnd, ...] | None = None

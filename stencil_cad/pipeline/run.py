@@ -82,8 +82,10 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
         return run_hard(run, picture)
     bound_dots(run, size)
     layers = stage_decompose(run, picture)
-    # The wall's stand-off left to the job is chosen for the picture; the saved config records it.
-    choose_standoff(run, layers, size, picture, grid)
+    # The wall's stand-off left to the job is chosen for a one-plate picture (a mural keeps the
+    # process's: trials over every tile would cost more than the job); the saved config records it.
+    if not grid.tiled:
+        choose_standoff(run, layers, size, picture)
     save_config(run)
     dotsets = stage_stipple(run, layers, size, picture, grid)
     build_any(run, layers, dotsets, size, grid, picture)

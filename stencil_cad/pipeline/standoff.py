@@ -16,13 +16,17 @@ carry well under :data:`WINDOW_SHARE` of their paint) keep the process's stand-o
 from __future__ import annotations
 
 import logging
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
 from ..config import JobConfig
+from ..figures import StandoffFigures
 from ..model import Layers, Picture
 from ..record import Run
+
+if TYPE_CHECKING:
+    from ..output import OutputDir
 
 log = logging.getLogger(__name__)
 
@@ -74,7 +78,8 @@ def _trial_score(
     from .stipple import stage_stipple
 
     trial_cfg = cfg.model_copy(update={"refine": cfg.refine.model_copy(update={"enabled": False})})
-    trial = Run(cfg=trial_cfg, out=_Discard(), quiet=True, executor=run.executor)  # type: ignore[arg-type]
+    # The trial's stipple writes nothing: an output folder that discards every call stands in.
+    trial = Run(cfg=trial_cfg, out=cast("OutputDir", _Discard()), quiet=True, executor=run.executor)
     dotsets = stage_stipple(trial, layers, picture_mm, picture)
     made = [made_dots(d, cfg.stipple, picture_mm) for d in dotsets]
     sim = simulate.simulate(
@@ -90,31 +95,31 @@ def _trial_score(
 
 
 def choose_standoff(
-    run: Run, layers: Layers, picture_mm: tuple[float, float], picture: Picture | None, grid: Any
+    run: Run, layers: Layers, picture_mm: tuple[float, float], picture: Picture | None
 ) -> JobConfig:
     """The job's config with its wall at the stand-off this picture's plates spray best from.
 
     Only when the config leaves the stand-off to the job (:attr:`JobConfig.chooses_standoff`), on a
     one-plate job whose windows carry at least :data:`WINDOW_SHARE` of the paint; otherwise the
-    config comes back as it is. Records figure ``standoff``: the share, the trials' scores and the
-    choice. Sets ``run.cfg``.
+    config comes back as it is. The run calls it for one-plate jobs only. Records figure
+    ``standoff``: the share, the trials' scores and the choice. Sets ``run.cfg``.
     """
     from ..mural import TileGrid
 
     cfg = run.cfg
-    if not cfg.chooses_standoff or grid is not None and grid.tiled:
+    if not cfg.chooses_standoff:
         return cfg
     default = float(cfg.wall.standoff_mm[0])
     with run.stage("standoff"):
-        share = window_share(cfg, layers, grid or TileGrid.whole(*picture_mm), picture_mm)
-        fig: dict[str, Any] = {"window_share": round(share, 3), "standoff_mm": default, "trials": {}}
+        share = window_share(cfg, layers, TileGrid.whole(*picture_mm), picture_mm)
+        best, trials = default, {}
         if share >= WINDOW_SHARE:
             scores = {
                 g: _trial_score(run, cfg.with_standoff(g), layers, picture_mm, picture)
                 for g in sorted({default, *TRIAL_STANDOFFS_MM})
             }
             best = min(scores, key=lambda g: (scores[g], -g))
-            fig.update(standoff_mm=best, trials={f"{g:g}": round(v, 3) for g, v in scores.items()})
+            trials = {f"{g:g}": round(v, 3) for g, v in scores.items()}
             if best != default:
                 log.info(
                     "wall: %g mm stand-off (windows carry %.0f %% of the paint; S-CIELAB of the unrefined "
@@ -124,10 +129,14 @@ def choose_standoff(
                     ", ".join(f"{v:.2f} at {g:g} mm" for g, v in scores.items()),
                 )
                 run.cfg = cfg.with_standoff(best)
-    fig["reason"] = (
-        "left to the job: the process's stand-off"
-        if share < WINDOW_SHARE
-        else "left to the job: windows carry most of the paint, so the stand-off whose plates score best"
+    run.figures.standoff = StandoffFigures(
+        window_share=round(share, 3),
+        standoff_mm=best,
+        trials=trials,
+        reason=(
+            "left to the job: the process's stand-off"
+            if share < WINDOW_SHARE
+            else "left to the job: windows carry most of the paint, so the stand-off whose plates score best"
+        ),
     )
-    run.figures["standoff"] = fig
     return run.cfg

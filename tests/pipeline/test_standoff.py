@@ -53,20 +53,20 @@ def test_a_photo_keeps_the_process_stand_off_without_trials():
     pic = Picture(rgb=np.clip(layers.composite(), 0.0, 1.0), mm_per_px=0.5, source="test")
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
     assert window_share(run.cfg, layers, TileGrid.whole(60.0, 60.0), (60.0, 60.0)) < WINDOW_SHARE
-    cfg = choose_standoff(run, layers, (60.0, 60.0), pic, None)
-    assert cfg.wall.standoff_mm == [10.0] and run.figures["standoff"]["trials"] == {}
+    cfg = choose_standoff(run, layers, (60.0, 60.0), pic)
+    assert cfg.wall.standoff_mm == [10.0] and run.figures.standoff is not None and run.figures.standoff.trials == {}
 
 
 def test_flat_colour_art_sprays_from_lower_down():
     pic, layers = _flat_layers()
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
     assert window_share(run.cfg, layers, TileGrid.whole(60.0, 60.0), (60.0, 60.0)) > 0.8
-    cfg = choose_standoff(run, layers, (60.0, 60.0), pic, None)
-    fig = run.figures["standoff"]
-    assert set(fig["trials"]) == {"1", "4", "10"}
+    cfg = choose_standoff(run, layers, (60.0, 60.0), pic)
+    fig = run.figures.standoff
+    assert fig is not None and set(fig.trials) == {"1", "4", "10"}
     # The windows' edges stay sharp low down: the trials say so, and the job takes the best.
-    assert fig["trials"]["10"] > min(fig["trials"]["1"], fig["trials"]["4"])
-    assert cfg.wall.standoff_mm == [fig["standoff_mm"]] and fig["standoff_mm"] < 10.0
+    assert fig.trials["10"] > min(fig.trials["1"], fig.trials["4"])
+    assert cfg.wall.standoff_mm == [fig.standoff_mm] and fig.standoff_mm < 10.0
     assert run.cfg is cfg and cfg.chooses_standoff
 
 
@@ -76,4 +76,4 @@ def test_flat_colour_art_sprays_from_lower_down():
 def test_a_given_stand_off_or_no_windows_is_kept(extra):
     pic, layers = _flat_layers()
     run = Run(cfg=_cfg(**extra), out=None)  # type: ignore[arg-type]
-    assert choose_standoff(run, layers, (60.0, 60.0), pic, None).wall.standoff_mm == [10.0]
+    assert choose_standoff(run, layers, (60.0, 60.0), pic).wall.standoff_mm == [10.0]
