@@ -202,3 +202,14 @@ def test_standoff_figures_json_is_exact():
         "reason",
     ]
     assert fig.chosen == PlateTrial("off", 15.0, 4.2)
+
+
+def test_the_summary_says_what_was_chosen_and_why(monkeypatch, tmp_path):
+    from stencil_cad.report import summary
+
+    pic, layers = _flat_layers()
+    _scripted(monkeypatch, dict.fromkeys(candidates(_cfg(), 0.9), 2.0) | {("off", 15.0): 1.5})
+    run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
+    choose_plates(run, layers, (60.0, 60.0), pic)
+    lines = [line for line in summary(run, [], tmp_path).splitlines() if line.startswith("  design")]
+    assert len(lines) == 1 and "holes only, 15 mm (chosen)" in lines[0] and "1.50" in lines[0]
