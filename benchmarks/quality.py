@@ -452,6 +452,8 @@ def run(cases=None):
                 row[f"floor_{key}"] = floor[key]
             row["hybrid_nozzle_height"] = hy
             row["hybrid_windows"] = best_hybrid["windows"]
+            # Beside default_trials: the refined score of every design the job tried (its ranking check).
+            row["hybrid_scielab_1m_by_height"] = {f"{h:g}": v["scielab_1m"] for h, v in hybrid.items()}
             for key in ("scielab_1m", "scielab_2m", "de2000"):
                 row[f"default_{key}"] = default[key]
             row["default_windows"] = chosen_windows

@@ -188,7 +188,7 @@ def choose_plates(
         window_share=round(share, 3),
         standoff_mm=best.standoff_mm,
         trials=tuple(trials),
-        reason=_reason(designs[0], best, trials),
+        reason=_reason(designs[0], best, trials, cfg.view.distance_m),
         windows=best.windows,
         trial_mm_per_px=round(grid, 4) if trials else None,
         seconds=round(time.perf_counter() - t0, 2),
@@ -199,7 +199,7 @@ def choose_plates(
     return run.cfg
 
 
-def _reason(own: tuple[str, float], best: PlateTrial, trials: list[PlateTrial]) -> str:
+def _reason(own: tuple[str, float], best: PlateTrial, trials: list[PlateTrial], distance_m: float) -> str:
     """Why the design was chosen, in one line."""
     if not trials:
         return f"{best.label}: the only design left to the job"
@@ -207,6 +207,6 @@ def _reason(own: tuple[str, float], best: PlateTrial, trials: list[PlateTrial]) 
     runner = others[0]
     kept = "the config's own" if (best.windows, best.standoff_mm) == own else "chosen"
     return (
-        f"{best.label} ({kept}): its unrefined plates scored {best.scielab:.2f} (S-CIELAB), "
+        f"{best.label} ({kept}): its unrefined plates scored {best.scielab:.2f} (S-CIELAB at {distance_m:g} m), "
         f"the best of {len(trials)} designs tried (next {runner.label} {runner.scielab:.2f})"
     )
