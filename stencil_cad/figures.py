@@ -140,21 +140,62 @@ class MuralFigures:
 
 
 @dataclass(frozen=True)
+class PlateTrial:
+    """One plate design tried for the picture: windows on or off, the wall's stand-off, and its score."""
+
+    #: ``auto`` (windows where a layer is solid) or ``off`` (holes only).
+    windows: str
+    standoff_mm: float
+    #: S-CIELAB at the viewing distance of the plates stippled (not refined) and sprayed.
+    scielab: float
+
+    @property
+    def label(self) -> str:
+        """The design in words: ``windows, 10 mm`` or ``holes only, 15 mm``."""
+        return f"{'windows' if self.windows == 'auto' else 'holes only'}, {self.standoff_mm:g} mm"
+
+    def to_json(self) -> dict[str, Any]:
+        """One row of the manifest's ``standoff.trials``."""
+        return {"windows": self.windows, "standoff_mm": self.standoff_mm, "scielab": self.scielab}
+
+
+@dataclass(frozen=True)
 class StandoffFigures:
-    """The wall stand-off a job left to itself: the windows' share of the paint, the trials, the choice."""
+    """The plate design chosen for the picture: the windows' share of the paint, the trials, the choice.
+
+    The design is whether the plates open windows (``stipple.windows: auto`` lets the job choose) and
+    the wall's stand-off (``wall.standoff_mm: null`` lets it choose).
+    """
 
     window_share: float
     standoff_mm: float
-    #: S-CIELAB of the unrefined plates per tried stand-off (mm as text); empty without trials.
-    trials: Mapping[str, float]
+    #: The plate designs tried, in the order tried; empty without trials.
+    trials: Sequence[PlateTrial]
     reason: str
+    #: The windows chosen: ``auto`` or ``off``.
+    windows: str = "auto"
+    #: The trials' simulation grid in mm per pixel (None without trials).
+    trial_mm_per_px: float | None = None
+    #: Seconds the trials took.
+    seconds: float = 0.0
+
+    @property
+    def chosen(self) -> PlateTrial | None:
+        """The trial of the chosen design (None without trials)."""
+        for t in self.trials:
+            if t.windows == self.windows and t.standoff_mm == self.standoff_mm:
+                return t
+        return None
 
     def to_json(self) -> dict[str, Any]:
         """The manifest's ``standoff`` section."""
         return {
             "window_share": self.window_share,
             "standoff_mm": self.standoff_mm,
-            "trials": dict(self.trials),
+            "windows": self.windows,
+            "trials": [t.to_json() for t in self.trials],
+            "trial_mm_per_px": self.trial_mm_per_px,
+            "seconds": self.seconds,
             "reason": self.reason,
         }
 

@@ -26,6 +26,8 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
     f = run.figures
     lines = [f"stencil-cad: {run.cfg.name} → {out_path}/ ({len(files)} files)"]
     lines += _layer_lines(run, f)
+    if f.standoff is not None and f.standoff.trials:
+        lines.append(f"  design    {f.standoff.reason}")
     lines += _build_lines(run, f)
     if f.plate is not None and f.plate.thickness_reason:
         lines.append(f"  thickness {f.plate.thickness_reason}")

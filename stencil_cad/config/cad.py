@@ -179,10 +179,11 @@ class WallConfig(StrictModel):
             "the height the job's stencils score best from, seen from 1 m (python -m benchmarks quality): "
             "10 mm for sla and laser holes, 15 for fdm's larger ones (FDM astronaut 10.8 / 9.1 / 9.2 "
             "S-CIELAB at 10 / 15 / 20 mm), 1 mm for hard stencils, whose cut-outs keep sharp edges low down "
-            "(astronaut 8.5 / 9.1 / 12.4 at 1 / 3 / 10 mm). A soft job whose windows carry at least half the "
-            "paint (a logo, flat-colour art) then tries 1 and 4 mm too, by stippling and spraying its unrefined "
-            "plates, and takes the best (the generated logo: 2.00 / 0.92 / 0.88 at 10 / 4 / 1 mm); the chosen "
-            "height is saved in the run's config."
+            "(astronaut 8.5 / 9.1 / 12.4 at 1 / 3 / 10 mm). A soft one-plate job then tries that height and 5 mm "
+            "higher (photos' dots may blend better: SLA coffee and rocket), and where windows carry at least "
+            "half the paint (a logo, flat-colour art) 1 and 4 mm for the windows too (the generated logo: 2.00 / "
+            "0.92 / 0.88 at 10 / 4 / 1 mm), by stippling and spraying its unrefined plates, and takes the best; "
+            "the chosen height is saved in the run's config."
         ),
     )
     clearance_mm: float = Field(

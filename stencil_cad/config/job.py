@@ -143,7 +143,7 @@ class JobConfig(StrictModel):
     #: The filled-in plate thickness and why, or None when plate.thickness_mm was given.
     _thickness_fill: Thickness | None = PrivateAttr(None)
     #: Whether ``wall.standoff_mm`` was left to the job (null): a soft job may then choose it for
-    #: its picture (:meth:`with_standoff`, ``pipeline.standoff``).
+    #: its picture with the plates' windows (:meth:`with_standoff`, ``pipeline.standoff``).
     _standoff_filled: bool = PrivateAttr(False)
 
     @field_validator("bed", mode="before")

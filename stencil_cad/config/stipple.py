@@ -228,8 +228,9 @@ class StippleConfig(StrictModel):
         Windows.auto,
         description=(
             "Open windows (polygon cut-outs, islands held by bridges) where a layer is near fully opaque "
-            "over an area at least min_window_mm across, holes around them. Choices: auto (the best the "
-            "tool knows), off (holes only)."
+            "over an area at least min_window_mm across, holes around them. Choices: auto (a one-plate job "
+            "tries its plates with and without windows, stippled and sprayed unrefined, and keeps the better: "
+            "windows can cost a photo more than they give), off (holes only)."
         ),
     )
     min_window_mm: float = Field(

@@ -28,7 +28,7 @@ from .picture import load_picture
 from .saved import check_dots, read_dots, read_layers
 from .simulate import stage_simulate
 from .slicing import stage_print_estimate
-from .standoff import choose_standoff
+from .standoff import choose_plates
 from .stipple import bound_dots, stage_stipple
 
 log = logging.getLogger(__name__)
@@ -82,10 +82,11 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
         return run_hard(run, picture)
     bound_dots(run, size)
     layers = stage_decompose(run, picture)
-    # The wall's stand-off left to the job is chosen for a one-plate picture (a mural keeps the
-    # process's: trials over every tile would cost more than the job); the saved config records it.
+    # The plate design left to the job (windows, the wall's stand-off) is chosen for a one-plate
+    # picture (a mural keeps the config's: trials over every tile would cost more than the job);
+    # the saved config records it.
     if not grid.tiled:
-        choose_standoff(run, layers, size, picture)
+        choose_plates(run, layers, size, picture)
     save_config(run)
     dotsets = stage_stipple(run, layers, size, picture, grid)
     build_any(run, layers, dotsets, size, grid, picture)

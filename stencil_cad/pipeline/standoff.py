@@ -1,27 +1,35 @@
-"""The wall's stand-off chosen for the picture, when the config leaves it to the job (``wall.standoff_mm: null``).
+"""The plate design chosen for the picture: windows on or off, and the wall's stand-off.
 
-The process's stand-off (10 mm for SLA and laser holes, 15 for FDM) is where plates of holes
-score best on photos: their dots blend. On a picture whose paint goes mostly through windows (a
-logo, flat-colour art) the windows' edges carry the error, and they stay sharp only low down, as
-a hard stencil's do: the generated logo of the quality benchmark scored 2.00 at 10 mm, 0.92 at
-4 mm and 0.88 at 1 mm (S-CIELAB at 1 m, SLA rules), while the generated dark sky, whose paint also
-goes mostly through windows but whose glows are holes, scored 1.84, 2.52 at 10 and 4 mm.
+Two choices the config may leave to the job: ``stipple.windows: auto`` (the default) lets the job
+open windows where a layer is solid or keep to holes, and ``wall.standoff_mm: null`` (the default)
+lets it choose the wall's stand-off. Neither is right for every picture. The process's stand-off
+(10 mm for SLA and laser holes, 15 for FDM) is where plates of holes score best on most photos, but
+some photos' dots blend better from higher up (coffee and rocket scored best at 15 mm with SLA
+holes). On a picture whose paint goes mostly through windows (a logo, flat-colour art) the windows'
+edges carry the error, and they stay sharp only low down, as a hard stencil's do: the generated logo
+of the quality benchmark scored 2.00 at 10 mm, 0.92 at 4 mm and 0.88 at 1 mm (S-CIELAB at 1 m, SLA
+rules). And windows can cost a photo more than they give: on rocket the hybrid plates scored 2.91
+where holes alone scored 2.20.
 
-So a share of the paint through windows decides whether to look further, and the stand-offs are
-then ranked by what they spray: each candidate's plates are stippled (without the refinement) and
-sprayed in simulation, and scored at the viewing distance like the job's result. Photos (windows
-carry well under :data:`WINDOW_SHARE` of their paint) keep the process's stand-off and pay nothing.
+So the designs are ranked by what they spray: each candidate's plates are stippled (without the
+refinement) and sprayed in simulation on a coarse grid, and scored at the viewing distance like the
+job's result; the best is kept. The candidates: windows on and off (only where the picture has
+windows), at the process's stand-off and :data:`HIGHER_BY_MM` above it, and where windows carry at
+least :data:`WINDOW_SHARE` of the paint, windows at :data:`LOW_STANDOFFS_MM` too. A job whose config
+fixes both (a given stand-off and ``windows: off``, or a picture without windows) tries nothing.
 """
 
 from __future__ import annotations
 
 import logging
+import time
 from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
 from ..config import JobConfig
-from ..figures import StandoffFigures
+from ..config.stipple import Windows
+from ..figures import PlateTrial, StandoffFigures
 from ..model import Layers, Picture
 from ..record import Run
 
@@ -34,8 +42,12 @@ log = logging.getLogger(__name__)
 #: before lower stand-offs are tried: the logo and the dark sky 0.97, the river of rocket 0.39,
 #: coffee 0.22, the bundled example, astronaut and chelsea under 0.01.
 WINDOW_SHARE = 0.5
-#: The lower stand-offs tried beside the process's, in mm: a hard stencil's (1 mm) and one between.
-TRIAL_STANDOFFS_MM = (1.0, 4.0)
+#: The lower stand-offs tried for windows beside the process's, in mm: a hard stencil's (1 mm) and one between.
+LOW_STANDOFFS_MM = (1.0, 4.0)
+#: The higher stand-off tried is the process's plus this, in mm (15 for SLA's 10, 20 for FDM's 15).
+HIGHER_BY_MM = 5.0
+#: The trials simulate on a grid this many times coarser than the job's (at least ...).
+TRIAL_COARSENING = 2.0
 
 
 class _Discard:
@@ -65,10 +77,54 @@ def window_share(cfg: JobConfig, layers: Layers, tiling: Any, picture_mm: tuple[
     return through / paint if paint > 0.0 else 0.0
 
 
+def trial_mm_per_px(cfg: JobConfig) -> float:
+    """The trials' simulation pixel in mm: :data:`TRIAL_COARSENING` times the job's."""
+    from .. import resolution
+
+    fine = resolution.sim_mm_per_px(cfg)
+    return TRIAL_COARSENING * (1.0 / float(cfg.spray.px_per_mm) if fine is None else fine)
+
+
+def candidates(cfg: JobConfig, share: float) -> list[tuple[str, float]]:
+    """The plate designs worth a trial, ``(windows, stand-off in mm)``, the config's own first.
+
+    Windows on and off where the config lets the job choose (``stipple.windows: auto``) and the
+    picture has windows (``share`` > 0); the process's stand-off and :data:`HIGHER_BY_MM` above it
+    where the config leaves the stand-off to the job, and for windows the :data:`LOW_STANDOFFS_MM`
+    too where they carry at least :data:`WINDOW_SHARE` of the paint.
+    """
+    own = (cfg.stipple.windows.value, float(cfg.wall.standoff_mm[0]))
+    windows = (
+        [Windows.auto.value, Windows.off.value] if own[0] == Windows.auto.value and share > 0.0 else [own[0]]
+    )
+    heights = [own[1]]
+    if cfg.chooses_standoff:
+        heights.append(own[1] + HIGHER_BY_MM)
+    out = [(w, g) for w in windows for g in heights]
+    if cfg.chooses_standoff and share >= WINDOW_SHARE and Windows.auto.value in windows:
+        out += [(Windows.auto.value, g) for g in sorted(LOW_STANDOFFS_MM, reverse=True) if g < own[1]]
+    return out
+
+
+def with_design(cfg: JobConfig, windows: str, standoff_mm: float) -> JobConfig:
+    """``cfg`` with its plates' windows and its wall's stand-off set (the stand-off still marked as the job's)."""
+    if windows != cfg.stipple.windows.value:
+        cfg = cfg.model_copy(update={"stipple": cfg.stipple.model_copy(update={"windows": Windows(windows)})})
+    return cfg if standoff_mm == float(cfg.wall.standoff_mm[0]) else cfg.with_standoff(standoff_mm)
+
+
 def _trial_score(
-    run: Run, cfg: JobConfig, layers: Layers, picture_mm: tuple[float, float], picture: Picture | None
+    run: Run,
+    cfg: JobConfig,
+    layers: Layers,
+    picture_mm: tuple[float, float],
+    picture: Picture | None,
+    grid_mm_per_px: float | None = None,
 ) -> float:
-    """S-CIELAB at the viewing distance of the plates stippled (not refined) and sprayed at ``cfg``'s stand-off."""
+    """S-CIELAB at the viewing distance of ``cfg``'s plates stippled (not refined) and sprayed.
+
+    Sprayed on a grid of ``grid_mm_per_px`` (the job's simulation grid by default).
+    """
     from .. import resolution, simulate
     from ..simulate.physical import SprayGeometry
     from ..simulate.scielab import scielab
@@ -86,7 +142,7 @@ def _trial_score(
         layers,
         made,
         cfg.spray,
-        resolution.sim_mm_per_px(cfg),
+        resolution.sim_mm_per_px(cfg) if grid_mm_per_px is None else grid_mm_per_px,
         geometry=SprayGeometry.for_job(cfg),
         layer_sprays=layer_sprays(trial, layers.colours),
     )
@@ -94,49 +150,63 @@ def _trial_score(
     return float(scielab(ref, sim.composite, sim.mm_per_px, cfg.view.distance_m))
 
 
-def choose_standoff(
+def choose_plates(
     run: Run, layers: Layers, picture_mm: tuple[float, float], picture: Picture | None
 ) -> JobConfig:
-    """The job's config with its wall at the stand-off this picture's plates spray best from.
+    """The job's config with the plate design (windows, stand-off) this picture's plates spray best with.
 
-    Only when the config leaves the stand-off to the job (:attr:`JobConfig.chooses_standoff`), on a
-    one-plate job whose windows carry at least :data:`WINDOW_SHARE` of the paint; otherwise the
-    config comes back as it is. The run calls it for one-plate jobs only. Records figure
-    ``standoff``: the share, the trials' scores and the choice. Sets ``run.cfg``.
+    The designs of :func:`candidates` are tried (:func:`_trial_score`, on the coarse grid of
+    :func:`trial_mm_per_px`) and the best kept; with one candidate the config comes back as it is.
+    The run calls it for one-plate jobs only (a mural keeps its config: trials over every tile would
+    cost more than the job). Records figure ``standoff``: the share, the trials and the choice. Sets
+    ``run.cfg``.
     """
     from ..mural import TileGrid
 
     cfg = run.cfg
-    if not cfg.chooses_standoff:
+    if cfg.stipple.windows == Windows.off and not cfg.chooses_standoff:
         return cfg
-    default = float(cfg.wall.standoff_mm[0])
+    t0 = time.perf_counter()
     with run.stage("standoff"):
         share = window_share(cfg, layers, TileGrid.whole(*picture_mm), picture_mm)
-        best, trials = default, {}
-        if share >= WINDOW_SHARE:
-            scores = {
-                g: _trial_score(run, cfg.with_standoff(g), layers, picture_mm, picture)
-                for g in sorted({default, *TRIAL_STANDOFFS_MM})
-            }
-            best = min(scores, key=lambda g: (scores[g], -g))
-            trials = {f"{g:g}": round(v, 3) for g, v in scores.items()}
-            if best != default:
-                log.info(
-                    "wall: %g mm stand-off (windows carry %.0f %% of the paint; S-CIELAB of the unrefined "
-                    "plates %s)",
-                    best,
-                    100.0 * share,
-                    ", ".join(f"{v:.2f} at {g:g} mm" for g, v in scores.items()),
+        designs = candidates(cfg, share)
+        grid = trial_mm_per_px(cfg)
+        trials: list[PlateTrial] = []
+        if len(designs) > 1:
+            trials = [
+                PlateTrial(
+                    w,
+                    g,
+                    round(_trial_score(run, with_design(cfg, w, g), layers, picture_mm, picture, grid), 3),
                 )
-                run.cfg = cfg.with_standoff(best)
-    run.figures.standoff = StandoffFigures(
+                for w, g in designs
+            ]
+        # The first best wins a tie: the config's own design is tried first.
+        best = min(trials, key=lambda t: t.scielab) if trials else PlateTrial(*designs[0], float("nan"))
+        run.cfg = with_design(cfg, best.windows, best.standoff_mm)
+    fig = StandoffFigures(
         window_share=round(share, 3),
-        standoff_mm=best,
-        trials=trials,
-        reason=(
-            "left to the job: the process's stand-off"
-            if share < WINDOW_SHARE
-            else "left to the job: windows carry most of the paint, so the stand-off whose plates score best"
-        ),
+        standoff_mm=best.standoff_mm,
+        trials=tuple(trials),
+        reason=_reason(designs[0], best, trials, cfg.view.distance_m),
+        windows=best.windows,
+        trial_mm_per_px=round(grid, 4) if trials else None,
+        seconds=round(time.perf_counter() - t0, 2),
     )
+    run.figures.standoff = fig
+    if trials:
+        log.info("plates: %s", fig.reason)
     return run.cfg
+
+
+def _reason(own: tuple[str, float], best: PlateTrial, trials: list[PlateTrial], distance_m: float) -> str:
+    """Why the design was chosen, in one line."""
+    if not trials:
+        return f"{best.label}: the only design left to the job"
+    others = sorted((t for t in trials if t is not best), key=lambda t: t.scielab)
+    runner = others[0]
+    kept = "the config's own" if (best.windows, best.standoff_mm) == own else "chosen"
+    return (
+        f"{best.label} ({kept}): its unrefined plates scored {best.scielab:.2f} (S-CIELAB at {distance_m:g} m), "
+        f"the best of {len(trials)} designs tried (next {runner.label} {runner.scielab:.2f})"
+    )

@@ -1,4 +1,4 @@
-"""The wall's stand-off chosen for the picture when the config leaves it to the job."""
+"""The plate design (windows on or off, the wall's stand-off) chosen for the picture when the config leaves it to the job."""
 
 from __future__ import annotations
 
@@ -7,9 +7,11 @@ import pytest
 
 from stencil_cad.config.io import parse_config
 from stencil_cad.config.job import STANDOFF_BY_PROCESS, parse_overrides
+from stencil_cad.figures import PlateTrial, StandoffFigures
 from stencil_cad.model import Layers, Picture
 from stencil_cad.mural import TileGrid
-from stencil_cad.pipeline.standoff import WINDOW_SHARE, choose_standoff, window_share
+from stencil_cad.pipeline import standoff
+from stencil_cad.pipeline.standoff import WINDOW_SHARE, candidates, choose_plates, window_share, with_design
 from stencil_cad.record import Run
 
 _SLA = {"stipple": {"process": "sla", "tone": "calibrated"}, "spray": {"calibrate": "spray_time"}}
@@ -32,6 +34,33 @@ def test_only_a_stand_off_left_null_is_chosen():
     assert low.plate.thickness_mm == cfg.plate.thickness_mm
 
 
+def test_candidates_follow_what_the_config_leaves_to_the_job():
+    cfg = _cfg()
+    # A picture without windows: the stand-off alone, the process's and one higher.
+    assert candidates(cfg, 0.0) == [("auto", 10.0), ("auto", 15.0)]
+    # Windows on a photo: each stand-off with and without them, the config's own design first.
+    assert candidates(cfg, 0.3) == [("auto", 10.0), ("auto", 15.0), ("off", 10.0), ("off", 15.0)]
+    # Windows carrying most of the paint: low stand-offs for the windows too (holes only never go low).
+    assert candidates(cfg, 0.9)[-2:] == [("auto", 4.0), ("auto", 1.0)]
+    assert len(candidates(cfg, 0.9)) == 6
+    given = _cfg(wall={"standoff_mm": [10.0]})
+    assert candidates(given, 0.9) == [("auto", 10.0), ("off", 10.0)]
+    assert candidates(given, 0.0) == [("auto", 10.0)]
+    assert candidates(_cfg(stipple={**_SLA["stipple"], "windows": "off"}), 0.9) == [
+        ("off", 10.0),
+        ("off", 15.0),
+    ]
+    # FDM's higher stand-off is 20 mm.
+    assert candidates(parse_config({}, source="test"), 0.0) == [("auto", 15.0), ("auto", 20.0)]
+
+
+def test_with_design_sets_windows_and_stand_off():
+    cfg = _cfg()
+    off = with_design(cfg, "off", 15.0)
+    assert off.stipple.windows.value == "off" and off.wall.standoff_mm == [15.0] and off.chooses_standoff
+    assert with_design(cfg, "auto", 10.0) is cfg
+
+
 def _flat_layers(w_px: int = 120) -> tuple[Picture, Layers]:
     """A red disc and a blue bar on white, every paint solid (a flat-colour logo)."""
     yy, xx = np.mgrid[0:w_px, 0:w_px].astype(np.float64) / w_px
@@ -42,7 +71,7 @@ def _flat_layers(w_px: int = 120) -> tuple[Picture, Layers]:
     return Picture(rgb=np.clip(layers.composite(), 0.0, 1.0), mm_per_px=0.5, source="test"), layers
 
 
-def test_a_photo_keeps_the_process_stand_off_without_trials():
+def _photo_layers() -> tuple[Picture, Layers]:
     rng = np.random.default_rng(1)
     smooth = np.clip(
         0.5 + 0.4 * np.sin(np.linspace(0, 6, 120))[None, :] + rng.normal(0, 0.05, (120, 120)), 0, 1
@@ -50,30 +79,137 @@ def test_a_photo_keeps_the_process_stand_off_without_trials():
     layers = Layers(
         primer=np.ones(3), colours=np.array([[0.1, 0.1, 0.1]]), alphas=smooth[None], mm_per_px=0.5
     )
-    pic = Picture(rgb=np.clip(layers.composite(), 0.0, 1.0), mm_per_px=0.5, source="test")
+    return Picture(rgb=np.clip(layers.composite(), 0.0, 1.0), mm_per_px=0.5, source="test"), layers
+
+
+def test_a_photo_without_windows_tries_the_stand_offs_only():
+    pic, layers = _photo_layers()
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
     assert window_share(run.cfg, layers, TileGrid.whole(60.0, 60.0), (60.0, 60.0)) < WINDOW_SHARE
-    cfg = choose_standoff(run, layers, (60.0, 60.0), pic)
-    assert cfg.wall.standoff_mm == [10.0] and run.figures.standoff is not None and run.figures.standoff.trials == {}
+    cfg = choose_plates(run, layers, (60.0, 60.0), pic)
+    fig = run.figures.standoff
+    assert fig is not None and [(t.windows, t.standoff_mm) for t in fig.trials] == [
+        ("auto", 10.0),
+        ("auto", 15.0),
+    ]
+    best = min(fig.trials, key=lambda t: t.scielab)
+    assert cfg.wall.standoff_mm == [best.standoff_mm] and fig.chosen == best
+    assert fig.trial_mm_per_px == pytest.approx(2.0 * 0.25)
 
 
 def test_flat_colour_art_sprays_from_lower_down():
     pic, layers = _flat_layers()
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
     assert window_share(run.cfg, layers, TileGrid.whole(60.0, 60.0), (60.0, 60.0)) > 0.8
-    cfg = choose_standoff(run, layers, (60.0, 60.0), pic)
+    cfg = choose_plates(run, layers, (60.0, 60.0), pic)
     fig = run.figures.standoff
-    assert fig is not None and set(fig.trials) == {"1", "4", "10"}
-    # The windows' edges stay sharp low down: the trials say so, and the job takes the best.
-    assert fig.trials["10"] > min(fig.trials["1"], fig.trials["4"])
+    assert fig is not None and len(fig.trials) == 6
+    scores = {(t.windows, t.standoff_mm): t.scielab for t in fig.trials}
+    # The windows' edges stay sharp low down, and a field of holes cannot spray a solid: the trials
+    # say so, and the job takes the best.
+    assert scores[("auto", 10.0)] > min(scores[("auto", 1.0)], scores[("auto", 4.0)])
+    assert scores[("off", 10.0)] > scores[("auto", 10.0)]
     assert cfg.wall.standoff_mm == [fig.standoff_mm] and fig.standoff_mm < 10.0
+    assert fig.windows == "auto" and cfg.stipple.windows.value == "auto"
     assert run.cfg is cfg and cfg.chooses_standoff
 
 
-@pytest.mark.parametrize(
-    "extra", [{"wall": {"standoff_mm": [10.0]}}, {"stipple": {**_SLA["stipple"], "windows": "off"}}]
-)
-def test_a_given_stand_off_or_no_windows_is_kept(extra):
+def _scripted(monkeypatch, scores: dict[tuple[str, float], float]) -> None:
+    """Trials that score as ``scores`` says, so the choice itself is under test."""
+
+    def trial(run, cfg, layers, picture_mm, picture, grid=None):
+        return scores[(cfg.stipple.windows.value, float(cfg.wall.standoff_mm[0]))]
+
+    monkeypatch.setattr(standoff, "_trial_score", trial)
+
+
+def test_holes_alone_are_chosen_where_windows_spray_worse(monkeypatch):
+    # Rocket's case: windows on a photo scored worse than holes alone; the job must not keep them.
     pic, layers = _flat_layers()
-    run = Run(cfg=_cfg(**extra), out=None)  # type: ignore[arg-type]
-    assert choose_standoff(run, layers, (60.0, 60.0), pic).wall.standoff_mm == [10.0]
+    _scripted(
+        monkeypatch,
+        {("auto", 10.0): 2.9, ("auto", 15.0): 2.8, ("off", 10.0): 2.3, ("off", 15.0): 2.2}
+        | {("auto", 4.0): 3.0, ("auto", 1.0): 3.5},
+    )
+    run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
+    cfg = choose_plates(run, layers, (60.0, 60.0), pic)
+    assert cfg.stipple.windows.value == "off" and cfg.wall.standoff_mm == [15.0]
+    fig = run.figures.standoff
+    assert fig is not None and fig.windows == "off" and fig.standoff_mm == 15.0
+    assert "holes only, 15 mm" in fig.reason and "2.20" in fig.reason
+
+
+def test_a_tie_keeps_the_config_own_design(monkeypatch):
+    pic, layers = _flat_layers()
+    _scripted(monkeypatch, dict.fromkeys(candidates(_cfg(), 0.9), 1.0))
+    run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
+    cfg = choose_plates(run, layers, (60.0, 60.0), pic)
+    assert cfg.stipple.windows.value == "auto" and cfg.wall.standoff_mm == [10.0]
+
+
+def test_a_given_stand_off_is_kept():
+    pic, layers = _flat_layers()
+    run = Run(cfg=_cfg(wall={"standoff_mm": [10.0]}), out=None)  # type: ignore[arg-type]
+    cfg = choose_plates(run, layers, (60.0, 60.0), pic)
+    # Holes alone cannot spray the logo's solids: the windows stay, and so does the given stand-off.
+    assert cfg.stipple.windows.value == "auto" and cfg.wall.standoff_mm == [10.0]
+    assert run.figures.standoff is not None and len(run.figures.standoff.trials) == 2
+
+
+def test_windows_off_are_kept_and_never_go_low():
+    pic, layers = _flat_layers()
+    run = Run(cfg=_cfg(stipple={**_SLA["stipple"], "windows": "off"}), out=None)  # type: ignore[arg-type]
+    cfg = choose_plates(run, layers, (60.0, 60.0), pic)
+    assert cfg.stipple.windows.value == "off" and cfg.wall.standoff_mm[0] in (10.0, 15.0)
+
+
+def test_nothing_left_to_the_job_tries_nothing(monkeypatch):
+    pic, layers = _flat_layers()
+    _scripted(monkeypatch, {})  # any trial would fail
+    run = Run(cfg=_cfg(wall={"standoff_mm": [10.0]}, stipple={**_SLA["stipple"], "windows": "off"}), out=None)  # type: ignore[arg-type]
+    assert choose_plates(run, layers, (60.0, 60.0), pic) is run.cfg and run.figures.standoff is None
+
+
+def test_standoff_figures_json_is_exact():
+    fig = StandoffFigures(
+        window_share=0.35,
+        standoff_mm=15.0,
+        trials=(PlateTrial("auto", 10.0, 4.7), PlateTrial("off", 15.0, 4.2)),
+        reason="holes only, 15 mm (chosen)",
+        windows="off",
+        trial_mm_per_px=0.5,
+        seconds=3.2,
+    )
+    assert fig.to_json() == {
+        "window_share": 0.35,
+        "standoff_mm": 15.0,
+        "windows": "off",
+        "trials": [
+            {"windows": "auto", "standoff_mm": 10.0, "scielab": 4.7},
+            {"windows": "off", "standoff_mm": 15.0, "scielab": 4.2},
+        ],
+        "trial_mm_per_px": 0.5,
+        "seconds": 3.2,
+        "reason": "holes only, 15 mm (chosen)",
+    }
+    assert list(fig.to_json()) == [
+        "window_share",
+        "standoff_mm",
+        "windows",
+        "trials",
+        "trial_mm_per_px",
+        "seconds",
+        "reason",
+    ]
+    assert fig.chosen == PlateTrial("off", 15.0, 4.2)
+
+
+def test_the_summary_says_what_was_chosen_and_why(monkeypatch, tmp_path):
+    from stencil_cad.report import summary
+
+    pic, layers = _flat_layers()
+    _scripted(monkeypatch, dict.fromkeys(candidates(_cfg(), 0.9), 2.0) | {("off", 15.0): 1.5})
+    run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
+    choose_plates(run, layers, (60.0, 60.0), pic)
+    lines = [line for line in summary(run, [], tmp_path).splitlines() if line.startswith("  design")]
+    assert len(lines) == 1 and "holes only, 15 mm (chosen)" in lines[0] and "1.50" in lines[0]
