@@ -44,8 +44,8 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
         lines.append(f"  compute   {place}, {where.tasks or 0} tasks")
     for w in (sim.walls or []) if sim is not None else []:
         lines.append(
-            f"  wall {w['standoff_mm']:g} mm  ΔE2000 mean {_fmt(w.get('de2000_mean'))}, "
-            f"PSNR {_fmt(w.get('psnr'))} dB, SSIM {_fmt(w.get('ssim'))}  ({w['file']})"
+            f"  wall {w.standoff_mm:g} mm  ΔE2000 mean {_fmt(w.de2000_mean)}, "
+            f"PSNR {_fmt(w.psnr)} dB, SSIM {_fmt(w.ssim)}  ({w.file})"
         )
     for step in f.spraying or ():
         lines.append(f"  {step.text}")
@@ -83,7 +83,7 @@ def _layer_lines(run: Run, f: Figures) -> list[str]:
         )
     dec = f.decompose
     if dec is not None:
-        rmse = dec.solver.get("rmse")
+        rmse = dec.rmse
         lines.append(
             f"  layers    {dec.layers} on primer {dec.primer}: {' '.join(dec.colours)}"
             + (
@@ -94,7 +94,7 @@ def _layer_lines(run: Run, f: Figures) -> list[str]:
         )
     for row in f.stipple or ():
         lines.append(
-            f"  layer {row.layer:02d}  {row.dots:6d} holes  smallest web {_fmt(row.report.get('min_web_mm'))} mm"
+            f"  layer {row.layer:02d}  {row.dots:6d} holes  smallest web {_fmt(row.min_web_mm)} mm"
             f"  removed {row.count('removed')}  merged {row.count('merged')}  nudged {row.count('nudged')}"
             + (f"  {run.cfg.spray.amount_unit} {_fmt(row.spray_time)}" if row.spray_time is not None else "")
         )
@@ -113,19 +113,18 @@ def _build_lines(run: Run, f: Figures) -> list[str]:
     lines: list[str] = []
     hard = f.hard
     if hard:
-        lines.append(
-            "  hard      "
-            + ", ".join(f"{k} {_fmt(v)}" for k, v in hard.items() if not isinstance(v, (list, dict)))
-        )
+        lines.append("  hard      " + ", ".join(f"{k} {_fmt(v)}" for k, v in hard.plain()))
     build = f.build
     if build is not None and build.tiled:
         lines += _mural_lines(build, f.mural)
     elif build is not None:
         ok = all(p.valid for p in build.plates)
         for p in build.plates:
+            solids = p.n_solids if p.has("n_solids") else "?"
+            holes = p.hole_count if p.has("hole_count") else "not counted"
             lines.append(
-                f"  plate {p.layer:02d}  {'valid' if p.valid else 'INVALID'}, {p.get('n_solids', '?')} solid, "
-                f"{_kind(run)} {p.get('hole_count', 'not counted')}, volume error {_fmt(p.get('rel_error'))}"
+                f"  plate {p.number:02d}  {'valid' if p.valid else 'INVALID'}, {solids} solid, "
+                f"{_kind(run)} {holes}, volume error {_fmt(p.rel_error)}"
             )
         lines.append(
             "  walls     "
@@ -174,13 +173,12 @@ def _cutout_advice(f: Figures) -> str:
     """Hard mode in plain words: the cut-outs per plate and their sizes; hard edges read from any distance."""
     rows = []
     for p in f.build.plates if f.build is not None else ():
-        c = p.get("cutouts") or {}
-        if c.get("count"):
+        c = p.cutouts
+        if c is not None and c.count:
             rows.append(
-                f"plate {p.layer:02d} {c['count']} from {c['span_min_mm']:g} to {c['span_max_mm']:g} mm across"
+                f"plate {p.number:02d} {c.count} from {c.span_min_mm:g} to {c.span_max_mm:g} mm across"
             )
-    hard = f.hard or {}
-    bridge = hard.get("bridge_drawn_mm")
+    bridge = f.hard.bridge_drawn_mm if f.hard is not None else None
     return (
         "; ".join(rows or ["no cut-outs"])
         + (f"; bridges {bridge:g} mm wide" if bridge else "")
@@ -191,14 +189,14 @@ def _cutout_advice(f: Figures) -> str:
 def _seen_lines(run: Run, sim: SimulateFigures) -> list[str]:
     """The simulation's scores: pixel by pixel, as a viewer sees them, by can, and the dots or cut-outs."""
     lines = [
-        f"  spray     ΔE2000 mean {_fmt(sim.score('de2000_mean'))}, p95 {_fmt(sim.score('de2000_p95'))}, "
-        f"PSNR {_fmt(sim.score('psnr'))} dB, SSIM {_fmt(sim.score('ssim'))}"
+        f"  spray     ΔE2000 mean {_fmt(sim.de2000_mean)}, p95 {_fmt(sim.de2000_p95)}, "
+        f"PSNR {_fmt(sim.psnr)} dB, SSIM {_fmt(sim.ssim)}"
     ]
-    if sim.score("scielab") is None:
+    if sim.scielab is None:
         return lines
-    d = sim.view_distance_m
+    d = float(sim.view_distance_m or 0.0)
     lines.append(
-        f"  seen      S-CIELAB ΔE {_fmt(sim.score('scielab'))} at {d:g} m, {_fmt(sim.score('scielab_2x'))} at {2 * d:g} m"
+        f"  seen      S-CIELAB ΔE {_fmt(sim.scielab)} at {d:g} m, {_fmt(sim.scielab_2x)} at {2 * d:g} m"
         " (what a viewer sees; pixel ΔE2000 above scores every dot)"
     )
     by_can = sim.scielab_by_can or {}
@@ -217,8 +215,8 @@ def _seen_lines(run: Run, sim: SimulateFigures) -> list[str]:
 
 def _dots_advice(run: Run, sim: SimulateFigures, distance_m: float) -> str:
     """Plain words: do the smallest holes show as dots from the viewing distance, and from how far they blend."""
-    hole = 2.0 * (sim.score("dots_hole_r_mm") or 0.0)
-    blend = sim.score("dots_blend_m")
+    hole = 2.0 * (sim.dots_hole_r_mm or 0.0)
+    blend = sim.dots_blend_m
     pic = run.figures.picture
     size = f"this {pic.width_mm:g} mm picture" if pic is not None else "the picture"
     process = run.cfg.stipple.process.value
@@ -281,36 +279,37 @@ def _mural_lines(build: BuildFigures, m: MuralFigures | None) -> list[str]:
     plates, walls = build.plates, build.walls
     ok = all(p.valid for p in plates) and all(w.valid for w in walls)
     built = m.built if m is not None else None
-    bed = (m.bed if m is not None else None) or {}
+    bed = m.bed if m is not None else None
     tiles = built.tiles if built is not None else []
     holes = (built.holes_total, built.holes_global, built.union_check_rules) if built else (None, None, None)
     lines = [
-        f"  mural     {len(tiles)} tiles, {len(plates)} plates, {len(walls)} walls on {bed.get('name')}; "
+        f"  mural     {len(tiles)} tiles, {len(plates)} plates, {len(walls)} walls on {bed.name if bed is not None else None}; "
         f"holes {holes[0]} (global {holes[1]}); rules on the union: {holes[2]}",
         f"  checks    {'all solids valid' if ok else 'SOME SOLIDS FAILED — see manifest.json'}",
     ]
     sim = m.simulation if m is not None else None
-    if sim:
+    if sim is not None:
         lines.append(
-            f"  tiles     simulated mural vs global: max difference {sim['tiled_vs_global_max_abs']:.2g}"
+            f"  tiles     simulated mural vs global: max difference {sim.tiled_vs_global_max_abs:.2g}"
         )
-        for c in sim.get("registration_cost", []):
+        for c in sim.registration_cost or ():
+            err = float(c.error_mm or 0.0)
             lines.append(
-                f"  register  ±{c['error_mm'] / 2:g} mm between {c['between']} ({c['error_mm']:g} mm apart): "
-                f"S-CIELAB {c['cost_scielab']:+.3g}, ΔE2000 mean {c['cost_de2000_mean']:+.3g}, "
-                f"PSNR {c['cost_psnr']:+.3g} dB, SSIM {c['cost_ssim']:+.3g}"
+                f"  register  ±{err / 2:g} mm between {c.between} ({err:g} mm apart): "
+                f"S-CIELAB {c.cost_scielab:+.3g}, ΔE2000 mean {c.cost_de2000_mean:+.3g}, "
+                f"PSNR {c.cost_psnr:+.3g} dB, SSIM {c.cost_ssim:+.3g}"
             )
     lines.append("  map       mural_map.png (tile grid, positions, order of work)")
-    if bed:
+    if bed is not None:
         from .slicing import place
 
-        sizes = [r.get("bbox_mm") for r in plates] + [w.get("bbox") for w in walls]
-        sizes = [(s[0], s[1]) if len(s) == 2 else (s[3] - s[0], s[4] - s[1]) for s in sizes if s]
-        turned = sum(1 for s in sizes if place(s, (bed["x_mm"], bed["y_mm"])).rotate_deg == 90)
+        boxes = [p.bbox_mm for p in plates] + [w.bbox for w in walls]
+        sizes = [(s[0], s[1]) if len(s) == 2 else (s[3] - s[0], s[4] - s[1]) for s in boxes if s]
+        turned = sum(1 for s in sizes if place(s, (bed.x_mm, bed.y_mm)).rotate_deg == 90)
         if turned:
-            arg = bed["name"] if "×" not in bed["name"] else f"{bed['x_mm']:g}x{bed['y_mm']:g}"
+            arg = bed.name if "×" not in bed.name else f"{bed.x_mm:g}x{bed.y_mm:g}"
             lines.append(
-                f"  bed       {turned} of {len(sizes)} parts fit the {bed['x_mm']:g} × {bed['y_mm']:g} mm bed turned 90° "
+                f"  bed       {turned} of {len(sizes)} parts fit the {bed.x_mm:g} × {bed.y_mm:g} mm bed turned 90° "
                 f"(`stencil-cad slice --bed {arg}` turns them)"
             )
     return lines

@@ -1,8 +1,9 @@
-"""What the instruction sheet says: its content (:class:`Sheet`), read from the job's manifest.
+"""What the instruction sheet says: its content (:class:`Sheet`), read from the job's figures.
 
-The sheet is built from the job's manifest (the same figures ``manifest.json`` holds) and
-the job's preview images, so whatever a stage adds to the manifest (scores, spray units,
-tiles) reaches the sheet without this module knowing the stage. It shows the picture and
+The sheet is built from the job's figures (:class:`~stencil_cad.figures.Figures`, the run's or
+those of a ``manifest.json`` read back with ``Figures.from_json``), its settings
+(:class:`~.settings.JobSettings`) and its preview images. Every number it shows is a field of a
+figures class; the simulation's scores it does not name are listed under their own names. It shows the picture and
 its simulated result with size and viewing distance; the primer and paints in spray order
 with swatches, hex codes and can names; one step per plate with its preview and the
 simulated picture after that layer; how to set up the wall (and the tile map of a mural);
@@ -20,9 +21,10 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..figures import LayerProfile
+from ..figures import Cutouts, Figures, WallRow
 from . import make, mural
 from .cans import layer_can, unmeasured_warning, uses_profiles
+from .settings import JobSettings
 
 # Rule of thumb for when separate dots blend for the eye: one arcminute, about 3,400 x the pitch.
 ARCMINUTE_FACTOR = 3438.0
@@ -73,7 +75,7 @@ class Step:
 
 @dataclass(frozen=True)
 class Sheet:
-    """Everything the sheet shows, as plain values (see :func:`sheet_from_manifest`)."""
+    """Everything the sheet shows, as plain values (see :func:`sheet`)."""
 
     job: str
     mode: str
@@ -86,7 +88,7 @@ class Sheet:
     unit: str
     steps: list[Step]
     wall: list[str]
-    tiles: list[dict[str, Any]]
+    tiles: list[mural.MapTile]
     prints: list[list[str]]
     print_head: list[str]
     paint: list[list[str]]
@@ -100,21 +102,13 @@ class Sheet:
     mural: mural.MuralPlan | None = None
 
 
-def _val(d: Mapping[str, Any], *keys: str, default: Any = None) -> Any:
-    for k in keys:
-        if not isinstance(d, Mapping) or k not in d:
-            return default
-        d = d[k]
-    return d
-
-
-def _viewing(manifest: Mapping[str, Any]) -> str:
+def _viewing(f: Figures, s: JobSettings) -> str:
     """Viewing distance: the configured one (with its score) or the distance at which dots blend."""
-    sim = manifest.get("simulate", {}) or {}
-    d = _val(manifest, "config", "view", "distance_m") or sim.get("view_distance_m")
-    blend = sim.get("dots_blend_m")
+    sim = f.simulate
+    d = s.view_distance_m or (sim.view_distance_m if sim is not None else None)
+    blend = sim.dots_blend_m if sim is not None else None
     blend_text = f"; the dots blend from about {float(blend):.1f} m" if blend else ""
-    by_can = sim.get("scielab_by_can") or {}
+    by_can = (sim.scielab_by_can if sim is not None else None) or {}
     if len(by_can) > 1:
         lo, hi = min(by_can.values()), max(by_can.values())
         blend_text += (
@@ -123,9 +117,9 @@ def _viewing(manifest: Mapping[str, Any]) -> str:
         )
     if d:
         return f"{float(d):g} m (the distance the quality is scored at){blend_text}"
-    pic = manifest.get("picture", {}) or {}
-    area = float(pic.get("width_mm", 0)) * float(pic.get("height_mm", 0))
-    holes = [int(h) for h in sim.get("holes", []) if h]
+    pic = f.picture
+    area = float(pic.width_mm) * float(pic.height_mm) if pic is not None else 0.0
+    holes = [h for h in (sim.holes if sim is not None else []) if h]
     if area > 0 and holes:
         pitch = math.sqrt(area / max(holes))
         return (
@@ -135,25 +129,26 @@ def _viewing(manifest: Mapping[str, Any]) -> str:
     return "any: the cut-outs have hard edges"
 
 
-def _wall_list(walls: Sequence[Mapping[str, Any]]) -> str:
-    tiled = [w for w in walls if w.get("tile")]
+def _wall_list(walls: Sequence[WallRow]) -> str:
+    tiled = [w for w in walls if w.tile]
     if tiled:
-        heights = ", ".join(f"{h:g}" for h in sorted({float(w.get("standoff_mm", 0)) for w in tiled}))
-        return f"one wall per tile, {tiled[0].get('file')} to {tiled[-1].get('file')}: stand-off {heights} mm"
-    return ", ".join(f"{w.get('file')}: stand-off {float(w.get('standoff_mm', 0)):g} mm" for w in walls)
+        heights = ", ".join(f"{h:g}" for h in sorted({float(w.standoff_mm or 0) for w in tiled}))
+        return f"one wall per tile, {tiled[0].file} to {tiled[-1].file}: stand-off {heights} mm"
+    return ", ".join(f"{w.file}: stand-off {float(w.standoff_mm or 0):g} mm" for w in walls)
 
 
-def _print_rows(manifest: Mapping[str, Any], steps: list[Step]) -> tuple[list[str], list[list[str]]]:
+def _print_rows(
+    f: Figures, s: JobSettings, names: set[str], steps: list[Step]
+) -> tuple[list[str], list[list[str]]]:
     """Per plate and per wall: files, hole count, and how to make it with a profile or bed it fits."""
-    names = _file_names(manifest)
-    kind = "cut-outs" if str(_val(manifest, "config", "mode", default="soft")) == "hard" else "holes"
+    kind = "cut-outs" if s.hard else "holes"
     head = ["part", kind, "files", "cut length", "how to make it"]
-    parts = make.plate_parts(manifest)
+    parts = make.plate_parts(f.build)
     if not parts:
         # No build figures (a sheet from the spray order alone): one row per step.
-        parts = [make.Part("plate", s.plate, None, s.holes, layer=s.number) for s in steps]
+        parts = [make.Part("plate", st.plate, None, st.holes, layer=st.number) for st in steps]
     rows = []
-    for part in [*parts, *make.wall_parts(manifest)]:
+    for part in [*parts, *make.wall_parts(f.build)]:
         files = [part.stem + e for e in (".stl", ".step", ".3mf", ".dxf", ".svg") if part.stem + e in names]
         count = (
             "frame"
@@ -165,61 +160,56 @@ def _print_rows(manifest: Mapping[str, Any], steps: list[Step]) -> tuple[list[st
             if part.cut_mm
             else ("not cut" if part.kind == "wall" else "not measured")
         )
-        advice = make.part_advice(manifest, part)
+        advice = make.part_advice(s, part)
         said = make.print_text(part.print_hours, part.filament_m)
         if said:
             advice += f"; PrusaSlicer: {said}"
         rows.append([part.stem, count, ", ".join(files) or "not written", cut, advice])
-    reason = (manifest.get("plate") or {}).get("thickness_reason")
+    reason = f.plate.thickness_reason if f.plate is not None else None
     if reason and any(p.kind == "plate" for p in parts):
         rows.append(["plate thickness", "", "", "", str(reason)])
-    total = (manifest.get("build") or {}).get("print") or {}
-    if total.get("hours") is not None:
-        said = make.print_text(float(total["hours"]), total.get("filament_m"))
-        rows.append(["all parts", "", "", "", f"PrusaSlicer ({total.get('profile', 'prusa_fdm')}): {said}"])
+    total = f.build.print_estimate if f.build is not None else None
+    if total is not None and total.hours is not None:
+        said = make.print_text(float(total.hours), total.filament_m)
+        rows.append(["all parts", "", "", "", f"PrusaSlicer ({total.profile or 'prusa_fdm'}): {said}"])
     return head, rows
 
 
-def _file_names(manifest: Mapping[str, Any]) -> set[str]:
-    return {str(r.get("name")) for r in manifest.get("files", []) or [] if isinstance(r, Mapping)}
-
-
-def _checks(manifest: Mapping[str, Any]) -> list[tuple[str, bool]]:
+def _checks(f: Figures, s: JobSettings) -> list[tuple[str, bool]]:
     out: list[tuple[str, bool]] = []
-    build = manifest.get("build") or {}
+    build = f.build
     # A mural's plates and walls are checked tile by tile in the tile sections.
-    for p in build.get("plates", []):
-        if not p.get("tile"):
-            out += make.plate_checks(p, f"plate {int(p.get('layer', 0)):02d}")
-    out += [make.wall_check(w) for w in build.get("walls", []) if not w.get("tile")]
-    rules = manifest.get("stipple") or []
-    web = _val(manifest, "config", "stipple", "web_mm")
-    for r in rules:
-        mw = r.get("min_web_mm")
+    for p in build.plates if build is not None else ():
+        if not p.tile:
+            out += make.plate_checks(p, f"plate {p.number:02d}")
+    out += [make.wall_check(w) for w in (build.walls if build is not None else ()) if not w.tile]
+    web = s.web_mm
+    for r in f.stipple or ():
+        mw = r.min_web_mm
         if mw is not None:
-            text = f"layer {r.get('layer', 0):02d}: smallest web between holes {mw:.2f} mm"
+            text = f"layer {r.layer:02d}: smallest web between holes {mw:.2f} mm"
             out.append(
                 (
                     text + (f" (rule ≥ {web:g} mm)" if web else " (design rules enforced)"),
                     web is None or mw >= web - 1e-6,
                 )
             )
-    hard = manifest.get("hard") or {}
-    for i, lay in enumerate(hard.get("per_layer", []) or []):
-        if "polygon_held_components" in lay:
+    per_layer = (f.hard.per_layer if f.hard is not None else None) or ()
+    for i, lay in enumerate(per_layer):
+        if lay.has("polygon_held_components"):
             out.append(
                 (
                     f"cut layer {i + 1:02d}: sheet in one piece, every island held by bridges",
-                    lay.get("polygon_held_components") == 1,
+                    lay.polygon_held_components == 1,
                 )
             )
     return out
 
 
-def _scores(manifest: Mapping[str, Any]) -> list[tuple[str, str]]:
-    sim = manifest.get("simulate") or {}
+def _scores(f: Figures) -> list[tuple[str, str]]:
+    """The simulation's numeric figures, named (the ones the sheet knows) or by their manifest name."""
     rows = []
-    for k, v in sim.items():
+    for k, v in (f.simulate.scores if f.simulate is not None else {}).items():
         if k in _SKIP_SCORES or isinstance(v, (dict, list, str, bool)) or v is None:
             continue
         name, fmt = _SCORE_NAMES.get(k, (k.replace("_", " "), "{:.4g}"))
@@ -227,52 +217,55 @@ def _scores(manifest: Mapping[str, Any]) -> list[tuple[str, str]]:
     return rows
 
 
-def _steps(manifest: Mapping[str, Any], mode: str, names: set[str]) -> list[Step]:
-    """One :class:`Step` per plate in spray order."""
-    order = (manifest.get("spray_order") or {}).get("steps", [])
-    holes = _val(manifest, "simulate", "holes", default=None) or []
-    # A plate's own count (hard mode's cut-outs are not simulated as holes) and its cut-outs' sizes.
-    built = {int(p.get("layer", 0)): p for p in _val(manifest, "build", "plates", default=[]) or []}
-    # What the hand does per layer, in the spray model's units, when the job says it.
-    how = {
-        r.get("layer"): str(r.get("text", ""))
-        for r in manifest.get("spraying", []) or []
-        if isinstance(r, Mapping)
-    }
+def _how(f: Figures, s: JobSettings) -> dict[int | None, str]:
+    """What the hand does per layer, in the spray model's units, and the can, when the job says them."""
+    how = {r.layer: str(r.text or "") for r in f.spraying or ()}
     # The can each layer sprays with, named when the job keys spray profiles to its paints.
-    cans = _profiles(manifest)
-    if _physical(manifest) and uses_profiles(cans):
+    cans = f.spray_profiles or ()
+    if s.physical and uses_profiles(cans):
         for row in cans:
             how[row.layer] = (how.get(row.layer, "") + f"; can: {layer_can(row)}").lstrip("; ")
+    return how
+
+
+def _steps(f: Figures, s: JobSettings, names: set[str]) -> list[Step]:
+    """One :class:`Step` per plate in spray order."""
+    order = f.spray_order.steps if f.spray_order is not None else ()
+    holes = f.simulate.holes if f.simulate is not None else []
+    # A plate's own count (hard mode's cut-outs are not simulated as holes) and its cut-outs' sizes.
+    built = {p.number: p for p in (f.build.plates if f.build is not None else ())}
+    how = _how(f, s)
     steps = []
     for k, o in enumerate(order):
-        plate = o["plate"]
+        plate = str(o.plate)
+        number = int(o.step or 0)
+        own = built.get(number)
         plate_img = f"{plate}_dots.png" if f"{plate}_dots.png" in names else f"{plate}_cut.png"
         steps.append(
             Step(
-                number=int(o["step"]),
+                number=number,
                 plate=plate,
-                hex=o["hex"],
-                name=o.get("name", "") or "",
-                spray_time=o.get("spray_time"),
-                holes=int(holes[k]) if k < len(holes) else built.get(int(o["step"]), {}).get("hole_count"),
+                hex=str(o.hex),
+                name=o.name or "",
+                spray_time=o.spray_time,
+                holes=holes[k] if k < len(holes) else (own.hole_count if own is not None else None),
                 plate_image=plate_img,
                 after_image=f"{plate}_after.png",
-                kind="holes" if mode == "soft" else "cut-outs",
-                how=how.get(int(o["step"]), ""),
-                detail=_cutout_detail(built.get(int(o["step"]), {}).get("cutouts")),
+                kind="holes" if s.mode == "soft" else "cut-outs",
+                how=how.get(number, ""),
+                detail=_cutout_detail(own.cutouts if own is not None else None),
             )
         )
     return steps
 
 
-def _cutout_detail(fig: Mapping[str, Any] | None) -> str:
+def _cutout_detail(fig: Cutouts | None) -> str:
     """A hard plate's cut-outs in words: ``2.0 to 31.5 mm across, 374 mm² open``."""
-    if not fig or not fig.get("count"):
+    if fig is None or not fig.count:
         return ""
-    lo, hi = float(fig["span_min_mm"]), float(fig["span_max_mm"])
+    lo, hi = float(fig.span_min_mm or 0.0), float(fig.span_max_mm or 0.0)
     span = f"{lo:.1f} mm across" if abs(hi - lo) < 0.05 else f"{lo:.1f} to {hi:.1f} mm across"
-    return f"{span}, {float(fig['open_mm2']):,.0f} mm² open"
+    return f"{span}, {float(fig.open_mm2 or 0.0):,.0f} mm² open"
 
 
 def _plate_caption(step: Step, tiles: int = 0) -> str:
@@ -283,21 +276,15 @@ def _plate_caption(step: Step, tiles: int = 0) -> str:
     return f"{what} ({step.holes:,} {step.kind}" + (f", {step.detail}" if step.detail else "") + ")"
 
 
-def _wall_steps(
-    manifest: Mapping[str, Any],
-    cfg: Mapping[str, Any],
-    primer: Mapping[str, Any],
-    primer_hex: str,
-    n_tiles: int,
-) -> list[str]:
+def _wall_steps(f: Figures, s: JobSettings, primer_hex: str, n_tiles: int) -> list[str]:
     """The set-up instructions: prime, set the wall, fit the plates, spray evenly (and the mural's tiles)."""
-    nozzle = _val(cfg, "spray", "nozzle_height", default=None)
     # Hard mode sprays from its own nozzle height (the pipeline copies it into the spray section).
-    section = "hard" if str(cfg.get("mode", "soft")) == "hard" else "spray"
-    walls = _val(manifest, "build", "walls", default=[]) or []
+    section = "hard" if s.hard else "spray"
+    walls = f.build.walls if f.build is not None else ()
+    primer_name = f.spray_order.primer.name if f.spray_order is not None else None
     wall = [
         f"Prime the whole surface with the primer {primer_hex}"
-        + (f" ({primer.get('name')})" if primer.get("name") else "")
+        + (f" ({primer_name})" if primer_name else "")
         + " and let it dry.",
         (
             "Set each tile's wall on its ticks (see Registration below)"
@@ -308,7 +295,7 @@ def _wall_steps(
         + ". Tape or hold it so it cannot move between layers.",
         "Each plate fits the wall one way only: the key tabs match the wall's notches and the label, "
         "in the bottom border, reads the right way up from the top.",
-        _spray_how(cfg, section, nozzle),
+        _spray_how(s, section),
     ]
     if n_tiles:
         wall.append(
@@ -319,14 +306,17 @@ def _wall_steps(
 
 
 def _paint_table(
-    manifest: Mapping[str, Any], cfg: Mapping[str, Any], primer_hex: str, steps: list[Step]
+    f: Figures, s: JobSettings, primer_hex: str, steps: list[Step]
 ) -> tuple[list[list[str]], str]:
     """The paint to buy: one row for the primer and one per layer, and the note on how it was counted."""
-    paint = manifest.get("paint") or {}
-    prow = {r.get("layer"): r for r in paint.get("layers", [])}
-    cov = paint.get("coverage_m2_per_can", _val(cfg, "paints", "coverage_m2_per_can", default=1.5))
-    can_ml = paint.get("can_ml", _val(cfg, "paints", "can_ml", default=400.0))
-    area = float(paint.get("sprayed_area_m2", 0.0))
+    paint = f.paint
+    prow = {r.layer: r for r in (paint.layers if paint is not None else ())}
+    cov = s.coverage_m2_per_can
+    can_ml = s.can_ml
+    if paint is not None:
+        cov = paint.coverage_m2_per_can if paint.coverage_m2_per_can is not None else cov
+        can_ml = paint.can_ml if paint.can_ml is not None else can_ml
+    area = float(paint.sprayed_area_m2) if paint is not None else 0.0
     paint_rows = []
     if area:
         p_ml = area / cov * can_ml
@@ -340,18 +330,18 @@ def _paint_table(
                 f"{max(1, math.ceil(area / cov - 1e-9))}",
             ]
         )
-    for s in steps:
-        r = prow.get(s.number)
-        if not r:
+    for st in steps:
+        r = prow.get(st.number)
+        if r is None:
             continue
         paint_rows.append(
             [
-                s.plate,
-                s.hex + (f" {s.name}" if s.name else ""),
-                f"{r['covered_m2']:.4f}",
-                f"{r['mean_opacity']:.3f}",
-                f"{r['ml']:.1f}",
-                str(r["cans_to_buy"]),
+                st.plate,
+                st.hex + (f" {st.name}" if st.name else ""),
+                f"{r.covered_m2:.4f}",
+                f"{r.mean_opacity:.3f}",
+                f"{r.ml:.1f}",
+                str(r.cans_to_buy),
             ]
         )
     paint_note = (
@@ -362,111 +352,119 @@ def _paint_table(
     return paint_rows, paint_note
 
 
-def _snap_lines(manifest: Mapping[str, Any]) -> list[str]:
+def _snap_lines(f: Figures) -> list[str]:
     """Which can each solved paint (and the primer) was snapped to, and what that cost."""
     snap = []
-    sn = _val(manifest, "cans", "snap")
-    if sn:
-        for r in sn.get("paints", []):
-            snap.append(f"solved {r['solved']} → can {r['can']} {r['name']} (ΔE2000 {r['delta_e2000']:.1f})")
-        if sn.get("primer"):
-            r = sn["primer"]
-            snap.append(f"primer {r['solved']} → can {r['can']} {r['name']} (ΔE2000 {r['delta_e2000']:.1f})")
+    sn = f.cans.snap if f.cans is not None else None
+    if sn is not None:
+        for r in sn.paints or ():
+            snap.append(f"solved {r.solved} → can {r.can} {r.name} (ΔE2000 {r.delta_e2000:.1f})")
+        if sn.primer is not None:
+            r = sn.primer
+            snap.append(f"primer {r.solved} → can {r.can} {r.name} (ΔE2000 {r.delta_e2000:.1f})")
         snap.append(
-            f"cost of using the cans: composite RMSE {sn['rmse_solved']:.2f} → {sn['rmse_snapped']:.2f} (0-255 units)"
+            f"cost of using the cans: composite RMSE {sn.rmse_solved:.2f} → {sn.rmse_snapped:.2f} (0-255 units)"
         )
     return snap
-
-
-def _profiles(manifest: Mapping[str, Any]) -> list[LayerProfile]:
-    """The manifest's ``spray_profiles``: the spray settings each layer sprayed with."""
-    rows = manifest.get("spray_profiles") or []
-    return [LayerProfile.from_json(r) for r in rows if isinstance(r, Mapping)]
 
 
 def sheet_from_manifest(
     manifest: Mapping[str, Any], tiles: Sequence[Mapping[str, Any]] | None = None
 ) -> Sheet:
-    """Collect what the sheet shows from a job's manifest.
+    """Collect what the sheet shows from a job's manifest (as written to ``manifest.json``).
 
     Args:
-        manifest: The manifest (as written to ``manifest.json``; ``files`` may be partial).
+        manifest: The manifest (``files`` may be partial): its figures are read with
+            :meth:`Figures.from_json`, its config with :meth:`JobSettings.from_json`.
         tiles: Tiles of a mural, each with ``x_mm``, ``y_mm``, ``width_mm``, ``height_mm`` (picture
             frame, bottom-left corner) and optionally ``name``; None takes ``manifest["tiles"]``
-            (or ``manifest["mural"]["tiles"]``) when present.
+            (or the mural's tiles) when present.
 
     Returns:
         The :class:`Sheet`.
     """
-    cfg = manifest.get("config", {}) or {}
-    pic = manifest.get("picture", {}) or {}
-    mode = str(cfg.get("mode", "soft"))
-    spray = manifest.get("spray_order") or {}
-    names = _file_names(manifest)
-    steps = _steps(manifest, mode, names)
-    primer = spray.get("primer") or {}
+    names = {str(r.get("name")) for r in manifest.get("files") or [] if isinstance(r, Mapping)}
+    given = tiles if tiles is not None else (manifest.get("tiles") or None)
+    return sheet(Figures.from_json(manifest), JobSettings.from_json(manifest.get("config")), names, given)
+
+
+def sheet(
+    f: Figures, s: JobSettings, names: set[str], tiles: Sequence[Mapping[str, Any]] | None = None
+) -> Sheet:
+    """Collect what the sheet shows from a job's figures and settings.
+
+    Args:
+        f: What the job's stages recorded.
+        s: The job's settings.
+        names: The job's file names.
+        tiles: Tiles of a mural for the map (see :func:`sheet_from_manifest`); None takes the
+            mural's tiles when it has them.
+
+    Returns:
+        The :class:`Sheet`.
+    """
+    steps = _steps(f, s, names)
+    so = f.spray_order
+    palette = (f.hard.palette if f.hard is not None else None) or ["#ffffff"]
     primer_hex = (
-        primer.get("hex")
-        or _val(manifest, "decompose", "primer")
-        or (_val(manifest, "hard", "palette") or ["#ffffff"])[0]
+        (so.primer.hex if so is not None else None)
+        or (f.decompose.primer if f.decompose else None)
+        or palette[0]
     )
-    tiles_list = (
-        list(tiles)
-        if tiles is not None
-        else list(manifest.get("tiles") or _val(manifest, "mural", "tiles", default=[]) or [])
-    )
-    head, rows = _print_rows(manifest, steps)
-    paint_rows, paint_note = _paint_table(manifest, cfg, primer_hex, steps)
-    warnings = [str(w) for w in (_val(manifest, "decompose", "warnings", default=[]) or [])]
-    warnings += [str(w) for w in (_val(manifest, "hard", "warnings", default=[]) or [])]
-    warnings += _dark_end_warnings(manifest)
-    unmeasured = unmeasured_warning(_profiles(manifest)) if _physical(manifest) else None
-    warnings += [unmeasured] if unmeasured else []
+    built = f.mural.built if f.mural is not None else None
+    mapped = mural.map_tiles(tiles if tiles is not None else (built.tiles if built is not None else ()))
+    head, rows = _print_rows(f, s, names, steps)
+    paint_rows, paint_note = _paint_table(f, s, str(primer_hex), steps)
+    unit = (so.unit if so is not None else None) or "spray time"
+    pic = f.picture
     return Sheet(
-        job=str(cfg.get("name", "stencil")),
-        mode=mode,
-        width_mm=float(pic.get("width_mm", 0.0)),
-        height_mm=float(pic.get("height_mm", 0.0)),
-        viewing=_viewing(manifest),
+        job=s.name,
+        mode=s.mode,
+        width_mm=float(pic.width_mm) if pic is not None else 0.0,
+        height_mm=float(pic.height_mm) if pic is not None else 0.0,
+        viewing=_viewing(f, s),
         primer_hex=str(primer_hex),
-        primer_name=str(primer.get("name", "") or ""),
-        order_note=str(spray.get("note", "")),
-        unit=str(spray.get("unit", "spray time")),
+        primer_name=str((so.primer.name if so is not None else None) or ""),
+        order_note=str((so.note if so is not None else None) or ""),
+        unit=unit,
         steps=steps,
-        wall=_wall_steps(manifest, cfg, primer, primer_hex, len(tiles_list)),
-        tiles=mural.map_tiles(tiles_list),
+        wall=_wall_steps(f, s, str(primer_hex), len(mapped)),
+        tiles=mapped,
         prints=rows,
         print_head=head,
         paint=paint_rows,
         paint_note=paint_note,
-        snap=_snap_lines(manifest),
-        scores=_scores(manifest),
-        checks=_checks(manifest),
+        snap=_snap_lines(f),
+        scores=_scores(f),
+        checks=_checks(f, s),
         files=sorted(names),
-        warnings=warnings,
-        plate_count=len(_val(manifest, "build", "plates", default=[]) or []) or len(steps),
-        mural=mural.mural_plan(
-            manifest, steps, lambda s: _amount(s, str(spray.get("unit", "spray time"))), names
-        ),
+        warnings=_warnings(f, s),
+        plate_count=len(f.build.plates if f.build is not None else ()) or len(steps),
+        mural=mural.mural_plan(f, s, steps, lambda st: _amount(st, unit), names),
     )
 
 
-def _physical(manifest: Mapping[str, Any]) -> bool:
-    """Whether the job sprays under the physical model (the only one with can constants)."""
-    return str(_val(manifest, "config", "spray", "model", default="physical")) == "physical"
+def _warnings(f: Figures, s: JobSettings) -> list[str]:
+    """The decomposition's and hard mode's warnings, the layers' dark ends and unmeasured cans."""
+    warnings = f.decompose.warnings if f.decompose is not None else []
+    warnings += [str(w) for w in (f.hard.warnings if f.hard is not None else None) or []]
+    warnings += _dark_end_warnings(f)
+    unmeasured = unmeasured_warning(f.spray_profiles or ()) if s.physical else None
+    return warnings + ([unmeasured] if unmeasured else [])
 
 
-def _spray_how(cfg: Mapping[str, Any], section: str, nozzle: float | None) -> str:
+def _spray_how(s: JobSettings, section: str) -> str:
     """How to hold and move the can: the physical model's distance and speed, or the paper's height."""
-    if str(_val(cfg, "spray", "model", default="physical")) == "physical":
-        cm = float(_val(cfg, "spray", "can_distance_mm", default=200.0)) / 10.0
-        speed = float(_val(cfg, "spray", "pass_speed_m_s", default=0.5))
+    if s.physical:
+        cm = s.can_distance_mm / 10.0
+        speed = s.pass_speed_m_s
         return (
             f"Hold the can about {cm:g} cm from the plate and sweep evenly across the whole plate at about "
             f"{speed:g} m/s, starting and ending off the plate. Spray light passes, the number each step "
             "gives, and let each pass flash off (about a minute) before the next: a heavy coat under a "
             "lifted stencil runs and creeps. Let each layer dry before the next."
         )
+    nozzle = s.nozzle_height
     return (
         "Spray every layer from the same distance and sweep evenly over the whole plate"
         + (
@@ -478,22 +476,20 @@ def _spray_how(cfg: Mapping[str, Any], section: str, nozzle: float | None) -> st
     )
 
 
-def _dark_end_warnings(manifest: Mapping[str, Any]) -> list[str]:
+def _dark_end_warnings(f: Figures) -> list[str]:
     """A line per layer whose darkest tones its plate cannot spray in its passes: the layer and the shortfall."""
     out = []
-    passes = {
-        r.get("layer"): r.get("passes") for r in manifest.get("spraying", []) or [] if isinstance(r, Mapping)
-    }
-    for k, row in enumerate(manifest.get("dark_end", []) or []):
-        share = float(row.get("unreachable_share", 0.0))
+    passes = {r.layer: r.passes for r in f.spraying or ()}
+    for k, row in enumerate(f.dark_end or ()):
+        share = float(row.unreachable_share)
         if share < 0.005:
             continue
         n = passes.get(k + 1)
         within = f" in {n} pass{'' if n == 1 else 'es'}" if n else ""
         out.append(
             f"Layer {k + 1}: {100 * share:.0f} % of its area is darker than its plate can spray{within} even with "
-            f"its densest holes (darkest opacity {float(row['darkest_sprayable']):.2f}, short by "
-            f"{float(row['unreachable_by']):.2f} on average there): those parts come out lighter than the picture."
+            f"its densest holes (darkest opacity {float(row.darkest_sprayable):.2f}, short by "
+            f"{float(row.unreachable_by):.2f} on average there): those parts come out lighter than the picture."
         )
     return out
 

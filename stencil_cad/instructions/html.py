@@ -5,7 +5,6 @@ from __future__ import annotations
 import base64
 import html
 from collections.abc import Mapping, Sequence
-from typing import Any
 
 from . import mural
 from .content import _NO_CAN, Sheet, _amount, _drop, _plate_caption, _plates_text, _unit_note
@@ -27,7 +26,7 @@ def _chip(hx: str) -> str:
     return f'<span class="chip" style="background:{_e(hx)}"></span>'
 
 
-def tile_map_svg(tiles: Sequence[Mapping[str, Any]], width_mm: float, height_mm: float, px: int = 480) -> str:
+def tile_map_svg(tiles: Sequence[mural.MapTile], width_mm: float, height_mm: float, px: int = 480) -> str:
     """An inline SVG map of a mural's tiles (picture frame, y up drawn up)."""
     if not tiles or width_mm <= 0 or height_mm <= 0:
         return ""
@@ -37,10 +36,9 @@ def tile_map_svg(tiles: Sequence[Mapping[str, Any]], width_mm: float, height_mm:
         f'<svg xmlns="http://www.w3.org/2000/svg" width="{w + 2:.0f}" height="{h + 2:.0f}" viewBox="-1 -1 {w + 2:.1f} {h + 2:.1f}">'
     ]
     parts.append(f'<rect x="0" y="0" width="{w:.1f}" height="{h:.1f}" fill="#f4f4f4" stroke="#888"/>')
-    for k, t in enumerate(tiles):
-        x, y = float(t.get("x_mm", 0)), float(t.get("y_mm", 0))
-        tw, th = float(t.get("width_mm", 0)), float(t.get("height_mm", 0))
-        name = t.get("name") or t.get("tile") or f"T{k + 1}"
+    for t in tiles:
+        x, y, tw, th = t.x_mm, t.y_mm, t.width_mm, t.height_mm
+        name = t.name
         parts.append(
             f'<rect x="{x * s:.1f}" y="{h - (y + th) * s:.1f}" width="{tw * s:.1f}" height="{th * s:.1f}" '
             'fill="none" stroke="#222" stroke-width="1.5"/>'

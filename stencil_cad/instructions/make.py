@@ -5,18 +5,18 @@ Advice names only a profile whose bed the part fits (as exported, or turned 90°
 the FDM profile or a larger printer instead. Walls get their own line. A laser plate gets its
 cut length and an estimated cut time.
 
-Kernel-free: reads the manifest's figures only.
+Kernel-free: reads the job's build figures and settings only.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
 
-from ..config.bed import Bed, resolve_bed
+from ..config.bed import Bed
+from ..figures import BuildFigures, PlateRow, WallRow
 from ..slicing import bed_size, place
+from .settings import JobSettings
 
 __all__ = [
     "LASER_PIERCE_S",
@@ -24,9 +24,7 @@ __all__ = [
     "Part",
     "cut_seconds",
     "fit_check",
-    "job_bed",
     "part_advice",
-    "part_size",
     "plate_checks",
     "plate_parts",
     "wall_check",
@@ -71,59 +69,40 @@ class Part:
     filament_m: float | None = None
 
 
-def part_size(row: Mapping[str, Any]) -> tuple[float, float] | None:
-    """Footprint ``(w, h)`` in mm of a manifest plate or wall row (``bbox_mm`` or its ``bbox``)."""
-    if row.get("bbox_mm"):
-        w, h = row["bbox_mm"][:2]
-        return float(w), float(h)
-    bb = row.get("bbox")
-    if not bb:
-        return None
-    if len(bb) == 2 and all(isinstance(c, (list, tuple)) for c in bb):
-        (x0, y0, *_), (x1, y1, *_) = bb
-    elif len(bb) == 6:
-        x0, y0, _, x1, y1, _ = bb
-    else:
-        return None
-    return float(x1) - float(x0), float(y1) - float(y0)
-
-
-def plate_parts(manifest: Mapping[str, Any]) -> list[Part]:
-    """Every plate of the job in the manifest's order (a mural: tile by tile, layer by layer)."""
+def plate_parts(build: BuildFigures | None) -> list[Part]:
+    """Every plate of the job in the build's order (a mural: tile by tile, layer by layer)."""
     out = []
-    for p in (manifest.get("build") or {}).get("plates", []) or []:
-        layer = int(p.get("layer", 0) or 0)
-        stem = str(p.get("file") or f"layer_{layer:02d}")
-        holes = p.get("hole_count")
+    for p in build.plates if build is not None else ():
+        layer = p.number
         out.append(
             Part(
                 kind="plate",
-                stem=stem,
-                size_mm=part_size(p),
-                holes=None if holes is None else int(holes),
-                cut_mm=p.get("cut_length_mm"),
-                tile=str(p.get("tile", "") or ""),
+                stem=str(p.file or f"layer_{layer:02d}"),
+                size_mm=p.size_mm,
+                holes=None if p.hole_count is None else int(p.hole_count),
+                cut_mm=p.cut_length_mm,
+                tile=str(p.tile or ""),
                 layer=layer,
-                print_hours=p.get("print_hours"),
-                filament_m=p.get("filament_m"),
+                print_hours=p.print_hours,
+                filament_m=p.filament_m,
             )
         )
     return out
 
 
-def wall_parts(manifest: Mapping[str, Any]) -> list[Part]:
+def wall_parts(build: BuildFigures | None) -> list[Part]:
     """Every wall of the job (one per stand-off height, per tile for a mural)."""
     out = []
-    for w in (manifest.get("build") or {}).get("walls", []) or []:
-        stem = str(w.get("file", "wall.step")).rsplit(".", 1)[0]
+    for w in build.walls if build is not None else ():
+        stem = str(w.file if w.has("file") else "wall.step").rsplit(".", 1)[0]
         out.append(
             Part(
                 kind="wall",
                 stem=stem,
-                size_mm=part_size(w),
-                tile=str(w.get("tile", "") or ""),
-                print_hours=w.get("print_hours"),
-                filament_m=w.get("filament_m"),
+                size_mm=w.size_mm,
+                tile=str(w.tile or ""),
+                print_hours=w.print_hours,
+                filament_m=w.filament_m,
             )
         )
     return out
@@ -140,15 +119,6 @@ def print_text(hours: float | None, metres: float | None) -> str:
     if hours is None:
         return ""
     return f"prints in about {hours_text(hours)}" + (f" with {metres:.1f} m of filament" if metres else "")
-
-
-def job_bed(manifest: Mapping[str, Any]) -> Bed | None:
-    """The bed the job was sized for (``bed`` in the config), or None."""
-    cfg = manifest.get("config") or {}
-    try:
-        return resolve_bed(cfg.get("bed"))
-    except (ValueError, TypeError, KeyError):
-        return None
 
 
 def cut_seconds(cut_mm: float, pierces: int) -> float:
@@ -233,60 +203,56 @@ def _laser(part: Part, kerf: float, kind: str) -> str:
     return text
 
 
-def part_advice(manifest: Mapping[str, Any], part: Part) -> str:
+def part_advice(settings: JobSettings, part: Part) -> str:
     """How to make one part with the job's process, naming only a profile or bed it fits.
 
     Args:
-        manifest: The job's manifest (config, bed).
+        settings: The job's settings (process, plate thickness, kerf, bed).
         part: The plate or wall.
 
     Returns:
         One line for the sheet's print-or-cut table.
     """
-    cfg = manifest.get("config") or {}
-    process = str((cfg.get("stipple") or {}).get("process", "fdm"))
-    thickness = (cfg.get("plate") or {}).get("thickness_mm")
-    kerf = float((cfg.get("export") or {}).get("dxf_kerf_mm", 0.0) or 0.0)
-    bed = job_bed(manifest)
+    bed, thickness = settings.bed, settings.thickness_mm
     if part.kind == "wall":
         # A wall is a deep frame: FDM whatever the plates' process.
         return _fdm(part, bed, thickness)
-    if process == "laser":
-        return _laser(part, kerf, "cut-outs" if str(cfg.get("mode", "soft")) == "hard" else "holes")
-    if process == "sla":
+    if settings.process == "laser":
+        return _laser(part, settings.kerf_mm, "cut-outs" if settings.hard else "holes")
+    if settings.process == "sla":
         return _sla(part, bed, thickness)
     return _fdm(part, bed, thickness)
 
 
-def plate_checks(p: Mapping[str, Any], label: str) -> list[tuple[str, bool]]:
+def plate_checks(p: PlateRow, label: str) -> list[tuple[str, bool]]:
     """The checks one built plate passed or failed, as sheet lines named ``label`` (e.g. ``plate 01``)."""
-    out = [(f"{label}: one solid, valid B-rep ({p.get('n_solids', 0)} solid)", bool(p.get("valid")))]
-    rel = p.get("rel_error")
+    solids = p.n_solids if p.has("n_solids") else 0
+    out = [(f"{label}: one solid, valid B-rep ({solids} solid)", bool(p.valid))]
+    rel = p.rel_error
     if rel is not None:
         out.append((f"{label}: volume equals the analytic volume (relative error {rel:.1e})", rel < 1e-6))
-    mesh = p.get("mesh") or {}
-    if mesh:
-        ok = bool(mesh.get("watertight")) and bool(mesh.get("consistent_winding"))
-        out.append((f"{label}: mesh watertight and consistently wound", ok))
-        if "genus" in mesh and p.get("hole_count") is not None:
+    mesh = p.mesh
+    if mesh is not None:
+        out.append((f"{label}: mesh watertight and consistently wound", mesh.ok))
+        if mesh.has("genus") and p.hole_count is not None:
             out.append(
                 (
-                    f"{label}: mesh genus {mesh['genus']} = hole count {p['hole_count']}",
-                    mesh["genus"] == p["hole_count"],
+                    f"{label}: mesh genus {mesh.genus} = hole count {p.hole_count}",
+                    mesh.genus == p.hole_count,
                 )
             )
     return out
 
 
-def wall_check(w: Mapping[str, Any]) -> tuple[str, bool]:
+def wall_check(w: WallRow) -> tuple[str, bool]:
     """The check of one built wall as a sheet line."""
-    name = str(w.get("file", "wall"))
-    return (f"{name}: valid wall (stand-off {float(w.get('standoff_mm', 0)):g} mm)", bool(w.get("valid")))
+    name = str(w.file if w.has("file") else "wall")
+    return (f"{name}: valid wall (stand-off {float(w.standoff_mm or 0):g} mm)", bool(w.valid))
 
 
-def fit_check(manifest: Mapping[str, Any], part: Part) -> tuple[str, bool] | None:
+def fit_check(settings: JobSettings, part: Part) -> tuple[str, bool] | None:
     """Whether a part lies on the job's bed (as exported or turned 90°), as a sheet line; None without a bed."""
-    bed = job_bed(manifest)
+    bed = settings.bed
     if bed is None or part.size_mm is None:
         return None
     lay = place(part.size_mm, (bed.x_mm, bed.y_mm))

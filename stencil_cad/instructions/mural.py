@@ -1,8 +1,8 @@
 """The mural's part of the instruction sheet: the order of work, registration, one section per tile.
 
-Built from the manifest's ``mural`` figures (each tile's core and sheet in mm from the mural's
-bottom-left corner, the halo, the holes per tile and layer), its ``build`` rows (every plate and
-wall, with the tile it belongs to) and the spray order (paint and amount per layer):
+Built from the job's mural figures (each tile's core and sheet in mm from the mural's
+bottom-left corner, the halo, the holes per tile and layer), its build figures (every plate and
+wall, with the tile it belongs to) and the sheet's steps (paint and amount per layer):
 
 * the order of work: round by round (one layer on every tile, then the next), which is the
   only order that keeps the picture's *over* order at a seam where two tiles' sprays overlap;
@@ -22,9 +22,20 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from ..figures import Figures, MuralBuildFigures, MuralFigures, MuralSimulation, PlateRow, TileRow, WallRow
 from . import make
+from .settings import JobSettings
 
-__all__ = ["MuralPlan", "TilePlate", "TileSection", "map_tiles", "mural_html", "mural_pdf", "mural_plan"]
+__all__ = [
+    "MapTile",
+    "MuralPlan",
+    "TilePlate",
+    "TileSection",
+    "map_tiles",
+    "mural_html",
+    "mural_pdf",
+    "mural_plan",
+]
 
 #: A mural whose longer side is above this (mm) gets its grid lines snapped with a chalk line;
 #: a shorter one is drawn with a straightedge or level.
@@ -71,26 +82,41 @@ class MuralPlan:
     checks: list[tuple[str, bool]] = field(default_factory=list)
 
 
-def map_tiles(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """Tiles for the tile map: ``name``, ``x_mm``, ``y_mm``, ``width_mm``, ``height_mm`` of each core.
+@dataclass(frozen=True)
+class MapTile:
+    """One tile on the map: its name and its core's corner and size in mm (picture frame, y up)."""
 
-    Takes the manifest's mural rows (``tile``, ``core_mm``) or tiles already in that form.
+    name: str
+    x_mm: float
+    y_mm: float
+    width_mm: float
+    height_mm: float
+
+    @classmethod
+    def from_json(cls, row: Mapping[str, Any], k: int) -> MapTile:
+        """A tile given as ``name``, ``x_mm``, ``y_mm``, ``width_mm``, ``height_mm`` (the ``k``-th)."""
+        return cls(
+            name=str(row.get("name") or row.get("tile") or f"T{k + 1}"),
+            x_mm=float(row.get("x_mm", 0)),
+            y_mm=float(row.get("y_mm", 0)),
+            width_mm=float(row.get("width_mm", 0)),
+            height_mm=float(row.get("height_mm", 0)),
+        )
+
+
+def map_tiles(rows: Sequence[TileRow | Mapping[str, Any]]) -> list[MapTile]:
+    """Tiles for the tile map: each core's name, corner and size.
+
+    Takes the mural's tiles (``tile``, ``core_mm``) or tiles given in the map's form.
     """
     out = []
-    for k, t in enumerate(rows):
-        if "core_mm" in t:
-            x0, y0, x1, y1 = (float(v) for v in t["core_mm"])
-            out.append(
-                {
-                    "name": str(t.get("tile") or t.get("name") or f"T{k + 1}"),
-                    "x_mm": x0,
-                    "y_mm": y0,
-                    "width_mm": x1 - x0,
-                    "height_mm": y1 - y0,
-                }
-            )
+    for k, given in enumerate(rows):
+        t = TileRow.from_json(given) if isinstance(given, Mapping) and "core_mm" in given else given
+        if isinstance(t, TileRow) and t.core_mm is not None:
+            x0, y0, x1, y1 = (float(v) for v in t.core_mm)
+            out.append(MapTile(str(t.tile or f"T{k + 1}"), x0, y0, x1 - x0, y1 - y0))
         else:
-            out.append(dict(t))
+            out.append(MapTile.from_json(t.to_json() if isinstance(t, TileRow) else t, k))
     return out
 
 
@@ -98,18 +124,25 @@ def _mm(v: float) -> str:
     return f"{v:.1f}"
 
 
-def _edges(rows: Sequence[Mapping[str, Any]], axis: int) -> list[float]:
-    return sorted({round(float(t["core_mm"][i]), 3) for t in rows for i in (axis, axis + 2)})
+def _edges(rows: Sequence[TileRow], axis: int) -> list[float]:
+    return sorted({round(float(_core(t)[i]), 3) for t in rows for i in (axis, axis + 2)})
 
 
-def _neighbours(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[int, int], str]:
-    return {(int(t["row"]), int(t["column"])): str(t["tile"]) for t in rows}
+def _core(t: TileRow) -> Sequence[float]:
+    """A tile's core ``(x0, y0, x1, y1)`` in mm (every tile the plan takes has one)."""
+    if t.core_mm is None:
+        raise ValueError(f"tile {t.tile} has no core")
+    return t.core_mm
 
 
-def _sides(t: Mapping[str, Any], near: Mapping[tuple[int, int], str]) -> list[str]:
+def _neighbours(rows: Sequence[TileRow]) -> dict[tuple[int, int], str]:
+    return {(int(t.row or 0), int(t.column or 0)): str(t.tile) for t in rows}
+
+
+def _sides(t: TileRow, near: Mapping[tuple[int, int], str]) -> list[str]:
     """Which grid line each side's notches meet, and the tile across it (or the picture's edge)."""
-    x0, y0, x1, y1 = (float(v) for v in t["core_mm"])
-    r, c = int(t["row"]), int(t["column"])
+    x0, y0, x1, y1 = (float(v) for v in _core(t))
+    r, c = int(t.row or 0), int(t.column or 0)
     # Row A is the top row: the tile above has the smaller row number.
     sides = (
         ("left", f"x = {_mm(x0)} mm", near.get((r, c - 1))),
@@ -135,17 +168,14 @@ def _method(width: float, height: float) -> str:
     )
 
 
-def _registration(
-    manifest: Mapping[str, Any], rows: Sequence[Mapping[str, Any]], walls: Mapping[str, list[Any]]
-) -> list[str]:
+def _registration(m: MuralFigures, rows: Sequence[TileRow], walls: Mapping[str, list[WallRow]]) -> list[str]:
     """The registration steps, from the tiles' geometry."""
-    mural = manifest.get("mural") or {}
     xs, ys = _edges(rows, 0), _edges(rows, 1)
     width, height = max(xs), max(ys)
-    halo = float(mural.get("halo_mm", 0.0) or 0.0)
+    halo = float(m.halo_mm or 0.0)
     first = rows[0]
     near = _neighbours(rows)
-    notches = next((int(w.get("notches", 0)) for w in walls.get(str(first["tile"]), [])), 0)
+    notches = next((int(w.notches or 0) for w in walls.get(str(first.tile), [])), 0)
     steps = [
         "Mark the mural's bottom-left corner on the surface. Draw its bottom edge level and its left edge "
         "plumb (a spirit level or a laser level): every position on this sheet is in mm from that corner, "
@@ -156,17 +186,17 @@ def _registration(
         _method(width, height)
         + " Where chalk or pencil does not take (glass, fresh paint), put a short strip of masking tape "
         "across the line at each place a notch will meet it and mark the exact position on the tape.",
-        f"First tile, {first['tile']}: set its wall with its "
+        f"First tile, {first.tile}: set its wall with its "
         + "; ".join(_sides(first, near))
         + f". Pencil a tick through each of its {notches or 'sight'} notches: the wall goes back onto "
         "these ticks for every layer.",
     ]
     if len(rows) > 1:
         second = rows[1]
-        shared = [s for s in _sides(second, near) if f"meets {first['tile']}" in s]
+        shared = [s for s in _sides(second, near) if f"meets {first.tile}" in s]
         steps.append(
             "Each next tile meets its neighbour on their shared grid line"
-            + (f" ({second['tile']}: {shared[0]})" if shared else "")
+            + (f" ({second.tile}: {shared[0]})" if shared else "")
             + f". Its wall and plate reach {halo:.1f} mm past that line over the neighbour, where the "
             "plate is solid, so paint already on the neighbour stays covered; the holes on either side "
             "of the line belong to one picture, split between the tiles."
@@ -175,23 +205,24 @@ def _registration(
         "Every plate of a tile has the same notches in its border as the tile's wall: before each spray, "
         "check that the plate's notches line up with the wall's and with the ticks on the surface."
     )
-    cost = _registration_cost(mural)
+    cost = _registration_cost(m.simulation)
     if cost:
         steps.append(cost)
     return steps
 
 
-def _registration_cost(mural: Mapping[str, Any]) -> str:
+def _registration_cost(sim: MuralSimulation | None) -> str:
     """What a misregistration costs in the simulation, as one sentence."""
-    sim = mural.get("simulation") or {}
-    base = (sim.get("zero_error_scores") or {}).get("scielab")
-    rows = [r for r in sim.get("registration_cost", []) or [] if isinstance(r, Mapping) and "scielab" in r]
+    if sim is None:
+        return ""
+    base = sim.zero_error_scores.scielab if sim.zero_error_scores is not None else None
+    rows = [r for r in sim.registration_cost or () if r.has("scielab")]
     if base is None or not rows:
         return ""
     parts = [
-        f"{float(r['error_mm']):g} mm between {r['between']}: {float(r['scielab']):.2f}"
+        f"{float(r.error_mm or 0.0):g} mm between {r.between}: {float(r.scielab or 0.0):.2f}"
         for r in rows
-        if "error_mm" in r
+        if r.has("error_mm")
     ]
     return (
         f"How exact: in the simulation the S-CIELAB error at the viewing distance is {float(base):.2f} "
@@ -199,8 +230,8 @@ def _registration_cost(mural: Mapping[str, Any]) -> str:
     )
 
 
-def _rounds(rows: Sequence[Mapping[str, Any]], steps: Sequence[Any], amount: Callable[..., Any]) -> list[str]:
-    order = " ".join(str(t["tile"]) for t in rows)
+def _rounds(rows: Sequence[TileRow], steps: Sequence[Any], amount: Callable[..., Any]) -> list[str]:
+    order = " ".join(str(t.tile) for t in rows)
     return [
         f"Round {s.number}: {s.plate} of every tile, paint {s.hex}"
         + (f" {s.name}" if s.name else "")
@@ -209,119 +240,130 @@ def _rounds(rows: Sequence[Mapping[str, Any]], steps: Sequence[Any], amount: Cal
     ]
 
 
+@dataclass(frozen=True)
+class _Job:
+    """What every tile's section reads: the job's figures, settings, steps by layer, amounts and files."""
+
+    figures: Figures
+    settings: JobSettings
+    steps: Mapping[int, object]
+    amount: Callable[..., Any]
+    names: set[str]
+
+
 def _section(
-    manifest: Mapping[str, Any],
-    t: Mapping[str, Any],
+    job: _Job,
+    t: TileRow,
     near: Mapping[tuple[int, int], str],
-    plates: list[Mapping[str, Any]],
-    walls: list[Mapping[str, Any]],
-    steps: Mapping[int, object],
-    amount: Callable[..., Any],
-    names: set[str],
+    plates: list[PlateRow],
+    walls: list[WallRow],
 ) -> TileSection:
     """One tile's section: position, notches, wall, plates (paint, amount, holes, files) and checks."""
-    x0, y0, x1, y1 = (float(v) for v in t["core_mm"])
-    s0, _, s1, _ = (float(v) for v in t.get("sheet_mm", t["core_mm"]))
-    name = str(t["tile"])
+    x0, y0, x1, y1 = (float(v) for v in _core(t))
+    s0, _, s1, _ = (float(v) for v in (t.sheet_mm if t.sheet_mm is not None else _core(t)))
+    name = str(t.tile)
     where = (
-        f"row {name.rstrip('0123456789')}, column {int(t['column'])}: its holes cover x {_mm(x0)}–{_mm(x1)} mm, "
+        f"row {name.rstrip('0123456789')}, column {int(t.column or 0)}: its holes cover x {_mm(x0)}–{_mm(x1)} mm, "
         f"y {_mm(y0)}–{_mm(y1)} mm from the bottom-left corner; its plates reach x {_mm(s0)}–{_mm(s1)} mm"
     )
     wall_lines = []
     for w in walls:
-        stem = str(w.get("file", "")).rsplit(".", 1)[0]
-        files = [stem + e for e in (".stl", ".step") if stem + e in names]
+        stem = str(w.file or "").rsplit(".", 1)[0]
+        files = [stem + e for e in (".stl", ".step") if stem + e in job.names]
         wall_lines.append(
-            f"{', '.join(files) or stem}: stand-off {float(w.get('standoff_mm', 0)):g} mm, "
-            f"{int(w.get('notches', 0))} sight notches"
+            f"{', '.join(files) or stem}: stand-off {float(w.standoff_mm or 0):g} mm, "
+            f"{int(w.notches or 0)} sight notches"
         )
     tile_plates, checks = [], []
     for p in plates:
-        stem = str(p.get("file"))
-        s = steps.get(int(p.get("layer", 0)))
-        holes = p.get("hole_count")
+        stem = str(p.file)
+        s = job.steps.get(p.number)
         tile_plates.append(
             TilePlate(
                 stem=stem,
-                layer=int(p.get("layer", 0)),
+                layer=p.number,
                 hex=str(getattr(s, "hex", "")),
                 name=str(getattr(s, "name", "") or ""),
-                amount=amount(s).lstrip(", ") if s is not None else "",
-                holes=None if holes is None else int(holes),
-                files=[stem + e for e in _EXTS if stem + e in names],
+                amount=job.amount(s).lstrip(", ") if s is not None else "",
+                holes=None if p.hole_count is None else int(p.hole_count),
+                files=[stem + e for e in _EXTS if stem + e in job.names],
             )
         )
         checks += make.plate_checks(p, stem)
     checks += [make.wall_check(w) for w in walls]
-    parts = [p for p in make.plate_parts(manifest) if p.tile == name]
-    parts += [w for w in make.wall_parts(manifest) if w.tile == name]
-    checks += [c for c in (make.fit_check(manifest, part) for part in parts) if c is not None]
+    build = job.figures.build
+    parts = [p for p in make.plate_parts(build) if p.tile == name]
+    parts += [w for w in make.wall_parts(build) if w.tile == name]
+    checks += [c for c in (make.fit_check(job.settings, part) for part in parts) if c is not None]
     return TileSection(name, where, _sides(t, near), wall_lines, tile_plates, checks)
 
 
 def mural_plan(
-    manifest: Mapping[str, Any], steps: Sequence[Any], amount: Callable[..., Any], names: set[str]
+    f: Figures, s: JobSettings, steps: Sequence[Any], amount: Callable[..., Any], names: set[str]
 ) -> MuralPlan | None:
     """The mural's order of work, registration and tile sections, or None for a one-plate job.
 
     Args:
-        manifest: The job's manifest.
+        f: The job's figures (the mural's tiles, the build's plates and walls).
+        s: The job's settings (the bed the parts are checked on).
         steps: The sheet's steps (one per layer, in spray order: ``number``, ``plate``, ``hex``, ``name``).
         amount: A step's amount of paint as text (``", 3 passes"``).
         names: The job's file names.
     """
-    mural = manifest.get("mural") or {}
-    rows = [t for t in mural.get("tiles", []) or [] if isinstance(t, Mapping) and "core_mm" in t]
-    if not mural.get("tiled") or not rows:
+    m = f.mural
+    built = m.built if m is not None else None
+    rows = [t for t in (built.tiles if built is not None else ()) if t.core_mm is not None]
+    if m is None or built is None or not m.tiled or not rows:
         return None
-    build = manifest.get("build") or {}
-    plates: dict[str, list[Any]] = {}
-    walls: dict[str, list[Any]] = {}
-    for p in build.get("plates", []) or []:
-        plates.setdefault(str(p.get("tile")), []).append(p)
-    for w in build.get("walls", []) or []:
-        walls.setdefault(str(w.get("tile")), []).append(w)
+    plates: dict[str, list[PlateRow]] = {}
+    walls: dict[str, list[WallRow]] = {}
+    for p in f.build.plates if f.build is not None else ():
+        plates.setdefault(str(p.tile), []).append(p)
+    for w in f.build.walls if f.build is not None else ():
+        walls.setdefault(str(w.tile), []).append(w)
     near = _neighbours(rows)
-    by_layer = {int(s.number): s for s in steps}
+    job = _Job(f, s, {int(st.number): st for st in steps}, amount, names)
     sections = [
         _section(
-            manifest,
+            job,
             t,
             near,
-            sorted(plates.get(str(t["tile"]), []), key=lambda p: int(p.get("layer", 0))),
-            walls.get(str(t["tile"]), []),
-            by_layer,
-            amount,
-            names,
+            sorted(plates.get(str(t.tile), []), key=lambda p: p.number),
+            walls.get(str(t.tile), []),
         )
         for t in rows
     ]
-    checks = []
-    if "holes_total" in mural and "holes_global" in mural:
-        checks.append(
-            (
-                f"the tiles hold {int(mural['holes_total']):,} holes, the mural's {int(mural['holes_global']):,}",
-                mural["holes_total"] == mural["holes_global"],
-            )
-        )
-    if mural.get("union_check_rules"):
-        checks.append(
-            (
-                "every tile's holes together keep the design rules across the seams",
-                mural["union_check_rules"] == "passed",
-            )
-        )
-    n_rows = max(int(t["row"]) for t in rows)
-    n_cols = max(int(t["column"]) for t in rows)
+    n_rows = max(int(t.row or 0) for t in rows)
+    n_cols = max(int(t.column or 0) for t in rows)
     return MuralPlan(
         grid=f"{len(rows)} tiles, {n_rows} rows × {n_cols} columns",
         plates=sum(len(v) for v in plates.values()),
         walls=sum(len(v) for v in walls.values()),
         rounds=_rounds(rows, steps, amount),
-        registration=_registration(manifest, rows, walls),
+        registration=_registration(m, rows, walls),
         sections=sections,
-        checks=checks,
+        checks=_union_checks(built),
     )
+
+
+def _union_checks(built: MuralBuildFigures) -> list[tuple[str, bool]]:
+    """The checks across the tiles: every hole on one tile, the design rules across the seams."""
+    checks = []
+    if built.holes_total is not None and built.holes_global is not None:
+        checks.append(
+            (
+                f"the tiles hold {int(built.holes_total):,} holes, the mural's {int(built.holes_global):,}",
+                built.holes_total == built.holes_global,
+            )
+        )
+    if built.union_check_rules:
+        checks.append(
+            (
+                "every tile's holes together keep the design rules across the seams",
+                built.union_check_rules == "passed",
+            )
+        )
+    return checks
 
 
 # ------------------------------------------------------------------------------------ rendering

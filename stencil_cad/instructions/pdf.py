@@ -293,9 +293,7 @@ def render_pdf(sheet: Sheet, images: Mapping[str, bytes]) -> bytes:
     return buf.getvalue()
 
 
-def _tile_drawing(
-    tiles: Sequence[Mapping[str, Any]], width_mm: float, height_mm: float, width_pt: float
-) -> Any:
+def _tile_drawing(tiles: Sequence[mural.MapTile], width_mm: float, height_mm: float, width_pt: float) -> Any:
     from reportlab.graphics.shapes import Drawing, Rect, String
     from reportlab.lib import colors
 
@@ -304,9 +302,8 @@ def _tile_drawing(
     d.add(
         Rect(1, 1, width_mm * s, height_mm * s, fillColor=colors.HexColor("#f4f4f4"), strokeColor=colors.grey)
     )
-    for k, t in enumerate(tiles):
-        x, y = float(t.get("x_mm", 0)), float(t.get("y_mm", 0))
-        tw, th = float(t.get("width_mm", 0)), float(t.get("height_mm", 0))
+    for t in tiles:
+        x, y, tw, th = t.x_mm, t.y_mm, t.width_mm, t.height_mm
         d.add(
             Rect(
                 1 + x * s,
@@ -318,6 +315,6 @@ def _tile_drawing(
                 strokeWidth=1.2,
             )
         )
-        name = str(t.get("name") or t.get("tile") or f"T{k + 1}")
+        name = t.name
         d.add(String(1 + (x + tw / 2) * s, 1 + (y + th / 2) * s, name, textAnchor="middle", fontSize=9))
     return d

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..colour import to_hex
 from ..errors import UserError
-from ..figures import BuildFigures, PartRow
+from ..figures import BuildFigures
 from ..model import CutLayer, DotSet, Holes, Layers
 from ..output import plain as _plain
 from ..record import Run
@@ -91,7 +91,7 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
             with run.out.open_path(f"{stem}.stl") as p:
                 wall_mod.wall_stl(wm, p, exp.stl_tolerance_mm)
             walls.append({"file": f"{stem}.step", "standoff_mm": standoff, **wall_mod.check_wall(wm)})
-    run.figures.build = BuildFigures([PartRow(r) for r in results], [PartRow(w) for w in walls])
+    run.figures.build = BuildFigures.from_rows(results, walls)
 
 
 def check_template(run: Run) -> None:

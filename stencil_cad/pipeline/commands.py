@@ -10,7 +10,7 @@ import numpy as np
 
 from ..config import JobConfig
 from ..errors import OutputError, UserError
-from ..figures import SimulateFigures
+from ..figures import HardFigures, SimulateFigures
 from ..model import Layers, Picture
 from ..output import plain as _plain
 from ..record import Run
@@ -177,11 +177,13 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
         sprays = _hard_sprays(run, colours)
         amounts = [float(sp.amount) for sp in sprays]
         write_spray_order(run, hard.primer, colours, amounts)
-    run.figures.hard = {
-        **_plain(hard.report),
-        "warnings": [str(w) for w in hard.report.get("warnings", [])],
-        "per_layer": [_plain(r) for r in hard.report.get("per_layer", [])],
-    }
+    run.figures.hard = HardFigures.from_json(
+        {
+            **_plain(hard.report),
+            "warnings": [str(w) for w in hard.report.get("warnings", [])],
+            "per_layer": [_plain(r) for r in hard.report.get("per_layer", [])],
+        }
+    )
     layers = Layers(
         primer=hard.primer,
         colours=np.array([cl.colour for cl in hard.cut_layers]).reshape(-1, 3),

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, TypeVar
 from ..colour import to_hex
 from ..config import DecomposeConfig, HardConfig, JobConfig
 from ..errors import ConfigError, UserError
-from ..figures import CansFigures, DecomposeFigures, Figures
+from ..figures import CansFigures, CanSnap, DecomposeFigures, Figures
 from ..model import Layers, Picture
 from ..output import plain as _plain
 from ..record import Run
@@ -236,7 +236,7 @@ def _snap_to_catalogue(
         "rmse_cost": after - before,
         "de2000_mean_shift": float(sum(r["delta_e2000"] for r in paint_snap) / len(paint_snap)),
     }
-    run.figures.cans = replace(run.figures.cans or CansFigures(), snap=snap)
+    run.figures.cans = replace(run.figures.cans or CansFigures(), snap=CanSnap.from_json(snap))
     log.info("paints: snapped to the catalogue, composite RMSE %.2f → %.2f (0-255 units)", before, after)
     return snapped
 

@@ -59,18 +59,19 @@ def finish(run: Run, command: str) -> list[Path]:
 
 
 def write_instructions(run: Run, manifest: dict[str, Any], tiles: list[Any] | None = None) -> None:
-    """Write the instruction sheet (HTML and PDF) from the manifest and the job's preview images.
+    """Write the instruction sheet (HTML and PDF) from the run's figures and the job's preview images.
 
     Args:
         run: The command's state; its staged PNGs and ``sheet_images`` are the pictures.
         manifest: The manifest as it will be written (its file list so far).
-        tiles: A mural's tiles (see :func:`stencil_cad.instructions.sheet_from_manifest`); None takes
-            them from the manifest when present.
+        tiles: A mural's tiles for the map (see :func:`stencil_cad.instructions.sheet_from_manifest`);
+            None takes the mural's.
     """
     from .. import instructions
 
-    listed = [*manifest.get("files", []), *({"name": n} for n in INSTRUCTIONS)]
-    data = instructions.sheet_from_manifest({**manifest, "files": listed}, tiles=tiles)
+    names = {str(row["name"]) for row in manifest.get("files", [])} | set(INSTRUCTIONS)
+    settings = instructions.JobSettings.from_config(run.cfg)
+    data = instructions.sheet(run.figures, settings, names, tiles=tiles)
     images = dict(run.sheet_images)
     for name in run.out.files:
         if name.endswith(".png"):

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..colour import to_hex
 from ..config import JobConfig, Mode
-from ..figures import SprayOrderFigures
+from ..figures import OrderStep, PrimerRow, SprayOrderFigures
 from ..model import DotSet
 from ..record import Run
 from .decompose import can_names
@@ -71,10 +71,10 @@ def write_spray_order(run: Run, primer: np.ndarray, colours: np.ndarray, spray_t
         },
     )
     run.figures.spray_order = SprayOrderFigures(
-        primer={"hex": to_hex(primer), "name": names.get(to_hex(primer), "")},
+        primer=PrimerRow.from_json({"hex": to_hex(primer), "name": names.get(to_hex(primer), "")}),
         note=_order_note(run.cfg),
         unit=run.cfg.spray.amount_unit,
-        steps=order,
+        steps=tuple(OrderStep.from_json(o) for o in order),
     )
     run.out.write_png(
         "swatch.png",

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..colour import to_hex
 from ..config import JobConfig
-from ..figures import PaintFigures, SimulateFigures, SprayStep
+from ..figures import PaintFigures, PaintLayer, SimulateFigures, SprayStep
 from ..model import DotSet, Layers, Picture
 from ..output import plain as _plain
 from ..record import Run
@@ -79,7 +79,7 @@ def stage_simulate(
         "layer_rmse": [float(x) for x in sim.layer_rmse],
         **{k: v for k, v in _plain(sim.info).items() if k not in scores},
     }
-    run.figures.simulate = SimulateFigures(seen, scielab_by_can=by_can or None, walls=per_wall or None)
+    run.figures.simulate = SimulateFigures.from_rows(seen, by_can or None, per_wall or None)
     run.figures.spraying = spraying_steps(cfg, layers, [ds.amount(cfg.spray.amount) for ds in dotsets])
     return (sim, ref) if keep else scores
 
@@ -209,8 +209,7 @@ def spraying_steps(cfg: JobConfig, layers: Layers, amounts: Sequence[float]) -> 
                 + ("; let each pass flash off (about a minute) before the next" if n > 1 else "")
             )
             out.append(
-                SprayStep(
-                    text,
+                SprayStep.from_json(
                     {
                         "layer": i + 1,
                         "paint": paint,
@@ -219,7 +218,7 @@ def spraying_steps(cfg: JobConfig, layers: Layers, amounts: Sequence[float]) -> 
                         "pass_speed_m_s": sp.pass_speed_m_s,
                         "spray_seconds": round(seconds, 1),
                         "text": text,
-                    },
+                    }
                 )
             )
         else:
@@ -228,8 +227,8 @@ def spraying_steps(cfg: JobConfig, layers: Layers, amounts: Sequence[float]) -> 
                 "spray.model: physical gives passes and distances)"
             )
             out.append(
-                SprayStep(
-                    text, {"layer": i + 1, "paint": paint, "spray_time": round(amount, 4), "text": text}
+                SprayStep.from_json(
+                    {"layer": i + 1, "paint": paint, "spray_time": round(amount, 4), "text": text}
                 )
             )
     return tuple(out)
@@ -335,5 +334,5 @@ def write_steps(
         sprayed_area_m2=area * 1e-6,
         coverage_m2_per_can=cfg.coverage_m2_per_can,
         can_ml=cfg.can_ml,
-        layers=rows,
+        layers=tuple(PaintLayer.from_json(r) for r in rows),
     )

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..errors import OutputError, UserError
-from ..figures import BuildFigures, PartRow
+from ..figures import BuildFigures, PrintEstimate
 from ..record import Run
 
 if TYPE_CHECKING:
@@ -208,8 +208,8 @@ def stage_print_estimate(run: Run) -> None:
     if build is None:
         raise AssertionError("the print estimate slices the plates the build stage made")
     # Copies of the rows, which the estimate adds to; the build's figures are then replaced.
-    plates = [dict(p.values) for p in build.plates]
-    walls = [dict(w.values) for w in build.walls]
+    plates = [p.to_json() for p in build.plates]
+    walls = [w.to_json() for w in build.walls]
     parts = [(row, f"layer_{int(row['layer']):02d}") for row in plates]
     parts += [(row, str(row["file"]).rsplit(".", 1)[0]) for row in walls]
     bed = _bed_overrides(prof, cfg.bed) if cfg.bed is not None else {}
@@ -235,11 +235,8 @@ def stage_print_estimate(run: Run) -> None:
             total_h += est.print_hours or 0.0
             total_m += est.filament_m or 0.0
             out.unlink()
-    run.figures.build = BuildFigures(
-        [PartRow(r) for r in plates],
-        [PartRow(w) for w in walls],
-        print_estimate={"profile": prof.name, "hours": round(total_h, 3), "filament_m": round(total_m, 2)},
-    )
+    total = PrintEstimate(prof.name, round(total_h, 3), round(total_m, 2))
+    run.figures.build = BuildFigures.from_rows(plates, walls, total)
 
 
 def print_estimate(path: Path) -> GcodeEstimate:

@@ -24,7 +24,7 @@ import numpy as np
 from .. import mural
 from ..colour import to_hex
 from ..errors import UserError
-from ..figures import BuildFigures, MuralBuildFigures, MuralFigures, PartRow
+from ..figures import BuildFigures, MuralBed, MuralBuildFigures, MuralFigures, MuralSimulation, TileRow
 from ..model import DotSet, Layers, Picture
 from ..output import plain as _plain
 from .names import tile_stem, tile_wall_stems
@@ -54,9 +54,7 @@ def plan(
     grid = mural.plan_tiles(width_mm, height_mm, cfg)
     sizes = mural.check_fits_bed(grid, cfg)
     fig = MuralFigures(
-        bed=None
-        if grid.bed is None
-        else {"name": grid.bed.name, "x_mm": grid.bed.x_mm, "y_mm": grid.bed.y_mm},
+        bed=None if grid.bed is None else MuralBed(grid.bed.name, grid.bed.x_mm, grid.bed.y_mm),
         tiled=grid.tiled,
         halo_mm=round(grid.halo_mm, 3),
         cost=mural.plan_cost(grid, cfg, layers, work_px),
@@ -98,9 +96,9 @@ def stage_build_tiles(
         i = int(row["layer"]) - 1
         if len(dotsets[i]):
             row["drawn_minus_asked_mm"] = round(float(np.mean(drawn[i].r_mm - dotsets[i].r_mm)), 4)
-    run.figures.build = BuildFigures([PartRow(r) for r in plates], [PartRow(w) for w in walls])
+    run.figures.build = BuildFigures.from_rows(plates, walls)
     built = MuralBuildFigures(
-        tiles=mural.manifest_rows(grid),
+        tiles=tuple(TileRow.from_json(t) for t in mural.manifest_rows(grid)),
         holes_per_tile={
             t.name: [len(per_tile[k][i]) for i in range(len(dotsets))] for k, t in enumerate(grid.tiles)
         },
@@ -452,7 +450,7 @@ def stage_mural_simulate(
         out["zero_error_scores"] = {k: round(v, 5) for k, v in base.items()}
         out["registration_cost"] = costs
         out["seconds"] = round(time.perf_counter() - t0, 2)
-    run.figures.mural = replace(_planned(run), simulation=out)
+    run.figures.mural = replace(_planned(run), simulation=MuralSimulation.from_json(out))
     if not out["tiled_equals_global"]:
         log.warning("tiled simulation differs from the global one by %.3g (max abs opacity)", diff)
 
@@ -469,9 +467,9 @@ def plan_line(plan: MuralFigures) -> str:
     """One line, printed before the work starts: what this size costs."""
     c = plan.cost
     bed = plan.bed
-    where = f"bed {bed['name']} ({bed['x_mm']:g} × {bed['y_mm']:g} mm)" if bed else "no bed given"
-    if bed and "×" in bed["name"]:
-        where = f"bed {bed['name']}"
+    where = f"bed {bed.name} ({bed.x_mm:g} × {bed.y_mm:g} mm)" if bed else "no bed given"
+    if bed and "×" in bed.name:
+        where = f"bed {bed.name}"
     return (
         f"stencil-cad: plan: {c['tiles']} tile(s) ({c['grid']}, {where}), {c['plates']} plates, {c['walls']} wall(s), "
         f"at most {c['holes_at_most']:,} holes, about {c['estimated_seconds']:.0f} s"

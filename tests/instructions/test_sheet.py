@@ -14,6 +14,7 @@ from stencil_cad import instructions
 from stencil_cad.cli import main
 from stencil_cad.config.spray import SprayConfig
 from stencil_cad.decompose import paints
+from stencil_cad.instructions.mural import MapTile
 
 CATALOGUE = Path(__file__).resolve().parents[2] / "stencil_cad" / "data" / "example_cans.csv"
 ARTEFACTS = Path(
@@ -325,7 +326,9 @@ def test_sheet_takes_tiles_and_new_figures():
     assert html.count("<rect") == 1 + len(tiles) and ">A1<" in html and ">B1<" in html
     assert "S-CIELAB at the viewing distance" in html and "3.25" in html
     manifest["tiles"] = tiles
-    assert instructions.sheet_from_manifest(manifest).tiles == tiles
+    assert instructions.sheet_from_manifest(manifest).tiles == [
+        MapTile(t["name"], t["x_mm"], t["y_mm"], t["width_mm"], t["height_mm"]) for t in tiles
+    ]
     pdf = instructions.render_pdf(s, {})
     assert pdf.startswith(b"%PDF") and len(pdf) > 2000
 

@@ -115,7 +115,7 @@ def test_mural_sheet_from_the_manifest():
     assert s.mural is not None and s.mural.plates == 4 and s.mural.walls == 2
     assert [t.name for t in s.mural.sections] == ["A1", "A2"]
     # The tile map is drawn from each tile's core (it was 0 × 0 before).
-    assert [(t["width_mm"], t["height_mm"]) for t in s.tiles] == [(120.0, 200.0), (120.0, 200.0)]
+    assert [(t.width_mm, t.height_mm) for t in s.tiles] == [(120.0, 200.0), (120.0, 200.0)]
     a2 = s.mural.sections[1]
     assert [p.stem for p in a2.plates] == ["tile_A2_layer_01", "tile_A2_layer_02"]
     assert a2.plates[0].amount == "3 passes" and a2.plates[1].holes == 200
@@ -151,26 +151,12 @@ def test_unnamed_paints_are_said_to_be_unnamed():
 
 
 def test_the_summary_says_which_parts_lie_turned():
-    from stencil_cad.figures import BuildFigures, MuralBuildFigures, MuralFigures, PartRow
+    from stencil_cad.figures import Figures
     from stencil_cad.report import _mural_lines
 
-    m = _two_tile_manifest()
-    build = BuildFigures(
-        [PartRow(p) for p in m["build"]["plates"]], [PartRow(w) for w in m["build"]["walls"]]
-    )
-    mm = m["mural"]
-    built = MuralBuildFigures(
-        tiles=mm["tiles"],
-        holes_per_tile={},
-        holes_total=mm["holes_total"],
-        holes_global=mm["holes_global"],
-        union_check_rules=mm["union_check_rules"],
-        compensated=False,
-        seam_density=[],
-        order_of_work=[],
-    )
-    plan = MuralFigures(bed=mm["bed"], tiled=True, halo_mm=mm["halo_mm"], cost={}, part_sizes={}, built=built)
-    lines = _mural_lines(build, plan)
+    f = Figures.from_json(_two_tile_manifest())
+    assert f.build is not None
+    lines = _mural_lines(f.build, f.mural)
     assert any("2 tiles" in line and "holes 600 (global 600)" in line for line in lines)
     assert any("6 of 6 parts fit the 250 × 210 mm bed turned 90°" in line for line in lines)
 

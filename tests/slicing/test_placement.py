@@ -98,33 +98,42 @@ def _manifest(process: str, size, bed=None, mode: str = "soft") -> dict:
     }
 
 
+def _job(process: str, size, bed=None, mode: str = "soft"):
+    """The settings and build figures of :func:`_manifest`, as the sheet reads them."""
+    from stencil_cad.figures import BuildFigures
+    from stencil_cad.instructions import JobSettings
+
+    m = _manifest(process, size, bed, mode)
+    return JobSettings.from_json(m["config"]), BuildFigures.from_json(m["build"])
+
+
 def test_print_advice_names_only_a_profile_the_part_fits():
     from stencil_cad.instructions import make as sheet_make
 
-    big = _manifest("sla", (173.0, 173.0))
-    (plate,) = sheet_make.plate_parts(big)
+    big, big_build = _job("sla", (173.0, 173.0))
+    (plate,) = sheet_make.plate_parts(big_build)
     text = sheet_make.part_advice(big, plate)
     assert (
         "too large for the prusa_sla vat (127 × 80 mm)" in text and "stencil-cad slice layer_01.stl" in text
     )
     assert "--profile prusa_sla" not in text
-    small = _manifest("sla", (75.0, 120.0))
-    text = sheet_make.part_advice(small, sheet_make.plate_parts(small)[0])
+    small, small_build = _job("sla", (75.0, 120.0))
+    text = sheet_make.part_advice(small, sheet_make.plate_parts(small_build)[0])
     assert "--profile prusa_sla layer_01.stl" in text and "turned 90° to fit the vat" in text
     # The wall has its own line, on FDM whatever the plates' process.
-    (wall,) = sheet_make.wall_parts(small)
+    (wall,) = sheet_make.wall_parts(small_build)
     assert wall.size_mm == pytest.approx((179.4, 179.4))
     assert sheet_make.part_advice(small, wall).startswith("FDM: `stencil-cad slice wall.stl`")
     # A portrait tile on the job's MK4 bed: sliced with that bed, turned.
-    tile = _manifest("fdm", (187.0, 248.4), bed="prusa_mk4")
-    text = sheet_make.part_advice(tile, sheet_make.plate_parts(tile)[0])
+    tile, tile_build = _job("fdm", (187.0, 248.4), bed="prusa_mk4")
+    text = sheet_make.part_advice(tile, sheet_make.plate_parts(tile_build)[0])
     assert "--bed prusa_mk4" in text and "turned 90°" in text
 
 
 def test_laser_advice_gives_cut_length_and_time():
     from stencil_cad.instructions import make as sheet_make
 
-    m = _manifest("laser", (120.0, 100.0), mode="hard")
-    text = sheet_make.part_advice(m, sheet_make.plate_parts(m)[0])
+    m, m_build = _job("laser", (120.0, 100.0), mode="hard")
+    text = sheet_make.part_advice(m, sheet_make.plate_parts(m_build)[0])
     minutes = sheet_make.cut_seconds(6000.0, 801) / 60
     assert "cut-outs" in text and "cut length 6.00 m" in text and f"about {minutes:.0f} min" in text

@@ -1,0 +1,88 @@
+"""The plate design chosen for the picture: windows on or off and the wall's stand-off, and its trials."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from .rows import Row
+
+
+@dataclass(frozen=True)
+class PlateTrial:
+    """One plate design tried for the picture: windows on or off, the wall's stand-off, and its score."""
+
+    #: ``auto`` (windows where a layer is solid) or ``off`` (holes only).
+    windows: str
+    standoff_mm: float
+    #: S-CIELAB at the viewing distance of the plates stippled (not refined) and sprayed.
+    scielab: float
+
+    @property
+    def label(self) -> str:
+        """The design in words: ``windows, 10 mm`` or ``holes only, 15 mm``."""
+        return f"{'windows' if self.windows == 'auto' else 'holes only'}, {self.standoff_mm:g} mm"
+
+    @classmethod
+    def from_json(cls, row: Row) -> PlateTrial:
+        """One row of the manifest's ``standoff.trials``."""
+        return cls(windows=row["windows"], standoff_mm=row["standoff_mm"], scielab=row["scielab"])
+
+    def to_json(self) -> dict[str, Any]:
+        """One row of the manifest's ``standoff.trials``."""
+        return {"windows": self.windows, "standoff_mm": self.standoff_mm, "scielab": self.scielab}
+
+
+@dataclass(frozen=True)
+class StandoffFigures:
+    """The plate design chosen for the picture: the windows' share of the paint, the trials, the choice.
+
+    The design is whether the plates open windows (``stipple.windows: auto`` lets the job choose) and
+    the wall's stand-off (``wall.standoff_mm: null`` lets it choose).
+    """
+
+    window_share: float
+    standoff_mm: float
+    #: The plate designs tried, in the order tried; empty without trials.
+    trials: Sequence[PlateTrial]
+    reason: str
+    #: The windows chosen: ``auto`` or ``off``.
+    windows: str = "auto"
+    #: The trials' simulation grid in mm per pixel (None without trials).
+    trial_mm_per_px: float | None = None
+    #: Seconds the trials took.
+    seconds: float = 0.0
+
+    @property
+    def chosen(self) -> PlateTrial | None:
+        """The trial of the chosen design (None without trials)."""
+        for t in self.trials:
+            if t.windows == self.windows and t.standoff_mm == self.standoff_mm:
+                return t
+        return None
+
+    @classmethod
+    def from_json(cls, section: Row) -> StandoffFigures:
+        """The manifest's ``standoff`` section."""
+        return cls(
+            window_share=section["window_share"],
+            standoff_mm=section["standoff_mm"],
+            trials=tuple(PlateTrial.from_json(t) for t in section.get("trials") or ()),
+            reason=section.get("reason", ""),
+            windows=section.get("windows", "auto"),
+            trial_mm_per_px=section.get("trial_mm_per_px"),
+            seconds=section.get("seconds", 0.0),
+        )
+
+    def to_json(self) -> dict[str, Any]:
+        """The manifest's ``standoff`` section."""
+        return {
+            "window_share": self.window_share,
+            "standoff_mm": self.standoff_mm,
+            "windows": self.windows,
+            "trials": [t.to_json() for t in self.trials],
+            "trial_mm_per_px": self.trial_mm_per_px,
+            "seconds": self.seconds,
+            "reason": self.reason,
+        }
