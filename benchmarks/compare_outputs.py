@@ -13,8 +13,10 @@ Usage::
 stencils, a small mural (240 × 160 mm on a Prusa MK4 bed, 2 layers, FDM) and the calibration
 card. It runs them with one thread for the compiled kernels (``NUMBA_NUM_THREADS=1``): their
 parallel sums may differ in the last bit between runs on a loaded machine, and a hole centre
-written with 4 decimals then flips its last digit. Folders holding job folders are compared
-job by job.
+written with 4 decimals then flips its last digit. It also gives the kernels an empty cache
+(``NUMBA_CACHE_DIR``, a fresh folder): a kernel loaded from a cache that another checkout filled
+gave the example's refined holes other last digits than one compiled afresh. Folders holding job
+folders are compared job by job.
 
 Prints one JSON line per file (name, size, SHA-256 on each side, same or not) and a
 last summary line; exits 1 when any compared file differs or is missing on one side.
@@ -157,14 +159,16 @@ def compare(before: Path, after: Path, exts: tuple[str, ...] = DEFAULT_EXTS) -> 
 def make(folder: Path) -> None:
     """Run every job of :data:`JOBS` into ``folder/<job>`` (one thread for the compiled kernels)."""
     import os
+    import tempfile
 
     folder.mkdir(parents=True, exist_ok=True)
     mural = folder / "mural.yaml"
     mural.write_text(MURAL_YAML, encoding="utf-8")
-    env = {**os.environ, "NUMBA_NUM_THREADS": "1"}
-    for job, args in JOBS.items():
-        cmd = [sys.executable, "-m", "stencil_cad", *(a.format(mural=mural) for a in args)]
-        subprocess.run([*cmd, "--out", str(folder / job), "-q"], check=True, env=env)
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**os.environ, "NUMBA_NUM_THREADS": "1", "NUMBA_CACHE_DIR": cache}
+        for job, args in JOBS.items():
+            cmd = [sys.executable, "-m", "stencil_cad", *(a.format(mural=mural) for a in args)]
+            subprocess.run([*cmd, "--out", str(folder / job), "-q"], check=True, env=env)
 
 
 def compare_jobs(before: Path, after: Path, exts: tuple[str, ...] = DEFAULT_EXTS) -> list[dict]:
