@@ -236,6 +236,10 @@ def _run_stage_command(
     # Every refusal above comes before any worker starts; the tasks then run where the whole
     # job's would (--workers, --scheduler).
     with computing(run, layers.alphas.shape[1] * layers.alphas.shape[2], where):
+        if not grid.tiled:
+            # The plate design left to the job is chosen as the whole run chose it (the same
+            # trials on the same layers and seed), so a stage command gives the run's files.
+            choose_plates(run, layers, size, picture)
         if dotsets is None:
             stage_stipple(run, layers, size, picture, grid)
         elif command == "build":
