@@ -5,7 +5,7 @@ order: ``decompose.order: auto``) is forced in turn and run through the whole so
 (decompose, stipple with windows, refine, simulate) under the bundled example's settings; the
 sprayed result is scored with S-CIELAB at 1 m against the source on the simulated grid. The row
 gives, per candidate, that score, the proxy's predicted error
-(:class:`stencil_cad.decompose.sprayed.PlateReach`, ``trial_sprayed_rmse``) and the ideal trial
+(:class:`stencil_cad.decompose.sprayed.PlateReach`, ``trial_sprayed_de``: a mean ΔE) and the ideal trial
 fit (``trial_rmse``, what the choice used before), and which candidate each ranking picks:
 ``proxy_pick == full_pick`` is the check, and ``proxy_regret`` what the proxy's pick loses at
 1 m against the best.
@@ -104,7 +104,7 @@ def run(cases=None):
             "case": case,
             "candidates": n,
             "full_scielab_1m": full,
-            "proxy_sprayed_rmse": [round(float(np.sqrt(e / 3.0) * 255.0), 3) for e in proxy],
+            "proxy_sprayed_de": [round(float(e), 3) for e in proxy],
             "orders": orders,
             "full_pick": best,
             "proxy_pick": pick,

@@ -248,8 +248,8 @@ def _pick_order(
         if reach is not None:
             sprayed.append(reach.error(st.target, st.primer, st.colours, st.alphas))
     if reach is not None:
-        # RMS over the channels in 0-255 levels, comparable with trial_rmse.
-        order_info["trial_sprayed_rmse"] = [round(float(np.sqrt(e / 3.0) * 255.0), 3) for e in sprayed]
+        # The predicted mean ΔE of each candidate's sprayed result.
+        order_info["trial_sprayed_de"] = [round(float(e), 3) for e in sprayed]
         order_info["trial_rmse"] = trial_rmse
         return candidates[int(np.argmin(sprayed))]
     pick = int(np.argmin(trial_e))
