@@ -119,7 +119,9 @@ def plate_reach(cfg: JobConfig) -> PlateReach:
     """What this job's plates can spray (:class:`stencil_cad.decompose.sprayed.PlateReach`), for ranking starts.
 
     The darkest tone is the densest hole pattern the rules allow at the most passes (or the paper
-    model's spray time), measured with the spray model as the stipple stage's dark-end figures are.
+    model's spray time), measured with the spray model as the stipple stage's dark-end figures are;
+    the same measurement gives the pattern's variance at each opacity, and a window sprays a full
+    coat at that amount.
     """
     from ..decompose.sprayed import PlateReach
     from ..simulate import tone
@@ -129,11 +131,12 @@ def plate_reach(cfg: JobConfig) -> PlateReach:
     r1 = st.resolved_max_radius_mm
     if cfg.refine.enabled:
         r1 = max(r1, cfg.refine.max_radius_factor * st.resolved_hole_min_r_mm)
+    amount = float(cfg.spray.max_passes) if cfg.spray.is_physical else cfg.spray.amount
     curve = tone.tone_response(
         st.resolved_radius_mm,
         st.resolved_web_mm,
         cfg.spray,
-        spray_time=float(cfg.spray.max_passes) if cfg.spray.is_physical else cfg.spray.amount,
+        spray_time=amount,
         max_radius_mm=r1,
         spacing_factor=st.auto_spacing_factor,
         geometry=SprayGeometry.for_job(cfg),
@@ -142,6 +145,8 @@ def plate_reach(cfg: JobConfig) -> PlateReach:
         darkest=float(curve.max_opacity),
         threshold=st.opacity_threshold,
         window_from=None if st.windows == "off" else st.window_opacity,
+        coat=tone.full_coat(cfg.spray, amount),
+        pattern=(tuple(float(m) for m in curve.mean), tuple(float(v) for v in curve.var)),
     )
 
 

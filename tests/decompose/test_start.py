@@ -54,3 +54,17 @@ def test_a_small_black_shape_keeps_its_paint(seed):
     assert np.min(paints.max(axis=1)) < 0.15  # black is the primer or a paint
     square = layers.composite()[55:65, 55:65]
     assert square.max() < 0.2
+
+
+def test_starts_the_plates_serve_alike_go_to_the_least_paint():
+    from stencil_cad.decompose.start import _SPRAYED_TIE_DE, _least_paint
+
+    white, dark = np.ones(3), np.full(3, 0.05)
+    cands = [(dark, np.zeros((1, 3)), np.array([0, 1])), (white, np.zeros((1, 3)), np.array([1, 0]))]
+    # Within the tie: the start spraying less paint wins though its prediction is a little worse.
+    assert _least_paint(cands, [2.5, 2.5 + 0.5 * _SPRAYED_TIE_DE], [1.44, 0.43], _SPRAYED_TIE_DE) == 1
+    # Beyond it the prediction decides.
+    assert _least_paint(cands, [2.5, 2.5 + 2.0 * _SPRAYED_TIE_DE], [1.44, 0.43], _SPRAYED_TIE_DE) == 0
+    # Equal paint: the lighter primer, then the prediction.
+    assert _least_paint(cands, [2.5, 2.55], [0.43, 0.43], _SPRAYED_TIE_DE) == 1
+    assert _least_paint([cands[1], cands[1]], [2.55, 2.5], [0.43, 0.43], _SPRAYED_TIE_DE) == 1
