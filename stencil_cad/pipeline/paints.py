@@ -27,7 +27,7 @@ def _order_note(cfg: JobConfig) -> str:
             "given": "the order of hard.palette",
         }[cfg.hard.order.value]
     return {
-        "auto": "each coat covers the ones before; this order reconstructs the picture best (decompose.order: auto)",
+        "auto": "each coat covers the ones before; of the primers and orders tried, this one is predicted to come out closest to the picture (decompose.order: auto)",
         "light_to_dark": "lightest paint first (decompose.order: light_to_dark)",
         "given": "the order of decompose.palette (decompose.order: given)",
     }[cfg.decompose.order.value]
