@@ -33,13 +33,10 @@ _ORDER_TIE_RMSE = 0.5
 
 #: Candidates whose predicted sprayed results (mean ΔE, :class:`PlateReach`) lie within this of the
 #: best are tied, and told apart as equally faithful ideal fits are: the least paint, then the
-#: lightest primer, then the prediction. The proxy scores a 48 px trial solve, not the refined
-#: plates, and misjudges the score by a factor of about two; on the logo its three best flat-colour
-#: starts came within 0.05 of each other while the whole pipeline put the dark-primed one, which
-#: sprays a white coat over half the picture, 0.07 behind the two primed white (measured with
-#: ``python -m benchmarks decompose_choice``; the other cases' best lead by 0.05 or more and lose
-#: nothing to the rule).
-_SPRAYED_TIE_DE = 0.1
+#: lightest primer, then the prediction. Only equal predictions tie: a width of 0.1 ΔE took the
+#: logo from 0.63 to 0.50 x its hard stencil but rocket from 0.46 to 0.52 x (SLA, S-CIELAB at 1 m,
+#: ``python -m benchmarks quality``), so the proxy's own ranking is kept.
+_SPRAYED_TIE_DE = 0.0
 
 #: A pixel is flat when its 3 x 3 neighbourhood spans at most this (two 8-bit levels) per channel,
 #: and a picture is flat-coloured (a logo, a poster) when this share of its pixels are flat: photos

@@ -61,10 +61,14 @@ def test_starts_the_plates_serve_alike_go_to_the_least_paint():
 
     white, dark = np.ones(3), np.full(3, 0.05)
     cands = [(dark, np.zeros((1, 3)), np.array([0, 1])), (white, np.zeros((1, 3)), np.array([1, 0]))]
-    # Within the tie: the start spraying less paint wins though its prediction is a little worse.
-    assert _least_paint(cands, [2.5, 2.5 + 0.5 * _SPRAYED_TIE_DE], [1.44, 0.43], _SPRAYED_TIE_DE) == 1
+    tie = 0.1
+    # Within a tie: the start spraying less paint wins though its prediction is a little worse.
+    assert _least_paint(cands, [2.5, 2.5 + 0.5 * tie], [1.44, 0.43], tie) == 1
     # Beyond it the prediction decides.
-    assert _least_paint(cands, [2.5, 2.5 + 2.0 * _SPRAYED_TIE_DE], [1.44, 0.43], _SPRAYED_TIE_DE) == 0
+    assert _least_paint(cands, [2.5, 2.5 + 2.0 * tie], [1.44, 0.43], tie) == 0
     # Equal paint: the lighter primer, then the prediction.
-    assert _least_paint(cands, [2.5, 2.55], [0.43, 0.43], _SPRAYED_TIE_DE) == 1
-    assert _least_paint([cands[1], cands[1]], [2.55, 2.5], [0.43, 0.43], _SPRAYED_TIE_DE) == 1
+    assert _least_paint(cands, [2.5, 2.55], [0.43, 0.43], tie) == 1
+    assert _least_paint([cands[1], cands[1]], [2.55, 2.5], [0.43, 0.43], tie) == 1
+    # The shipped rule: only equal predictions tie, else the better prediction wins.
+    assert _least_paint(cands, [2.5, 2.501], [1.44, 0.43], _SPRAYED_TIE_DE) == 0
+    assert _least_paint(cands, [2.5, 2.5], [1.44, 0.43], _SPRAYED_TIE_DE) == 1
