@@ -125,22 +125,10 @@ def plate_reach(cfg: JobConfig) -> PlateReach:
     """
     from ..decompose.sprayed import PlateReach
     from ..simulate import tone
-    from ..simulate.physical import SprayGeometry
 
     st = cfg.stipple
-    r1 = st.resolved_max_radius_mm
-    if cfg.refine.enabled:
-        r1 = max(r1, cfg.refine.max_radius_factor * st.resolved_hole_min_r_mm)
     amount = float(cfg.spray.max_passes) if cfg.spray.is_physical else cfg.spray.amount
-    curve = tone.tone_response(
-        st.resolved_radius_mm,
-        st.resolved_web_mm,
-        cfg.spray,
-        spray_time=amount,
-        max_radius_mm=r1,
-        spacing_factor=st.auto_spacing_factor,
-        geometry=SprayGeometry.for_job(cfg),
-    )
+    curve = tone.plate_response(cfg, amount)
     return PlateReach(
         darkest=float(curve.max_opacity),
         threshold=st.opacity_threshold,

@@ -189,22 +189,8 @@ def _dark_end(
     the spray model (:func:`stencil_cad.simulate.tone.tone_response`).
     """
     from ..simulate import tone
-    from ..simulate.physical import SprayGeometry
 
-    st = cfg.stipple
-    floor = st.resolved_radius_mm
-    r1 = st.resolved_max_radius_mm
-    if cfg.refine.enabled:
-        r1 = max(r1, cfg.refine.max_radius_factor * st.resolved_hole_min_r_mm)
-    curve = tone.tone_response(
-        floor,
-        st.resolved_web_mm,
-        cfg.spray,
-        spray_time=spray_time,
-        max_radius_mm=r1,
-        spacing_factor=st.auto_spacing_factor,
-        geometry=SprayGeometry.for_job(cfg),
-    )
+    curve = tone.plate_response(cfg, spray_time)
     top = curve.max_opacity
     a = np.asarray(alpha, dtype=np.float64)
     over = a > top + 1e-6

@@ -42,12 +42,16 @@ import functools
 import logging
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..config.spray import Calibrate, SprayConfig, SprayModel
 from .opacity import spray_opacity
 from .spray import hole_kernels
+
+if TYPE_CHECKING:
+    from ..config.job import JobConfig
 
 log = logging.getLogger(__name__)
 
@@ -448,6 +452,30 @@ def choose_tone(
         predicted_rmse_linear=math.sqrt(linear_mse),
         max_opacity=best_curve.max_opacity,
         curve=chosen,
+    )
+
+
+def plate_response(job_cfg: JobConfig, amount: float) -> ToneCurve:
+    """The tone response of a job's plates at ``amount`` (passes, or the paper model's spray time).
+
+    The stippler's pattern with holes up to the refinement's largest radius when it is on (the
+    stippler's otherwise), at the job's web, spacing and stand-off: what the dark-end figures and
+    the decomposition's plate reach measure the darkest sprayable tone and the pattern with.
+    """
+    from .physical import SprayGeometry
+
+    st = job_cfg.stipple
+    r1 = st.resolved_max_radius_mm
+    if job_cfg.refine.enabled:
+        r1 = max(r1, job_cfg.refine.max_radius_factor * st.resolved_hole_min_r_mm)
+    return tone_response(
+        st.resolved_radius_mm,
+        st.resolved_web_mm,
+        job_cfg.spray,
+        spray_time=amount,
+        max_radius_mm=r1,
+        spacing_factor=st.auto_spacing_factor,
+        geometry=SprayGeometry.for_job(job_cfg),
     )
 
 
