@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 import yaml
+from jobs import HARD_CANS, small_hard
 from placeholders import html_text, placeholders
 from readers import need, run
 
@@ -15,19 +16,7 @@ from stencil_cad.cli import main
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "stencil_cad" / "data" / "example.yaml"
 
-HARD_CANS = "name,code,hex\nPaper,P0,#f5f1e6\nRust,R1,#b0472a\nInk,K1,#141414\n"
-
-HARD = """\
-name: hard placeholders
-mode: hard
-size:
-  width_mm: 36
-  px_per_mm: 2
-hard:
-  palette: cans.csv
-stipple:
-  process: laser
-"""
+HARD = small_hard("hard placeholders")
 
 
 def test_the_checker_finds_placeholders():

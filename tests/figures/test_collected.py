@@ -8,44 +8,15 @@ import json
 from pathlib import Path
 
 import pytest
+from jobs import HARD_CANS, small_hard, small_soft
 
 from stencil_cad import instructions
 from stencil_cad.cli import main
 from stencil_cad.figures import Figures, PlateRow
 
-CATALOGUE = Path(__file__).resolve().parents[2] / "stencil_cad" / "data" / "example_cans.csv"
-
-SOFT = f"""\
-name: figures soft
-size:
-  width_mm: 36
-  px_per_mm: 2
-decompose:
-  layers: 2
-stipple:
-  process: sla
-paints:
-  catalogue: {CATALOGUE}
-"""
-
-HARD = """\
-name: figures hard
-mode: hard
-size:
-  width_mm: 36
-  px_per_mm: 2
-hard:
-  palette: cans.csv
-stipple:
-  process: laser
-"""
-
-CANS = """\
-name,code,hex
-Paper,P0,#f5f1e6
-Rust,R1,#b0472a
-Ink,K1,#141414
-"""
+SOFT = small_soft("figures soft")
+HARD = small_hard("figures hard")
+CANS = HARD_CANS
 
 #: Two tiles on the MK4's bed (as ``benchmarks.compare_outputs``' mural, smaller).
 MURAL = """\

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from jobs import CATALOGUE, HARD_CANS, small_hard, small_soft
 from readers import need, run
 
 from stencil_cad import instructions
@@ -16,46 +17,17 @@ from stencil_cad.config.spray import SprayConfig
 from stencil_cad.decompose import paints
 from stencil_cad.instructions.mural import MapTile
 
-CATALOGUE = Path(__file__).resolve().parents[2] / "stencil_cad" / "data" / "example_cans.csv"
 ARTEFACTS = Path(
     os.environ.get(
         "STENCIL_TEST_ARTEFACTS", Path(__file__).resolve().parents[2] / "output" / "test-artefacts"
     )
 )
 
-SOFT = f"""\
-name: sheet test
-size:
-  width_mm: 36
-  px_per_mm: 2
-decompose:
-  layers: 2
-stipple:
-  process: sla
-paints:
-  catalogue: {CATALOGUE}
-"""
-
-HARD_CANS = """\
-name,code,hex
-Paper,P0,#f5f1e6
-Rust,R1,#b0472a
-Ink,K1,#141414
-"""
-
-HARD = """\
-name: hard test
-mode: hard
-size:
-  width_mm: 36
-  px_per_mm: 2
-hard:
-  palette: cans.csv
-stipple:
-  process: laser
-export:
-  dxf_kerf_mm: 0  # the cut files drawn exactly as designed (the laser preset takes 0.2 mm off)
-"""
+SOFT = small_soft("sheet test")
+HARD = small_hard(
+    "hard test",
+    "export:\n  dxf_kerf_mm: 0  # the cut files drawn exactly as designed (the laser preset takes 0.2 mm off)\n",
+)
 
 SVG = "{http://www.w3.org/2000/svg}"
 
