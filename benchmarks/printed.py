@@ -2,13 +2,16 @@
 
 `python -m benchmarks printed` prints one JSON line per case:
 
-* ``radius_<r>`` — a small test plate with holes of r = 0.5, 0.75, 1.0 and 1.5 mm at a 0.5 mm
-  web (the SLA preset's), sliced with the shipped ``prusa_fdm`` profile twice: holes drawn as
+* ``radius_<r>`` — a small test plate with holes of r = 0.5, 0.75, 1.0 and 1.5 mm at the FDM
+  preset's web (0.6 mm), sliced with the shipped ``prusa_fdm`` profile twice: holes drawn as
   asked and drawn larger by the FDM ``stipple.hole_offset_mm``. Per radius the asked open area
   (``open_area_model``, mm² per hole), the mean open area drawn from layer 3 of the compensated
   plate's G-code at its extrusion widths (``open_area_gcode``), ``open_area_error``
   (gcode / model − 1) and its worst hole, the same for the uncompensated plate
   (``*_uncompensated``), with the plate's ``print_hours`` and ``filament_m``;
+* ``web_<w>`` — the same plate at webs of 0.4, 0.5, 0.6 and 0.8 mm: per radius the least plastic
+  the G-code lays on a web (``web_min_mm_r<r>``) and the webs with under half their width laid
+  (``webs_broken_r<r>``); the FDM preset's web is the thinnest with none broken;
 * ``example_layer_NN`` / ``example_wall`` — the bundled example's parts sliced as
   ``stencil-cad slice`` slices them (walls sparse, :data:`stencil_cad.slicing.WALL_SETTINGS`):
   ``print_hours``, ``filament_m``, the plates' open areas (every hole of layer 3), and the job's
@@ -36,15 +39,17 @@ import numpy as np
 import yaml
 
 from stencil_cad import slicing as sl
-from stencil_cad.config.stipple import PROCESS_HOLE_OFFSET_MM, Process
+from stencil_cad.config.stipple import PROCESS_HOLE_OFFSET_MM, PROCESS_PRESETS, Process
 from stencil_cad.exchange.mesh import plate_mesh, read_stl, stl_bytes
 from stencil_cad.model import PlateGeometry
 from stencil_cad.slicing import gcode
 from stencil_cad.stipple.made import drawn_radii
 
 RADII = (0.5, 0.75, 1.0, 1.5)
-#: The test plate's web: the SLA preset's 0.5 mm, every pair of neighbours at it.
-WEB_MM = 0.5
+#: The test plate's web: the FDM preset's, every pair of neighbours at it.
+WEB_MM = PROCESS_PRESETS[Process.fdm][1]
+#: Webs the ``web_<w>`` cases print, to find the thinnest the shipped profile lays whole.
+WEBS_MM = (0.4, 0.5, 0.6, 0.8)
 PX_MM = 0.025
 LAYER = 2  # layer 3, an inner layer (the first carries the elephant-foot compensation)
 
@@ -53,11 +58,11 @@ def _timeout() -> float:
     return float(os.environ.get("STENCIL_BENCH_PRINTED_TIMEOUT", "900"))
 
 
-def radius_holes() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def radius_holes(web_mm: float = WEB_MM) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Three hex rows of six holes per radius; returns centres, radii and the plate's (W, H)."""
     xy, rr, y0 = [], [], 3.0
     for r in RADII:
-        pitch = 2 * r + WEB_MM
+        pitch = 2 * r + web_mm
         for row in range(3):
             for i in range(6):
                 xy.append(
@@ -89,6 +94,54 @@ def measured_areas(
     return gcode.hole_open_areas(covered, lo + shift, PX_MM, xy + shift, r)
 
 
+def web_material(
+    gcode_path: Path, xy: np.ndarray, r: np.ndarray, lo: np.ndarray, hi: np.ndarray, web_mm: float
+) -> np.ndarray:
+    """Plastic (mm) laid on layer 3 along the centre line between each hole and its right-hand neighbour.
+
+    The neighbours are the holes of one hex row at the pitch ``2 r + web_mm``: the segment from one
+    designed edge to the next is the web as asked; the plastic on it is what the printer made.
+    """
+    layer = gcode.layer_paths(gcode_path, LAYER)
+    shift = gcode.align_shift(layer, lo, hi)
+    covered = gcode.rasterise(layer, lo + shift, tuple(hi - lo), PX_MM)
+    h_px = covered.shape[0]
+    out = []
+    for i in range(len(xy) - 1):
+        gap = xy[i + 1] - xy[i]
+        if abs(gap[1]) > 1e-6 or abs(np.hypot(*gap) - (r[i] + r[i + 1] + web_mm)) > 1e-6:
+            continue  # not neighbours in a row
+        t = np.linspace(r[i], r[i] + web_mm, max(2, int(web_mm / PX_MM)))
+        x = (xy[i, 0] + t) / PX_MM
+        y = h_px - xy[i, 1] / PX_MM
+        on = covered[np.clip(int(y), 0, h_px - 1), np.clip(x.astype(int), 0, covered.shape[1] - 1)]
+        out.append(float(on.mean()) * web_mm)
+    return np.array(out)
+
+
+def web_cases(tmp: Path):
+    """Per web of :data:`WEBS_MM`: the plastic the G-code lays on every web, per hole radius.
+
+    Holes drawn larger by the FDM offset with the web rule kept as made (as the job draws them).
+    A web the printer leaves out shows here (``webs_broken``: under half its width laid), not as a
+    larger hole: the open-area count stops at the designed circle.
+    """
+    offset = PROCESS_HOLE_OFFSET_MM[Process.fdm]
+    for web in WEBS_MM:
+        xy, asked, size = radius_holes(web)
+        stl, out = tmp / f"web_{web:g}.stl", tmp / f"web_{web:g}.gcode"
+        write_radius_plate(stl, xy, drawn_radii(xy, asked, offset, web - 2 * offset), size)
+        common, _ = _slice(stl, out)
+        row: dict = {"bench": "printed", "case": f"web_{web:g}", **common, "web_mm": web}
+        if common["ok"]:
+            for radius in RADII:
+                m = asked == radius
+                laid = web_material(out, xy[m], asked[m], np.zeros(2), size, web)
+                row[f"web_min_mm_r{radius:g}"] = round(float(laid.min()), 3)
+                row[f"webs_broken_r{radius:g}"] = int((laid < 0.5 * web).sum())
+        yield row
+
+
 def _slice(stl: Path, out: Path) -> tuple[dict, float]:
     start = time.perf_counter()
     result = sl.slice_plate(
@@ -108,7 +161,7 @@ def radius_cases(tmp: Path):
     """Per radius: open area drawn as asked (uncompensated) and drawn larger by the FDM offset.
 
     The compensated plate keeps the web rule as made (:func:`stencil_cad.stipple.made.drawn_dots`):
-    its drawn webs are 2 x the offset under the 0.5 mm web.
+    its drawn webs are 2 x the offset under the preset's web.
     """
     xy, asked, size = radius_holes()
     offset = PROCESS_HOLE_OFFSET_MM[Process.fdm]
@@ -215,13 +268,15 @@ def example_cases(tmp: Path):
 
 
 def run(cases: list[str] | None = None):
-    """Yield the rows; ``cases`` picks ``radius`` and/or ``example`` (both by default)."""
+    """Yield the rows; ``cases`` picks ``radius``, ``web`` and/or ``example`` (all by default)."""
     if sl.find_slicer(sl.Slicer.PRUSA) is None:
         yield {"bench": "printed", "case": "all", "skipped": "prusa-slicer not installed"}
         return
-    wanted = cases or ["radius", "example"]
+    wanted = cases or ["radius", "web", "example"]
     with tempfile.TemporaryDirectory(prefix="stencil_printed_") as tmp:
         if "radius" in wanted:
             yield from radius_cases(Path(tmp))
+        if "web" in wanted:
+            yield from web_cases(Path(tmp))
         if "example" in wanted:
             yield from example_cases(Path(tmp))

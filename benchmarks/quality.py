@@ -10,10 +10,11 @@ measured in the same run, whatever the numbers show.
 Each image runs under two process settings, applied to BOTH modes (the same minimum
 feature and bridge width, the same spray model):
 
-* ``fdm``: the default job config (FDM holes, r >= 1 mm, web 0.8 mm, and the defaults of
+* ``fdm``: the default job config (FDM holes, r >= 0.5 mm, web 0.6 mm, and the defaults of
   tone, refinement and spray time);
 * ``sla``: the ``stipple`` and ``spray`` sections of the bundled example job
-  (``stencil_cad/data/example.yaml``: SLA holes, calibrated tone, a spray time per layer).
+  (``stencil_cad/data/example.yaml``: calibrated tone, a spray time per layer) with SLA holes
+  (r >= 0.5 mm, web 0.5 mm).
 
 Each mode is sprayed at every nozzle height of :data:`SOFT_HEIGHTS` / :data:`HARD_HEIGHTS` and reported at the
 one that scores best (lowest S-CIELAB at 1 m): the soft stencil's dots blend better from
@@ -124,11 +125,14 @@ def _configs() -> dict:
     return {
         "fdm": parse_config({}, source="quality fdm (defaults)"),
         "sla": parse_config(
-            {"stipple": dict(example["stipple"]), "spray": dict(example["spray"])},
+            {"stipple": {**example["stipple"], "process": "sla"}, "spray": dict(example["spray"])},
             source="quality sla (stencil_cad/data/example.yaml)",
         ),
         "sla-paper": parse_config(
-            {"stipple": dict(example["stipple"]), "spray": {**example["spray"], "model": "paper"}},
+            {
+                "stipple": {**example["stipple"], "process": "sla"},
+                "spray": {**example["spray"], "model": "paper"},
+            },
             source="quality sla-paper (the example's settings, the paper's spray model)",
         ),
     }

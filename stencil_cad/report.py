@@ -214,21 +214,31 @@ def _seen_lines(run: Run, sim: SimulateFigures) -> list[str]:
 
 
 def _dots_advice(run: Run, sim: SimulateFigures, distance_m: float) -> str:
-    """Plain words: do the smallest holes show as dots from the viewing distance, and from how far they blend."""
-    hole = 2.0 * (sim.dots_hole_r_mm or 0.0)
+    """Plain words: do the job's holes show as dots from the viewing distance, and from how far they blend.
+
+    The distance is measured on the job's own sprayed picture where its holes show most
+    (:func:`stencil_cad.simulate.visibility.pattern_blend_distance_m`), usually a light paint's
+    sparse holes over a dark ground.
+    """
+    hole = f"{2.0 * (sim.dots_hole_r_mm or 0.0):.1f}".rstrip("0").rstrip(".")
     blend = sim.dots_blend_m
     pic = run.figures.picture
     size = f"this {pic.width_mm:g} mm picture" if pic is not None else "the picture"
-    process = run.cfg.stipple.process.value
-    finer = " — or use resin or laser holes (stipple.process: sla or laser)" if process == "fdm" else ""
+    where = ""
+    at = sim.scores.get("dots_blend_at_mm")
+    if sim.scores.get("dots_blend_layer") and at:
+        where = (
+            f" (measured where they show most: layer {sim.scores['dots_blend_layer']}'s holes around "
+            f"{float(at[0]):g}, {float(at[1]):g} mm from the top left)"
+        )
     if blend is None:
-        return f"at {distance_m:g} m the {hole:g} mm holes show as dots, and still do from 64 m{finer}"
+        return f"at {distance_m:g} m the {hole} mm holes show as dots, and still do from 64 m{where}"
     if blend > distance_m:
         return (
-            f"at {distance_m:g} m the {hole:g} mm holes show as dots; {size} reads as continuous tone "
-            f"from about {blend:.1f} m{finer}"
+            f"at {distance_m:g} m the {hole} mm holes show as dots; {size} reads as continuous tone "
+            f"from about {blend:.1f} m{where}"
         )
-    return f"from {distance_m:g} m the {hole:g} mm holes blend into continuous tone (they do from about {blend:.1f} m)"
+    return f"from {distance_m:g} m the {hole} mm holes blend into continuous tone (they do from about {blend:.1f} m{where})"
 
 
 def _grouped_tile_files(names: list[str]) -> list[str]:

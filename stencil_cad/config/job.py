@@ -28,7 +28,7 @@ from .view import ViewConfig
 
 #: The wall's stand-off (mm) soft stencils of each process score best from at 1 m under the physical
 #: spray model (wall.standoff_mm's description gives the figures).
-STANDOFF_BY_PROCESS: dict[Process, float] = {Process.fdm: 15.0, Process.sla: 10.0, Process.laser: 10.0}
+STANDOFF_BY_PROCESS: dict[Process, float] = {Process.fdm: 10.0, Process.sla: 10.0, Process.laser: 10.0}
 #: Laser kerf in mm per process when export.dxf_kerf_mm is not given: a CO2 laser cuts card, PET or 3 mm
 #: plywood 0.1-0.3 mm wide (Ponoko, Snijlab: about 0.2 mm); FDM and resin plates are not cut.
 KERF_BY_PROCESS: dict[Process, float] = {Process.fdm: 0.0, Process.sla: 0.0, Process.laser: 0.2}

@@ -15,12 +15,11 @@ narrow plate's sag (its short side governs it): the fill-in errs thick. Holes ma
 lighter by its open fraction phi and softer by about its ligament efficiency eta =
 (pitch - hole diameter) / pitch (the effective-modulus results for perforated plates, O'Donnell &
 Langer 1962, ASME Section VIII appendix): sag times (1 - phi) / eta. At the densest the stippler
-packs (hexagonal at the process's web: FDM r 1.0-2.0 mm at a 0.8 mm web gives phi 0.46-0.63, eta
+packs (hexagonal at the process's web: r 1.0-2.0 mm at a 0.8 mm web gives phi 0.46-0.63, eta
 0.29-0.17) that is 1.9-2.2 over the whole plate; real plates are dense only in their dark patches
 and keep a solid border, so :data:`PERFORATION_FACTOR` 2 errs thick too.
 
-The sag limit, 5 % of the stand-off (0.75 mm under FDM's 15 mm, 0.5 mm under SLA's and a laser's
-10 mm), keeps the blur in a plate's middle within 5 % of the one designed; the blur moves
+The sag limit, 5 % of the stand-off (0.5 mm under every process's 10 mm), keeps the blur in a plate's middle within 5 % of the one designed; the blur moves
 S-CIELAB slowly (the FDM astronaut scores 10.8 / 9.1 at 1 m from 10 / 15 mm stand-offs, 16 % for
 a 50 % change of blur), so a 5 % change is far below what a viewer sees.
 
@@ -36,9 +35,11 @@ side (mm)     150      200      250      300      360
 2.1 mm        0.02     0.05     0.13     0.27     0.56
 ==========  =======  =======  =======  =======  =======
 
-So with the perforation and the 0.75 mm limit an FDM plate is 0.9 mm up to a 213 mm side (the
-bundled example's 173 mm plates, a Prusa MINI's bed), 1.2 mm to 246 mm (a Prusa MK4's bed),
-1.5 mm to 275 mm, 1.8 mm to 301 mm, 2.1 mm to 325 mm, 2.4 mm to 348 mm and 2.7 mm on a 360 mm bed (Prusa XL).
+So with the perforation and the 0.5 mm limit an FDM plate is 0.9 mm up to a 192 mm side (the
+bundled example's 173 mm plates, a Prusa MINI's bed), 1.2 mm to 222 mm, 1.5 mm to 248 mm (a Prusa
+MK4's bed), 1.8 mm to 272 mm, 2.1 mm to 294 mm, 2.4 mm to 314 mm, and 3.3 mm on a 360 mm bed
+(Prusa XL). (Under the 15 mm FDM stand-off of before, with its 0.75 mm limit, each step came about
+30 mm later: 1.2 mm to 246 mm.)
 Measured on the bundled example with the shipped FDM profile (PrusaSlicer 2.5, `stencil-cad
 slice`): a 154 x 183 mm plate of about 590 holes printed in 1 h 40 / 12.6 m of filament at
 1.2 mm and 1 h 18 / 9.5 m at 0.9 mm (-22 % time, -25 % filament) with S-CIELAB at 1 m unchanged

@@ -75,7 +75,7 @@ def stage_simulate(
         per_wall = _walls(run, layers, dotsets, (sim, scores, ref), grid_mm, design, sprays)
     seen = {
         **_plain(scores),
-        **_dot_visibility(run, layers, dotsets, sprays),
+        **_dot_visibility(run, layers, dotsets, sim),
         "layer_rmse": [float(x) for x in sim.layer_rmse],
         **{k: v for k, v in _plain(sim.info).items() if k not in scores},
     }
@@ -244,31 +244,37 @@ def _scores(run: Run, reference: np.ndarray, sprayed: np.ndarray, mm_per_px: flo
     return scores
 
 
-def _dot_visibility(
-    run: Run, layers: Layers, dotsets: list[DotSet], sprays: list[SprayConfig]
-) -> dict[str, Any]:
-    """From how far the smallest holes in the most contrasting paint blend (see :mod:`.simulate.visibility`)."""
-    from ..simulate.physical import SprayGeometry
-    from ..simulate.visibility import blend_distance_m
+def _dot_visibility(run: Run, layers: Layers, dotsets: list[DotSet], sim: Any) -> dict[str, Any]:
+    """From how far the job's own holes stop showing, where they show most (see :mod:`.simulate.visibility`)."""
+    from ..model import composite
+    from ..simulate import visibility
+    from ..simulate.spray import target_on_grid
 
-    cfg = run.cfg
-    if layers.count == 0:
+    if layers.count == 0 or not any(len(d) for d in dotsets):
         return {}
-    lum = np.array([0.2126, 0.7152, 0.0722])
-    k = int(np.argmax(np.abs((layers.colours - layers.primer) @ lum)))
-    r = cfg.stipple.resolved_hole_min_r_mm
-    a = dotsets[k].amount(cfg.spray.amount)
-    d = blend_distance_m(
-        r,
-        cfg.stipple.resolved_web_mm,
-        sprays[k],
-        a,
-        layers.colours[k],
-        layers.primer,
-        cfg.stipple.auto_spacing_factor,
-        geometry=SprayGeometry.for_job(cfg),
+    g = sim.mm_per_px
+    spacing = [visibility.hole_spacing_mm(d.xy_mm) if isinstance(d, DotSet) else 0.0 for d in dotsets]
+    shape = sim.composite.shape[:2]
+    blur = sim.info["blur_sigma_mm"]
+    targets = np.stack([target_on_grid(a, shape, b, g) for a, b in zip(layers.alphas, blur, strict=True)])
+    ideal = composite(layers.primer, layers.colours, targets)
+    flat = visibility.pattern_flat(sim.composite, ideal, max(spacing) / g)
+    d, (r0, c0, side) = visibility.pattern_blend_distance_m(sim.composite, flat, g)
+    # The layer whose pattern shows most there: its opacity's ripple times its paint's contrast.
+    lum = (layers.colours - layers.primer) @ np.array([0.2126, 0.7152, 0.0722])
+    part = sim.alphas[:, r0 : r0 + side, c0 : c0 + side]
+    pattern = np.array(
+        [np.abs(a - a.mean()).mean() if s > 0 else 0.0 for a, s in zip(part, spacing, strict=True)]
     )
-    return {"dots_blend_m": d, "dots_blend_layer": k + 1, "dots_hole_r_mm": r}
+    pattern *= np.abs(lum)
+    k = int(np.argmax(pattern))
+    r = float(dotsets[k].r_mm.min()) if len(dotsets[k]) else run.cfg.stipple.resolved_hole_min_r_mm
+    return {
+        "dots_blend_m": d,
+        "dots_blend_layer": k + 1,
+        "dots_hole_r_mm": round(r, 3),
+        "dots_blend_at_mm": [round((c0 + side / 2) * g, 1), round((r0 + side / 2) * g, 1)],
+    }
 
 
 def _score_line(scores: dict[str, Any]) -> str:

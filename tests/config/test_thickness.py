@@ -29,10 +29,11 @@ def test_sag_follows_plate_theory():
     [
         (Process.fdm, 100.0, 0.9),
         (Process.fdm, 173.0, 0.9),  # the bundled example's plate
-        (Process.fdm, 213.0, 0.9),
-        (Process.fdm, 230.0, 1.2),
-        (Process.fdm, 260.0, 1.5),
-        (Process.fdm, 360.0, 2.7),
+        (Process.fdm, 192.0, 0.9),
+        (Process.fdm, 213.0, 1.2),
+        (Process.fdm, 230.0, 1.5),
+        (Process.fdm, 260.0, 1.8),
+        (Process.fdm, 360.0, 3.3),
         (Process.sla, 120.0, 0.8),
         (Process.sla, 175.0, 1.0),
         (Process.laser, 150.0, 1.0),
@@ -85,7 +86,7 @@ def test_default_job_fills_in_by_the_picture_and_margins():
     assert cfg.plate.thickness_mm == 0.9
     assert cfg.thickness_fill.side_mm == pytest.approx(150.0 + 2 * cfg.plate.outline.margin_mm)
     tall = parse_config({"size": {"width_mm": 150.0, "height_mm": 300.0}}, source="test")
-    assert tall.plate.thickness_mm == pytest.approx(2.1)  # 320 mm side
+    assert tall.plate.thickness_mm == pytest.approx(2.7)  # 320 mm side
     # A mural's plates are tiles that fit the bed: the bed's side bounds the plate's.
     mural = parse_config({"size": {"width_mm": 1000.0}, "bed": "prusa_mini"}, source="test")
     assert mural.thickness_fill.side_mm == pytest.approx(180.0)
@@ -105,7 +106,7 @@ def test_explicit_thickness_is_kept():
 def test_fit_to_the_planned_plates_and_overrides_fill_again():
     cfg = JobConfig()
     big = cfg.fit_plate_thickness(310.0)
-    assert big.plate.thickness_mm == pytest.approx(2.1)
+    assert big.plate.thickness_mm == pytest.approx(2.4)
     assert big.thickness_fill.side_mm == 310.0
     assert big.fit_plate_thickness(170.0).plate.thickness_mm == 0.9
     # A filled value is filled again for the new bed, not kept as if given.

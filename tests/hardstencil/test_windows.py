@@ -52,7 +52,7 @@ def test_windows_off_and_small_regions_give_none():
     small = np.zeros((H, W))
     small[90:110, 130:150] = 1.0  # 5 mm square: below the 6 mm minimum window
     assert find_windows(small, S, sla()).polygons == ()
-    assert window_sizes(StippleConfig(process="fdm"))[0] == pytest.approx(4 * 2.8)
+    assert window_sizes(StippleConfig(process="fdm"))[0] == pytest.approx(4 * 1.6)
 
 
 def test_windows_stay_clear_of_seams():

@@ -255,28 +255,36 @@ def test_plan_cost():
 # --------------------------------------------------------------------------- resolution
 
 
+#: Holes of r 1 mm at a 0.8 mm web: a pitch the 512 px picture below holds at 1200 mm.
+COARSE = {"hole_min_r_mm": 1.0, "web_mm": 0.8}
+
+
 def test_auto_resolution_follows_the_holes(tmp_path):
     from PIL import Image
 
     from stencil_cad import pipeline
 
-    cfg = job(size={"width_mm": 1200, "px_per_mm": "auto"})
+    cfg = job(size={"width_mm": 1200, "px_per_mm": "auto"}, stipple=COARSE)
     pitch = resolution.hole_pitch_mm(cfg)
     assert resolution.working_mm_per_px(cfg) == pytest.approx(pitch / 3)
     from stencil_cad.simulate import dot_sigma_mm
 
     sigma = float(dot_sigma_mm(cfg.stipple.resolved_radius_mm, cfg.spray.nozzle_height))
     assert resolution.sim_mm_per_px(cfg) == pytest.approx(sigma / 2)
-    far = job(size={"width_mm": 1200, "px_per_mm": "auto"}, view={"distance_m": 10})
+    far = job(size={"width_mm": 1200, "px_per_mm": "auto"}, stipple=COARSE, view={"distance_m": 10})
     assert resolution.working_mm_per_px(far) == pytest.approx(10_000 * np.radians(1 / 60))
     path = tmp_path / "small.png"
     Image.fromarray((np.random.default_rng(0).random((341, 512, 3)) * 255).astype(np.uint8)).save(path)
-    pic = pipeline.load_picture(job(image=str(path), size={"width_mm": 1200, "px_per_mm": "auto"}))
+    pic = pipeline.load_picture(
+        job(image=str(path), size={"width_mm": 1200, "px_per_mm": "auto"}, stipple=COARSE)
+    )
     assert pic.mm_per_px == pytest.approx(pitch / 3, rel=0.01)
     with pytest.raises(UserError, match="image too small"):
-        pipeline.load_picture(job(image=str(path), size={"width_mm": 1200}))
+        pipeline.load_picture(job(image=str(path), size={"width_mm": 1200}, stipple=COARSE))
     with pytest.raises(UserError, match="image too small"):
-        pipeline.load_picture(job(image=str(path), size={"width_mm": 2000, "px_per_mm": "auto"}))
+        pipeline.load_picture(
+            job(image=str(path), size={"width_mm": 2000, "px_per_mm": "auto"}, stipple=COARSE)
+        )
 
 
 # --------------------------------------------------------------------------- end to end

@@ -14,11 +14,11 @@ def test_a_tall_picture_gets_the_thickness_of_its_long_side():
     assert run.cfg.plate.thickness_mm == 0.9
     cfg = fit_thickness(run, TileGrid.whole(150.0, 300.0))
     assert cfg is run.cfg
-    assert cfg.plate.thickness_mm == pytest.approx(2.1)  # a 323 mm plate (margins and key)
+    assert cfg.plate.thickness_mm == pytest.approx(2.7)  # a 323 mm plate (margins and key)
     fig = run.figures.plate
     assert fig is not None
     assert fig.filled and fig.thickness_mm == cfg.plate.thickness_mm and fig.side_mm > 320.0
-    assert fig.thickness_reason.startswith("2.1 mm: the thinnest fdm plate")
+    assert fig.thickness_reason.startswith("2.7 mm: the thinnest fdm plate")
 
 
 def test_a_given_thickness_is_built_as_given():

