@@ -152,7 +152,7 @@ class SprayConfig(StrictModel):
         ),
     )
     max_passes: int = Field(
-        6,
+        8,
         ge=1,
         le=20,
         description=(
@@ -161,7 +161,9 @@ class SprayConfig(StrictModel):
             "cannot, the plate opens more area (larger and denser holes within the design rules) instead "
             "of asking for more paint, and the summary names the layer and its shortfall. A heavy coat "
             "under a lifted stencil runs and creeps: a few light passes, each let to flash off, are what "
-            "a maker sprays. Range [1, 20]."
+            "a maker sprays. 8: a light paint's unmeasured can deposits 0.85 per pass (simulate.cans: white "
+            "and yellow hide in three coats or more), and the bundled example's white layer asks for all 8 "
+            "(S-CIELAB at 1 m 3.99 against 4.35 when held to 6). Range [1, 20]."
         ),
     )
     can_distance_mm: float = Field(

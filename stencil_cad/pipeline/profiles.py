@@ -27,6 +27,9 @@ __all__ = ["layer_sprays", "profile_rows"]
 def layer_sprays(run: Run, colours: np.ndarray | Sequence[Any]) -> list[SprayConfig]:
     """The spray settings of every layer, in spray order, and the manifest's ``spray_profiles``.
 
+    A layer whose can is unmeasured takes the deposit prior of its paint (light paints hide in more
+    passes than dark ones: :func:`stencil_cad.simulate.cans.deposit_prior`).
+
     Args:
         run: The run (its config, and the can names the decompose stage recorded).
         colours: ``(L, 3)`` the layers' paints in [0, 1], in spray order.
@@ -43,9 +46,25 @@ def layer_sprays(run: Run, colours: np.ndarray | Sequence[Any]) -> list[SprayCon
     names = can_names(run.figures)
     cfg.check_profile_keys(hexes, names)
     keys = [cfg.layer_profile_key(i + 1, h, names.get(h)) for i, h in enumerate(hexes)]
-    sprays = [cfg.spray.for_profile_key(k) for k in keys]
+    sprays = [_paint_prior(cfg.spray.for_profile_key(k), c) for k, c in zip(keys, colours, strict=True)]
     run.figures.spray_profiles = profile_rows(hexes, keys, sprays)
     return sprays
+
+
+def _paint_prior(spray: SprayConfig, paint: Any) -> SprayConfig:
+    """A layer's settings with the deposit prior of its paint, when its can is unmeasured.
+
+    A measured can, a deposit the config gives (``spray.can.deposit_per_pass`` other than its
+    default; the resolved config of a run holds every key, so the value tells, not whether it was
+    written) and the paper's model are kept as they are (:func:`stencil_cad.simulate.cans.deposit_prior` gives the rule).
+    """
+    from ..simulate.cans import deposit_prior
+
+    default = type(spray.can).model_fields["deposit_per_pass"].default
+    if not spray.is_physical or spray.is_measured or spray.can.deposit_per_pass != default:
+        return spray
+    can = spray.can.model_copy(update={"deposit_per_pass": deposit_prior(paint)})
+    return spray.model_copy(update={"can": can})
 
 
 def profile_rows(

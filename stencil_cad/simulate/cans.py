@@ -58,9 +58,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..config.spray import SprayConfig
 
-__all__ = ["CAN_PRIOR", "CAP_PRIOR", "PriorCan", "can_prior", "layer_can_prior"]
+__all__ = ["CAN_PRIOR", "CAP_PRIOR", "PriorCan", "can_prior", "deposit_prior", "layer_can_prior"]
 
 
 @dataclass(frozen=True)
@@ -99,6 +101,37 @@ CAP_PRIOR: tuple[PriorCan, ...] = (
     PriorCan("skinny cap", 0.08, 1.0, 0.8),
     PriorCan("fat cap", 0.16, 1.0, 1.25),
 )
+
+
+#: The deposit per pass of an unmeasured can follows its paint's hiding power, read from the paint's
+#: CIELAB lightness: dark paints hide in two coats (the cans' directions: "two light coats";
+#: 1.5 per pass leaves 78 % after one pass and 95 % after two), white, yellow and pastels need three or
+#: more (the same directions and makers' advice for light colours over dark: 0.7-1.0 per pass, 0.85
+#: here, 92 % after three). Lightness sets it because a light paint hides with scattering pigment
+#: (titanium white, lead-free yellows) at low tinting strength, a dark one absorbs at once. Paints
+#: of L* up to :data:`DARK_L` take the dark deposit, from :data:`LIGHT_L` the light one, linear
+#: between. Brands and colours still differ by about x0.5-1.2: the prior's lighter and heavier cans
+#: (:data:`CAN_PRIOR`) score that, and the card measures it.
+DARK_DEPOSIT, LIGHT_DEPOSIT = 1.5, 0.85
+DARK_L, LIGHT_L = 60.0, 95.0
+
+
+def deposit_prior(paint_rgb) -> float:
+    """The deposit per pass an unmeasured can of this paint is assumed to leave (see :data:`DARK_DEPOSIT`).
+
+    Args:
+        paint_rgb: ``(3,)`` the paint's sRGB in [0, 1].
+
+    Returns:
+        Optical depth per pass at the can's reference distance and speed.
+    """
+    from skimage.color import rgb2lab
+
+    lightness = float(
+        rgb2lab(np.clip(np.asarray(paint_rgb, dtype=np.float64), 0.0, 1.0).reshape(1, 1, 3))[0, 0, 0]
+    )
+    t = min(1.0, max(0.0, (lightness - DARK_L) / (LIGHT_L - DARK_L)))
+    return round(DARK_DEPOSIT + t * (LIGHT_DEPOSIT - DARK_DEPOSIT), 3)
 
 
 def can_prior(cfg: SprayConfig, cans: Sequence[PriorCan] = CAN_PRIOR) -> list[tuple[str, SprayConfig]]:
