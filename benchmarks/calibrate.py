@@ -19,19 +19,30 @@ Cases:
   k and the deposit are fitted.
 * ``defaults``: the card ``stencil-cad card`` writes for the default job (its 10 mm wall and the
   card's 3 mm one) sprayed with the default can's constants, 4 passes.
+* ``lighter-wider``: the same card sprayed with a can 25 % lighter (deposit 1.125 per pass) and a
+  cap 50 % wider (k = 0.18) than the prior's nominal can.
+* ``designs-the-job``: that card's fitted profile (``spray.profile``) designs the bundled example,
+  scored (S-CIELAB at 1 m and 2 m, passes, stand-off) beside the example on the nominal can;
+  ``scielab_1m_difference`` is measured minus nominal (``ok``: within 0.3).
 """
 
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
+import tempfile
 import time
+from pathlib import Path
 
 import cv2
 import numpy as np
+import yaml
 
 from stencil_cad.config import JobConfig
 from stencil_cad.config.spray import CanConstants, SprayConfig
 from stencil_cad.testcard import card_layout
-from stencil_cad.testcard.fit import FIT_PX_PER_MM, fit_card
+from stencil_cad.testcard.fit import FIT_PX_PER_MM, fit_card, profile_yaml
 from stencil_cad.testcard.synthetic import PhotoSettings, card_opacity, synthetic_photo
 
 CASES = {
@@ -62,13 +73,23 @@ CASES = {
         PhotoSettings(shift_mm=((0.2, 0.2),)),
     ),
     "defaults": (CanConstants(), None, 4, PhotoSettings(shift_mm=((0.3, -0.2), (-0.2, 0.3)))),
+    # The prior's can 25 % lighter with a cap 50 % wider, on the default job's card.
+    "lighter-wider": (
+        CanConstants(spread_k=0.18, bleed_sigma_mm=0.25, deposit_per_pass=1.125),
+        None,
+        4,
+        PhotoSettings(shift_mm=((0.3, -0.2), (-0.2, 0.3))),
+    ),
 }
+#: ``designs-the-job``: the ``lighter-wider`` card's fitted profile designs the bundled example,
+#: scored beside the example designed for and sprayed with the prior's nominal can.
+JOB_CASE = "designs-the-job"
 
 
-def _case(name: str) -> dict:
+def _fit(name: str):
+    """The card, the true and fitted constants, and the fit's time for case ``name``."""
     truth, standoffs, passes, settings = CASES[name]
     layout = card_layout(JobConfig(), standoffs)
-    standoffs = [fp.standoff_mm for fp in layout.footprints]
     cfg = SprayConfig(model="physical", can=truth)
     t0 = time.perf_counter()
     data, _ = synthetic_photo(layout, cfg, passes, np.random.default_rng(14), settings)
@@ -77,6 +98,13 @@ def _case(name: str) -> dict:
     t0, c0 = time.perf_counter(), time.process_time()
     fit = fit_card(rgb, layout, passes)
     seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
+    return layout, cfg, fit, seconds, cpu, render_s
+
+
+def _case(name: str) -> dict:
+    truth, standoffs, passes, settings = CASES[name]
+    layout, cfg, fit, seconds, cpu, render_s = _fit(name)
+    standoffs = [fp.standoff_mm for fp in layout.footprints]
     fit_cfg = SprayConfig(model="physical", can=fit.can)
     tone = 0.0
     for fp in layout.footprints:
@@ -119,10 +147,52 @@ def _case(name: str) -> dict:
     return row
 
 
+def _job_scores(folder: Path) -> dict:
+    sim = json.loads((folder / "manifest.json").read_text())["simulate"]
+    design = json.loads((folder / "manifest.json").read_text()).get("standoff") or {}
+    return {
+        "scielab_1m": round(sim["scielab"], 3),
+        "scielab_2m": round(sim["scielab_2x"], 3),
+        "passes": [int(p) for p in sim["spray_time"]],
+        "standoff_mm": sim.get("standoff_mm"),
+        "design": design.get("reason"),
+    }
+
+
+def _designs_the_job() -> dict:
+    """The example designed for the fitted lighter-wider profile against the example on the nominal can."""
+    _, _, fit, _, _, _ = _fit("lighter-wider")
+    example = Path(__file__).resolve().parents[1] / "stencil_cad/data"
+    with tempfile.TemporaryDirectory(prefix="stencil_calibrate_job_") as tmp:
+        tmp_path = Path(tmp)
+        (tmp_path / "profile.yaml").write_text(profile_yaml(fit, "lighter-wider", "synthetic.jpg", 4))
+        cfg = yaml.safe_load((example / "example.yaml").read_text())
+        cfg["image"] = str(example / "example.png")
+        (tmp_path / "nominal.yaml").write_text(yaml.safe_dump(cfg))
+        cfg["spray"] = {**cfg["spray"], "profile": str(tmp_path / "profile.yaml")}
+        (tmp_path / "measured.yaml").write_text(yaml.safe_dump(cfg))
+        rows = {}
+        for name in ("nominal", "measured"):
+            cmd = [sys.executable, "-m", "stencil_cad", "run", str(tmp_path / f"{name}.yaml")]
+            subprocess.run([*cmd, "--out", str(tmp_path / name), "-q"], check=True)
+            rows[name] = _job_scores(tmp_path / name)
+    return {
+        "bench": "calibrate",
+        "case": JOB_CASE,
+        "fitted": {
+            k: round(getattr(fit.can, k), 5) for k in ("spread_k", "bleed_sigma_mm", "deposit_per_pass")
+        },
+        "nominal": rows["nominal"],
+        "measured": rows["measured"],
+        "scielab_1m_difference": round(rows["measured"]["scielab_1m"] - rows["nominal"]["scielab_1m"], 3),
+        "ok": abs(rows["measured"]["scielab_1m"] - rows["nominal"]["scielab_1m"]) <= 0.3,
+    }
+
+
 def run(cases=None):
-    want = list(CASES) if not cases else cases
+    want = [*CASES, JOB_CASE] if not cases else cases
     for name in want:
-        if name not in CASES:
-            raise ValueError(f"unknown case {name!r}; choose from {', '.join(CASES)}")
+        if name not in CASES and name != JOB_CASE:
+            raise ValueError(f"unknown case {name!r}; choose from {', '.join([*CASES, JOB_CASE])}")
     for name in want:
-        yield _case(name)
+        yield _designs_the_job() if name == JOB_CASE else _case(name)

@@ -3,7 +3,7 @@
 Two choices the config may leave to the job: ``stipple.windows: auto`` (the default) lets the job
 open windows where a layer is solid or keep to holes, and ``wall.standoff_mm: null`` (the default)
 lets it choose the wall's stand-off. Neither is right for every picture. The process's stand-off
-(10 mm for SLA and laser holes, 15 for FDM) is where plates of holes score best on most photos, but
+(10 mm for every process's holes) is where plates of holes score best on most photos, but
 some photos' dots blend better from higher up (coffee and rocket scored best at 15 mm with SLA
 holes). On a picture whose paint goes mostly through windows (a logo, flat-colour art) the windows'
 edges carry the error, and they stay sharp only low down, as a hard stencil's do: the generated logo
@@ -14,7 +14,9 @@ where holes alone scored 2.20.
 So the designs are ranked by what they spray: each candidate's plates are stippled (without the
 refinement) and sprayed in simulation on a coarse grid, and scored at the viewing distance like the
 job's result; the best is kept. The candidates: windows on and off (only where the picture has
-windows), at the process's stand-off and :data:`HIGHER_BY_MM` above it, and where windows carry at
+windows), at the process's stand-off, :data:`HIGHER_BY_MM` above it and, for a measured can, the
+stand-off at which it blurs the holes as the prior's can does at the process's (:func:`matched_standoff`),
+and where windows carry at
 least :data:`WINDOW_SHARE` of the paint, windows at :data:`LOW_STANDOFFS_MM` too. A job whose config
 fixes both (a given stand-off and ``windows: off``, or a picture without windows) tries nothing.
 """
@@ -44,7 +46,7 @@ log = logging.getLogger(__name__)
 WINDOW_SHARE = 0.5
 #: The lower stand-offs tried for windows beside the process's, in mm: a hard stencil's (1 mm) and one between.
 LOW_STANDOFFS_MM = (1.0, 4.0)
-#: The higher stand-off tried is the process's plus this, in mm (15 for SLA's 10, 20 for FDM's 15).
+#: The higher stand-off tried is the process's plus this, in mm (15 for the processes' 10).
 HIGHER_BY_MM = 5.0
 #: The trials simulate on a grid this many times coarser than the job's (at least ...).
 TRIAL_COARSENING = 2.0
@@ -100,10 +102,37 @@ def candidates(cfg: JobConfig, share: float) -> list[tuple[str, float]]:
     heights = [own[1]]
     if cfg.chooses_standoff:
         heights.append(own[1] + HIGHER_BY_MM)
+        matched = matched_standoff(cfg)
+        if matched is not None and matched not in heights:
+            heights.insert(1, matched)
     out = [(w, g) for w in windows for g in heights]
     if cfg.chooses_standoff and share >= WINDOW_SHARE and Windows.auto.value in windows:
         out += [(Windows.auto.value, g) for g in sorted(LOW_STANDOFFS_MM, reverse=True) if g < own[1]]
     return out
+
+
+def matched_standoff(cfg: JobConfig) -> float | None:
+    """The stand-off at which a measured can blurs the holes as the prior's can does at the process's.
+
+    Under the physical model a hole's blur grows as ``spread_k * stand-off``: the process's stand-off
+    was chosen for the prior's cap (``spread_k`` 0.12), so a measured cap 50 % wider keeps the same
+    blur on a wall two thirds as high. The stand-off ``g * k_prior / k`` with ``k`` the median
+    measured spread of the job's cans, rounded to 0.5 mm, in [2, 50] mm; None when no can is
+    measured or it matches the prior's.
+    """
+    from ..config.spray import CanConstants
+
+    spray = cfg.spray
+    if not spray.is_physical:
+        return None
+    cans = [*([spray.can] if spray.is_measured else []), *spray.layer_cans.values()]
+    measured = [c.spread_k for c in cans if c.spread_k > 0.0]
+    if not measured:
+        return None
+    k_prior = float(CanConstants.model_fields["spread_k"].default)
+    g = round(2.0 * float(cfg.wall.standoff_mm[0]) * k_prior / float(np.median(measured))) / 2.0
+    g = min(50.0, max(2.0, g))
+    return None if g == float(cfg.wall.standoff_mm[0]) else g
 
 
 def with_design(cfg: JobConfig, windows: str, standoff_mm: float) -> JobConfig:

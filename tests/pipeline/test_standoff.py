@@ -213,3 +213,21 @@ def test_the_summary_says_what_was_chosen_and_why(monkeypatch, tmp_path):
     choose_plates(run, layers, (60.0, 60.0), pic)
     lines = [line for line in summary(run, [], tmp_path).splitlines() if line.startswith("  design")]
     assert len(lines) == 1 and "holes only, 15 mm (chosen)" in lines[0] and "1.50" in lines[0]
+
+
+def test_a_measured_cap_is_tried_at_the_stand_off_that_keeps_the_priors_blur(tmp_path):
+    from stencil_cad.config.io import load_config
+    from stencil_cad.pipeline.standoff import matched_standoff
+
+    assert matched_standoff(_cfg()) is None  # the prior's can: its stand-off already
+    wide = tmp_path / "wide.yaml"
+    wide.write_text("spread_k: 0.18\nbleed_sigma_mm: 0.25\ndeposit_per_pass: 1.125\ncard_standoff_mm: 10.0\n")
+    job = tmp_path / "job.yaml"
+    job.write_text(f"stipple: {{process: sla}}\nspray: {{profile: {wide}}}\n")
+    cfg = load_config(job)
+    assert matched_standoff(cfg) == 6.5  # 10 mm x 0.12 / 0.18, to 0.5 mm: the same blur
+    assert candidates(cfg, 0.0) == [("auto", 10.0), ("auto", 6.5), ("auto", 15.0)]
+    skinny = tmp_path / "skinny.yaml"
+    skinny.write_text("spread_k: 0.04\nbleed_sigma_mm: 0.25\ndeposit_per_pass: 1.5\n")
+    job.write_text(f"stipple: {{process: sla}}\nspray: {{profile: {skinny}}}\n")
+    assert matched_standoff(load_config(job)) == 30.0
