@@ -1,8 +1,9 @@
 """Soft vs hard stencils, as a viewer sees them: S-CIELAB at 1 m and 2 m, and pixel CIEDE2000.
 
-The comparison the paper makes, scored the way a viewer sees it: on scikit-image's
-astronaut, coffee and chelsea (and rocket, a photo with large flat sky and fine
-structure), with the same number of paint layers, the soft pipeline (decompose, stipple,
+The comparison the paper makes, scored the way a viewer sees it: on twelve pictures of the
+kinds a maker brings (:data:`KINDS` names each, its source and licence: skin, photos, a large
+dark background, high-key, fine texture, line art and text, low contrast, saturated graphics,
+flat-colour art), with the same number of paint layers, the soft pipeline (decompose, stipple,
 refine, simulate) and the hard one (flat-colour segmentation + bridged cut-outs, sprayed
 with the same spray model) are scored against the same reference on the same grid, both
 measured in the same run, whatever the numbers show.
@@ -51,9 +52,39 @@ from pathlib import Path
 
 import numpy as np
 
-IMAGES = ("astronaut", "coffee", "chelsea", "rocket", "dark_sky", "logo")
-#: Pictures made by code here (no download): see :func:`dark_sky` and :func:`logo`.
-GENERATED = ("dark_sky", "logo")
+IMAGES = (
+    "astronaut",
+    "coffee",
+    "chelsea",
+    "rocket",
+    "dark_sky",
+    "logo",
+    "hubble_deep_field",
+    "immunohistochemistry",
+    "grass",
+    "text",
+    "low_contrast",
+    "saturated",
+)
+#: Pictures made by code here (no download): see :func:`dark_sky`, :func:`logo`, :func:`low_contrast`
+#: and :func:`saturated`.
+GENERATED = ("dark_sky", "logo", "low_contrast", "saturated")
+#: What each picture stands for, and its source and licence (every one ships with scikit-image's
+#: wheel or is made here; none is downloaded).
+KINDS = {
+    "astronaut": "skin, a portrait (NASA, public domain)",
+    "coffee": "a photo, warm tones (Rachel Michetti, CC0)",
+    "chelsea": "fur, fine texture (Stefan van der Walt, CC0)",
+    "rocket": "large flat sky and fine structure (NASA, public domain)",
+    "dark_sky": "black with small bright sources (made here)",
+    "logo": "flat-colour art (made here)",
+    "hubble_deep_field": "a photo with a large dark background (NASA / ESA, public domain)",
+    "immunohistochemistry": "high-key: light ground, small stained detail (public domain)",
+    "grass": "fine texture, grey (CC0)",
+    "text": "line art and text, grey (public domain)",
+    "low_contrast": "low contrast: chelsea at 35 % of its contrast (made here from a CC0 photo)",
+    "saturated": "saturated graphics: hue gradients and shapes at full chroma (made here)",
+}
 SETTINGS = ("fdm", "sla")
 #: Nozzle heights h each mode is sprayed at; each reports its best. Soft stencils only gain
 #: from higher nozzles (their dots blend), hard ones from lower (their edges stay sharp), so
@@ -221,13 +252,40 @@ def logo(size: int = 512) -> np.ndarray:
     return rgb
 
 
-def _picture_rgb(name: str) -> np.ndarray:
-    """The picture ``name``: one of scikit-image's photos, or one generated here."""
-    if name in GENERATED:
-        return dark_sky() if name == "dark_sky" else logo()
+def low_contrast() -> np.ndarray:
+    """Chelsea at 35 % of its contrast about its mean colour, ``(H, W, 3)`` in [0, 1]."""
     from skimage import data
 
-    return getattr(data, name)().astype(np.float64) / 255.0
+    rgb = data.chelsea().astype(np.float64) / 255.0
+    return np.clip(rgb.mean(axis=(0, 1)) + 0.35 * (rgb - rgb.mean(axis=(0, 1))), 0.0, 1.0)
+
+
+def saturated(size: int = 512) -> np.ndarray:
+    """Saturated graphics: a full-chroma hue sweep behind a magenta disc, a cyan bar and a green ring."""
+    from skimage.color import hsv2rgb
+
+    yy, xx = np.mgrid[0:size, 0:size].astype(np.float64) / size
+    hsv = np.stack([xx, np.full_like(xx, 1.0), 0.6 + 0.4 * yy], axis=-1)
+    rgb = hsv2rgb(hsv)
+    rgb[np.hypot(yy - 0.35, xx - 0.3) < 0.18] = (0.9, 0.0, 0.75)
+    rgb[(yy > 0.7) & (yy < 0.8) & (xx > 0.1) & (xx < 0.9)] = (0.0, 0.8, 0.9)
+    rho = np.hypot(yy - 0.4, xx - 0.72)
+    rgb[(rho > 0.12) & (rho < 0.18)] = (0.1, 0.75, 0.1)
+    return np.clip(rgb, 0.0, 1.0)
+
+
+def _picture_rgb(name: str) -> np.ndarray:
+    """The picture ``name``: one of scikit-image's photos, or one generated here (grey ones as RGB)."""
+    if name in GENERATED:
+        return {"dark_sky": dark_sky, "logo": logo, "low_contrast": low_contrast, "saturated": saturated}[
+            name
+        ]()
+    from skimage import data
+
+    img = getattr(data, name)()
+    if img.ndim == 2:
+        img = np.stack([img] * 3, axis=-1)
+    return img[..., :3].astype(np.float64) / 255.0
 
 
 def _source_on_grid(name: str, cfg, shape, fit_to_size) -> np.ndarray:
@@ -441,6 +499,7 @@ def run(cases=None):
                 "bench": "quality",
                 "case": f"{image}-{settings}",
                 "image": image,
+                "kind": KINDS[image],
                 "settings": {"name": settings, **_settings_fields(cfg0)},
                 "layers": int(layers.count),
                 "hard_layers": int(res.count),
