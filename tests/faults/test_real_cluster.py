@@ -38,6 +38,10 @@ decompose: {layers: 2}
 stipple: {process: fdm}
 """
 
+# `--no-dashboard` still leaves an HTTP server (health, metrics) on every interface: on 0.0.0.0:8787
+# for the scheduler and a random port for each worker. Bound to loopback, like the comms.
+LOOPBACK_HTTP = ["--no-dashboard", "--dashboard-address", "127.0.0.1:0"]
+
 # The README's worker settings.
 WORKER_ENV = {
     "NUMBA_NUM_THREADS": "1",
@@ -54,7 +58,7 @@ def _free_port() -> int:
 
 
 class Cluster:
-    """A scheduler and worker processes on 127.0.0.1, every port (dashboards off) on loopback."""
+    """A scheduler and worker processes on 127.0.0.1, every port (comms and HTTP) on loopback."""
 
     def __init__(self, logs: Path, workers: int = 2):
         self.logs = logs
@@ -66,7 +70,7 @@ class Cluster:
         )
         port = self.address.rsplit(":", 1)[1]
         self.scheduler = self._start(
-            "scheduler", ["scheduler", "--host", "127.0.0.1", "--port", port, "--no-dashboard"]
+            "scheduler", ["scheduler", "--host", "127.0.0.1", "--port", port, *LOOPBACK_HTTP]
         )
         self.workers: list[subprocess.Popen] = []
         self._pids: dict[str, int] = {}
@@ -83,6 +87,7 @@ class Cluster:
         for _ in range(workers):
             self.add_worker()
         self.client.wait_for_workers(workers, timeout=120)
+        self.assert_loopback_only()
 
     def _start(self, name: str, args: list[str]) -> subprocess.Popen:
         with open(self.logs / f"{name}-{time.monotonic_ns()}.log", "wb") as log:
@@ -101,7 +106,7 @@ class Cluster:
                     self.address,
                     "--host",
                     "127.0.0.1",
-                    "--no-dashboard",
+                    *LOOPBACK_HTTP,
                     "--no-nanny",
                     "--nthreads",
                     "1",
@@ -120,6 +125,27 @@ class Cluster:
             out[self._pids[address]] = [str(k) for k in keys]
         return out
 
+    def listening(self) -> list[tuple[int, str, int]]:
+        """``(pid, address, port)`` of every socket the scheduler and workers listen on."""
+        import psutil
+
+        out = []
+        for p in [self.scheduler, *self.workers]:
+            if p.poll() is not None:
+                continue
+            with contextlib.suppress(psutil.NoSuchProcess):
+                proc = psutil.Process(p.pid)
+                conns = proc.net_connections(kind="inet")
+                out += [(p.pid, c.laddr.ip, c.laddr.port) for c in conns if c.status == psutil.CONN_LISTEN]
+        return out
+
+    def assert_loopback_only(self) -> None:
+        """Nothing of the cluster's listens beyond loopback (its comms, and the HTTP servers too)."""
+        found = self.listening()
+        assert found, "no listening socket found: the check sees nothing"
+        beyond = [s for s in found if s[1] not in ("127.0.0.1", "::1")]
+        assert beyond == [], f"listening beyond loopback: {beyond}"
+
     def close(self) -> None:
         with contextlib.suppress(Exception):
             self.client.close(timeout=5)
@@ -134,6 +160,8 @@ def cluster(tmp_path):
     c = Cluster(tmp_path)
     try:
         yield c
+        # Workers added during the test too.
+        c.assert_loopback_only()
     finally:
         c.close()
 
