@@ -298,6 +298,8 @@ class DaskExecutor(Executor):
                     next_out += 1
         except (OSError, CancelledError, TimeoutError) as exc:
             if self._connected():
+                if not self._workers_left():
+                    raise self._workers_lost(desc) from exc
                 raise
             raise self._scheduler_lost(desc) from exc
         finally:
@@ -364,24 +366,42 @@ class DaskExecutor(Executor):
             try:
                 # In a list of one: Dask scatters the elements of a list or tuple one by one.
                 data = self.client.scatter([item], hash=False, workers=[where])[0]
-            except (KeyError, TimeoutError):
-                pass
+            except (KeyError, OSError):
+                pass  # gone meanwhile (a timeout, or its connection closed as it died)
             else:
                 load[where] += 1
                 return data, where
-        try:
-            return self.client.scatter([item], hash=False)[0], None
-        except TimeoutError:
-            # Dask's "No valid workers found", after waiting for one as long as the client's timeout.
-            if not self._connected():
-                raise
-            raise self._workers_lost(desc) from None
+        for attempt in (1, 2):
+            try:
+                return self.client.scatter([item], hash=False)[0], None
+            except OSError:
+                # Dask's "No valid workers found" (a TimeoutError) after waiting for one as long as
+                # the client's timeout, or the connection to a worker that died meanwhile: once the
+                # scheduler has seen it go, try another worker, or name the lost ones.
+                if not self._connected():
+                    raise
+                if not self._workers_left():
+                    raise self._workers_lost(desc) from None
+                if attempt == 2:
+                    raise
+        raise AssertionError("unreachable")
 
     def _worker_info(self) -> dict[str, Any]:
         """The scheduler's workers (address: info); every address seen is remembered for messages."""
         workers = self.client.scheduler_info().get("workers", {})
         self._seen.update(workers)
         return workers
+
+    def _workers_left(self, settle_s: float = 2.0) -> bool:
+        """Whether the cluster still has a worker once the scheduler has had time to see a death."""
+        import time
+
+        deadline = time.monotonic() + settle_s
+        while self._worker_info():
+            if time.monotonic() > deadline:
+                return True
+            time.sleep(0.2)
+        return False
 
     def _completed(self, ac, desc: str) -> Iterator[Any]:
         """The futures of ``ac`` as they finish, until it is empty.

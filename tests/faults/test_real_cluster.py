@@ -3,7 +3,8 @@
 A small mural run with ``--scheduler`` writes the bytes of the same job run in this process;
 it still does when a worker is killed while refinement tasks run and another while plates
 are built (the tasks that lose their inputs are sent again); and a scheduler stopped mid-run
-ends the job with exit 2, one line and no output folder.
+ends the job with exit 2, one line and no output folder, as does losing every worker. Nothing
+of the cluster's listens beyond loopback.
 """
 
 from __future__ import annotations
@@ -262,4 +263,36 @@ def test_a_stopped_scheduler_ends_the_job_with_one_line_and_no_output(cluster, t
     assert "lost the connection to the Dask scheduler" in lines[0] and "dask scheduler" in lines[0], err
     assert "internal error" not in err and "15.00 seconds" not in err
     assert time.monotonic() - t0 < 120
+    assert not out.exists(), sorted(p.name for p in out.iterdir())
+
+
+def test_losing_every_worker_ends_the_job_naming_them(cluster, tmp_path, capsys, monkeypatch):
+    from stencil_cad.compute import executors
+
+    # Dask keeps tasks for a worker that may come back; the job waits this long for one.
+    monkeypatch.setattr(executors, "WORKERLESS_SECONDS", 5.0)
+    addresses = sorted(cluster.client.scheduler_info()["workers"])
+    assert len(addresses) == 2
+
+    def kill_both(pid: int) -> None:
+        for w in cluster.workers:
+            w.kill()
+
+    killer = _Killer(cluster, ["refine_tiles"], kill_both)
+    killer.start()
+    t0 = time.monotonic()
+    try:
+        code, out = _run_on(cluster, tmp_path, "no_workers")
+    finally:
+        killer.stop.set()
+        killer.join()
+    err = capsys.readouterr().err
+    assert killer.hits, "the workers were not killed during refinement"
+    assert code == 2, err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("stencil-cad: error: "), err
+    assert "every worker of the Dask scheduler" in lines[0] and ", ".join(addresses) in lines[0], err
+    assert f"dask worker {cluster.address}" in lines[0], err
+    assert "cannot use None" not in err and "No valid workers" not in err
+    assert time.monotonic() - t0 < 180
     assert not out.exists(), sorted(p.name for p in out.iterdir())
