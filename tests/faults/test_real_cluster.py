@@ -78,17 +78,22 @@ class Cluster:
         from distributed import Client
 
         self.client = None
-        deadline = time.monotonic() + 60
-        while self.client is None:
-            try:
-                self.client = Client(self.address, timeout="2s", set_as_default=False)
-            except OSError:
-                assert time.monotonic() < deadline, "the scheduler did not start"
-                time.sleep(0.2)
-        for _ in range(workers):
-            self.add_worker()
-        self.client.wait_for_workers(workers, timeout=120)
-        self.assert_loopback_only()
+        try:
+            deadline = time.monotonic() + 60
+            while self.client is None:
+                try:
+                    self.client = Client(self.address, timeout="2s", set_as_default=False)
+                except OSError:
+                    assert time.monotonic() < deadline, "the scheduler did not start"
+                    time.sleep(0.2)
+            for _ in range(workers):
+                self.add_worker()
+            self.client.wait_for_workers(workers, timeout=120)
+            self.assert_loopback_only()
+        except BaseException:
+            # The fixture never gets the cluster to close: stop what was started here.
+            self.close()
+            raise
 
     def _start(self, name: str, args: list[str]) -> subprocess.Popen:
         with open(self.logs / f"{name}-{time.monotonic_ns()}.log", "wb") as log:
@@ -154,7 +159,8 @@ class Cluster:
 
     def close(self) -> None:
         with contextlib.suppress(Exception):
-            self.client.close(timeout=5)
+            if self.client is not None:
+                self.client.close(timeout=5)
         for p in [*self.workers, self.scheduler]:
             if p.poll() is None:
                 p.kill()
