@@ -345,7 +345,7 @@ class DaskExecutor(Executor):
             "outputs were kept"
         )
 
-    def _scatter(self, item: Any, load: dict[str, int], desc: str) -> tuple[Any, str | None]:
+    def _scatter(self, item: Any, load: dict[str, int], desc: str = "tasks") -> tuple[Any, str | None]:
         """Send ``item`` to the running worker with the fewest of ``load``'s tasks; count it there.
 
         ``load`` (worker address: this map's tasks in flight) follows the cluster: a worker that
