@@ -175,6 +175,16 @@ def run_template(
         raise PlateBuildError(
             f"plate template {path}: build() called sys.exit({exc.code!r}) (it must return the plate)"
         ) from None
+    except (KeyboardInterrupt, MemoryError, PlateBuildError):
+        raise
+    except Exception as exc:
+        if Path(path).resolve() == builtin_template().resolve():
+            raise  # the bundled template's errors are ours (a label that cannot fit is a ValueError)
+        # A user's template is Python code of its own: its errors are its, whatever their type.
+        raise PlateBuildError(
+            f"plate template {path}: build() raised {type(exc).__name__}: {str(exc)[:300]} (the error is "
+            "the template's: fix the template, or remove plate.template to use the built-in one)"
+        ) from exc
     if isinstance(result, PlateModel):
         return result
     try:

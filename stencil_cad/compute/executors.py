@@ -25,7 +25,13 @@ log = logging.getLogger(__name__)
 # (see _probe): Dask itself retries it until this timeout.
 CONNECT_TIMEOUT = "15s"
 PROBE_SECONDS = 5.0
+# How long a scheduler that accepted the connection may take to send its handshake.
+HANDSHAKE_SECONDS = 10.0
 CLOSE_SECONDS = 5
+
+# How long tasks may wait on a cluster without a single worker before the job ends (Dask itself
+# waits for good): time for a killed worker to be replaced.
+WORKERLESS_SECONDS = 30.0
 
 # Times a task whose scattered input was lost with its worker is sent again (with its input).
 RESEND = 3
@@ -167,6 +173,8 @@ class DaskExecutor(Executor):
 
         self._cluster = None
         self._maps = 0
+        # Every worker address the cluster has had, to name the lost ones.
+        self._seen: set[str] = set()
         _quiet_dask_logs()
         if plan.kind == "local":
             import dask
@@ -201,8 +209,7 @@ class DaskExecutor(Executor):
             self._check_remote(cfg)
 
     def _check_remote(self, cfg: ComputeConfig) -> None:
-        info = self.client.scheduler_info()
-        workers = info.get("workers", {})
+        workers = self._worker_info()
         if not workers:
             self.client.close()
             raise UserError(
@@ -222,7 +229,7 @@ class DaskExecutor(Executor):
     @property
     def workers(self) -> int:
         """Worker processes of the cluster (at the time of asking)."""
-        return max(len(self.client.scheduler_info().get("workers", {})), 1)
+        return max(len(self._worker_info()), 1)
 
     def map(
         self, fn: Callable[[Any], Any], items: Iterable[Any], desc: str, count: int | None = None
@@ -254,7 +261,7 @@ class DaskExecutor(Executor):
 
         def send(i: int, item: Any, sent: int) -> None:
             key = f"{tag}-{i}" if sent == 0 else f"{tag}-{i}-again{sent}"
-            fut, data, where = self._submit(fn, item, key, inline, load)
+            fut, data, where = self._submit(fn, item, key, inline, load, desc)
             pending[fut] = (i, item if data is not None else None, data, where, sent)
             ac.add(fut)
 
@@ -270,7 +277,7 @@ class DaskExecutor(Executor):
             for _ in range(window):
                 if not submit():
                     break
-            for fut in ac:
+            for fut in self._completed(ac, desc):
                 i, item, data, where, sent = pending.pop(fut)
                 if where in load:
                     load[where] = max(load[where] - 1, 0)
@@ -291,13 +298,17 @@ class DaskExecutor(Executor):
                     next_out += 1
         except (OSError, CancelledError, TimeoutError) as exc:
             if self._connected():
+                if not self._workers_left():
+                    raise self._workers_lost(desc) from exc
                 raise
             raise self._scheduler_lost(desc) from exc
         finally:
             for fut in pending:
                 fut.cancel()
 
-    def _submit(self, fn: Callable[[Any], Any], item: Any, key: str, inline: int, load: dict[str, int]):
+    def _submit(
+        self, fn: Callable[[Any], Any], item: Any, key: str, inline: int, load: dict[str, int], desc: str
+    ):
         """Submit one task under ``key``: ``(future, scattered input or None, its worker or None)``."""
         if _pickled_size(item) <= inline:
             # A small input travels with its task, which the scheduler then gives to
@@ -307,7 +318,7 @@ class DaskExecutor(Executor):
         # (a decomposition tile is tens of MB), to the least busy worker; released with
         # the result. It lives on that worker only: this process keeps the input until
         # the result arrives, and sends both again if the worker dies first.
-        data, where = self._scatter(item, load)
+        data, where = self._scatter(item, load, desc)
         return self.client.submit(fn, data, pure=False, key=key), data, where
 
     def _connected(self) -> bool:
@@ -334,7 +345,7 @@ class DaskExecutor(Executor):
             "outputs were kept"
         )
 
-    def _scatter(self, item: Any, load: dict[str, int]) -> tuple[Any, str | None]:
+    def _scatter(self, item: Any, load: dict[str, int], desc: str = "tasks") -> tuple[Any, str | None]:
         """Send ``item`` to the running worker with the fewest of ``load``'s tasks; count it there.
 
         ``load`` (worker address: this map's tasks in flight) follows the cluster: a worker that
@@ -344,11 +355,7 @@ class DaskExecutor(Executor):
         Returns:
             ``(future of the data, the worker's address or None)``.
         """
-        running = {
-            a
-            for a, w in self.client.scheduler_info().get("workers", {}).items()
-            if w.get("status") == "running"
-        }
+        running = {a for a, w in self._worker_info().items() if w.get("status") == "running"}
         for a in set(load) - running:
             del load[a]
         for a in running - set(load):
@@ -359,12 +366,89 @@ class DaskExecutor(Executor):
             try:
                 # In a list of one: Dask scatters the elements of a list or tuple one by one.
                 data = self.client.scatter([item], hash=False, workers=[where])[0]
-            except (KeyError, TimeoutError):
-                pass
+            except (KeyError, OSError):
+                pass  # gone meanwhile (a timeout, or its connection closed as it died)
             else:
                 load[where] += 1
                 return data, where
-        return self.client.scatter([item], hash=False)[0], None
+        for attempt in (1, 2):
+            try:
+                return self.client.scatter([item], hash=False)[0], None
+            except OSError:
+                # Dask's "No valid workers found" (a TimeoutError) after waiting for one as long as
+                # the client's timeout, or the connection to a worker that died meanwhile: once the
+                # scheduler has seen it go, try another worker, or name the lost ones.
+                if not self._connected():
+                    raise
+                if not self._workers_left():
+                    raise self._workers_lost(desc) from None
+                if attempt == 2:
+                    raise
+        raise AssertionError("unreachable")
+
+    def _worker_info(self) -> dict[str, Any]:
+        """The scheduler's workers (address: info); every address seen is remembered for messages."""
+        workers = self.client.scheduler_info().get("workers", {})
+        self._seen.update(workers)
+        return workers
+
+    def _workers_left(self, settle_s: float = 2.0) -> bool:
+        """Whether the cluster still has a worker once the scheduler has had time to see a death."""
+        import time
+
+        deadline = time.monotonic() + settle_s
+        while self._worker_info():
+            if time.monotonic() > deadline:
+                return True
+            time.sleep(0.2)
+        return False
+
+    def _completed(self, ac, desc: str) -> Iterator[Any]:
+        """The futures of ``ac`` as they finish, until it is empty.
+
+        Dask keeps tasks waiting for workers for good: when the cluster has had no worker for
+        :data:`WORKERLESS_SECONDS`, the job ends with a message naming the workers it lost.
+        """
+        import time
+
+        since: float | None = None
+        checked = 0.0
+        while True:
+            if ac.has_ready():
+                since = None
+                yield next(ac)
+                continue
+            if ac.is_empty():
+                return
+            now = time.monotonic()
+            if now - checked >= 1.0 and self._connected():
+                checked = now
+                if self._worker_info():
+                    since = None
+                elif since is None:
+                    since = now
+                elif now - since > WORKERLESS_SECONDS:
+                    raise self._workers_lost(desc)
+            with ac.thread_condition:
+                ac.thread_condition.wait(timeout=0.1)
+
+    def _workers_lost(self, desc: str) -> UserError:
+        where = (
+            f"the Dask scheduler at {self.plan.address}"
+            if self.plan.kind == "remote"
+            else "the local Dask cluster"
+        )
+        lost = ", ".join(sorted(self._seen)) or "none seen"
+        fix = (
+            f"start workers with `dask worker {self.plan.address}` (each with at least compute.memory_per_task), "
+            "then run the job again"
+            if self.plan.kind == "remote"
+            else "run the job again, with fewer workers (--workers) or a larger compute.memory_per_task"
+        )
+        return UserError(
+            f"{desc}: every worker of {where} is gone (lost: {lost}) and none joined within "
+            f"{WORKERLESS_SECONDS:g} s; {fix}; no partial outputs were kept"
+        )
 
     def _result(self, fut, desc: str) -> Any:
         from distributed import KilledWorker
@@ -395,10 +479,15 @@ class DaskExecutor(Executor):
 
 
 def _probe(address: str) -> None:
-    """Fail at once when nothing listens at a TCP scheduler address (Dask retries until its timeout).
+    """Fail fast when nothing listens at a TCP scheduler address, or something listens and never speaks.
+
+    Dask retries a refused connection until its timeout, and waits for a silent server's
+    handshake for good; this fails at once, or after :data:`HANDSHAKE_SECONDS`.
 
     Raises:
         ConnectionRefusedError: The host answered that nothing listens on that port.
+        TimeoutError: The port accepted the connection but sent no handshake.
+        ConnectionResetError: The port accepted the connection and closed it at once.
     """
     import socket
 
@@ -412,11 +501,29 @@ def _probe(address: str) -> None:
     if scheme not in ("tcp", "tls"):
         return
     try:
-        socket.create_connection((host, port), timeout=PROBE_SECONDS).close()
+        sock = socket.create_connection((host, port), timeout=PROBE_SECONDS)
     except ConnectionRefusedError as exc:
         raise ConnectionRefusedError(exc.errno, f"connection refused by {host}:{port}") from None
     except OSError:
-        pass  # no answer yet (a slow network): Dask waits up to CONNECT_TIMEOUT
+        return  # no answer yet (a slow network): Dask waits up to CONNECT_TIMEOUT
+    if scheme != "tcp":
+        sock.close()
+        return  # a TLS server waits for the client's hello
+    # A Dask server speaks first (its handshake), and Dask's client waits for it without a
+    # timeout: a port that accepts and stays silent would hang the job for good.
+    with sock:
+        sock.settimeout(HANDSHAKE_SECONDS)
+        try:
+            greeting = sock.recv(1)
+        except TimeoutError:
+            raise TimeoutError(
+                f"{host}:{port} accepted the connection but sent nothing in {HANDSHAKE_SECONDS:g} s: "
+                "not a Dask scheduler, or one that hangs"
+            ) from None
+        except OSError:
+            return  # reset or the like: Dask names it
+    if not greeting:
+        raise ConnectionResetError(f"{host}:{port} closed the connection at once: not a Dask scheduler")
 
 
 def _pickled_size(item: Any) -> int:

@@ -233,7 +233,10 @@ class WallConfig(StrictModel):
     @classmethod
     def _standoff_default(cls, v):
         # A job fills null in with its process's or mode's value (JobConfig); alone, the SLA one.
-        return [DEFAULT_STANDOFF_MM] if v is None else v
+        if v is None:
+            return [DEFAULT_STANDOFF_MM]
+        # One number where a list is asked: the one stand-off the user meant.
+        return [v] if isinstance(v, (int, float)) and not isinstance(v, bool) else v
 
     def pocket_depth(self, plate_thickness_mm: float) -> float:
         """Pocket depth in mm for a plate of the given thickness."""

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import logging
 import re
 import textwrap
 from pathlib import Path
@@ -13,6 +14,8 @@ from pydantic import BaseModel, ValidationError
 
 from ..errors import ConfigError
 from ..files import TEXT_LIMIT, read_text
+
+log = logging.getLogger(__name__)
 
 #: Longest quotation of a bad value in an error message, in characters.
 QUOTE_CHARS = 200
@@ -276,6 +279,7 @@ def load_config(path: Path | str) -> JobConfig:
     path = Path(path)
     text = read_yaml_text(path, "config", "give a YAML file; `stencil-cad init FILE` writes one")
     data = parse_yaml(text, str(path))
+    _commented_keys(text, data, str(path))
     cfg = parse_config(data, source=str(path))
     if cfg.image is not None and not cfg.image.is_absolute():
         cfg = cfg.model_copy(update={"image": (path.parent / cfg.image)})
@@ -299,6 +303,43 @@ def load_config(path: Path | str) -> JobConfig:
             "like templates/plate.py; it is Python code and runs with your rights)"
         )
     return cfg
+
+
+#: A line whose first text is an unquoted hex colour key: YAML reads it as a comment.
+_HEX_KEY_LINE = re.compile(r"^\s*(#[0-9a-fA-F]{6}|#[0-9a-fA-F]{3})\s*:(.*)$")
+
+
+def _commented_keys(text: str, data: Any, source: str) -> None:
+    """Name an unquoted ``#rrggbb:`` key, which YAML reads as a comment (the mapping loses it).
+
+    Raises:
+        ConfigError: ``spray.profile`` is null while such a line is in the file (its mapping's
+            keys were all read as comments).
+    """
+    hits = [
+        (n, m.group(1), m.group(2).strip())
+        for n, line in enumerate(text.splitlines(), 1)
+        if (m := _HEX_KEY_LINE.match(line))
+    ]
+    if not hits:
+        return
+    n, key, value = hits[0]
+    quoted = f'"{key}": {value}' if value else f'"{key}": ...'
+    spray = data.get("spray") if isinstance(data, dict) else None
+    if isinstance(spray, dict) and "profile" in spray and spray["profile"] is None:
+        raise ConfigError(
+            f"{source}: spray.profile is empty (null) because line {n}, `{key}: {value}`, is a YAML comment: a "
+            f"key starting with # must be quoted; write {quoted}"
+        )
+    for n, key, value in hits:
+        log.warning(
+            '%s: line %d, `%s: %s`, is a YAML comment and is ignored; if it is a paint\'s key, quote it: "%s"',
+            source,
+            n,
+            key,
+            value,
+            key,
+        )
 
 
 def load_profile(path: Path | str):

@@ -257,6 +257,12 @@ class StippleConfig(StrictModel):
         ),
     )
 
+    @field_validator("windows", mode="before")
+    @classmethod
+    def _yaml_off(cls, value: object) -> object:
+        """YAML reads an unquoted ``off`` (and ``no``, ``false``) as false: the user meant ``off``."""
+        return Windows.off if value is False else value
+
     @field_validator("tone", mode="before")
     @classmethod
     def _renamed_tone(cls, value: object) -> object:

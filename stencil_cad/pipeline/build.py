@@ -106,5 +106,32 @@ def check_template(run: Run) -> None:
         run.template = cad.check_plate_template(run.cfg.plate)
     except ValueError as exc:
         raise UserError(f"plate.template: {exc}") from None
-    if not run.template["builtin"]:
-        log.info("plate template %s is Python code and runs with your rights", run.template["path"])
+    if run.template["builtin"]:
+        return
+    log.warning(
+        "plate template %s (SHA-256 %s) is Python code, not bundled with stencil-cad: it runs with your rights",
+        run.template["path"],
+        run.template["sha256"],
+    )
+    try_template(run)
+
+
+def try_template(run: Run) -> None:
+    """Build a one-hole plate with a user's template, so its own errors surface before the first stage.
+
+    Raises:
+        UserError: The template's ``build()`` failed (its error, named as the template's).
+    """
+    from .. import cad
+    from ..model import DotSet
+
+    cfg = run.cfg
+    w = cfg.size.width_mm
+    h = cfg.size.height_mm or w
+    r = max(cfg.stipple.design_rules(w, h).hole_min_r_mm, 0.5)
+    one = DotSet(xy_mm=np.array([[w / 2.0, h / 2.0]]), r_mm=np.array([r]))
+    label = cad.LabelInfo(layer=1, layers=cfg.decompose.layers, colour="#000000", job=cfg.name)
+    try:
+        cad.build_plate(one, w, h, cfg.plate, label)
+    except ValueError as exc:
+        raise UserError(f"plate.template: tried on a one-hole {w:g} × {h:g} mm plate: {exc}") from None

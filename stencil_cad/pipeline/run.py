@@ -25,7 +25,7 @@ from .decompose import stage_decompose
 from .manifest import finish, save_config
 from .names import STAGE_COMMANDS, run_outputs, stage_outputs
 from .picture import load_picture
-from .saved import check_dots, read_dots, read_layers
+from .saved import check_dots, check_fresh, check_rows, read_dots, read_layers
 from .simulate import stage_simulate
 from .slicing import stage_print_estimate
 from .standoff import choose_plates
@@ -230,7 +230,9 @@ def _run_stage_command(
         )
     dotsets = None
     if command != "stipple":
+        check_fresh(src, command)
         dotsets = read_dots(src, layers.count, max_time=8.0 * cfg.spray.amount_cap)
+        check_rows(cfg, dotsets, size)
         if command == "build":
             check_dots(cfg, dotsets, size)
     # Every refusal above comes before any worker starts; the tasks then run where the whole

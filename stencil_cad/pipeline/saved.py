@@ -10,7 +10,7 @@ import numpy as np
 from ..config import JobConfig
 from ..errors import ConfigError, UserError
 from ..model import DotSet, Layers
-from .names import LAYERS_NPZ, SPRAY_JSON, dots_name
+from .names import LAYERS_NPZ, SPRAY_JSON, STAGE_FILES, dots_name
 
 log = logging.getLogger(__name__)
 
@@ -84,8 +84,73 @@ def read_dots(folder: Path, count: int | None = None, max_time: float = 800.0) -
         from dataclasses import replace
 
         times = read_spray_times(spray, len(out), max_time)
+        _mention_hand_edit(spray)
         out = [replace(ds, spray_time=t) for ds, t in zip(out, times, strict=True)]
     return out
+
+
+def check_fresh(folder: Path, command: str) -> None:
+    """Refuse the dots, windows and ``spray.json`` of a folder when its manifest marks them stale.
+
+    A re-run of ``decompose`` marks the files made from the earlier layers stale; a plate or a
+    simulation made from them would show the earlier picture.
+
+    Raises:
+        UserError: Naming the stale files and the command that remakes them.
+    """
+    import fnmatch
+
+    from ..output import MANIFEST, read_manifest
+
+    manifest = read_manifest(folder / MANIFEST) or {}
+    stale = manifest.get("stale")
+    files = stale.get("files") if isinstance(stale, dict) else None
+    if not isinstance(files, list):
+        return
+    inputs = STAGE_FILES["stipple"]
+    hit = sorted(
+        str(n)
+        for n in files
+        if any(fnmatch.fnmatch(str(n), p) for p in inputs) and (folder / str(n)).exists()
+    )
+    if not hit:
+        return
+    shown = ", ".join(hit[:4]) + (f" and {len(hit) - 4} more" if len(hit) > 4 else "")
+    raise UserError(
+        f"{folder}: {shown} are stale: made from an earlier decomposition (manifest.json: stale), so "
+        f"`stencil-cad {command}` would use the earlier picture's dots; re-run `stencil-cad stipple` on the "
+        "folder first, or `stencil-cad run`"
+    )
+
+
+def _mention_hand_edit(path: Path) -> None:
+    """Say so when a file differs from the SHA-256 the folder's manifest recorded for it."""
+    import hashlib
+
+    from ..output import MANIFEST, read_manifest
+
+    manifest = read_manifest(path.parent / MANIFEST) or {}
+    rows = manifest.get("files")
+    recorded = next(
+        (
+            r.get("sha256")
+            for r in (rows if isinstance(rows, list) else [])
+            if isinstance(r, dict) and r.get("name") == path.name
+        ),
+        None,
+    )
+    if not isinstance(recorded, str):
+        return
+    try:
+        now = hashlib.sha256(path.read_bytes()).hexdigest()
+    except OSError:
+        return
+    if now != recorded:
+        log.warning(
+            "%s was edited since stencil-cad wrote it (its SHA-256 differs from manifest.json's); its "
+            "spray_times are used (re-run `stencil-cad stipple` to get the calibrated ones back)",
+            path,
+        )
 
 
 def read_spray_times(path: Path, layers: int, max_time: float) -> list[float]:
@@ -115,7 +180,58 @@ def read_spray_times(path: Path, layers: int, max_time: float) -> list[float]:
     for i, t in enumerate(times):
         if not (math.isfinite(t) and 0 < t <= max_time):
             raise UserError(f"{bad}: spray_times[{i}] must be in (0, {max_time:g}], got {t!r}; {fix}")
+    _check_order(path, data.get("order"), times)
     return [float(t) for t in times]
+
+
+def _check_order(path: Path, order: object, times: list[float]) -> None:
+    """Refuse a spray order whose steps disagree with ``spray_times`` (the maker sprays the order).
+
+    Raises:
+        UserError: Naming the step, both values and the fix.
+    """
+    if order is None:
+        return
+    fix = "make order[].spray_time, order[].passes and spray_times agree, or re-run `stencil-cad stipple`"
+    if not isinstance(order, list) or len(order) != len(times):
+        raise UserError(
+            f"{path}: order must be a list of {len(times)} steps, one per layer like spray_times; {fix}"
+        )
+    for i, (step, t) in enumerate(zip(order, times, strict=True)):
+        if not isinstance(step, dict):
+            raise UserError(f"{path}: order[{i}] must be a mapping (step, plate, spray_time ...); {fix}")
+        said = step.get("spray_time")
+        if said is not None and (not isinstance(said, (int, float)) or abs(float(said) - float(t)) > 1e-6):
+            raise UserError(
+                f"{path}: order[{i}].spray_time is {said!r} but spray_times[{i}] is {t:g}: the steps would "
+                f"spray one amount and the plates be made for another; {fix}"
+            )
+        passes = step.get("passes")
+        if passes is not None and passes != max(1, round(float(t))):
+            raise UserError(
+                f"{path}: order[{i}].passes is {passes!r} but spray_times[{i}] is {t:g} "
+                f"({max(1, round(float(t)))} passes): the steps would spray one amount and the plates be "
+                f"made for another; {fix}"
+            )
+
+
+def check_rows(cfg: JobConfig, dotsets: list[DotSet], picture_mm: tuple[float, float]) -> None:
+    """Refuse a dots file with more rows than holes fit the picture, before any work on its pairs.
+
+    Raises:
+        UserError: Naming the file, its rows, the bound and the fix.
+    """
+    from ..bounds import max_dots
+
+    most = max_dots(cfg.stipple, *picture_mm)
+    for i, ds in enumerate(dotsets):
+        if len(ds) > most:
+            raise UserError(
+                f"{dots_name(i)}: {len(ds)} holes, but at most {most} holes of radius "
+                f"{cfg.stipple.resolved_hole_min_r_mm:g} mm with {cfg.stipple.resolved_web_mm:g} mm webs fit "
+                f"in {picture_mm[0]:.4g} × {picture_mm[1]:.4g} mm: the file is not this job's dots; re-run "
+                "`stencil-cad stipple` (or give the folder the file belongs to with --from)"
+            )
 
 
 def check_dots(cfg: JobConfig, dotsets: list[DotSet], picture_mm: tuple[float, float]) -> None:

@@ -158,11 +158,25 @@ def _slice_jobs(
     for stl in stls:
         check_input(stl, "STL", limit=DATA_LIMIT, fix="run `stencil-cad run` first, or check the path")
         try:
-            size = slicing.stl_footprint(stl)
+            mesh = slicing.check_stl(stl)
         except ValueError:
             raise UserError(f"{stl} is not an STL file (give a plate's layer_NN.stl)") from None
         except OSError as exc:
             raise UserError(f"cannot read {stl}: {exc.strerror} (check the file)") from None
+        if mesh.non_finite:
+            raise UserError(
+                f"{stl}: {mesh.non_finite} triangle(s) have a NaN or infinite corner: the mesh is broken, "
+                "and no size or slice of it is meaningful; export it again (`stencil-cad build` writes "
+                "layer_NN.stl) or repair it"
+            )
+        if mesh.open_edges:
+            log.warning(
+                "%s has %d open edge(s) (the mesh is not closed): the slicer may fill or drop parts of the "
+                "plate; check the print preview, or export it again (`stencil-cad build`) or repair it",
+                stl,
+                mesh.open_edges,
+            )
+        size = mesh.size
         # A part that fits only turned (a portrait tile on a landscape bed) is sliced turned.
         lay = slicing.place(size, bed)
         if lay.rotate_deg is None:

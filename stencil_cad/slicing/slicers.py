@@ -206,6 +206,44 @@ def bed_size(profile: str | Profile) -> tuple[float, float]:
     raise ValueError(f"profile {prof.name} has no bed_shape")
 
 
+@dataclass(frozen=True)
+class StlCheck:
+    """What ``slice`` checks of an STL before the slicer sees it.
+
+    Attributes:
+        size: Width and depth in mm of its bounding box (x, y), of its finite corners.
+        non_finite: Triangles with a NaN or infinite coordinate (the mesh is broken).
+        open_edges: Edges that only one triangle uses (0 for a closed, watertight mesh).
+    """
+
+    size: tuple[float, float]
+    non_finite: int
+    open_edges: int
+
+
+def check_stl(path: str | os.PathLike) -> StlCheck:
+    """Read an STL and count what makes it unfit to slice: non-finite corners and open edges.
+
+    Raises:
+        ValueError: The file is not an STL, or is empty.
+    """
+    from ..geometry import index_triangles
+
+    tri = read_stl(path)
+    if tri.size == 0:
+        raise ValueError(f"{path}: the STL has no triangles")
+    bad = ~np.isfinite(tri).all(axis=(1, 2))
+    good = tri[~bad]
+    if len(good) == 0:
+        return StlCheck((float("nan"), float("nan")), int(bad.sum()), 0)
+    pts = good.reshape(-1, 3)
+    w, h = pts[:, :2].max(axis=0) - pts[:, :2].min(axis=0)
+    verts, faces = index_triangles(good)
+    edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(edges[:, 0] * np.int64(len(verts)) + edges[:, 1], return_counts=True)
+    return StlCheck((float(w), float(h)), int(bad.sum()), int(np.count_nonzero(counts == 1)))
+
+
 def stl_footprint(path: str | os.PathLike) -> tuple[float, float]:
     """Width and depth in mm of an STL's bounding box (x, y).
 

@@ -31,6 +31,9 @@ log = logging.getLogger(__name__)
 #: 4-decimal CSV round trip of a repaired set still passes :func:`check_rules`.
 NUDGE_SLACK_MM = 2e-3
 
+#: Web violations :func:`check_rules` counts before it stops counting (a message shows a few).
+MAX_COUNTED = 100_000
+
 #: Default tolerance of :func:`check_rules` in mm (covers CSV rounding).
 CHECK_TOL_MM = 1e-3
 
@@ -393,6 +396,38 @@ def enforce_rules(
     return xy, r, report
 
 
+def _web_violations_capped(
+    xy: np.ndarray, r: np.ndarray, web: float, cap: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Like :func:`web_violations`, but stops once ``cap`` pairs are found, in bounded memory.
+
+    Dots piled on each other make every pair a violation: all of them would take memory and
+    time quadratic in the dots, and a message needs a few.
+    """
+    n = len(xy)
+    tree = cKDTree(xy)
+    reach = 2.0 * float(r.max()) + web
+    # Neighbour lists of a chunk of dots at a time: at most about 2 million indices.
+    step = max(1, 2_000_000 // n)
+    found_p: list[np.ndarray] = []
+    found_w: list[np.ndarray] = []
+    count = 0
+    for s in range(0, n, step):
+        e = min(n, s + step)
+        near = tree.query_ball_point(xy[s:e], reach, return_sorted=False)
+        i = np.repeat(np.arange(s, e), [len(x) for x in near])
+        j = np.fromiter((k for x in near for k in x), dtype=np.int64, count=len(i))
+        keep = j > i
+        pairs, webs = _short_pairs(xy, r, web, np.stack([i[keep], j[keep]], axis=1))
+        found_p.append(pairs)
+        found_w.append(webs)
+        count += len(pairs)
+        if count >= cap:
+            break
+    pairs, webs = np.concatenate(found_p)[:cap], np.concatenate(found_w)[:cap]
+    return pairs, webs
+
+
 def _violations(xy: np.ndarray, r: np.ndarray, rules: DesignRules, tol_mm: float, limit: int | None):
     """Count the violations and describe up to ``limit`` per rule (all when None)."""
     xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
@@ -441,7 +476,10 @@ def _violations(xy: np.ndarray, r: np.ndarray, rules: DesignRules, tol_mm: float
 
     idx = np.flatnonzero(ok)
     if len(idx) > 1:
-        pairs, webs = web_violations(xy[idx], r[idx], rules.web_mm - tol_mm)
+        if limit is None:
+            pairs, webs = web_violations(xy[idx], r[idx], rules.web_mm - tol_mm)
+        else:
+            pairs, webs = _web_violations_capped(xy[idx], r[idx], rules.web_mm - tol_mm, MAX_COUNTED)
         pairs = idx[pairs]
         total += len(pairs)
         order = np.lexsort((pairs[:, 1], pairs[:, 0]))[:limit]
@@ -493,7 +531,8 @@ def check_rules(
     total, found = _violations(xy, r, rules, tol_mm, show)
     if total:
         lines = [msg for _, msg in found[:show]]
+        counted = f"{total}" if total < MAX_COUNTED else f"at least {MAX_COUNTED}"
         raise DotRuleError(
-            f"{total} design-rule violation(s) among {len(np.asarray(r).reshape(-1))} dots; first:\n  "
+            f"{counted} design-rule violation(s) among {len(np.asarray(r).reshape(-1))} dots; first:\n  "
             + "\n  ".join(lines)
         )

@@ -156,6 +156,7 @@ class _FakeClient:
 def test_large_inputs_go_to_the_least_busy_running_worker():
     ex = object.__new__(compute.DaskExecutor)
     ex.client = _FakeClient({"tcp://b": "running", "tcp://a": "running", "tcp://p": "paused"})
+    ex._seen = set()
     load: dict = {}
     assert ex._scatter("x1", load) == ("x1", "tcp://a")
     assert ex._scatter("x2", load) == ("x2", "tcp://b")

@@ -3,7 +3,8 @@
 A small mural run with ``--scheduler`` writes the bytes of the same job run in this process;
 it still does when a worker is killed while refinement tasks run and another while plates
 are built (the tasks that lose their inputs are sent again); and a scheduler stopped mid-run
-ends the job with exit 2, one line and no output folder.
+ends the job with exit 2, one line and no output folder, as does losing every worker. Nothing
+of the cluster's listens beyond loopback.
 """
 
 from __future__ import annotations
@@ -38,6 +39,10 @@ decompose: {layers: 2}
 stipple: {process: fdm}
 """
 
+# `--no-dashboard` still leaves an HTTP server (health, metrics) on every interface: on 0.0.0.0:8787
+# for the scheduler and a random port for each worker. Bound to loopback, like the comms.
+LOOPBACK_HTTP = ["--no-dashboard", "--dashboard-address", "127.0.0.1:0"]
+
 # The README's worker settings.
 WORKER_ENV = {
     "NUMBA_NUM_THREADS": "1",
@@ -54,7 +59,7 @@ def _free_port() -> int:
 
 
 class Cluster:
-    """A scheduler and worker processes on 127.0.0.1, every port (dashboards off) on loopback."""
+    """A scheduler and worker processes on 127.0.0.1, every port (comms and HTTP) on loopback."""
 
     def __init__(self, logs: Path, workers: int = 2):
         self.logs = logs
@@ -66,23 +71,29 @@ class Cluster:
         )
         port = self.address.rsplit(":", 1)[1]
         self.scheduler = self._start(
-            "scheduler", ["scheduler", "--host", "127.0.0.1", "--port", port, "--no-dashboard"]
+            "scheduler", ["scheduler", "--host", "127.0.0.1", "--port", port, *LOOPBACK_HTTP]
         )
         self.workers: list[subprocess.Popen] = []
         self._pids: dict[str, int] = {}
         from distributed import Client
 
         self.client = None
-        deadline = time.monotonic() + 60
-        while self.client is None:
-            try:
-                self.client = Client(self.address, timeout="2s", set_as_default=False)
-            except OSError:
-                assert time.monotonic() < deadline, "the scheduler did not start"
-                time.sleep(0.2)
-        for _ in range(workers):
-            self.add_worker()
-        self.client.wait_for_workers(workers, timeout=120)
+        try:
+            deadline = time.monotonic() + 60
+            while self.client is None:
+                try:
+                    self.client = Client(self.address, timeout="2s", set_as_default=False)
+                except OSError:
+                    assert time.monotonic() < deadline, "the scheduler did not start"
+                    time.sleep(0.2)
+            for _ in range(workers):
+                self.add_worker()
+            self.client.wait_for_workers(workers, timeout=120)
+            self.assert_loopback_only()
+        except BaseException:
+            # The fixture never gets the cluster to close: stop what was started here.
+            self.close()
+            raise
 
     def _start(self, name: str, args: list[str]) -> subprocess.Popen:
         with open(self.logs / f"{name}-{time.monotonic_ns()}.log", "wb") as log:
@@ -101,7 +112,7 @@ class Cluster:
                     self.address,
                     "--host",
                     "127.0.0.1",
-                    "--no-dashboard",
+                    *LOOPBACK_HTTP,
                     "--no-nanny",
                     "--nthreads",
                     "1",
@@ -120,9 +131,36 @@ class Cluster:
             out[self._pids[address]] = [str(k) for k in keys]
         return out
 
+    def listening(self) -> list[tuple[int, str, int]]:
+        """``(pid, address, port)`` of every socket the scheduler and workers listen on."""
+        import psutil
+
+        out = []
+        for p in [self.scheduler, *self.workers]:
+            if p.poll() is not None:
+                continue
+            with contextlib.suppress(psutil.NoSuchProcess):
+                proc = psutil.Process(p.pid)
+                conns = proc.net_connections(kind="inet")
+                out += [(p.pid, c.laddr.ip, c.laddr.port) for c in conns if c.status == psutil.CONN_LISTEN]
+        return out
+
+    def assert_loopback_only(self, started: bool = True) -> None:
+        """Nothing of the cluster's listens beyond loopback (its comms, and the HTTP servers too).
+
+        Args:
+            started: The cluster has just started, so its sockets must be seen (a test may have
+                stopped the processes since).
+        """
+        found = self.listening()
+        assert found or not started, "no listening socket found: the check sees nothing"
+        beyond = [s for s in found if s[1] not in ("127.0.0.1", "::1")]
+        assert beyond == [], f"listening beyond loopback: {beyond}"
+
     def close(self) -> None:
         with contextlib.suppress(Exception):
-            self.client.close(timeout=5)
+            if self.client is not None:
+                self.client.close(timeout=5)
         for p in [*self.workers, self.scheduler]:
             if p.poll() is None:
                 p.kill()
@@ -134,6 +172,8 @@ def cluster(tmp_path):
     c = Cluster(tmp_path)
     try:
         yield c
+        # Workers added during the test too.
+        c.assert_loopback_only(started=False)
     finally:
         c.close()
 
@@ -234,4 +274,36 @@ def test_a_stopped_scheduler_ends_the_job_with_one_line_and_no_output(cluster, t
     assert "lost the connection to the Dask scheduler" in lines[0] and "dask scheduler" in lines[0], err
     assert "internal error" not in err and "15.00 seconds" not in err
     assert time.monotonic() - t0 < 120
+    assert not out.exists(), sorted(p.name for p in out.iterdir())
+
+
+def test_losing_every_worker_ends_the_job_naming_them(cluster, tmp_path, capsys, monkeypatch):
+    from stencil_cad.compute import executors
+
+    # Dask keeps tasks for a worker that may come back; the job waits this long for one.
+    monkeypatch.setattr(executors, "WORKERLESS_SECONDS", 5.0)
+    addresses = sorted(cluster.client.scheduler_info()["workers"])
+    assert len(addresses) == 2
+
+    def kill_both(pid: int) -> None:
+        for w in cluster.workers:
+            w.kill()
+
+    killer = _Killer(cluster, ["refine_tiles"], kill_both)
+    killer.start()
+    t0 = time.monotonic()
+    try:
+        code, out = _run_on(cluster, tmp_path, "no_workers")
+    finally:
+        killer.stop.set()
+        killer.join()
+    err = capsys.readouterr().err
+    assert killer.hits, "the workers were not killed during refinement"
+    assert code == 2, err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("stencil-cad: error: "), err
+    assert "every worker of the Dask scheduler" in lines[0] and ", ".join(addresses) in lines[0], err
+    assert f"dask worker {cluster.address}" in lines[0], err
+    assert "cannot use None" not in err and "No valid workers" not in err
+    assert time.monotonic() - t0 < 180
     assert not out.exists(), sorted(p.name for p in out.iterdir())
