@@ -29,11 +29,17 @@ log = logging.getLogger(__name__)
 
 
 def stage_decompose(run: Run, picture: Picture) -> Layers:
-    """Decompose the picture into a primer and paint layers, and save them."""
+    """Decompose the picture into a primer and paint layers, and save them.
+
+    A mostly dark picture is primed with its dark colour (:mod:`.primer`), named in ``run.cfg``.
+    """
     from dataclasses import replace
 
     from .. import decompose as dec
     from ..exchange.layers_npz import layers_from_npz, layers_to_npz
+    from .primer import prime_dark
+
+    primed = prime_dark(run, picture)
 
     with run.stage("decompose"):
         # Iterations run per pyramid level, so the total is not known in advance.
@@ -84,7 +90,10 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
         primer=to_hex(layers.primer),
         colours=[to_hex(c) for c in layers.colours],
         iterations=layers.iterations,
-        solver={k: v for k, v in info.items() if isinstance(v, (int, float, str, list))},
+        solver={
+            **{k: v for k, v in info.items() if isinstance(v, (int, float, str, list))},
+            **({"primer_rule": f"{primed}: the picture's dark colour"} if primed else {}),
+        },
         tiled=_plain(info["tiled"]) if "tiled" in info else None,
     )
     return layers

@@ -1,0 +1,32 @@
+"""A mostly dark picture is primed with its dark colour, the light parts sprayed over it."""
+
+import numpy as np
+
+from stencil_cad.config.io import parse_config
+from stencil_cad.model import Picture
+from stencil_cad.pipeline.primer import DARK_SHARE, dark_primer, prime_dark
+from stencil_cad.record import Run
+
+
+def _picture(dark_share: float) -> Picture:
+    rgb = np.full((100, 100, 3), 0.8)
+    rows = int(round(100 * dark_share))
+    rgb[:rows] = (0.02, 0.03, 0.05)
+    rgb[:rows, ::10] = (0.9, 0.9, 1.0)  # bright sources in the dark part
+    return Picture(rgb=rgb, mm_per_px=0.5)
+
+
+def test_only_a_mostly_dark_picture_gets_its_dark_colour_as_primer():
+    assert dark_primer(_picture(DARK_SHARE - 0.1)) is None
+    assert dark_primer(_picture(0.7)) == "#05080d"
+
+
+def test_the_run_names_the_primer_unless_the_config_chose_one():
+    run = Run(cfg=parse_config({}, source="test"), out=None, quiet=True)  # type: ignore[arg-type]
+    assert prime_dark(run, _picture(0.7)) == "#05080d"
+    assert run.cfg.decompose.primer_rgb() is not None
+    for given in ({"primer": "#ffffff"}, {"palette": ["#ff0000", "#00ff00", "#0000ff", "#ffffff"]}):
+        cfg = parse_config({"decompose": given}, source="test")
+        run = Run(cfg=cfg, out=None, quiet=True)  # type: ignore[arg-type]
+        assert prime_dark(run, _picture(0.7)) is None
+        assert run.cfg is cfg
