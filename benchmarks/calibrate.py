@@ -119,6 +119,15 @@ def _case(name: str) -> dict:
     return row
 
 
+#: The keys the readers of these rows use (checked on the smoke rows).
+SMOKE_KEYS = ("seconds", "spread_k_error", "deposit_per_pass_error", "bleed_sigma_mm_error", "tone_error")
+
+
+def smoke():
+    """One synthetic photo of a one-wall card, fitted."""
+    yield _case("one-standoff")
+
+
 def run(cases=None):
     want = list(CASES) if not cases else cases
     for name in want:
