@@ -261,7 +261,11 @@ def smoke():
     """A 300-hole plate built, checked and written, in its own process as every case."""
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     res = subprocess.run(
-        [sys.executable, "-m", "benchmarks.cad", "smoke-plate-300"], capture_output=True, text=True, cwd=ROOT, env=env
+        [sys.executable, "-m", "benchmarks.cad", "smoke-plate-300"],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        env=env,
     )
     lines = [json.loads(ln) for ln in res.stdout.splitlines() if ln.startswith("{")]
     if res.returncode != 0 or not lines:

@@ -22,7 +22,15 @@ N_HOLES = 100_000
 SIDE_PX = 2048
 PITCH_MM = 0.25
 #: The keys the readers of these rows use (checked on the smoke rows).
-SMOKE_KEYS = ("holes_in", "holes_out", "objective_start", "objective_end", "rules_pass", "seconds", "cpu_seconds")
+SMOKE_KEYS = (
+    "holes_in",
+    "holes_out",
+    "objective_start",
+    "objective_end",
+    "rules_pass",
+    "seconds",
+    "cpu_seconds",
+)
 
 
 def smoke():

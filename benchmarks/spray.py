@@ -35,7 +35,7 @@ import time
 import numpy as np
 
 from stencil_cad import simulate as sim
-from stencil_cad.config.spray import SprayConfig, SprayModel
+from stencil_cad.config.spray import Calibrate, SprayConfig, SprayModel
 
 CASES = [
     "2000px-14k",
@@ -52,7 +52,9 @@ CASES = [
 SMOKE_KEYS = ("model", "seconds", "max_abs_error", "mean_opacity", "holes", "pixels")
 
 
-def _speed_case(name: str, spray_time: float, nozzle_height: float, n: int = 14_000, side: int = 2000) -> dict:
+def _speed_case(
+    name: str, spray_time: float, nozzle_height: float, n: int = 14_000, side: int = 2000
+) -> dict:
     rng = np.random.default_rng(14000)
     s = 0.1
     size_mm = side * s
@@ -197,7 +199,7 @@ def _calibration_row(image: str, cfg, pic, layers) -> dict:
     }
     scores_lin = sim.score(pic.rgb, r_lin.composite)
     for mode in ("dots", "spray_time"):
-        job = cfg.model_copy(update={"spray": cfg.spray.model_copy(update={"calibrate": mode})})
+        job = cfg.model_copy(update={"spray": cfg.spray.model_copy(update={"calibrate": Calibrate(mode)})})
         choices = [response_tone_for(a, layers.mm_per_px, job) for a in layers.alphas]
         dots = _stipple_all(layers, job, density_of=lambda i, c=choices: c[i].density)
         res = sim.simulate(layers, dots, job.spray, spray_times=[c.spray_time for c in choices])
