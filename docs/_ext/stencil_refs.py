@@ -191,7 +191,12 @@ def config_rst() -> list[str]:
                 if desc and head.count(".") == 0:
                     lines += [_escape(desc), ""]
         default = json.dumps(node.get("default"), ensure_ascii=False) if "default" in node else "(required)"
-        lines += [f".. confval:: {dotted}", f"   :type: {_type_of(schema, node)}", f"   :default: ``{default}``", ""]
+        lines += [
+            f".. confval:: {dotted}",
+            f"   :type: {_type_of(schema, node)}",
+            f"   :default: ``{default}``",
+            "",
+        ]
         rng = _range_of(node)
         if rng:
             lines += [f"   Range: {rng}.", ""]
