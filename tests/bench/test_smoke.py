@@ -6,10 +6,10 @@ import importlib
 
 import pytest
 
-from benchmarks.__main__ import NAMES, smoke_problems
+from benchmarks.__main__ import NAMES, SMOKE_ONLY, smoke_problems
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", NAMES + SMOKE_ONLY)
 def test_every_benchmark_has_a_smoke_case_and_the_keys_its_readers_use(name):
     module = importlib.import_module(f"benchmarks.{name}")
     assert callable(getattr(module, "smoke", None)), f"benchmarks/{name}.py has no smoke()"
