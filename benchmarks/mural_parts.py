@@ -34,7 +34,7 @@ MURAL = {
 
 #: The keys the readers of these rows use (checked on the smoke rows).
 SMOKE_KEYS = ("seconds",)
-#: The smoke case's mural: 200 mm wide in two layers on a 180 mm bed.
+#: The smoke case's mural: 170 mm wide in two layers on a 180 mm bed.
 SMOKE_MURAL = {
     **MURAL,
     "name": "small mural",
@@ -144,7 +144,7 @@ def run(cases=None):
 
 
 def smoke():
-    """A 200 mm mural on a 180 mm bed; its first tile's first plate and its wall sliced on that bed."""
+    """A 170 mm mural on a 180 mm bed; its first tile's first plate and its wall sliced on that bed."""
     with tempfile.TemporaryDirectory(prefix="bench_mural_parts_") as tmp:
         job, out = _job(Path(tmp), SMOKE_MURAL)
         yield {**job, "case": "smoke-job"}
