@@ -32,6 +32,8 @@ from pathlib import Path
 import numpy as np
 
 CASES = ["plate-14k", "stl-2k", "plate-50k"]
+#: The keys the readers of these rows use (checked on the smoke rows).
+SMOKE_KEYS = ("seconds", "cpu_seconds", "holes", "steps", "valid", "rel_error", "mesh_genus", "peak_mb")
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -203,6 +205,8 @@ def _one(case: str) -> dict:
         return _plate_case(14000, case)
     if case == "plate-50k":
         return _plate_case(50000, case)
+    if case == "smoke-plate-300":
+        return _plate_case(300, case)
     if case == "stl-2k":
         raise ValueError("stl-2k yields several lines; use _stl_case()")
     raise ValueError(f"unknown case {case!r}; choose from {', '.join(CASES)}")
@@ -251,3 +255,20 @@ if __name__ == "__main__":
             print(json.dumps(part), flush=True)
     else:
         print(json.dumps(_one(sys.argv[1])), flush=True)
+
+
+def smoke():
+    """A 300-hole plate built, checked and written, in its own process as every case."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    res = subprocess.run(
+        [sys.executable, "-m", "benchmarks.cad", "smoke-plate-300"],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        env=env,
+    )
+    lines = [json.loads(ln) for ln in res.stdout.splitlines() if ln.startswith("{")]
+    if res.returncode != 0 or not lines:
+        yield {"bench": "cad", "case": "smoke-plate-300", "error": (res.stderr or res.stdout)[-2000:]}
+    else:
+        yield lines[-1]

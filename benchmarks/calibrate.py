@@ -189,6 +189,15 @@ def _designs_the_job() -> dict:
     }
 
 
+#: The keys the readers of these rows use (checked on the smoke rows).
+SMOKE_KEYS = ("seconds", "spread_k_error", "deposit_per_pass_error", "bleed_sigma_mm_error", "tone_error")
+
+
+def smoke():
+    """One synthetic photo of a one-wall card, fitted."""
+    yield _case("one-standoff")
+
+
 def run(cases=None):
     want = [*CASES, JOB_CASE] if not cases else cases
     for name in want:

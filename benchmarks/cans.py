@@ -27,6 +27,16 @@ import time
 from pathlib import Path
 
 CASES = ("prior", "one-constant")
+#: The keys the readers of these rows use (checked on the smoke rows).
+SMOKE_KEYS = (
+    "can",
+    "spread_k",
+    "deposit_per_pass",
+    "scielab_1m",
+    "scielab_tone",
+    "vs_nominal",
+    "layer_opacity",
+)
 
 #: ``(name, spread k or None for the nominal, deposit factor, bleed factor)`` of the one-constant cans.
 ONE_CONSTANT = (
@@ -40,9 +50,18 @@ ONE_CONSTANT = (
 TONE_BLUR_MM = 6.0
 
 
-def _example(out: Path) -> None:
+def _example(out: Path, config: Path | None = None) -> None:
     subprocess.run(
-        [sys.executable, "-m", "stencil_cad", "run", "--out", str(out), "-q"],
+        [
+            sys.executable,
+            "-m",
+            "stencil_cad",
+            "run",
+            *([str(config)] if config else []),
+            "--out",
+            str(out),
+            "-q",
+        ],
         check=True,
         capture_output=True,
     )
@@ -130,3 +149,13 @@ def run(cases=None):
         _example(folder)
         for case in wanted:
             yield from _rows(folder, case)
+
+
+def smoke():
+    """The one-constant cans on the bundled example at 40 mm in two layers."""
+    from benchmarks.e2e import SMOKE_JOB, _config
+
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp) / "example"
+        _example(folder, _config(Path(tmp), "example", SMOKE_JOB))
+        yield from _rows(folder, "one-constant")

@@ -156,8 +156,8 @@ def compare(before: Path, after: Path, exts: tuple[str, ...] = DEFAULT_EXTS) -> 
     return rows
 
 
-def make(folder: Path) -> None:
-    """Run every job of :data:`JOBS` into ``folder/<job>`` (one thread for the compiled kernels)."""
+def make(folder: Path, jobs: dict[str, list[str]] | None = None) -> None:
+    """Run every job of :data:`JOBS` (or ``jobs``) into ``folder/<job>`` (one thread for the compiled kernels)."""
     import os
     import tempfile
 
@@ -166,7 +166,7 @@ def make(folder: Path) -> None:
     mural.write_text(MURAL_YAML, encoding="utf-8")
     with tempfile.TemporaryDirectory() as cache:
         env = {**os.environ, "NUMBA_NUM_THREADS": "1", "NUMBA_CACHE_DIR": cache}
-        for job, args in JOBS.items():
+        for job, args in (jobs or JOBS).items():
             cmd = [sys.executable, "-m", "stencil_cad", *(a.format(mural=mural) for a in args)]
             subprocess.run([*cmd, "--out", str(folder / job), "-q"], check=True, env=env)
 
@@ -181,6 +181,38 @@ def compare_jobs(before: Path, after: Path, exts: tuple[str, ...] = DEFAULT_EXTS
         for row in compare(before / job, after / job, exts):
             rows.append({**row, "file": f"{job}/{row['file']}"})
     return rows
+
+
+#: The keys the readers of the smoke row use (``python -m benchmarks --smoke`` checks them).
+SMOKE_KEYS = ("compared", "identical", "differ", "seconds")
+
+
+def smoke():
+    """The card made twice as ``--make`` makes it, compared file by file: every file the same.
+
+    The comparison needs two commits; its smoke case runs the same code on one, so the jobs,
+    the one-thread run and the comparison are exercised, and a run that is not reproducible fails.
+    """
+    import time
+
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="stencil_compare_smoke_") as tmp:
+        card = {"card": JOBS["card"]}
+        make(Path(tmp) / "before", card)
+        make(Path(tmp) / "after", card)
+        rows = compare_jobs(Path(tmp) / "before", Path(tmp) / "after")
+    differ = [r["file"] for r in rows if not r["same"]]
+    row = {
+        "bench": "compare_outputs",
+        "case": "smoke-card",
+        "compared": len(rows),
+        "identical": len(rows) - len(differ),
+        "differ": differ,
+        "seconds": round(time.perf_counter() - t0, 1),
+    }
+    if differ or not rows:
+        row["error"] = f"the same job made twice differs in {differ or 'no compared file'}"
+    yield row
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -28,6 +28,8 @@ from stencil_cad.compute import executors
 from stencil_cad.config.compute import ComputeConfig
 
 CASES = ["even-project", "even-dask-defaults", "uneven-inline", "uneven-scattered", "sleep-scattered-10mb"]
+#: The keys the readers of these rows use (checked on the smoke rows).
+SMOKE_KEYS = ("tasks", "seconds", "ideal_seconds", "efficiency")
 
 
 def burn(seconds: float) -> float:
@@ -74,14 +76,14 @@ def _jobs(case: str) -> list[float]:
     return [rng.choice([0.3, 0.6, 1.0, 2.5, 4.0]) for _ in range(40)]
 
 
-def _run_case(case: str) -> dict:
+def _run_case(case: str, jobs: list[float] | None = None) -> dict:
     settings, inline = executors._LOCAL_DASK_CONFIG, executors.INLINE_BYTES
     try:
         if case == "even-dask-defaults":
             executors._LOCAL_DASK_CONFIG = {}
         if case == "uneven-scattered":
             executors.INLINE_BYTES = -1
-        jobs = _jobs(case)
+        jobs = jobs or _jobs(case)
         with compute.executor(ComputeConfig(workers=2), 10**9, quiet=True) as ex:
             list(ex.map(burn, [0.2, 0.2], "warm-up"))
             t0 = time.perf_counter()
@@ -107,3 +109,9 @@ def run(cases=None):
         if cases and case not in cases:
             continue
         yield _run_sleep(case) if case.startswith("sleep") else _run_case(case)
+
+
+def smoke() -> object:
+    """8 tasks of 0.25 CPU-s on a local cluster of 2 workers, the project's settings."""
+    row = _run_case("even-project", jobs=[0.25] * 8)
+    yield {**row, "case": "smoke-even-project"}

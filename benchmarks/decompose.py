@@ -29,6 +29,10 @@ CASES = {
     "astronaut-1024-L6": {"size": 1024, "layers": 6, "targets": {"seconds": 60.0, "peak_mb": 2048.0}},
     "astronaut-256-L4-kmeans-fixed": {"size": 256, "layers": 4, "fixed_kmeans": True, "targets": {}},
 }
+#: The tiny case CI runs (``smoke()``).
+SMOKE_CASES = {"astronaut-64-L2": {"size": 64, "layers": 2, "targets": {}}}
+#: The keys the readers of these rows use (checked on the smoke rows).
+SMOKE_KEYS = ("seconds", "cpu_seconds", "rmse", "peak_mb", "layers", "meets_targets")
 
 
 def _astronaut(size: int):
@@ -52,7 +56,7 @@ def _child(name: str) -> None:
     from stencil_cad.decompose import decompose, palette
     from stencil_cad.model import Picture
 
-    spec = CASES[name]
+    spec = {**CASES, **SMOKE_CASES}[name]
     warm = Picture(rgb=np.random.default_rng(1).random((24, 24, 3)), mm_per_px=1.0)
     decompose(warm, DecomposeConfig(layers=2, max_iterations=2), np.random.default_rng(0))
     img = _astronaut(spec["size"])
@@ -95,7 +99,7 @@ def run(cases=None):
     names = list(CASES) if not cases else list(cases)
     root = Path(__file__).resolve().parent.parent
     for name in names:
-        if name not in CASES:
+        if name not in CASES and name not in SMOKE_CASES:
             raise ValueError(f"unknown decompose case {name!r}; choose from {', '.join(CASES)}")
         proc = subprocess.run(
             [sys.executable, "-c", f"from benchmarks.decompose import _child; _child({name!r})"],
@@ -109,3 +113,8 @@ def run(cases=None):
             yield {"bench": "decompose", "case": name, "seconds": None, "error": proc.stderr.strip()[-2000:]}
             continue
         yield json.loads(lines[-1])
+
+
+def smoke():
+    """A 64 px astronaut in two layers, in its own process as every case."""
+    yield from run(list(SMOKE_CASES))

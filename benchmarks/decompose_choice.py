@@ -21,6 +21,16 @@ import time
 import numpy as np
 
 CASES = ("example", "astronaut", "coffee", "dark_sky", "logo")
+#: The keys the readers of these rows use (checked on the smoke rows).
+SMOKE_KEYS = (
+    "candidates",
+    "full_scielab_1m",
+    "proxy_sprayed_de",
+    "full_pick",
+    "proxy_pick",
+    "proxy_regret",
+    "seconds",
+)
 
 
 class _Forced:
@@ -35,7 +45,7 @@ class _Forced:
         return 0.0 if self.calls - 1 == self.k else 1.0
 
 
-def _job(case: str):
+def _job(case: str, size: dict | None = None):
     """The job config and picture of a case: the bundled example as shipped, or a picture under its settings."""
     from benchmarks.quality import _configs, _load
     from stencil_cad.imaging import fit_to_size
@@ -53,7 +63,7 @@ def _job(case: str):
         raw["image"] = str(data_dir / raw["image"])
         cfg = parse_config(raw, source="example")
         return cfg, load_picture(cfg)
-    cfg = _configs()["sla"]
+    cfg = _configs(size)["sla"]
     return cfg, _load(case, cfg, fit_to_size)
 
 
@@ -78,13 +88,18 @@ def _reference(cfg, pic, shape):
     return resample(pic.rgb, shape)
 
 
-def run(cases=None):
+def smoke():
+    """The generated dark sky at 40 mm: every candidate start through the whole pipeline."""
+    yield from run(["dark_sky"], size={"width_mm": 40.0})
+
+
+def run(cases=None, size: dict | None = None):
     """One row per picture: each candidate's full-pipeline score, proxy error and ideal fit."""
     from stencil_cad import decompose as dec
     from stencil_cad.pipeline.decompose import plate_reach
 
     for case in cases or CASES:
-        cfg, pic = _job(case)
+        cfg, pic = _job(case, size)
         reach = plate_reach(cfg)
         before = dec.decompose(pic, cfg.decompose, np.random.default_rng(cfg.seed)).info["order"]
         probe = _Forced(reach, 0)

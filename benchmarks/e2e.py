@@ -24,9 +24,13 @@ import time
 from pathlib import Path
 
 CASES = ("example-norefine", "example-nominal", "example", "example-paper")
+#: The keys the readers of these rows use (checked on the smoke rows).
+SMOKE_KEYS = ("seconds", "cpu_seconds", "peak_mb", "stage_seconds", "dots", "scielab", "scielab_2x", "passes")
+#: The smoke case's job: the bundled example at 40 mm in two layers.
+SMOKE_JOB = {"size": {"width_mm": 40.0}, "decompose": {"layers": 2}}
 
 
-def _config(tmp: Path, case: str) -> Path:
+def _config(tmp: Path, case: str, job: dict | None = None) -> Path:
     import yaml
 
     data_dir = Path(__file__).resolve().parents[1] / "stencil_cad" / "data"
@@ -37,14 +41,16 @@ def _config(tmp: Path, case: str) -> Path:
         cfg["refine"]["cans"] = "nominal"
     if case == "example-paper":
         cfg["spray"]["model"] = "paper"
+    for section, values in (job or {}).items():
+        cfg.setdefault(section, {}).update(values)
     path = tmp / f"{case}.yaml"
     path.write_text(yaml.safe_dump(cfg))
     return path
 
 
-def _one(case: str, tmp: Path) -> dict:
+def _one(case: str, tmp: Path, job: dict | None = None) -> dict:
     out = tmp / case
-    cfg = _config(tmp, case)
+    cfg = _config(tmp, case, job)
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     # RUSAGE_CHILDREN's peak is the largest child so far, so each child reports its own peak.
@@ -118,3 +124,9 @@ def run(cases=None):
                 if one and many:
                     rows[case]["refine_ratio_vs_one_can"] = round(many / one, 3)
             yield rows[case]
+
+
+def smoke():
+    """The bundled example at 40 mm in two layers, as shipped."""
+    with tempfile.TemporaryDirectory() as tmp:
+        yield {**_one("example", Path(tmp), SMOKE_JOB), "case": "smoke-example"}

@@ -82,6 +82,15 @@ def _make(path: Path, w: int, h: int) -> None:
     subprocess.run([sys.executable, "-c", _MAKE, str(path), str(w), str(h)], check=True)
 
 
+#: The keys the readers of these rows use (checked on the smoke rows).
+SMOKE_KEYS = ("exit", "seconds", "peak_mb")
+
+
+def smoke():
+    """The small image's load and three hostile inputs, each refused at once."""
+    yield from run(["baseline", "profile_alias_bomb", "dev_zero_config", "fifo_image"])
+
+
 def run(cases=None):
     cases = cases or CASES
     with tempfile.TemporaryDirectory(prefix="stencil_limits_") as tmp:

@@ -39,6 +39,20 @@ CASES = {
     "4m2-w2": (2000.0, 2000.0, 2),
     "10m2-w2": (4000.0, 2500.0, 2),
 }
+#: The smoke case: a 240 x 120 mm mural in two layers on a 180 mm bed (two or more tiles).
+SMOKE = {"smoke": (240.0, 120.0, 0)}
+SMOKE_JOB = {"bed": "prusa_mini", "decompose": {"layers": 2}}
+#: The keys the readers of these rows use (checked on the smoke rows).
+SMOKE_KEYS = (
+    "area_m2",
+    "workers",
+    "seconds",
+    "peak_mb_all",
+    "cpu_seconds",
+    "tiles",
+    "holes",
+    "stage_seconds",
+)
 #: Cases run only when asked for by name.
 ON_REQUEST = {"10m2-w1": (4000.0, 2500.0, 0), "1m2-w2": (1000.0, 1000.0, 2)}
 
@@ -73,7 +87,9 @@ def _photo(tmp: Path, width_mm: float) -> Path:
     return image
 
 
-def _run_case(name: str, case: tuple[float, float, int], tmp: Path) -> tuple[dict, Path]:
+def _run_case(
+    name: str, case: tuple[float, float, int], tmp: Path, job: dict | None = None
+) -> tuple[dict, Path]:
     width_mm, height_mm, workers = case
     image = _photo(tmp, width_mm)
     area = width_mm * height_mm / 1e6
@@ -84,6 +100,7 @@ def _run_case(name: str, case: tuple[float, float, int], tmp: Path) -> tuple[dic
         "bed": "prusa_mk4",
         "decompose": {"layers": 4},
         "stipple": {"process": "fdm"},
+        **(job or {}),
     }
     path = tmp / f"{cfg['name']}.yaml"
     path.write_text(yaml.safe_dump(cfg))
@@ -178,3 +195,10 @@ def run(cases=None):
                 if first is not None:
                     row["ratio_to_1m2"] = round(row["seconds"] / first["seconds"], 2)
             yield row
+
+
+def smoke():
+    """A 240 x 120 mm mural in two layers on a 180 mm bed, in one process."""
+    with tempfile.TemporaryDirectory() as tmp:
+        row, _ = _run_case("smoke", SMOKE["smoke"], Path(tmp), SMOKE_JOB)
+        yield row

@@ -32,14 +32,26 @@ MURAL = {
 }
 
 
-def _job(tmp: Path) -> tuple[dict, Path]:
+#: The keys the readers of these rows use (checked on the smoke rows).
+SMOKE_KEYS = ("seconds",)
+#: The smoke case's mural: 170 mm wide in two layers on a 180 mm bed.
+SMOKE_MURAL = {
+    **MURAL,
+    "name": "small mural",
+    "size": {"width_mm": 200, "px_per_mm": "auto"},
+    "bed": "prusa_mini",
+}
+SMOKE_MURAL["decompose"] = {"layers": 2}
+
+
+def _job(tmp: Path, mural: dict = MURAL) -> tuple[dict, Path]:
     from PIL import Image
     from skimage import data
 
     image = tmp / "coffee.png"
     Image.fromarray(data.coffee()).save(image)
     cfg = tmp / "mural.yaml"
-    cfg.write_text(yaml.safe_dump({**MURAL, "image": str(image)}))
+    cfg.write_text(yaml.safe_dump({**mural, "image": str(image)}))
     out = tmp / "out"
     t0 = time.perf_counter()
     cmd = [sys.executable, "-m", "stencil_cad", "run", str(cfg), "--out", str(out), "-q", "--workers", "0"]
@@ -83,13 +95,13 @@ def _parts(out: Path, sample: bool) -> list[Path]:
     return plates + walls
 
 
-def _slice(stl: Path) -> dict:
+def _slice(stl: Path, bed: str = "prusa_mk4") -> dict:
     from stencil_cad import slicing
 
     size = slicing.stl_footprint(stl)
     t0 = time.perf_counter()
     r = subprocess.run(
-        [sys.executable, "-m", "stencil_cad", "slice", "--bed", "prusa_mk4", "--force", str(stl)],
+        [sys.executable, "-m", "stencil_cad", "slice", "--bed", bed, "--force", str(stl)],
         capture_output=True,
         text=True,
     )
@@ -129,3 +141,13 @@ def run(cases=None):
             "sliced_ok": sum(1 for r in rows if r["exit"] == 0),
             "turned": sum(1 for r in rows if r["turned"]),
         }
+
+
+def smoke():
+    """A 170 mm mural on a 180 mm bed; its first tile's first plate and its wall sliced on that bed."""
+    with tempfile.TemporaryDirectory(prefix="bench_mural_parts_") as tmp:
+        job, out = _job(Path(tmp), SMOKE_MURAL)
+        yield {**job, "case": "smoke-job"}
+        parts = _parts(out, sample=True)
+        for stl in [parts[0], next(p for p in parts if "wall" in p.name)]:
+            yield {**_slice(stl, SMOKE_MURAL["bed"]), "case": "smoke-slice"}

@@ -267,6 +267,15 @@ def example_cases(tmp: Path):
     }
 
 
+#: The keys the readers of these rows use (checked on the smoke rows).
+SMOKE_KEYS = ("open_area_model", "open_area_gcode", "open_area_error", "print_hours", "filament_m")
+
+
+def smoke():
+    """The radius test plate (every radius, compensated and not), sliced with the shipped FDM profile."""
+    yield from run(["radius"])
+
+
 def run(cases: list[str] | None = None):
     """Yield the rows; ``cases`` picks ``radius``, ``web`` and/or ``example`` (all by default)."""
     if sl.find_slicer(sl.Slicer.PRUSA) is None:

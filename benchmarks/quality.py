@@ -144,8 +144,8 @@ class _NullOut:
         return discard
 
 
-def _configs() -> dict:
-    """The job config of each setting, validated like a user's config."""
+def _configs(size: dict | None = None) -> dict:
+    """The job config of each setting, validated like a user's config (``size``: another picture size)."""
     import yaml
 
     from stencil_cad.config.io import parse_config
@@ -153,16 +153,18 @@ def _configs() -> dict:
     example = yaml.safe_load(
         (Path(__file__).resolve().parents[1] / "stencil_cad/data/example.yaml").read_text()
     )
+    sized = {"size": size} if size else {}
     return {
-        "fdm": parse_config({}, source="quality fdm (defaults)"),
+        "fdm": parse_config({**sized}, source="quality fdm (defaults)"),
         "sla": parse_config(
-            {"stipple": {**example["stipple"], "process": "sla"}, "spray": dict(example["spray"])},
+            {"stipple": {**example["stipple"], "process": "sla"}, "spray": dict(example["spray"]), **sized},
             source="quality sla (stencil_cad/data/example.yaml)",
         ),
         "sla-paper": parse_config(
             {
                 "stipple": {**example["stipple"], "process": "sla"},
                 "spray": {**example["spray"], "model": "paper"},
+                **sized,
             },
             source="quality sla-paper (the example's settings, the paper's spray model)",
         ),
@@ -416,14 +418,33 @@ def _soft(f, pipeline, cfg0, layers, pic, image: str, windows: str, by_can: bool
     return soft, plain, timing, sim1, ref, run_
 
 
-def run(cases=None):
+#: The keys the readers of these rows use (checked on the smoke rows).
+SMOKE_KEYS = (
+    "soft_scielab_1m",
+    "hybrid_scielab_1m",
+    "default_scielab_1m",
+    "hard_scielab_1m",
+    "floor_scielab_1m",
+    "default_over_hard_1m",
+    "best_over_hard_1m",
+    "default_trials",
+    "seconds",
+)
+
+
+def smoke():
+    """The generated logo at 40 mm with the example's SLA settings: every sweep, the hard stencil, the floor."""
+    yield from run(["logo-sla"], size={"width_mm": 40.0})
+
+
+def run(cases=None, size: dict | None = None):
     """Yield one dict per image and settings: soft and hard scores at each mode's best nozzle height."""
     from stencil_cad.model import composite
 
     f = _require()
     pipeline = f["pipeline"]
     pairs = _select(cases)
-    configs = _configs()
+    configs = _configs(size)
     for image in dict.fromkeys(i for i, _ in pairs):
         for settings in [s for i, s in pairs if i == image]:
             # Decomposed as the job would: the start is chosen by what this setting's plates spray.

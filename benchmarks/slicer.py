@@ -173,6 +173,15 @@ def _case_list(cases: list[str] | None) -> list[tuple[str, str, str | None, bool
     return [c for c in all_cases if c[4] in DEFAULT_HOLES[c[1]] or (big and c[4] == 14000 and c[1] in BIG)]
 
 
+#: The keys the readers of these rows use (checked on the smoke rows).
+SMOKE_KEYS = ("holes", "seconds", "ok", "profile")
+
+
+def smoke():
+    """The 250-hole plate with every shipped profile and the laser path (a slicer not installed: skipped)."""
+    yield from run(["prusa_fdm_250", "prusa_sla_250", "cura_fdm_250", "laser_dxf_250"])
+
+
 def run(cases: list[str] | None = None):
     """Yield one dict per (profile, hole count) case; see the module docstring."""
     timeout_s = float(os.environ.get("STENCIL_BENCH_SLICER_TIMEOUT", "600"))

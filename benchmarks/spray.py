@@ -12,12 +12,20 @@ Cases:
 * ``2000px-14k-A0.5h2`` — the same with A = 0.5, h = 2: mid tones (mean opacity about
   0.3), where truncation errors are not hidden by saturation.
 * ``example`` — simulate + sweep of the bundled example (150 mm, default config,
-  layers from the real decomposition, dots from the real stippler).
+  layers from the real decomposition, dots from the real stippler), under the paper's model
+  (``model: paper``, A = 1, h = 7, the settings these figures were first measured with) and,
+  on the same dots, under the physical model (the default) from the default wall's stand-off.
 * ``calibration`` — one row per image (the bundled example at the default config; the
   astronaut from scikit-image at 200 mm with the sla process): each layer is stippled by
   the real stippler with the paper's linear density and with the calibrated density
   (``spray.calibrate: dots``, and ``spray_time``), simulated, and its layer RMSE against
   the blurred target reported (lists per layer, plus their means).
+* ``standoff`` — the example under walls of 6 and 15 mm (physical model), and the same dots
+  under the paper's model.
+* ``physical-14k`` — the physical model's speed and accuracy on the 14,000 holes.
+
+The cases with a spray time A and a nozzle height h are the paper's model (``model: paper``);
+every row says its ``model``. ``smoke()`` runs the speed cases on 500 holes and 200 x 200 px.
 """
 
 from __future__ import annotations
@@ -27,7 +35,7 @@ import time
 import numpy as np
 
 from stencil_cad import simulate as sim
-from stencil_cad.config.spray import SprayConfig, SprayModel
+from stencil_cad.config.spray import Calibrate, SprayConfig, SprayModel
 
 CASES = [
     "2000px-14k",
@@ -40,13 +48,20 @@ CASES = [
 ]
 
 
-def _speed_case(name: str, spray_time: float, nozzle_height: float) -> dict:
+#: The keys the readers of these rows use (checked on the smoke rows).
+SMOKE_KEYS = ("model", "seconds", "max_abs_error", "mean_opacity", "holes", "pixels")
+
+
+def _speed_case(
+    name: str, spray_time: float, nozzle_height: float, n: int = 14_000, side: int = 2000
+) -> dict:
     rng = np.random.default_rng(14000)
-    n, size_mm, s = 14_000, 200.0, 0.1
-    shape = (2000, 2000)
+    s = 0.1
+    size_mm = side * s
+    shape = (side, side)
     xy = rng.uniform(0.0, size_mm, (n, 2))
     r = rng.uniform(0.5, 1.0, n)
-    cfg = SprayConfig(spray_time=spray_time, nozzle_height=nozzle_height)
+    cfg = SprayConfig(model=SprayModel.paper, spray_time=spray_time, nozzle_height=nozzle_height)
     t0 = time.perf_counter()
     sim.spray_opacity(xy, r, shape, s, cfg)
     compile_s = time.perf_counter() - t0
@@ -56,7 +71,8 @@ def _speed_case(name: str, spray_time: float, nozzle_height: float) -> dict:
         fast = sim.spray_opacity(xy, r, shape, s, cfg)
         runs.append(time.perf_counter() - t0)
         cpu.append(time.process_time() - c0)
-    crop = (950, 1050, 950, 1050)
+    mid = side // 2
+    crop = (mid - 50, mid + 50, mid - 50, mid + 50)
     t0 = time.perf_counter()
     exact = sim.spray_opacity(xy, r, shape, s, cfg, exact=True, crop=crop)
     crop_s = time.perf_counter() - t0
@@ -67,6 +83,7 @@ def _speed_case(name: str, spray_time: float, nozzle_height: float) -> dict:
     return {
         "bench": "spray",
         "case": name,
+        "model": "paper",
         "seconds": round(seconds, 4),
         "cpu_seconds": round(min(cpu), 4),
         "exact_seconds": round(exact_s, 1),
@@ -131,31 +148,39 @@ def _stipple_all(layers, cfg, density_of=None):
 
 #: The settings these figures were first measured with (the defaults before the tone was
 #: calibrated and the nozzle raised by default), kept so the figures stay comparable.
-PAPER = {"spray": {"nozzle_height": 7.0}, "stipple": {"tone": "linear"}}
+PAPER = {"spray": {"model": "paper", "nozzle_height": 7.0}, "stipple": {"tone": "linear"}}
 
 
-def _example_case() -> dict:
+def _example_case():
+    """The example's simulate and sweep times, under the paper's model and then the physical one."""
     from stencil_cad.config import JobConfig
+    from stencil_cad.simulate.physical import SprayGeometry
 
     cfg = JobConfig(**PAPER)
     _, layers = _example_layers(cfg)
     dots = _stipple_all(layers, cfg)
-    sim.simulate(layers, dots, cfg.spray)  # warm-up (compile)
-    t0 = time.perf_counter()
-    res = sim.simulate(layers, dots, cfg.spray)
-    t_sim = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    sim.sweep(layers, dots, cfg.spray)
-    t_sweep = time.perf_counter() - t0
-    return {
-        "bench": "spray",
-        "case": "example",
-        "seconds": round(t_sim, 3),
-        "sweep_seconds": round(t_sweep, 3),
-        "holes": [len(d) for d in dots],
-        "pixels": list(res.alphas.shape[1:]),
-        "layer_rmse": [round(x, 4) for x in res.layer_rmse],
-    }
+    physical = JobConfig(stipple=PAPER["stipple"])
+    for model, job, geometry in (
+        ("paper", cfg, None),
+        ("physical", physical, SprayGeometry.for_job(physical)),
+    ):
+        sim.simulate(layers, dots, job.spray, geometry=geometry)  # warm-up (compile)
+        t0 = time.perf_counter()
+        res = sim.simulate(layers, dots, job.spray, geometry=geometry)
+        t_sim = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        sim.sweep(layers, dots, job.spray, geometry=geometry)
+        t_sweep = time.perf_counter() - t0
+        yield {
+            "bench": "spray",
+            "case": "example",
+            "model": model,
+            "seconds": round(t_sim, 3),
+            "sweep_seconds": round(t_sweep, 3),
+            "holes": [len(d) for d in dots],
+            "pixels": list(res.alphas.shape[1:]),
+            "layer_rmse": [round(x, 4) for x in res.layer_rmse],
+        }
 
 
 def _calibration_row(image: str, cfg, pic, layers) -> dict:
@@ -174,7 +199,7 @@ def _calibration_row(image: str, cfg, pic, layers) -> dict:
     }
     scores_lin = sim.score(pic.rgb, r_lin.composite)
     for mode in ("dots", "spray_time"):
-        job = cfg.model_copy(update={"spray": cfg.spray.model_copy(update={"calibrate": mode})})
+        job = cfg.model_copy(update={"spray": cfg.spray.model_copy(update={"calibrate": Calibrate(mode)})})
         choices = [response_tone_for(a, layers.mm_per_px, job) for a in layers.alphas]
         dots = _stipple_all(layers, job, density_of=lambda i, c=choices: c[i].density)
         res = sim.simulate(layers, dots, job.spray, spray_times=[c.spray_time for c in choices])
@@ -245,7 +270,10 @@ def _standoff_case():
             "ssim": round(sc["ssim"], 4),
             "layer_rmse": [round(x, 4) for x in res.layer_rmse],
         }
-    res = sim.simulate(layers, dots, base.spray)
+    paper = base.spray.model_copy(
+        update={"model": SprayModel.paper, "spray_time": 1.0, "nozzle_height": 15.0}
+    )
+    res = sim.simulate(layers, dots, paper)
     sc = sim.score(pic.rgb, res.composite)
     yield {
         "bench": "spray",
@@ -256,32 +284,35 @@ def _standoff_case():
     }
 
 
-def _physical_speed_case() -> dict:
+def _physical_speed_case(n: int = 14_000, side: int = 2000, name: str = "physical-14k") -> dict:
     from stencil_cad.simulate.physical import SprayGeometry
 
     rng = np.random.default_rng(14000)
-    xy = rng.uniform(0.0, 200.0, (14_000, 2))
-    r = rng.uniform(0.5, 1.0, 14_000)
+    xy = rng.uniform(0.0, side * 0.1, (n, 2))
+    r = rng.uniform(0.5, 1.0, n)
     cfg = SprayConfig(model="physical", passes=2.0)
     geo = SprayGeometry(10.0, 1.2)
-    sim.spray_opacity(xy, r, (2000, 2000), 0.1, cfg, geometry=geo)
+    shape = (side, side)
+    sim.spray_opacity(xy, r, shape, 0.1, cfg, geometry=geo)
     runs = []
     for _ in range(3):
         t0 = time.perf_counter()
-        fast = sim.spray_opacity(xy, r, (2000, 2000), 0.1, cfg, geometry=geo)
+        fast = sim.spray_opacity(xy, r, shape, 0.1, cfg, geometry=geo)
         runs.append(time.perf_counter() - t0)
-    crop = (970, 1030, 970, 1030)
+    mid = side // 2
+    crop = (mid - 30, mid + 30, mid - 30, mid + 30)
     t0 = time.perf_counter()
-    exact = sim.spray_opacity(xy, r, (2000, 2000), 0.1, cfg, geometry=geo, exact=True, crop=crop)
+    exact = sim.spray_opacity(xy, r, shape, 0.1, cfg, geometry=geo, exact=True, crop=crop)
     return {
         "bench": "spray",
-        "case": "physical-14k",
+        "case": name,
+        "model": "physical",
         "seconds": round(min(runs), 4),
         "exact_crop_seconds": round(time.perf_counter() - t0, 2),
         "max_abs_error": float(np.abs(fast[crop[0] : crop[1], crop[2] : crop[3]] - exact).max()),
         "mean_opacity": round(float(fast.mean()), 4),
-        "holes": 14_000,
-        "pixels": [2000, 2000],
+        "holes": n,
+        "pixels": list(shape),
     }
 
 
@@ -297,10 +328,16 @@ def run(cases=None):
     if "2000px-14k-A0.5h2" in want:
         yield _speed_case("2000px-14k-A0.5h2", 0.5, 2.0)
     if "example" in want:
-        yield _example_case()
+        yield from _example_case()
     if "calibration" in want:
         yield from _calibration_case()
     if "standoff" in want:
         yield from _standoff_case()
     if "physical-14k" in want:
         yield _physical_speed_case()
+
+
+def smoke():
+    """The speed cases (paper's model and physical) on 500 holes and 200 x 200 px."""
+    yield _speed_case("smoke-paper", 1.0, 7.0, n=500, side=200)
+    yield _physical_speed_case(n=500, side=200, name="smoke-physical")

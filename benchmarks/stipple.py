@@ -43,6 +43,8 @@ from stencil_cad.stipple import (
 )
 
 CASES = ["512-14k", "1024-14k", "2048-100k", "example-4layers"]
+#: The keys the readers of these rows use (checked on the smoke rows).
+SMOKE_KEYS = ("seconds", "seconds_per_iter", "e_norm", "dots", "speedup")
 BASELINE_ITERATIONS = 3
 ITERATIONS = 50
 EXAMPLE = Path(__file__).resolve().parent.parent / "stencil_cad" / "data" / "example.png"
@@ -190,3 +192,8 @@ if __name__ == "__main__":  # pragma: no cover
 
     for result in run():
         print(json.dumps(result, default=lambda v: None if isinstance(v, float) and math.isinf(v) else v))
+
+
+def smoke():
+    """500 seeds on 128 x 128 px, the baseline beside them when it is installed."""
+    yield _case_lloyd("smoke-128-500", 128, 500, with_baseline=True)

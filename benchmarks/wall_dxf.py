@@ -17,9 +17,11 @@ from pathlib import Path
 import numpy as np
 
 CASES = ["dxf_14000", "wall_150"]
+#: The keys the readers of these rows use (checked on the smoke rows).
+SMOKE_KEYS = ("seconds",)
 
 
-def _dxf_case(tmp: Path) -> dict:
+def _dxf_case(tmp: Path, n: int = 14_000) -> dict:
     import ezdxf
 
     from stencil_cad.config.outline import OutlineConfig
@@ -27,7 +29,6 @@ def _dxf_case(tmp: Path) -> dict:
     from stencil_cad.outline import plate_outline
 
     rng = np.random.default_rng(0)
-    n = 14_000
     c = np.column_stack([rng.uniform(1, 149, n), rng.uniform(1, 149, n), rng.uniform(0.5, 0.9, n)])
     ring = plate_outline(150.0, 150.0, OutlineConfig())
     t0 = time.perf_counter()
@@ -49,7 +50,7 @@ def _dxf_case(tmp: Path) -> dict:
     read_seconds = time.perf_counter() - t0
     return {
         "bench": "wall_dxf",
-        "case": "dxf_14000",
+        "case": f"dxf_{n}",
         "seconds": round(seconds, 4),
         "baseline_ezdxf_seconds": round(baseline, 4),
         "speedup": round(baseline / seconds, 1),
@@ -107,3 +108,10 @@ if __name__ == "__main__":
 
     for row in run():
         print(json.dumps(row))
+
+
+def smoke():
+    """1,000 circles, and the 150 mm wall (one build, its STEP and STL)."""
+    with tempfile.TemporaryDirectory() as d:
+        yield _dxf_case(Path(d), n=1000)
+        yield _wall_case(Path(d))

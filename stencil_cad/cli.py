@@ -313,7 +313,7 @@ def _card(args) -> int:
             f"  sheet     card_sheet.pdf, {c['sheet_mm'][0]:g} × {c['sheet_mm'][1]:g} mm on {c['paper']} with the "
             "steps: print at 100 %\n"
             f"  then      spray the card {c['passes']} passes in each wall on the sheet, photograph it "
-            f"(README, 'Measuring your can') and run: stencil-cad calibrate PHOTO --card {args.out / 'card.json'}"
+            f"(docs/guides/spraying.md, 'Measuring your can') and run: stencil-cad calibrate PHOTO --card {args.out / 'card.json'}"
         )
     return 0
 
@@ -361,7 +361,7 @@ def _load_job(args):
     src = getattr(args, "src", None)
     config_path = args.config
     if config_path is None and args.command in ("decompose", "stipple", "build", "simulate"):
-        # A stage command in a run's folder uses the folder's config (the README's promise).
+        # A stage command in a run's folder uses the folder's config (the docs' promise).
         folder = src or args.out
         if folder is not None and (folder / "config.yaml").exists():
             config_path = folder / "config.yaml"

@@ -1,7 +1,7 @@
 """The spray model: per-layer opacity through the holes and the full-colour composite.
 
 The spray model is Vavilala & Forsyth's (2015): hole ``i`` of radius ``r_i`` at
-``p_i`` leaves the Gaussian
+``p_i`` leaves the Gaussian::
 
     N_i(p) = A exp(-|p - p_i|^2 / (2 sigma_i^2)),   sigma_i^2 = r_i^2 (1 + h) / 4,
 

@@ -7,7 +7,7 @@ moves follow direct binary search, Analoui & Allebach 1992), with the design rul
 after every step.
 
 Objective. On the simulation grid, with ``C(p)`` the composite of the primer and every
-layer sprayed in order (Porter-Duff *over*) and ``C*(p)`` the input picture,
+layer sprayed in order (Porter-Duff *over*) and ``C*(p)`` the input picture::
 
     E = sum_p |g * (C - C*)|^2(p)
 

@@ -330,7 +330,7 @@ def _prepare_footprints(rgb: np.ndarray, layout: CardLayout, ppm: float) -> list
     if not any(i in found for fp in layout.footprints for i in fp.marker_ids):
         raise PhotoError(
             "fiducials not found: no ArUco marker of this card is readable in the photo; photograph the whole "
-            "sheet, flat, in focus and in even light (see `Measuring your can` in the README)"
+            "sheet, flat, in focus and in even light (see `Measuring your can` in docs/guides/spraying.md)"
         )
     fps = [
         _prepare_footprint(rgb, layout, fp, found, ppm)

@@ -1,4 +1,4 @@
-"""A real Dask cluster: `dask scheduler` and `dask worker` processes on 127.0.0.1, as the README starts them.
+"""A real Dask cluster: `dask scheduler` and `dask worker` processes on 127.0.0.1, as the docs start them (docs/guides/murals-and-dask.md).
 
 A small mural run with ``--scheduler`` writes the bytes of the same job run in this process;
 it still does when a worker is killed while refinement tasks run and another while plates
@@ -43,7 +43,7 @@ stipple: {process: fdm}
 # for the scheduler and a random port for each worker. Bound to loopback, like the comms.
 LOOPBACK_HTTP = ["--no-dashboard", "--dashboard-address", "127.0.0.1:0"]
 
-# The README's worker settings.
+# The docs' worker settings (docs/guides/murals-and-dask.md).
 WORKER_ENV = {
     "NUMBA_NUM_THREADS": "1",
     "OMP_NUM_THREADS": "1",
