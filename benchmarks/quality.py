@@ -198,14 +198,21 @@ def _geometry(cfg):
     return SprayGeometry.of_job(cfg) if cfg.spray.is_physical else None
 
 
-def _by_can(f, cfg, layers, dotsets, ref) -> dict:
+def _sprays(pipeline, cfg, colours) -> list:
+    """Each layer's spray settings as the job's stages take them (its paint's profile and deposit prior)."""
+    from stencil_cad.pipeline.profiles import layer_sprays
+
+    return layer_sprays(pipeline.Run(cfg=cfg, out=_NullOut(), quiet=True), colours)
+
+
+def _by_can(f, cfg, layers, dotsets, ref, sprays) -> dict:
     """S-CIELAB at 1 m of the same holes sprayed with each can of the prior (nominal first)."""
-    from stencil_cad.simulate.cans import can_prior
+    from stencil_cad.simulate.cans import layer_can_prior
     from stencil_cad.simulate.scielab import scielab
 
     out = {}
-    for name, sp in can_prior(cfg.spray):
-        sim = f["simulate"](layers, dotsets, sp, geometry=_geometry(cfg))
+    for name, per_layer in layer_can_prior(sprays):
+        sim = f["simulate"](layers, dotsets, cfg.spray, geometry=_geometry(cfg), layer_sprays=per_layer)
         out[name] = round(scielab(ref, sim.composite, sim.mm_per_px, DISTANCES_M[0]), 3)
     return out
 
@@ -398,8 +405,10 @@ def _soft(f, pipeline, cfg0, layers, pic, image: str, windows: str, by_can: bool
         t0 = time.perf_counter()
         refined = pipeline.stage_refine(run_r, layers, stippled, size, pic)
         t_refine = time.perf_counter() - t0
-        sim0 = f["simulate"](layers, stippled, cfg.spray, geometry=_geometry(cfg))
-        sim1 = f["simulate"](layers, refined, cfg.spray, geometry=_geometry(cfg))
+        # Every layer sprays as the job sprays it: its paint's deposit prior (or measured profile).
+        sprays = _sprays(pipeline, cfg, layers.colours)
+        sim0 = f["simulate"](layers, stippled, cfg.spray, geometry=_geometry(cfg), layer_sprays=sprays)
+        sim1 = f["simulate"](layers, refined, cfg.spray, geometry=_geometry(cfg), layer_sprays=sprays)
         ref = _source_on_grid(image, cfg, sim1.composite.shape[:2], f["fit_to_size"])
         plain[h] = {
             **_scores(f, ref, sim0.composite, sim0.mm_per_px),
@@ -411,7 +420,7 @@ def _soft(f, pipeline, cfg0, layers, pic, image: str, windows: str, by_can: bool
             "layer_tone_rmse_stippled": sim0.info["layer_tone_rmse"],
             "layer_tone_rmse_refined": sim1.info["layer_tone_rmse"],
             "spray_times": [round(d.amount(cfg.spray.amount), 4) for d in refined],
-            "scielab_1m_by_can": _by_can(f, cfg, layers, refined, ref) if by_can else {},
+            "scielab_1m_by_can": _by_can(f, cfg, layers, refined, ref, sprays) if by_can else {},
             "windows": [len(d.windows) for d in refined],
         }
         timing[h] = {"stipple_seconds": round(t_stipple, 3), "refine_seconds": round(t_refine, 3)}
@@ -498,14 +507,16 @@ def run(cases=None, size: dict | None = None):
                 hcfg = _at_height(cfg0, h, refine=False)
                 # Sprayed on the soft simulation's grid, so both are scored on the same pixels.
                 alphas = np.zeros((res.count, *shape))
-                for k, m in enumerate(res.cut_masks):
+                for k, (m, sp) in enumerate(
+                    zip(res.cut_masks, _sprays(pipeline, hcfg, res.colours), strict=True)
+                ):
                     alphas[k] = f["spray_mask"](
                         _nearest_resize(m, shape),
                         mm_per_px,
-                        hcfg.spray,
+                        sp,
                         geometry=_geometry(hcfg),
-                        # As pipeline.run_hard sprays them: full cover under the physical model.
-                        spray_time=float(hcfg.spray.full_cover_passes()) if hcfg.spray.is_physical else None,
+                        # As pipeline.run_hard sprays them: full cover (of each paint) under the physical model.
+                        spray_time=float(sp.full_cover_passes()) if sp.is_physical else None,
                     )
                 hard_comp = np.clip(composite(res.primer, res.colours, alphas), 0.0, 1.0)
                 hard[h] = _scores(f, ref, hard_comp, mm_per_px)
