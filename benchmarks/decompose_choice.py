@@ -70,6 +70,7 @@ def _job(case: str, size: dict | None = None):
 def _score(cfg, pic, layers) -> float:
     from benchmarks.quality import _NullOut
     from stencil_cad import pipeline
+    from stencil_cad.pipeline.profiles import layer_sprays
     from stencil_cad.simulate import simulate
     from stencil_cad.simulate.physical import SprayGeometry
     from stencil_cad.simulate.scielab import scielab
@@ -77,7 +78,8 @@ def _score(cfg, pic, layers) -> float:
     size = (pic.width_mm, pic.height_mm)
     run_ = pipeline.Run(cfg=cfg, out=_NullOut(), quiet=True)
     sets = pipeline.stage_stipple(run_, layers, size, pic)
-    sim = simulate(layers, sets, cfg.spray, geometry=SprayGeometry.for_job(cfg))
+    sprays = layer_sprays(run_, layers.colours)  # each paint's deposit, as the job sprays it
+    sim = simulate(layers, sets, cfg.spray, geometry=SprayGeometry.for_job(cfg), layer_sprays=sprays)
     ref = np.clip(_reference(cfg, pic, sim.composite.shape[:2]), 0.0, 1.0)
     return float(scielab(ref, sim.composite, sim.mm_per_px, 1.0))
 
