@@ -169,7 +169,7 @@ def _fdm(part: Part, bed: Bed | None, thickness: float | None) -> str:
 
 
 def _sla(part: Part, bed: Bed | None, thickness: float | None) -> str:
-    """Resin advice when the part fits the SL1S profile's vat; else the FDM advice, saying why."""
+    """Resin advice when the plate fits the SL1S profile's vat; else another vat, or the job designed for FDM."""
     vat = bed_size("prusa_sla")
     lay = place(part.size_mm, vat) if part.size_mm is not None else None
     if lay is not None and lay.fits and part.kind == "plate":
@@ -180,12 +180,16 @@ def _sla(part: Part, bed: Bed | None, thickness: float | None) -> str:
         if lay.rotate_deg == 90:
             text += " (turned 90° to fit the vat)"
         return text + (f"; plate {thickness:g} mm thick" if thickness else "")
-    why = (
-        f"too large for the prusa_sla vat ({vat[0]:g} × {vat[1]:g} mm), so "
-        if lay is not None and not lay.fits
-        else ""
-    )
-    return f"{why}{_fdm(part, bed, thickness)}; or a resin printer whose vat holds it"
+    if part.kind == "plate" and lay is not None and not lay.fits:
+        # Its holes and webs are resin's: on FDM the 0.5 mm webs break between the smallest holes
+        # (python -m benchmarks printed --case web), so FDM needs the job designed for FDM.
+        return (
+            f"too large for the prusa_sla vat ({vat[0]:g} × {vat[1]:g} mm): print it on a resin printer whose "
+            "vat holds it, flat, no supports, 0.1 mm layers; for FDM run the job again with "
+            "`stipple.process: fdm` (resin's 0.5 mm webs break between the smallest holes on FDM), then "
+            + _fdm(part, bed, thickness)
+        )
+    return f"{_fdm(part, bed, thickness)}; or a resin printer whose vat holds it"
 
 
 def _laser(part: Part, kerf: float, kind: str) -> str:

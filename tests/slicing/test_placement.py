@@ -117,6 +117,8 @@ def test_print_advice_names_only_a_profile_the_part_fits():
         "too large for the prusa_sla vat (127 × 80 mm)" in text and "stencil-cad slice layer_01.stl" in text
     )
     assert "--profile prusa_sla" not in text
+    # Its resin-designed webs are not sent to FDM as they are: the job is to be designed for FDM.
+    assert "`stipple.process: fdm`" in text
     small, small_build = _job("sla", (75.0, 120.0))
     text = sheet_make.part_advice(small, sheet_make.plate_parts(small_build)[0])
     assert "--profile prusa_sla layer_01.stl" in text and "turned 90° to fit the vat" in text
