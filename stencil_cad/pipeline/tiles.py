@@ -141,8 +141,9 @@ def _check_unions(cfg: JobConfig, grid: mural.TileGrid, sets: dict[str, list[Dot
     """The union of the tiles' holes is the global set (same count) and keeps the rules across every seam.
 
     ``sets`` holds the holes ``asked`` (the design rules), ``made`` by the process (the web never
-    under its minimum, the hole never under the 0.5 mm floor: a hole at the picture's margin is
-    not grown, so it is made a little under the stippler's radius, as on a one-plate job) and
+    under its minimum, the hole never under the 0.5 mm floor less the process's offset: a hole at
+    the picture's margin is not grown, so it is made a little under the stippler's radius, as on a
+    one-plate job) and
     ``drawn`` on the plates (the web less twice the process's offset, which the process gives back).
     """
     from dataclasses import replace
@@ -151,8 +152,11 @@ def _check_unions(cfg: JobConfig, grid: mural.TileGrid, sets: dict[str, list[Dot
     from ..stipple import rules as dots
 
     design = cfg.stipple.design_rules(grid.width_mm, grid.height_mm)
-    offset = max(cfg.stipple.resolved_hole_offset_mm, 0.0) if cfg.stipple.compensate else 0.0
-    floor = replace(design, hole_min_r_mm=min(design.hole_min_r_mm, HOLE_FLOOR_MM))
+    made_less = max(cfg.stipple.resolved_hole_offset_mm, 0.0)
+    offset = made_less if cfg.stipple.compensate else 0.0
+    # A hole the margin keeps from growing (or every hole, uncompensated) is made its radius less
+    # the offset: at the 0.5 mm floor of every preset, 0.485 mm under FDM.
+    floor = replace(design, hole_min_r_mm=min(design.hole_min_r_mm, HOLE_FLOOR_MM) - made_less)
     rules = {"asked": design, "made": floor, "drawn": replace(floor, web_mm=design.web_mm - 2.0 * offset)}
     for kind, layer_sets in sets.items():
         for i, ds in enumerate(layer_sets):

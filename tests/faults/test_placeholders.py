@@ -46,10 +46,11 @@ def test_example_sheet_has_no_placeholder(tmp_path):
     assert main(["run", str(path), "--out", str(out), "-q"]) == 0
     html, pdf = _pages(out)
     assert placeholders(html) == [] and placeholders(pdf) == []
-    # Every paint has a name (the shipped colour names), and the resin advice names a profile it fits.
+    # Every paint has a name (the shipped colour names), and the print advice names the FDM profile the
+    # example is designed for.
     spray = json.loads((out / "spray.json").read_text())
     assert spray["primer"]["name"].startswith("~") and all(o["name"].startswith("~") for o in spray["order"])
-    assert "prusa_sla" in html
+    assert "prusa_fdm" in html
 
 
 @pytest.mark.slow

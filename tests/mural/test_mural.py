@@ -12,6 +12,10 @@ from stencil_cad.errors import ConfigError, UserError
 from stencil_cad.model import DotSet
 from stencil_cad.outline import plate_outline, polygon_area
 
+#: Holes of r 1 mm at a 0.8 mm web (the FDM preset of before): a pitch the 512 px picture of the resolution
+#: test holds at 1200 mm, and the radii of the random dots of the tiled-spray test.
+COARSE = {"hole_min_r_mm": 1.0, "web_mm": 0.8}
+
 
 def job(**data):
     return cfg_io.parse_config(data, source="test")
@@ -185,7 +189,10 @@ def test_tiled_spray_equals_global_and_misregistration_costs():
     from stencil_cad import simulate
 
     # The paper's splat model, whose per-hole tails the tolerances bound.
-    cfg = job(size={"width_mm": 300, "height_mm": 200}, bed=[200, 180], spray={"model": "paper"})
+    # Holes of r 1 mm and more, as the random dots below: the halo follows the job's largest hole.
+    cfg = job(
+        size={"width_mm": 300, "height_mm": 200}, bed=[200, 180], spray={"model": "paper"}, stipple=COARSE
+    )
     grid = mural.plan_tiles(300, 200, cfg)
     assert len(grid.tiles) == 4
     rng = np.random.default_rng(3)
@@ -253,10 +260,6 @@ def test_plan_cost():
 
 
 # --------------------------------------------------------------------------- resolution
-
-
-#: Holes of r 1 mm at a 0.8 mm web: a pitch the 512 px picture below holds at 1200 mm.
-COARSE = {"hole_min_r_mm": 1.0, "web_mm": 0.8}
 
 
 def test_auto_resolution_follows_the_holes(tmp_path):

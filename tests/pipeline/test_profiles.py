@@ -16,6 +16,9 @@ decompose: {layers: 2}
 stipple: {process: sla}
 refine: {enabled: false}
 export: {instructions: true}
+# The wall fixed: a measured can's spread adds a stand-off to the plate-design trials, which may
+# then choose another wall for every layer (test_standoff covers that).
+wall: {standoff_mm: [10]}
 """
 
 
@@ -47,9 +50,11 @@ def _read(out, name):
 @pytest.mark.slow
 def test_a_layer_keyed_to_its_profile_sprays_with_it_and_the_others_do_not(tmp_path, capsys):
     _profile(tmp_path / "thin.yaml")
-    code, _ = _run(tmp_path, "plain", "", capsys)
+    # Room for more passes than the light paint's prior asks for (8, spray.max_passes' default).
+    code, _ = _run(tmp_path, "plain", "spray: {max_passes: 14}\n", capsys)
     assert code == 0
-    code, cap = _run(tmp_path, "keyed", "spray: {profile: {2: thin.yaml}}\n", capsys, quiet=False)
+    keyed = "spray: {max_passes: 14, profile: {2: thin.yaml}}\n"
+    code, cap = _run(tmp_path, "keyed", keyed, capsys, quiet=False)
     assert code == 0, cap.err
     plain, keyed = tmp_path / "plain", tmp_path / "keyed"
     # Layer 1 is stippled and sprayed as before; layer 2's thin can asks for more passes and holes.

@@ -199,10 +199,11 @@ def test_card_command_exports_checked_plate_walls_and_sheet(tmp_path):
 
 @pytest.mark.slow
 def test_a_photo_of_another_card_is_refused(layout, tmp_path, capsys):
-    """A photo of an SLA job's card measured with the default (FDM) card's card.json: exit 2."""
+    """A photo of another job's card (2 mm holes at 0.8 mm webs) measured with the default card's card.json: exit 2."""
     from stencil_cad.config.io import parse_config
 
-    other = card_layout(parse_config({"stipple": {"process": "sla"}}, "sla"), [3.0, 12.0])
+    coarse = {"stipple": {"hole_min_r_mm": 1.0, "web_mm": 0.8}}
+    other = card_layout(parse_config(coarse, "coarse holes"), [3.0, 12.0])
     card = tmp_path / "card.json"
     card.write_text(json.dumps(card_description(layout)))
     photo = _photo(other, tmp_path, settings=PhotoSettings(jpeg_quality=None))
