@@ -53,6 +53,9 @@ class StandoffFigures:
     trial_mm_per_px: float | None = None
     #: Seconds the trials took.
     seconds: float = 0.0
+    #: The two best designs' plates refined and sprayed, where their stand-offs differ (the
+    #: refinement gains more under more blur): empty otherwise.
+    refined: Sequence[PlateTrial] = ()
 
     @property
     def chosen(self) -> PlateTrial | None:
@@ -73,6 +76,7 @@ class StandoffFigures:
             windows=section.get("windows", "auto"),
             trial_mm_per_px=section.get("trial_mm_per_px"),
             seconds=section.get("seconds", 0.0),
+            refined=tuple(PlateTrial.from_json(t) for t in section.get("refined") or ()),
         )
 
     def to_json(self) -> dict[str, Any]:
@@ -84,5 +88,6 @@ class StandoffFigures:
             "trials": [t.to_json() for t in self.trials],
             "trial_mm_per_px": self.trial_mm_per_px,
             "seconds": self.seconds,
+            **({"refined": [t.to_json() for t in self.refined]} if self.refined else {}),
             "reason": self.reason,
         }

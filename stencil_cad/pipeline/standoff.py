@@ -149,10 +149,12 @@ def _trial_score(
     picture_mm: tuple[float, float],
     picture: Picture | None,
     grid_mm_per_px: float | None = None,
+    refined: bool = False,
 ) -> float:
     """S-CIELAB at the viewing distance of ``cfg``'s plates stippled (not refined) and sprayed.
 
-    Sprayed on a grid of ``grid_mm_per_px`` (the job's simulation grid by default).
+    Sprayed on a grid of ``grid_mm_per_px`` (the job's simulation grid by default); with
+    ``refined``, refined as the job refines them.
     """
     from .. import resolution, simulate
     from ..simulate.physical import SprayGeometry
@@ -162,7 +164,11 @@ def _trial_score(
     from .profiles import layer_sprays
     from .stipple import stage_stipple
 
-    trial_cfg = cfg.model_copy(update={"refine": cfg.refine.model_copy(update={"enabled": False})})
+    trial_cfg = (
+        cfg
+        if refined
+        else cfg.model_copy(update={"refine": cfg.refine.model_copy(update={"enabled": False})})
+    )
     # The trial's stipple writes nothing: an output folder that discards every call stands in.
     trial = Run(cfg=trial_cfg, out=cast("OutputDir", _Discard()), quiet=True, executor=run.executor)
     dotsets = stage_stipple(trial, layers, picture_mm, picture)
@@ -212,15 +218,19 @@ def choose_plates(
             ]
         # The first best wins a tie: the config's own design is tried first.
         best = min(trials, key=lambda t: t.scielab) if trials else PlateTrial(*designs[0], float("nan"))
+        refined = _refined_pair(run, cfg, layers, picture_mm, picture, grid, trials)
+        if refined:
+            best = next(t for t in trials if t.label == min(refined, key=lambda t: t.scielab).label)
         run.cfg = with_design(cfg, best.windows, best.standoff_mm)
     fig = StandoffFigures(
         window_share=round(share, 3),
         standoff_mm=best.standoff_mm,
         trials=tuple(trials),
-        reason=_reason(designs[0], best, trials, cfg.view.distance_m),
+        reason=_reason(designs[0], best, trials, cfg.view.distance_m, refined),
         windows=best.windows,
         trial_mm_per_px=round(grid, 4) if trials else None,
         seconds=round(time.perf_counter() - t0, 2),
+        refined=tuple(refined),
     )
     run.figures.standoff = fig
     if trials:
@@ -228,14 +238,55 @@ def choose_plates(
     return run.cfg
 
 
-def _reason(own: tuple[str, float], best: PlateTrial, trials: list[PlateTrial], distance_m: float) -> str:
+def _refined_pair(
+    run: Run,
+    cfg: JobConfig,
+    layers: Layers,
+    picture_mm: tuple[float, float],
+    picture: Picture | None,
+    grid: float,
+    trials: list[PlateTrial],
+) -> list[PlateTrial]:
+    """The two best trials refined and sprayed, when their stand-offs differ; else nothing.
+
+    The unrefined trials rank designs of one stand-off well, but the refinement sharpens more where
+    the blur is larger: on a mostly dark photo (the quality benchmark's hubble_deep_field, primed
+    dark) windows from 1 mm scored 6.13 unrefined against 6.71 from 4 mm, and refined 4.91 against
+    4.37. So where the two best differ in stand-off, both are refined (as the job refines) and
+    sprayed on the trials' grid, and the better refined one is kept.
+    """
+    if not cfg.refine.enabled or len(trials) < 2:
+        return []
+    first, second = sorted(trials, key=lambda t: t.scielab)[:2]
+    if first.standoff_mm == second.standoff_mm:
+        return []
+    out = []
+    for t in (first, second):
+        design = with_design(cfg, t.windows, t.standoff_mm)
+        score = _trial_score(run, design, layers, picture_mm, picture, grid, refined=True)
+        out.append(PlateTrial(t.windows, t.standoff_mm, round(score, 3)))
+    return out
+
+
+def _reason(
+    own: tuple[str, float],
+    best: PlateTrial,
+    trials: list[PlateTrial],
+    distance_m: float,
+    refined: list[PlateTrial] | None = None,
+) -> str:
     """Why the design was chosen, in one line."""
     if not trials:
         return f"{best.label}: the only design left to the job"
     others = sorted((t for t in trials if t is not best), key=lambda t: t.scielab)
     runner = others[0]
     kept = "the config's own" if (best.windows, best.standoff_mm) == own else "chosen"
-    return (
+    text = (
         f"{best.label} ({kept}): its unrefined plates scored {best.scielab:.2f} (S-CIELAB at {distance_m:g} m), "
         f"the best of {len(trials)} designs tried (next {runner.label} {runner.scielab:.2f})"
     )
+    if refined:
+        won = min(refined, key=lambda t: t.scielab)
+        lost = max(refined, key=lambda t: t.scielab)
+        text += f"; refined, {won.label} scored {won.scielab:.2f} against {lost.label} {lost.scielab:.2f}"
+    return text

@@ -114,11 +114,12 @@ def test_flat_colour_art_sprays_from_lower_down():
     assert run.cfg is cfg and cfg.chooses_standoff
 
 
-def _scripted(monkeypatch, scores: dict[tuple[str, float], float]) -> None:
-    """Trials that score as ``scores`` says, so the choice itself is under test."""
+def _scripted(monkeypatch, scores: dict[tuple[str, float], float], refined=None) -> None:
+    """Trials that score as ``scores`` (unrefined) and ``refined`` say, so the choice itself is under test."""
 
-    def trial(run, cfg, layers, picture_mm, picture, grid=None):
-        return scores[(cfg.stipple.windows.value, float(cfg.wall.standoff_mm[0]))]
+    def trial(run, cfg, layers, picture_mm, picture, grid=None, refined_trial=False, **kw):
+        table = (refined or scores) if kw.get("refined", refined_trial) else scores
+        return table[(cfg.stipple.windows.value, float(cfg.wall.standoff_mm[0]))]
 
     monkeypatch.setattr(standoff, "_trial_score", trial)
 
@@ -137,6 +138,26 @@ def test_holes_alone_are_chosen_where_windows_spray_worse(monkeypatch):
     fig = run.figures.standoff
     assert fig is not None and fig.windows == "off" and fig.standoff_mm == 15.0
     assert "holes only, 15 mm" in fig.reason and "2.20" in fig.reason
+
+
+def test_the_two_best_of_different_stand_offs_are_told_apart_refined(monkeypatch):
+    # The hubble case: unrefined, windows from 1 mm look best; refined, those from 4 mm are.
+    pic, layers = _flat_layers()
+    unrefined = {("auto", 10.0): 6.0, ("auto", 15.0): 6.2, ("off", 10.0): 6.5, ("off", 15.0): 6.6}
+    unrefined |= {("auto", 4.0): 5.8, ("auto", 1.0): 5.4}
+    refined = {("auto", 4.0): 3.9, ("auto", 1.0): 4.4}
+    _scripted(monkeypatch, unrefined, refined)
+    run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
+    cfg = choose_plates(run, layers, (60.0, 60.0), pic)
+    assert cfg.wall.standoff_mm == [4.0]
+    fig = run.figures.standoff
+    assert fig is not None and [t.standoff_mm for t in fig.refined] == [1.0, 4.0]
+    assert "refined, windows, 4 mm scored 3.90 against windows, 1 mm 4.40" in fig.reason
+    # The same stand-off: the unrefined ranking stands, and nothing is refined.
+    _scripted(monkeypatch, unrefined | {("off", 10.0): 5.0, ("auto", 10.0): 5.1}, {})
+    run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
+    choose_plates(run, layers, (60.0, 60.0), pic)
+    assert run.figures.standoff is not None and run.figures.standoff.refined == ()
 
 
 def test_a_tie_keeps_the_config_own_design(monkeypatch):
