@@ -141,9 +141,9 @@ def _check_unions(cfg: JobConfig, grid: mural.TileGrid, sets: dict[str, list[Dot
     """The union of the tiles' holes is the global set (same count) and keeps the rules across every seam.
 
     ``sets`` holds the holes ``asked`` (the design rules), ``made`` by the process (the web never
-    under its minimum, the hole never under the 0.5 mm floor less the process's offset: a hole at
-    the picture's margin is not grown, so it is made a little under the stippler's radius, as on a
-    one-plate job) and
+    under its minimum, the hole never under the 0.5 mm floor by more than the process's offset: a
+    hole at the picture's margin is not grown, so it is made a little under the stippler's radius,
+    as on a one-plate job) and
     ``drawn`` on the plates (the web less twice the process's offset, which the process gives back).
     """
     from dataclasses import replace
@@ -154,17 +154,19 @@ def _check_unions(cfg: JobConfig, grid: mural.TileGrid, sets: dict[str, list[Dot
     design = cfg.stipple.design_rules(grid.width_mm, grid.height_mm)
     made_less = max(cfg.stipple.resolved_hole_offset_mm, 0.0)
     offset = made_less if cfg.stipple.compensate else 0.0
-    # A hole the margin keeps from growing (or every hole, uncompensated) is made its radius less
-    # the offset: at the 0.5 mm floor of every preset, 0.485 mm under FDM.
-    floor = replace(design, hole_min_r_mm=min(design.hole_min_r_mm, HOLE_FLOOR_MM) - made_less)
+    floor = replace(design, hole_min_r_mm=min(design.hole_min_r_mm, HOLE_FLOOR_MM))
     rules = {"asked": design, "made": floor, "drawn": replace(floor, web_mm=design.web_mm - 2.0 * offset)}
+    # A hole the margin keeps from growing (or every hole, uncompensated) is made its radius less
+    # the offset: at the 0.5 mm floor of every preset, 0.485 mm under FDM. The made webs lose
+    # nothing by the tolerance: each is the drawn web (checked to the 0.001 mm) plus twice the offset.
+    tol = {"made": dots.CHECK_TOL_MM + made_less}
     for kind, layer_sets in sets.items():
         for i, ds in enumerate(layer_sets):
             u = mural.to_mural(mural.split_dots(ds, grid), grid)
             if len(u) != len(ds):
                 raise RuntimeError(f"layer {i + 1}: tiles hold {len(u)} {kind} holes, the mural {len(ds)}")
             try:
-                dots.check_rules(u.xy_mm, u.r_mm, rules[kind])
+                dots.check_rules(u.xy_mm, u.r_mm, rules[kind], tol.get(kind, dots.CHECK_TOL_MM))
             except ValueError as exc:
                 raise UserError(
                     f"layer {i + 1} ({kind} holes, all tiles in mural coordinates): {exc}"
