@@ -113,7 +113,13 @@ def _parser() -> argparse.ArgumentParser:
         g.add_argument("-v", "--verbose", action="store_true", help="log each step; show tracebacks")
         g.add_argument("-q", "--quiet", action="store_true", help="no progress bars or summary")
 
-    job_args(sub.add_parser("run", help="run the whole job: decompose, stipple, build, simulate"))
+    sp = sub.add_parser("run", help="run the whole job: decompose, stipple, build, simulate")
+    job_args(sp)
+    sp.add_argument(
+        "--dry-run",
+        action="store_true",
+        help="print the plan and what making it costs (printer-hours, filament, laser, paint) and write nothing",
+    )
     job_args(sub.add_parser("decompose", help="decompose the image into primer + paint layers (layers.npz)"))
     job_args(sub.add_parser("stipple", help="stipple saved layers into holes (layer_NN_dots.csv)"), True)
     job_args(sub.add_parser("build", help="build plates and wall from saved dots (STEP, STL, DXF)"), True)
@@ -392,6 +398,11 @@ def _job(args) -> int:
     from .config.compute import with_command_line
 
     cfg, out_path = _load_job(args)
+    if getattr(args, "dry_run", False):
+        from .pipeline.run import plate_layers
+
+        print("\n".join(pipeline.dry_run(cfg, plate_layers(cfg))))
+        return 0
     where = with_command_line(cfg.compute, args.workers, args.scheduler)
     src = (args.src or out_path) if args.command in pipeline.STAGE_COMMANDS else None
     announce = None if args.quiet else (lambda line: print(line, file=sys.stderr))
