@@ -73,6 +73,9 @@ def _card_parsers(sub) -> None:
     sp.add_argument("-v", "--verbose", action="store_true", help="log each step; show tracebacks")
 
 
+_DRY_RUN_HELP = "print the plan and what making it costs (printer-hours, filament, laser, paint); write nothing"
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="stencil-cad",
@@ -81,7 +84,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"stencil-cad {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
 
-    def job_args(sp: argparse.ArgumentParser, with_from: bool = False) -> None:
+    def job_args(sp: argparse.ArgumentParser, with_from: bool = False, dry_run: bool = False) -> None:
         sp.add_argument("config", nargs="?", type=Path, help="job config YAML (default: the bundled example)")
         sp.add_argument("--image", type=Path, help="input image (overrides the config's `image`)")
         sp.add_argument("--out", type=Path, help="output folder (default: output/<name>, or output/example)")
@@ -109,17 +112,13 @@ def _parser() -> argparse.ArgumentParser:
             sp.add_argument(
                 "--from", dest="src", type=Path, help="folder with the saved intermediates (default: --out)"
             )
+        if dry_run:
+            sp.add_argument("--dry-run", action="store_true", help=_DRY_RUN_HELP)
         g = sp.add_mutually_exclusive_group()
         g.add_argument("-v", "--verbose", action="store_true", help="log each step; show tracebacks")
         g.add_argument("-q", "--quiet", action="store_true", help="no progress bars or summary")
 
-    sp = sub.add_parser("run", help="run the whole job: decompose, stipple, build, simulate")
-    job_args(sp)
-    sp.add_argument(
-        "--dry-run",
-        action="store_true",
-        help="print the plan and what making it costs (printer-hours, filament, laser, paint) and write nothing",
-    )
+    job_args(sub.add_parser("run", help="run the whole job: decompose, stipple, build, simulate"), dry_run=True)
     job_args(sub.add_parser("decompose", help="decompose the image into primer + paint layers (layers.npz)"))
     job_args(sub.add_parser("stipple", help="stipple saved layers into holes (layer_NN_dots.csv)"), True)
     job_args(sub.add_parser("build", help="build plates and wall from saved dots (STEP, STL, DXF)"), True)

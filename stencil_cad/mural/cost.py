@@ -60,6 +60,7 @@ __all__ = [
     "PlateSpec",
     "WallSpec",
     "cut_seconds",
+    "hours_text",
     "making_cost",
     "plate_print",
     "plate_specs",
@@ -115,6 +116,12 @@ WALL_FILAMENT = 1.0
 EXPECTED_FILL = 0.5
 #: The plan's expected open area per plate, as a share of the tile's picture area.
 EXPECTED_OPEN = 0.15
+
+
+def hours_text(hours: float) -> str:
+    """``1 h 49 min`` (or ``41 min``) for a time in hours."""
+    minutes = int(round(hours * 60))
+    return f"{minutes // 60} h {minutes % 60:02d} min" if minutes >= 60 else f"{minutes} min"
 
 
 def cut_seconds(cut_mm: float, pierces: int) -> float:

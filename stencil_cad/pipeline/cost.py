@@ -13,6 +13,7 @@ from .. import mural
 from ..config import JobConfig
 from ..figures import CostFigures
 from ..model import DotSet
+from ..mural.cost import hours_text
 from ..record import Run
 from .picture import load_picture
 
@@ -22,12 +23,6 @@ def record_cost(run: Run, grid: mural.TileGrid, dotsets: Sequence[DotSet]) -> Co
     made = mural.making_cost(grid, run.cfg, len(dotsets), dotsets)
     run.figures.cost = made
     return made
-
-
-def hours_text(hours: float) -> str:
-    """``1 h 49 min`` (or ``41 min``) for a time in hours."""
-    minutes = int(round(hours * 60))
-    return f"{minutes // 60} h {minutes % 60:02d} min" if minutes >= 60 else f"{minutes} min"
 
 
 def cost_lines(made: CostFigures) -> list[str]:
