@@ -73,7 +73,9 @@ def _card_parsers(sub) -> None:
     sp.add_argument("-v", "--verbose", action="store_true", help="log each step; show tracebacks")
 
 
-_DRY_RUN_HELP = "print the plan and what making it costs (printer-hours, filament, laser, paint); write nothing"
+_DRY_RUN_HELP = (
+    "print the plan and what making it costs (printer-hours, filament, laser, paint); write nothing"
+)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -118,7 +120,9 @@ def _parser() -> argparse.ArgumentParser:
         g.add_argument("-v", "--verbose", action="store_true", help="log each step; show tracebacks")
         g.add_argument("-q", "--quiet", action="store_true", help="no progress bars or summary")
 
-    job_args(sub.add_parser("run", help="run the whole job: decompose, stipple, build, simulate"), dry_run=True)
+    job_args(
+        sub.add_parser("run", help="run the whole job: decompose, stipple, build, simulate"), dry_run=True
+    )
     job_args(sub.add_parser("decompose", help="decompose the image into primer + paint layers (layers.npz)"))
     job_args(sub.add_parser("stipple", help="stipple saved layers into holes (layer_NN_dots.csv)"), True)
     job_args(sub.add_parser("build", help="build plates and wall from saved dots (STEP, STL, DXF)"), True)
