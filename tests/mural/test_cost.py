@@ -179,3 +179,22 @@ def test_plan_line_says_the_printer_hours_and_filament():
     assert "24 plates, 8 wall(s)" in line
     assert f"about {plan.cost['printer_hours']:.1f} printer-hours" in line and "g PLA" in line
     assert plan.cost["filament_g"] > 0
+
+
+def test_summary_says_the_cost_per_kind_and_the_slicers_total():
+    from stencil_cad.figures import BuildFigures
+    from stencil_cad.report import _cost_lines
+
+    cfg = job(size={"width_mm": 150, "height_mm": 150}, stipple={"process": "fdm"})
+    grid = mural.plan_tiles(150, 150, cfg)
+    made = mural.making_cost(grid, cfg, 2, [_dots(np.random.default_rng(5), 150, 150, 400)] * 2)
+    f = Figures()
+    assert _cost_lines(f) == []
+    f.cost = made
+    lines = _cost_lines(f)
+    assert lines[0].startswith("  to make   printer ") and "per m²" in lines[0]
+    assert lines[1].startswith("  plates    2: ") and lines[2].startswith("  walls     1: ")
+    f.build = BuildFigures.from_rows(
+        [{"layer": 1, "print_hours": 1.5}, {"layer": 2, "print_hours": 1.25}], [{"print_hours": 1.0}]
+    )
+    assert _cost_lines(f)[-1] == "  slicer    PrusaSlicer's estimate: 3.8 h for the 3 part(s) it sliced"
