@@ -20,8 +20,8 @@ The constants were fitted (least squares, relative error) on PrusaSlicer 2.x's o
 ``stencil-cad run`` and sliced by ``stencil-cad slice``: the bundled example (four 173 mm plates of
 0.9 mm, 991-2,493 holes, and its 10 mm wall) and a 375 x 250 mm mural of ``coffee.png`` with
 2 layers on ``--bed prusa_mk4`` (4 tiles; its plates and walls). ``python -m benchmarks printed``
-prints the estimate beside the slicer's per part and in total; the residuals are recorded by
-each constant.
+prints the estimate beside the slicer's per part and in total; the fit and its residuals are
+recorded beside the constants.
 
 **Laser**: one sheet per plate; the cut is the outline plus every hole's circumference, timed by
 :func:`cut_seconds` (a cutting speed and a pierce per cut, not measured here). Walls are printed
@@ -99,9 +99,14 @@ _WALL_INFILL_MM_S = 80.0
 
 # Fitted (least squares on the relative error, the fixed overhead held at 60 s) on PrusaSlicer's
 # estimates of 17 parts: the bundled example's 4 plates (0.9 mm, 991-2,493 holes) and its wall,
-# the 375 x 250 mm coffee mural's 8 plates (1.2 mm, 1,090-6,066 holes) and 4 walls. With the
-# stippler's holes, per part: plates within -8.4 % .. +5.2 % (rms 4.2 %), walls within -2.7 % ..
-# +0.7 %; filament: plates -5 % .. +5 %, walls within 0.1 %. Totals: see ``benchmarks printed``.
+# the 375 x 250 mm coffee mural's 8 plates (1.2 mm, 1,090-6,066 holes) and 4 walls
+# (`python -m benchmarks printed --case cost`). From the stippler's holes, per part: plate hours
+# -8.4 % .. +6.9 %, wall hours -0.7 % .. +0.2 %, plate filament -5.2 % .. +2.8 %, walls within
+# 0.2 %. Totals: the example 8.45 h against the slicer's 8.22 h (+2.8 %), 165 g against 164 g
+# (+0.8 %); the mural 27.4 h against 27.9 h (-1.6 %), 537 g against 539 g (-0.3 %). From the
+# plan's expected holes (the dry run): the example 9.06 h (+10.2 %), 161 g (-1.8 %); the mural
+# 27.3 h (-2.0 %), 543 g (+0.7 %). The fit and the check share these parts: a new profile or a
+# new plate design wants them measured again.
 #: Fixed seconds per part (the start G-code's moves and purge line), held, not fitted.
 FIXED_S = 60.0
 #: Plate: the slicer's time over the plate's lines at the profile's speeds (acceleration, turns).
