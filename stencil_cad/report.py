@@ -78,6 +78,11 @@ def _cost_lines(f: Figures) -> list[str]:
             f"  {kind + 's':9s} {len(parts)}: {each} each, {sum(hours):.1f} h and "
             f"{sum(p.filament_g for p in parts):.0f} g together"
         )
+    if made.paint:
+        cans = ", ".join(f"layer {c.layer} {c.cans:.2f}" for c in made.paint)
+        lines.append(
+            f"  paint     cans (open area × passes at {made.coverage_m2_per_can or 0:g} m² per coat): {cans}"
+        )
     sliced = [p.print_hours for p in (f.build.plates + f.build.walls if f.build else ()) if p.print_hours]
     if sliced:
         lines.append(

@@ -137,6 +137,9 @@ def cost_total_text(cost: CostFigures) -> str:
     return (
         f"estimated before any CAD: {cost.line()}; {h_m2:.0f} printer-hours and {kg_m2:.2f} kg of filament "
         "per m² of picture"
+    ) + "".join(
+        f"; layer {c.layer} paint {c.cans:.2f} can(s) ({c.open_m2:.4f} m² open × {c.passes:g} passes)"
+        for c in cost.paint
     )
 
 

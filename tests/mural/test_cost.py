@@ -163,7 +163,7 @@ def test_cost_figures_read_back_and_show_on_the_sheet_and_summary():
     part = make.Part("plate", "layer_02", (173.0, 173.0), 500, layer=2)
     text = make.estimate_text(make.estimated_part(made, part))
     assert text.startswith("estimated ") and "g) of filament" in text
-    assert "printer-hours" in make.cost_total_text(made)
+    assert "printer-hours" in make.cost_total_text(made) and "layer 2 paint " in make.cost_total_text(made)
     h_m2, kg_m2 = made.per_m2()
     assert h_m2 == pytest.approx(made.printer_hours / 0.0225) and kg_m2 == pytest.approx(
         made.filament_g / 1e3 / 0.0225
@@ -194,6 +194,7 @@ def test_summary_says_the_cost_per_kind_and_the_slicers_total():
     lines = _cost_lines(f)
     assert lines[0].startswith("  to make   printer ") and "per m²" in lines[0]
     assert lines[1].startswith("  plates    2: ") and lines[2].startswith("  walls     1: ")
+    assert lines[3].startswith("  paint     cans (open area × passes at 1.5 m² per coat): layer 1 ")
     f.build = BuildFigures.from_rows(
         [{"layer": 1, "print_hours": 1.5}, {"layer": 2, "print_hours": 1.25}], [{"print_hours": 1.0}]
     )
