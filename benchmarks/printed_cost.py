@@ -14,8 +14,8 @@ Rows of ``python -m benchmarks printed`` (case ``cost``; ``--case cost`` runs on
   total scaled to every part of the job (``plan_hours``, ``plan_hours_error``, ``plan_filament_g``,
   ``plan_filament_error``), with ``parts`` and ``parts_sliced``.
 
-Every ``STENCIL_BENCH_COST_EVERY``-th part of a kind is sliced (default 1: all; at least one of
-each kind). The jobs run into a temporary folder unless ``STENCIL_BENCH_COST_EXAMPLE_DIR`` /
+Every ``STENCIL_BENCH_COST_EVERY``-th part of a kind is sliced (default 1: all; the plates' layers
+taken in turn across the tiles, so every layer is sampled). The jobs run into a temporary folder unless ``STENCIL_BENCH_COST_EXAMPLE_DIR`` /
 ``STENCIL_BENCH_COST_MURAL_DIR`` name folders that ``stencil-cad run`` wrote (the mural with
 ``--bed prusa_mk4``); each part is sliced beside its STL as ``stencil-cad slice`` does, and G-code
 already there is read instead of slicing again. Every slice is killed after
@@ -92,11 +92,12 @@ def _stem(part: PartCost) -> str:
 
 
 def _sample(parts: tuple[PartCost, ...]) -> list[PartCost]:
+    """Every ``STENCIL_BENCH_COST_EVERY``-th plate and wall, the plates' layers taken in turn across the tiles."""
     every = max(1, int(os.environ.get("STENCIL_BENCH_COST_EVERY", "1")))
-    out = []
-    for kind in ("plate", "wall"):
-        out += [p for p in parts if p.kind == kind][::every]
-    return out
+    plates = [p for p in parts if p.kind == "plate"]
+    tiles = list(dict.fromkeys(p.tile for p in plates))
+    picked = [p for p in plates if (tiles.index(p.tile) + p.layer - 1) % every == 0]
+    return picked + [p for p in parts if p.kind == "wall"][::every]
 
 
 def _slicer(folder: Path, stem: str, bed: tuple[float, float] | None) -> tuple[float, float] | None:
