@@ -20,6 +20,9 @@
   holes as made). The two jobs run into a temporary folder unless ``STENCIL_BENCH_PRINTED_DIR``
   and ``STENCIL_BENCH_PRINTED_BEFORE_DIR`` name folders that ``stencil-cad run`` wrote.
 
+* ``cost_<job>_<part>`` / ``cost_<job>_total`` — the cost model's estimate against the slicer's,
+  per part and in total, for the example and a small mural (:mod:`benchmarks.printed_cost`).
+
 Every slice is killed after ``STENCIL_BENCH_PRINTED_TIMEOUT`` seconds (default 900).
 """
 
@@ -277,11 +280,11 @@ def smoke():
 
 
 def run(cases: list[str] | None = None):
-    """Yield the rows; ``cases`` picks ``radius``, ``web`` and/or ``example`` (all by default)."""
+    """Yield the rows; ``cases`` picks ``radius``, ``web``, ``example`` and/or ``cost`` (all by default)."""
     if sl.find_slicer(sl.Slicer.PRUSA) is None:
         yield {"bench": "printed", "case": "all", "skipped": "prusa-slicer not installed"}
         return
-    wanted = cases or ["radius", "web", "example"]
+    wanted = cases or ["radius", "web", "example", "cost"]
     with tempfile.TemporaryDirectory(prefix="stencil_printed_") as tmp:
         if "radius" in wanted:
             yield from radius_cases(Path(tmp))
@@ -289,3 +292,7 @@ def run(cases: list[str] | None = None):
             yield from web_cases(Path(tmp))
         if "example" in wanted:
             yield from example_cases(Path(tmp))
+        if "cost" in wanted:
+            from .printed_cost import cost_cases
+
+            yield from cost_cases(Path(tmp))

@@ -73,6 +73,47 @@ def _card_parsers(sub) -> None:
     sp.add_argument("-v", "--verbose", action="store_true", help="log each step; show tracebacks")
 
 
+_DRY_RUN_HELP = (
+    "print the plan and what making it costs (printer-hours, filament, laser, paint); write nothing"
+)
+
+
+def _job_args(sp: argparse.ArgumentParser, with_from: bool = False, dry_run: bool = False) -> None:
+    """The arguments every job command takes (``--from`` for a stage command, ``--dry-run`` for ``run``)."""
+    sp.add_argument("config", nargs="?", type=Path, help="job config YAML (default: the bundled example)")
+    sp.add_argument("--image", type=Path, help="input image (overrides the config's `image`)")
+    sp.add_argument("--out", type=Path, help="output folder (default: output/<name>, or output/example)")
+    sp.add_argument("--force", action="store_true", help="replace files in a non-empty output folder")
+    sp.add_argument("--seed", type=int, help="random seed (overrides the config's `seed`)")
+    sp.add_argument(
+        "--workers",
+        type=int,
+        metavar="N",
+        help="local Dask cluster of N worker processes; 0: in this process (default: one per core, "
+        "for big jobs only; overrides compute.workers)",
+    )
+    sp.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run the tasks on the Dask cluster whose scheduler is at ADDRESS, e.g. tcp://host:8786 "
+        "(overrides compute.scheduler)",
+    )
+    sp.add_argument(
+        "--bed",
+        help="print or laser bed every part must fit: a preset (prusa_mk4, bambu_x1c, xtool_s1, …) or XxY "
+        "in mm (e.g. 250x210); overrides the config's `bed`",
+    )
+    if with_from:
+        sp.add_argument(
+            "--from", dest="src", type=Path, help="folder with the saved intermediates (default: --out)"
+        )
+    if dry_run:
+        sp.add_argument("--dry-run", action="store_true", help=_DRY_RUN_HELP)
+    g = sp.add_mutually_exclusive_group()
+    g.add_argument("-v", "--verbose", action="store_true", help="log each step; show tracebacks")
+    g.add_argument("-q", "--quiet", action="store_true", help="no progress bars or summary")
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="stencil-cad",
@@ -81,44 +122,14 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"stencil-cad {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
 
-    def job_args(sp: argparse.ArgumentParser, with_from: bool = False) -> None:
-        sp.add_argument("config", nargs="?", type=Path, help="job config YAML (default: the bundled example)")
-        sp.add_argument("--image", type=Path, help="input image (overrides the config's `image`)")
-        sp.add_argument("--out", type=Path, help="output folder (default: output/<name>, or output/example)")
-        sp.add_argument("--force", action="store_true", help="replace files in a non-empty output folder")
-        sp.add_argument("--seed", type=int, help="random seed (overrides the config's `seed`)")
-        sp.add_argument(
-            "--workers",
-            type=int,
-            metavar="N",
-            help="local Dask cluster of N worker processes; 0: in this process (default: one per core, "
-            "for big jobs only; overrides compute.workers)",
-        )
-        sp.add_argument(
-            "--scheduler",
-            metavar="ADDRESS",
-            help="run the tasks on the Dask cluster whose scheduler is at ADDRESS, e.g. tcp://host:8786 "
-            "(overrides compute.scheduler)",
-        )
-        sp.add_argument(
-            "--bed",
-            help="print or laser bed every part must fit: a preset (prusa_mk4, bambu_x1c, xtool_s1, …) or XxY "
-            "in mm (e.g. 250x210); overrides the config's `bed`",
-        )
-        if with_from:
-            sp.add_argument(
-                "--from", dest="src", type=Path, help="folder with the saved intermediates (default: --out)"
-            )
-        g = sp.add_mutually_exclusive_group()
-        g.add_argument("-v", "--verbose", action="store_true", help="log each step; show tracebacks")
-        g.add_argument("-q", "--quiet", action="store_true", help="no progress bars or summary")
-
-    job_args(sub.add_parser("run", help="run the whole job: decompose, stipple, build, simulate"))
-    job_args(sub.add_parser("decompose", help="decompose the image into primer + paint layers (layers.npz)"))
-    job_args(sub.add_parser("stipple", help="stipple saved layers into holes (layer_NN_dots.csv)"), True)
-    job_args(sub.add_parser("build", help="build plates and wall from saved dots (STEP, STL, DXF)"), True)
-    job_args(sub.add_parser("simulate", help="spray saved dots in simulation and score the result"), True)
-    job_args(sub.add_parser("hard", help="hard-stencil mode: flat colours, cut-outs held by bridges"))
+    _job_args(
+        sub.add_parser("run", help="run the whole job: decompose, stipple, build, simulate"), dry_run=True
+    )
+    _job_args(sub.add_parser("decompose", help="decompose the image into primer + paint layers (layers.npz)"))
+    _job_args(sub.add_parser("stipple", help="stipple saved layers into holes (layer_NN_dots.csv)"), True)
+    _job_args(sub.add_parser("build", help="build plates and wall from saved dots (STEP, STL, DXF)"), True)
+    _job_args(sub.add_parser("simulate", help="spray saved dots in simulation and score the result"), True)
+    _job_args(sub.add_parser("hard", help="hard-stencil mode: flat colours, cut-outs held by bridges"))
     sp = sub.add_parser("slice", help="slice exported plate STLs with a shipped print profile")
     sp.add_argument("stl", nargs="+", type=Path, help="plate STL files (e.g. output/example/layer_01.stl)")
     sp.add_argument(
@@ -392,6 +403,11 @@ def _job(args) -> int:
     from .config.compute import with_command_line
 
     cfg, out_path = _load_job(args)
+    if getattr(args, "dry_run", False):
+        from .pipeline.run import plate_layers
+
+        print("\n".join(pipeline.dry_run(cfg, plate_layers(cfg))))
+        return 0
     where = with_command_line(cfg.compute, args.workers, args.scheduler)
     src = (args.src or out_path) if args.command in pipeline.STAGE_COMMANDS else None
     announce = None if args.quiet else (lambda line: print(line, file=sys.stderr))

@@ -29,6 +29,7 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
     if f.standoff is not None and f.standoff.trials:
         lines.append(f"  design    {f.standoff.reason}")
     lines += _build_lines(run, f)
+    lines += _cost_lines(f)
     if f.plate is not None and f.plate.thickness_reason:
         lines.append(f"  thickness {f.plate.thickness_reason}")
     sim = f.simulate
@@ -56,6 +57,38 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
     for warning in getattr(run, "warnings", []) or []:
         lines.append(f"  warning   {warning}")
     return "\n".join(lines)
+
+
+def _cost_lines(f: Figures) -> list[str]:
+    """What making the parts costs (estimated before CAD from the placed holes), beside the slicer's own."""
+    from .mural.cost import hours_text
+
+    made = f.cost
+    if made is None:
+        return []
+    h_m2, kg_m2 = made.per_m2()
+    lines = [f"  to make   {made.line()}; {h_m2:.0f} printer-h and {kg_m2:.2f} kg per m² (estimated)"]
+    for kind in ("plate", "wall"):
+        parts = [p for p in made.parts if p.kind == kind and p.print_hours > 0]
+        if not parts:
+            continue
+        hours = sorted(p.print_hours for p in parts)
+        each = hours_text(hours[0]) + (f" to {hours_text(hours[-1])}" if len(hours) > 1 else "")
+        lines.append(
+            f"  {kind + 's':9s} {len(parts)}: {each} each, {sum(hours):.1f} h and "
+            f"{sum(p.filament_g for p in parts):.0f} g together"
+        )
+    if made.paint:
+        cans = ", ".join(f"layer {c.layer} {c.cans:.2f}" for c in made.paint)
+        lines.append(
+            f"  paint     cans (open area × passes at {made.coverage_m2_per_can or 0:g} m² per coat): {cans}"
+        )
+    sliced = [p.print_hours for p in (f.build.plates + f.build.walls if f.build else ()) if p.print_hours]
+    if sliced:
+        lines.append(
+            f"  slicer    PrusaSlicer's estimate: {sum(sliced):.1f} h for the {len(sliced)} part(s) it sliced"
+        )
+    return lines
 
 
 def _can_lines(run: Run, rows: Sequence[LayerProfile]) -> list[str]:

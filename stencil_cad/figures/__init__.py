@@ -11,10 +11,11 @@ pass's counts) type the keys that are read and keep the others as written
 Plain values only: no numpy arrays (the glue converts), nothing from the stages, so any layer may
 import this package. :mod:`.rows` holds the keyed rows, :mod:`.stages` the figures before the
 build, :mod:`.parts` the build's, :mod:`.spray` the simulation's and spraying's, :mod:`.mural` a
-mural's, :mod:`.design` the plate design chosen for the picture, :mod:`.collected` the :class:`Figures` that holds them all.
+mural's, :mod:`.design` the plate design chosen for the picture, :mod:`.cost` what making the job costs, :mod:`.collected` the :class:`Figures` that holds them all.
 """
 
 from .collected import Figures
+from .cost import CostFigures, PaintCost, PartCost
 from .design import PlateTrial, StandoffFigures
 from .mural import MuralBed, MuralBuildFigures, MuralFigures, MuralSimulation, RegistrationCost, TileRow
 from .parts import BuildFigures, Cutouts, MeshCheck, PlateRow, PrintEstimate, WallRow
@@ -51,6 +52,7 @@ __all__ = [
     "CanSnap",
     "CansFigures",
     "ComputeFigures",
+    "CostFigures",
     "Cutouts",
     "DarkEnd",
     "DecomposeFigures",
@@ -67,10 +69,12 @@ __all__ = [
     "MuralFigures",
     "MuralSimulation",
     "OrderStep",
+    "PaintCost",
     "PaintFigures",
     "PaintLayer",
     "PictureFigures",
     "PlateFigures",
+    "PartCost",
     "PlateTrial",
     "PlateRow",
     "PrimerRow",

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from typing import Any
 
+from .cost import CostFigures
 from .design import StandoffFigures
 from .mural import MuralFigures
 from .parts import BuildFigures
@@ -53,6 +54,7 @@ _READERS: Mapping[str, Callable[[Any], Any]] = {
     "spray_profiles": _list(LayerProfile.from_json),
     "card": _same,
     "hard": HardFigures.from_json,
+    "cost": CostFigures.from_json,
 }
 
 
@@ -84,6 +86,7 @@ class Figures:
     spray_profiles: tuple[LayerProfile, ...] | None = None
     card: Row | None = None
     hard: HardFigures | None = None
+    cost: CostFigures | None = None
 
     def __init__(self) -> None:
         self._order: list[str] = []

@@ -161,6 +161,9 @@ def _print_rows(
             else ("not cut" if part.kind == "wall" else "not measured")
         )
         advice = make.part_advice(s, part)
+        estimated = make.estimate_text(make.estimated_part(f.cost, part))
+        if estimated:
+            advice += f"; {estimated}"
         said = make.print_text(part.print_hours, part.filament_m)
         if said:
             advice += f"; PrusaSlicer: {said}"
@@ -168,6 +171,8 @@ def _print_rows(
     reason = f.plate.thickness_reason if f.plate is not None else None
     if reason and any(p.kind == "plate" for p in parts):
         rows.append(["plate thickness", "", "", "", str(reason)])
+    if f.cost is not None:
+        rows.append(["all parts", "", "", "", make.cost_total_text(f.cost)])
     total = f.build.print_estimate if f.build is not None else None
     if total is not None and total.hours is not None:
         said = make.print_text(float(total.hours), total.filament_m)

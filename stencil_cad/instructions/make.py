@@ -14,7 +14,8 @@ import math
 from dataclasses import dataclass
 
 from ..config.bed import Bed
-from ..figures import BuildFigures, PlateRow, WallRow
+from ..figures import BuildFigures, CostFigures, PartCost, PlateRow, WallRow
+from ..mural.cost import LASER_PIERCE_S, LASER_SPEED_MM_S, cut_seconds, hours_text
 from ..slicing import bed_size, place
 from .settings import JobSettings
 
@@ -22,7 +23,10 @@ __all__ = [
     "LASER_PIERCE_S",
     "LASER_SPEED_MM_S",
     "Part",
+    "cost_total_text",
     "cut_seconds",
+    "estimate_text",
+    "estimated_part",
     "fit_check",
     "part_advice",
     "plate_checks",
@@ -30,13 +34,6 @@ __all__ = [
     "wall_check",
     "wall_parts",
 ]
-
-#: Cutting speed assumed for the cut-time estimate, mm/s: a typical vector speed for thin
-#: stencil sheet (0.2-0.5 mm PET or card) on a 10-20 W diode or 40 W CO2 laser. Not measured
-#: here: set your machine's own speed and power from a test cut.
-LASER_SPEED_MM_S = 10.0
-#: Time per pierce (each hole and the outline start a cut), s; same caveat.
-LASER_PIERCE_S = 0.1
 
 #: Holes above which the FDM profile slices a plate as tiles (as :func:`stencil_cad.slicing.slice_plate`).
 _TILED_ABOVE = 450
@@ -108,12 +105,6 @@ def wall_parts(build: BuildFigures | None) -> list[Part]:
     return out
 
 
-def hours_text(hours: float) -> str:
-    """``1 h 49 min`` (or ``41 min``) for a print time in hours."""
-    minutes = int(round(hours * 60))
-    return f"{minutes // 60} h {minutes % 60:02d} min" if minutes >= 60 else f"{minutes} min"
-
-
 def print_text(hours: float | None, metres: float | None) -> str:
     """PrusaSlicer's estimate as the sheet says it, or empty without one."""
     if hours is None:
@@ -121,9 +112,35 @@ def print_text(hours: float | None, metres: float | None) -> str:
     return f"prints in about {hours_text(hours)}" + (f" with {metres:.1f} m of filament" if metres else "")
 
 
-def cut_seconds(cut_mm: float, pierces: int) -> float:
-    """Estimated laser time in s: the cut length at :data:`LASER_SPEED_MM_S` plus a pierce per cut."""
-    return cut_mm / LASER_SPEED_MM_S + LASER_PIERCE_S * pierces
+def estimated_part(cost: CostFigures | None, part: Part) -> PartCost | None:
+    """The cost model's estimate for one part (matched by kind, tile and layer), or None."""
+    for c in cost.parts if cost is not None else ():
+        if c.kind == part.kind and c.tile == part.tile and (part.kind == "wall" or c.layer == part.layer):
+            return c
+    return None
+
+
+def estimate_text(c: PartCost | None) -> str:
+    """The cost model's estimate for one part as the sheet says it, or empty."""
+    if c is None:
+        return ""
+    if c.cut_m is not None:
+        return f"estimated cut {c.cut_m:.1f} m in about {c.cut_minutes or 0:.0f} min"
+    return (
+        f"estimated {hours_text(c.print_hours)} with {c.filament_m:.1f} m ({c.filament_g:.0f} g) of filament"
+    )
+
+
+def cost_total_text(cost: CostFigures) -> str:
+    """The job's estimated making cost in total and per square metre, for the sheet."""
+    h_m2, kg_m2 = cost.per_m2()
+    return (
+        f"estimated before any CAD: {cost.line()}; {h_m2:.0f} printer-hours and {kg_m2:.2f} kg of filament "
+        "per m² of picture"
+    ) + "".join(
+        f"; layer {c.layer} paint {c.cans:.2f} can(s) ({c.open_m2:.4f} m² open × {c.passes:g} passes)"
+        for c in cost.paint
+    )
 
 
 def _duration(seconds: float) -> str:

@@ -2,10 +2,12 @@
 
 A picture larger than the bed is cut into tiles (:mod:`.tiling`); each hole belongs to one
 tile and the tiles register on chalk lines through sight notches (:mod:`.seams`); the holes
-are placed (:mod:`.stipple`) and refined (:mod:`.refine`) tile by tile, each tile a task.
+are placed (:mod:`.stipple`) and refined (:mod:`.refine`) tile by tile, each tile a task;
+:mod:`.cost` says what making the plates and walls costs, before any CAD.
 A one-plate job is a 1 × 1 tiling.
 """
 
+from .cost import cut_seconds, making_cost
 from .map import mural_map
 from .seams import (
     notch_triangles,
@@ -43,6 +45,8 @@ __all__ = [
     "TileGrid",
     "WALL_NOTCH_MM",
     "check_fits_bed",
+    "cut_seconds",
+    "making_cost",
     "manifest_rows",
     "mural_map",
     "notch_triangles",

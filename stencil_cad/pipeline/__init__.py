@@ -8,6 +8,7 @@ files a job writes (:mod:`.names`). One module holds each stage's glue.
 from ..record import Run
 from .build import stage_build
 from .commands import run_card, run_hard, write_default_config
+from .cost import dry_run
 from .decompose import stage_decompose
 from .manifest import finish
 from .names import STAGE_COMMANDS
@@ -23,6 +24,7 @@ __all__ = [
     "STAGE_COMMANDS",
     "Run",
     "build_any",
+    "dry_run",
     "finish",
     "load_picture",
     "plate_projects",

@@ -21,6 +21,7 @@ from ..record import Run
 from . import tiles
 from .build import check_template, stage_build
 from .commands import run_hard
+from .cost import record_cost
 from .decompose import stage_decompose
 from .manifest import finish, save_config
 from .names import STAGE_COMMANDS, run_outputs, stage_outputs
@@ -89,6 +90,7 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
         choose_plates(run, layers, size, picture)
     save_config(run)
     dotsets = stage_stipple(run, layers, size, picture, grid)
+    record_cost(run, grid, dotsets)
     build_any(run, layers, dotsets, size, grid, picture)
     return finish(run, "run")
 
@@ -243,8 +245,9 @@ def _run_stage_command(
             # trials on the same layers and seed), so a stage command gives the run's files.
             choose_plates(run, layers, size, picture)
         if dotsets is None:
-            stage_stipple(run, layers, size, picture, grid)
+            record_cost(run, grid, stage_stipple(run, layers, size, picture, grid))
         elif command == "build":
+            record_cost(run, grid, dotsets)
             build_any(run, layers, dotsets, size, grid, picture, simulate=False)
         else:
             stage_simulate(run, picture, layers, dotsets)

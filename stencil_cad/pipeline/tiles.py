@@ -53,11 +53,20 @@ def plan(
     """
     grid = mural.plan_tiles(width_mm, height_mm, cfg)
     sizes = mural.check_fits_bed(grid, cfg)
+    made = mural.making_cost(grid, cfg, layers)
+    cost = {
+        **mural.plan_cost(grid, cfg, layers, work_px),
+        "printer_hours": made.printer_hours,
+        "filament_m": made.filament_m,
+        "filament_g": made.filament_g,
+    }
+    if made.sheets is not None:
+        cost.update(sheets=made.sheets, cut_m=made.cut_m, cut_hours=made.cut_hours)
     fig = MuralFigures(
         bed=None if grid.bed is None else MuralBed(grid.bed.name, grid.bed.x_mm, grid.bed.y_mm),
         tiled=grid.tiled,
         halo_mm=round(grid.halo_mm, 3),
-        cost=mural.plan_cost(grid, cfg, layers, work_px),
+        cost=cost,
         part_sizes=sizes,
     )
     return grid, fig
@@ -476,7 +485,15 @@ def plan_line(plan: MuralFigures) -> str:
     where = f"bed {bed.name} ({bed.x_mm:g} × {bed.y_mm:g} mm)" if bed else "no bed given"
     if bed and "×" in bed.name:
         where = f"bed {bed.name}"
-    return (
+    line = (
         f"stencil-cad: plan: {c['tiles']} tile(s) ({c['grid']}, {where}), {c['plates']} plates, {c['walls']} wall(s), "
         f"at most {c['holes_at_most']:,} holes, about {c['estimated_seconds']:.0f} s"
     )
+    if c.get("printer_hours") is not None:
+        line += (
+            f"; to make: about {c['printer_hours']:.1f} printer-hours, {c['filament_m']:.0f} m of filament "
+            f"({c['filament_g']:.0f} g PLA)"
+        )
+    if c.get("sheets") is not None:
+        line += f", {c['sheets']} laser sheet(s), {c['cut_m']:.1f} m of cut in about {c['cut_hours']:.1f} h"
+    return line

@@ -1,0 +1,417 @@
+"""What making a job costs, before any CAD: printer-hours, filament, laser sheets and cut time, paint.
+
+Every part is known from the plan: one plate per tile and layer, one wall per tile and
+stand-off, each with its outline (:func:`stencil_cad.outline.offset_outline`) and thickness.
+The holes are the stippler's when it has run (still before any CAD), otherwise the plan's
+expected count and open area (:data:`EXPECTED_FILL`, :data:`EXPECTED_OPEN`).
+
+**FDM print time and filament** follow PrusaSlicer with the shipped profile
+(``templates/prusa_fdm.ini``: 0.3 mm layers, 0.45 mm lines, 100 % infill for plates, walls
+sparse as :data:`stencil_cad.slicing.WALL_SETTINGS`). A plate's time is mostly its plastic,
+``(outline area - open area) x thickness`` at the profile's effective volumetric rate, plus a
+term per millimetre of hole edge per layer (each hole is a slow perimeter loop, a travel and a
+retraction on every layer) and a fixed overhead (heating, homing, the first layer). A wall is
+printed sparse: its shells (2 perimeters on every outline), its solid skins and 10 % infill give
+the plastic; its time is that plastic at its own rate plus a fixed overhead. Filament is the
+plastic times a fitted factor (the slicer's overlaps and the first layer's squish).
+
+The constants were fitted (least squares, relative error) on PrusaSlicer 2.x's own estimates
+(``; estimated printing time (normal mode)``, ``; filament used [mm]``) of parts made by
+``stencil-cad run`` and sliced by ``stencil-cad slice``: the bundled example (four 173 mm plates of
+0.9 mm, 991-2,493 holes, and its 10 mm wall) and a 375 x 250 mm mural of ``coffee.png`` with
+2 layers on ``--bed prusa_mk4`` (4 tiles; its plates and walls). ``python -m benchmarks printed``
+prints the estimate beside the slicer's per part and in total; the fit and its residuals are
+recorded beside the constants.
+
+**Laser**: one sheet per plate; the cut is the outline plus every hole's circumference, timed by
+:func:`cut_seconds` (a cutting speed and a pierce per cut, not measured here). Walls are printed
+whatever the plates' process.
+
+**Paint**: each layer sprays through its open area (holes and windows); every pass is counted
+as one coat over that area at ``paints.coverage_m2_per_can`` (1.5 m² per 400 ml can per coat,
+the middle of the 1-2 m² a can's label gives). Overspray onto the plate around the holes is not
+counted: buy at least one can per colour.
+
+Kernel-free: plain arithmetic over the config and the tiling.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..figures.cost import CostFigures, PaintCost, PartCost
+from ..geometry import polygon_area
+from .tiling import TileGrid
+
+if TYPE_CHECKING:
+    from ..config import JobConfig
+    from ..model import DotSet
+
+__all__ = [
+    "EXPECTED_FILL",
+    "EXPECTED_OPEN",
+    "LASER_PIERCE_S",
+    "LASER_SPEED_MM_S",
+    "PlateSpec",
+    "WallSpec",
+    "cut_seconds",
+    "hours_text",
+    "making_cost",
+    "plate_print",
+    "plate_specs",
+    "wall_print",
+    "wall_specs",
+]
+
+#: Cutting speed assumed for the cut-time estimate, mm/s: a typical vector speed for thin
+#: stencil sheet (0.2-0.5 mm PET or card) on a 10-20 W diode or 40 W CO2 laser. Not measured
+#: here: set your machine's own speed and power from a test cut.
+LASER_SPEED_MM_S = 10.0
+#: Time per pierce (each hole and the outline start a cut), s; same caveat.
+LASER_PIERCE_S = 0.1
+
+#: The shipped FDM profile's layer height and line width, mm (``templates/prusa_fdm.ini``).
+LAYER_MM = 0.3
+LINE_MM = 0.45
+#: Filament: 1.75 mm PLA at 1.24 g/cm³.
+FILAMENT_MM2 = math.pi * (1.75 / 2.0) ** 2
+PLA_G_PER_MM3 = 1.24e-3
+
+#: Wall slicing (``stencil_cad.slicing.WALL_SETTINGS``): perimeters, skins and infill.
+_WALL_PERIMETERS = 2
+_WALL_BOTTOM_LAYERS = 2
+_WALL_TOP_LAYERS = 3
+_WALL_INFILL = 0.10
+
+#: The shipped profile's speeds, mm/s: first layer, solid infill, the top layer, perimeters (a
+#: plate's hole loops print as external perimeters), and the wall's (``WALL_SETTINGS``).
+_FIRST_MM_S = 30.0
+_SOLID_MM_S = 80.0
+_TOP_MM_S = 60.0
+_HOLE_MM_S = 35.0
+_WALL_PERIMETER_MM_S = 50.0
+_WALL_INFILL_MM_S = 80.0
+
+# Fitted (least squares on the relative error, the fixed overhead held at 60 s) on PrusaSlicer's
+# estimates of 17 parts: the bundled example's 4 plates (0.9 mm, 991-2,493 holes) and its wall,
+# the 375 x 250 mm coffee mural's 8 plates (1.2 mm, 1,090-6,066 holes) and 4 walls
+# (`python -m benchmarks printed --case cost`). From the stippler's holes, per part: plate hours
+# -8.4 % .. +6.9 %, wall hours -0.7 % .. +0.2 %, plate filament -5.2 % .. +2.8 %, walls within
+# 0.2 %. Totals: the example 8.45 h against the slicer's 8.22 h (+2.8 %), 165 g against 164 g
+# (+0.8 %); the mural 27.4 h against 27.9 h (-1.6 %), 537 g against 539 g (-0.3 %). From the
+# plan's expected holes (the dry run): the example 9.06 h (+10.2 %), 161 g (-1.8 %); the mural
+# 27.3 h (-2.0 %), 543 g (+0.7 %). Checked on parts the fit never saw: the 600 x 400 mm coffee
+# mural of 3 layers (8 tiles, 24 plates of 1.5 mm, 8 walls; 8 plates of every layer and 3 walls
+# sliced): plates -14.1 % .. -0.5 % (slower than modelled: 5 layers), walls +0.2 % .. +0.8 %,
+# filament within 3.4 %; the sliced parts' total 35.0 h against 36.9 h (-5.0 %), 733 g against
+# 730 g (+0.4 %); the plan's 109.1 h and 2,144 g against the slicer's scaled to all 32 parts
+# +0.3 % and +0.0 %. Refitting on all 33 parts moved no error below these (rms 5.1 %, the
+# example then +7 %): a new profile or a new plate design wants the parts measured again.
+#: Fixed seconds per part (the start G-code's moves and purge line), held, not fitted.
+FIXED_S = 60.0
+#: Plate: the slicer's time over the plate's lines at the profile's speeds (acceleration, turns).
+PLATE_SLOWDOWN = 1.229
+#: Plate: seconds per mm of hole edge per layer beyond its loop at the hole speed (travel, retraction).
+PLATE_S_PER_EDGE_MM = 0.0453
+#: Plate: filament volume over the plate's plastic (overlapping lines; 1.02-1.10 measured).
+PLATE_FILAMENT = 1.047
+#: Wall: the slicer's time over the wall's lines at the profile's wall speeds.
+WALL_SLOWDOWN = 1.265
+#: Wall: filament volume over the plastic its sparse slicing lays as modelled (0.960-0.963 measured).
+WALL_FILAMENT = 0.961
+
+#: The plan's expected holes per plate, as a share of the full-ink count (the hexagonal packing
+#: at the largest hole): measured 0.13-0.33 on the example's plates (mean 0.26) and 0.14-0.76 on
+#: the coffee mural's (mean 0.40).
+EXPECTED_FILL = 0.35
+#: The plan's expected open area per plate, as a share of the tile's picture area: measured
+#: 0.04-0.10 on the example (mean 0.08), 0.04-0.26 on the coffee mural (mean 0.14).
+EXPECTED_OPEN = 0.12
+
+
+def hours_text(hours: float) -> str:
+    """``1 h 49 min`` (or ``41 min``) for a time in hours."""
+    minutes = int(round(hours * 60))
+    return f"{minutes // 60} h {minutes % 60:02d} min" if minutes >= 60 else f"{minutes} min"
+
+
+def cut_seconds(cut_mm: float, pierces: int) -> float:
+    """Estimated laser time in s: the cut length at :data:`LASER_SPEED_MM_S` plus a pierce per cut."""
+    return cut_mm / LASER_SPEED_MM_S + LASER_PIERCE_S * pierces
+
+
+@dataclass(frozen=True)
+class PlateSpec:
+    """One plate as the cost model sees it.
+
+    Attributes:
+        tile: The tile's name (empty for a one-plate job).
+        layer: 1-based layer.
+        area_mm2: Outline area, mm².
+        perimeter_mm: Outline length, mm.
+        thickness_mm: Plate thickness, mm.
+        holes: Hole count.
+        open_mm2: Open area (holes as drawn, and windows), mm².
+        edge_mm: Length of every hole's edge, mm.
+    """
+
+    tile: str
+    layer: int
+    area_mm2: float
+    perimeter_mm: float
+    thickness_mm: float
+    holes: int
+    open_mm2: float
+    edge_mm: float
+
+    @property
+    def layers(self) -> int:
+        """Printed layers at the profile's layer height."""
+        return max(1, math.ceil(self.thickness_mm / LAYER_MM - 1e-6))
+
+    @property
+    def plastic_mm3(self) -> float:
+        """The plate's solid volume, mm³."""
+        return max(self.area_mm2 - self.open_mm2, 0.0) * self.thickness_mm
+
+    @property
+    def line_seconds(self) -> float:
+        """Seconds to lay the plate's lines at the profile's speeds (no acceleration, no travel).
+
+        The first layer at the first-layer speed, the top one at the top-infill speed, the rest at
+        the solid-infill speed; each hole's edge is a perimeter loop on every layer.
+        """
+        net = max(self.area_mm2 - self.open_mm2, 0.0) / LINE_MM
+        n = self.layers
+        per_layer = [_FIRST_MM_S] + [_SOLID_MM_S] * max(n - 2, 0) + ([_TOP_MM_S] if n > 1 else [])
+        return net * sum(1.0 / v for v in per_layer) + n * self.edge_mm / _HOLE_MM_S
+
+
+@dataclass(frozen=True)
+class WallSpec:
+    """One wall as the cost model sees it: its three outlines and its heights.
+
+    ``rings`` holds ``(area mm², length mm)`` of the outer outline, the opening and the pocket.
+    """
+
+    tile: str
+    standoff_mm: float
+    pocket_depth_mm: float
+    rings: tuple[tuple[float, float], tuple[float, float], tuple[float, float]]
+
+    @property
+    def plastic_mm3(self) -> float:
+        """The plastic the sparse slicing lays: shells, skins and infill (at most the solid)."""
+        (a_out, l_out), (a_open, l_open), (a_pocket, l_pocket) = self.rings
+        s, d = self.standoff_mm, self.pocket_depth_mm
+        low, top = a_out - a_open, a_out - a_pocket
+        solid = low * s + top * d
+        shell = _WALL_PERIMETERS * LINE_MM * (l_out * (s + d) + l_open * s + l_pocket * d)
+        skins = LAYER_MM * (_WALL_BOTTOM_LAYERS * low + _WALL_TOP_LAYERS * (top + (a_pocket - a_open)))
+        infill = _WALL_INFILL * max(solid - shell - skins, 0.0)
+        return min(shell + skins + infill, solid)
+
+    @property
+    def line_seconds(self) -> float:
+        """Seconds to lay the wall's lines at the profile's wall speeds (no acceleration, no travel)."""
+        (a_out, l_out), (a_open, l_open), (a_pocket, l_pocket) = self.rings
+        s, d = self.standoff_mm, self.pocket_depth_mm
+        low, top = a_out - a_open, a_out - a_pocket
+        shell = _WALL_PERIMETERS * (l_out * (s + d) + l_open * s + l_pocket * d) / LAYER_MM
+        skins = _WALL_BOTTOM_LAYERS * low + _WALL_TOP_LAYERS * (top + (a_pocket - a_open))
+        bulk = low * s + top * d - LAYER_MM * LINE_MM * shell - LAYER_MM * skins
+        infill = _WALL_INFILL * max(bulk, 0.0) / (LAYER_MM * LINE_MM)
+        return (
+            shell / _WALL_PERIMETER_MM_S
+            + skins / (LINE_MM * _SOLID_MM_S)
+            + infill / _WALL_INFILL_MM_S
+            + low / LINE_MM * (1.0 / _FIRST_MM_S - 1.0 / _SOLID_MM_S)
+        )
+
+
+def plate_print(spec: PlateSpec) -> tuple[float, float]:
+    """``(seconds, filament mm³)`` to print one plate with the shipped FDM profile, as modelled."""
+    seconds = FIXED_S + PLATE_SLOWDOWN * spec.line_seconds + PLATE_S_PER_EDGE_MM * spec.edge_mm * spec.layers
+    return seconds, PLATE_FILAMENT * spec.plastic_mm3
+
+
+def wall_print(spec: WallSpec) -> tuple[float, float]:
+    """``(seconds, filament mm³)`` to print one wall with the shipped profile's wall settings, as modelled."""
+    return FIXED_S + WALL_SLOWDOWN * spec.line_seconds, WALL_FILAMENT * spec.plastic_mm3
+
+
+def _ring(ring: np.ndarray) -> tuple[float, float]:
+    closed = np.vstack([ring, ring[:1]])
+    return float(abs(polygon_area(ring))), float(np.linalg.norm(np.diff(closed, axis=0), axis=1).sum())
+
+
+def _holes(cfg: JobConfig, r: np.ndarray) -> tuple[float, float]:
+    """``(open mm², edge mm)`` of holes of radii ``r`` as drawn (larger by the hole offset when compensated)."""
+    st = cfg.stipple
+    drawn = np.asarray(r, dtype=np.float64)
+    if st.compensate and st.process.value == "fdm":
+        drawn = drawn + max(st.resolved_hole_offset_mm, 0.0)
+    return float(np.sum(np.pi * drawn**2)), float(np.sum(2.0 * np.pi * drawn))
+
+
+def plate_specs(
+    grid: TileGrid,
+    cfg: JobConfig,
+    layers: int,
+    dotsets: Sequence[DotSet] | None = None,
+) -> list[PlateSpec]:
+    """Every plate of the job, tile by tile and layer by layer, before any CAD.
+
+    Args:
+        grid: The tiling (one tile for a one-plate job).
+        cfg: The job config, its plate thickness filled in for the tiles.
+        layers: Plates per tile.
+        dotsets: Each layer's holes and windows in mural mm (the stippler's); None for the plan's
+            expected holes.
+    """
+    from ..outline import offset_outline
+
+    st = cfg.stipple
+    d = st.auto_spacing_factor * (2.0 * st.resolved_max_radius_mm + st.resolved_web_mm)
+    full_per_mm2 = 2.0 / (math.sqrt(3.0) * d * d)
+    owners = [grid.owner(ds.xy_mm) for ds in dotsets] if dotsets is not None else None
+    out = []
+    for i, t in enumerate(grid.tiles):
+        area, perimeter = _ring(offset_outline(*t.size, cfg.plate.outline, 0.0))
+        core = (t.core[2] - t.core[0]) * (t.core[3] - t.core[1])
+        name = t.name if grid.tiled else ""
+        for k in range(layers):
+            if dotsets is not None and owners is not None:
+                r = np.asarray(dotsets[k].r_mm)[owners[k] == i]
+                n = len(r)
+                open_mm2, edge = _holes(cfg, r)
+                for outer, _ in dotsets[k].windows:
+                    ring = np.asarray(outer, dtype=np.float64)
+                    if int(grid.owner(ring[:1])[0]) == i:
+                        a, length = _ring(ring)
+                        open_mm2, edge, n = open_mm2 + a, edge + length, n + 1
+            else:
+                n = int(round(EXPECTED_FILL * full_per_mm2 * core))
+                open_mm2 = EXPECTED_OPEN * core
+                edge = 2.0 * math.sqrt(math.pi * open_mm2 * n)
+            out.append(PlateSpec(name, k + 1, area, perimeter, cfg.plate.thickness_mm, n, open_mm2, edge))
+    return out
+
+
+def wall_specs(grid: TileGrid, cfg: JobConfig) -> list[WallSpec]:
+    """Every wall of the job: one per tile and stand-off height."""
+    from ..outline import offset_outline
+
+    oc, wc = cfg.plate.outline, cfg.wall
+    depth = float(wc.pocket_depth(cfg.plate.thickness_mm))
+    out = []
+    for t in grid.tiles:
+        w, h = t.size
+        reach = wc.clearance_mm + wc.wall_thickness_mm
+        try:
+            outer = offset_outline(w, h, oc, reach)
+        except ValueError:
+            plain = oc.model_copy(update={"keys": []})
+            outer = offset_outline(w, h, plain, reach + max(k.depth_mm for k in oc.keys))
+        o = wc.opening_margin_mm
+        opening = np.array([[-o, -o], [w + o, -o], [w + o, h + o], [-o, h + o]])
+        pocket = offset_outline(w, h, oc, wc.clearance_mm)
+        rings = (_ring(outer), _ring(opening), _ring(pocket))
+        for s in wc.heights():
+            out.append(WallSpec(t.name if grid.tiled else "", float(s), depth, rings))
+    return out
+
+
+def _paint(
+    cfg: JobConfig, plates: list[PlateSpec], layers: int, passes: Sequence[float]
+) -> tuple[PaintCost, ...]:
+    cover = float(cfg.paints.coverage_m2_per_can)
+    out = []
+    for k in range(layers):
+        open_m2 = sum(p.open_mm2 for p in plates if p.layer == k + 1) / 1e6
+        n = float(passes[k]) if k < len(passes) else float(cfg.spray.passes)
+        out.append(PaintCost(k + 1, round(open_m2, 5), n, round(open_m2 * n / cover, 4)))
+    return tuple(out)
+
+
+def making_cost(
+    grid: TileGrid,
+    cfg: JobConfig,
+    layers: int,
+    dotsets: Sequence[DotSet] | None = None,
+) -> CostFigures:
+    """The job's making cost before any CAD, per part and in total.
+
+    Args:
+        grid: The tiling.
+        cfg: The job config; a plate thickness left to the process is filled in here for the tiles.
+        layers: Plates per tile.
+        dotsets: Each layer's holes and windows (mural mm) and its passes (``spray_time``, the
+            physical model's whole passes), or None for the plan's expected holes and
+            ``spray.passes``.
+
+    Returns:
+        The figures for the manifest's ``cost`` section.
+    """
+    from .tiling import part_sizes
+
+    side = max(max(part_sizes(*t.size, cfg)["plate"]) for t in grid.tiles)
+    cfg = cfg.fit_plate_thickness(side)
+    laser = cfg.stipple.process.value == "laser"
+    plates = plate_specs(grid, cfg, layers, dotsets)
+    physical = cfg.spray.is_physical
+    passes = [float(cfg.spray.passes) if not physical else d.amount(cfg.spray.passes) for d in dotsets or ()]
+    parts = []
+    cut_mm = cut_s = 0.0
+    for p in plates:
+        seconds, mm3 = plate_print(p)
+        cut = p.perimeter_mm + p.edge_mm
+        if laser:
+            seconds, mm3 = 0.0, 0.0
+            cut_mm += cut
+            cut_s += cut_seconds(cut, p.holes + 1)
+        parts.append(_part("plate", p.tile, p.layer, p.holes, seconds, mm3, cut if laser else None, p.holes))
+    for w in wall_specs(grid, cfg):
+        seconds, mm3 = wall_print(w)
+        parts.append(_part("wall", w.tile, 0, 0, seconds, mm3, None, 0))
+    return CostFigures(
+        basis="plan" if dotsets is None else "holes",
+        area_m2=round(grid.width_mm * grid.height_mm / 1e6, 6),
+        printer_hours=round(sum(p.print_hours for p in parts), 3),
+        filament_m=round(sum(p.filament_m for p in parts), 2),
+        filament_g=round(sum(p.filament_g for p in parts), 1),
+        parts=tuple(parts),
+        sheets=len(plates) if laser else None,
+        cut_m=round(cut_mm / 1000.0, 2) if laser else None,
+        cut_hours=round(cut_s / 3600.0, 3) if laser else None,
+        paint=_paint(cfg, plates, layers, passes),
+        coverage_m2_per_can=float(cfg.paints.coverage_m2_per_can),
+    )
+
+
+def _part(
+    kind: str,
+    tile: str,
+    layer: int,
+    holes: int,
+    seconds: float,
+    mm3: float,
+    cut_mm: float | None,
+    pierces: int,
+) -> PartCost:
+    return PartCost(
+        kind=kind,
+        tile=tile,
+        layer=layer,
+        holes=holes,
+        print_hours=round(seconds / 3600.0, 4),
+        filament_m=round(mm3 / FILAMENT_MM2 / 1000.0, 3),
+        filament_g=round(mm3 * PLA_G_PER_MM3, 2),
+        cut_m=None if cut_mm is None else round(cut_mm / 1000.0, 3),
+        cut_minutes=None if cut_mm is None else round(cut_seconds(cut_mm, pierces + 1) / 60.0, 2),
+    )
