@@ -11,8 +11,9 @@ detail finer than about one arcminute at the viewing distance. So with ``auto``:
 * the simulation grid has pixels of half the smallest dot's spray sigma, enough to sample
   every dot's Gaussian (a fixed 4 px/mm spends 16 MP per layer on a square metre).
 
-For FDM holes (r = 1 mm, web 0.8 mm, h = 7) this is 1.07 mm working pixels (0.93 px/mm) and
-0.71 mm simulation pixels (1.4 px/mm), against 2 and 4 px/mm fixed: 4.6× and 8× fewer pixels.
+For holes of r = 1 mm at a 0.8 mm web (the FDM preset of before; h = 7) this is 1.07 mm working
+pixels (0.93 px/mm) and 0.71 mm simulation pixels (1.4 px/mm), against 2 and 4 px/mm fixed: 4.6×
+and 8× fewer pixels.
 """
 
 from __future__ import annotations

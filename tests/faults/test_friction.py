@@ -12,27 +12,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_checks import one_line_error as _one_line_error
+from cli_checks import run_cli as _run
 
-from stencil_cad.cli import main
 from stencil_cad.config import io as cfg_io
 from stencil_cad.errors import ConfigError
-
-
-def _run(argv, capsys):
-    code = main([str(a) for a in argv])
-    cap = capsys.readouterr()
-    return code, cap.out, cap.err
-
-
-def _one_line_error(code, err, *needles):
-    assert code == 2, err
-    lines = [ln for ln in err.splitlines() if ln.startswith("stencil-cad: error: ")]
-    assert len(lines) == 1, err
-    assert "Traceback" not in err and "internal error" not in err, err
-    for n in needles:
-        assert n in lines[0], err
-    return lines[0]
-
 
 # --------------------------------------------------------------------------- config
 

@@ -18,44 +18,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_checks import SMALL
+from cli_checks import no_leftovers as _no_leftovers
+from cli_checks import one_line_error as _one_line_error
+from cli_checks import run_cli as _run
+from cli_checks import snapshot as _snapshot
 from PIL import Image
 
 from stencil_cad.cli import main
-from stencil_cad.output import LOCK, STAGING_PREFIX
-
-SMALL = """\
-name: small
-size: {width_mm: 40, px_per_mm: 2}
-decompose: {layers: 2}
-stipple: {process: sla}
-"""
-
-
-def _run(argv, capsys):
-    code = main([str(a) for a in argv])
-    cap = capsys.readouterr()
-    return code, cap.out, cap.err
-
-
-def _one_line_error(code, err, *needles):
-    assert code == 2, err
-    lines = [ln for ln in err.splitlines() if ln.startswith("stencil-cad: error: ")]
-    assert len(lines) == 1, err
-    assert "Traceback" not in err and "internal error" not in err, err
-    for n in needles:
-        assert n in lines[0], err
-    return lines[0]
-
-
-def _snapshot(folder: Path) -> dict[str, str]:
-    return {
-        p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.iterdir()) if p.is_file()
-    }
-
-
-def _no_leftovers(folder: Path) -> None:
-    names = [p.name for p in folder.iterdir()]
-    assert not any(n.startswith(STAGING_PREFIX) or n == LOCK for n in names), names
 
 
 @pytest.fixture(scope="module")

@@ -17,12 +17,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_checks import SMALL
 
 from stencil_cad import files
 from stencil_cad.cli import main
 from stencil_cad.errors import UserError
-
-SMALL = "name: small\nsize: {width_mm: 40, px_per_mm: 2}\ndecompose: {layers: 2}\nstipple: {process: sla}\n"
 
 
 @contextlib.contextmanager
