@@ -29,6 +29,8 @@ from .view import ViewConfig
 #: The wall's stand-off (mm) soft stencils of each process score best from at 1 m under the physical
 #: spray model (wall.standoff_mm's description gives the figures).
 STANDOFF_BY_PROCESS: dict[Process, float] = {Process.fdm: 10.0, Process.sla: 10.0, Process.laser: 10.0}
+#: The lowest stand-off a plate's sag limit follows (5 % of it, :mod:`.thickness`), mm.
+SAG_STANDOFF_FLOOR_MM = 5.0
 #: Laser kerf in mm per process when export.dxf_kerf_mm is not given: a CO2 laser cuts card, PET or 3 mm
 #: plywood 0.1-0.3 mm wide (Ponoko, Snijlab: about 0.2 mm); FDM and resin plates are not cut.
 KERF_BY_PROCESS: dict[Process, float] = {Process.fdm: 0.0, Process.sla: 0.0, Process.laser: 0.2}
@@ -247,14 +249,16 @@ class JobConfig(StrictModel):
             return Thickness(self.plate.thickness_mm, 0.0, 0.0, "the plate template's THICKNESS_MM")
         return given_thickness(self.plate.thickness_mm)
 
-    def fit_plate_thickness(self, side_mm: float) -> JobConfig:
+    def fit_plate_thickness(self, side_mm: float, standoff_mm: float | None = None) -> JobConfig:
         """This config with a filled-in plate thickness chosen again for plates of longest side ``side_mm``.
 
-        A thickness the config gives is kept: the same config comes back.
+        ``standoff_mm``: the wall the plates sit in when the job chose one lower than the process's
+        (the sag limit is a share of it); None: the process's stand-off. A thickness the config gives
+        is kept: the same config comes back.
         """
         if self._thickness_fill is None:
             return self
-        fill = _thickness_for(self.stipple.process, side_mm, self.plate)
+        fill = _thickness_for(self.stipple.process, side_mm, self.plate, standoff_mm)
         data = {**self.plate.model_dump(), "thickness_mm": fill.thickness_mm}
         plate = PlateConfig.model_validate(data)
         self.wall.check_plate(plate.outline, plate.thickness_mm)
@@ -339,10 +343,17 @@ class JobConfig(StrictModel):
         return self
 
 
-def _thickness_for(process: Process, side_mm: float, plate: PlateConfig) -> Thickness:
-    """The filled-in thickness of ``plate`` (its label's floor) for its process and longest side."""
+def _thickness_for(
+    process: Process, side_mm: float, plate: PlateConfig, standoff_mm: float | None = None
+) -> Thickness:
+    """The filled-in thickness of ``plate`` (its label's floor) for its process, longest side and stand-off."""
     floor = plate.label_depth_mm + LABEL_FLOOR_MM if plate.label is LabelMode.engrave else 0.0
-    return fill_thickness(process, side_mm, STANDOFF_BY_PROCESS[process], floor)
+    g = STANDOFF_BY_PROCESS[process]
+    if standoff_mm is not None:
+        # Under SAG_STANDOFF_FLOOR_MM the blur is mostly the paint's bleed, and a window sprayed from a
+        # wall a millimetre high only sharpens where the plate sags onto the surface.
+        g = min(max(standoff_mm, SAG_STANDOFF_FLOOR_MM), g)
+    return fill_thickness(process, side_mm, g, floor)
 
 
 def parse_overrides(

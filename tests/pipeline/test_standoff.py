@@ -36,22 +36,30 @@ def test_only_a_stand_off_left_null_is_chosen():
 
 def test_candidates_follow_what_the_config_leaves_to_the_job():
     cfg = _cfg()
-    # A picture without windows: the stand-off alone, the process's and one higher.
-    assert candidates(cfg, 0.0) == [("auto", 10.0), ("auto", 15.0)]
+    # A picture without windows: the stand-off alone, the process's, one lower and one higher.
+    assert candidates(cfg, 0.0) == [("auto", 10.0), ("auto", 5.0), ("auto", 15.0)]
     # Windows on a photo: each stand-off with and without them, the config's own design first.
-    assert candidates(cfg, 0.3) == [("auto", 10.0), ("auto", 15.0), ("off", 10.0), ("off", 15.0)]
-    # Windows carrying most of the paint: low stand-offs for the windows too (holes only never go low).
+    assert candidates(cfg, 0.3) == [
+        ("auto", 10.0),
+        ("auto", 5.0),
+        ("auto", 15.0),
+        ("off", 10.0),
+        ("off", 5.0),
+        ("off", 15.0),
+    ]
+    # Windows carrying most of the paint: low stand-offs for the windows too (holes only never under 5 mm).
     assert candidates(cfg, 0.9)[-2:] == [("auto", 4.0), ("auto", 1.0)]
-    assert len(candidates(cfg, 0.9)) == 6
+    assert len(candidates(cfg, 0.9)) == 8
     given = _cfg(wall={"standoff_mm": [10.0]})
     assert candidates(given, 0.9) == [("auto", 10.0), ("off", 10.0)]
     assert candidates(given, 0.0) == [("auto", 10.0)]
     assert candidates(_cfg(stipple={**_SLA["stipple"], "windows": "off"}), 0.9) == [
         ("off", 10.0),
+        ("off", 5.0),
         ("off", 15.0),
     ]
-    # FDM's higher stand-off is 20 mm.
-    assert candidates(parse_config({}, source="test"), 0.0) == [("auto", 10.0), ("auto", 15.0)]
+    # FDM's stand-offs are the same.
+    assert candidates(parse_config({}, source="test"), 0.0) == [("auto", 10.0), ("auto", 5.0), ("auto", 15.0)]
 
 
 def test_with_design_sets_windows_and_stand_off():
@@ -90,6 +98,7 @@ def test_a_photo_without_windows_tries_the_stand_offs_only():
     fig = run.figures.standoff
     assert fig is not None and [(t.windows, t.standoff_mm) for t in fig.trials] == [
         ("auto", 10.0),
+        ("auto", 5.0),
         ("auto", 15.0),
     ]
     best = min(fig.trials, key=lambda t: t.scielab)
@@ -103,7 +112,7 @@ def test_flat_colour_art_sprays_from_lower_down():
     assert window_share(run.cfg, layers, TileGrid.whole(60.0, 60.0), (60.0, 60.0)) > 0.8
     cfg = choose_plates(run, layers, (60.0, 60.0), pic)
     fig = run.figures.standoff
-    assert fig is not None and len(fig.trials) == 6
+    assert fig is not None and len(fig.trials) == 8
     scores = {(t.windows, t.standoff_mm): t.scielab for t in fig.trials}
     # The windows' edges stay sharp low down, and a field of holes cannot spray a solid: the trials
     # say so, and the job takes the best.
@@ -130,7 +139,7 @@ def test_holes_alone_are_chosen_where_windows_spray_worse(monkeypatch):
     _scripted(
         monkeypatch,
         {("auto", 10.0): 2.9, ("auto", 15.0): 2.8, ("off", 10.0): 2.3, ("off", 15.0): 2.2}
-        | {("auto", 4.0): 3.0, ("auto", 1.0): 3.5},
+        | {("auto", 4.0): 3.0, ("auto", 1.0): 3.5, ("auto", 5.0): 3.1, ("off", 5.0): 2.6},
     )
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
     cfg = choose_plates(run, layers, (60.0, 60.0), pic)
@@ -144,6 +153,7 @@ def test_the_two_best_of_different_stand_offs_are_told_apart_refined(monkeypatch
     # The hubble case: unrefined, windows from 1 mm look best; refined, those from 4 mm are.
     pic, layers = _flat_layers()
     unrefined = {("auto", 10.0): 6.0, ("auto", 15.0): 6.2, ("off", 10.0): 6.5, ("off", 15.0): 6.6}
+    unrefined |= {("auto", 5.0): 6.1, ("off", 5.0): 6.7}
     unrefined |= {("auto", 4.0): 5.8, ("auto", 1.0): 5.4}
     refined = {("auto", 4.0): 3.9, ("auto", 1.0): 4.4}
     _scripted(monkeypatch, unrefined, refined)
@@ -181,7 +191,7 @@ def test_windows_off_are_kept_and_never_go_low():
     pic, layers = _flat_layers()
     run = Run(cfg=_cfg(stipple={**_SLA["stipple"], "windows": "off"}), out=None)  # type: ignore[arg-type]
     cfg = choose_plates(run, layers, (60.0, 60.0), pic)
-    assert cfg.stipple.windows.value == "off" and cfg.wall.standoff_mm[0] in (10.0, 15.0)
+    assert cfg.stipple.windows.value == "off" and cfg.wall.standoff_mm[0] in (5.0, 10.0, 15.0)
 
 
 def test_nothing_left_to_the_job_tries_nothing(monkeypatch):
@@ -247,8 +257,19 @@ def test_a_measured_cap_is_tried_at_the_stand_off_that_keeps_the_priors_blur(tmp
     job.write_text(f"stipple: {{process: sla}}\nspray: {{profile: {wide}}}\n")
     cfg = load_config(job)
     assert matched_standoff(cfg) == 6.5  # 10 mm x 0.12 / 0.18, to 0.5 mm: the same blur
-    assert candidates(cfg, 0.0) == [("auto", 10.0), ("auto", 6.5), ("auto", 15.0)]
+    assert candidates(cfg, 0.0) == [("auto", 10.0), ("auto", 6.5), ("auto", 5.0), ("auto", 15.0)]
     skinny = tmp_path / "skinny.yaml"
     skinny.write_text("spread_k: 0.04\nbleed_sigma_mm: 0.25\ndeposit_per_pass: 1.5\n")
     job.write_text(f"stipple: {{process: sla}}\nspray: {{profile: {skinny}}}\n")
     assert matched_standoff(load_config(job)) == 30.0
+
+
+def test_a_lower_wall_gets_a_plate_that_sags_within_its_share():
+    cfg = parse_config({"size": {"width_mm": 200.0}}, source="test")
+    assert cfg.thickness_fill.filled
+    low = with_design(cfg, "auto", 5.0)
+    assert low.plate.thickness_mm > cfg.plate.thickness_mm  # 5 % of 5 mm, not of 10
+    assert with_design(cfg, "auto", 1.0).plate.thickness_mm == low.plate.thickness_mm  # the 5 mm floor
+    assert with_design(cfg, "auto", 15.0).plate.thickness_mm == cfg.plate.thickness_mm
+    given = parse_config({"size": {"width_mm": 200.0}, "plate": {"thickness_mm": 1.2}}, source="test")
+    assert with_design(given, "auto", 5.0).plate.thickness_mm == 1.2
