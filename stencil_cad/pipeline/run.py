@@ -87,7 +87,7 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
     # picture (a mural keeps the config's: trials over every tile would cost more than the job);
     # the saved config records it.
     if not grid.tiled:
-        choose_plates(run, layers, size, picture)
+        design_plates(run, layers, size, picture)
     save_config(run)
     dotsets = stage_stipple(run, layers, size, picture, grid)
     record_cost(run, grid, dotsets)
@@ -114,15 +114,28 @@ def fit_thickness(run: Run, grid: TileGrid) -> JobConfig:
 
     side = max(max(part_sizes(t.size[0], t.size[1], run.cfg)["plate"]) for t in grid.tiles)
     run.cfg = run.cfg.fit_plate_thickness(side)
+    record_plate(run, side)
+    return run.cfg
+
+
+def record_plate(run: Run, side_mm: float) -> None:
+    """Figure ``plate``: the thickness of ``run.cfg`` and why, for plates of longest side ``side_mm``."""
     fill = run.cfg.thickness_fill
     run.figures.plate = PlateFigures(
         thickness_mm=run.cfg.plate.thickness_mm,
         filled=fill.filled,
-        side_mm=round(side, 1),
+        side_mm=round(side_mm, 1),
         sag_mm=round(fill.sag_mm, 3) if fill.filled else None,
         thickness_reason=fill.reason,
     )
-    return run.cfg
+
+
+def design_plates(run: Run, layers: Layers, size: tuple[float, float], picture: Picture | None) -> None:
+    """The plate design left to the job (:func:`choose_plates`), and the plate thickness its wall asks for."""
+    choose_plates(run, layers, size, picture)
+    plate = run.figures.plate
+    if plate is not None and plate.thickness_mm != run.cfg.plate.thickness_mm:
+        record_plate(run, plate.side_mm)
 
 
 def plate_layers(cfg: JobConfig) -> int:
@@ -243,7 +256,7 @@ def _run_stage_command(
         if not grid.tiled:
             # The plate design left to the job is chosen as the whole run chose it (the same
             # trials on the same layers and seed), so a stage command gives the run's files.
-            choose_plates(run, layers, size, picture)
+            design_plates(run, layers, size, picture)
         if dotsets is None:
             record_cost(run, grid, stage_stipple(run, layers, size, picture, grid))
         elif command == "build":
