@@ -5,6 +5,8 @@ from __future__ import annotations
 import hashlib
 from pathlib import Path
 
+import numpy as np
+
 from stencil_cad.cli import main
 from stencil_cad.output import LOCK, STAGING_PREFIX
 
@@ -47,3 +49,13 @@ def no_leftovers(folder: Path) -> None:
     """No staging folder, lock or partial file in ``folder`` (or no folder at all)."""
     names = [p.name for p in folder.iterdir()] if folder.is_dir() else []
     assert not any(n.startswith(STAGING_PREFIX) or n == LOCK or ".partial" in n for n in names), names
+
+
+def box_triangles(w: float, h: float, t: float = 1.2) -> np.ndarray:
+    """The ``(12, 3, 3)`` triangles of a closed ``w x h x t`` mm box, outward-facing."""
+    v = np.array(
+        [[0, 0, 0], [w, 0, 0], [w, h, 0], [0, h, 0], [0, 0, t], [w, 0, t], [w, h, t], [0, h, t]], dtype=float
+    )
+    f = [[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7], [0, 1, 5], [0, 5, 4]]
+    f += [[1, 2, 6], [1, 6, 5], [2, 3, 7], [2, 7, 6], [3, 0, 4], [3, 4, 7]]
+    return v[np.array(f)]

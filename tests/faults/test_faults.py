@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from cli_checks import SMALL
+from cli_checks import SMALL, box_triangles
 from cli_checks import no_leftovers as _no_leftovers
 from cli_checks import one_line_error as _one_line_error
 from cli_checks import run_cli as _run
@@ -595,24 +595,7 @@ def _fake_slicer(tmp_path: Path, body: str) -> Path:
 def _plate_stl(path: Path, w: float, h: float) -> Path:
     from stencil_cad.exchange.mesh import write_triangles_stl
 
-    v = np.array(
-        [[0, 0, 0], [w, 0, 0], [w, h, 0], [0, h, 0], [0, 0, 1.2], [w, 0, 1.2], [w, h, 1.2], [0, h, 1.2]]
-    )
-    f = [
-        [0, 2, 1],
-        [0, 3, 2],
-        [4, 5, 6],
-        [4, 6, 7],
-        [0, 1, 5],
-        [0, 5, 4],
-        [1, 2, 6],
-        [1, 6, 5],
-        [2, 3, 7],
-        [2, 7, 6],
-        [3, 0, 4],
-        [3, 4, 7],
-    ]
-    write_triangles_stl(path, v[np.array(f)].astype(float))
+    write_triangles_stl(path, box_triangles(w, h))
     return path
 
 

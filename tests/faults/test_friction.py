@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_checks import box_triangles
 from cli_checks import one_line_error as _one_line_error
 from cli_checks import run_cli as _run
 
@@ -79,28 +80,6 @@ def test_a_standoff_out_of_range_still_names_the_range(tmp_path):
 # --------------------------------------------------------------------------- slice
 
 
-def _box(w: float, h: float) -> np.ndarray:
-    v = np.array(
-        [[0, 0, 0], [w, 0, 0], [w, h, 0], [0, h, 0], [0, 0, 1.2], [w, 0, 1.2], [w, h, 1.2], [0, h, 1.2]],
-        dtype=float,
-    )
-    f = [
-        [0, 2, 1],
-        [0, 3, 2],
-        [4, 5, 6],
-        [4, 6, 7],
-        [0, 1, 5],
-        [0, 5, 4],
-        [1, 2, 6],
-        [1, 6, 5],
-        [2, 3, 7],
-        [2, 7, 6],
-        [3, 0, 4],
-        [3, 4, 7],
-    ]
-    return v[np.array(f)]
-
-
 def _write(path: Path, tri: np.ndarray) -> Path:
     """A binary STL of the triangles as given (no merging, NaN kept)."""
     out = bytearray(b"\0" * 80)
@@ -128,7 +107,7 @@ def _fake_slicer(tmp_path: Path) -> Path:
 
 
 def test_slice_refuses_an_stl_with_nan_corners(tmp_path, capsys):
-    tri = _box(53, 53)
+    tri = box_triangles(53, 53)
     tri[3, 1, 0] = np.nan
     stl = _write(tmp_path / "layer_01.stl", tri)
     code, _, err = _run(["slice", stl], capsys)
@@ -139,7 +118,7 @@ def test_slice_refuses_an_stl_with_nan_corners(tmp_path, capsys):
 
 def test_slice_warns_of_open_edges(tmp_path, capsys, caplog, monkeypatch):
     monkeypatch.setenv("STENCIL_CAD_PRUSA_SLICER", str(_fake_slicer(tmp_path)))
-    stl = _write(tmp_path / "layer_01.stl", _box(50, 50)[2:])  # the top is missing
+    stl = _write(tmp_path / "layer_01.stl", box_triangles(50, 50)[2:])  # the top is missing
     code, _, err = _run(["slice", stl], capsys)
     assert code == 0, err
     said = err + caplog.text
@@ -148,7 +127,7 @@ def test_slice_warns_of_open_edges(tmp_path, capsys, caplog, monkeypatch):
 
 def test_a_closed_stl_slices_without_a_mesh_warning(tmp_path, capsys, caplog, monkeypatch):
     monkeypatch.setenv("STENCIL_CAD_PRUSA_SLICER", str(_fake_slicer(tmp_path)))
-    stl = _write(tmp_path / "layer_01.stl", _box(50, 50))
+    stl = _write(tmp_path / "layer_01.stl", box_triangles(50, 50))
     code, _, err = _run(["slice", stl], capsys)
     assert code == 0, err
     assert "open edge" not in err + caplog.text
