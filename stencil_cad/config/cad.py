@@ -178,12 +178,13 @@ class WallConfig(StrictModel):
             "model it sets every hole's blur (sigma = sqrt(bleed^2 + (spread_k * stand-off)^2)). null: "
             "the height the job's stencils score best from, seen from 1 m (python -m benchmarks quality): "
             "10 mm for every process's soft stencils (fdm, sla and laser holes share the 0.5 mm floor), 1 mm for hard stencils, whose cut-outs keep sharp edges low down "
-            "(astronaut 8.5 / 9.1 / 12.4 at 1 / 3 / 10 mm). A soft one-plate job then tries that height, 5 mm "
+            "(astronaut 8.5 / 9.1 / 12.4 at 1 / 3 / 10 mm). A soft one-plate job then tries that height, 2 mm "
+            "either side (the bundled example: 3.99 / 3.66 at 10 / 8 mm, refined), 5 mm "
             "lower (fine texture: grass 4.69 / 2.73 at 10 / 5 mm) and 5 mm higher (photos' dots may blend "
             "better: rocket), a measured can's blur-matched height, and where windows carry at least "
             "half the paint (a logo, flat-colour art) 1 and 4 mm for the windows too (the generated logo: 2.00 / "
             "0.92 / 0.88 at 10 / 4 / 1 mm), by stippling and spraying its unrefined plates, and takes the best "
-            "(the two best refined where their heights differ); a lower wall gets a plate filled thicker "
+            "(the best refined beside the best of another height); a lower wall gets a plate filled thicker "
             "for its sag. The chosen height is saved in the run's config."
         ),
     )

@@ -19,6 +19,10 @@ from .stipple import Process
 NOZZLE_HEIGHT_BY_PROCESS: dict[Process, float] = {Process.fdm: 30.0, Process.sla: 30.0, Process.laser: 30.0}
 #: The nozzle height of a spray section outside a job, where no process is known.
 DEFAULT_NOZZLE_HEIGHT = NOZZLE_HEIGHT_BY_PROCESS[Process.sla]
+#: The sweep speeds a layer's dose may ask for, as multiples of ``spray.pass_speed_m_s``: a hand that
+#: sweeps at about 0.5 m/s keeps an even pace between about 0.3 and 0.75 m/s; slower drips sooner,
+#: faster leaves gaps between the fan's overlapping passes.
+SWEEP_PACE = (0.6, 1.5)
 
 
 class Calibrate(str, enum.Enum):
@@ -147,8 +151,8 @@ class SprayConfig(StrictModel):
         le=50.0,
         description=(
             "Physical model: passes of the can over the stencil per layer, sweeping at can_distance_mm and "
-            "pass_speed_m_s. The tone calibration (spray.calibrate: spray_time) chooses whole passes per "
-            "layer, starting here. Range (0, 50]."
+            "pass_speed_m_s. The tone calibration (spray.calibrate: spray_time) chooses each layer's dose "
+            "(in steps of spray.dose_step, sprayed as whole passes at a pace), starting here. Range (0, 50]."
         ),
     )
     max_passes: int = Field(
@@ -179,7 +183,23 @@ class SprayConfig(StrictModel):
         0.5,
         ge=0.05,
         le=5.0,
-        description="Physical model: sweep speed of the can in m/s during a pass. Range [0.05, 5].",
+        description=(
+            "Physical model: sweep speed of the can in m/s during a pass, the hand's usual pace. A layer whose "
+            "dose falls between whole passes is swept a little faster or slower (spray.dose_step). "
+            "Range [0.05, 5]."
+        ),
+    )
+    dose_step: float = Field(
+        0.25,
+        gt=0.0,
+        le=1.0,
+        description=(
+            "Physical model: finest step, in passes, of the dose the tone calibration gives a layer. The "
+            "maker sprays it as whole passes at a sweep speed within 0.6-1.5 times pass_speed_m_s "
+            "(2.5 passes' dose: 3 passes at 1.2 times the pace), so each layer gets the dose it was "
+            "designed for, not the nearest whole pass (2 passes or 3 is a 50 % step). 1: whole passes "
+            "at pass_speed_m_s. Range (0, 1]."
+        ),
     )
     can: CanConstants = Field(
         default_factory=CanConstants,
@@ -349,6 +369,46 @@ class SprayConfig(StrictModel):
         return (
             c.deposit_per_pass * (c.distance_mm / self.can_distance_mm) * (c.speed_m_s / self.pass_speed_m_s)
         )
+
+    def doses(self) -> list[float]:
+        """Every dose (in passes at ``pass_speed_m_s``) a layer may be given.
+
+        Multiples of ``dose_step`` from 1 to ``max_passes`` that some whole number of passes sprays at a
+        pace in :data:`SWEEP_PACE`.
+        """
+        n = int(round((self.max_passes - 1.0) / self.dose_step))
+        out = [1.0 + i * self.dose_step for i in range(n + 1)]
+        return [d for d in out if d <= self.max_passes + 1e-9 and self.passes_and_speed(d) is not None]
+
+    def passes_and_speed(self, dose: float) -> tuple[int, float] | None:
+        """How the hand sprays ``dose`` (passes' worth at ``pass_speed_m_s``): ``(passes, speed in m/s)``.
+
+        The whole passes nearest the dose whose speed ``pass_speed_m_s * passes / dose`` stays within
+        :data:`SWEEP_PACE` of the usual pace (a pass's deposit falls as 1 / speed), at most
+        ``max_passes``; None when none does (see :meth:`hand`).
+        """
+        lo, hi = SWEEP_PACE
+        best: tuple[float, int] | None = None
+        for n in range(1, self.max_passes + 1):
+            pace = n / float(dose)
+            if lo - 1e-9 <= pace <= hi + 1e-9 and (best is None or abs(n - dose) <= best[0]):
+                best = (abs(n - dose), n)
+        if best is None:
+            return None
+        n = best[1]
+        return n, self.pass_speed_m_s * n / float(dose)
+
+    def hand(self, dose: float) -> tuple[int, float]:
+        """How the hand sprays ``dose``: :meth:`passes_and_speed`, or else the nearest whole passes.
+
+        At the pace that sprays ``dose`` when no pace in :data:`SWEEP_PACE` does (a dose under one
+        pass: one quicker pass).
+        """
+        got = self.passes_and_speed(dose)
+        if got is not None:
+            return got
+        n = max(1, min(self.max_passes, round(float(dose))))
+        return n, self.pass_speed_m_s * n / max(float(dose), 1e-9)
 
     def full_cover_passes(self, cover: float = 0.98) -> int:
         """The fewest whole passes (at most ``max_passes``) that cover ``cover`` of an open area.

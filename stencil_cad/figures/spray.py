@@ -134,6 +134,8 @@ class SprayStep(KeyedRow):
     layer: int | None = None
     paint: str | None = None
     passes: int | None = None
+    dose_passes: float | None = None
+    pass_speed_m_s: float | None = None
     spray_time: float | None = None
     text: str | None = None
 
@@ -188,6 +190,8 @@ class OrderStep(KeyedRow):
     hex: str | None = None
     name: str | None = None
     spray_time: float | None = None
+    passes: int | None = None
+    pass_speed_m_s: float | None = None
 
 
 @dataclass(frozen=True)

@@ -71,6 +71,8 @@ class Step:
     kind: str
     how: str = ""
     detail: str = ""
+    passes: int | None = None
+    speed_m_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -259,6 +261,8 @@ def _steps(f: Figures, s: JobSettings, names: set[str]) -> list[Step]:
                 kind="holes" if s.mode == "soft" else "cut-outs",
                 how=how.get(number, ""),
                 detail=_cutout_detail(own.cutouts if own is not None else None),
+                passes=o.passes,
+                speed_m_s=o.pass_speed_m_s,
             )
         )
     return steps
@@ -508,6 +512,11 @@ def _amount(step: Step, unit: str, bare: bool = False) -> str:
     t = step.spray_time
     if t is None:
         return "–" if bare else ""
+    if unit == "passes" and step.passes is not None and step.speed_m_s is not None:
+        # The dose as the hand sprays it: whole passes at a pace (spray.dose_step).
+        n = step.passes
+        text = f"{n} pass{'' if n == 1 else 'es'} at {step.speed_m_s:.2g} m/s"
+        return text if bare else f", {text}"
     text = (
         f"{t:g} pass{'' if t == 1 else 'es'}"
         if unit == "passes"
@@ -538,6 +547,7 @@ def _drop(sheet: Sheet, step: Step) -> str:
 def _unit_note(unit: str) -> str:
     if unit == "passes":
         return (
-            "Passes: whole sweeps of the can across the plate, at the can distance and speed given per step."
+            "Passes: whole sweeps of the can across the plate, at the can distance and speed given per step "
+            "(a little faster or slower than the usual pace where the layer's dose lies between whole passes)."
         )
     return "Spray time is relative to the job's spray.spray_time (1 = the planned dose)."

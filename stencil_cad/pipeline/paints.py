@@ -57,7 +57,8 @@ def write_spray_order(run: Run, primer: np.ndarray, colours: np.ndarray, spray_t
     how: dict[str, Any] = {"unit": sp.amount_unit}
     if sp.is_physical:
         for o, t in zip(order, spray_times, strict=True):
-            o["passes"] = max(1, round(float(t)))
+            o["passes"], speed = sp.hand(float(t))
+            o["pass_speed_m_s"] = round(speed, 3)
         how.update(can_distance_cm=sp.can_distance_mm / 10.0, pass_speed_m_s=sp.pass_speed_m_s)
     else:
         how["nozzle_height"] = sp.nozzle_height

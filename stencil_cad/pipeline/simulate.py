@@ -200,12 +200,12 @@ def spraying_steps(cfg: JobConfig, layers: Layers, amounts: Sequence[float]) -> 
     for i, amount in enumerate(amounts):
         paint = to_hex(layers.colours[i])
         if sp.is_physical:
-            n = max(1, round(amount))
+            n, speed = sp.hand(float(amount))
             cm = sp.can_distance_mm / 10.0
-            seconds = n * per_pass
+            seconds = n * per_pass * sp.pass_speed_m_s / speed
             text = (
                 f"spray layer {i + 1} ({paint}): {n} light pass{'' if n == 1 else 'es'} from {cm:g} cm at "
-                f"about {sp.pass_speed_m_s:g} m/s (about {seconds:.0f} s of spraying)"
+                f"about {speed:.2g} m/s (about {seconds:.0f} s of spraying)"
                 + ("; let each pass flash off (about a minute) before the next" if n > 1 else "")
             )
             out.append(
@@ -214,8 +214,9 @@ def spraying_steps(cfg: JobConfig, layers: Layers, amounts: Sequence[float]) -> 
                         "layer": i + 1,
                         "paint": paint,
                         "passes": n,
+                        "dose_passes": round(float(amount), 4),
                         "can_distance_cm": cm,
-                        "pass_speed_m_s": sp.pass_speed_m_s,
+                        "pass_speed_m_s": round(speed, 3),
                         "spray_seconds": round(seconds, 1),
                         "text": text,
                     }

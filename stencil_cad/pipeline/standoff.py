@@ -14,8 +14,8 @@ where holes alone scored 2.20.
 So the designs are ranked by what they spray: each candidate's plates are stippled (without the
 refinement) and sprayed in simulation on a coarse grid, and scored at the viewing distance like the
 job's result; the best is kept. The candidates: windows on and off (only where the picture has
-windows), at the process's stand-off, :data:`LOWER_BY_MM` below and :data:`HIGHER_BY_MM` above it
-and, for a measured can, the
+windows), at the process's stand-off, :data:`LOWER_BY_MM` below and :data:`HIGHER_BY_MM` above it,
+:data:`NEAR_BY_MM` either side of it and, for a measured can, the
 stand-off at which it blurs the holes as the prior's can does at the process's (:func:`matched_standoff`),
 and where windows carry at
 least :data:`WINDOW_SHARE` of the paint, windows at :data:`LOW_STANDOFFS_MM` too. A job whose config
@@ -54,6 +54,10 @@ HIGHER_BY_MM = 5.0
 #: at 1 m from 10 mm, 3.07 from 6 and 2.90 from 4; the bundled example 3.99, 4.00 from 6).
 LOWER_BY_MM = 5.0
 LOWEST_MM = 3.0
+#: Stand-offs this near the process's, in mm, are tried too (with the config's windows): the bundled
+#: example scored S-CIELAB 3.99 at 1 m from 10 mm, 3.66 from 8, 3.78 from 7, 4.00 from 6 and 4.35
+#: from 5 (refined, FDM holes): the best wall for a picture lies between the coarse steps.
+NEAR_BY_MM = 2.0
 #: The trials simulate on a grid this many times coarser than the job's (at least ...).
 TRIAL_COARSENING = 2.0
 
@@ -98,7 +102,8 @@ def candidates(cfg: JobConfig, share: float) -> list[tuple[str, float]]:
 
     Windows on and off where the config lets the job choose (``stipple.windows: auto``) and the
     picture has windows (``share`` > 0); the process's stand-off, :data:`LOWER_BY_MM` below and
-    :data:`HIGHER_BY_MM` above it where the config leaves the stand-off to the job, and for windows the :data:`LOW_STANDOFFS_MM`
+    :data:`HIGHER_BY_MM` above it where the config leaves the stand-off to the job (and, with the
+    config's windows, :data:`NEAR_BY_MM` either side), and for windows the :data:`LOW_STANDOFFS_MM`
     too where they carry at least :data:`WINDOW_SHARE` of the paint.
     """
     own = (cfg.stipple.windows.value, float(cfg.wall.standoff_mm[0]))
@@ -114,6 +119,9 @@ def candidates(cfg: JobConfig, share: float) -> list[tuple[str, float]]:
         if matched is not None and matched not in heights:
             heights.insert(1, matched)
     out = [(w, g) for w in windows for g in heights]
+    if cfg.chooses_standoff:
+        near = [g for g in (own[1] - NEAR_BY_MM, own[1] + NEAR_BY_MM) if g >= LOWEST_MM and g not in heights]
+        out[1:1] = [(own[0], g) for g in near]
     if cfg.chooses_standoff and share >= WINDOW_SHARE and Windows.auto.value in windows:
         out += [(Windows.auto.value, g) for g in sorted(LOW_STANDOFFS_MM, reverse=True) if g < own[1]]
     return out
@@ -263,18 +271,20 @@ def _refined_pair(
     grid: float,
     trials: list[PlateTrial],
 ) -> list[PlateTrial]:
-    """The two best trials refined and sprayed, when their stand-offs differ; else nothing.
+    """The best trial and the best of another stand-off refined and sprayed; nothing when all share one.
 
     The unrefined trials rank designs of one stand-off well, but the refinement sharpens more where
     the blur is larger: on a mostly dark photo (the quality benchmark's hubble_deep_field, primed
     dark) windows from 1 mm scored 6.13 unrefined against 6.71 from 4 mm, and refined 4.91 against
-    4.37. So where the two best differ in stand-off, both are refined (as the job refines) and
-    sprayed on the trials' grid, and the better refined one is kept.
+    4.37. So the best design and the best of any other stand-off are both refined (as the job
+    refines) and sprayed on the trials' grid, and the better refined one is kept.
     """
     if not cfg.refine.enabled or len(trials) < 2:
         return []
-    first, second = sorted(trials, key=lambda t: t.scielab)[:2]
-    if first.standoff_mm == second.standoff_mm:
+    ranked = sorted(trials, key=lambda t: t.scielab)
+    first = ranked[0]
+    second = next((t for t in ranked if t.standoff_mm != first.standoff_mm), None)
+    if second is None:
         return []
     out = []
     for t in (first, second):
@@ -294,15 +304,20 @@ def _reason(
     """Why the design was chosen, in one line."""
     if not trials:
         return f"{best.label}: the only design left to the job"
+    kept = "the config's own" if (best.windows, best.standoff_mm) == own else "chosen"
+    if refined:
+        won = min(refined, key=lambda t: t.scielab)
+        lost = max(refined, key=lambda t: t.scielab)
+        first = min(trials, key=lambda t: t.scielab)
+        return (
+            f"{best.label} ({kept}): of {len(trials)} designs tried unrefined (S-CIELAB at {distance_m:g} m), "
+            f"the best was {first.label} {first.scielab:.2f}; refined, {won.label} scored {won.scielab:.2f} "
+            f"against {lost.label} {lost.scielab:.2f}"
+        )
     others = sorted((t for t in trials if t is not best), key=lambda t: t.scielab)
     runner = others[0]
-    kept = "the config's own" if (best.windows, best.standoff_mm) == own else "chosen"
     text = (
         f"{best.label} ({kept}): its unrefined plates scored {best.scielab:.2f} (S-CIELAB at {distance_m:g} m), "
         f"the best of {len(trials)} designs tried (next {runner.label} {runner.scielab:.2f})"
     )
-    if refined:
-        won = min(refined, key=lambda t: t.scielab)
-        lost = max(refined, key=lambda t: t.scielab)
-        text += f"; refined, {won.label} scored {won.scielab:.2f} against {lost.label} {lost.scielab:.2f}"
     return text

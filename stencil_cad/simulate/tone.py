@@ -356,8 +356,9 @@ def _windows_mse(windows, weight, cfg: SprayConfig, amount: float) -> float:
 def _spray_time_candidates(mode: Calibrate, cfg: SprayConfig) -> list[float]:
     """The spray times (or passes, under the physical model) the calibrated choice compares."""
     if mode == Calibrate.spray_time and cfg.model == SprayModel.physical:
-        # A hand sprays whole passes, at most spray.max_passes of them.
-        return [float(n) for n in range(1, cfg.max_passes + 1)]
+        # A hand sprays whole passes (at most spray.max_passes) at a pace it can vary a little:
+        # doses in steps of spray.dose_step.
+        return cfg.doses()
     if mode == Calibrate.spray_time:
         return sorted({min(100.0, cfg.spray_time * f) for f in _A_FACTORS})
     return [cfg.amount]

@@ -36,11 +36,19 @@ def test_only_a_stand_off_left_null_is_chosen():
 
 def test_candidates_follow_what_the_config_leaves_to_the_job():
     cfg = _cfg()
-    # A picture without windows: the stand-off alone, the process's, one lower and one higher.
-    assert candidates(cfg, 0.0) == [("auto", 10.0), ("auto", 5.0), ("auto", 15.0)]
-    # Windows on a photo: each stand-off with and without them, the config's own design first.
+    # A picture without windows: the stand-off alone, the process's, two near it, one lower and one higher.
+    assert candidates(cfg, 0.0) == [
+        ("auto", 10.0),
+        ("auto", 8.0),
+        ("auto", 12.0),
+        ("auto", 5.0),
+        ("auto", 15.0),
+    ]
+    # Windows on a photo: each coarse stand-off with and without them, the config's own design first.
     assert candidates(cfg, 0.3) == [
         ("auto", 10.0),
+        ("auto", 8.0),
+        ("auto", 12.0),
         ("auto", 5.0),
         ("auto", 15.0),
         ("off", 10.0),
@@ -49,17 +57,19 @@ def test_candidates_follow_what_the_config_leaves_to_the_job():
     ]
     # Windows carrying most of the paint: low stand-offs for the windows too (holes only never under 5 mm).
     assert candidates(cfg, 0.9)[-2:] == [("auto", 4.0), ("auto", 1.0)]
-    assert len(candidates(cfg, 0.9)) == 8
+    assert len(candidates(cfg, 0.9)) == 10
     given = _cfg(wall={"standoff_mm": [10.0]})
     assert candidates(given, 0.9) == [("auto", 10.0), ("off", 10.0)]
     assert candidates(given, 0.0) == [("auto", 10.0)]
     assert candidates(_cfg(stipple={**_SLA["stipple"], "windows": "off"}), 0.9) == [
         ("off", 10.0),
+        ("off", 8.0),
+        ("off", 12.0),
         ("off", 5.0),
         ("off", 15.0),
     ]
     # FDM's stand-offs are the same.
-    assert candidates(parse_config({}, source="test"), 0.0) == [("auto", 10.0), ("auto", 5.0), ("auto", 15.0)]
+    assert candidates(parse_config({}, source="test"), 0.0) == candidates(cfg, 0.0)
 
 
 def test_with_design_sets_windows_and_stand_off():
@@ -98,6 +108,8 @@ def test_a_photo_without_windows_tries_the_stand_offs_only():
     fig = run.figures.standoff
     assert fig is not None and [(t.windows, t.standoff_mm) for t in fig.trials] == [
         ("auto", 10.0),
+        ("auto", 8.0),
+        ("auto", 12.0),
         ("auto", 5.0),
         ("auto", 15.0),
     ]
@@ -112,7 +124,7 @@ def test_flat_colour_art_sprays_from_lower_down():
     assert window_share(run.cfg, layers, TileGrid.whole(60.0, 60.0), (60.0, 60.0)) > 0.8
     cfg = choose_plates(run, layers, (60.0, 60.0), pic)
     fig = run.figures.standoff
-    assert fig is not None and len(fig.trials) == 8
+    assert fig is not None and len(fig.trials) == 10
     scores = {(t.windows, t.standoff_mm): t.scielab for t in fig.trials}
     # The windows' edges stay sharp low down, and a field of holes cannot spray a solid: the trials
     # say so, and the job takes the best.
@@ -139,7 +151,8 @@ def test_holes_alone_are_chosen_where_windows_spray_worse(monkeypatch):
     _scripted(
         monkeypatch,
         {("auto", 10.0): 2.9, ("auto", 15.0): 2.8, ("off", 10.0): 2.3, ("off", 15.0): 2.2}
-        | {("auto", 4.0): 3.0, ("auto", 1.0): 3.5, ("auto", 5.0): 3.1, ("off", 5.0): 2.6},
+        | {("auto", 4.0): 3.0, ("auto", 1.0): 3.5, ("auto", 5.0): 3.1, ("off", 5.0): 2.6}
+        | {("auto", 8.0): 3.0, ("auto", 12.0): 2.95},
     )
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
     cfg = choose_plates(run, layers, (60.0, 60.0), pic)
@@ -153,7 +166,7 @@ def test_the_two_best_of_different_stand_offs_are_told_apart_refined(monkeypatch
     # The hubble case: unrefined, windows from 1 mm look best; refined, those from 4 mm are.
     pic, layers = _flat_layers()
     unrefined = {("auto", 10.0): 6.0, ("auto", 15.0): 6.2, ("off", 10.0): 6.5, ("off", 15.0): 6.6}
-    unrefined |= {("auto", 5.0): 6.1, ("off", 5.0): 6.7}
+    unrefined |= {("auto", 5.0): 6.1, ("off", 5.0): 6.7, ("auto", 8.0): 6.3, ("auto", 12.0): 6.4}
     unrefined |= {("auto", 4.0): 5.8, ("auto", 1.0): 5.4}
     refined = {("auto", 4.0): 3.9, ("auto", 1.0): 4.4}
     _scripted(monkeypatch, unrefined, refined)
@@ -163,11 +176,16 @@ def test_the_two_best_of_different_stand_offs_are_told_apart_refined(monkeypatch
     fig = run.figures.standoff
     assert fig is not None and [t.standoff_mm for t in fig.refined] == [1.0, 4.0]
     assert "refined, windows, 4 mm scored 3.90 against windows, 1 mm 4.40" in fig.reason
-    # The same stand-off: the unrefined ranking stands, and nothing is refined.
+    # The two best share a stand-off: the best is refined beside the best of another stand-off.
     _scripted(monkeypatch, unrefined | {("off", 10.0): 5.0, ("auto", 10.0): 5.1}, {})
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
-    choose_plates(run, layers, (60.0, 60.0), pic)
-    assert run.figures.standoff is not None and run.figures.standoff.refined == ()
+    cfg = choose_plates(run, layers, (60.0, 60.0), pic)
+    fig = run.figures.standoff
+    assert fig is not None and [(t.windows, t.standoff_mm) for t in fig.refined] == [
+        ("off", 10.0),
+        ("auto", 1.0),
+    ]
+    assert cfg.wall.standoff_mm == [10.0] and cfg.stipple.windows.value == "off"
 
 
 def test_a_tie_keeps_the_config_own_design(monkeypatch):
@@ -257,7 +275,14 @@ def test_a_measured_cap_is_tried_at_the_stand_off_that_keeps_the_priors_blur(tmp
     job.write_text(f"stipple: {{process: sla}}\nspray: {{profile: {wide}}}\n")
     cfg = load_config(job)
     assert matched_standoff(cfg) == 6.5  # 10 mm x 0.12 / 0.18, to 0.5 mm: the same blur
-    assert candidates(cfg, 0.0) == [("auto", 10.0), ("auto", 6.5), ("auto", 5.0), ("auto", 15.0)]
+    assert candidates(cfg, 0.0) == [
+        ("auto", 10.0),
+        ("auto", 8.0),
+        ("auto", 12.0),
+        ("auto", 6.5),
+        ("auto", 5.0),
+        ("auto", 15.0),
+    ]
     skinny = tmp_path / "skinny.yaml"
     skinny.write_text("spread_k: 0.04\nbleed_sigma_mm: 0.25\ndeposit_per_pass: 1.5\n")
     job.write_text(f"stipple: {{process: sla}}\nspray: {{profile: {skinny}}}\n")

@@ -143,14 +143,34 @@ def test_gaussian_kernel_error_as_documented():
 
 
 @pytest.mark.slow
-def test_physical_tone_calibration_chooses_whole_passes():
+def test_physical_tone_calibration_chooses_a_dose_the_hand_sprays():
+    from stencil_cad.config.spray import SWEEP_PACE
     from stencil_cad.simulate import response_tone_for
 
     job = JobConfig(spray={"model": "physical"}, stipple={"process": "sla", "tone": "response"})
     alpha = np.linspace(0.0, 0.8, 40 * 40).reshape(40, 40)
     choice = response_tone_for(alpha, 0.5, job)
-    assert choice.spray_time == int(choice.spray_time) and 1 <= choice.spray_time <= 12
+    sp = job.spray
+    # A dose on the spray.dose_step grid, sprayed as whole passes at a pace the hand keeps.
+    assert choice.spray_time in sp.doses() and 1 <= choice.spray_time <= sp.max_passes
+    n, speed = sp.hand(choice.spray_time)
+    assert n * sp.pass_speed_m_s / speed == pytest.approx(choice.spray_time)
+    assert SWEEP_PACE[0] <= speed / sp.pass_speed_m_s <= SWEEP_PACE[1]
     assert choice.predicted_rmse <= choice.predicted_rmse_linear + 1e-12
+    # dose_step 1 keeps whole passes at the usual pace.
+    whole = job.spray.model_copy(update={"dose_step": 1.0})
+    assert whole.doses() == [float(n) for n in range(1, whole.max_passes + 1)]
+    assert all(whole.hand(d) == (int(d), whole.pass_speed_m_s) for d in whole.doses())
+
+
+def test_a_dose_between_passes_is_sprayed_at_another_pace():
+    sp = JobConfig(spray={"model": "physical"}).spray
+    # Between two whole passes equally near, the lighter passes: three at 0.6 m/s, not two at 0.4.
+    assert sp.hand(2.5) == (3, pytest.approx(0.6))
+    n, speed = sp.hand(2.75)
+    assert n == 3 and speed == pytest.approx(0.5 * 3 / 2.75)
+    n, speed = sp.hand(1.25)
+    assert n == 1 and speed == pytest.approx(0.4)
 
 
 def test_mask_spray_physical():
@@ -198,7 +218,7 @@ def test_job_in_the_makers_units_scores_every_wall(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["run", str(cfg), "--out", str(out)]) == 0
     text = capsys.readouterr().out
-    assert "from 25 cm" in text and "at about 0.5 m/s" in text
+    assert "from 25 cm" in text and " m/s" in text
     man = json.loads((out / "manifest.json").read_text())
     walls = man["simulate"]["walls"]
     assert [w["standoff_mm"] for w in walls] == [4.0, 16.0]
@@ -207,6 +227,9 @@ def test_job_in_the_makers_units_scores_every_wall(tmp_path, capsys):
     assert (out / "simulated_wall_4mm.png").is_file() and (out / "simulated_wall_16mm.png").is_file()
     steps = man["spraying"]
     assert all(isinstance(s["passes"], int) and s["can_distance_cm"] == 25 for s in steps)
+    # Whole passes at the pace that sprays each layer's dose.
+    for s in steps:
+        assert s["passes"] * 0.5 / s["pass_speed_m_s"] == pytest.approx(s["dose_passes"], rel=0.01)
     assert json.loads((out / "spray.json").read_text())["unit"] == "passes"
 
 
