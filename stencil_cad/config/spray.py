@@ -57,7 +57,8 @@ class CanConstants(StrictModel):
         description=(
             "Angular spread of the spray, tan of its sigma: a plate held g mm off the surface blurs every "
             "hole by a Gaussian of sigma = spread_k * g mm (whatever the hole's size). Caps run from about "
-            "0.05 (skinny) to 0.2 (fat); 0.12, the middle of that range, is a prior, not a measurement: "
+            "0.03-0.10 (skinny) through 0.10-0.20 (standard fan tips) to 0.15-0.35 (fat); 0.12, a standard "
+            "tip, is a prior, not a measurement: "
             "the card's photo measures it (its two stand-offs separate it from the bleed). Range [0, 1]."
         ),
     )
