@@ -26,6 +26,7 @@ NAMES = [
     "cad",
     "wall_dxf",
     "quality",
+    "fidelity",
     "refine",
     "slicer",
     "e2e",

@@ -446,10 +446,43 @@ def smoke():
     yield from run(["logo-sla"], size={"width_mm": 40.0})
 
 
+def _hard(f, pipeline, cfg0, layers, pic, run_, ref, shape, mm_per_px):
+    """The best hard stencil of the same job at each stand-off: ``(scores by height, seconds, stencils)``.
+
+    As many colours as the soft job's layers and primer, the process's feature and bridge rules,
+    each cut-out sprayed (full cover of its paint) on the soft simulation's grid, so both are scored
+    on the same pixels.
+    """
+    from stencil_cad.model import composite
+    from stencil_cad.pipeline.commands import _process_rules
+
+    t0 = time.perf_counter()
+    rules = _process_rules(cfg0)
+    hard_cfg = cfg0.hard.model_copy(update={"colours": layers.count + 1})
+    res = f["make_hard_stencils"](
+        pic, hard_cfg, rules["min_feature_mm"], rules["bridge_min_mm"], run_.rng_for("hard")
+    )
+    t_segment = time.perf_counter() - t0
+    hard = {}
+    for h in _heights(cfg0, hard=True):
+        hcfg = _at_height(cfg0, h, refine=False)
+        alphas = np.zeros((res.count, *shape))
+        for k, (m, sp) in enumerate(zip(res.cut_masks, _sprays(pipeline, hcfg, res.colours), strict=True)):
+            alphas[k] = f["spray_mask"](
+                _nearest_resize(m, shape),
+                mm_per_px,
+                sp,
+                geometry=_geometry(hcfg),
+                # As pipeline.run_hard sprays them: full cover (of each paint) under the physical model.
+                spray_time=float(sp.full_cover_passes()) if sp.is_physical else None,
+            )
+        hard_comp = np.clip(composite(res.primer, res.colours, alphas), 0.0, 1.0)
+        hard[h] = _scores(f, ref, hard_comp, mm_per_px)
+    return hard, t_segment, res
+
+
 def run(cases=None, size: dict | None = None):
     """Yield one dict per image and settings: soft and hard scores at each mode's best nozzle height."""
-    from stencil_cad.model import composite
-
     f = _require()
     pipeline = f["pipeline"]
     pairs = _select(cases)
@@ -493,33 +526,7 @@ def run(cases=None, size: dict | None = None):
             shape = sim1.composite.shape[:2]
             mm_per_px = sim1.mm_per_px
 
-            t0 = time.perf_counter()
-            from stencil_cad.pipeline.commands import _process_rules
-
-            rules = _process_rules(cfg0)
-            hard_cfg = cfg0.hard.model_copy(update={"colours": layers.count + 1})
-            res = f["make_hard_stencils"](
-                pic, hard_cfg, rules["min_feature_mm"], rules["bridge_min_mm"], run_.rng_for("hard")
-            )
-            t_segment = time.perf_counter() - t0
-            hard = {}
-            for h in _heights(cfg0, hard=True):
-                hcfg = _at_height(cfg0, h, refine=False)
-                # Sprayed on the soft simulation's grid, so both are scored on the same pixels.
-                alphas = np.zeros((res.count, *shape))
-                for k, (m, sp) in enumerate(
-                    zip(res.cut_masks, _sprays(pipeline, hcfg, res.colours), strict=True)
-                ):
-                    alphas[k] = f["spray_mask"](
-                        _nearest_resize(m, shape),
-                        mm_per_px,
-                        sp,
-                        geometry=_geometry(hcfg),
-                        # As pipeline.run_hard sprays them: full cover (of each paint) under the physical model.
-                        spray_time=float(sp.full_cover_passes()) if sp.is_physical else None,
-                    )
-                hard_comp = np.clip(composite(res.primer, res.colours, alphas), 0.0, 1.0)
-                hard[h] = _scores(f, ref, hard_comp, mm_per_px)
+            hard, t_segment, res = _hard(f, pipeline, cfg0, layers, pic, run_, ref, shape, mm_per_px)
 
             hy, best_hybrid = _best(hybrid)
             floor_rgb = np.clip(f["resample"](layers.composite(), shape), 0.0, 1.0)
