@@ -95,8 +95,6 @@ class Preview:
 
     def figures(self) -> dict[str, Any]:
         """The preview's figures as plain JSON values (no pictures)."""
-        from ..output import plain
-
         return {
             "level": self.level,
             "final": self.final,
@@ -111,7 +109,7 @@ class Preview:
             "walls": self.walls,
             "tiles": self.tiles,
             "standoff_mm": self.standoff_mm,
-            "cost": plain(self.cost.to_json()),
+            "cost": self.cost.to_json(),
             "seconds": round(self.seconds, 3),
         }
 
