@@ -1,7 +1,6 @@
 """The studio's routes through Starlette's test client: uploads, paths, previews, settings."""
 
 import json
-from pathlib import Path
 
 import pytest
 from starlette.testclient import TestClient
@@ -52,7 +51,9 @@ def test_the_page_and_its_assets_are_served(client):
 
 
 @pytest.mark.parametrize(
-    "content", [b"not an image at all", example_image_path().read_bytes()[:2000], b""], ids=["text", "cut", "empty"]
+    "content",
+    [b"not an image at all", example_image_path().read_bytes()[:2000], b""],
+    ids=["text", "cut", "empty"],
 )
 def test_a_broken_upload_gets_the_command_lines_message_and_nothing_is_written(client, ws, tmp_path, content):
     same = tmp_path / "holiday.png"
@@ -65,7 +66,9 @@ def test_a_broken_upload_gets_the_command_lines_message_and_nothing_is_written(c
 
 
 def test_an_upload_is_kept_under_an_identifier_and_its_name_cannot_reach_out(client, ws):
-    r = client.post("/api/upload", params={"name": "../../evil.png"}, content=example_image_path().read_bytes())
+    r = client.post(
+        "/api/upload", params={"name": "../../evil.png"}, content=example_image_path().read_bytes()
+    )
     assert r.status_code == 200
     j = r.json()
     assert j["name"] == "evil.png" and (j["width_px"], j["height_px"]) == (300, 300)
