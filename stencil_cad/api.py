@@ -33,6 +33,7 @@ from .interrupts import Cancelled, CancelToken
 if TYPE_CHECKING:
     from .figures import Figures
     from .pipeline.preview import Preview, PreviewCache
+    from .testcard.fit import CardFit
 
 #: The commands :func:`run` takes: the whole job, hard mode, and the stages run on saved intermediates.
 COMMANDS = ("run", "hard", "decompose", "stipple", "build", "simulate")
@@ -93,7 +94,8 @@ def load_config(
     """A checked job config.
 
     Args:
-        source: A YAML file, a mapping with the keys of one, a config, or None for the bundled example.
+        source: A YAML file, a mapping with the keys of one (relative paths in it are taken from the
+            working folder), a config, or None for the bundled example.
         overrides: Keys to change, nested like the YAML (``{"decompose": {"layers": 3}}``); checked
             like the file's.
         image: The input image instead of the config's (``--image``).
@@ -115,11 +117,14 @@ def load_config(
     if isinstance(source, JobConfig):
         cfg = source
     elif isinstance(source, Mapping):
-        cfg = cfg_io.parse_config(dict(source), source="config")
+        # Relative paths in a mapping (image, can lists, template, spray profiles) are the working folder's.
+        data = dict(source)
+        cfg = cfg_io.resolve_files(cfg_io.parse_config(data, source="config"), data, Path.cwd())
     else:
         cfg = cfg_io.load_config(example_config_path() if source is None else Path(source))
     if overrides:
-        cfg = cfg_io.parse_config(_merged(cfg.model_dump(mode="json"), overrides), source="config")
+        data = _merged(cfg.model_dump(mode="json"), overrides)
+        cfg = cfg_io.resolve_files(cfg_io.parse_config(data, source="config"), data, Path.cwd())
     if image is not None or seed is not None or bed is not None or hard:
         cfg = parse_overrides(
             cfg, image=None if image is None else Path(image), seed=seed, hard=hard, bed=bed
@@ -245,6 +250,88 @@ def preview_cache() -> PreviewCache:
     return PreviewCache()
 
 
+def make_card(
+    cfg: JobConfig,
+    out: Path | str,
+    *,
+    standoffs_mm: list[float] | None = None,
+    paper: str = "a4",
+    force: bool = False,
+    quiet: bool = True,
+) -> JobResult:
+    """Write the calibration card for ``cfg``'s holes, plate and wall: the plate, its walls, the sheet, ``card.json``.
+
+    Args:
+        cfg: The job whose holes, plate and wall the card uses.
+        out: The output folder (written all at once, or not at all).
+        standoffs_mm: The walls' stand-offs to measure (up to 3); defaults to the job's, plus 3 mm.
+        paper: ``a4`` or ``letter``: the paper the sheet is printed on.
+        force: Replace the files stencil-cad wrote earlier in the folder.
+        quiet: No progress bars.
+
+    Returns:
+        The card's :class:`JobResult` (its figures' ``card`` section says what it holds).
+    """
+    import time
+
+    from . import pipeline
+    from .output import OutputDir
+
+    folder = OutputDir(Path(out), force=force)
+    r = pipeline.Run(cfg=cfg, out=folder, quiet=quiet)
+    t0 = time.perf_counter()
+    try:
+        files = pipeline.run_card(r, standoffs_mm, paper)
+    except BaseException:
+        folder.abort()
+        raise
+    r.times["total"] = round(time.perf_counter() - t0, 3)
+    return JobResult("card", r.cfg, Path(out), tuple(files), r.figures, dict(r.times), r)
+
+
+def calibrate(
+    photo: Path | str,
+    card: Path | str,
+    out: Path | str,
+    *,
+    passes: float | None = None,
+    distance_mm: float | None = None,
+    speed_m_s: float | None = None,
+    paint: str = "",
+    force: bool = False,
+) -> tuple[CardFit, str]:
+    """Measure a can from a photo of the sprayed card and write its spray profile (``stencil-cad calibrate``).
+
+    Args:
+        photo: The photo of the sprayed card sheet, every marker in view.
+        card: The ``card.json`` :func:`make_card` wrote.
+        out: The spray profile to write (YAML; a job's ``spray.profile``).
+        passes: Passes sprayed over the card (default: the card's).
+        distance_mm: The can's distance from the plate, mm (default: the card's).
+        speed_m_s: Sweep speed, m/s (default: the card's).
+        paint: The can, cap and paint, recorded in the profile.
+        force: Replace an existing profile.
+
+    Returns:
+        ``(fit, report)``: the fitted constants with the residual and markers found, and the one-line report.
+
+    Raises:
+        UserError: A bad card file, a photo that cannot be read or fitted (the reason named), an existing profile.
+    """
+    from .testcard import fit
+
+    return fit.calibrate(
+        Path(photo),
+        Path(card),
+        Path(out),
+        passes=passes,
+        distance_mm=distance_mm,
+        speed_m_s=speed_m_s,
+        paint=paint,
+        force=force,
+    )
+
+
 def check_image(path: Path | str, cfg: JobConfig | None = None) -> tuple[int, int]:
     """Read an image as a job of ``cfg`` reads its input, and return the working picture's ``(width, height)`` in px.
 
@@ -270,7 +357,9 @@ __all__ = [
     "Cancelled",
     "JobResult",
     "Progress",
+    "calibrate",
     "check_image",
+    "make_card",
     "dry_run",
     "load_config",
     "preview",

@@ -319,9 +319,8 @@ def _slice(args) -> int:
 
 
 def _card(args) -> int:
-    from . import pipeline
+    from . import api
     from .config import io as cfg_io
-    from .output import OutputDir
 
     cfg = cfg_io.load_config(args.config) if args.config is not None else cfg_io.parse_config({}, "defaults")
     if args.standoff:
@@ -335,16 +334,13 @@ def _card(args) -> int:
             raise UserError(f"--standoff: {exc.errors()[0]['msg']}, got {args.standoff}") from None
         if len(set(args.standoff)) > 3:
             raise UserError(f"the card takes at most 3 stand-offs, got {len(set(args.standoff))}")
-    out = OutputDir(args.out, force=args.force)
-    run = pipeline.Run(cfg=cfg, out=out, quiet=args.quiet)
     t0 = time.perf_counter()
-    try:
-        files = pipeline.run_card(run, args.standoff, args.paper)
-    except BaseException:
-        out.abort()
-        raise
+    result = api.make_card(
+        cfg, args.out, standoffs_mm=args.standoff, paper=args.paper, force=args.force, quiet=args.quiet
+    )
+    files = result.files
     if not args.quiet:
-        c = run.figures.card or {}
+        c = result.figures.card or {}
         ok = c["plate"].get("valid") and all(w.get("valid") for w in c["walls"])
         print(
             f"stencil-cad: calibration card → {args.out}/ ({len(files)} files, {time.perf_counter() - t0:.1f} s)\n"
@@ -359,10 +355,10 @@ def _card(args) -> int:
 
 
 def _calibrate(args) -> int:
-    from .testcard import fit
+    from . import api
 
     print(
-        fit.calibrate_command(
+        api.calibrate(
             args.photo,
             args.card,
             args.out,
@@ -371,7 +367,7 @@ def _calibrate(args) -> int:
             speed_m_s=args.speed,
             paint=args.paint,
             force=args.force,
-        )
+        )[1]
     )
     return 0
 

@@ -25,6 +25,7 @@ from starlette.staticfiles import StaticFiles
 from .. import api
 from ..errors import UserError
 from ..files import DATA_LIMIT
+from .calibrate import Calibration
 from .jobs import JOB_ZIP, Busy, Jobs
 from .settings import DEFAULTS, can_list, config_data
 from .workspace import Workspace, new_id
@@ -86,7 +87,12 @@ def create_app(workspace: Workspace) -> Starlette:
     """The studio's ASGI application over ``workspace`` (swept of what a killed server left)."""
     workspace.sweep()
     studio = Studio(workspace)
+    wizard = Calibration(workspace)
     routes = [
+        Route("/api/card", wizard.card, methods=["POST"]),
+        Route("/api/cards/{card_id}/files/{name:path}", wizard.card_file),
+        Route("/api/calibrate", wizard.fit, methods=["POST"]),
+        Route("/api/profiles", wizard.profiles),
         Route("/", studio.index),
         Route("/api/options", studio.options),
         Route("/api/upload", studio.upload, methods=["POST"]),

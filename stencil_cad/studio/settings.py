@@ -19,6 +19,7 @@ DEFAULTS: dict[str, Any] = {
     "paints": "auto",
     "distance_m": 1.0,
     "standoff_mm": None,
+    "profile": None,
 }
 
 
@@ -65,6 +66,11 @@ def config_data(settings: dict[str, Any], ws: Workspace) -> tuple[dict[str, Any]
         data["wall"] = {**data.get("wall", {}), "standoff_mm": [s["standoff_mm"]]}
     if s["bed"]:
         data["bed"] = s["bed"]
+    if s["profile"]:
+        profile = ws.profile_path(str(s["profile"]))
+        if profile is None:
+            raise UserError("the spray profile is no longer in the studio's workspace; calibrate again")
+        data["spray"] = {**data.get("spray", {}), "profile": str(profile)}
     return data, picture
 
 

@@ -48,7 +48,7 @@ class Workspace:
 
     def __post_init__(self) -> None:
         self.root = Path(self.root).expanduser().resolve()
-        for sub in ("uploads", "jobs", "tmp"):
+        for sub in ("uploads", "jobs", "tmp", "cards", "profiles"):
             (self.root / sub).mkdir(parents=True, exist_ok=True)
 
     @property
@@ -62,6 +62,30 @@ class Workspace:
         return self.root / "jobs"
 
     @property
+    def cards(self) -> Path:
+        """Calibration cards, one folder ``<id>`` each (made in ``.making-<id>`` like a job)."""
+        return self.root / "cards"
+
+    @property
+    def profiles(self) -> Path:
+        """Spray profiles the calibration fitted: ``<id>.yaml`` and what the fit found, ``<id>.json``."""
+        return self.root / "profiles"
+
+    def profile_path(self, profile_id: str) -> Path | None:
+        """The spray profile ``profile_id``, or None."""
+        if not is_id(profile_id):
+            return None
+        p = self.profiles / f"{profile_id}.yaml"
+        return p if p.is_file() else None
+
+    def card_dir(self, card_id: str) -> Path | None:
+        """The calibration card ``card_id``'s folder, or None."""
+        if not is_id(card_id):
+            return None
+        p = self.cards / card_id
+        return p if p.is_dir() else None
+
+    @property
     def tmp(self) -> Path:
         """Uploads being checked (removed whether or not they pass)."""
         return self.root / "tmp"
@@ -69,7 +93,7 @@ class Workspace:
     def sweep(self) -> list[str]:
         """Remove what a killed server left: jobs in the making and uploads being checked. Returns what went."""
         gone = []
-        for p in self.jobs.iterdir():
+        for p in [*self.jobs.iterdir(), *self.cards.iterdir()]:
             if p.name.startswith(MAKING):
                 shutil.rmtree(p, ignore_errors=True)
                 gone.append(p.name)

@@ -16,6 +16,7 @@ function settings() {
     paints: paintMode === "auto" || chosen.length === 0 ? "auto" : chosen,
     distance_m: Number($("distance_m").value),
     standoff_mm: fixed ? Number($("standoff_mm").value) : null,
+    profile: $("profile").value || null,
   };
 }
 
@@ -113,6 +114,48 @@ async function make() {
   };
 }
 
+async function makeCard() {
+  showError("calibrate-error", "");
+  setStatus("making the card…");
+  const r = await fetch("/api/card", { method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(settings()) });
+  const j = await r.json();
+  setStatus("ready");
+  if (!r.ok) { showError("calibrate-error", j.error); return; }
+  state.card = j.id;
+  $("card-sheet").href = `/api/cards/${j.id}/files/card_sheet.pdf`;
+  $("card-sheet").hidden = false;
+  $("card-passes").textContent = j.passes;
+}
+
+async function profiles(select) {
+  const list = await (await fetch("/api/profiles")).json();
+  const keep = select || $("profile").value;
+  $("profile").length = 1;
+  for (const p of list) $("profile").add(new Option(`${p.paint} (spread ${p.spread_k}, deposit ${p.deposit_per_pass})`, p.id));
+  $("profile").value = keep;
+}
+
+async function fitPhoto(file) {
+  showError("calibrate-error", "");
+  if (!state.card) { showError("calibrate-error", "make the card first"); return; }
+  setStatus("fitting the photo…");
+  const q = new URLSearchParams({ card: state.card, paint: $("paint-name").value, name: file.name });
+  const r = await fetch(`/api/calibrate?${q}`, { method: "POST", body: file });
+  const j = await r.json();
+  setStatus("ready");
+  if (!r.ok) { showError("calibrate-error", j.error); return; }
+  const rows = [
+    ["Markers found per wall", j.markers_found.join(" · ")],
+    ["Spread k", j.spread_k], ["Bleed σ", `${j.bleed_sigma_mm} mm`], ["Deposit per pass", j.deposit_per_pass],
+    ["Residual RMS", `${j.residual_rms} (photo noise ${j.noise})`],
+    ["By feature", Object.entries(j.feature_residuals).map(([k, v]) => `${k} ${v}`).join(", ")],
+  ];
+  $("fit").innerHTML = rows.map(([k, v]) => `<tr><th>${k}</th><td>${v}</td></tr>`).join("");
+  $("fit").hidden = false;
+  await profiles(j.id);
+  changed();
+}
+
 async function cancel() {
   if (state.job) await fetch(`/api/jobs/${state.job}/cancel`, { method: "POST" });
 }
@@ -124,7 +167,7 @@ async function init() {
   $("cans").innerHTML = o.cans.map((c) =>
     `<label><input type="checkbox" value="${c.hex}"><span class="swatch" style="background:${c.hex}"></span>${c.name} (${c.code})</label>`).join("");
   for (const el of document.querySelectorAll("#settings input, #settings select")) {
-    if (el.id !== "file") el.addEventListener("change", changed);
+    if (!["file", "photo", "paint-name"].includes(el.id)) el.addEventListener("change", changed);
   }
   document.querySelectorAll("input[name=paint_mode]").forEach((r) => r.addEventListener("change", () => {
     $("cans").hidden = document.querySelector("input[name=paint_mode]:checked").value === "auto";
@@ -138,6 +181,9 @@ async function init() {
   $("slider").addEventListener("input", () => $("compare").style.setProperty("--cut", `${$("slider").value}%`));
   $("zoom").addEventListener("input", () => $("compare").style.setProperty("--zoom", $("zoom").value));
   $("make").addEventListener("click", make);
+  $("make-card").addEventListener("click", makeCard);
+  $("photo").addEventListener("change", () => { if ($("photo").files.length) fitPhoto($("photo").files[0]); });
+  await profiles();
   $("cancel").addEventListener("click", cancel);
   $("sheet").addEventListener("click", () => { $("sheet-frame").hidden = false; });
   preview();
