@@ -136,5 +136,5 @@ def run(cases=None):
 
 
 def smoke():
-    """One layer-count change of the bundled example at 40 mm in two layers (to three)."""
-    yield {**measure("layers", [{"layers": 3}], base={"width_mm": 40.0, "layers": 2}), "case": "smoke-layers"}
+    """One layer-count change of the bundled example at 30 mm in two layers (to three)."""
+    yield {**measure("layers", [{"layers": 3}], base={"width_mm": 30.0, "layers": 2}), "case": "smoke-layers"}
