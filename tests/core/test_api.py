@@ -47,9 +47,12 @@ def test_a_second_preview_reuses_the_decomposition_and_holes():
     cache = api.preview_cache()
     first = list(api.previews(cfg, cache))
     assert [p.level for p in first] == ["coarse", "stippled", "refined"] and first[-1].final
-    assert len(cache.layers) == 1 and len(cache.holes) == 1
+    # The first preview's quick decomposition at half the resolution, then the job's.
+    assert len(cache.layers) == 2 and len(cache.holes) == 1
+    assert first[0].sprayed.shape == first[-1].sprayed.shape
     again = list(api.previews(api.load_config(cfg, overrides={"view": {"distance_m": 2.0}}), cache))
-    assert len(cache.layers) == 1 and len(cache.holes) == 1
+    assert [p.level for p in again] == ["coarse", "stippled", "refined"]
+    assert len(cache.layers) == 2 and len(cache.holes) == 1
     assert again[1].holes == first[1].holes and again[-1].distance_m == 2.0
     assert first[-1].sprayed.shape == first[-1].reference.shape and first[-1].sprayed.max() <= 1.0
 
