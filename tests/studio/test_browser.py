@@ -1,7 +1,8 @@
 """The studio in Debian's Chromium, driven by Selenium through Debian's chromedriver (no browser download).
 
 Opens the page, uploads the example picture, changes the layer count and sees the preview change, makes
-the job and downloads the zip; a broken upload shows the command line's message and writes nothing.
+the job and downloads the zip; a broken upload shows the command line's message and writes nothing; the
+calibration wizard makes its card and fits a synthetic photo of it.
 """
 
 import io
@@ -115,3 +116,45 @@ def test_upload_change_layers_make_download(studio, browser, tmp_path):
         names = zipfile.ZipFile(io.BytesIO(r.read())).namelist()
     assert "job.yaml" in names and "output/instructions.html" in names and "output/layer_03.stl" in names
     assert "output/layer_04.stl" not in names
+
+
+def test_the_calibration_wizard_fits_a_synthetic_photo_of_its_card(studio, browser, tmp_path):
+    import json
+
+    import numpy as np
+
+    from stencil_cad.config.spray import CanConstants, SprayConfig
+    from stencil_cad.testcard import layout_from_description
+    from stencil_cad.testcard.synthetic import PhotoSettings, synthetic_photo
+
+    url, ws = studio
+    by = "id"
+    browser.get(url)
+    final_preview(browser)
+    browser.find_element(by, "calibrate").click()  # open the wizard
+    browser.find_element(by, "make-card").click()
+    sheet = wait_for(lambda: browser.find_element(by, "card-sheet").is_displayed(), what="the card")
+    assert sheet
+    href = browser.find_element(by, "card-sheet").get_attribute("href")
+    with urllib.request.urlopen(href.replace("card_sheet.pdf", "card.json")) as r:
+        layout = layout_from_description(json.loads(r.read()))
+    passes = float(browser.find_element(by, "card-passes").text)
+    truth = CanConstants(spread_k=0.1, bleed_sigma_mm=0.4, deposit_per_pass=0.55)
+    data, suffix = synthetic_photo(
+        layout, SprayConfig(model="physical", can=truth), passes, np.random.default_rng(0), PhotoSettings()
+    )
+    photo = tmp_path / f"sprayed_card{suffix}"
+    photo.write_bytes(data)
+    browser.find_element(by, "paint-name").send_keys("test can")
+    browser.find_element(by, "photo").send_keys(str(photo))
+    table = wait_for(
+        lambda: browser.find_element(by, "fit").is_displayed() and browser.find_element(by, "fit").text,
+        timeout=300,
+        what="the fit",
+    )
+    assert "Markers found per wall" in table and "Spread k" in table
+    spread = float(table.split("Spread k")[1].split()[0])
+    assert spread == pytest.approx(0.1, rel=0.05)
+    chosen = browser.find_element(by, "profile")
+    assert chosen.get_attribute("value") and "test can" in chosen.text
+    assert len(list(ws.profiles.glob("*.yaml"))) == 1
