@@ -8,9 +8,10 @@ from __future__ import annotations
 
 import asyncio
 import base64
+import contextlib
 import json
 import threading
-from collections.abc import AsyncIterator, Iterator
+from collections.abc import AsyncIterator, Generator
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -55,7 +56,7 @@ class Previews:
             self.current = token
         return token
 
-    def events(self, cfg: Any, token: api.CancelToken) -> Iterator[dict[str, Any]]:
+    def events(self, cfg: Any, token: api.CancelToken) -> Generator[dict[str, Any], None, None]:
         """The preview's levels as page events, until the last one or until a newer preview cancels it."""
         with self.lock:
             try:
@@ -194,15 +195,19 @@ class Studio:
             return _error(str(exc))
         token = self.previews.start()
 
+        events = self.previews.events(cfg, token)
+
         async def stream() -> AsyncIterator[str]:
             try:
-                async for event in iterate_in_threadpool(self.previews.events(cfg, token)):
+                async for event in iterate_in_threadpool(events):
                     yield _sse(event)
                     if await request.is_disconnected():
-                        token.cancel()
                         return
             finally:
+                # A page that went away or asked for a newer preview: stop the work, free the lock.
                 token.cancel()
+                with contextlib.suppress(ValueError):
+                    await run_in_threadpool(events.close)
 
         return StreamingResponse(
             stream(), media_type="text/event-stream", headers={"Cache-Control": "no-store"}
