@@ -40,13 +40,18 @@ class Job:
     state: str = "running"
     started: float = field(default_factory=time.time)
     changed: threading.Condition = field(default_factory=threading.Condition)
+    #: The workspace's job lock, held while the job runs.
+    lock: Any = None
 
     def add(self, event: dict[str, Any]) -> None:
-        """Record an event and wake whoever waits for one."""
+        """Record an event and wake whoever waits for one; the job's end frees the workspace."""
         with self.changed:
             self.events.append(event)
             if event["event"] in ("finished", "failed", "cancelled"):
                 self.state = event["event"]
+                if self.lock is not None:
+                    self.lock.close()
+                    self.lock = None
             self.changed.notify_all()
 
 
@@ -68,6 +73,7 @@ class Jobs:
         with self.lock:
             if self.current is not None and self.current.state == "running":
                 raise Busy("a job is being made; wait for it or cancel it first")
+            lock = self._workspace_lock()
             job_id = new_id()
             making = self.ws.making_dir(job_id)
             events = self._ctx.Queue()
@@ -77,11 +83,33 @@ class Jobs:
                 name=f"stencil-cad job {job_id[:8]}",
                 daemon=False,
             )
-            job = Job(job_id, proc)
-            proc.start()
+            job = Job(job_id, proc, lock=lock)
+            try:
+                proc.start()
+            except BaseException:
+                lock.close()
+                raise
             self.current = job
         threading.Thread(target=self._follow, args=(job, events), daemon=True).start()
         return job
+
+    def _workspace_lock(self) -> Any:
+        """Hold the workspace's job lock (another studio on the same workspace may be making one).
+
+        Raises:
+            Busy: Another studio holds it.
+        """
+        fh = open(self.ws.root / "job.lock", "a+b")  # noqa: SIM115 - held until the job ends
+        try:
+            import fcntl
+
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except ImportError:  # no flock (Windows): this studio's own one-at-a-time still holds
+            pass
+        except OSError:
+            fh.close()
+            raise Busy("another studio is making a job in this workspace; wait for it") from None
+        return fh
 
     def _follow(self, job: Job, events: Any) -> None:
         """Pass the worker's events on until it ends; a worker that died without a word failed."""

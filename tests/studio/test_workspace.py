@@ -51,3 +51,15 @@ def test_a_job_is_listed_only_once_it_is_whole(tmp_path):
 def test_loopback_hosts():
     assert is_loopback("127.0.0.1") and is_loopback("localhost") and is_loopback("::1")
     assert not is_loopback("0.0.0.0") and not is_loopback("192.168.1.2")
+
+
+def test_one_job_at_a_time_per_workspace_even_across_studios(tmp_path):
+    import pytest
+
+    from stencil_cad.studio.jobs import Busy, Jobs
+
+    held = Jobs(Workspace(tmp_path))._workspace_lock()
+    with pytest.raises(Busy, match="another studio"):
+        Jobs(Workspace(tmp_path))._workspace_lock()
+    held.close()
+    Jobs(Workspace(tmp_path))._workspace_lock().close()
