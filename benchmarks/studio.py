@@ -148,5 +148,6 @@ def run(cases=None):
 
 
 def smoke():
-    """One layer-count change of the bundled example at 30 mm in two layers (to three)."""
-    yield {**measure("layers", [{"layers": 3}], base={"width_mm": 30.0, "layers": 2}), "case": "smoke-layers"}
+    """One layer-count change of the bundled example at 30 mm in two layers (to three), the stand-off fixed at 10 mm."""
+    base = {"width_mm": 30.0, "layers": 2, "standoff_mm": 10.0}
+    yield {**measure("layers", [{"layers": 3}], base=base), "case": "smoke-layers"}
