@@ -24,6 +24,8 @@ from .workspace import Workspace, new_id
 #: Name of the config that reproduces a job, in its folder and its zip.
 JOB_YAML = "job.yaml"
 JOB_ZIP = "job.zip"
+#: The spray profile a job sprays with (when the page chose one), beside ``job.yaml``.
+PROFILE_YAML = "spray_profile.yaml"
 
 
 class Busy(Exception):
@@ -191,9 +193,9 @@ def work(cfg_json: dict[str, Any], making: str, picture: str | None, events: Any
 
 
 def write_reproducible(folder: Path, cfg_json: dict[str, Any], image: Path | None, files: Any) -> None:
-    """Add the picture and ``job.yaml`` beside ``output/``, and ``job.zip`` of all three.
+    """Add the picture, the spray profile chosen and ``job.yaml`` beside ``output/``, and ``job.zip`` of all of it.
 
-    ``job.yaml`` names the picture by its file name, so ``stencil-cad run job.yaml`` in the unzipped
+    ``job.yaml`` names the picture and the profile by their file names, so ``stencil-cad run job.yaml`` in the unzipped
     folder makes the same files as the studio did (the bundled example keeps no image key).
     """
     import yaml
@@ -204,6 +206,11 @@ def write_reproducible(folder: Path, cfg_json: dict[str, Any], image: Path | Non
         data["image"] = image.name
     else:
         data.pop("image", None)
+    profile = (data.get("spray") or {}).get("profile")
+    if isinstance(profile, str):
+        # The measured can travels with the job: job.yaml names the copy beside it.
+        shutil.copyfile(profile, folder / PROFILE_YAML)
+        data["spray"] = {**data["spray"], "profile": PROFILE_YAML}
     text = "# Made in the stencil-cad studio; `stencil-cad run job.yaml` makes the same files.\n"
     text += yaml.safe_dump(data, sort_keys=False, allow_unicode=True)
     (folder / JOB_YAML).write_text(text, encoding="utf-8")

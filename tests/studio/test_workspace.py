@@ -63,3 +63,26 @@ def test_one_job_at_a_time_per_workspace_even_across_studios(tmp_path):
         Jobs(Workspace(tmp_path))._workspace_lock()
     held.close()
     Jobs(Workspace(tmp_path))._workspace_lock().close()
+
+
+def test_the_job_folder_carries_its_picture_and_profile_by_name(tmp_path):
+    import zipfile
+
+    import yaml
+
+    from stencil_cad.studio.jobs import write_reproducible
+
+    folder = tmp_path / "job"
+    (folder / "output").mkdir(parents=True)
+    (folder / "output" / "manifest.json").write_text("{}")
+    picture = tmp_path / ("f" * 32 + ".png")
+    picture.write_bytes(b"png")
+    profile = tmp_path / "measured.yaml"
+    profile.write_text("spread_k: 0.1\n")
+    cfg = {"image": str(picture), "spray": {"model": "physical", "profile": str(profile)}}
+    write_reproducible(folder, cfg, picture, [])
+    job = yaml.safe_load((folder / "job.yaml").read_text())
+    assert job["image"] == picture.name and job["spray"]["profile"] == "spray_profile.yaml"
+    assert (folder / "spray_profile.yaml").read_text() == "spread_k: 0.1\n"
+    names = zipfile.ZipFile(folder / "job.zip").namelist()
+    assert sorted(names) == sorted(["job.yaml", picture.name, "spray_profile.yaml", "output/manifest.json"])
