@@ -37,6 +37,7 @@ NAMES = [
     "mural_parts",
     "dask_overhead",
     "printed",
+    "studio",
 ]
 #: Tools run with their own command line (``python -m benchmarks.NAME``) whose smoke case
 #: ``--smoke`` runs too.

@@ -73,6 +73,32 @@ def _card_parsers(sub) -> None:
     sp.add_argument("-v", "--verbose", action="store_true", help="log each step; show tracebacks")
 
 
+def _studio_parser(sub) -> None:
+    """``studio``: the local web page."""
+    sp = sub.add_parser(
+        "studio", help="open the studio: a local web page that previews the sprayed result as you choose"
+    )
+    sp.add_argument(
+        "--host",
+        default="127.0.0.1",
+        help="address to listen on (default: 127.0.0.1, this machine only; any other lets others in: a warning)",
+    )
+    sp.add_argument("--port", type=int, default=0, help="port to listen on (default: 0, a free one)")
+    sp.add_argument(
+        "--workspace",
+        type=Path,
+        help="folder the studio keeps uploads and jobs in (default: stencil_cad/studio in your cache folder)",
+    )
+    sp.add_argument(
+        "--workspace-gb",
+        type=float,
+        default=2.0,
+        help="most the workspace may hold, in GB; the oldest jobs and pictures go first (default: 2)",
+    )
+    sp.add_argument("--no-browser", action="store_true", help="do not open the page in the browser")
+    sp.add_argument("-v", "--verbose", action="store_true", help="log each step; show tracebacks")
+
+
 _DRY_RUN_HELP = (
     "print the plan and what making it costs (printer-hours, filament, laser, paint); write nothing"
 )
@@ -154,6 +180,7 @@ def _parser() -> argparse.ArgumentParser:
         "-v", "--verbose", action="store_true", help="show the slicer's log on failure; tracebacks"
     )
     _card_parsers(sub)
+    _studio_parser(sub)
     sp = sub.add_parser("init", help="write a commented config file")
     sp.add_argument(
         "path", nargs="?", type=Path, default=Path("stencil.yaml"), help="where (default: stencil.yaml)"
@@ -231,6 +258,8 @@ def _dispatch(args) -> int:
         return _card(args)
     if args.command == "calibrate":
         return _calibrate(args)
+    if args.command == "studio":
+        return _studio(args)
     if args.command == "init":
         from . import pipeline
 
@@ -290,9 +319,8 @@ def _slice(args) -> int:
 
 
 def _card(args) -> int:
-    from . import pipeline
+    from . import api
     from .config import io as cfg_io
-    from .output import OutputDir
 
     cfg = cfg_io.load_config(args.config) if args.config is not None else cfg_io.parse_config({}, "defaults")
     if args.standoff:
@@ -306,16 +334,13 @@ def _card(args) -> int:
             raise UserError(f"--standoff: {exc.errors()[0]['msg']}, got {args.standoff}") from None
         if len(set(args.standoff)) > 3:
             raise UserError(f"the card takes at most 3 stand-offs, got {len(set(args.standoff))}")
-    out = OutputDir(args.out, force=args.force)
-    run = pipeline.Run(cfg=cfg, out=out, quiet=args.quiet)
     t0 = time.perf_counter()
-    try:
-        files = pipeline.run_card(run, args.standoff, args.paper)
-    except BaseException:
-        out.abort()
-        raise
+    result = api.make_card(
+        cfg, args.out, standoffs_mm=args.standoff, paper=args.paper, force=args.force, quiet=args.quiet
+    )
+    files = result.files
     if not args.quiet:
-        c = run.figures.card or {}
+        c = result.figures.card or {}
         ok = c["plate"].get("valid") and all(w.get("valid") for w in c["walls"])
         print(
             f"stencil-cad: calibration card → {args.out}/ ({len(files)} files, {time.perf_counter() - t0:.1f} s)\n"
@@ -330,10 +355,10 @@ def _card(args) -> int:
 
 
 def _calibrate(args) -> int:
-    from .testcard import fit
+    from . import api
 
     print(
-        fit.calibrate_command(
+        api.calibrate(
             args.photo,
             args.card,
             args.out,
@@ -342,8 +367,33 @@ def _calibrate(args) -> int:
             speed_m_s=args.speed,
             paint=args.paint,
             force=args.force,
-        )
+        )[1]
     )
+    return 0
+
+
+def _studio(args) -> int:
+    from . import studio
+
+    if args.workspace_gb <= 0:
+        raise UserError(f"--workspace-gb must be more than 0, got {args.workspace_gb:g}")
+    if not 0 <= args.port <= 65535:
+        raise UserError(f"--port must be 0 (a free port) to 65535, got {args.port}")
+    try:
+        studio.serve(
+            host=args.host,
+            port=args.port,
+            workspace=args.workspace,
+            cap_bytes=int(args.workspace_gb * 1e9),
+            open_browser=not args.no_browser,
+            say=lambda line: print(line, flush=True),
+        )
+    except OSError as exc:
+        if exc.errno is None:
+            raise
+        raise UserError(
+            f"cannot listen on {args.host}:{args.port}: {exc.strerror} (choose another --port or --host)"
+        ) from None
     return 0
 
 
@@ -366,8 +416,7 @@ def _projects(args) -> int:
 
 
 def _load_job(args):
-    from .config import io as cfg_io
-    from .config import parse_overrides
+    from . import api
 
     src = getattr(args, "src", None)
     config_path = args.config
@@ -377,18 +426,14 @@ def _load_job(args):
         if folder is not None and (folder / "config.yaml").exists():
             config_path = folder / "config.yaml"
     if config_path is None and args.image is None and args.command in ("run", "decompose", "hard"):
-        # No config and no image: the bundled example job.
-        from .imaging import example_config_path
-
-        config_path = example_config_path()
-    if config_path is not None:
-        cfg = cfg_io.load_config(config_path)
+        # No config and no image: the bundled example job (api.load_config's default).
+        source = None
     else:
-        cfg = cfg_io.parse_config({}, source="defaults")
+        source = config_path if config_path is not None else {}
     from .config.bed import parse_bed_arg
 
     bed = parse_bed_arg(args.bed) if getattr(args, "bed", None) else None
-    cfg = parse_overrides(cfg, image=args.image, seed=args.seed, hard=args.command == "hard", bed=bed)
+    cfg = api.load_config(source, image=args.image, seed=args.seed, hard=args.command == "hard", bed=bed)
     if args.out is not None:
         out = args.out
     elif args.config is None and args.image is None:
@@ -399,22 +444,20 @@ def _load_job(args):
 
 
 def _job(args) -> int:
-    from . import pipeline, report
+    from . import api
     from .config.compute import with_command_line
 
     cfg, out_path = _load_job(args)
     if getattr(args, "dry_run", False):
-        from .pipeline.run import plate_layers
-
-        print("\n".join(pipeline.dry_run(cfg, plate_layers(cfg))))
+        print("\n".join(api.dry_run(cfg)))
         return 0
     where = with_command_line(cfg.compute, args.workers, args.scheduler)
-    src = (args.src or out_path) if args.command in pipeline.STAGE_COMMANDS else None
+    src = (args.src or out_path) if args.command in api.SAVED_STAGES else None
     announce = None if args.quiet else (lambda line: print(line, file=sys.stderr))
-    run, files = pipeline.run_command(
-        args.command,
+    result = api.run(
         cfg,
         out_path,
+        command=args.command,
         src=src,
         force=args.force,
         quiet=args.quiet,
@@ -422,7 +465,7 @@ def _job(args) -> int:
         announce=announce,
     )
     if not args.quiet:
-        print(report.summary(run, files, out_path))
+        print(result.summary())
     return 0
 
 

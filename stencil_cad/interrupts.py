@@ -124,3 +124,40 @@ def as_interrupts() -> Iterator[None]:
             signal.signal(sig, h)  # type: ignore[arg-type]
         _deferred = deferred
         _pending = outer
+
+
+class Cancelled(Exception):
+    """A caller of the Python API (the studio, a script) cancelled the run through its :class:`CancelToken`.
+
+    Like :class:`Interrupted` it leaves through every ``finally`` and ``with`` on the way up, so
+    the output folder discards what the run staged.
+    """
+
+
+class CancelToken:
+    """A flag a caller sets from any thread to stop a run at its next check.
+
+    The run checks it at every stage edge and at every progress step of its long loops
+    (decomposition iterations, refinement iterations, plates built).
+    """
+
+    def __init__(self) -> None:
+        self._event = threading.Event()
+
+    def cancel(self) -> None:
+        """Ask the run to stop at its next check."""
+        self._event.set()
+
+    @property
+    def cancelled(self) -> bool:
+        """True once :meth:`cancel` was called."""
+        return self._event.is_set()
+
+    def check(self) -> None:
+        """Raise :class:`Cancelled` if :meth:`cancel` was called.
+
+        Raises:
+            Cancelled: The run was cancelled.
+        """
+        if self._event.is_set():
+            raise Cancelled("cancelled")

@@ -9,7 +9,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -44,6 +44,10 @@ class Run:
     sheet_images: dict[str, Any] = field(default_factory=dict[str, Any])
     #: Files of later stages this stage command left in the folder, made from older inputs.
     stale: list[Any] = field(default_factory=list[Any])
+    #: Told ``(event, stage)`` as each stage starts (``"start"``) and ends (``"done"``); None: nobody listens.
+    progress: Callable[[str, str], None] | None = None
+    #: Checked at every stage edge and progress step: the caller's way to stop the run.
+    cancel: interrupts.CancelToken | None = None
 
     def rng_for(self, stage: str, index: int = 0) -> np.random.Generator:
         """An independent generator per stage and layer, derived from the seed.
@@ -63,12 +67,27 @@ class Run:
     @contextlib.contextmanager
     def stage(self, name: str) -> Iterator[None]:
         """Time a stage; a signal whose exception was dropped stops the run at its edges."""
-        interrupts.check()
+        self.check()
         log.info("stage %s …", name)
+        if self.progress is not None:
+            self.progress("start", name)
         t0 = time.perf_counter()
         yield
-        interrupts.check()
+        self.check()
         self.times[name] = round(self.times.get(name, 0.0) + time.perf_counter() - t0, 3)
+        if self.progress is not None:
+            self.progress("done", name)
+
+    def check(self) -> None:
+        """Stop the run if a signal arrived or the caller cancelled it.
+
+        Raises:
+            Interrupted: A signal was received during this run.
+            Cancelled: The run's :attr:`cancel` token was set.
+        """
+        interrupts.check()
+        if self.cancel is not None:
+            self.cancel.check()
 
     @property
     def tasks(self) -> Executor:
@@ -86,4 +105,29 @@ class Run:
         from tqdm.auto import tqdm
 
         # disable=None: no bar when stderr is not a terminal (logs, CI).
-        return tqdm(total=total, desc=desc, disable=True if self.quiet else None, leave=False, unit="it")
+        bar = tqdm(total=total, desc=desc, disable=True if self.quiet else None, leave=False, unit="it")
+        if self.cancel is None:
+            return bar
+        return _Checked(bar, self.cancel)
+
+
+class _Checked:
+    """A progress bar whose every step checks the cancel token: long loops stop within one step."""
+
+    def __init__(self, bar: Any, cancel: interrupts.CancelToken) -> None:
+        self._bar = bar
+        self._cancel = cancel
+
+    def update(self, n: int = 1) -> Any:
+        self._cancel.check()
+        return self._bar.update(n)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._bar, name)
+
+    def __enter__(self) -> _Checked:
+        self._bar.__enter__()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._bar.__exit__(*exc)

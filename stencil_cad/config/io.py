@@ -280,26 +280,41 @@ def load_config(path: Path | str) -> JobConfig:
     text = read_yaml_text(path, "config", "give a YAML file; `stencil-cad init FILE` writes one")
     data = parse_yaml(text, str(path))
     _commented_keys(text, data, str(path))
-    cfg = parse_config(data, source=str(path))
+    return resolve_files(parse_config(data, source=str(path)), data, path.parent, str(path))
+
+
+def resolve_files(cfg: JobConfig, data: Any, folder: Path, source: str = "config") -> JobConfig:
+    """Take the files a config names (image, can lists, plate template, spray profiles) from ``folder`` and read the profiles.
+
+    :func:`load_config` does this with the config file's folder; a config made from a mapping in
+    code (``stencil_cad.api.load_config``) with the working folder.
+
+    Args:
+        cfg: The config parsed from ``data``.
+        data: The mapping it was parsed from (the profile's checks read the raw ``spray`` keys).
+        folder: Folder relative paths are taken from.
+        source: What the config came from, for messages.
+
+    Raises:
+        ConfigError: A profile cannot be read, a plate template is missing or not a ``.py`` file.
+    """
     if cfg.image is not None and not cfg.image.is_absolute():
-        cfg = cfg.model_copy(update={"image": (path.parent / cfg.image)})
-    cfg = _resolve_can_lists(cfg, path.parent)
+        cfg = cfg.model_copy(update={"image": (folder / cfg.image)})
+    cfg = _resolve_can_lists(cfg, folder)
     if cfg.plate.template is not None and not cfg.plate.template.is_absolute():
-        plate = cfg.plate.model_copy(update={"template": path.parent / cfg.plate.template})
+        plate = cfg.plate.model_copy(update={"template": folder / cfg.plate.template})
         cfg = cfg.model_copy(update={"plate": plate})
     if cfg.spray.profile is not None:
-        raw = data.get("spray") or {}
-        cfg = with_profile(
-            cfg, path.parent, raw.get("can"), source=str(path), raw_layer_cans=raw.get("layer_cans")
-        )
+        raw = (data.get("spray") if isinstance(data, dict) else None) or {}
+        cfg = with_profile(cfg, folder, raw.get("can"), source=source, raw_layer_cans=raw.get("layer_cans"))
     if cfg.plate.template is not None and not cfg.plate.template.is_file():
         raise ConfigError(
-            f"{path}: plate.template: file not found: {cfg.plate.template} (copy templates/plate.py there, "
+            f"{source}: plate.template: file not found: {cfg.plate.template} (copy templates/plate.py there, "
             "or remove the key to use the built-in template)"
         )
     if cfg.plate.template is not None and cfg.plate.template.suffix != ".py":
         raise ConfigError(
-            f"{path}: plate.template: {cfg.plate.template} is not a Python file (a template is a .py file "
+            f"{source}: plate.template: {cfg.plate.template} is not a Python file (a template is a .py file "
             "like templates/plate.py; it is Python code and runs with your rights)"
         )
     return cfg

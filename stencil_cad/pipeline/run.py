@@ -14,6 +14,7 @@ from ..config import ComputeConfig, JobConfig, Mode
 from ..errors import UserError
 from ..exchange.png import png_bytes
 from ..figures import ComputeFigures, PictureFigures, PlateFigures
+from ..interrupts import CancelToken
 from ..model import DotSet, Layers, Picture
 from ..mural import TileGrid
 from ..output import OutputDir
@@ -157,6 +158,8 @@ def run_command(
     quiet: bool = False,
     where: ComputeConfig | None = None,
     announce: Callable[[str], None] | None = None,
+    progress: Callable[[str, str], None] | None = None,
+    cancel: CancelToken | None = None,
 ) -> tuple[Run, list[Path]]:
     """Run one command of the command line: ``run``, ``hard``, ``decompose`` or a stage command.
 
@@ -175,6 +178,8 @@ def run_command(
             ``--scheduler`` applied. Defaults to the config's.
         announce: Called with one line saying what the job will cost (tiles, plates, holes,
             time), after the input is read and before any work, or None.
+        progress: Told ``(event, stage)`` as each stage starts and ends, or None.
+        cancel: Stops the run at its next stage edge or progress step (nothing is kept), or None.
 
     Returns:
         ``(run, files)``: the run's state (figures, timings) and the files written.
@@ -182,7 +187,7 @@ def run_command(
     stage_cmd = command in STAGE_COMMANDS
     src = (src or out_path) if stage_cmd else None
     # `decompose` is a stage too: it adds to a run's folder and never removes later stages' files.
-    run = Run(cfg=cfg, out=None, quiet=quiet)  # type: ignore[arg-type]
+    run = Run(cfg=cfg, out=None, quiet=quiet, progress=progress, cancel=cancel)  # type: ignore[arg-type]
     # Everything that can be checked is checked before the first stage: the template (Python
     # code, loaded now), the output folder (created, locked, probed for writing), the image.
     if command in ("run", "hard", "build"):
@@ -203,13 +208,7 @@ def run_command(
                 if command not in ("simulate", "stipple"):
                     raise
         if picture is not None and command in ("run", "hard") and announce is not None:
-            from . import tiles
-
-            shape = picture.shape
-            _, plan = tiles.plan(
-                cfg, picture.width_mm, picture.height_mm, plate_layers(cfg), shape[0] * shape[1]
-            )
-            announce(tiles.plan_line(plan))
+            announce(_plan_line(cfg, picture))
         if command in ("run", "hard", "decompose"):
             assert picture is not None  # load_picture raised otherwise
             with computing(run, picture.shape[0] * picture.shape[1], where):
@@ -226,6 +225,13 @@ def run_command(
         raise
     run.times["total"] = round(time.perf_counter() - t0, 3)
     return run, files
+
+
+def _plan_line(cfg: JobConfig, picture: Picture) -> str:
+    """The one line saying what the job will cost (tiles, plates, holes, time)."""
+    shape = picture.shape
+    _, plan = tiles.plan(cfg, picture.width_mm, picture.height_mm, plate_layers(cfg), shape[0] * shape[1])
+    return tiles.plan_line(plan)
 
 
 def _run_stage_command(

@@ -509,6 +509,37 @@ def calibrate_command(
     Raises:
         UserError: Bad card file, unreadable photo (named reason), or an existing profile.
     """
+    return calibrate(
+        photo,
+        card,
+        out,
+        passes=passes,
+        distance_mm=distance_mm,
+        speed_m_s=speed_m_s,
+        paint=paint,
+        force=force,
+    )[1]
+
+
+def calibrate(
+    photo: Path,
+    card: Path,
+    out: Path,
+    *,
+    passes: float | None = None,
+    distance_mm: float | None = None,
+    speed_m_s: float | None = None,
+    paint: str = "",
+    force: bool = False,
+) -> tuple[CardFit, str]:
+    """Fit the can from the photo of the sprayed card and write the spray profile: :func:`calibrate_command`'s work.
+
+    Returns:
+        ``(fit, report)``: the fit and the one-line report.
+
+    Raises:
+        UserError: Bad card file, unreadable photo (named reason), or an existing profile.
+    """
     check_target(out, "spray profile", force=force)
     desc = parse_json(
         read_text(card, "card description", fix="write it with `stencil-cad card --out DIR`"), str(card)
@@ -546,7 +577,7 @@ def calibrate_command(
     text = profile_yaml(fit, paint, Path(photo).name, n)
     write_text_over(out, text, "spray profile", force=force)
     c = fit.can
-    return (
+    return fit, (
         f"stencil-cad: {out}: spread_k {c.spread_k:.4f}, bleed {c.bleed_sigma_mm:.3f} mm"
         f"{'' if fit.info['bleed_fitted'] else ' (kept: one stand-off)'}, deposit {c.deposit_per_pass:.4f} per pass "
         f"at {d:g} mm and {v:g} m/s; residual RMS {fit.residual_rms:.4f} "

@@ -1,0 +1,83 @@
+"""The page's settings as a job config: the bundled example's keys with what the maker chose on top."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+from typing import Any
+
+from ..errors import UserError
+from .workspace import Workspace
+
+#: The settings the page sends, with their defaults (the bundled example's).
+DEFAULTS: dict[str, Any] = {
+    "image": None,
+    "width_mm": 150.0,
+    "process": "fdm",
+    "bed": "",
+    "layers": 4,
+    "paints": "auto",
+    "distance_m": 1.0,
+    "standoff_mm": None,
+    "profile": None,
+}
+
+
+def example_data() -> dict[str, Any]:
+    """The bundled example's config as a mapping (without its image: a config without one uses the example)."""
+    import yaml
+
+    from ..imaging import example_config_path
+
+    data = yaml.safe_load(example_config_path().read_text(encoding="utf-8"))
+    data.pop("image", None)
+    return dict(data)
+
+
+def config_data(settings: dict[str, Any], ws: Workspace) -> tuple[dict[str, Any], Path | None]:
+    """The config mapping of the page's ``settings``, and the picture it names (None: the bundled example).
+
+    The values are checked by the config itself when the mapping is loaded (:func:`stencil_cad.api.load_config`),
+    with its messages.
+
+    Raises:
+        UserError: An unknown setting, or a picture that is not in the workspace (evicted: upload it again).
+    """
+    unknown = sorted(set(settings) - set(DEFAULTS))
+    if unknown:
+        raise UserError(f"unknown setting(s): {', '.join(unknown)}; the page sends {', '.join(DEFAULTS)}")
+    s = {**DEFAULTS, **{k: v for k, v in settings.items() if v is not None or k == "standoff_mm"}}
+    data = example_data()
+    picture = None
+    if s["image"]:
+        picture = ws.upload_path(str(s["image"]))
+        if picture is None:
+            raise UserError(
+                "the picture is no longer in the studio's workspace (old uploads are removed); upload it again"
+            )
+        data["image"] = str(picture)
+    data["size"] = {**data.get("size", {}), "width_mm": s["width_mm"]}
+    data["decompose"] = {**data.get("decompose", {}), "layers": s["layers"]}
+    if s["paints"] != "auto":
+        data["decompose"]["palette"] = list(s["paints"])
+    data["stipple"] = {**data.get("stipple", {}), "process": s["process"]}
+    data["view"] = {**data.get("view", {}), "distance_m": s["distance_m"]}
+    if s["standoff_mm"] not in (None, "", "auto"):
+        data["wall"] = {**data.get("wall", {}), "standoff_mm": [s["standoff_mm"]]}
+    if s["bed"]:
+        data["bed"] = s["bed"]
+    if s["profile"]:
+        profile = ws.profile_path(str(s["profile"]))
+        if profile is None:
+            raise UserError("the spray profile is no longer in the studio's workspace; calibrate again")
+        data["spray"] = {**data.get("spray", {}), "profile": str(profile)}
+    return data, picture
+
+
+def can_list() -> list[dict[str, str]]:
+    """The bundled can list (name, code, hex): the paints the page offers with swatches."""
+    from importlib import resources
+
+    text = (resources.files("stencil_cad") / "data" / "example_cans.csv").read_text(encoding="utf-8")
+    rows = csv.DictReader(line for line in text.splitlines() if line and not line.startswith("#"))
+    return [{"name": r["name"], "code": r["code"], "hex": r["hex"]} for r in rows]

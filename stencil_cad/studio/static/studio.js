@@ -1,0 +1,191 @@
+// The studio page: settings -> previews streamed as they improve; Make -> progress, zip, sheet.
+"use strict";
+const $ = (id) => document.getElementById(id);
+const state = { image: null, preview: null, job: null, timer: null };
+
+function settings() {
+  const chosen = [...document.querySelectorAll("#cans input:checked")].map((c) => c.value);
+  const paintMode = document.querySelector("input[name=paint_mode]:checked").value;
+  const fixed = $("standoff_mode").value === "fixed";
+  return {
+    image: state.image,
+    width_mm: Number($("width_mm").value),
+    process: $("process").value,
+    bed: $("bed").value,
+    layers: Number($("layers").value),
+    paints: paintMode === "auto" || chosen.length === 0 ? "auto" : chosen,
+    distance_m: Number($("distance_m").value),
+    standoff_mm: fixed ? Number($("standoff_mm").value) : null,
+    profile: $("profile").value || null,
+  };
+}
+
+function setStatus(text) { $("status").textContent = text; }
+function showError(id, text) { const e = $(id); e.textContent = text || ""; e.hidden = !text; }
+
+function fmt(x, d = 2) { return x === null || x === undefined ? "—" : Number(x).toFixed(d); }
+
+function showPreview(p) {
+  $("reference").src = p.reference;
+  $("sprayed").src = p.sprayed;
+  $("f-level").textContent = `${p.level}${p.final ? " (final)" : ", improving…"} in ${fmt(p.seconds, 1)} s`;
+  $("f-scielab").textContent = `${fmt(p.scielab)} at ${p.distance_m} m`;
+  $("f-scielab2").textContent = `${fmt(p.scielab_2x)} at ${2 * p.distance_m} m`;
+  $("f-passes").textContent = p.passes ? p.passes.join(" · ") : "—";
+  $("f-holes").textContent = p.holes ? p.holes.map((n) => n.toLocaleString()).join(" · ") : "—";
+  $("f-parts").textContent = `${p.plates} plates, ${p.walls} wall(s), ${p.tiles} tile(s)`;
+  $("f-standoff").textContent = `${p.standoff_mm} mm`;
+  const c = p.cost;
+  $("f-cost").textContent = c.cut_m != null
+    ? `${c.sheets} sheet(s), laser cut ${fmt(c.cut_m, 1)} m in about ${fmt(c.cut_hours, 1)} h`
+    : `about ${fmt(c.printer_hours, 1)} printer-hours, ${fmt(c.filament_m, 0)} m of filament (${fmt(c.filament_g, 0)} g)`;
+  const swatches = [p.primer, ...p.paints].map((h) => `<span class="swatch" style="background:${h}" title="${h}"></span>`).join(" ");
+  const cans = (c.paint || []).reduce((s, x) => s + x.cans, 0);
+  $("f-paint").innerHTML = `${swatches} primer + ${p.paints.length} paints` + (c.paint && c.paint.length ? `, ${fmt(cans, 2)} can(s) in all` : "");
+  $("sprayed").dataset.level = p.level;
+}
+
+function preview() {
+  // A newer change replaces the stream: the server cancels the stale preview's work.
+  if (state.preview) state.preview.close();
+  showError("settings-error", "");
+  const url = "/api/preview?settings=" + encodeURIComponent(JSON.stringify(settings()));
+  setStatus("previewing…");
+  const es = new EventSource(url);
+  state.preview = es;
+  es.onmessage = (m) => {
+    const p = JSON.parse(m.data);
+    if (p.level === "error") { showError("settings-error", p.error); setStatus("ready"); es.close(); return; }
+    if (p.level === "cancelled") { es.close(); return; }
+    showPreview(p);
+    if (p.final) { setStatus("ready"); es.close(); }
+  };
+  es.onerror = () => {
+    es.close();
+    if (state.preview !== es) return;
+    // A 4xx before the stream opened: ask again to read the message.
+    fetch(url).then((r) => (r.ok ? null : r.json())).then((j) => { if (j) showError("settings-error", j.error); });
+    setStatus("ready");
+  };
+}
+
+function changed() { clearTimeout(state.timer); state.timer = setTimeout(preview, 150); }
+
+async function upload(file) {
+  showError("upload-error", "");
+  setStatus("checking the picture…");
+  const r = await fetch("/api/upload?name=" + encodeURIComponent(file.name), { method: "POST", body: file });
+  const j = await r.json();
+  if (!r.ok) { showError("upload-error", j.error); setStatus("ready"); return; }
+  state.image = j.id;
+  $("picture-name").textContent = `${j.name} (${j.width_px} × ${j.height_px} px at this size)`;
+  changed();
+}
+
+async function make() {
+  showError("settings-error", "");
+  const r = await fetch("/api/jobs", { method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(settings()) });
+  const j = await r.json();
+  if (!r.ok) { showError("settings-error", j.error); return; }
+  state.job = j.id;
+  $("job").hidden = false; $("stages").innerHTML = ""; $("job-result").textContent = "making…";
+  $("job-links").hidden = true; $("sheet-frame").hidden = true;
+  $("make").disabled = true; $("cancel").hidden = false;
+  const es = new EventSource(`/api/jobs/${j.id}/events`);
+  es.onmessage = (m) => {
+    const e = JSON.parse(m.data);
+    if (e.event === "start") {
+      const li = document.createElement("li"); li.id = `stage-${e.stage}`; li.textContent = `${e.stage} …`; $("stages").append(li);
+    } else if (e.event === "done") {
+      const li = $(`stage-${e.stage}`); if (li) li.textContent = `${e.stage} ✓`;
+    } else {
+      es.close(); $("make").disabled = false; $("cancel").hidden = true;
+      if (e.event === "finished") {
+        $("job-result").textContent = `made: S-CIELAB ${fmt(e.scielab)} at the viewing distance`;
+        $("zip").href = `/api/jobs/${j.id}/files/job.zip`;
+        $("sheet").href = `/api/jobs/${j.id}/files/output/instructions.html`;
+        $("job-links").hidden = false;
+      } else if (e.event === "cancelled") {
+        $("job-result").textContent = "cancelled: nothing was kept";
+      } else {
+        $("job-result").textContent = `failed: ${e.message}`;
+      }
+    }
+  };
+}
+
+async function makeCard() {
+  showError("calibrate-error", "");
+  setStatus("making the card…");
+  const r = await fetch("/api/card", { method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(settings()) });
+  const j = await r.json();
+  setStatus("ready");
+  if (!r.ok) { showError("calibrate-error", j.error); return; }
+  state.card = j.id;
+  $("card-sheet").href = `/api/cards/${j.id}/files/card_sheet.pdf`;
+  $("card-sheet").hidden = false;
+  $("card-passes").textContent = j.passes;
+}
+
+async function profiles(select) {
+  const list = await (await fetch("/api/profiles")).json();
+  const keep = select || $("profile").value;
+  $("profile").length = 1;
+  for (const p of list) $("profile").add(new Option(`${p.paint} (spread ${p.spread_k}, deposit ${p.deposit_per_pass})`, p.id));
+  $("profile").value = keep;
+}
+
+async function fitPhoto(file) {
+  showError("calibrate-error", "");
+  if (!state.card) { showError("calibrate-error", "make the card first"); return; }
+  setStatus("fitting the photo…");
+  const q = new URLSearchParams({ card: state.card, paint: $("paint-name").value, name: file.name });
+  const r = await fetch(`/api/calibrate?${q}`, { method: "POST", body: file });
+  const j = await r.json();
+  setStatus("ready");
+  if (!r.ok) { showError("calibrate-error", j.error); return; }
+  const rows = [
+    ["Markers found per wall", j.markers_found.join(" · ")],
+    ["Spread k", j.spread_k], ["Bleed σ", `${j.bleed_sigma_mm} mm`], ["Deposit per pass", j.deposit_per_pass],
+    ["Residual RMS", `${j.residual_rms} (photo noise ${j.noise})`],
+    ["By feature", Object.entries(j.feature_residuals).map(([k, v]) => `${k} ${v}`).join(", ")],
+  ];
+  $("fit").innerHTML = rows.map(([k, v]) => `<tr><th>${k}</th><td>${v}</td></tr>`).join("");
+  $("fit").hidden = false;
+  await profiles(j.id);
+  changed();
+}
+
+async function cancel() {
+  if (state.job) await fetch(`/api/jobs/${state.job}/cancel`, { method: "POST" });
+}
+
+async function init() {
+  const o = await (await fetch("/api/options")).json();
+  for (const p of o.processes) $("process").add(new Option(p, p, p === o.defaults.process, p === o.defaults.process));
+  for (const b of o.beds) $("bed").add(new Option(b, b));
+  $("cans").innerHTML = o.cans.map((c) =>
+    `<label><input type="checkbox" value="${c.hex}"><span class="swatch" style="background:${c.hex}"></span>${c.name} (${c.code})</label>`).join("");
+  for (const el of document.querySelectorAll("#settings input, #settings select")) {
+    if (!["file", "photo", "paint-name"].includes(el.id)) el.addEventListener("change", changed);
+  }
+  document.querySelectorAll("input[name=paint_mode]").forEach((r) => r.addEventListener("change", () => {
+    $("cans").hidden = document.querySelector("input[name=paint_mode]:checked").value === "auto";
+  }));
+  $("standoff_mode").addEventListener("change", () => { $("standoff_mm").disabled = $("standoff_mode").value !== "fixed"; });
+  $("file").addEventListener("change", () => { if ($("file").files.length) upload($("file").files[0]); });
+  const drop = $("drop");
+  drop.addEventListener("dragover", (e) => { e.preventDefault(); drop.classList.add("over"); });
+  drop.addEventListener("dragleave", () => drop.classList.remove("over"));
+  drop.addEventListener("drop", (e) => { e.preventDefault(); drop.classList.remove("over"); if (e.dataTransfer.files.length) upload(e.dataTransfer.files[0]); });
+  $("slider").addEventListener("input", () => $("compare").style.setProperty("--cut", `${$("slider").value}%`));
+  $("zoom").addEventListener("input", () => $("compare").style.setProperty("--zoom", $("zoom").value));
+  $("make").addEventListener("click", make);
+  $("make-card").addEventListener("click", makeCard);
+  $("photo").addEventListener("change", () => { if ($("photo").files.length) fitPhoto($("photo").files[0]); });
+  await profiles();
+  $("cancel").addEventListener("click", cancel);
+  $("sheet").addEventListener("click", () => { $("sheet-frame").hidden = false; });
+  preview();
+}
+init();

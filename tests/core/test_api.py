@@ -1,0 +1,86 @@
+"""The public Python API: configs from files, mappings and overrides; jobs with progress and cancel; previews."""
+
+import pytest
+
+from stencil_cad import api
+from stencil_cad.errors import ConfigError
+from stencil_cad.pipeline.preview import PreviewCache, decomposition_key, holes_key
+
+SMALL = {"size": {"width_mm": 40.0}, "decompose": {"layers": 2}}
+
+
+def test_a_config_from_the_example_a_mapping_and_overrides():
+    example = api.load_config(None)
+    assert example.name == "example" and example.decompose.layers == 4
+    cfg = api.load_config(None, overrides=SMALL)
+    assert (cfg.size.width_mm, cfg.decompose.layers, cfg.stipple.process.value) == (40.0, 2, "fdm")
+    assert api.load_config({"decompose": {"layers": 3}}).decompose.layers == 3
+    with pytest.raises(ConfigError, match="decompose.layers"):
+        api.load_config(None, overrides={"decompose": {"layers": 0}})
+    with pytest.raises(ValueError, match="command must be one of"):
+        api.run(cfg, "nowhere", command="paint")
+
+
+def test_the_decomposition_is_keyed_on_what_it_reads():
+    cfg = api.load_config(None)
+    key = decomposition_key(cfg)
+    assert decomposition_key(api.load_config(None, overrides={"view": {"distance_m": 3.0}})) == key
+    assert decomposition_key(api.load_config(None, overrides={"decompose": {"layers": 3}})) != key
+    assert decomposition_key(api.load_config(None, overrides={"size": {"width_mm": 120.0}})) != key
+    # The holes do not depend on the refinement, but do on the process.
+    holes = holes_key(cfg, key)
+    assert holes_key(api.load_config(None, overrides={"refine": {"iterations": 5}}), key) == holes
+    assert holes_key(api.load_config(None, overrides={"stipple": {"process": "sla"}}), key) != holes
+
+
+def test_the_cache_is_bounded_least_recently_used_first():
+    cache = PreviewCache(entries=2)
+    for k in "abc":
+        cache.put(cache.layers, k, k)
+        if k == "b":
+            assert cache.get(cache.layers, "a") == "a"  # a is used again: b goes first
+    assert list(cache.layers) == ["a", "c"] and cache.get(cache.layers, "b") is None
+
+
+def test_a_second_preview_reuses_the_decomposition_and_holes():
+    cfg = api.load_config(None, overrides=SMALL)
+    cache = api.preview_cache()
+    first = list(api.previews(cfg, cache))
+    assert [p.level for p in first] == ["coarse", "stippled", "refined"] and first[-1].final
+    # The first preview's quick decomposition at half the resolution, then the job's.
+    assert len(cache.layers) == 2 and len(cache.holes) == 1
+    assert first[0].sprayed.shape == first[-1].sprayed.shape
+    again = list(api.previews(api.load_config(cfg, overrides={"view": {"distance_m": 2.0}}), cache))
+    assert [p.level for p in again] == ["coarse", "stippled", "refined"]
+    assert len(cache.layers) == 2 and len(cache.holes) == 1
+    assert again[1].holes == first[1].holes and again[-1].distance_m == 2.0
+    assert first[-1].sprayed.shape == first[-1].reference.shape and first[-1].sprayed.max() <= 1.0
+
+
+def test_a_preview_stops_when_cancelled():
+    token = api.CancelToken()
+    got = api.previews(api.load_config(None, overrides=SMALL), cancel=token)
+    assert next(got).level == "coarse"
+    token.cancel()
+    with pytest.raises(api.Cancelled):
+        next(got)
+
+
+@pytest.mark.slow
+def test_a_job_reports_its_stages_and_a_cancelled_one_leaves_nothing(tmp_path):
+    cfg = api.load_config(None, overrides=SMALL)
+    seen = []
+    result = api.run(cfg, tmp_path / "job", progress=lambda event, stage: seen.append((event, stage)))
+    assert seen[:2] == [("start", "load"), ("done", "load")]
+    assert ("done", "simulate") in seen and ("done", "build") in seen
+    assert result.simulated().shape[2] == 3 and result.figures.simulate.scielab > 0
+    assert all(p.parent == tmp_path / "job" for p in result.files) and "total" in result.times
+    token = api.CancelToken()
+
+    def cancel_at_stipple(event, stage):
+        if (event, stage) == ("start", "stipple"):
+            token.cancel()
+
+    with pytest.raises(api.Cancelled):
+        api.run(cfg, tmp_path / "cancelled", progress=cancel_at_stipple, cancel=token)
+    assert not (tmp_path / "cancelled").exists() or list((tmp_path / "cancelled").iterdir()) == []
