@@ -18,9 +18,9 @@ class PartCost:
     """One part's estimate: a plate (per tile and layer) or a wall (per tile and stand-off).
 
     Attributes:
-        kind: ``"plate"`` or ``"wall"``.
-        tile: The mural tile, or empty for a one-plate job.
-        layer: The plate's layer (1-based), or 0 for a wall.
+        kind: ``"plate"``, ``"wall"`` or ``"posts"`` (a mural's posts, :mod:`stencil_cad.mural.posts`).
+        tile: The mural tile, or empty for a one-plate job (and for the posts).
+        layer: The plate's layer (1-based), 0 for a wall, or how many posts are printed together.
         holes: Holes on the plate (placed, or expected from the plan), 0 for a wall.
         print_hours: FDM print time in hours (the shipped PrusaSlicer profile's, as modelled).
         filament_m: Filament in metres (1.75 mm).
@@ -73,6 +73,8 @@ class PartCost:
     def name(self) -> str:
         """``A1 plate 02``, ``plate 01``, ``B2 wall`` …: how the summary and the sheet name the part."""
         what = f"plate {self.layer:02d}" if self.kind == "plate" else self.kind
+        if self.kind == "posts":
+            what = f"posts × {self.layer} (printed together)"
         return f"{self.tile} {what}" if self.tile else what
 
 

@@ -46,7 +46,7 @@ import numpy as np
 
 from ..figures.cost import CostFigures, PaintCost, PartCost
 from ..geometry import polygon_area
-from .tiling import TileGrid
+from .tiling import TileGrid, wall_tiles
 
 if TYPE_CHECKING:
     from ..config import JobConfig
@@ -62,6 +62,8 @@ __all__ = [
     "cut_seconds",
     "hours_text",
     "making_cost",
+    "post_count",
+    "posts_print",
     "plate_print",
     "plate_specs",
     "wall_print",
@@ -282,7 +284,7 @@ def plate_specs(
     owners = [grid.owner(ds.xy_mm) for ds in dotsets] if dotsets is not None else None
     out = []
     for i, t in enumerate(grid.tiles):
-        area, perimeter = _ring(offset_outline(*t.size, cfg.plate.outline, 0.0))
+        area, perimeter = _ring(offset_outline(*t.part_size, cfg.plate.outline, 0.0))
         core = (t.core[2] - t.core[0]) * (t.core[3] - t.core[1])
         name = t.name if grid.tiled else ""
         for k in range(layers):
@@ -304,14 +306,17 @@ def plate_specs(
 
 
 def wall_specs(grid: TileGrid, cfg: JobConfig) -> list[WallSpec]:
-    """Every wall of the job: one per tile and stand-off height."""
+    """Every wall of the job: one per stand-off height and distinct tile (:func:`~stencil_cad.mural.wall_tiles`)."""
     from ..outline import offset_outline
 
     oc, wc = cfg.plate.outline, cfg.wall
     depth = float(wc.pocket_depth(cfg.plate.thickness_mm))
     out = []
+    walls = wall_tiles(grid)
     for t in grid.tiles:
-        w, h = t.size
+        if t.name not in walls:
+            continue  # one wall serves every tile of its size and notches
+        w, h = t.part_size
         reach = wc.clearance_mm + wc.wall_thickness_mm
         try:
             outer = offset_outline(w, h, oc, reach)
@@ -325,6 +330,39 @@ def wall_specs(grid: TileGrid, cfg: JobConfig) -> list[WallSpec]:
         for s in wc.heights():
             out.append(WallSpec(t.name if grid.tiled else "", float(s), depth, rings))
     return out
+
+
+#: PrusaSlicer's default ``slowdown_below_layer_time`` (the shipped profile keeps it), s: a layer of a
+#: few small posts takes at least this long.
+MIN_LAYER_S = 5.0
+
+
+def post_count(grid: TileGrid, cfg: JobConfig) -> int:
+    """Posts the maker prints: the most any plate stands on (0 when the walls alone carry the plates)."""
+    from .posts import post_plan, targets
+
+    plan = post_plan(cfg, grid)
+    if plan is None:
+        return 0
+    return max(len(targets(*t.size, plan.pitch_mm)) for t in grid.tiles)
+
+
+def posts_print(cfg: JobConfig, grid: TileGrid, n: int) -> tuple[float, float]:
+    """``(seconds, filament mm³)`` to print ``n`` posts together, solid, as modelled.
+
+    Their plastic at the plates' rate, but never under :data:`MIN_LAYER_S` a layer (the slicer slows
+    small layers down for cooling).
+    """
+    from .posts import post_plan
+
+    plan = post_plan(cfg, grid)
+    if plan is None:
+        return 0.0, 0.0
+    t = cfg.plate.thickness_mm
+    one = math.pi * (plan.radius_mm**2 * plan.height_mm + plan.pin_radius_mm**2 * t)
+    layers = math.ceil((plan.height_mm + t) / LAYER_MM - 1e-6)
+    lines = n * one / (LAYER_MM * LINE_MM * _SOLID_MM_S) * PLATE_SLOWDOWN
+    return FIXED_S + max(lines, layers * MIN_LAYER_S), PLATE_FILAMENT * n * one
 
 
 def _paint(
@@ -358,10 +396,9 @@ def making_cost(
     Returns:
         The figures for the manifest's ``cost`` section.
     """
-    from .tiling import part_sizes
+    from .posts import sag_side_mm
 
-    side = max(max(part_sizes(*t.size, cfg)["plate"]) for t in grid.tiles)
-    cfg = cfg.fit_plate_thickness(side)
+    cfg = cfg.fit_plate_thickness(sag_side_mm(grid, cfg))
     laser = cfg.stipple.process.value == "laser"
     plates = plate_specs(grid, cfg, layers, dotsets)
     physical = cfg.spray.is_physical
@@ -379,6 +416,10 @@ def making_cost(
     for w in wall_specs(grid, cfg):
         seconds, mm3 = wall_print(w)
         parts.append(_part("wall", w.tile, 0, 0, seconds, mm3, None, 0))
+    n_posts = post_count(grid, cfg)
+    if n_posts:
+        seconds, mm3 = posts_print(cfg, grid, n_posts)
+        parts.append(_part("posts", "", n_posts, 0, seconds, mm3, None, 0))
     return CostFigures(
         basis="plan" if dotsets is None else "holes",
         area_m2=round(grid.width_mm * grid.height_mm / 1e6, 6),
