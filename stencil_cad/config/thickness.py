@@ -23,6 +23,11 @@ The sag limit, 5 % of the stand-off (0.5 mm under every process's 10 mm), keeps 
 S-CIELAB slowly (the FDM astronaut scores 10.8 / 9.1 at 1 m from 10 / 15 mm stand-offs, 16 % for
 a 50 % change of blur), so a 5 % change is far below what a viewer sees.
 
+A mural's plates also stand on posts (:mod:`stencil_cad.mural.posts`): the fill-in then takes the
+panel between four posts (:func:`column_side_mm`: point supports at its corners, Timoshenko's
+0.00581 against the edge-supported 0.00406) instead of the whole plate, and an FDM plate comes out
+two layers (0.6 mm).
+
 Sag in mm from this model (solid plate; times 2 for the perforation), PLA E 3.5 GPa, 1240 kg/m3:
 
 ==========  =======  =======  =======  =======  =======

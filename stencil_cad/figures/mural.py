@@ -57,7 +57,7 @@ class MuralBuildFigures:
     seam_density: Any
     order_of_work: Any
     #: The posts that carry the plates: the part's file, its check, stand-off, foot and pin radii,
-    #: ``per_plate`` (posts per ``"<tile> <layer>"``), ``most`` (the most under one plate:
+    #: ``per_plate`` (posts per ``"<tile> <layer>"``), ``sites_mm`` (their centres in mural mm), ``most`` (the most under one plate:
     #: the posts to print) and ``dropped_holes``; None when the wall alone carries the plates.
     posts: Mapping[str, Any] | None = None
 

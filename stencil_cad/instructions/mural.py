@@ -223,6 +223,11 @@ def _registration(m: MuralFigures, rows: Sequence[TileRow], walls: Mapping[str, 
     return steps
 
 
+def _walls(n: int) -> str:
+    """``1 wall`` (moved from tile to tile) or ``8 walls``."""
+    return "1 wall (moved from tile to tile)" if n == 1 else f"{n} walls"
+
+
 def _posts_step(m: MuralFigures) -> str:
     """How the plates stand on their posts, as one step (empty when the walls alone carry them)."""
     posts = m.built.posts if m.built is not None else None
@@ -404,8 +409,8 @@ def _union_checks(built: MuralBuildFigures) -> list[tuple[str, bool]]:
 def mural_html(plan: MuralPlan, e: Callable[[object], str], chip: Callable[[str], str]) -> str:
     """The order of work, the registration steps and the tile sections as HTML."""
     out = [
-        f'<h2>Order of work</h2><p class="note">{e(plan.grid)}: {plan.plates} plates and {plan.walls} '
-        "walls. Spray round by round: one layer on every tile, then the next layer; a tile's later "
+        f'<h2>Order of work</h2><p class="note">{e(plan.grid)}: {plan.plates} plates and {_walls(plan.walls)}. '
+        "Spray round by round: one layer on every tile, then the next layer; a tile's later "
         "layer goes over its neighbours' earlier ones at the seams, as in the picture.</p>",
         '<ol class="rounds">' + "".join(f"<li>{e(r)}</li>" for r in plan.rounds) + "</ol>",
         '<h2>Registration: where each tile goes</h2><ol class="registration">'
@@ -458,7 +463,7 @@ def mural_pdf(plan: MuralPlan, k: Any) -> list[Any]:
     story = [
         k.heading("Order of work", k.h2),
         k.p(
-            f"{plan.grid}: {plan.plates} plates and {plan.walls} walls. Spray round by round: one layer "
+            f"{plan.grid}: {plan.plates} plates and {_walls(plan.walls)}. Spray round by round: one layer "
             "on every tile, then the next layer."
         ),
     ]

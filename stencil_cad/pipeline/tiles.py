@@ -108,7 +108,7 @@ def stage_build_tiles(
     for row in walls:
         row["tiles"] = served.get(str(row["tile"]), [row["tile"]])
     for row in plates:
-        row["posts"] = posts.get((str(row["tile"]), int(row["layer"])), 0)
+        row["posts"] = len(posts.get((str(row["tile"]), int(row["layer"])), []))
         i = int(row["layer"]) - 1
         if len(dotsets[i]):
             row["drawn_minus_asked_mm"] = round(float(np.mean(drawn[i].r_mm - dotsets[i].r_mm)), 4)
@@ -132,8 +132,10 @@ def stage_build_tiles(
 
 def _with_posts(
     cfg: JobConfig, dotsets: list[DotSet], per_tile: list[list[DotSet]], grid: mural.TileGrid
-) -> tuple[list[list[DotSet]], dict[tuple[str, int], int]]:
-    """Each plate's drawn holes in its part frame with a pin hole at each of its posts, and the posts per (tile, layer).
+) -> tuple[list[list[DotSet]], dict[tuple[str, int], list[list[float]]]]:
+    """Each plate's drawn holes in its part frame with a pin hole at each of its posts, and the posts' sites per (tile, layer).
+
+    The sites are in mural mm.
 
     The holes move from the tile's sheet frame to its part frame (:attr:`stencil_cad.mural.Tile.part`).
     The sites come from the saved holes (:func:`stencil_cad.mural.post_sites`, every one clear);
@@ -156,13 +158,15 @@ def _with_posts(
                 sites, _ = mural.post_sites(dotsets[i], t.sheet, plan)
                 drawn_plan = replace(plan, pin_hole_mm=plan.pin_hole_mm + grow)
                 holes = mural.with_pin_holes(holes, sites - np.array(t.part_origin), drawn_plan)
-                counts[(t.name, i + 1)] = len(sites)
+                counts[(t.name, i + 1)] = [[round(float(v), 4) for v in site] for site in sites]
             row.append(holes)
         out.append(row)
     return out, counts
 
 
-def _post_part(run: Run, plan: mural.PostPlan, posts: dict[tuple[str, int], int]) -> dict[str, Any]:
+def _post_part(
+    run: Run, plan: mural.PostPlan, posts: dict[tuple[str, int], list[list[float]]]
+) -> dict[str, Any]:
     """Build, check and write the job's post (every post is the same); its figures."""
     from ..cad import post as post_mod
 
@@ -182,8 +186,9 @@ def _post_part(run: Run, plan: mural.PostPlan, posts: dict[tuple[str, int], int]
         "pin_radius_mm": plan.pin_radius_mm,
         "pin_hole_mm": plan.pin_hole_mm,
         "keepout_mm": round(plan.keepout_mm, 3),
-        "per_plate": {f"{t} {k}": n for (t, k), n in posts.items()},
-        "most": max(posts.values()),
+        "per_plate": {f"{t} {k}": len(v) for (t, k), v in posts.items()},
+        "sites_mm": {f"{t} {k}": v for (t, k), v in posts.items()},
+        "most": max(len(v) for v in posts.values()),
         "dropped_holes": dropped,
         **_plain(post_mod.check_post(model)),
     }
