@@ -60,6 +60,10 @@ class MuralBuildFigures:
     #: ``per_plate`` (posts per ``"<tile> <layer>"``), ``sites_mm`` (their centres in mural mm), ``most`` (the most under one plate:
     #: the posts to print) and ``dropped_holes``; None when the wall alone carries the plates.
     posts: Mapping[str, Any] | None = None
+    #: A laser-cut mural's frame rings and spacers (:mod:`stencil_cad.mural.laser`): per part its
+    #: ``name``, ``count``, ``thickness_mm``, ``cut_m``, ``cut_minutes``, ``files`` and checks
+    #: (``closed``, ``inside``, ``fits``, ``ok``, ``size_mm``); None for a printed wall.
+    laser_stand: Sequence[Mapping[str, Any]] | None = None
 
     @classmethod
     def from_json(cls, section: Row) -> MuralBuildFigures:
@@ -74,6 +78,7 @@ class MuralBuildFigures:
             seam_density=section.get("seam_density"),
             order_of_work=section.get("order_of_work"),
             posts=section.get("posts"),
+            laser_stand=section.get("laser_stand"),
         )
 
     def to_json(self) -> dict[str, Any]:
@@ -88,6 +93,7 @@ class MuralBuildFigures:
             "seam_density": self.seam_density,
             "order_of_work": self.order_of_work,
             "posts": self.posts,
+            "laser_stand": self.laser_stand,
         }
 
 

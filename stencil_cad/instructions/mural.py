@@ -214,6 +214,9 @@ def _registration(m: MuralFigures, rows: Sequence[TileRow], walls: Mapping[str, 
             "(pencil them the first time, with the wall's notches on the tile's grid lines), spray, lift the "
             "wall straight up and carry it to the next tile."
         )
+    stand = _laser_stand_step(m)
+    if stand:
+        steps.append(stand)
     posts = _posts_step(m)
     if posts:
         steps.append(posts)
@@ -226,6 +229,29 @@ def _registration(m: MuralFigures, rows: Sequence[TileRow], walls: Mapping[str, 
 def _walls(n: int) -> str:
     """``1 wall`` (moved from tile to tile) or ``8 walls``."""
     return "1 wall (moved from tile to tile)" if n == 1 else f"{n} walls"
+
+
+def _laser_stand_step(m: MuralFigures) -> str:
+    """How a laser-cut mural's frame and spacers go together, as one step (empty for a printed wall)."""
+    parts = {str(p.get("name")): p for p in (m.built.laser_stand if m.built is not None else None) or ()}
+    if not parts:
+        return ""
+    base, top, spacer = parts.get("frame_base"), parts.get("frame_top"), parts.get("spacer")
+    text = ""
+    if base is not None and top is not None:
+        text = (
+            f"Frame (laser-cut, no printed wall): cut frame_base.dxf {int(base['count'])} times from "
+            f"{float(base['thickness_mm']):g} mm sheet and frame_top.dxf once from the plates' "
+            f"{float(top['thickness_mm']):g} mm sheet; glue the base rings in a stack with their notches "
+            "and edges flush, and the top ring on them: the plate drops into the top ring and rests on the "
+            "base. The frame serves every tile as the wall would."
+        )
+    if spacer is not None:
+        text += (
+            f" Spacers: cut spacer.dxf {int(spacer['count'])} times from the base's sheet; a post is a stack "
+            "of them, threaded with the plate on a 2 mm pin through the plate's pin hole."
+        )
+    return text.strip()
 
 
 def _posts_step(m: MuralFigures) -> str:

@@ -8,7 +8,9 @@ carried by posts between their holes (:mod:`.posts`), so they can be thin.
 A one-plate job is a 1 × 1 tiling.
 """
 
+from . import laser
 from .cost import cut_seconds, making_cost
+from .laser import laser_stand
 from .map import mural_map
 from .posts import (
     PostPlan,
@@ -51,6 +53,8 @@ from .tiling import (
 
 __all__ = [
     "HALO_TAIL",
+    "laser",
+    "laser_stand",
     "PostPlan",
     "clear_post_sites",
     "post_plan",

@@ -24,8 +24,9 @@ prints the estimate beside the slicer's per part and in total; the fit and its r
 recorded beside the constants.
 
 **Laser**: one sheet per plate; the cut is the outline plus every hole's circumference, timed by
-:func:`cut_seconds` (a cutting speed and a pierce per cut, not measured here). Walls are printed
-whatever the plates' process.
+:func:`cut_seconds` (a cutting speed and a pierce per cut, not measured here). A laser-cut mural's
+wall and posts are cut too (:mod:`.laser`: the frame's rings and the spacers, their sheets, cuts
+and time); a one-plate laser job's wall is printed.
 
 **Paint**: each layer sprays through its open area (holes and windows); every pass is counted
 as one coat over that area at ``paints.coverage_m2_per_can`` (1.5 m² per 400 ml can per coat,
@@ -46,6 +47,7 @@ import numpy as np
 
 from ..figures.cost import CostFigures, PaintCost, PartCost
 from ..geometry import polygon_area
+from .laser import laser_stand, sheets_needed
 from .tiling import TileGrid, wall_tiles
 
 if TYPE_CHECKING:
@@ -420,10 +422,21 @@ def making_cost(
             cut_mm += cut
             cut_s += cut_seconds(cut, p.holes + 1)
         parts.append(_part("plate", p.tile, p.layer, p.holes, seconds, mm3, cut if laser else None, p.holes))
-    for w in wall_specs(grid, cfg):
+    stand = laser_stand(cfg, grid)
+    sheets = len(plates) if laser else None
+    for c in stand or ():
+        # A laser-cut mural's frame rings and spacers (layer: how many to cut), instead of a printed wall.
+        cut_mm += c.cut_mm * c.count
+        cut_s += cut_seconds(c.cut_mm, c.pierces) * c.count
+        parts.append(_part(c.name, "", c.count, 0, 0.0, 0.0, c.cut_mm * c.count, c.pierces * c.count - 1))
+    if stand:
+        sheets = (sheets or 0) + sheets_needed(
+            stand, None if grid.bed is None else (grid.bed.x_mm, grid.bed.y_mm)
+        )
+    for w in wall_specs(grid, cfg) if stand is None else ():
         seconds, mm3 = wall_print(w)
         parts.append(_part("wall", w.tile, 0, 0, seconds, mm3, None, 0))
-    n_posts = post_count(grid, cfg)
+    n_posts = post_count(grid, cfg) if stand is None else 0
     if n_posts:
         seconds, mm3 = posts_print(cfg, grid, n_posts)
         parts.append(_part("posts", "", n_posts, 0, seconds, mm3, None, 0))
@@ -434,7 +447,7 @@ def making_cost(
         filament_m=round(sum(p.filament_m for p in parts), 2),
         filament_g=round(sum(p.filament_g for p in parts), 1),
         parts=tuple(parts),
-        sheets=len(plates) if laser else None,
+        sheets=sheets,
         cut_m=round(cut_mm / 1000.0, 2) if laser else None,
         cut_hours=round(cut_s / 3600.0, 3) if laser else None,
         paint=_paint(cfg, plates, layers, passes),

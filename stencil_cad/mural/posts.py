@@ -161,6 +161,19 @@ def _conflicts(
     return counts, hits
 
 
+def _dense(ring: np.ndarray, step_mm: float = 0.5) -> np.ndarray:
+    """Points along a closed ring at most ``step_mm`` apart (a window's edges, not only its corners)."""
+    ring = ring.reshape(-1, 2)
+    nxt = np.roll(ring, -1, axis=0)
+    out = [ring]
+    for a, b in zip(ring, nxt, strict=True):
+        n = int(np.ceil(np.hypot(*(b - a)) / step_mm))
+        if n > 1:
+            t = np.arange(1, n)[:, None] / n
+            out.append(a + t * (b - a))
+    return np.vstack(out)
+
+
 def post_sites(
     ds: DotSet, sheet: tuple[float, float, float, float], plan: PostPlan
 ) -> tuple[np.ndarray, list[int]]:
@@ -180,7 +193,7 @@ def post_sites(
     xy = np.asarray(ds.xy_mm, dtype=np.float64).reshape(-1, 2)
     r = np.asarray(ds.r_mm, dtype=np.float64)
     windows = (
-        np.vstack([np.asarray(o, dtype=np.float64) for o, _ in ds.windows])
+        np.vstack([_dense(np.asarray(o, dtype=np.float64)) for o, _ in ds.windows])
         if ds.windows
         else np.zeros((0, 2))
     )

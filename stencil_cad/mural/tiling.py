@@ -406,7 +406,8 @@ def plan_cost(grid: TileGrid, cfg: JobConfig, layers: int, work_px: int) -> dict
     d = st.auto_spacing_factor * (2.0 * st.resolved_max_radius_mm + st.resolved_web_mm)
     per_mm2 = 2.0 / (math.sqrt(3.0) * d * d)
     holes_max = int(per_mm2 * grid.width_mm * grid.height_mm * layers)
-    walls = len(wall_tiles(grid)) * len(cfg.wall.heights())
+    # A laser-cut mural stands in a laser-cut frame (:mod:`.laser`): no printed wall.
+    walls = 0 if cut_stand(cfg, grid) else len(wall_tiles(grid)) * len(cfg.wall.heights())
     plates = len(grid.tiles) * layers
     # Half the full-ink count: a photo's layers average about half their densest tone.
     est = (
@@ -446,6 +447,14 @@ def manifest_rows(grid: TileGrid) -> list[dict[str, Any]]:
         }
         for t in grid.tiles
     ]
+
+
+def cut_stand(cfg: JobConfig, grid: TileGrid) -> bool:
+    """Whether the plates stand in a laser-cut frame on laser-cut spacers (:mod:`.laser`), not a printed wall.
+
+    A soft mural of laser-cut plates: every part is cut, none printed.
+    """
+    return cfg.stipple.process.value == "laser" and grid.tiled and cfg.mode.value == "soft"
 
 
 def wall_key(t: Tile) -> tuple[float, ...]:

@@ -27,7 +27,8 @@ from ..errors import UserError
 from ..figures import BuildFigures, MuralBed, MuralBuildFigures, MuralFigures, MuralSimulation, TileRow
 from ..model import DotSet, Layers, Picture
 from ..output import plain as _plain
-from .names import POST_STEM, tile_stem, tile_wall_stems
+from . import stand
+from .names import tile_stem, tile_wall_stems
 from .profiles import layer_sprays
 
 if TYPE_CHECKING:
@@ -91,7 +92,9 @@ def stage_build_tiles(
     per_tile, posts = _with_posts(cfg, dotsets, holes_tile, grid)
     plates: list[dict[str, Any]] = []
     walls: list[dict[str, Any]] = []
-    heights = cfg.wall.heights()
+    # A laser-cut mural stands in a frame and on spacers cut from sheet: no printed wall or post.
+    laser = mural.laser_stand(cfg, grid)
+    heights = cfg.wall.heights() if laser is None else []
     tasks = _part_tasks(cfg, layers, grid, per_tile, heights)
     served = mural.wall_tiles(grid)
     n_parts = len(grid.tiles) * len(dotsets) + len(served) * len(heights)
@@ -104,7 +107,11 @@ def stage_build_tiles(
                 run.out.write_bytes(name, data)
             (plates if res.kind == "plate" else walls).append(res.row)
         plan = mural.post_plan(cfg, grid)
-        post_row = _post_part(run, plan, posts) if plan is not None and any(posts.values()) else None
+        post_row = None
+        if laser is not None:
+            stand_rows = stand.write_laser_stand(run, laser, grid.bed)
+        elif plan is not None and any(posts.values()):
+            post_row = stand.write_post(run, plan, posts)
     for row in walls:
         row["tiles"] = served.get(str(row["tile"]), [row["tile"]])
     for row in plates:
@@ -125,6 +132,7 @@ def stage_build_tiles(
         seam_density=mural.seam_density(dotsets, grid),
         order_of_work=mural.order_of_work(grid, len(dotsets)),
         posts=post_row,
+        laser_stand=stand_rows if laser is not None else None,
     )
     run.figures.mural = replace(_planned(run), built=built)
     return _per_tile(made, grid)
@@ -162,36 +170,6 @@ def _with_posts(
             row.append(holes)
         out.append(row)
     return out, counts
-
-
-def _post_part(
-    run: Run, plan: mural.PostPlan, posts: dict[tuple[str, int], list[list[float]]]
-) -> dict[str, Any]:
-    """Build, check and write the job's post (every post is the same); its figures."""
-    from ..cad import post as post_mod
-
-    model = post_mod.build_post(
-        plan.radius_mm, plan.height_mm, plan.pin_radius_mm, run.cfg.plate.thickness_mm
-    )
-    stem = POST_STEM
-    with run.out.open_path(f"{stem}.step") as p:
-        post_mod.post_step(model, p)
-    with run.out.open_path(f"{stem}.stl") as p:
-        post_mod.post_stl(model, p, run.cfg.export.stl_tolerance_mm)
-    dropped = sum(int(s.get("removed_post", 0)) for s in (st.report for st in run.figures.stipple or ()))
-    return {
-        "file": f"{stem}.step",
-        "height_mm": plan.height_mm,
-        "radius_mm": plan.radius_mm,
-        "pin_radius_mm": plan.pin_radius_mm,
-        "pin_hole_mm": plan.pin_hole_mm,
-        "keepout_mm": round(plan.keepout_mm, 3),
-        "per_plate": {f"{t} {k}": len(v) for (t, k), v in posts.items()},
-        "sites_mm": {f"{t} {k}": v for (t, k), v in posts.items()},
-        "most": max(len(v) for v in posts.values()),
-        "dropped_holes": dropped,
-        **_plain(post_mod.check_post(model)),
-    }
 
 
 def drawn_and_made(

@@ -111,3 +111,19 @@ def test_posts_let_a_mural_plate_be_two_layers_thin():
     # Without posts the same tiles' plates would have to be much thicker.
     whole = max(max(mural.part_sizes(*t.size, cfg)["plate"]) for t in grid.tiles)
     assert cfg.fit_plate_thickness(whole).plate.thickness_mm >= 1.5
+
+
+def test_a_site_keeps_clear_of_a_windows_edges_not_only_its_corners():
+    cfg = job(size={"width_mm": 400})
+    grid = _mural_grid(cfg)
+    plan = mural.post_plan(cfg, grid)
+    t = grid.tiles[0]
+    target = posts.targets(*t.size, plan.pitch_mm)[0] + np.array(t.origin)
+    # A long thin window whose corners are far from the target but whose edge runs through it.
+    x, y = target
+    ring = np.array([[x - 200, y - 1], [x + 200, y - 1], [x + 200, y + 1], [x - 200, y + 1]])
+    ds = DotSet(xy_mm=np.zeros((0, 2)), r_mm=np.zeros(0), windows=((ring, ()),))
+    sites, dropped = mural.post_sites(ds, t.sheet, plan)
+    assert dropped == []
+    for s in sites:
+        assert np.min(np.hypot(*(posts._dense(ring) - s).T)) >= plan.keepout_mm - 0.5
