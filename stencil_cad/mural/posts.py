@@ -16,6 +16,8 @@ radius plus the spray halo of :func:`~stencil_cad.mural.tiling.spray_halo_mm`, m
 hole's edge) holds the fewest holes, the nearest to the target among those. Where the layer
 sprays everywhere near a target, the holes in the chosen site's disc are dropped from the layer
 before the simulation scores it (:func:`clear_post_sites`), so the score is the plate's as made.
+A window (an open area of a hybrid plate) is never shaded: the search widens around it, and a
+target whose whole neighbourhood is window gets no post.
 
 The same holes give the same sites: the build finds them again from the saved holes, and every
 site it finds has an empty disc.
@@ -61,6 +63,9 @@ __all__ = [
 POST_PITCH_MM = 100.0
 #: How far a site may move from its target, as a share of the pitch (each way, in x and y).
 SEARCH_FRACTION = 0.15
+#: Where a window leaves no site within :data:`SEARCH_FRACTION`, the search widens to this share of
+#: the pitch; where it still finds none, that target gets no post (a window is never shaded).
+WIDE_SEARCH_FRACTION = 0.45
 #: Spacing of the candidate sites around a target, mm.
 CANDIDATE_STEP_MM = 1.0
 #: The post's foot radius, mm: wide enough to stand, narrow enough to find a site between holes.
@@ -137,9 +142,18 @@ def targets(w: float, h: float, pitch: float) -> np.ndarray:
 
 
 def _conflicts(
-    cands: np.ndarray, xy: np.ndarray, r: np.ndarray, windows: np.ndarray, keepout: float
+    cands: np.ndarray,
+    xy: np.ndarray,
+    r: np.ndarray,
+    windows: np.ndarray,
+    keepout: float,
+    rings: Sequence[np.ndarray] = (),
 ) -> tuple[np.ndarray, list[list[int]]]:
-    """Per candidate, the holes whose edge enters its keep-out disc (count, with windows weighted)."""
+    """Per candidate, the holes whose edge enters its keep-out disc, and their count.
+
+    A window's edge near a candidate, or the candidate inside a window ``rings``, weighs so much
+    that it is never chosen while another is.
+    """
     from scipy.spatial import cKDTree
 
     counts = np.zeros(len(cands), dtype=np.int64)
@@ -158,7 +172,19 @@ def _conflicts(
         wtree = cKDTree(windows)
         for c, near in enumerate(wtree.query_ball_point(cands, keepout)):
             counts[c] += _WINDOW_WEIGHT * len(near)
+    for ring in rings:
+        counts += _WINDOW_WEIGHT * _inside(cands, ring)
     return counts, hits
+
+
+def _inside(pts: np.ndarray, ring: np.ndarray) -> np.ndarray:
+    """Whether each point lies inside the closed ring (even-odd ray casting)."""
+    x, y = pts[:, 0:1], pts[:, 1:2]
+    a, b = ring, np.roll(ring, -1, axis=0)
+    crosses = (a[:, 1] > y) != (b[:, 1] > y)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xc = a[:, 0] + (y - a[:, 1]) * (b[:, 0] - a[:, 0]) / (b[:, 1] - a[:, 1])
+    return (np.count_nonzero(crosses & (x < xc), axis=1) % 2).astype(bool)
 
 
 def _dense(ring: np.ndarray, step_mm: float = 0.5) -> np.ndarray:
@@ -192,22 +218,26 @@ def post_sites(
     aims = targets(x1 - x0, y1 - y0, plan.pitch_mm) + np.array([x0, y0])
     xy = np.asarray(ds.xy_mm, dtype=np.float64).reshape(-1, 2)
     r = np.asarray(ds.r_mm, dtype=np.float64)
+    rings = [np.asarray(o, dtype=np.float64).reshape(-1, 2) for o, _ in ds.windows]
     windows = (
         np.vstack([_dense(np.asarray(o, dtype=np.float64)) for o, _ in ds.windows])
         if ds.windows
         else np.zeros((0, 2))
     )
-    s = SEARCH_FRACTION * plan.pitch_mm
-    offsets = np.arange(-s, s + 1e-9, CANDIDATE_STEP_MM)
-    grid = np.array([(dx, dy) for dy in offsets for dx in offsets])
     sites, dropped = [], set()
     for t in aims:
-        cands = t + grid
-        counts, hits = _conflicts(cands, xy, r, windows, plan.keepout_mm)
-        dist = np.hypot(*(cands - t).T)
-        best = int(np.lexsort((dist, counts))[0])
-        sites.append(cands[best])
-        dropped.update(hits[best])
+        for frac in (SEARCH_FRACTION, WIDE_SEARCH_FRACTION):
+            s = frac * plan.pitch_mm
+            offsets = np.arange(-s, s + 1e-9, CANDIDATE_STEP_MM)
+            cands = t + np.array([(dx, dy) for dy in offsets for dx in offsets])
+            counts, hits = _conflicts(cands, xy, r, windows, plan.keepout_mm, rings)
+            dist = np.hypot(*(cands - t).T)
+            best = int(np.lexsort((dist, counts))[0])
+            if counts[best] < _WINDOW_WEIGHT:
+                sites.append(cands[best])
+                dropped.update(hits[best])
+                break
+        # Else a window (the layer sprays everything there) fills the whole neighbourhood: no post.
     return np.array(sites, dtype=np.float64).reshape(-1, 2), sorted(dropped)
 
 

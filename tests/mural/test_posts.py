@@ -127,3 +127,17 @@ def test_a_site_keeps_clear_of_a_windows_edges_not_only_its_corners():
     assert dropped == []
     for s in sites:
         assert np.min(np.hypot(*(posts._dense(ring) - s).T)) >= plan.keepout_mm - 0.5
+
+
+def test_a_target_inside_a_big_window_gets_no_post():
+    cfg = job(size={"width_mm": 400})
+    grid = _mural_grid(cfg)
+    plan = mural.post_plan(cfg, grid)
+    t = grid.tiles[0]
+    aims = posts.targets(*t.size, plan.pitch_mm) + np.array(t.origin)
+    x, y = aims[0]
+    big = np.array([[x - 120, y - 120], [x + 120, y - 120], [x + 120, y + 120], [x - 120, y + 120]])
+    ds = DotSet(xy_mm=np.zeros((0, 2)), r_mm=np.zeros(0), windows=((big, ()),))
+    sites, dropped = mural.post_sites(ds, t.sheet, plan)
+    assert dropped == []
+    assert not any(np.hypot(*(sites - aims[0]).T) < 0.5 * plan.pitch_mm) if len(sites) else True
