@@ -12,8 +12,7 @@ A post must shade no hole: under the plate the spray of a hole spreads out to th
 post in its way would cut that spray. Each post's site is chosen per plate (each layer sprays
 elsewhere) near a target point on a grid of :data:`POST_PITCH_MM` over the tile, as the point
 within :data:`SEARCH_FRACTION` of the pitch around the target whose keep-out disc (the foot's
-radius plus the spray halo of :func:`~stencil_cad.mural.tiling.spray_halo_mm`, measured to each
-hole's edge) holds the fewest holes, the nearest to the target among those. Where the layer
+radius plus :func:`shade_reach_mm`, measured to each hole's edge) holds the fewest holes, the nearest to the target among those. Where the layer
 sprays everywhere near a target, the holes in the chosen site's disc are dropped from the layer
 before the simulation scores it (:func:`clear_post_sites`), so the score is the plate's as made.
 A window (an open area of a hybrid plate) is never shaded: the search widens around it, and a
@@ -53,6 +52,7 @@ __all__ = [
     "post_sites",
     "post_span_mm",
     "sag_side_mm",
+    "shade_reach_mm",
     "targets",
     "with_pin_holes",
 ]
@@ -68,6 +68,11 @@ SEARCH_FRACTION = 0.15
 WIDE_SEARCH_FRACTION = 0.45
 #: Spacing of the candidate sites around a target, mm.
 CANDIDATE_STEP_MM = 1.0
+#: A post's foot keeps this many blur sigmas from every hole's edge (:func:`shade_reach_mm`). The
+#: spray halo first used here (5 sigmas plus the largest hole) kept a 19 mm disc free of holes round
+#: each post: on the 600 x 400 mm coffee mural 1,268 holes went and S-CIELAB at 3 m rose from 1.74
+#: to 2.20.
+SHADE_SIGMAS = 2.0
 #: The post's foot radius, mm: wide enough to stand, narrow enough to find a site between holes.
 POST_RADIUS_MM = 3.0
 #: The pin's radius, mm; its hole in the plate is drawn :data:`PIN_CLEARANCE_MM` larger (and
@@ -115,7 +120,24 @@ def post_plan(cfg: JobConfig, grid: TileGrid) -> PostPlan | None:
     if not grid.tiled or cfg.mode.value != "soft":
         return None
     height = min(cfg.wall.heights())
-    return PostPlan(POST_PITCH_MM, POST_RADIUS_MM + spray_halo_mm(cfg), height)
+    return PostPlan(POST_PITCH_MM, POST_RADIUS_MM + shade_reach_mm(cfg), height)
+
+
+def shade_reach_mm(cfg: JobConfig) -> float:
+    """How far from a hole's edge a post's foot must stand to shade almost none of its spray, mm.
+
+    :data:`SHADE_SIGMAS` of the widest blur of any layer's can under the tallest wall: the paint a
+    post at that distance stops is the Gaussian's tail beyond it, within the narrow angle the foot
+    subtends (under 1 % of the hole's paint). The paper model: the mural's spray halo.
+    """
+    sp = cfg.spray
+    if not sp.is_physical:
+        return spray_halo_mm(cfg)
+    from ..simulate.physical import spread_sigma_mm
+
+    h = max(cfg.wall.heights())
+    sigma = max(spread_sigma_mm(sp.model_copy(update={"can": c}), h) for c in sp.all_cans())
+    return SHADE_SIGMAS * sigma
 
 
 def sag_side_mm(grid: TileGrid, cfg: JobConfig) -> float:
