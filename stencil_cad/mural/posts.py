@@ -206,7 +206,8 @@ def _inside(pts: np.ndarray, ring: np.ndarray) -> np.ndarray:
     crosses = (a[:, 1] > y) != (b[:, 1] > y)
     with np.errstate(divide="ignore", invalid="ignore"):
         xc = a[:, 0] + (y - a[:, 1]) * (b[:, 0] - a[:, 0]) / (b[:, 1] - a[:, 1])
-    return (np.count_nonzero(crosses & (x < xc), axis=1) % 2).astype(bool)
+    odd: np.ndarray = np.count_nonzero(crosses & (x < xc), axis=1) % 2 == 1
+    return odd
 
 
 def _dense(ring: np.ndarray, step_mm: float = 0.5) -> np.ndarray:
