@@ -22,7 +22,10 @@ The same holes give the same sites: the build finds them again from the saved ho
 site it finds has an empty disc.
 
 Measured on the 600 × 400 mm coffee mural (3 layers, FDM, ``view.distance_m`` 3, ``--bed
-prusa_mk4``): see ``docs/guide/murals.md`` and the report of ``python -m benchmarks printed``.
+prusa_mk4``, with one wall for every tile): 1.5 mm plates on the ledge and 8 walls 436 printer-h and
+8.96 kg of PLA per m² (the cost from the placed holes), S-CIELAB at 3 m 1.74; 0.6 mm plates on
+posts 190 h and 3.33 kg per m², S-CIELAB 1.67 (259 of 78,954 holes displaced). 0.6 mm plates
+without posts (8 walls; they would sag) scored 1.55: the posts cost 0.12 of S-CIELAB.
 
 Kernel-free: numpy and SciPy's KD-tree.
 """
