@@ -7,7 +7,7 @@ Usage: ``python -m benchmarks.mural_check OUT [--bed X Y]``. Prints one JSON obj
   ``all_valid`` (every plate and wall one valid solid);
 * ``holes_dxf``: the holes read back from every tile's DXF with ezdxf, and ``holes_csv``
   from the mural's ``layer_NN_dots.csv``; ``same_holes``: the DXFs' holes, moved from each
-  tile's sheet frame to mural coordinates, are the CSV's holes one to one as the plates draw
+  tile's part frame to mural coordinates (each post's pin hole left out), are the CSV's holes one to one as the plates draw
   them (:func:`stencil_cad.stipple.made.drawn_dots`, compensated for the process; to 0.001 mm:
   the CSV keeps four decimals);
 * ``union_rules``: :func:`stencil_cad.stipple.rules.check_rules` on the DXFs' holes of each
@@ -78,7 +78,9 @@ def check(out: Path, bed: tuple[float, float] | None = None) -> dict:
     for w in walls:
         b = w["bbox"]
         wb.append([b[3] - b[0], b[4] - b[1]])
-    sheets = {t["tile"]: t["sheet_mm"] for t in mural["tiles"]}
+    # The plates are drawn in their part frame (older manifests: the sheet's).
+    sheets = {t["tile"]: t.get("part_mm") or t["sheet_mm"] for t in mural["tiles"]}
+    sites = (mural.get("posts") or {}).get("sites_mm") or {}
     cfg = cfg_io.parse_config(m["config"], source="manifest")
     layers = len(m["stipple"])
     width, height = m["picture"]["width_mm"], m["picture"]["height_mm"]
@@ -91,7 +93,12 @@ def check(out: Path, bed: tuple[float, float] | None = None) -> dict:
         for tile, sheet in sheets.items():
             path = out / f"tile_{tile}_layer_{i + 1:02d}.dxf"
             xy, r, off = _dxf_holes(path)
-            xy_all.append(xy - np.array(off) + np.array(sheet[:2]))
+            xy = xy - np.array(off) + np.array(sheet[:2])
+            # A post's pin hole is no spray hole: drop the hole drawn at each post's site.
+            for site in sites.get(f"{tile} {i + 1}", []):
+                keep = np.hypot(*(xy - np.array(site)).T) > 0.01
+                xy, r = xy[keep], r[keep]
+            xy_all.append(xy)
             r_all.append(r)
         xy = np.concatenate(xy_all)
         r = np.concatenate(r_all)

@@ -21,7 +21,9 @@
   and ``STENCIL_BENCH_PRINTED_BEFORE_DIR`` name folders that ``stencil-cad run`` wrote.
 
 * ``cost_<job>_<part>`` / ``cost_<job>_total`` — the cost model's estimate against the slicer's,
-  per part and in total, for the example and a small mural (:mod:`benchmarks.printed_cost`).
+  per part and in total, for the example and a small mural (:mod:`benchmarks.printed_cost`); the
+  mural rows also give each part's and the total's slicer hours and grams per m² of picture and the
+  job's S-CIELAB at its viewing distance (``--case mural600``: the same for the 600 x 400 mm mural).
 
 Every slice is killed after ``STENCIL_BENCH_PRINTED_TIMEOUT`` seconds (default 900).
 """
@@ -280,7 +282,7 @@ def smoke():
 
 
 def run(cases: list[str] | None = None):
-    """Yield the rows; ``cases`` picks ``radius``, ``web``, ``example`` and/or ``cost`` (all by default)."""
+    """Yield the rows; ``cases`` picks ``radius``, ``web``, ``example``, ``cost`` and/or ``mural600`` (all but the last by default)."""
     if sl.find_slicer(sl.Slicer.PRUSA) is None:
         yield {"bench": "printed", "case": "all", "skipped": "prusa-slicer not installed"}
         return
@@ -292,7 +294,10 @@ def run(cases: list[str] | None = None):
             yield from web_cases(Path(tmp))
         if "example" in wanted:
             yield from example_cases(Path(tmp))
-        if "cost" in wanted:
+        if "cost" in wanted or "mural600" in wanted:
             from .printed_cost import cost_cases
 
-            yield from cost_cases(Path(tmp))
+            jobs = (("example", "mural") if "cost" in wanted else ()) + (
+                ("mural600",) if "mural600" in wanted else ()
+            )
+            yield from cost_cases(Path(tmp), jobs)

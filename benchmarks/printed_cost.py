@@ -47,6 +47,9 @@ MURAL = {
     "stipple": {"process": "fdm"},
     "view": {"distance_m": 3},
 }
+#: The issue's mural (case ``mural600``, only when asked: ``--case mural600``): 600 x 400 mm, 3 layers.
+MURAL600 = {**MURAL, "name": "coffee mural", "size": {"width_mm": 600.0}, "decompose": {"layers": 3}}
+_MURALS = {"mural": MURAL, "mural600": MURAL600}
 
 
 def _timeout() -> float:
@@ -60,14 +63,14 @@ def _job(tmp: Path, job: str) -> Path:
         return Path(given)
     out = tmp / f"cost_{job}"
     cmd = [sys.executable, "-m", "stencil_cad", "run", "--out", str(out), "-q"]
-    if job == "mural":
+    if job in _MURALS:
         from PIL import Image
         from skimage import data
 
         image = tmp / "coffee.png"
         Image.fromarray(data.coffee()).save(image)
         cfg = tmp / "cost_mural.yaml"
-        cfg.write_text(yaml.safe_dump({**MURAL, "image": str(image)}))
+        cfg.write_text(yaml.safe_dump({**_MURALS[job], "image": str(image)}))
         cmd[4:4] = [str(cfg), "--bed", "prusa_mk4"]
     subprocess.run(cmd, check=True)
     return out
@@ -86,6 +89,8 @@ def _estimates(folder: Path) -> tuple[CostFigures, CostFigures, tuple[float, flo
 
 
 def _stem(part: PartCost) -> str:
+    if part.kind == "posts":
+        return "post"
     if part.kind == "wall":
         return f"tile_{part.tile}_wall" if part.tile else "wall"
     return f"tile_{part.tile}_layer_{part.layer:02d}" if part.tile else f"layer_{part.layer:02d}"
@@ -97,7 +102,7 @@ def _sample(parts: tuple[PartCost, ...]) -> list[PartCost]:
     plates = [p for p in parts if p.kind == "plate"]
     tiles = list(dict.fromkeys(p.tile for p in plates))
     picked = [p for p in plates if (tiles.index(p.tile) + p.layer - 1) % every == 0]
-    return picked + [p for p in parts if p.kind == "wall"][::every]
+    return picked + [p for p in parts if p.kind == "wall"][::every] + [p for p in parts if p.kind == "posts"]
 
 
 def _slicer(folder: Path, stem: str, bed: tuple[float, float] | None) -> tuple[float, float] | None:
@@ -123,7 +128,7 @@ def job_rows(tmp: Path, job: str):
     """The rows of one job: each sliced part, then the totals."""
     folder = _job(tmp, job)
     holes, plan, bed = _estimates(folder)
-    sums = {"plate": [0.0, 0.0, 0.0, 0.0, 0], "wall": [0.0, 0.0, 0.0, 0.0, 0]}
+    sums = {k: [0.0, 0.0, 0.0, 0.0, 0] for k in ("plate", "wall", "posts")}
     for part in _sample(holes.parts):
         stem = _stem(part)
         got = _slicer(folder, stem, bed)
@@ -132,6 +137,10 @@ def job_rows(tmp: Path, job: str):
             yield {**row, "ok": False}
             continue
         hours, grams = got
+        if part.kind == "posts":
+            # One post sliced; the estimate is for every post printed together (an upper bound here).
+            row["posts"] = part.layer
+            hours, grams = hours * part.layer, grams * part.layer
         s = sums[part.kind]
         s[0] += part.print_hours
         s[1] += hours
@@ -146,8 +155,26 @@ def job_rows(tmp: Path, job: str):
             "estimate_filament_g": round(part.filament_g, 1),
             "slicer_filament_g": round(grams, 1),
             "filament_error": _rel(part.filament_g, grams),
+            "slicer_hours_per_m2": round(hours / holes.area_m2, 2),
+            "slicer_g_per_m2": round(grams / holes.area_m2, 1),
         }
-    yield _total_row(job, holes, plan, sums)
+    yield {**_total_row(job, holes, plan, sums), **_scores(folder)}
+
+
+def _scores(folder: Path) -> dict:
+    """The job's S-CIELAB at its viewing distance and its tiles, walls and posts, from its manifest."""
+    manifest = json.loads((folder / "manifest.json").read_text())
+    sim = manifest.get("simulate") or {}
+    mural = manifest.get("mural") or {}
+    posts = mural.get("posts") or {}
+    return {
+        "scielab": sim.get("scielab"),
+        "view_distance_m": (manifest.get("config") or {}).get("view", {}).get("distance_m"),
+        "plate_thickness_mm": (manifest.get("plate") or {}).get("thickness_mm"),
+        "walls": len((manifest.get("build") or {}).get("walls") or []),
+        "posts_per_plate_max": posts.get("most"),
+        "holes_dropped_for_posts": posts.get("dropped_holes"),
+    }
 
 
 def _total_row(job: str, holes: CostFigures, plan: CostFigures, sums: dict) -> dict:
@@ -183,7 +210,7 @@ def _total_row(job: str, holes: CostFigures, plan: CostFigures, sums: dict) -> d
     }
 
 
-def cost_cases(tmp: Path):
-    """The example's rows, then the small mural's."""
-    for job in ("example", "mural"):
+def cost_cases(tmp: Path, jobs: tuple[str, ...] = ("example", "mural")):
+    """The example's rows, then the small mural's (and the 600 x 400 mm mural's when asked)."""
+    for job in jobs:
         yield from job_rows(tmp, job)

@@ -58,12 +58,13 @@ class PlateConfig(StrictModel):
         ),
     )
     label_depth_mm: float = Field(
-        0.4,
+        0.3,
         gt=0.0,
         le=5.0,
         description=(
             "Depth of an engraved label, or height of an embossed one, in mm. Range (0, 5]; an engraving "
-            "must leave ≥ 0.3 mm of plate under it (≤ thickness_mm - 0.3)."
+            "must leave ≥ 0.3 mm of plate under it (≤ thickness_mm - 0.3). The default 0.3 is one layer "
+            "of the shipped FDM profile, so a two-layer (0.6 mm) plate can carry it."
         ),
     )
     label_height_mm: float = Field(

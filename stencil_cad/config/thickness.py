@@ -23,6 +23,11 @@ The sag limit, 5 % of the stand-off (0.5 mm under every process's 10 mm), keeps 
 S-CIELAB slowly (the FDM astronaut scores 10.8 / 9.1 at 1 m from 10 / 15 mm stand-offs, 16 % for
 a 50 % change of blur), so a 5 % change is far below what a viewer sees.
 
+A mural's plates also stand on posts (:mod:`stencil_cad.mural.posts`): the fill-in then takes the
+panel between four posts (:func:`column_side_mm`: point supports at its corners, Timoshenko's
+0.00581 against the edge-supported 0.00406) instead of the whole plate, and an FDM plate comes out
+two layers (0.6 mm).
+
 Sag in mm from this model (solid plate; times 2 for the perforation), PLA E 3.5 GPa, 1240 kg/m3:
 
 ==========  =======  =======  =======  =======  =======
@@ -35,7 +40,8 @@ side (mm)     150      200      250      300      360
 2.1 mm        0.02     0.05     0.13     0.27     0.56
 ==========  =======  =======  =======  =======  =======
 
-So with the perforation and the 0.5 mm limit an FDM plate is 0.9 mm up to a 192 mm side (the
+So with the perforation and the 0.5 mm limit an FDM plate is 0.6 mm (two layers) up to a 157 mm side,
+0.9 mm up to a 192 mm side (the
 bundled example's 173 mm plates, a Prusa MINI's bed), 1.2 mm to 222 mm, 1.5 mm to 248 mm (a Prusa
 MK4's bed), 1.8 mm to 272 mm, 2.1 mm to 294 mm, 2.4 mm to 314 mm, and 3.3 mm on a 360 mm bed
 (Prusa XL). (Under the 15 mm FDM stand-off of before, with its 0.75 mm limit, each step came about
@@ -59,6 +65,9 @@ from .stipple import Process
 
 #: Sag coefficient of a simply supported square plate under a uniform load (Timoshenko, table 8).
 SQUARE_SAG_COEFFICIENT = 0.00406
+#: Sag coefficient of a square panel of a plate carried by equidistant point supports (columns) at
+#: its corners, under a uniform load (Timoshenko, ch. 10, the panel's middle): a plate on posts.
+COLUMN_SAG_COEFFICIENT = 0.00581
 #: How much a stippled plate sags more than a solid one: (1 - open fraction) / ligament efficiency.
 PERFORATION_FACTOR = 2.0
 #: Largest sag as a fraction of the process's stand-off (see the module's text).
@@ -94,14 +103,15 @@ def _layers(height_mm: float, first: int, last: int) -> tuple[float, ...]:
 
 
 #: Per process: FDM in PLA (E 3.5 GPa), whole 0.3 mm layers of the shipped prusa_fdm profile from
-#: three (its top and bottom solid layers; two would leave no plate under the label); SLA in a standard
+#: two (a bottom and a top solid layer; a 0.3 mm engraving leaves the bottom one under the label, and
+#: only a plate carried by posts (:mod:`stencil_cad.mural.posts`) is flat that thin); SLA in a standard
 #: resin (E about 2 GPa after post-cure), whole 0.1 mm layers of prusa_sla from 0.8 mm (the label's
 #: 0.7 mm; resin sheets thinner than that curl in the post-cure, a prior not measured here); a laser
 #: cuts stock sheet, PETG/PET 1 mm or acrylic and plywood 1.5-6 mm (E about 3 GPa). Thinner film
 #: (mylar 0.25-0.5 mm) cuts well but cannot hold an engraved label: give it as plate.thickness_mm
 #: with plate.label none.
 SHEETS: dict[Process, Sheet] = {
-    Process.fdm: Sheet("PLA", 3.5, 1240.0, 0.36, _layers(0.3, 3, 20), "whole 0.3 mm layers"),
+    Process.fdm: Sheet("PLA", 3.5, 1240.0, 0.36, _layers(0.3, 2, 20), "whole 0.3 mm layers"),
     Process.sla: Sheet("resin", 2.0, 1150.0, 0.35, _layers(0.1, 8, 60), "whole 0.1 mm layers"),
     Process.laser: Sheet(
         "PETG, acrylic or plywood", 3.0, 1300.0, 0.37, (1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0), "stock sheet"
@@ -181,6 +191,15 @@ def fill_thickness(
         why = f"{by_sag:g} mm is {why}, raised for the engraved label (label_depth_mm + {LABEL_FLOOR_MM:g})"
         sag = sag_mm(side_mm, t, sheet)
     return Thickness(t, float(side_mm), float(sag), f"{t:g} mm: {why}")
+
+
+def column_side_mm(span_mm: float) -> float:
+    """The simply supported square's side that sags as much as a plate panel of ``span_mm`` between posts.
+
+    A panel carried at its four corners (:data:`COLUMN_SAG_COEFFICIENT`) sags more than one resting
+    on its four edges (:data:`SQUARE_SAG_COEFFICIENT`); the sag goes as the side to the fourth power.
+    """
+    return float(span_mm) * (COLUMN_SAG_COEFFICIENT / SQUARE_SAG_COEFFICIENT) ** 0.25
 
 
 def given_thickness(thickness_mm: float) -> Thickness:

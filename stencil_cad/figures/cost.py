@@ -18,9 +18,10 @@ class PartCost:
     """One part's estimate: a plate (per tile and layer) or a wall (per tile and stand-off).
 
     Attributes:
-        kind: ``"plate"`` or ``"wall"``.
-        tile: The mural tile, or empty for a one-plate job.
-        layer: The plate's layer (1-based), or 0 for a wall.
+        kind: ``"plate"``, ``"wall"``, ``"posts"`` (a mural's posts, :mod:`stencil_cad.mural.posts`), or a
+            laser-cut mural's ``"frame_base"``, ``"frame_top"`` and ``"spacer"`` (:mod:`stencil_cad.mural.laser`).
+        tile: The mural tile, or empty for a one-plate job (and for the posts).
+        layer: The plate's layer (1-based), 0 for a wall, or how many posts (or laser-cut stand parts) are made.
         holes: Holes on the plate (placed, or expected from the plan), 0 for a wall.
         print_hours: FDM print time in hours (the shipped PrusaSlicer profile's, as modelled).
         filament_m: Filament in metres (1.75 mm).
@@ -73,6 +74,10 @@ class PartCost:
     def name(self) -> str:
         """``A1 plate 02``, ``plate 01``, ``B2 wall`` …: how the summary and the sheet name the part."""
         what = f"plate {self.layer:02d}" if self.kind == "plate" else self.kind
+        if self.kind == "posts":
+            what = f"posts × {self.layer} (printed together)"
+        elif self.kind in ("frame_base", "frame_top", "spacer"):
+            what = f"{self.kind} × {self.layer} (laser-cut)"
         return f"{self.tile} {what}" if self.tile else what
 
 

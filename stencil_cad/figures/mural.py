@@ -40,6 +40,8 @@ class TileRow(KeyedRow):
     column: int | None = None
     core_mm: Sequence[float] | None = None
     sheet_mm: Sequence[float] | None = None
+    #: The plate's picture area and the wall's opening (the sheet grown to one size for every tile).
+    part_mm: Sequence[float] | None = None
 
 
 @dataclass(frozen=True)
@@ -54,6 +56,14 @@ class MuralBuildFigures:
     compensated: bool | None
     seam_density: Any
     order_of_work: Any
+    #: The posts that carry the plates: the part's file, its check, stand-off, foot and pin radii,
+    #: ``per_plate`` (posts per ``"<tile> <layer>"``), ``sites_mm`` (their centres in mural mm), ``most`` (the most under one plate:
+    #: the posts to print) and ``dropped_holes``; None when the wall alone carries the plates.
+    posts: Mapping[str, Any] | None = None
+    #: A laser-cut mural's frame rings and spacers (:mod:`stencil_cad.mural.laser`): per part its
+    #: ``name``, ``count``, ``thickness_mm``, ``cut_m``, ``cut_minutes``, ``files`` and checks
+    #: (``closed``, ``inside``, ``fits``, ``ok``, ``size_mm``); None for a printed wall.
+    laser_stand: Sequence[Mapping[str, Any]] | None = None
 
     @classmethod
     def from_json(cls, section: Row) -> MuralBuildFigures:
@@ -67,6 +77,8 @@ class MuralBuildFigures:
             compensated=section.get("compensated"),
             seam_density=section.get("seam_density"),
             order_of_work=section.get("order_of_work"),
+            posts=section.get("posts"),
+            laser_stand=section.get("laser_stand"),
         )
 
     def to_json(self) -> dict[str, Any]:
@@ -80,6 +92,8 @@ class MuralBuildFigures:
             "compensated": self.compensated,
             "seam_density": self.seam_density,
             "order_of_work": self.order_of_work,
+            "posts": self.posts,
+            "laser_stand": self.laser_stand,
         }
 
 

@@ -530,7 +530,8 @@ def _plates_text(sheet: Sheet) -> str:
     if sheet.mural is None:
         return f"{sheet.plate_count or len(sheet.steps)} plates"
     m = sheet.mural
-    return f"{m.plates} plates ({len(sheet.steps)} layers on each of {len(m.sections)} tiles) and {m.walls} walls"
+    walls = "1 wall (moved from tile to tile)" if m.walls == 1 else f"{m.walls} walls"
+    return f"{m.plates} plates ({len(sheet.steps)} layers on each of {len(m.sections)} tiles) and {walls}"
 
 
 def _drop(sheet: Sheet, step: Step) -> str:

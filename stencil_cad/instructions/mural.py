@@ -205,10 +205,69 @@ def _registration(m: MuralFigures, rows: Sequence[TileRow], walls: Mapping[str, 
         "Every plate of a tile has the same notches in its border as the tile's wall: before each spray, "
         "check that the plate's notches line up with the wall's and with the ticks on the surface."
     )
+    shared = sorted({str(w.tile) for ws in walls.values() for w in ws})
+    if len(shared) < len(rows):
+        steps.append(
+            f"One wall serves {'every tile' if len(shared) == 1 else 'several tiles'} ({', '.join(shared)}): every "
+            "tile's plates have the same size and notches, their border reaching the halo past the core on "
+            "every side (solid past the mural's edge). To spray a tile, set the wall on that tile's ticks "
+            "(pencil them the first time, with the wall's notches on the tile's grid lines), spray, lift the "
+            "wall straight up and carry it to the next tile."
+        )
+    stand = _laser_stand_step(m)
+    if stand:
+        steps.append(stand)
+    posts = _posts_step(m)
+    if posts:
+        steps.append(posts)
     cost = _registration_cost(m.simulation)
     if cost:
         steps.append(cost)
     return steps
+
+
+def _walls(n: int) -> str:
+    """``1 wall`` (moved from tile to tile) or ``8 walls``."""
+    return "1 wall (moved from tile to tile)" if n == 1 else f"{n} walls"
+
+
+def _laser_stand_step(m: MuralFigures) -> str:
+    """How a laser-cut mural's frame and spacers go together, as one step (empty for a printed wall)."""
+    parts = {str(p.get("name")): p for p in (m.built.laser_stand if m.built is not None else None) or ()}
+    if not parts:
+        return ""
+    base, top, spacer = parts.get("frame_base"), parts.get("frame_top"), parts.get("spacer")
+    text = ""
+    if base is not None and top is not None:
+        text = (
+            f"Frame (laser-cut, no printed wall): cut frame_base.dxf {int(base['count'])} times from "
+            f"{float(base['thickness_mm']):g} mm sheet and frame_top.dxf once from the plates' "
+            f"{float(top['thickness_mm']):g} mm sheet; glue the base rings in a stack with their notches "
+            "and edges flush, and the top ring on them: the plate drops into the top ring and rests on the "
+            "base. The frame serves every tile as the wall would."
+        )
+    if spacer is not None:
+        text += (
+            f" Spacers: cut spacer.dxf {int(spacer['count'])} times from the base's sheet; a post is a stack "
+            "of them, threaded with the plate on a 2 mm pin through the plate's pin hole."
+        )
+    return text.strip()
+
+
+def _posts_step(m: MuralFigures) -> str:
+    """How the plates stand on their posts, as one step (empty when the walls alone carry them)."""
+    posts = m.built.posts if m.built is not None else None
+    if not posts:
+        return ""
+    most = int(posts.get("most") or 0)
+    return (
+        f"Posts: print {most} of post.stl (a foot {float(posts.get('height_mm') or 0):g} mm high, the wall's "
+        f"stand-off, with a pin on top). Each plate is thin and has a pin hole in its picture wherever it "
+        "stands on a post, sited where that plate sprays nothing: before laying a plate in its wall, push "
+        "a post's pin into each pin hole from below (foot down, pin flush with the plate's top), then lay the "
+        "plate in the wall so that every foot stands on the surface. Move the posts from plate to plate; a "
+        "post never stands under another plate's holes. Pull them out before cleaning the plate."
+    )
 
 
 def _registration_cost(sim: MuralSimulation | None) -> str:
@@ -260,7 +319,8 @@ def _section(
 ) -> TileSection:
     """One tile's section: position, notches, wall, plates (paint, amount, holes, files) and checks."""
     x0, y0, x1, y1 = (float(v) for v in _core(t))
-    s0, _, s1, _ = (float(v) for v in (t.sheet_mm if t.sheet_mm is not None else _core(t)))
+    reach = t.part_mm if t.part_mm is not None else t.sheet_mm
+    s0, _, s1, _ = (float(v) for v in (reach if reach is not None else _core(t)))
     name = str(t.tile)
     where = (
         f"row {name.rstrip('0123456789')}, column {int(t.column or 0)}: its holes cover x {_mm(x0)}–{_mm(x1)} mm, "
@@ -270,8 +330,9 @@ def _section(
     for w in walls:
         stem = str(w.file or "").rsplit(".", 1)[0]
         files = [stem + e for e in (".stl", ".step") if stem + e in job.names]
+        shared = f" (made once, for {w.tile}; moved here)" if w.tile and str(w.tile) != name else ""
         wall_lines.append(
-            f"{', '.join(files) or stem}: stand-off {float(w.standoff_mm or 0):g} mm, "
+            f"{', '.join(files) or stem}{shared}: stand-off {float(w.standoff_mm or 0):g} mm, "
             f"{int(w.notches or 0)} sight notches"
         )
     tile_plates, checks = [], []
@@ -320,7 +381,9 @@ def mural_plan(
     for p in f.build.plates if f.build is not None else ():
         plates.setdefault(str(p.tile), []).append(p)
     for w in f.build.walls if f.build is not None else ():
-        walls.setdefault(str(w.tile), []).append(w)
+        # One wall serves every tile of its size and notches (``tiles``; older manifests: its own).
+        for name in w.other.get("tiles") or [w.tile]:
+            walls.setdefault(str(name), []).append(w)
     near = _neighbours(rows)
     job = _Job(f, s, {int(st.number): st for st in steps}, amount, names)
     sections = [
@@ -338,7 +401,7 @@ def mural_plan(
     return MuralPlan(
         grid=f"{len(rows)} tiles, {n_rows} rows × {n_cols} columns",
         plates=sum(len(v) for v in plates.values()),
-        walls=sum(len(v) for v in walls.values()),
+        walls=len(f.build.walls) if f.build is not None else 0,
         rounds=_rounds(rows, steps, amount),
         registration=_registration(m, rows, walls),
         sections=sections,
@@ -372,8 +435,8 @@ def _union_checks(built: MuralBuildFigures) -> list[tuple[str, bool]]:
 def mural_html(plan: MuralPlan, e: Callable[[object], str], chip: Callable[[str], str]) -> str:
     """The order of work, the registration steps and the tile sections as HTML."""
     out = [
-        f'<h2>Order of work</h2><p class="note">{e(plan.grid)}: {plan.plates} plates and {plan.walls} '
-        "walls. Spray round by round: one layer on every tile, then the next layer; a tile's later "
+        f'<h2>Order of work</h2><p class="note">{e(plan.grid)}: {plan.plates} plates and {_walls(plan.walls)}. '
+        "Spray round by round: one layer on every tile, then the next layer; a tile's later "
         "layer goes over its neighbours' earlier ones at the seams, as in the picture.</p>",
         '<ol class="rounds">' + "".join(f"<li>{e(r)}</li>" for r in plan.rounds) + "</ol>",
         '<h2>Registration: where each tile goes</h2><ol class="registration">'
@@ -426,7 +489,7 @@ def mural_pdf(plan: MuralPlan, k: Any) -> list[Any]:
     story = [
         k.heading("Order of work", k.h2),
         k.p(
-            f"{plan.grid}: {plan.plates} plates and {plan.walls} walls. Spray round by round: one layer "
+            f"{plan.grid}: {plan.plates} plates and {_walls(plan.walls)}. Spray round by round: one layer "
             "on every tile, then the next layer."
         ),
     ]

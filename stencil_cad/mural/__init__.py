@@ -3,12 +3,23 @@
 A picture larger than the bed is cut into tiles (:mod:`.tiling`); each hole belongs to one
 tile and the tiles register on chalk lines through sight notches (:mod:`.seams`); the holes
 are placed (:mod:`.stipple`) and refined (:mod:`.refine`) tile by tile, each tile a task;
-:mod:`.cost` says what making the plates and walls costs, before any CAD.
+:mod:`.cost` says what making the plates and walls costs, before any CAD; a mural's plates are
+carried by posts between their holes (:mod:`.posts`), so they can be thin.
 A one-plate job is a 1 × 1 tiling.
 """
 
+from . import laser
 from .cost import cut_seconds, making_cost
+from .laser import laser_stand
 from .map import mural_map
+from .posts import (
+    PostPlan,
+    clear_post_sites,
+    post_plan,
+    post_sites,
+    sag_side_mm,
+    with_pin_holes,
+)
 from .seams import (
     notch_triangles,
     notched_ring,
@@ -36,10 +47,22 @@ from .tiling import (
     row_name,
     spray_halo_mm,
     tile_label,
+    wall_key,
+    wall_tiles,
 )
 
 __all__ = [
     "HALO_TAIL",
+    "laser",
+    "laser_stand",
+    "PostPlan",
+    "clear_post_sites",
+    "post_plan",
+    "post_sites",
+    "sag_side_mm",
+    "with_pin_holes",
+    "wall_key",
+    "wall_tiles",
     "PLATE_NOTCH_MM",
     "Tile",
     "TileGrid",

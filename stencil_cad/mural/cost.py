@@ -24,8 +24,9 @@ prints the estimate beside the slicer's per part and in total; the fit and its r
 recorded beside the constants.
 
 **Laser**: one sheet per plate; the cut is the outline plus every hole's circumference, timed by
-:func:`cut_seconds` (a cutting speed and a pierce per cut, not measured here). Walls are printed
-whatever the plates' process.
+:func:`cut_seconds` (a cutting speed and a pierce per cut, not measured here). A laser-cut mural's
+wall and posts are cut too (:mod:`.laser`: the frame's rings and the spacers, their sheets, cuts
+and time); a one-plate laser job's wall is printed.
 
 **Paint**: each layer sprays through its open area (holes and windows); every pass is counted
 as one coat over that area at ``paints.coverage_m2_per_can`` (1.5 m² per 400 ml can per coat,
@@ -46,7 +47,8 @@ import numpy as np
 
 from ..figures.cost import CostFigures, PaintCost, PartCost
 from ..geometry import polygon_area
-from .tiling import TileGrid
+from .laser import laser_stand, sheets_needed
+from .tiling import TileGrid, wall_tiles
 
 if TYPE_CHECKING:
     from ..config import JobConfig
@@ -62,6 +64,8 @@ __all__ = [
     "cut_seconds",
     "hours_text",
     "making_cost",
+    "post_count",
+    "posts_print",
     "plate_print",
     "plate_specs",
     "wall_print",
@@ -118,6 +122,12 @@ FIXED_S = 60.0
 PLATE_SLOWDOWN = 1.229
 #: Plate: seconds per mm of hole edge per layer beyond its loop at the hole speed (travel, retraction).
 PLATE_S_PER_EDGE_MM = 0.0453
+#: Plate of two layers (a mural's plate on posts, :mod:`.posts`): seconds per mm of hole edge per
+#: layer, fitted (least squares, relative) on PrusaSlicer's estimates of the three 0.6 mm plates of a
+#: 300 x 200 mm coffee mural sliced (2,385-6,564 holes: 1 h 45 min-2 h 00 min, residuals -1.1 % ..
+#: +2.0 %). The thicker plates' :data:`PLATE_S_PER_EDGE_MM` over-stated them by 11-20 %: on two
+#: layers the slicer joins a hole's loops with fewer travels and retractions.
+PLATE_S_PER_EDGE_MM_THIN = 0.0106
 #: Plate: filament volume over the plate's plastic (overlapping lines; 1.02-1.10 measured).
 PLATE_FILAMENT = 1.047
 #: Wall: the slicer's time over the wall's lines at the profile's wall speeds.
@@ -236,7 +246,8 @@ class WallSpec:
 
 def plate_print(spec: PlateSpec) -> tuple[float, float]:
     """``(seconds, filament mm³)`` to print one plate with the shipped FDM profile, as modelled."""
-    seconds = FIXED_S + PLATE_SLOWDOWN * spec.line_seconds + PLATE_S_PER_EDGE_MM * spec.edge_mm * spec.layers
+    per_edge = PLATE_S_PER_EDGE_MM_THIN if spec.layers <= 2 else PLATE_S_PER_EDGE_MM
+    seconds = FIXED_S + PLATE_SLOWDOWN * spec.line_seconds + per_edge * spec.edge_mm * spec.layers
     return seconds, PLATE_FILAMENT * spec.plastic_mm3
 
 
@@ -282,7 +293,7 @@ def plate_specs(
     owners = [grid.owner(ds.xy_mm) for ds in dotsets] if dotsets is not None else None
     out = []
     for i, t in enumerate(grid.tiles):
-        area, perimeter = _ring(offset_outline(*t.size, cfg.plate.outline, 0.0))
+        area, perimeter = _ring(offset_outline(*t.part_size, cfg.plate.outline, 0.0))
         core = (t.core[2] - t.core[0]) * (t.core[3] - t.core[1])
         name = t.name if grid.tiled else ""
         for k in range(layers):
@@ -304,14 +315,17 @@ def plate_specs(
 
 
 def wall_specs(grid: TileGrid, cfg: JobConfig) -> list[WallSpec]:
-    """Every wall of the job: one per tile and stand-off height."""
+    """Every wall of the job: one per stand-off height and distinct tile (:func:`~stencil_cad.mural.wall_tiles`)."""
     from ..outline import offset_outline
 
     oc, wc = cfg.plate.outline, cfg.wall
     depth = float(wc.pocket_depth(cfg.plate.thickness_mm))
     out = []
+    walls = wall_tiles(grid)
     for t in grid.tiles:
-        w, h = t.size
+        if t.name not in walls:
+            continue  # one wall serves every tile of its size and notches
+        w, h = t.part_size
         reach = wc.clearance_mm + wc.wall_thickness_mm
         try:
             outer = offset_outline(w, h, oc, reach)
@@ -325,6 +339,40 @@ def wall_specs(grid: TileGrid, cfg: JobConfig) -> list[WallSpec]:
         for s in wc.heights():
             out.append(WallSpec(t.name if grid.tiled else "", float(s), depth, rings))
     return out
+
+
+#: Seconds a layer of a few small posts takes at least (the slicer slows small layers down for
+#: cooling): fitted on one 10 mm post sliced alone with the shipped profile (2 min 53 s; 5 s, the
+#: profile's ``slowdown_below_layer_time``, gave 4 min).
+MIN_LAYER_S = 3.2
+
+
+def post_count(grid: TileGrid, cfg: JobConfig) -> int:
+    """Posts the maker prints: the most any plate stands on (0 when the walls alone carry the plates)."""
+    from .posts import post_plan, targets
+
+    plan = post_plan(cfg, grid)
+    if plan is None:
+        return 0
+    return max(len(targets(*t.size, plan.pitch_mm)) for t in grid.tiles)
+
+
+def posts_print(cfg: JobConfig, grid: TileGrid, n: int) -> tuple[float, float]:
+    """``(seconds, filament mm³)`` to print ``n`` posts together, solid, as modelled.
+
+    Their plastic at the plates' rate, but never under :data:`MIN_LAYER_S` a layer (the slicer slows
+    small layers down for cooling).
+    """
+    from .posts import post_plan
+
+    plan = post_plan(cfg, grid)
+    if plan is None:
+        return 0.0, 0.0
+    t = cfg.plate.thickness_mm
+    one = math.pi * (plan.radius_mm**2 * plan.height_mm + plan.pin_radius_mm**2 * t)
+    layers = math.ceil((plan.height_mm + t) / LAYER_MM - 1e-6)
+    lines = n * one / (LAYER_MM * LINE_MM * _SOLID_MM_S) * PLATE_SLOWDOWN
+    return FIXED_S + max(lines, layers * MIN_LAYER_S), PLATE_FILAMENT * n * one
 
 
 def _paint(
@@ -358,10 +406,9 @@ def making_cost(
     Returns:
         The figures for the manifest's ``cost`` section.
     """
-    from .tiling import part_sizes
+    from .posts import sag_side_mm
 
-    side = max(max(part_sizes(*t.size, cfg)["plate"]) for t in grid.tiles)
-    cfg = cfg.fit_plate_thickness(side)
+    cfg = cfg.fit_plate_thickness(sag_side_mm(grid, cfg))
     laser = cfg.stipple.process.value == "laser"
     plates = plate_specs(grid, cfg, layers, dotsets)
     physical = cfg.spray.is_physical
@@ -376,9 +423,24 @@ def making_cost(
             cut_mm += cut
             cut_s += cut_seconds(cut, p.holes + 1)
         parts.append(_part("plate", p.tile, p.layer, p.holes, seconds, mm3, cut if laser else None, p.holes))
-    for w in wall_specs(grid, cfg):
+    stand = laser_stand(cfg, grid)
+    sheets = len(plates) if laser else None
+    for c in stand or ():
+        # A laser-cut mural's frame rings and spacers (layer: how many to cut), instead of a printed wall.
+        cut_mm += c.cut_mm * c.count
+        cut_s += cut_seconds(c.cut_mm, c.pierces) * c.count
+        parts.append(_part(c.name, "", c.count, 0, 0.0, 0.0, c.cut_mm * c.count, c.pierces * c.count - 1))
+    if stand:
+        sheets = (sheets or 0) + sheets_needed(
+            stand, None if grid.bed is None else (grid.bed.x_mm, grid.bed.y_mm)
+        )
+    for w in wall_specs(grid, cfg) if stand is None else ():
         seconds, mm3 = wall_print(w)
         parts.append(_part("wall", w.tile, 0, 0, seconds, mm3, None, 0))
+    n_posts = post_count(grid, cfg) if stand is None else 0
+    if n_posts:
+        seconds, mm3 = posts_print(cfg, grid, n_posts)
+        parts.append(_part("posts", "", n_posts, 0, seconds, mm3, None, 0))
     return CostFigures(
         basis="plan" if dotsets is None else "holes",
         area_m2=round(grid.width_mm * grid.height_mm / 1e6, 6),
@@ -386,7 +448,7 @@ def making_cost(
         filament_m=round(sum(p.filament_m for p in parts), 2),
         filament_g=round(sum(p.filament_g for p in parts), 1),
         parts=tuple(parts),
-        sheets=len(plates) if laser else None,
+        sheets=sheets,
         cut_m=round(cut_mm / 1000.0, 2) if laser else None,
         cut_hours=round(cut_s / 3600.0, 3) if laser else None,
         paint=_paint(cfg, plates, layers, passes),

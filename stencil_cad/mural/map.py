@@ -42,8 +42,8 @@ def mural_map(
         return pad + x * scale, pad + (grid.height_mm - y) * scale
 
     for t in grid.tiles:
-        x0, y0 = px(t.sheet[0], t.sheet[3])
-        x1, y1 = px(t.sheet[2], t.sheet[1])
+        x0, y0 = px(t.part_box[0], t.part_box[3])
+        x1, y1 = px(t.part_box[2], t.part_box[1])
         draw.rectangle([x0, y0, x1, y1], outline=(150, 150, 220), width=1)
     for x in grid.x_edges:
         draw.line([px(x, 0), px(x, grid.height_mm)], fill=(200, 30, 30), width=3)

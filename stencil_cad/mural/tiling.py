@@ -91,7 +91,11 @@ class Tile:
         col: Column index from the left, 0-based.
         core: ``(x0, y0, x1, y1)`` mm in the mural frame: the holes this tile owns.
         sheet: ``(x0, y0, x1, y1)`` mm in the mural frame: the core grown by the halo on
-            the sides shared with a neighbour; the plate's picture area and the wall's opening.
+            the sides shared with a neighbour; the holes' reach (stippling, refining, simulating).
+        part: ``(x0, y0, x1, y1)`` mm in the mural frame: the plate's picture area and the
+            wall's opening. A mural's tiles grow it by the halo on every side, so every tile's
+            plate and wall have one size and one set of notches: one wall serves every tile
+            (the halo past the mural's edge is solid plate). The sheet when None.
     """
 
     name: str
@@ -99,6 +103,28 @@ class Tile:
     col: int
     core: tuple[float, float, float, float]
     sheet: tuple[float, float, float, float]
+    part: tuple[float, float, float, float] | None = None
+
+    @property
+    def part_box(self) -> tuple[float, float, float, float]:
+        """``(x0, y0, x1, y1)`` mm in the mural frame of the plate's picture area (see :attr:`part`)."""
+        return self.part if self.part is not None else self.sheet
+
+    @property
+    def part_origin(self) -> tuple[float, float]:
+        """Mural mm of the plate's picture area's bottom-left corner (the part frame's origin)."""
+        return self.part_box[0], self.part_box[1]
+
+    @property
+    def part_size(self) -> tuple[float, float]:
+        """``(w, h)`` in mm of the plate's picture area and the wall's opening."""
+        x0, y0, x1, y1 = self.part_box
+        return x1 - x0, y1 - y0
+
+    def part_lines(self) -> tuple[list[float], list[float]]:
+        """The core's edges in the part frame: ``([x_left, x_right], [y_bottom, y_top])`` mm."""
+        ox, oy = self.part_origin
+        return [self.core[0] - ox, self.core[2] - ox], [self.core[1] - oy, self.core[3] - oy]
 
     @property
     def origin(self) -> tuple[float, float]:
@@ -165,7 +191,10 @@ class TileGrid:
                     core[2] + (halo_mm if c < cols - 1 else 0.0),
                     core[3] + (halo_mm if up < rows - 1 else 0.0),
                 )
-                tiles.append(Tile(f"{row_name(r)}{c + 1}", r, c, core, sheet))
+                part = (core[0] - halo_mm, core[1] - halo_mm, core[2] + halo_mm, core[3] + halo_mm)
+                tiles.append(
+                    Tile(f"{row_name(r)}{c + 1}", r, c, core, sheet, part if cols * rows > 1 else None)
+                )
         halo = halo_mm if cols * rows > 1 else 0.0
         return cls(width_mm, height_mm, cols, rows, halo, xs, ys, bed, tuple(tiles))
 
@@ -295,7 +324,8 @@ def plan_tiles(width_mm: float, height_mm: float, cfg: JobConfig) -> TileGrid:
     extra = (ref[0] - 100.0, ref[1] - 100.0)
 
     def sheet(n: int, length: float) -> float:
-        return length / n + halo * min(n - 1, 2)
+        # A tiled mural's plates reach a halo past their core on every side (Tile.part).
+        return length / n + 2.0 * halo
 
     best = None
     max_n = int(max(width_mm, height_mm) // 5.0) + 2
@@ -309,7 +339,7 @@ def plan_tiles(width_mm: float, height_mm: float, cfg: JobConfig) -> TileGrid:
             sh = sheet(rows, height_mm) + extra[1]
             if bed.fits(sw, sh):
                 g = grid(cols, rows, halo)
-                if all(bed.fits(*part_sizes(*t.size, cfg)["wall"]) for t in g.tiles):
+                if all(bed.fits(*part_sizes(*t.part_size, cfg)["wall"]) for t in g.tiles):
                     best = (cols * rows, g)
                 break
     if best is None:
@@ -333,7 +363,7 @@ def check_fits_bed(grid: TileGrid, cfg: JobConfig) -> list[dict[str, Any]]:
     """
     rows = []
     for t in grid.tiles:
-        sizes = part_sizes(*t.size, cfg)
+        sizes = part_sizes(*t.part_size, cfg)
         for kind in ("plate", "wall"):
             w, h = sizes[kind]
             if grid.bed is not None and not grid.bed.fits(w, h):
@@ -376,7 +406,8 @@ def plan_cost(grid: TileGrid, cfg: JobConfig, layers: int, work_px: int) -> dict
     d = st.auto_spacing_factor * (2.0 * st.resolved_max_radius_mm + st.resolved_web_mm)
     per_mm2 = 2.0 / (math.sqrt(3.0) * d * d)
     holes_max = int(per_mm2 * grid.width_mm * grid.height_mm * layers)
-    walls = len(grid.tiles) * len(cfg.wall.heights())
+    # A laser-cut mural stands in a laser-cut frame (:mod:`.laser`): no printed wall.
+    walls = 0 if cut_stand(cfg, grid) else len(wall_tiles(grid)) * len(cfg.wall.heights())
     plates = len(grid.tiles) * layers
     # Half the full-ink count: a photo's layers average about half their densest tone.
     est = (
@@ -411,10 +442,35 @@ def manifest_rows(grid: TileGrid) -> list[dict[str, Any]]:
             "position_mm": rnd(t.core[:2]),
             "core_mm": rnd(t.core),
             "sheet_mm": rnd(t.sheet),
+            "part_mm": rnd(t.part_box),
             "grid_lines_mm": {"x": rnd((t.core[0], t.core[2])), "y": rnd((t.core[1], t.core[3]))},
         }
         for t in grid.tiles
     ]
+
+
+def cut_stand(cfg: JobConfig, grid: TileGrid) -> bool:
+    """Whether the plates stand in a laser-cut frame on laser-cut spacers (:mod:`.laser`), not a printed wall.
+
+    A soft mural of laser-cut plates: every part is cut, none printed.
+    """
+    return cfg.stipple.process.value == "laser" and grid.tiled and cfg.mode.value == "soft"
+
+
+def wall_key(t: Tile) -> tuple[float, ...]:
+    """What a tile's wall is made from: its part's size and grid lines (mm, to a micrometre)."""
+    xs, ys = t.part_lines()
+    return tuple(round(float(v), 3) for v in (*t.part_size, *xs, *ys))
+
+
+def wall_tiles(grid: TileGrid) -> dict[str, list[str]]:
+    """Per wall (named by the first tile it serves), the tiles it serves, in reading order."""
+    first: dict[tuple[float, ...], str] = {}
+    out: dict[str, list[str]] = {}
+    for t in grid.tiles:
+        name = first.setdefault(wall_key(t), t.name)
+        out.setdefault(name, []).append(t.name)
+    return out
 
 
 def tile_label(tile: Tile | None, grid: TileGrid) -> str:

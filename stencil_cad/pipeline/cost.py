@@ -35,7 +35,8 @@ def cost_lines(made: CostFigures) -> list[str]:
     for p in made.parts:
         text = f"  {p.name}: "
         if p.cut_m is not None:
-            text += f"{p.holes:,} holes, laser cut {p.cut_m:.1f} m in about {p.cut_minutes or 0:.0f} min"
+            holes = f"{p.holes:,} holes, " if p.kind == "plate" else ""
+            text += f"{holes}laser cut {p.cut_m:.1f} m in about {p.cut_minutes or 0:.0f} min"
         else:
             holes = f"{p.holes:,} holes, " if p.kind == "plate" else ""
             text += f"{holes}{hours_text(p.print_hours)}, {p.filament_m:.1f} m ({p.filament_g:.0f} g)"

@@ -16,6 +16,8 @@ log = logging.getLogger(__name__)
 
 
 LAYERS_NPZ = "layers.npz"
+#: The stem of a mural's post (:mod:`stencil_cad.mural.posts`; every post is the same part).
+POST_STEM = "post"
 CONFIG_COPY = "config.yaml"
 
 
@@ -158,7 +160,16 @@ def tile_outputs(cfg: JobConfig, grid: mural.TileGrid, count: int) -> list[str]:
     """Names the tiled build writes (so a stage command can refuse before the work)."""
     exts = cfg.export.plate_extensions()
     names = []
+    from ..mural import laser_stand, post_plan, wall_tiles
+
+    walls = wall_tiles(grid)
+    laser = laser_stand(cfg, grid)
     for t in grid.tiles:
         names += [tile_stem(t, i) + e for i in range(count) for e in exts]
-        names += [s + e for s in tile_wall_stems(t, cfg.wall.heights()) for e in (".step", ".stl")]
+        if t.name in walls and laser is None:
+            names += [s + e for s in tile_wall_stems(t, cfg.wall.heights()) for e in (".step", ".stl")]
+    if laser is not None:
+        names += [p.name + e for p in laser for e in (".dxf", ".svg")]
+    elif post_plan(cfg, grid) is not None:
+        names += [POST_STEM + e for e in (".step", ".stl")]
     return names + ["mural_map.png"]

@@ -111,9 +111,9 @@ def fit_thickness(run: Run, grid: TileGrid) -> JobConfig:
     The config chose it for the plate size it knew (:meth:`JobConfig.fit_plate_thickness`); the picture's
     height and the mural's tiles are known now. Records the thickness and why as figure ``plate``.
     """
-    from ..mural.tiling import part_sizes
+    from ..mural.posts import sag_side_mm
 
-    side = max(max(part_sizes(t.size[0], t.size[1], run.cfg)["plate"]) for t in grid.tiles)
+    side = sag_side_mm(grid, run.cfg)
     run.cfg = run.cfg.fit_plate_thickness(side)
     record_plate(run, side)
     return run.cfg

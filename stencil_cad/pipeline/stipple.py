@@ -11,7 +11,7 @@ import numpy as np
 from ..config import JobConfig, SprayConfig
 from ..figures import DarkEnd, LayerStipple, LayerWindows
 from ..model import DotSet, Layers, Picture, coat_contrast
-from ..mural import TileGrid
+from ..mural import TileGrid, clear_post_sites, post_plan
 from ..mural.stipple import StippleTask, stipple_layers
 from ..output import plain as _plain
 from ..record import Run
@@ -63,6 +63,8 @@ def stage_stipple(
     ]
     if cfg.refine.enabled:
         sets = stage_refine(run, layers, sets, picture_mm, picture, grid)
+    # A mural's plates stand on posts: the few holes a post would shade go before anything scores them.
+    sets, _ = clear_post_sites(sets, tiling, post_plan(cfg, tiling))
     run.figures.windows = tuple(LayerWindows(i + 1, _plain(w.report)) for i, w in enumerate(windows))
     with run.stage("stipple"):
         cards = plate_cards(run, layers.colours, picture_mm, sets)

@@ -27,6 +27,7 @@ from ..errors import UserError
 from ..figures import BuildFigures, MuralBed, MuralBuildFigures, MuralFigures, MuralSimulation, TileRow
 from ..model import DotSet, Layers, Picture
 from ..output import plain as _plain
+from . import stand
 from .names import tile_stem, tile_wall_stems
 from .profiles import layer_sprays
 
@@ -87,12 +88,16 @@ def stage_build_tiles(
     cfg = run.cfg
     drawn, made = drawn_and_made(cfg, dotsets, grid)
     _check_unions(cfg, grid, {"asked": dotsets, "made": made, "drawn": drawn})
-    per_tile = _per_tile(drawn, grid)
+    holes_tile = _per_tile(drawn, grid)
+    per_tile, posts = _with_posts(cfg, dotsets, holes_tile, grid)
     plates: list[dict[str, Any]] = []
     walls: list[dict[str, Any]] = []
-    heights = cfg.wall.heights()
+    # A laser-cut mural stands in a frame and on spacers cut from sheet: no printed wall or post.
+    laser = mural.laser_stand(cfg, grid)
+    heights = cfg.wall.heights() if laser is None else []
     tasks = _part_tasks(cfg, layers, grid, per_tile, heights)
-    n_parts = len(grid.tiles) * (len(dotsets) + len(heights))
+    served = mural.wall_tiles(grid)
+    n_parts = len(grid.tiles) * len(dotsets) + len(served) * len(heights)
     with run.stage("build"):
         # Each plate and wall is a task (built, checked and exported where it runs); the files
         # come back as bytes and are staged here in task order, so the output is the same
@@ -101,7 +106,16 @@ def stage_build_tiles(
             for name, data in res.files:
                 run.out.write_bytes(name, data)
             (plates if res.kind == "plate" else walls).append(res.row)
+        plan = mural.post_plan(cfg, grid)
+        post_row = None
+        if laser is not None:
+            stand_rows = stand.write_laser_stand(run, laser, grid.bed)
+        elif plan is not None and any(posts.values()):
+            post_row = stand.write_post(run, plan, posts)
+    for row in walls:
+        row["tiles"] = served.get(str(row["tile"]), [row["tile"]])
     for row in plates:
+        row["posts"] = len(posts.get((str(row["tile"]), int(row["layer"])), []))
         i = int(row["layer"]) - 1
         if len(dotsets[i]):
             row["drawn_minus_asked_mm"] = round(float(np.mean(drawn[i].r_mm - dotsets[i].r_mm)), 4)
@@ -109,7 +123,7 @@ def stage_build_tiles(
     built = MuralBuildFigures(
         tiles=tuple(TileRow.from_json(t) for t in mural.manifest_rows(grid)),
         holes_per_tile={
-            t.name: [len(per_tile[k][i]) for i in range(len(dotsets))] for k, t in enumerate(grid.tiles)
+            t.name: [len(holes_tile[k][i]) for i in range(len(dotsets))] for k, t in enumerate(grid.tiles)
         },
         holes_total=int(sum(len(d) for d in drawn)),
         holes_global=int(sum(len(d) for d in dotsets)),
@@ -117,9 +131,45 @@ def stage_build_tiles(
         compensated=bool(cfg.stipple.compensate),
         seam_density=mural.seam_density(dotsets, grid),
         order_of_work=mural.order_of_work(grid, len(dotsets)),
+        posts=post_row,
+        laser_stand=stand_rows if laser is not None else None,
     )
     run.figures.mural = replace(_planned(run), built=built)
     return _per_tile(made, grid)
+
+
+def _with_posts(
+    cfg: JobConfig, dotsets: list[DotSet], per_tile: list[list[DotSet]], grid: mural.TileGrid
+) -> tuple[list[list[DotSet]], dict[tuple[str, int], list[list[float]]]]:
+    """Each plate's drawn holes in its part frame with a pin hole at each of its posts, and the posts' sites per (tile, layer).
+
+    The sites are in mural mm.
+
+    The holes move from the tile's sheet frame to its part frame (:attr:`stencil_cad.mural.Tile.part`).
+    The sites come from the saved holes (:func:`stencil_cad.mural.post_sites`, every one clear);
+    a pin hole is drawn larger by the process's offset like every hole (``stipple.compensate``).
+    """
+    plan = mural.post_plan(cfg, grid)
+    st = cfg.stipple
+    grow = max(st.resolved_hole_offset_mm, 0.0) if st.compensate else 0.0
+    out, counts = [], {}
+    for k, t in enumerate(grid.tiles):
+        shift = np.array(t.origin) - np.array(t.part_origin)
+        row = []
+        for i, holes in enumerate(per_tile[k]):
+            holes = mural.shifted(holes, *shift) if shift.any() else holes
+            if holes.windows and shift.any():
+                holes = replace(
+                    holes, windows=tuple((np.asarray(o) + shift, inner) for o, inner in holes.windows)
+                )
+            if plan is not None:
+                sites, _ = mural.post_sites(dotsets[i], t.sheet, plan)
+                drawn_plan = replace(plan, pin_hole_mm=plan.pin_hole_mm + grow)
+                holes = mural.with_pin_holes(holes, sites - np.array(t.part_origin), drawn_plan)
+                counts[(t.name, i + 1)] = [[round(float(v), 4) for v in site] for site in sites]
+            row.append(holes)
+        out.append(row)
+    return out, counts
 
 
 def drawn_and_made(
@@ -231,9 +281,10 @@ def _part_tasks(
     from .. import cad, outline
 
     n = len(per_tile[0]) if per_tile else 0
+    made_walls: set[Any] = set()
     for k, t in enumerate(grid.tiles):
-        w, h = t.size
-        lines = t.grid_lines()
+        w, h = t.part_size
+        lines = t.part_lines()
         ring, notches = mural.notched_ring(
             outline.plate_outline(w, h, cfg.plate.outline), lines, mural.PLATE_NOTCH_MM
         )
@@ -261,6 +312,11 @@ def _part_tasks(
                 notches=notches,
                 **common,
             )
+        # One wall serves every tile whose plates have its size and notches (every tile of a mural).
+        key = mural.wall_key(t)
+        if key in made_walls:
+            continue
+        made_walls.add(key)
         for standoff, stem in zip(heights, tile_wall_stems(t, heights), strict=True):
             yield PartTask(kind="wall", stem=stem, standoff_mm=standoff, **common)
 

@@ -27,7 +27,9 @@ def test_sag_follows_plate_theory():
 @pytest.mark.parametrize(
     "process, side, want",
     [
-        (Process.fdm, 100.0, 0.9),
+        (Process.fdm, 100.0, 0.6),
+        (Process.fdm, 157.0, 0.6),
+        (Process.fdm, 160.0, 0.9),
         (Process.fdm, 173.0, 0.9),  # the bundled example's plate
         (Process.fdm, 192.0, 0.9),
         (Process.fdm, 213.0, 1.2),

@@ -84,7 +84,9 @@ def test_totals_are_the_sum_of_the_parts_and_grams_follow_the_volume():
     made = mural.making_cost(grid, cfg, 2, ds)
     plates = [p for p in made.parts if p.kind == "plate"]
     walls = [p for p in made.parts if p.kind == "wall"]
-    assert len(plates) == 2 * len(grid.tiles) and len(walls) == len(grid.tiles) * len(cfg.wall.heights())
+    # One wall serves every tile (all of one size and notches), the posts printed together.
+    assert len(plates) == 2 * len(grid.tiles) and len(walls) == len(cfg.wall.heights())
+    assert [p.layer for p in made.parts if p.kind == "posts"] == [mural.cost.post_count(grid, cfg)]
     # Every hole on exactly one plate of its layer.
     assert sum(p.holes for p in plates if p.layer == 1) == 4000
     assert sum(p.holes for p in plates if p.layer == 2) == 1500
@@ -176,7 +178,7 @@ def test_plan_line_says_the_printer_hours_and_filament():
     cfg = job(size={"width_mm": 600, "height_mm": 400}, bed="prusa_mk4", stipple={"process": "fdm"})
     _, plan = tiles.plan(cfg, 600, 400, 3, 1_000_000)
     line = tiles.plan_line(plan)
-    assert "24 plates, 8 wall(s)" in line
+    assert "24 plates, 1 wall(s)" in line
     assert f"about {plan.cost['printer_hours']:.1f} printer-hours" in line and "g PLA" in line
     assert plan.cost["filament_g"] > 0
 

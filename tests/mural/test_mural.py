@@ -330,7 +330,14 @@ def test_small_mural_end_to_end(tmp_path):
         ("layers", 1.0),
     }
     plates, walls = m["build"]["plates"], m["build"]["walls"]
-    assert len(plates) == 4 and len(walls) == 2
+    # One wall serves both tiles (every tile's plate has one size and one set of notches).
+    assert len(plates) == 4 and len(walls) == 1 and walls[0]["tiles"] == ["A1", "A2"]
+    # The plates stand on posts: one post part, each plate's pin holes at its sites, clear of holes.
+    posts = mu["posts"]
+    assert posts["valid"] and posts["n_solids"] == 1 and posts["rel_error"] < 1e-6
+    assert posts["most"] == max(posts["per_plate"].values()) >= 1
+    assert all(p["posts"] == posts["per_plate"][f"{p['tile']} {p['layer']}"] for p in plates)
+    assert m["plate"]["thickness_mm"] == 0.6
     for p in plates:
         assert p["valid"] and p["n_solids"] == 1 and p["notches"] == 8
         assert max(p["bbox_mm"]) <= 200 and min(p["bbox_mm"]) <= 180
@@ -342,7 +349,8 @@ def test_small_mural_end_to_end(tmp_path):
     names = {f.name for f in files}
     for stem in ("tile_A1_layer_01", "tile_A2_layer_02"):
         assert {f"{stem}.step", f"{stem}.stl", f"{stem}.dxf"} <= names
-    assert {"tile_A1_wall.step", "tile_A2_wall.stl", "mural_map.png"} <= names
+    assert {"tile_A1_wall.step", "tile_A1_wall.stl", "post.step", "post.stl", "mural_map.png"} <= names
+    assert "tile_A2_wall.stl" not in names
     # Every layer of a tile has the same notched outline in its DXF.
     outlines = []
     for i in (1, 2):

@@ -1,9 +1,9 @@
 """A mural a maker can make: its sheet (counts, tile sections, map, registration, checks), its cut
 files' labels and SVGs, and every part sliced on the bed it was sized for.
 
-The job is a 300 × 220 mm mural on the Prusa MK4's 250 × 210 mm bed: two portrait tiles (plates
-191.8 × 242.6 mm, walls 198.2 × 249 mm) that fit the bed only turned 90°, the case a 600 mm mural
-of 10 tiles hits on every tile.
+The job is a 280 × 200 mm mural on the Prusa MK4's 250 × 210 mm bed: two portrait tiles (plates
+178.3 × 238.3 mm, the one wall 184.7 × 244.7 mm: every plate reaches the halo past its core on every
+side) that fit the bed only turned 90°, the case a 600 mm mural of 8 tiles hits on every tile.
 """
 
 from __future__ import annotations
@@ -24,8 +24,8 @@ SVG = "{http://www.w3.org/2000/svg}"
 MURAL = """\
 name: mural sheet test
 size:
-  width_mm: 300
-  height_mm: 220
+  width_mm: 280
+  height_mm: 200
   px_per_mm: auto
 bed: prusa_mk4
 decompose:
@@ -215,13 +215,14 @@ def test_every_tile_part_slices_on_the_mk4_bed(mural_job, capsys):
     m = _manifest(mural_job)
     stls = [mural_job / f"{p['file']}.stl" for p in m["build"]["plates"]]
     stls += [mural_job / w["file"].replace(".step", ".stl") for w in m["build"]["walls"]]
-    assert len(stls) == 6
-    for stl in stls:  # portrait parts: refused before, turned now
+    stls.append(mural_job / "post.stl")
+    assert len(stls) == 6  # 4 plates, the one wall and the post
+    for stl in stls[:-1]:  # portrait parts: refused before, turned now
         w, h = slicing.stl_footprint(stl)
         assert h > 210 and w <= 210
     assert main(["slice", "--bed", "prusa_mk4", *map(str, stls)]) == 0
     said = capsys.readouterr().out
-    assert said.count("turned 90° to fit the bed") == len(stls)
+    assert said.count("turned 90° to fit the bed") == len(stls) - 1
     assert all(s.with_suffix(".gcode").stat().st_size > 10_000 for s in stls)
 
 
@@ -253,7 +254,7 @@ def test_mural_sheet_in_headless_chromium(mural_job, tmp_path):
     got, shot = evaluate_page(
         need("chromium"), (mural_job / "instructions.html").as_uri(), _sheet_expression()
     )
-    assert "4 plates (2 layers on each of 2 tiles) and 2 walls" in got["head"]
+    assert "4 plates (2 layers on each of 2 tiles) and 1 wall (moved from tile to tile)" in got["head"]
     assert [s["id"] for s in got["sections"]] == ["tile-A1", "tile-A2"]
     for s in got["sections"]:
         assert s["plates"] == 2 and s["checks"] >= 11 and s["passed"] == s["checks"]
@@ -284,7 +285,10 @@ def test_mural_sheet_pdf_pages(mural_job, tmp_path):
     assert r.returncode == 0, r.stderr
     pages = sorted(tmp_path.glob("page*.png"))
     text = run([need("pdftotext"), "-layout", str(pdf), "-"]).stdout
-    assert "4 plates (2 layers on each of 2 tiles) and 2 walls" in " ".join(text.split())
+    assert "4 plates (2 layers on each of 2 tiles) and 1 wall (moved from tile to tile)" in " ".join(
+        text.split()
+    )
+    assert "One wall serves every tile" in " ".join(text.split()) and "post.stl" in text
     for tile in ("A1", "A2"):
         assert f"Tile {tile}" in text and f"Checks of tile {tile}" in text
     assert "Registration: where each tile goes" in text and "First tile, A1" in text
@@ -303,3 +307,22 @@ def test_mural_sheet_has_no_placeholder(mural_job):
     html = html_text((mural_job / "instructions.html").read_text())
     pdf = run([need("pdftotext"), "-layout", str(mural_job / "instructions.pdf"), "-"]).stdout
     assert placeholders(html) == [] and placeholders(pdf) == []
+
+
+def test_mural_sheet_with_one_wall_and_posts():
+    m = _two_tile_manifest()
+    wall = {**m["build"]["walls"][0], "tiles": ["A1", "A2"]}
+    m["build"]["walls"] = [wall]
+    m["files"] = [f for f in m["files"] if not f["name"].startswith("tile_A2_wall")]
+    m["files"] += [{"name": "post.stl"}, {"name": "post.step"}]
+    m["mural"]["posts"] = {"file": "post.step", "height_mm": 10.0, "most": 2, "per_plate": {"A1 1": 2}}
+    s = instructions.sheet_from_manifest(m)
+    assert s.mural is not None and s.mural.walls == 1
+    a1, a2 = s.mural.sections
+    assert "tile_A1_wall.stl" in a1.walls[0] and "moved here" not in a1.walls[0]
+    assert "tile_A1_wall.stl" in a2.walls[0] and "made once, for A1; moved here" in a2.walls[0]
+    reg = " ".join(s.mural.registration)
+    assert "One wall serves every tile (A1)" in reg
+    assert "Posts: print 2 of post.stl" in reg and "10 mm high" in reg
+    html = instructions.render_html(s, {})
+    assert "4 plates (2 layers on each of 2 tiles) and 1 wall (moved from tile to tile)" in html

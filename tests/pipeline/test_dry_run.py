@@ -37,7 +37,9 @@ def test_dry_run_of_a_mural_names_every_tile(tmp_path, capsys):
     tiles, plates, walls = (
         int(v) for v in re.search(r"(\d+) tile\(s\).*?(\d+) plates, (\d+) wall", text).groups()
     )
-    assert tiles > 1 and plates == 3 * tiles and walls == tiles
+    # One wall serves every tile of a mural; its thin plates stand on posts printed together.
+    assert tiles > 1 and plates == 3 * tiles and walls == 1
+    assert re.search(r"^  posts × \d+ \(printed together\): ", text, re.M)
     assert len(re.findall(r"^  [A-Z]\d+ plate 0[123]: ", text, re.M)) == plates
     assert len(re.findall(r"^  [A-Z]\d+ wall: ", text, re.M)) == walls
     assert not (tmp_path / "o").exists()

@@ -1,0 +1,89 @@
+"""The stand of a mural's plates beyond the wall's tasks: the printed post, or a laser-cut frame and spacers."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from .. import mural
+from ..output import plain as _plain
+from ..record import Run
+from .names import POST_STEM
+
+if TYPE_CHECKING:
+    from ..config.bed import Bed
+    from ..mural.laser import CutPart
+
+
+def write_post(
+    run: Run, plan: mural.PostPlan, posts: dict[tuple[str, int], list[list[float]]]
+) -> dict[str, Any]:
+    """Build, check and write the job's post (every post is the same); its figures."""
+    from ..cad import post as post_mod
+
+    model = post_mod.build_post(
+        plan.radius_mm, plan.height_mm, plan.pin_radius_mm, run.cfg.plate.thickness_mm
+    )
+    stem = POST_STEM
+    with run.out.open_path(f"{stem}.step") as p:
+        post_mod.post_step(model, p)
+    with run.out.open_path(f"{stem}.stl") as p:
+        post_mod.post_stl(model, p, run.cfg.export.stl_tolerance_mm)
+    dropped = sum(int(s.get("removed_post", 0)) for s in (st.report for st in run.figures.stipple or ()))
+    return {
+        "file": f"{stem}.step",
+        "height_mm": plan.height_mm,
+        "radius_mm": plan.radius_mm,
+        "pin_radius_mm": plan.pin_radius_mm,
+        "pin_hole_mm": plan.pin_hole_mm,
+        "keepout_mm": round(plan.keepout_mm, 3),
+        "per_plate": {f"{t} {k}": len(v) for (t, k), v in posts.items()},
+        "sites_mm": {f"{t} {k}": v for (t, k), v in posts.items()},
+        "most": max(len(v) for v in posts.values()),
+        "dropped_holes": dropped,
+        **_plain(post_mod.check_post(model)),
+    }
+
+
+def write_laser_stand(run: Run, parts: list[CutPart], bed: Bed | None) -> list[dict[str, Any]]:
+    """Write each laser-cut part of the stand (``frame_base``, ``frame_top``, ``spacer``) as DXF and SVG.
+
+    Each part is checked like a plate (a closed outline, its cuts inside it, the bed) before it is
+    written; its row gives the count to cut, the sheet, the cut length and the estimated cut time.
+
+    Raises:
+        UserError: A part fails its checks.
+    """
+    from ..errors import UserError
+    from ..exchange import dxf, svg
+    from ..mural.cost import cut_seconds
+
+    exp = run.cfg.export
+    size = None if bed is None else (bed.x_mm, bed.y_mm)
+    rows = []
+    for part in parts:
+        check = mural.laser.check_cut_part(part, size)
+        if not check["ok"]:
+            raise UserError(f"{part.name}: the laser-cut part fails its checks: {check}")
+        drawing = dxf.DxfStencil(
+            outline_ring=part.outline,
+            circles_xy_r=part.circles if len(part.circles) else None,
+            polygons=[(r, ()) for r in part.inner] or None,
+            layer_name=part.name.upper(),
+            label=part.name,
+        )
+        with run.out.open_path(f"{part.name}.dxf") as p:
+            dxf.write_dxf_stencils(p, [drawing], kerf_mm=exp.kerf_mm, deterministic=True)
+        with run.out.open_path(f"{part.name}.svg") as p:
+            svg.write_svg(p, drawing, kerf_mm=exp.kerf_mm, title=f"{run.cfg.name} {part.name}")
+        rows.append(
+            {
+                "name": part.name,
+                "count": part.count,
+                "thickness_mm": part.thickness_mm,
+                "cut_m": round(part.cut_mm / 1000.0, 3),
+                "cut_minutes": round(cut_seconds(part.cut_mm, part.pierces) / 60.0, 2),
+                "files": [f"{part.name}.dxf", f"{part.name}.svg"],
+                **_plain(check),
+            }
+        )
+    return rows
