@@ -19,6 +19,8 @@ import math
 import numba
 import numpy as np
 
+from ..parallel import njit_parallel
+
 __all__ = ["delta_e_xyz"]
 
 #: D65 white, 2° observer (scikit-image's ``xyz2lab`` default).
@@ -49,7 +51,7 @@ def _polar(x, y):
     return r, t
 
 
-@numba.njit(parallel=True, cache=True)
+@njit_parallel(cache=True)
 def _kernel(xyz1, xyz2, out):
     h, w = out.shape
     p25 = 25.0**7

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..config.spray import SprayConfig, SprayModel
 from ..frames import mm_to_px
+from ..parallel import njit_parallel
 
 __all__ = ["dot_sigma_mm", "spray_mask", "spray_opacity", "tail_tolerance"]
 
@@ -66,7 +67,7 @@ def _gauss_profile(out, n, d0, k2, amp):  # pragma: no cover - compiled
         q *= step
 
 
-@numba.njit(parallel=True, fastmath=True, cache=True)
+@njit_parallel(fastmath=True, cache=True)
 def _splat_kernel(trans, row0, col0, cy, cx, inv2s2, rad, amp, tol, band_lo, band_hi, band_rows):
     """Multiply each hole's transmittance into ``trans`` over its truncation disc.
 

@@ -12,6 +12,8 @@ import math
 import numba
 import numpy as np
 
+from ..parallel import njit_parallel
+
 #: A hole's deposit is evaluated out to where it falls below this (relative to 1).
 _TAIL = 1e-4
 #: Cap of one deposit in the product model's gradient quotient ``N / (1 - N)`` (see there).
@@ -56,7 +58,7 @@ def _footprint(row, col, sig, a, img):  # pragma: no cover - compiled
 _BAND = 32
 
 
-@numba.njit(cache=True, parallel=True, fastmath=True)
+@njit_parallel(cache=True, fastmath=True)
 def _transmittance_bands(
     t, s, rows, cols, sig, peak, exp_mode, band_lo, band_hi
 ):  # pragma: no cover - compiled
@@ -109,7 +111,7 @@ def _transmittance(t, rows, cols, sig, peak, exp_mode):
     return t
 
 
-@numba.njit(cache=True, parallel=True, fastmath=True)
+@njit_parallel(cache=True, fastmath=True)
 def _hole_gradients(gt, rows, cols, sig, peak, exp_mode):  # pragma: no cover - compiled
     """Per hole ``sum_p G(p) dalpha/dN_i dN_i/d(row, col, sigma, peak)`` in px units; ``gt = G T``.
 
@@ -168,7 +170,7 @@ def _hole_gradients(gt, rows, cols, sig, peak, exp_mode):  # pragma: no cover - 
     return out
 
 
-@numba.njit(cache=True, parallel=True, fastmath=True)
+@njit_parallel(cache=True, fastmath=True)
 def _removal_change(g, q, t, rows, cols, sig, peak, exp_mode):  # pragma: no cover - compiled
     """Predicted change of the objective if each hole alone were removed (inf: cannot tell)."""
     n = rows.shape[0]
@@ -197,7 +199,7 @@ def _removal_change(g, q, t, rows, cols, sig, peak, exp_mode):  # pragma: no cov
     return out
 
 
-@numba.njit(cache=True, parallel=True)
+@njit_parallel(cache=True)
 def _composite_residuals(trans, primer, colours, target, alpha_t, res, lres):  # pragma: no cover - compiled
     """Composite minus target into ``res`` (H, W, 3); each layer's opacity minus its target into ``lres``.
 
@@ -222,7 +224,7 @@ def _composite_residuals(trans, primer, colours, target, alpha_t, res, lres):  #
                 lres[m, r, c] = (1.0 - trans[m, r, c]) - alpha_t[m, r, c]
 
 
-@numba.njit(cache=True, parallel=True)
+@njit_parallel(cache=True)
 def _opacity_gradients(trans, primer, colours, dedc, dl, lam, gt, gq, qm):  # pragma: no cover - compiled
     """Per layer ``G T`` into ``gt`` (L, H, W), ``G = dE/dalpha_l``; ``G`` and ``Q`` into ``gq`` (2, L, H, W) if it has room.
 
@@ -272,7 +274,7 @@ def _opacity_gradients(trans, primer, colours, dedc, dl, lam, gt, gq, qm):  # pr
                 s *= tm
 
 
-@numba.njit(cache=True, parallel=True)
+@njit_parallel(cache=True)
 def _dot(a, b):  # pragma: no cover - compiled
     """``sum a b`` with a float64 accumulator (``a``, ``b`` contiguous, of one shape)."""
     fa = a.ravel()

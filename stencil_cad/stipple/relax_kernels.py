@@ -11,6 +11,8 @@ import math
 import numba
 import numpy as np
 
+from ..parallel import njit_parallel
+
 # --------------------------------------------------------------------------- compiled kernels
 
 
@@ -99,7 +101,7 @@ def _tile_worst(label, dist2, r0, r1, c0, c1):  # pragma: no cover - compiled
     return worst
 
 
-@numba.njit(cache=True, parallel=True)
+@njit_parallel(cache=True)
 def _nearest_seed(w, seeds, bsize, label, dist2, warm):  # pragma: no cover - compiled
     """Exact nearest seed of every pixel with ``w > 0`` (others get label -1).
 
