@@ -89,7 +89,7 @@ def test_label_volume_and_validity(mode):
     rep = cad.check_plate(model, dots)
     assert rep["valid"] and rep["n_solids"] == 1
     assert brep_valid(model.part.wrapped)
-    d = 0.4
+    d = cfg().label_depth_mm  # the label's depth (or height, embossed) by default
     glyph_area = (base.part.volume - model.part.volume) / d
     if mode == "emboss":
         glyph_area = -glyph_area
