@@ -67,11 +67,47 @@ def config_data(settings: dict[str, Any], ws: Workspace) -> tuple[dict[str, Any]
     if s["bed"]:
         data["bed"] = s["bed"]
     if s["profile"]:
-        profile = ws.profile_path(str(s["profile"]))
-        if profile is None:
-            raise UserError("the spray profile is no longer in the studio's workspace; calibrate again")
-        data["spray"] = {**data.get("spray", {}), "profile": str(profile)}
+        data["spray"] = {**data.get("spray", {}), "profile": profile_mapping(s["profile"], ws)}
     return data, picture
+
+
+def profile_key_of(profile_id: str, ws: Workspace) -> str:
+    """The ``spray.profile`` key of a kept profile: the paint it was measured for (``default``: every layer)."""
+    import json
+
+    from ..config.profiles import DEFAULT_KEY
+
+    meta = ws.profiles / f"{profile_id}.json"
+    try:
+        return str(json.loads(meta.read_text(encoding="utf-8")).get("key") or DEFAULT_KEY)
+    except (OSError, ValueError):
+        return DEFAULT_KEY
+
+
+def profile_mapping(chosen: Any, ws: Workspace) -> dict[str, str]:
+    """The chosen profiles (one id or a list of ids) as ``spray.profile``'s mapping ``{paint key: file}``.
+
+    Each profile is keyed by the paint the wizard measured it for (a layer number, ``#rrggbb``, a can's
+    name, or ``default`` for every layer no other key names).
+
+    Raises:
+        UserError: A profile is no longer in the workspace, or two chosen profiles are for the same paint.
+    """
+    ids = [chosen] if isinstance(chosen, str) else chosen
+    if not isinstance(ids, list) or not all(isinstance(i, str) for i in ids):
+        raise UserError("profile: give the id of a spray profile, or a list of ids (one per paint)")
+    mapping: dict[str, str] = {}
+    for profile_id in ids:
+        path = ws.profile_path(profile_id)
+        if path is None:
+            raise UserError("the spray profile is no longer in the studio's workspace; calibrate again")
+        key = profile_key_of(profile_id, ws)
+        if key in mapping:
+            raise UserError(
+                f"two of the chosen spray profiles are for the same paint ({key}): choose one profile per paint"
+            )
+        mapping[key] = str(path)
+    return mapping
 
 
 def can_list() -> list[dict[str, str]]:

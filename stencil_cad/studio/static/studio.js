@@ -16,7 +16,7 @@ function settings() {
     paints: paintMode === "auto" || chosen.length === 0 ? "auto" : chosen,
     distance_m: Number($("distance_m").value),
     standoff_mm: fixed ? Number($("standoff_mm").value) : null,
-    profile: $("profile").value || null,
+    profile: [...$("profile").selectedOptions].map((o) => o.value),
   };
 }
 
@@ -34,7 +34,12 @@ function showPreview(p) {
   $("f-passes").textContent = p.passes ? p.passes.join(" · ") : "—";
   $("f-holes").textContent = p.holes ? p.holes.map((n) => n.toLocaleString()).join(" · ") : "—";
   $("f-parts").textContent = `${p.plates} plates, ${p.walls} wall(s), ${p.tiles} tile(s)`;
-  $("f-standoff").textContent = `${p.standoff_mm} mm`;
+  $("f-standoff").textContent = `${p.standoff_mm} mm, windows ${p.windows}` + (p.designed ? " (the job's choice)" : "");
+  if (p.scielab_range) {
+    $("f-range").textContent = `between ${fmt(p.scielab_range[0])} and ${fmt(p.scielab_range[1])} depending on your can`;
+  } else {
+    $("f-range").textContent = p.final ? `${fmt(p.scielab)}: every layer's can is measured` : "— (on the last preview)";
+  }
   const c = p.cost;
   $("f-cost").textContent = c.cut_m != null
     ? `${c.sheets} sheet(s), laser cut ${fmt(c.cut_m, 1)} m in about ${fmt(c.cut_hours, 1)} h`
@@ -43,6 +48,7 @@ function showPreview(p) {
   const cans = (c.paint || []).reduce((s, x) => s + x.cans, 0);
   $("f-paint").innerHTML = `${swatches} primer + ${p.paints.length} paints` + (c.paint && c.paint.length ? `, ${fmt(cans, 2)} can(s) in all` : "");
   $("sprayed").dataset.level = p.level;
+  paintKeys(p);
 }
 
 function preview() {
@@ -129,10 +135,25 @@ async function makeCard() {
 
 async function profiles(select) {
   const list = await (await fetch("/api/profiles")).json();
-  const keep = select || $("profile").value;
-  $("profile").length = 1;
-  for (const p of list) $("profile").add(new Option(`${p.paint} (spread ${p.spread_k}, deposit ${p.deposit_per_pass})`, p.id));
-  $("profile").value = keep;
+  const keep = new Set([...$("profile").selectedOptions].map((o) => o.value));
+  if (select) {
+    // A new profile replaces a chosen one measured for the same paint.
+    const key = (list.find((p) => p.id === select) || {}).key;
+    for (const p of list) if (p.key === key) keep.delete(p.id);
+    keep.add(select);
+  }
+  $("profile").length = 0;
+  for (const p of list) {
+    const label = `${p.key === "default" ? "every layer" : p.key}: spread ${p.spread_k}, deposit ${p.deposit_per_pass}`;
+    $("profile").add(new Option(label, p.id, false, keep.has(p.id)));
+  }
+}
+
+function paintKeys(p) {
+  // The paints the wizard can key a profile to: this preview's layers by hex, the can list by name.
+  const opts = p.paints.map((h, i) => `<option value="${h}">layer ${i + 1}</option>`);
+  for (const c of state.cans || []) opts.push(`<option value="${c.name}">${c.hex}</option>`);
+  $("paint-keys").innerHTML = opts.join("");
 }
 
 async function fitPhoto(file) {
@@ -164,6 +185,7 @@ async function init() {
   const o = await (await fetch("/api/options")).json();
   for (const p of o.processes) $("process").add(new Option(p, p, p === o.defaults.process, p === o.defaults.process));
   for (const b of o.beds) $("bed").add(new Option(b, b));
+  state.cans = o.cans;
   $("cans").innerHTML = o.cans.map((c) =>
     `<label><input type="checkbox" value="${c.hex}"><span class="swatch" style="background:${c.hex}"></span>${c.name} (${c.code})</label>`).join("");
   for (const el of document.querySelectorAll("#settings input, #settings select")) {
