@@ -91,6 +91,10 @@ class Preview:
         scielab_by_can: On the last level, S-CIELAB at the viewing distance sprayed by every can of the
             prior (``nominal`` first), as the job's ``simulate.scielab_by_can``; None when the prior
             is one can (every layer measured, or the paper model) and on the other levels.
+        size_mm: The picture's ``(width, height)``, mm.
+        tile_cores: Each tile of the job's tiling (:func:`stencil_cad.pipeline.tiles.plan`, as the job
+            tiles): its name and the part of the picture it owns, ``(name, x0, y0, x1, y1)`` mm from the
+            picture's bottom-left corner; one tile for a picture that fits the bed.
     """
 
     level: str
@@ -114,6 +118,8 @@ class Preview:
     windows: str = "auto"
     designed: bool = False
     scielab_by_can: dict[str, float] | None = None
+    size_mm: tuple[float, float] = (0.0, 0.0)
+    tile_cores: tuple[tuple[str, float, float, float, float], ...] = ()
 
     @property
     def scielab_range(self) -> tuple[float, float] | None:
@@ -143,6 +149,11 @@ class Preview:
             "scielab_by_can": None
             if self.scielab_by_can is None
             else {k: round(v, 3) for k, v in self.scielab_by_can.items()},
+            "size_mm": [round(v, 3) for v in self.size_mm],
+            "tiles_mm": [
+                {"name": n, "x0": round(x0, 3), "y0": round(y0, 3), "x1": round(x1, 3), "y1": round(y1, 3)}
+                for n, x0, y0, x1, y1 in self.tile_cores
+            ],
             "scielab_range": None
             if self.scielab_range is None
             else [round(x, 3) for x in self.scielab_range],
@@ -525,6 +536,8 @@ class _Made:
             windows=cfg.stipple.windows.value,
             designed=self.designed,
             scielab_by_can={"nominal": score, **by_can} if by_can else None,
+            size_mm=(float(self.size[0]), float(self.size[1])),
+            tile_cores=tuple((t.name, *(float(v) for v in t.core)) for t in self.grid.tiles),
         )
 
 

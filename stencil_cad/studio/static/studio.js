@@ -17,7 +17,60 @@ function settings() {
     distance_m: Number($("distance_m").value),
     standoff_mm: fixed ? Number($("standoff_mm").value) : null,
     profile: [...$("profile").selectedOptions].map((o) => o.value),
+    crop: cropping(),
   };
+}
+
+// The crop in % of the picture, [x, y, width, height]; null for the whole picture.
+function cropping() {
+  const c = ["crop_x", "crop_y", "crop_w", "crop_h"].map((id) => Number($(id).value));
+  return c[0] === 0 && c[1] === 0 && c[2] === 100 && c[3] === 100 ? null : c;
+}
+
+function drawCrop() {
+  const [x, y, w, h] = ["crop_x", "crop_y", "crop_w", "crop_h"].map((id) => Number($(id).value));
+  Object.assign($("crop-box").style, { left: `${x}%`, top: `${y}%`, width: `${w}%`, height: `${h}%` });
+}
+
+function setCrop(c) {
+  ["crop_x", "crop_y", "crop_w", "crop_h"].forEach((id, i) => { $(id).value = Math.round(c[i] * 2) / 2; });
+  drawCrop();
+}
+
+function cropDrag() {
+  // Drag a rectangle over the whole picture; the crop is sent when the pointer is let go.
+  const area = $("crop-area");
+  let start = null;
+  const at = (e) => {
+    const r = $("crop-source").getBoundingClientRect();
+    return [Math.min(100, Math.max(0, (100 * (e.clientX - r.left)) / r.width)),
+      Math.min(100, Math.max(0, (100 * (e.clientY - r.top)) / r.height))];
+  };
+  const box = (e) => {
+    const p = at(e);
+    return [Math.min(start[0], p[0]), Math.min(start[1], p[1]), Math.abs(p[0] - start[0]), Math.abs(p[1] - start[1])];
+  };
+  area.addEventListener("pointerdown", (e) => { start = at(e); area.setPointerCapture(e.pointerId); });
+  area.addEventListener("pointermove", (e) => { if (start) setCrop(box(e)); });
+  area.addEventListener("pointerup", (e) => {
+    if (!start) return;
+    const c = box(e); start = null;
+    if (c[2] >= 1 && c[3] >= 1) setCrop(c); else setCrop([0, 0, 100, 100]);
+    changed();
+  });
+}
+
+function drawTiles(p) {
+  // The mural's tiles as the job cuts them, over the picture (y of the tiles runs up from the bottom).
+  const svg = $("tiles");
+  svg.hidden = p.tiles < 2;
+  if (svg.hidden) return;
+  const [w, h] = p.size_mm;
+  svg.setAttribute("viewBox", `0 0 ${w} ${h}`);
+  const size = Math.max(w, h) / 40;
+  svg.innerHTML = p.tiles_mm.map((t) =>
+    `<rect x="${t.x0}" y="${h - t.y1}" width="${t.x1 - t.x0}" height="${t.y1 - t.y0}"></rect>` +
+    `<text x="${t.x0 + size / 2}" y="${h - t.y1 + 1.5 * size}" font-size="${size}">${t.name}</text>`).join("");
 }
 
 function setStatus(text) { $("status").textContent = text; }
@@ -49,6 +102,7 @@ function showPreview(p) {
   $("f-paint").innerHTML = `${swatches} primer + ${p.paints.length} paints` + (c.paint && c.paint.length ? `, ${fmt(cans, 2)} can(s) in all` : "");
   $("sprayed").dataset.level = p.level;
   paintKeys(p);
+  drawTiles(p);
 }
 
 function preview() {
@@ -84,6 +138,8 @@ async function upload(file) {
   const j = await r.json();
   if (!r.ok) { showError("upload-error", j.error); setStatus("ready"); return; }
   state.image = j.id;
+  $("crop-source").src = `/api/pictures/${j.id}`;
+  setCrop([0, 0, 100, 100]);
   $("picture-name").textContent = `${j.name} (${j.width_px} × ${j.height_px} px at this size)`;
   changed();
 }
@@ -202,6 +258,11 @@ async function init() {
   drop.addEventListener("drop", (e) => { e.preventDefault(); drop.classList.remove("over"); if (e.dataTransfer.files.length) upload(e.dataTransfer.files[0]); });
   $("slider").addEventListener("input", () => $("compare").style.setProperty("--cut", `${$("slider").value}%`));
   $("zoom").addEventListener("input", () => $("compare").style.setProperty("--zoom", $("zoom").value));
+  $("crop-source").src = "/api/pictures/example";
+  drawCrop();
+  cropDrag();
+  for (const id of ["crop_x", "crop_y", "crop_w", "crop_h"]) $(id).addEventListener("input", drawCrop);
+  $("crop-none").addEventListener("click", () => { setCrop([0, 0, 100, 100]); changed(); });
   $("make").addEventListener("click", make);
   $("make-card").addEventListener("click", makeCard);
   $("photo").addEventListener("change", () => { if ($("photo").files.length) fitPhoto($("photo").files[0]); });
