@@ -166,8 +166,9 @@ def _ratios(rows: dict, case: str) -> None:
 def run(cases=None, baseline: str | None = None):
     """The rows of ``cases`` (all by default; only ``example`` with a ``baseline`` commit unless cases are named)."""
     if baseline is not None and not cases:
-        cases = ["example"]
-    wanted = [c for c in CASES if not cases or c in cases or "example" in cases]
+        wanted = ["example"]
+    else:
+        wanted = [c for c in CASES if not cases or c in cases or "example" in cases]
     rows = {}
     with tempfile.TemporaryDirectory() as tmp:
         base_row = None
