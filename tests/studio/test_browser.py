@@ -110,6 +110,7 @@ def test_upload_change_layers_make_download(studio, browser, tmp_path):
     width.clear()
     width.send_keys("60")
     # Crop: the middle 80 % of the width, typed.
+    browser.find_element(by, "crop-panel").click()  # open the crop panel
     for field, value in (("crop_x", "10"), ("crop_w", "80")):
         box = browser.find_element(by, field)
         box.clear()
