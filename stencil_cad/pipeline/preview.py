@@ -5,8 +5,8 @@ job's plate-design trials: on the bundled example the last scored 3.98 at 1 m ag
 3.99; after one change of its settings (``python -m benchmarks studio``, five changes of each kind,
 medians, on two cores shared with other work at a load average of 6-15) the first preview came in
 1.1-2.0 s, one within 0.5 of the job's S-CIELAB at 1 m in 2.1-10.9 s and the last in 8.0-14.6 s.
-With the trials (a fresh cache, load average 5-10): the bundled example's job chose 8 mm, and the
-last preview, at 8 mm, scored 3.83 against the job's 3.71, 218 s after the change (the trials most of
+With the trials (a fresh cache, load average 5-10, the design's level then called ``refined``): the
+bundled example's job chose 8 mm, and the last preview, at 8 mm, scored 3.83 against the job's 3.71, 218 s after the change (the trials most of
 it); a 30 mm version in three layers (the job kept 10 mm) scored 8.70 against the job's 8.97, at 14.5 s:
 
 - ``coarse``: the decomposition, its opacities blurred as the can blurs them at the wall's stand-off
@@ -16,17 +16,20 @@ it); a 30 mm version in three layers (the job kept 10 mm) scored 8.70 against th
   5.9-8.5 s on a loaded two-core machine), and the job's decomposition follows for the next levels;
 - ``stippled``: the holes as the stipple stage places them (not refined), sprayed on the preview grid;
 - ``refined``: those holes refined against the spray model (:data:`PREVIEW_ITERATIONS` iterations,
-  the nominal can) and sprayed.
+  the nominal can) and sprayed;
+- ``designed`` (when the config leaves the plate design to the job): the plate design the job's own
+  trials choose, its holes stippled and refined as above, sprayed; the same holes as ``refined`` when
+  the job keeps the config's design.
 
 Every level scores what it shows against the source image like the job's simulate stage (S-CIELAB at
 the viewing distance and twice it); the last also sprays its holes with every can of the can prior,
 as the job's ``scielab_by_can`` does, for the range of scores the maker's can may give.
 
 The plate design is the job's: when the config leaves the windows or the stand-off to the job
-(:func:`leaves_design`), the ``stippled`` level still shows the config's own design (quickly), and then
-the job's own plate-design trials (:func:`stencil_cad.pipeline.standoff.choose_plates`, on the job's
-config and grid) choose the design the ``refined`` level shows (or, without refinement, a ``designed``
-level). A mural keeps the config's design, as the job does.
+(:func:`leaves_design`), the ``stippled`` and ``refined`` levels show the config's own design
+(quickly), and then the job's own plate-design trials (:func:`stencil_cad.pipeline.standoff.choose_plates`,
+on the job's config and grid) choose the design the last level, ``designed``, shows. A mural keeps the
+config's design, as the job does.
 
 What does not change between two settings is kept (:class:`PreviewCache`): the decomposition, keyed on
 everything it reads (the image file, the size, the decomposition and paints sections, the seed and what
@@ -63,7 +66,7 @@ PREVIEW_MM_PER_PX = 0.5
 #: Entries kept per cache (decompositions, each setting's at two resolutions; hole sets).
 CACHE_ENTRIES = 6
 #: The levels, first to last.
-LEVELS = ("coarse", "stippled", "designed", "refined")
+LEVELS = ("coarse", "stippled", "refined", "designed")
 
 
 @dataclass(frozen=True)
@@ -284,7 +287,14 @@ def previews(
         run.check()
     holes = _holes(run, layers, size, picture, cache)
     designing = not grid.tiled and leaves_design(run.cfg)
-    yield made.sprayed("stippled", holes, final=not (run.cfg.refine.enabled or designing))
+    refining = run.cfg.refine.enabled
+    yield made.sprayed("stippled", holes, final=not (refining or designing))
+    if refining:
+        from .refine import stage_refine
+
+        run.check()
+        refined = stage_refine(run, layers, holes, size, picture)
+        yield made.sprayed("refined", refined, final=not designing)
     if designing:
         run.check()
         windows, standoff = _design(run, cfg, grid, layers, size, picture, cache)
@@ -294,14 +304,10 @@ def previews(
 
             run.cfg = with_design(run.cfg, windows, standoff)
             holes = _holes(run, layers, size, picture, cache)
-        if not run.cfg.refine.enabled:
-            yield made.sprayed("designed", holes, final=True)
-    if run.cfg.refine.enabled:
-        from .refine import stage_refine
-
-        run.check()
-        refined = stage_refine(run, layers, holes, size, picture)
-        yield made.sprayed("refined", refined, final=True)
+            if refining:
+                run.check()
+                refined = stage_refine(run, layers, holes, size, picture)
+        yield made.sprayed("designed", refined if refining else holes, final=True)
 
 
 def leaves_design(cfg: JobConfig) -> bool:
