@@ -172,6 +172,8 @@ def test_the_calibration_wizard_fits_a_synthetic_photo_of_its_card(studio, brows
     assert "Markers found per wall" in table and "Spread k" in table
     spread = float(table.split("Spread k")[1].split()[0])
     assert spread == pytest.approx(0.1, rel=0.05)
+    # The page lists the new profile (chosen) once it has asked for the list again after the fit.
     chosen = browser.find_element(by, "profile")
-    assert chosen.get_attribute("value") and chosen.text.startswith("1: spread")
+    wait_for(lambda: chosen.get_attribute("value"), what="the new profile chosen")
+    assert chosen.text.startswith("1: spread")
     assert len(list(ws.profiles.glob("*.yaml"))) == 1
