@@ -95,7 +95,14 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="run each benchmark's tiny case and check its rows carry the keys its readers use (CI)",
     )
+    parser.add_argument(
+        "--baseline",
+        metavar="COMMIT",
+        help="e2e only: also run the bundled example of COMMIT (exported into a scratch folder) in the same call",
+    )
     args = parser.parse_args(argv)
+    if args.baseline is not None and args.names != ["e2e"]:
+        parser.error("--baseline is for the e2e benchmark alone: python -m benchmarks e2e --baseline COMMIT")
     names = args.names or (NAMES + SMOKE_ONLY if args.smoke else NAMES)
     for name in names:
         if name not in NAMES and not (args.smoke and name in SMOKE_ONLY):
@@ -106,8 +113,15 @@ def main(argv: list[str] | None = None) -> int:
         return _smoke(names)
     for name in names:
         module = importlib.import_module(f"benchmarks.{name}")
-        for row in module.run(cases=args.case):
-            print(json.dumps(row), flush=True)
+        extra = {"baseline": args.baseline} if args.baseline is not None else {}
+        try:
+            rows = module.run(cases=args.case, **extra)
+            for row in rows:
+                print(json.dumps(row), flush=True)
+        except ValueError as exc:
+            if not extra:
+                raise
+            parser.error(str(exc))
     return 0
 
 

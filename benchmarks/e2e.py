@@ -11,6 +11,13 @@ refines for the prior's caps), and the ``example`` row carries its refinement ti
 (``refine_ratio_vs_one_can``); ``example-paper`` is the job under the paper's spray
 model. Every row scores against the source image resized to the simulated grid (the manifest's
 ``simulate.scielab``), and under the physical model gives ``scielab_worst`` over the prior of cans.
+
+``--baseline COMMIT`` (``python -m benchmarks e2e --baseline 1e9aeab``) also runs the bundled example of
+another commit, in the same call: the commit's tree is exported from git into a scratch folder (removed
+afterwards) and its own ``stencil-cad run`` makes its own bundled example there. The ``example`` row
+then gives ``baseline_cpu_seconds``, ``baseline_seconds``, ``cpu_ratio_vs_baseline`` (this tree's CPU
+seconds over the commit's) and ``baseline_commit``; ``baseline`` holds the commit's whole row. The
+commit's example job is the one it shipped (its size, layers and process), as a maker would have run it.
 """
 
 from __future__ import annotations
@@ -30,10 +37,14 @@ SMOKE_KEYS = ("seconds", "cpu_seconds", "peak_mb", "stage_seconds", "dots", "sci
 SMOKE_JOB = {"size": {"width_mm": 40.0}, "decompose": {"layers": 2}}
 
 
-def _config(tmp: Path, case: str, job: dict | None = None) -> Path:
+#: The repository whose tree these benchmarks run (and whose history ``--baseline`` reads).
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _config(tmp: Path, case: str, job: dict | None = None, root: Path = REPO) -> Path:
     import yaml
 
-    data_dir = Path(__file__).resolve().parents[1] / "stencil_cad" / "data"
+    data_dir = root / "stencil_cad" / "data"
     cfg = yaml.safe_load((data_dir / "example.yaml").read_text())
     cfg["image"] = str(data_dir / cfg["image"])
     cfg.setdefault("refine", {})["enabled"] = case != "example-norefine"
@@ -43,14 +54,18 @@ def _config(tmp: Path, case: str, job: dict | None = None) -> Path:
         cfg["spray"]["model"] = "paper"
     for section, values in (job or {}).items():
         cfg.setdefault(section, {}).update(values)
-    path = tmp / f"{case}.yaml"
+    path = tmp / f"{case}{'' if root == REPO else '-baseline'}.yaml"
     path.write_text(yaml.safe_dump(cfg))
     return path
 
 
-def _one(case: str, tmp: Path, job: dict | None = None) -> dict:
-    out = tmp / case
-    cfg = _config(tmp, case, job)
+def _one(case: str, tmp: Path, job: dict | None = None, root: Path = REPO) -> dict:
+    """One job of ``case`` made by the tree at ``root`` (this one, or a baseline commit's), in a child process."""
+    import os
+
+    out = tmp / (case if root == REPO else f"{case}-baseline")
+    cfg = _config(tmp, case, job, root)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     # RUSAGE_CHILDREN's peak is the largest child so far, so each child reports its own peak.
@@ -68,6 +83,8 @@ def _one(case: str, tmp: Path, job: dict | None = None) -> dict:
         ],
         capture_output=True,
         text=True,
+        cwd=root,
+        env=env,
     )
     seconds = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -106,23 +123,70 @@ def _one(case: str, tmp: Path, job: dict | None = None) -> dict:
     return row
 
 
-def run(cases=None):
-    wanted = [c for c in CASES if not cases or c in cases or "example" in cases]
+def export_tree(commit: str, dest: Path) -> str:
+    """Write the tree of ``commit`` (of this repository) into ``dest``; returns the commit's full hash.
+
+    Raises:
+        ValueError: ``commit`` names no commit of this repository.
+    """
+    import io
+    import tarfile
+
+    rev = subprocess.run(
+        ["git", "-C", str(REPO), "rev-parse", "--verify", "--quiet", f"{commit}^{{commit}}"],
+        capture_output=True,
+        text=True,
+    )
+    if rev.returncode != 0:
+        raise ValueError(f"--baseline {commit!r} is no commit of this repository; give a hash or a branch")
+    full = rev.stdout.strip()
+    tar = subprocess.run(
+        ["git", "-C", str(REPO), "archive", "--format=tar", full], capture_output=True, check=True
+    )
+    with tarfile.open(fileobj=io.BytesIO(tar.stdout)) as archive:
+        archive.extractall(dest, filter="data")
+    return full
+
+
+def _ratios(rows: dict, case: str) -> None:
+    """The ``example`` row's ratios against the cases run before it in the same call."""
+    row = rows[case]
+    if case == "example" and "example-norefine" in rows:
+        base = rows["example-norefine"]
+        for key in ("seconds", "cpu_seconds", "peak_mb"):
+            if base.get(key):
+                row[f"{key}_ratio_vs_norefine"] = round(row[key] / base[key], 3)
+    if case == "example" and "example-nominal" in rows:
+        one = rows["example-nominal"].get("stage_seconds", {}).get("refine")
+        many = row.get("stage_seconds", {}).get("refine")
+        if one and many:
+            row["refine_ratio_vs_one_can"] = round(many / one, 3)
+
+
+def run(cases=None, baseline: str | None = None):
+    """The rows of ``cases`` (all by default; only ``example`` with a ``baseline`` commit unless cases are named)."""
+    if baseline is not None and not cases:
+        wanted = ["example"]
+    else:
+        wanted = [c for c in CASES if not cases or c in cases or "example" in cases]
     rows = {}
     with tempfile.TemporaryDirectory() as tmp:
+        base_row = None
+        if baseline is not None:
+            root = Path(tmp) / "baseline"
+            full = export_tree(baseline, root)
+            base_row = {**_one("example", Path(tmp), root=root), "commit": full}
         for case in wanted:
             rows[case] = _one(case, Path(tmp))
-            if case == "example" and "example-norefine" in rows:
-                base = rows["example-norefine"]
+            _ratios(rows, case)
+            if case == "example" and base_row is not None:
                 row = rows[case]
-                for key in ("seconds", "cpu_seconds", "peak_mb"):
-                    if base.get(key):
-                        row[f"{key}_ratio_vs_norefine"] = round(row[key] / base[key], 3)
-            if case == "example" and "example-nominal" in rows:
-                one = rows["example-nominal"].get("stage_seconds", {}).get("refine")
-                many = rows[case].get("stage_seconds", {}).get("refine")
-                if one and many:
-                    rows[case]["refine_ratio_vs_one_can"] = round(many / one, 3)
+                row["baseline_commit"] = base_row["commit"]
+                row["baseline_seconds"] = base_row["seconds"]
+                row["baseline_cpu_seconds"] = base_row["cpu_seconds"]
+                if base_row.get("cpu_seconds"):
+                    row["cpu_ratio_vs_baseline"] = round(row["cpu_seconds"] / base_row["cpu_seconds"], 3)
+                row["baseline"] = base_row
             yield rows[case]
 
 

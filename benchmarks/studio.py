@@ -11,9 +11,10 @@ in this process) for its S-CIELAB at 1 m. A row per kind of change gives the med
 - ``close_preview_s``: from the change to the first preview within :data:`CLOSE` of the job's S-CIELAB
   at 1 m (None when no preview came that close: ``close_n`` counts those that did);
 - ``preview_scielab_1m``: the last preview's S-CIELAB at 1 m; ``job_scielab_1m``: the job's;
-- ``last_preview_s``: from the change to the last (refined) preview;
+- ``last_preview_s``: from the change to the last preview (``designed`` when the stand-off is left to the
+  job: its plate-design trials run first, ``refined`` otherwise);
 - ``close_sprayed_s``: from the change to the first preview of sprayed holes (``stippled`` or
-  ``refined``, not the coarse blurred opacities) within :data:`CLOSE` of the job's. The coarse level
+  ``refined`` or ``designed``, not the coarse blurred opacities) within :data:`CLOSE` of the job's. The coarse level
   often scores within 0.5 of the job at 1 m without a single hole (on the example, 4.79 against the
   job's 4.80 with three layers): ``close_preview_s`` counts it, as the figure asks, and this key
   says when the holes themselves are there.

@@ -1,10 +1,14 @@
 """A fast, progressive preview of what a job sprays: the same stages as the job, on a coarser grid, nothing written.
 
-Three levels, each better and slower than the one before. On the bundled example the last scores
-3.98 at 1 m against the full job's 3.99; after one change of its settings (``python -m benchmarks
-studio``, five changes of each kind, medians, on two cores shared with other work at a load average
-of 6-15) the first preview came in 1.1-2.0 s, one within 0.5 of the job's S-CIELAB at 1 m in 2.1-10.9 s
-and the last in 8.0-14.6 s:
+Three or four levels, each better and slower than the one before. Measured before the last level ran the
+job's plate-design trials: on the bundled example the last scored 3.98 at 1 m against the full job's
+3.99; after one change of its settings (``python -m benchmarks studio``, five changes of each kind,
+medians, on two cores shared with other work at a load average of 6-15) the first preview came in
+1.1-2.0 s, one within 0.5 of the job's S-CIELAB at 1 m in 2.1-10.9 s and the last in 8.0-14.6 s.
+With the trials (a fresh cache, load average 6-15): on the bundled example ``refined`` (10 mm) came
+at 20.5 s and scored 3.87 against the job's 3.71; the job chose 8 mm, and ``designed``, at 8 mm,
+scored 3.83 at 200 s (the trials most of it); a 30 mm version in three layers (the job kept 10 mm)
+scored 8.70 against the job's 8.97, at 14.5 s:
 
 - ``coarse``: the decomposition, its opacities blurred as the can blurs them at the wall's stand-off
   (sigma = spread x stand-off) and composited: how the tones land, before any hole is placed. When
@@ -13,18 +17,27 @@ and the last in 8.0-14.6 s:
   5.9-8.5 s on a loaded two-core machine), and the job's decomposition follows for the next levels;
 - ``stippled``: the holes as the stipple stage places them (not refined), sprayed on the preview grid;
 - ``refined``: those holes refined against the spray model (:data:`PREVIEW_ITERATIONS` iterations,
-  the nominal can) and sprayed.
+  the nominal can) and sprayed;
+- ``designed`` (when the config leaves the plate design to the job): the plate design the job's own
+  trials choose, its holes stippled and refined as above, sprayed; the same holes as ``refined`` when
+  the job keeps the config's design.
 
 Every level scores what it shows against the source image like the job's simulate stage (S-CIELAB at
-the viewing distance and twice it). The plate design is the config's own: the preview does not run the
-job's plate-design trials (a job whose stand-off is left to it is previewed at the process's stand-off;
-where the job then chooses another, the preview scores further from it: a 30 mm picture of the example
-in three layers, 8.67 against the job's 7.62, and against 8.80 with the stand-off fixed).
+the viewing distance and twice it); the last also sprays its holes with every can of the can prior,
+as the job's ``scielab_by_can`` does, for the range of scores the maker's can may give.
+
+The plate design is the job's: when the config leaves the windows or the stand-off to the job
+(:func:`leaves_design`), the ``stippled`` and ``refined`` levels show the config's own design
+(quickly), and then the job's own plate-design trials (:func:`stencil_cad.pipeline.standoff.choose_plates`,
+on the job's config and grid) choose the design the last level, ``designed``, shows. A mural keeps the
+config's design, as the job does.
 
 What does not change between two settings is kept (:class:`PreviewCache`): the decomposition, keyed on
 everything it reads (the image file, the size, the decomposition and paints sections, the seed and what
-the plates can spray), and the unrefined holes, keyed on the whole config but the refinement, view and
-paints' cost settings. Both are bounded (a few entries each, least recently used dropped).
+the plates can spray), the unrefined holes, keyed on the whole config but the refinement, view and
+paints' cost settings, and the plate design chosen, keyed on the decomposition and the whole job config
+but its name and output settings (:func:`design_key`). All are bounded (a few entries each, least
+recently used dropped).
 """
 
 from __future__ import annotations
@@ -54,7 +67,7 @@ PREVIEW_MM_PER_PX = 0.5
 #: Entries kept per cache (decompositions, each setting's at two resolutions; hole sets).
 CACHE_ENTRIES = 6
 #: The levels, first to last.
-LEVELS = ("coarse", "stippled", "refined")
+LEVELS = ("coarse", "stippled", "refined", "designed")
 
 
 @dataclass(frozen=True)
@@ -80,6 +93,15 @@ class Preview:
         cost: What making it costs (printer-hours, filament, laser, paint).
         standoff_mm: The wall's stand-off previewed, mm.
         seconds: Time since the preview was asked for, s.
+        windows: The plates' windows previewed (``auto`` or ``off``).
+        designed: True when the plate design is the one the job's trials choose (:func:`leaves_design`).
+        scielab_by_can: On the last level, S-CIELAB at the viewing distance sprayed by every can of the
+            prior (``nominal`` first), as the job's ``simulate.scielab_by_can``; None when the prior
+            is one can (every layer measured, or the paper model) and on the other levels.
+        size_mm: The picture's ``(width, height)``, mm.
+        tile_cores: Each tile of the job's tiling (:func:`stencil_cad.pipeline.tiles.plan`, as the job
+            tiles): its name and the part of the picture it owns, ``(name, x0, y0, x1, y1)`` mm from the
+            picture's bottom-left corner; one tile for a picture that fits the bed.
     """
 
     level: str
@@ -100,6 +122,18 @@ class Preview:
     cost: CostFigures
     standoff_mm: float
     seconds: float
+    windows: str = "auto"
+    designed: bool = False
+    scielab_by_can: dict[str, float] | None = None
+    size_mm: tuple[float, float] = (0.0, 0.0)
+    tile_cores: tuple[tuple[str, float, float, float, float], ...] = ()
+
+    @property
+    def scielab_range(self) -> tuple[float, float] | None:
+        """The least and the most S-CIELAB at the viewing distance over the can prior; None when it is one can."""
+        if not self.scielab_by_can:
+            return None
+        return min(self.scielab_by_can.values()), max(self.scielab_by_can.values())
 
     def figures(self) -> dict[str, Any]:
         """The preview's figures as plain JSON values (no pictures)."""
@@ -117,6 +151,19 @@ class Preview:
             "walls": self.walls,
             "tiles": self.tiles,
             "standoff_mm": self.standoff_mm,
+            "windows": self.windows,
+            "designed": self.designed,
+            "scielab_by_can": None
+            if self.scielab_by_can is None
+            else {k: round(v, 3) for k, v in self.scielab_by_can.items()},
+            "size_mm": [round(v, 3) for v in self.size_mm],
+            "tiles_mm": [
+                {"name": n, "x0": round(x0, 3), "y0": round(y0, 3), "x1": round(x1, 3), "y1": round(y1, 3)}
+                for n, x0, y0, x1, y1 in self.tile_cores
+            ],
+            "scielab_range": None
+            if self.scielab_range is None
+            else [round(x, 3) for x in self.scielab_range],
             "cost": self.cost.to_json(),
             "seconds": round(self.seconds, 3),
         }
@@ -134,11 +181,12 @@ class _Discard:
 
 @dataclass
 class PreviewCache:
-    """What two previews can share, bounded: decompositions and unrefined hole sets (least recently used dropped)."""
+    """What two previews can share, bounded: decompositions, unrefined hole sets and plate designs (least recently used dropped)."""
 
     entries: int = CACHE_ENTRIES
     layers: OrderedDict[str, tuple[Layers, JobConfig]] = field(default_factory=OrderedDict)
     holes: OrderedDict[str, list[DotSet]] = field(default_factory=OrderedDict)
+    designs: OrderedDict[str, tuple[str, float]] = field(default_factory=OrderedDict)
 
     def get(self, table: OrderedDict[str, Any], key: str) -> Any:
         """The entry under ``key`` (marked as just used), or None."""
@@ -238,18 +286,85 @@ def previews(
     if decomposed:
         yield made.coarse()
         run.check()
+    holes = _holes(run, layers, size, picture, cache)
+    designing = not grid.tiled and leaves_design(run.cfg)
+    refining = run.cfg.refine.enabled
+    yield made.sprayed("stippled", holes, final=not (refining or designing))
+    if refining:
+        from .refine import stage_refine
+
+        run.check()
+        refined = stage_refine(run, layers, holes, size, picture)
+        yield made.sprayed("refined", refined, final=not designing)
+    if designing:
+        run.check()
+        windows, standoff = _design(run, cfg, grid, layers, size, picture, cache)
+        made.designed = True
+        if (windows, standoff) != (run.cfg.stipple.windows.value, float(run.cfg.wall.standoff_mm[0])):
+            from .standoff import with_design
+
+            run.cfg = with_design(run.cfg, windows, standoff)
+            holes = _holes(run, layers, size, picture, cache)
+            if refining:
+                run.check()
+                refined = stage_refine(run, layers, holes, size, picture)
+        yield made.sprayed("designed", refined if refining else holes, final=True)
+
+
+def leaves_design(cfg: JobConfig) -> bool:
+    """Whether the job chooses its plate design (windows, stand-off) by trials: the preview then runs them too."""
+    from ..config.stipple import Windows
+
+    return cfg.stipple.windows != Windows.off or cfg.chooses_standoff
+
+
+def design_key(job_cfg: JobConfig) -> str:
+    """What the plate-design trials read: the decomposition and every section of the job's config but its name and output."""
+    dump = job_cfg.model_dump(mode="json")
+    for k in ("export", "compute", "name"):
+        dump.pop(k, None)
+    return _digest("design", decomposition_key(job_cfg), dump)
+
+
+def _design(
+    run: Run,
+    cfg: JobConfig,
+    grid: Any,
+    layers: Layers,
+    size: tuple[float, float],
+    picture: Picture,
+    cache: PreviewCache,
+) -> tuple[str, float]:
+    """The plate design the job chooses, ``(windows, stand-off in mm)``: its own trials, on its own grid.
+
+    The trials run on the job's config (not the preview's grid or iterations), so the design is the one
+    the job makes; it is kept in ``cache`` under :func:`design_key`.
+    """
+    from .run import fit_thickness
+    from .standoff import choose_plates
+
+    job = Run(cfg=cfg, out=run.out, quiet=True, cancel=run.cancel)
+    job.cfg = fit_thickness(job, grid).model_copy(update={"decompose": run.cfg.decompose})
+    key = design_key(job.cfg)
+    hit = cache.get(cache.designs, key)
+    if hit is not None:
+        return cast("tuple[str, float]", hit)
+    chosen = choose_plates(job, layers, size, picture)
+    design = (chosen.stipple.windows.value, float(chosen.wall.standoff_mm[0]))
+    cache.put(cache.designs, key, design)
+    return design
+
+
+def _holes(
+    run: Run, layers: Layers, size: tuple[float, float], picture: Picture, cache: PreviewCache
+) -> list[DotSet]:
+    """The unrefined holes of ``run.cfg``'s plates (from the cache when nothing they read changed)."""
     key = holes_key(run.cfg, decomposition_key(run.cfg))
     holes = cache.get(cache.holes, key)
     if holes is None:
         holes = _stipple(run, layers, size, picture, refined=False)
         cache.put(cache.holes, key, holes)
-    yield made.sprayed("stippled", holes, final=not run.cfg.refine.enabled)
-    if run.cfg.refine.enabled:
-        from .refine import stage_refine
-
-        run.check()
-        refined = stage_refine(run, layers, holes, size, picture)
-        yield made.sprayed("refined", refined, final=True)
+    return cast("list[DotSet]", holes)
 
 
 def half_config(cfg: JobConfig) -> JobConfig:
@@ -321,6 +436,7 @@ class _Made:
     grid: Any
     size: tuple[float, float]
     t0: float
+    designed: bool = False
 
     def coarse(self) -> Preview:
         """The decomposition's opacities blurred as the can blurs a hole at the stand-off, composited."""
@@ -348,17 +464,40 @@ class _Made:
         cfg = self.run.cfg
         self.run.check()
         made = [made_dots(d, cfg.stipple, self.size) for d in holes]
+        geometry = SprayGeometry.for_job(cfg)
+        sprays = layer_sprays(self.run, self.layers.colours)
         sim = simulate.simulate(
-            self.layers,
-            made,
-            cfg.spray,
-            PREVIEW_MM_PER_PX,
-            geometry=SprayGeometry.for_job(cfg),
-            layer_sprays=layer_sprays(self.run, self.layers.colours),
+            self.layers, made, cfg.spray, PREVIEW_MM_PER_PX, geometry=geometry, layer_sprays=sprays
         )
         passes = tuple(float(d.amount(cfg.spray.amount)) for d in holes)
         cost = mural.making_cost(self.grid, cfg, len(holes), holes)
-        return self._preview(level, sim.composite, passes, tuple(len(d) for d in holes), cost, final)
+        others = self._other_cans(made, geometry, sprays) if final else {}
+        return self._preview(level, sim.composite, passes, tuple(len(d) for d in holes), cost, final, others)
+
+    def _other_cans(self, made: list[Any], geometry: Any, sprays: list[Any]) -> dict[str, np.ndarray]:
+        """The holes sprayed by every other can of the prior (as the job's ``scielab_by_can``), by name.
+
+        Each can of the prior changes the layers without a measured profile; empty when the prior is
+        one can (every layer measured, or the paper model).
+        """
+        from .. import simulate
+        from ..simulate.cans import layer_can_prior
+
+        out = {}
+        for name, per_layer in layer_can_prior(sprays):
+            if name == "nominal":
+                continue
+            self.run.check()
+            other = simulate.simulate(
+                self.layers,
+                made,
+                self.run.cfg.spray,
+                PREVIEW_MM_PER_PX,
+                geometry=geometry,
+                layer_sprays=per_layer,
+            )
+            out[name] = other.composite
+        return out
 
     def _cost(self, holes: list[DotSet] | None) -> CostFigures:
         from .. import mural
@@ -373,6 +512,7 @@ class _Made:
         holes: tuple[int, ...] | None,
         cost: CostFigures,
         final: bool,
+        others: dict[str, np.ndarray] | None = None,
     ) -> Preview:
         from ..colour import to_hex
         from ..simulate.scielab import scielab
@@ -381,6 +521,8 @@ class _Made:
         cfg = self.run.cfg
         ref = source_reference(cfg, self.picture, self.layers, sprayed.shape[:2], PREVIEW_MM_PER_PX)
         d = float(cfg.view.distance_m)
+        score = float(scielab(ref, sprayed, PREVIEW_MM_PER_PX, d))
+        by_can = {k: float(scielab(ref, v, PREVIEW_MM_PER_PX, d)) for k, v in (others or {}).items()}
         walls = sum(1 for p in cost.parts if p.kind == "wall")
         return Preview(
             level=level,
@@ -388,7 +530,7 @@ class _Made:
             sprayed=sprayed,
             reference=ref,
             mm_per_px=PREVIEW_MM_PER_PX,
-            scielab=float(scielab(ref, sprayed, PREVIEW_MM_PER_PX, d)),
+            scielab=score,
             scielab_2x=float(scielab(ref, sprayed, PREVIEW_MM_PER_PX, 2.0 * d)),
             distance_m=d,
             primer=to_hex(self.layers.primer),
@@ -401,6 +543,11 @@ class _Made:
             cost=cost,
             standoff_mm=float(cfg.wall.standoff_mm[0]),
             seconds=time.perf_counter() - self.t0,
+            windows=cfg.stipple.windows.value,
+            designed=self.designed,
+            scielab_by_can={"nominal": score, **by_can} if by_can else None,
+            size_mm=(float(self.size[0]), float(self.size[1])),
+            tile_cores=tuple((t.name, *(float(v) for v in t.core)) for t in self.grid.tiles),
         )
 
 

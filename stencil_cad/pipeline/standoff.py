@@ -194,7 +194,9 @@ def _trial_score(
         else cfg.model_copy(update={"refine": cfg.refine.model_copy(update={"enabled": False})})
     )
     # The trial's stipple writes nothing: an output folder that discards every call stands in.
-    trial = Run(cfg=trial_cfg, out=cast("OutputDir", _Discard()), quiet=True, executor=run.executor)
+    trial = Run(
+        cfg=trial_cfg, out=cast("OutputDir", _Discard()), quiet=True, executor=run.executor, cancel=run.cancel
+    )
     dotsets = stage_stipple(trial, layers, picture_mm, picture)
     made = [made_dots(d, cfg.stipple, picture_mm) for d in dotsets]
     sim = simulate.simulate(

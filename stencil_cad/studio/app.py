@@ -97,6 +97,7 @@ def create_app(workspace: Workspace) -> Starlette:
         Route("/", studio.index),
         Route("/api/options", studio.options),
         Route("/api/upload", studio.upload, methods=["POST"]),
+        Route("/api/pictures/{picture_id}", studio.picture),
         Route("/api/preview", studio.preview),
         Route("/api/jobs", studio.make, methods=["POST"]),
         Route("/api/jobs", studio.job_list, methods=["GET"]),
@@ -174,6 +175,16 @@ class Studio:
             return JSONResponse({"id": upload_id, "name": name, "width_px": w, "height_px": h})
         finally:
             tmp.unlink(missing_ok=True)
+
+    async def picture(self, request: Request) -> Response:
+        """``GET /api/pictures/<id>``: an uploaded picture as it was uploaded (``example``: the bundled one), to crop."""
+        from ..imaging import example_image_path
+
+        ident = request.path_params["picture_id"]
+        path = example_image_path() if ident == "example" else self.ws.upload_path(ident)
+        if path is None:
+            return _error("no such picture in the studio's workspace; upload it again", 404)
+        return FileResponse(path)
 
     def settings_config(self, settings: Any) -> tuple[dict[str, Any], Any, Path | None]:
         """The page's settings as ``(config mapping, checked config, picture)``.

@@ -3,7 +3,9 @@
 The card is :func:`stencil_cad.api.make_card` for the page's settings (their holes, plate and wall), made
 in ``cards/.making-<id>`` and renamed when whole. A photo is fitted by :func:`stencil_cad.api.calibrate`
 (the ``calibrate`` command's fit and messages); the profile it writes is kept in ``profiles/`` under an
-identifier, with the paint it was measured for, and a later job uses it when the page names it.
+identifier, with the paint it was measured for (the key of ``spray.profile``'s mapping: a layer number, a
+``#rrggbb`` code, a can's name, or ``default`` when no paint is given), and a later job sprays that paint with
+it when the page chooses it (:func:`stencil_cad.studio.settings.profile_mapping`).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from starlette.requests import Request
 from starlette.responses import FileResponse, JSONResponse, Response
 
 from .. import api
+from ..config.profiles import DEFAULT_KEY, profile_key
 from ..errors import UserError
 from ..files import DATA_LIMIT
 from .settings import config_data
@@ -74,6 +77,10 @@ class Calibration:
             return _error("make the card first: no such card in the workspace", 404)
         name = os.path.basename(request.query_params.get("name", "photo")) or "photo"
         paint = request.query_params.get("paint", "").strip()[:200]
+        try:
+            key = profile_key(paint) if paint else DEFAULT_KEY
+        except ValueError as exc:
+            return _error(f"paint: {exc}")
         ident = new_id()
         photo = self.ws.tmp / f"{ident}.photo"
         profile = self.ws.tmp / f"{ident}.yaml"
@@ -93,7 +100,10 @@ class Calibration:
                 )
             except UserError as exc:
                 return _error(str(exc).replace(str(photo), name))
-            figures = _fit_figures(fit, paint, name, report.replace(str(profile), "the profile"))
+            figures = {
+                **_fit_figures(fit, paint, name, report.replace(str(profile), "the profile")),
+                "key": key,
+            }
             (self.ws.profiles / f"{ident}.json").write_text(json.dumps(figures), encoding="utf-8")
             os.replace(profile, self.ws.profiles / f"{ident}.yaml")
             return JSONResponse({"id": ident, **figures})

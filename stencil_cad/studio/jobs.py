@@ -211,6 +211,14 @@ def write_reproducible(folder: Path, cfg_json: dict[str, Any], image: Path | Non
         # The measured can travels with the job: job.yaml names the copy beside it.
         shutil.copyfile(profile, folder / PROFILE_YAML)
         data["spray"] = {**data["spray"], "profile": PROFILE_YAML}
+    elif isinstance(profile, dict):
+        # One copy per paint, numbered in the mapping's order: spray_profile_1.yaml, ...
+        copies = {}
+        for n, (key, path) in enumerate(profile.items(), start=1):
+            name = PROFILE_YAML.replace(".yaml", f"_{n}.yaml")
+            shutil.copyfile(path, folder / name)
+            copies[key] = name
+        data["spray"] = {**data["spray"], "profile": copies}
     text = "# Made in the stencil-cad studio; `stencil-cad run job.yaml` makes the same files.\n"
     text += yaml.safe_dump(data, sort_keys=False, allow_unicode=True)
     (folder / JOB_YAML).write_text(text, encoding="utf-8")

@@ -46,15 +46,57 @@ def test_a_second_preview_reuses_the_decomposition_and_holes():
     cfg = api.load_config(None, overrides=SMALL)
     cache = api.preview_cache()
     first = list(api.previews(cfg, cache))
-    assert [p.level for p in first] == ["coarse", "stippled", "refined"] and first[-1].final
+    assert [p.level for p in first] == ["coarse", "stippled", "refined", "designed"] and first[-1].final
     # The first preview's quick decomposition at half the resolution, then the job's.
-    assert len(cache.layers) == 2 and len(cache.holes) == 1
+    assert len(cache.layers) == 2 and len(cache.designs) == 1 and 1 <= len(cache.holes) <= 2
     assert first[0].sprayed.shape == first[-1].sprayed.shape
     again = list(api.previews(api.load_config(cfg, overrides={"view": {"distance_m": 2.0}}), cache))
-    assert [p.level for p in again] == ["coarse", "stippled", "refined"]
-    assert len(cache.layers) == 2 and len(cache.holes) == 1
+    assert [p.level for p in again] == ["coarse", "stippled", "refined", "designed"]
+    assert len(cache.layers) == 2
     assert again[1].holes == first[1].holes and again[-1].distance_m == 2.0
     assert first[-1].sprayed.shape == first[-1].reference.shape and first[-1].sprayed.max() <= 1.0
+    # The last level's range over the can prior (no can measured): the nominal can's score is in it.
+    lo, hi = first[-1].scielab_range
+    assert (
+        first[-1].scielab_by_can["nominal"] == first[-1].scielab and lo <= first[-1].scielab <= hi and lo < hi
+    )
+    assert first[1].scielab_by_can is None and first[-1].figures()["scielab_range"] == [
+        round(lo, 3),
+        round(hi, 3),
+    ]
+
+
+def test_the_last_preview_is_of_the_plate_design_the_job_chooses(monkeypatch):
+    from stencil_cad.pipeline import standoff
+
+    seen = []
+
+    def choose(run, layers, size, picture):
+        seen.append(run.cfg)
+        run.cfg = standoff.with_design(run.cfg, "off", 14.0)
+        return run.cfg
+
+    monkeypatch.setattr(standoff, "choose_plates", choose)
+    cfg = api.load_config(None, overrides=SMALL)
+    cache = api.preview_cache()
+    shown = list(api.previews(cfg, cache))
+    assert [(p.level, p.standoff_mm, p.designed, p.final) for p in shown] == [
+        ("coarse", 10.0, False, False),
+        ("stippled", 10.0, False, False),
+        ("refined", 10.0, False, False),
+        ("designed", 14.0, True, True),
+    ]
+    assert shown[-1].windows == "off" and shown[-1].final
+    # The trials ran on the job's own config (its grid and refinement), not the preview's.
+    assert (
+        seen[0].spray.px_per_mm == cfg.spray.px_per_mm and seen[0].refine.iterations == cfg.refine.iterations
+    )
+    # The design is kept: the same settings again run no trials.
+    assert list(api.previews(cfg, cache))[-1].standoff_mm == 14.0 and len(seen) == 1
+    # A config that fixes the design (its stand-off and no windows) runs none either.
+    fixed = api.load_config(cfg, overrides={"wall": {"standoff_mm": [12.0]}, "stipple": {"windows": "off"}})
+    last = list(api.previews(fixed, cache))[-1]
+    assert (last.level, last.standoff_mm, last.designed, len(seen)) == ("refined", 12.0, False, 1)
 
 
 def test_a_preview_stops_when_cancelled():

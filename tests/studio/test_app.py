@@ -109,8 +109,8 @@ def test_a_wrong_setting_gets_the_configs_message(client, ws):
 def test_the_preview_improves_level_by_level_and_says_what_making_costs(client, ws):
     up = client.post("/api/upload", content=example_image_path().read_bytes()).json()["id"]
     got = events(client, {**SMALL, "image": up})
-    assert [e["level"] for e in got] == ["coarse", "stippled", "refined"]
-    assert [e["final"] for e in got] == [False, False, True]
+    assert [e["level"] for e in got] == ["coarse", "stippled", "refined", "designed"]
+    assert [e["final"] for e in got] == [False, False, False, True]
     last = got[-1]
     assert len(last["paints"]) == 2 and len(last["passes"]) == 2 and all(n > 0 for n in last["holes"])
     assert (last["plates"], last["walls"], last["tiles"]) == (2, 1, 1)

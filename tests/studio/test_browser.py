@@ -1,7 +1,7 @@
 """The studio in Debian's Chromium, driven by Selenium through Debian's chromedriver (no browser download).
 
 Opens the page, uploads the example picture, changes the layer count and sees the preview change, makes
-the job and downloads the zip; a broken upload shows the command line's message and writes nothing; the
+the job (cropped) and downloads the zip; a broken upload shows the command line's message and writes nothing; the
 calibration wizard makes its card and fits a synthetic photo of it.
 """
 
@@ -72,6 +72,7 @@ def final_preview(driver):
             and driver.find_element(by, "status").text == "ready"
             and (driver.find_element(by, "f-holes").text, driver.find_element(by, "f-scielab").text)
         ),
+        timeout=900,
         what="a final preview",
     )
 
@@ -81,6 +82,8 @@ def test_upload_change_layers_make_download(studio, browser, tmp_path):
     by = "id"
     browser.get(url)
     bundled = final_preview(browser)
+    # The last preview gives the range over the can prior (no can is measured yet).
+    assert "depending on your can" in browser.find_element(by, "f-range").text
     # A broken upload: the command line's message on the page, nothing written.
     broken = tmp_path / "broken.png"
     broken.write_bytes(example_image_path().read_bytes()[:3000])
@@ -106,6 +109,12 @@ def test_upload_change_layers_make_download(studio, browser, tmp_path):
     width = browser.find_element(by, "width_mm")
     width.clear()
     width.send_keys("60")
+    # Crop: the middle 80 % of the width, typed.
+    browser.find_element(by, "crop-panel").click()  # open the crop panel
+    for field, value in (("crop_x", "10"), ("crop_w", "80")):
+        box = browser.find_element(by, field)
+        box.clear()
+        box.send_keys(value)
     browser.find_element(by, "distance_m").click()
     browser.find_element(by, "make").click()
     wait_for(lambda: browser.find_element(by, "job-links").is_displayed(), timeout=600, what="the job")
@@ -113,9 +122,17 @@ def test_upload_change_layers_make_download(studio, browser, tmp_path):
     assert "decompose ✓" in stages and "simulate ✓" in stages
     href = browser.find_element(by, "zip").get_attribute("href")
     with urllib.request.urlopen(href) as r:
-        names = zipfile.ZipFile(io.BytesIO(r.read())).namelist()
+        job = zipfile.ZipFile(io.BytesIO(r.read()))
+    names = job.namelist()
     assert "job.yaml" in names and "output/instructions.html" in names and "output/layer_03.stl" in names
     assert "output/layer_04.stl" not in names
+    # The job's picture is the crop, cut server-side.
+    import yaml
+    from PIL import Image
+
+    image = yaml.safe_load(job.read("job.yaml"))["image"]
+    with Image.open(example_image_path()) as whole, Image.open(io.BytesIO(job.read(image))) as cut:
+        assert cut.size == (round(0.9 * whole.width) - round(0.1 * whole.width), whole.height)
 
 
 def test_the_calibration_wizard_fits_a_synthetic_photo_of_its_card(studio, browser, tmp_path):
@@ -145,7 +162,7 @@ def test_the_calibration_wizard_fits_a_synthetic_photo_of_its_card(studio, brows
     )
     photo = tmp_path / f"sprayed_card{suffix}"
     photo.write_bytes(data)
-    browser.find_element(by, "paint-name").send_keys("test can")
+    browser.find_element(by, "paint-name").send_keys("1")  # the profile of layer 1's paint
     browser.find_element(by, "photo").send_keys(str(photo))
     table = wait_for(
         lambda: browser.find_element(by, "fit").is_displayed() and browser.find_element(by, "fit").text,
@@ -155,6 +172,8 @@ def test_the_calibration_wizard_fits_a_synthetic_photo_of_its_card(studio, brows
     assert "Markers found per wall" in table and "Spread k" in table
     spread = float(table.split("Spread k")[1].split()[0])
     assert spread == pytest.approx(0.1, rel=0.05)
+    # The page lists the new profile (chosen) once it has asked for the list again after the fit.
     chosen = browser.find_element(by, "profile")
-    assert chosen.get_attribute("value") and "test can" in chosen.text
+    wait_for(lambda: chosen.get_attribute("value"), what="the new profile chosen")
+    assert chosen.text.startswith("1: spread")
     assert len(list(ws.profiles.glob("*.yaml"))) == 1

@@ -47,6 +47,9 @@ def test_the_wizard_fits_a_synthetic_photo_of_its_card_and_a_job_uses_the_profil
     for key in ("spread_k", "deposit_per_pass"):
         assert fit[key] == pytest.approx(getattr(TRUTH, key), rel=0.05), key
     assert all(m == 4 for m in fit["markers_found"]) and fit["residual_rms"] < 0.03
-    assert [p["paint"] for p in client.get("/api/profiles").json()] == ["test can"]
-    cfg = api.load_config(config_data({"profile": fit["id"]}, ws)[0])
-    assert cfg.spray.can.spread_k == pytest.approx(fit["spread_k"], rel=1e-3)
+    kept = client.get("/api/profiles").json()
+    assert [(p["paint"], p["key"]) for p in kept] == [("test can", "test can")]
+    # The profile sprays the paint it was measured for: the can named "test can" in the job's can list.
+    cfg = api.load_config(config_data({"profile": [fit["id"]]}, ws)[0])
+    assert list(cfg.spray.profile) == ["test can"]
+    assert cfg.spray.for_profile_key("test can").can.spread_k == pytest.approx(fit["spread_k"], rel=1e-3)

@@ -16,8 +16,61 @@ function settings() {
     paints: paintMode === "auto" || chosen.length === 0 ? "auto" : chosen,
     distance_m: Number($("distance_m").value),
     standoff_mm: fixed ? Number($("standoff_mm").value) : null,
-    profile: $("profile").value || null,
+    profile: [...$("profile").selectedOptions].map((o) => o.value),
+    crop: cropping(),
   };
+}
+
+// The crop in % of the picture, [x, y, width, height]; null for the whole picture.
+function cropping() {
+  const c = ["crop_x", "crop_y", "crop_w", "crop_h"].map((id) => Number($(id).value));
+  return c[0] === 0 && c[1] === 0 && c[2] === 100 && c[3] === 100 ? null : c;
+}
+
+function drawCrop() {
+  const [x, y, w, h] = ["crop_x", "crop_y", "crop_w", "crop_h"].map((id) => Number($(id).value));
+  Object.assign($("crop-box").style, { left: `${x}%`, top: `${y}%`, width: `${w}%`, height: `${h}%` });
+}
+
+function setCrop(c) {
+  ["crop_x", "crop_y", "crop_w", "crop_h"].forEach((id, i) => { $(id).value = Math.round(c[i] * 2) / 2; });
+  drawCrop();
+}
+
+function cropDrag() {
+  // Drag a rectangle over the whole picture; the crop is sent when the pointer is let go.
+  const area = $("crop-area");
+  let start = null;
+  const at = (e) => {
+    const r = $("crop-source").getBoundingClientRect();
+    return [Math.min(100, Math.max(0, (100 * (e.clientX - r.left)) / r.width)),
+      Math.min(100, Math.max(0, (100 * (e.clientY - r.top)) / r.height))];
+  };
+  const box = (e) => {
+    const p = at(e);
+    return [Math.min(start[0], p[0]), Math.min(start[1], p[1]), Math.abs(p[0] - start[0]), Math.abs(p[1] - start[1])];
+  };
+  area.addEventListener("pointerdown", (e) => { start = at(e); area.setPointerCapture(e.pointerId); });
+  area.addEventListener("pointermove", (e) => { if (start) setCrop(box(e)); });
+  area.addEventListener("pointerup", (e) => {
+    if (!start) return;
+    const c = box(e); start = null;
+    if (c[2] >= 1 && c[3] >= 1) setCrop(c); else setCrop([0, 0, 100, 100]);
+    changed();
+  });
+}
+
+function drawTiles(p) {
+  // The mural's tiles as the job cuts them, over the picture (y of the tiles runs up from the bottom).
+  const svg = $("tiles");
+  svg.hidden = p.tiles < 2;
+  if (svg.hidden) return;
+  const [w, h] = p.size_mm;
+  svg.setAttribute("viewBox", `0 0 ${w} ${h}`);
+  const size = Math.max(w, h) / 40;
+  svg.innerHTML = p.tiles_mm.map((t) =>
+    `<rect x="${t.x0}" y="${h - t.y1}" width="${t.x1 - t.x0}" height="${t.y1 - t.y0}"></rect>` +
+    `<text x="${t.x0 + size / 2}" y="${h - t.y1 + 1.5 * size}" font-size="${size}">${t.name}</text>`).join("");
 }
 
 function setStatus(text) { $("status").textContent = text; }
@@ -34,7 +87,12 @@ function showPreview(p) {
   $("f-passes").textContent = p.passes ? p.passes.join(" · ") : "—";
   $("f-holes").textContent = p.holes ? p.holes.map((n) => n.toLocaleString()).join(" · ") : "—";
   $("f-parts").textContent = `${p.plates} plates, ${p.walls} wall(s), ${p.tiles} tile(s)`;
-  $("f-standoff").textContent = `${p.standoff_mm} mm`;
+  $("f-standoff").textContent = `${p.standoff_mm} mm, windows ${p.windows}` + (p.designed ? " (the job's choice)" : "");
+  if (p.scielab_range) {
+    $("f-range").textContent = `between ${fmt(p.scielab_range[0])} and ${fmt(p.scielab_range[1])} depending on your can`;
+  } else {
+    $("f-range").textContent = p.final ? `${fmt(p.scielab)}: every layer's can is measured` : "— (on the last preview)";
+  }
   const c = p.cost;
   $("f-cost").textContent = c.cut_m != null
     ? `${c.sheets} sheet(s), laser cut ${fmt(c.cut_m, 1)} m in about ${fmt(c.cut_hours, 1)} h`
@@ -43,6 +101,8 @@ function showPreview(p) {
   const cans = (c.paint || []).reduce((s, x) => s + x.cans, 0);
   $("f-paint").innerHTML = `${swatches} primer + ${p.paints.length} paints` + (c.paint && c.paint.length ? `, ${fmt(cans, 2)} can(s) in all` : "");
   $("sprayed").dataset.level = p.level;
+  paintKeys(p);
+  drawTiles(p);
 }
 
 function preview() {
@@ -78,6 +138,8 @@ async function upload(file) {
   const j = await r.json();
   if (!r.ok) { showError("upload-error", j.error); setStatus("ready"); return; }
   state.image = j.id;
+  $("crop-source").src = `/api/pictures/${j.id}`;
+  setCrop([0, 0, 100, 100]);
   $("picture-name").textContent = `${j.name} (${j.width_px} × ${j.height_px} px at this size)`;
   changed();
 }
@@ -129,10 +191,25 @@ async function makeCard() {
 
 async function profiles(select) {
   const list = await (await fetch("/api/profiles")).json();
-  const keep = select || $("profile").value;
-  $("profile").length = 1;
-  for (const p of list) $("profile").add(new Option(`${p.paint} (spread ${p.spread_k}, deposit ${p.deposit_per_pass})`, p.id));
-  $("profile").value = keep;
+  const keep = new Set([...$("profile").selectedOptions].map((o) => o.value));
+  if (select) {
+    // A new profile replaces a chosen one measured for the same paint.
+    const key = (list.find((p) => p.id === select) || {}).key;
+    for (const p of list) if (p.key === key) keep.delete(p.id);
+    keep.add(select);
+  }
+  $("profile").length = 0;
+  for (const p of list) {
+    const label = `${p.key === "default" ? "every layer" : p.key}: spread ${p.spread_k}, deposit ${p.deposit_per_pass}`;
+    $("profile").add(new Option(label, p.id, false, keep.has(p.id)));
+  }
+}
+
+function paintKeys(p) {
+  // The paints the wizard can key a profile to: this preview's layers by hex, the can list by name.
+  const opts = p.paints.map((h, i) => `<option value="${h}">layer ${i + 1}</option>`);
+  for (const c of state.cans || []) opts.push(`<option value="${c.name}">${c.hex}</option>`);
+  $("paint-keys").innerHTML = opts.join("");
 }
 
 async function fitPhoto(file) {
@@ -164,6 +241,7 @@ async function init() {
   const o = await (await fetch("/api/options")).json();
   for (const p of o.processes) $("process").add(new Option(p, p, p === o.defaults.process, p === o.defaults.process));
   for (const b of o.beds) $("bed").add(new Option(b, b));
+  state.cans = o.cans;
   $("cans").innerHTML = o.cans.map((c) =>
     `<label><input type="checkbox" value="${c.hex}"><span class="swatch" style="background:${c.hex}"></span>${c.name} (${c.code})</label>`).join("");
   for (const el of document.querySelectorAll("#settings input, #settings select")) {
@@ -180,6 +258,11 @@ async function init() {
   drop.addEventListener("drop", (e) => { e.preventDefault(); drop.classList.remove("over"); if (e.dataTransfer.files.length) upload(e.dataTransfer.files[0]); });
   $("slider").addEventListener("input", () => $("compare").style.setProperty("--cut", `${$("slider").value}%`));
   $("zoom").addEventListener("input", () => $("compare").style.setProperty("--zoom", $("zoom").value));
+  $("crop-source").src = "/api/pictures/example";
+  drawCrop();
+  cropDrag();
+  for (const id of ["crop_x", "crop_y", "crop_w", "crop_h"]) $(id).addEventListener("input", drawCrop);
+  $("crop-none").addEventListener("click", () => { setCrop([0, 0, 100, 100]); changed(); });
   $("make").addEventListener("click", make);
   $("make-card").addEventListener("click", makeCard);
   $("photo").addEventListener("change", () => { if ($("photo").files.length) fitPhoto($("photo").files[0]); });
