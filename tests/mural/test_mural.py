@@ -194,7 +194,8 @@ def test_tiled_spray_equals_global_and_misregistration_costs():
         size={"width_mm": 300, "height_mm": 200}, bed=[200, 180], spray={"model": "paper"}, stipple=COARSE
     )
     grid = mural.plan_tiles(300, 200, cfg)
-    assert len(grid.tiles) == 4
+    # 3 x 2: every tile's plate carries the halo on all four sides (one wall fits every tile).
+    assert len(grid.tiles) == 6
     rng = np.random.default_rng(3)
     layers = [_random_dots(rng, 300, 200, 1500), _random_dots(rng, 300, 200, 900, r=1.3)]
     sp = cfg.spray  # the halo the grid was planned with follows the job's spray
