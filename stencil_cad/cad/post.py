@@ -16,6 +16,8 @@ from pathlib import Path
 
 import build123d as bd
 
+from .solid import check_simple_solid
+
 __all__ = ["PostCheckError", "PostModel", "build_post", "check_post", "post_step", "post_stl"]
 
 
@@ -95,26 +97,4 @@ def check_post(model: PostModel, rel_tol: float = 1e-6) -> dict:
     Raises:
         PostCheckError: Naming the failed check.
     """
-    solids = model.part.solids()
-    volume = sum(s.volume for s in solids)
-    rel = abs(volume - model.volume_mm3) / model.volume_mm3
-    bb = model.part.bounding_box()
-    bbox = (bb.min.X, bb.min.Y, bb.min.Z, bb.max.X, bb.max.Y, bb.max.Z)
-    is_valid = model.part.is_valid
-    is_valid = bool(is_valid() if callable(is_valid) else is_valid)
-    if len(solids) != 1 or not is_valid:
-        raise PostCheckError(f"post: {len(solids)} solids, valid={is_valid}")
-    if rel > rel_tol:
-        raise PostCheckError(
-            f"post: volume {volume:.4f} mm³ differs from the analytic {model.volume_mm3:.4f} mm³ by {rel:.2e}"
-        )
-    if any(abs(a - b) > 1e-3 for a, b in zip(bbox, model.bbox, strict=True)):
-        raise PostCheckError(f"post: bounding box {bbox} differs from the expected {model.bbox}")
-    return {
-        "n_solids": len(solids),
-        "valid": True,
-        "volume": round(volume, 4),
-        "analytic_volume": round(model.volume_mm3, 4),
-        "rel_error": rel,
-        "bbox": [round(v, 4) for v in bbox],
-    }
+    return check_simple_solid(model.part, model.volume_mm3, model.bbox, "post", PostCheckError, rel_tol)

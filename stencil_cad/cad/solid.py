@@ -147,3 +147,50 @@ def _first_solid(shape):
 
     exp = TopExp_Explorer(shape, TopAbs_SOLID)
     return exp.Current() if exp.More() else shape
+
+
+def check_simple_solid(
+    part, volume_mm3: float, bbox: tuple[float, ...], name: str, error: type[Exception], rel_tol: float
+) -> dict:
+    """Check a part of few faces (a wall, a post) against its analytic oracle: one valid solid, volume, box.
+
+    The full ``BRepCheck_Analyzer`` is cheap on a few dozen faces.
+
+    Args:
+        part: The build123d part.
+        volume_mm3: Its analytic volume in mm³.
+        bbox: Its expected bounding box ``(xmin, ymin, zmin, xmax, ymax, zmax)`` in mm.
+        name: The part as the message names it (``wall A1``, ``post``).
+        error: The exception raised on a failed check.
+        rel_tol: Largest relative volume error.
+
+    Returns:
+        ``n_solids``, ``valid``, ``volume``, ``analytic_volume``, ``rel_error``, ``bbox``.
+
+    Raises:
+        error: Naming the failed check.
+    """
+    solids = part.solids()
+    volume = sum(s.volume for s in solids)
+    rel = abs(volume - volume_mm3) / volume_mm3
+    bb = part.bounding_box()
+    got = (bb.min.X, bb.min.Y, bb.min.Z, bb.max.X, bb.max.Y, bb.max.Z)
+    is_valid = part.is_valid
+    is_valid = bool(is_valid() if callable(is_valid) else is_valid)
+    if len(solids) != 1 or not is_valid:
+        raise error(f"{name}: {len(solids)} solids, valid={is_valid}")
+    if rel > rel_tol:
+        raise error(
+            f"{name}: volume {volume:.4f} mm³ differs from the analytic {volume_mm3:.4f} mm³ "
+            f"by {rel:.2e} (relative), above {rel_tol:g}"
+        )
+    if any(abs(a - b) > 1e-3 for a, b in zip(got, bbox, strict=True)):
+        raise error(f"{name}: bounding box {got} differs from the expected {bbox}")
+    return {
+        "n_solids": len(solids),
+        "valid": True,
+        "volume": round(volume, 4),
+        "analytic_volume": round(volume_mm3, 4),
+        "rel_error": rel,
+        "bbox": [round(v, 4) for v in got],
+    }

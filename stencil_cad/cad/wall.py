@@ -28,6 +28,7 @@ import numpy as np
 from ..config.cad import WallConfig
 from ..config.outline import OutlineConfig
 from ..outline import Segment, check_key, fits, min_clearance, outline_path, path_area, path_ring
+from .solid import check_simple_solid
 
 __all__ = ["Wall", "WallModel", "build_wall", "wall_step", "wall_stl"]
 
@@ -333,29 +334,6 @@ def check_wall(model: WallModel, rel_tol: float = 1e-6) -> dict:
     Raises:
         WallCheckError: Naming the failed check.
     """
-    solids = model.part.solids()
-    volume = sum(s.volume for s in solids)
-    rel = abs(volume - model.volume_mm3) / model.volume_mm3
-    bb = model.part.bounding_box()
-    bbox = (bb.min.X, bb.min.Y, bb.min.Z, bb.max.X, bb.max.Y, bb.max.Z)
-    is_valid = model.part.is_valid
-    is_valid = bool(is_valid() if callable(is_valid) else is_valid)
-    valid = len(solids) == 1 and is_valid
-    out = {
-        "n_solids": len(solids),
-        "valid": bool(valid),
-        "volume": round(volume, 4),
-        "analytic_volume": round(model.volume_mm3, 4),
-        "rel_error": rel,
-        "bbox": [round(v, 4) for v in bbox],
-    }
-    if not valid:
-        raise WallCheckError(f"wall {model.name}: {len(solids)} solids, valid={is_valid}")
-    if rel > rel_tol:
-        raise WallCheckError(
-            f"wall {model.name}: volume {volume:.4f} mm³ differs from the analytic {model.volume_mm3:.4f} mm³ "
-            f"by {rel:.2e} (relative), above {rel_tol:g}"
-        )
-    if any(abs(a - b) > 1e-3 for a, b in zip(bbox, model.bbox, strict=True)):
-        raise WallCheckError(f"wall {model.name}: bounding box {bbox} differs from the expected {model.bbox}")
-    return out
+    return check_simple_solid(
+        model.part, model.volume_mm3, model.bbox, f"wall {model.name}", WallCheckError, rel_tol
+    )

@@ -48,7 +48,7 @@ import numpy as np
 from ..figures.cost import CostFigures, PaintCost, PartCost
 from ..geometry import polygon_area
 from .laser import laser_stand, sheets_needed
-from .tiling import TileGrid, wall_tiles
+from .tiling import TileGrid, wall_outline, wall_tiles
 
 if TYPE_CHECKING:
     from ..config import JobConfig
@@ -326,12 +326,7 @@ def wall_specs(grid: TileGrid, cfg: JobConfig) -> list[WallSpec]:
         if t.name not in walls:
             continue  # one wall serves every tile of its size and notches
         w, h = t.part_size
-        reach = wc.clearance_mm + wc.wall_thickness_mm
-        try:
-            outer = offset_outline(w, h, oc, reach)
-        except ValueError:
-            plain = oc.model_copy(update={"keys": []})
-            outer = offset_outline(w, h, plain, reach + max(k.depth_mm for k in oc.keys))
+        outer = wall_outline(w, h, cfg)
         o = wc.opening_margin_mm
         opening = np.array([[-o, -o], [w + o, -o], [w + o, h + o], [-o, h + o]])
         pocket = offset_outline(w, h, oc, wc.clearance_mm)

@@ -30,7 +30,7 @@ import numpy as np
 from ..geometry import polygon_area
 from .posts import post_plan, targets
 from .seams import notched_ring
-from .tiling import WALL_NOTCH_MM, TileGrid, cut_stand, wall_tiles
+from .tiling import WALL_NOTCH_MM, TileGrid, cut_stand, wall_outline, wall_tiles
 
 if TYPE_CHECKING:
     from ..config import JobConfig
@@ -116,13 +116,7 @@ def laser_stand(cfg: JobConfig, grid: TileGrid) -> list[CutPart] | None:
     stock, n = frame_stock(standoff)
     first = next(t for t in grid.tiles if t.name in wall_tiles(grid))
     w, h = first.part_size
-    reach = wc.clearance_mm + wc.wall_thickness_mm
-    try:
-        outer = offset_outline(w, h, oc, reach)
-    except ValueError:
-        plain = oc.model_copy(update={"keys": []})
-        outer = offset_outline(w, h, plain, reach + max(k.depth_mm for k in oc.keys))
-    outer, _ = notched_ring(outer, first.part_lines(), WALL_NOTCH_MM)
+    outer, _ = notched_ring(wall_outline(w, h, cfg), first.part_lines(), WALL_NOTCH_MM)
     o = wc.opening_margin_mm
     opening = np.array([[-o, -o], [w + o, -o], [w + o, h + o], [-o, h + o]], dtype=np.float64)
     pocket = offset_outline(w, h, oc, wc.clearance_mm)

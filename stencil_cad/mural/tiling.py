@@ -281,20 +281,32 @@ def part_sizes(sheet_w: float, sheet_h: float, cfg: JobConfig) -> dict[str, tupl
     """
     from ..outline import offset_outline
 
-    oc = cfg.plate.outline
-    plate = offset_outline(sheet_w, sheet_h, oc, 0.0)
-    reach = cfg.wall.clearance_mm + cfg.wall.wall_thickness_mm
-    try:
-        wall = offset_outline(sheet_w, sheet_h, oc, reach)
-    except ValueError:
-        plain = oc.model_copy(update={"keys": []})
-        wall = offset_outline(sheet_w, sheet_h, plain, reach + max(k.depth_mm for k in oc.keys))
+    plate = offset_outline(sheet_w, sheet_h, cfg.plate.outline, 0.0)
+    wall = wall_outline(sheet_w, sheet_h, cfg)
 
     def size(ring: np.ndarray) -> tuple[float, float]:
         w, h = ring.max(axis=0) - ring.min(axis=0)
         return float(w), float(h)
 
     return {"plate": size(plate), "wall": size(wall)}
+
+
+def wall_outline(width_mm: float, height_mm: float, cfg: JobConfig) -> np.ndarray:
+    """The outer ring of the wall around a plate of this size, ``(N, 2)`` mm.
+
+    The plate's outline grown by the clearance and the wall's rim; where the key tabs crowd that
+    offset, the plain outline grown by the tabs' depth too (as :func:`stencil_cad.cad.wall.wall_rings`
+    builds it).
+    """
+    from ..outline import offset_outline
+
+    oc, wc = cfg.plate.outline, cfg.wall
+    reach = wc.clearance_mm + wc.wall_thickness_mm
+    try:
+        return offset_outline(width_mm, height_mm, oc, reach)
+    except ValueError:
+        plain = oc.model_copy(update={"keys": []})
+        return offset_outline(width_mm, height_mm, plain, reach + max(k.depth_mm for k in oc.keys))
 
 
 def plan_tiles(width_mm: float, height_mm: float, cfg: JobConfig) -> TileGrid:
