@@ -46,7 +46,7 @@ from .photo import PhotoError, _Footprint, _prepare_footprints, read_photo
 
 log = logging.getLogger(__name__)
 
-__all__ = ["FIT_PX_PER_MM", "CardFit", "PhotoError", "calibrate_command", "fit_card", "read_photo"]
+__all__ = ["FIT_PX_PER_MM", "CardFit", "PhotoError", "calibrate", "fit_card", "read_photo"]
 
 #: Resolution the footprints are rectified to and fitted at (px per mm).
 FIT_PX_PER_MM = 8.0
@@ -490,37 +490,6 @@ def profile_yaml(fit: CardFit, paint: str, photo: str, passes: float) -> str:
     return head + yaml.safe_dump(data, sort_keys=False, allow_unicode=True)
 
 
-def calibrate_command(
-    photo: Path,
-    card: Path,
-    out: Path,
-    *,
-    passes: float | None = None,
-    distance_mm: float | None = None,
-    speed_m_s: float | None = None,
-    paint: str = "",
-    force: bool = False,
-) -> str:
-    """`stencil-cad calibrate PHOTO --card card.json`: fit the can and write the spray profile.
-
-    Returns:
-        The one-line report (constants, residual) for the command to print.
-
-    Raises:
-        UserError: Bad card file, unreadable photo (named reason), or an existing profile.
-    """
-    return calibrate(
-        photo,
-        card,
-        out,
-        passes=passes,
-        distance_mm=distance_mm,
-        speed_m_s=speed_m_s,
-        paint=paint,
-        force=force,
-    )[1]
-
-
 def calibrate(
     photo: Path,
     card: Path,
@@ -532,7 +501,7 @@ def calibrate(
     paint: str = "",
     force: bool = False,
 ) -> tuple[CardFit, str]:
-    """Fit the can from the photo of the sprayed card and write the spray profile: :func:`calibrate_command`'s work.
+    """`stencil-cad calibrate PHOTO --card card.json`: fit the can from the photo of the sprayed card and write the spray profile.
 
     Returns:
         ``(fit, report)``: the fit and the one-line report.
