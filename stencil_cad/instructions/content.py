@@ -468,8 +468,9 @@ def _spray_how(s: JobSettings, section: str) -> str:
         cm = s.can_distance_mm / 10.0
         speed = s.pass_speed_m_s
         return (
-            f"Hold the can about {cm:g} cm from the plate and sweep evenly across the whole plate at about "
-            f"{speed:g} m/s, starting and ending off the plate. Spray light passes, the number each step "
+            f"Hold the can about {cm:g} cm from the plate and sweep evenly across the whole plate at the pace "
+            f"each step gives (about {speed:g} m/s, a little faster or slower where a layer's dose lies "
+            "between whole passes), starting and ending off the plate. Spray light passes, the number each step "
             "gives, and let each pass flash off (about a minute) before the next: a heavy coat under a "
             "lifted stencil runs and creeps. Let each layer dry before the next."
         )
