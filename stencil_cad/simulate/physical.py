@@ -296,11 +296,49 @@ def physical_opacity(
     """
     if not passes > 0.0:
         raise ValueError(f"passes must be > 0, got {passes}")
+    dose = physical_dose(xy_mm, r_mm, shape_hw, mm_per_px, cfg, geometry, exact=exact, crop=crop)
+    return opacity_of_dose(dose, passes * dose_per_pass(cfg))
+
+
+def opacity_of_dose(dose: np.ndarray, depth: float) -> np.ndarray:
+    """``1 - exp(-depth * dose)`` in [0, 1]: the opacity of :func:`physical_dose`'s field at optical depth ``depth``."""
+    out = -np.expm1(-depth * np.maximum(dose, 0.0))
+    return np.clip(out, 0.0, 1.0, out=out)
+
+
+def physical_dose(
+    xy_mm: np.ndarray,
+    r_mm: np.ndarray | float,
+    shape_hw: tuple[int, int],
+    mm_per_px: float,
+    cfg: SprayConfig,
+    geometry: SprayGeometry,
+    *,
+    exact: bool = False,
+    crop: tuple[int, int, int, int] | None = None,
+) -> np.ndarray:
+    """The paint one pass of unit depth leaves through the holes: ``sum_i T_i (disc_i * G_sigma)``.
+
+    It does not depend on the passes or the dose per pass, so a caller that compares doses (the tone
+    calibration) computes it once and maps it with :func:`opacity_of_dose` for each.
+
+    Args:
+        xy_mm: ``(N, 2)`` hole centres in mm (picture frame, y up).
+        r_mm: ``(N,)`` hole radii in mm, or one radius for all.
+        shape_hw: ``(H, W)`` of the raster.
+        mm_per_px: Raster pixel size in mm.
+        cfg: Spray settings (the can's spread and bleed).
+        geometry: Stand-off and plate thickness.
+        exact: Evaluate the exact disc-Gaussian profile of every hole at every pixel centre.
+        crop: ``(row0, row1, col0, col1)``: return only this window of the raster.
+
+    Returns:
+        ``(H, W)`` (or the crop's shape) ndarray of float, >= 0 up to rounding.
+    """
     xy_mm, r = holes_array(xy_mm, r_mm)
     h, w = int(shape_hw[0]), int(shape_hw[1])
     sigma = spread_sigma_mm(cfg, geometry.standoff_mm)
     weight = plate_transmission(r, geometry.plate_thickness_mm, cfg.can.spread_k)
-    depth = passes * dose_per_pass(cfg)
     r0, r1, c0, c1 = (0, h, 0, w) if crop is None else (int(v) for v in crop)
     if not (0 <= r0 < r1 <= h and 0 <= c0 < c1 <= w):
         raise ValueError(f"crop {crop} must satisfy 0 ≤ r0 < r1 ≤ {h} and 0 ≤ c0 < c1 ≤ {w}")
@@ -327,8 +365,7 @@ def physical_opacity(
                 float(_SUBSAMPLES_PER_RADIUS),
             )
         dose = _blur(area, sigma / mm_per_px, mm_per_px)[r0 - a0 : r1 - a0, c0 - b0 : c1 - b0]
-    out = -np.expm1(-depth * np.maximum(dose, 0.0))
-    return np.clip(out, 0.0, 1.0, out=out)
+    return dose
 
 
 def physical_mask_opacity(
