@@ -48,6 +48,9 @@ class Run:
     progress: Callable[[str, str], None] | None = None
     #: Checked at every stage edge and progress step: the caller's way to stop the run.
     cancel: interrupts.CancelToken | None = None
+    #: Results a stage computed, by what they depend on, shared with the run's plate-design trials:
+    #: the job's stipple reuses the holes the trials made for the design it keeps.
+    kept: dict[Any, Any] = field(default_factory=dict[Any, Any])
 
     def rng_for(self, stage: str, index: int = 0) -> np.random.Generator:
         """An independent generator per stage and layer, derived from the seed.

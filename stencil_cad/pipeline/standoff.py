@@ -195,7 +195,12 @@ def _trial_score(
     )
     # The trial's stipple writes nothing: an output folder that discards every call stands in.
     trial = Run(
-        cfg=trial_cfg, out=cast("OutputDir", _Discard()), quiet=True, executor=run.executor, cancel=run.cancel
+        cfg=trial_cfg,
+        out=cast("OutputDir", _Discard()),
+        quiet=True,
+        executor=run.executor,
+        cancel=run.cancel,
+        kept=run.kept,
     )
     dotsets = stage_stipple(trial, layers, picture_mm, picture)
     made = [made_dots(d, cfg.stipple, picture_mm) for d in dotsets]

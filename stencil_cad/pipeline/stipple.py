@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -46,25 +47,21 @@ def stage_stipple(
 
     bound_dots(run, picture_mm)
     cfg = run.cfg
-    with run.stage("stipple"):
-        # Each layer's tone is chosen under its own paint's can (spray.profile).
-        jobs = layer_jobs(cfg, layer_sprays(run, layers.colours))
-        tiling = grid or TileGrid.whole(*picture_mm)
-        tasks, windows, hole_alphas = _tasks(run, layers, tiling, picture_mm, jobs)
-        sets, tones = stipple_layers(
-            tasks, hole_alphas, tiling, lambda i, k: run.seed_for("stipple", i, k), run.tasks.map
-        )
-    run.figures.dark_end = tuple(
-        _dark_end(job, alpha, ds.amount(job.spray.amount), w.mask)
-        for job, alpha, ds, w in zip(jobs, layers.alphas, sets, windows, strict=True)
-    )
-    sets = [
-        with_windows(ds, w.polygons, cfg.stipple.window_web_mm()) for ds, w in zip(sets, windows, strict=True)
-    ]
-    if cfg.refine.enabled:
-        sets = stage_refine(run, layers, sets, picture_mm, picture, grid)
-    # A mural's plates stand on posts: the few holes a post would shade go before anything scores them.
-    sets, _ = clear_post_sites(sets, tiling, post_plan(cfg, tiling))
+    tiling = grid or TileGrid.whole(*picture_mm)
+    # The plate-design trials stipple (and refine) the design the job then keeps, exactly as the job
+    # would: the same config, layers, picture and tiling give the same holes, so they are reused.
+    key = ("stipple", cfg.model_dump_json(), id(layers), id(picture), picture_mm, repr(tiling))
+    made = run.kept.get(key)
+    if made is None:
+        made = _stippled(run, layers, picture_mm, picture, tiling)
+        run.kept[key] = made
+    else:
+        log.info("stipple: the holes the plate-design trials made for this design, reused")
+        if made.refine is not None:
+            with run.stage("refine"):
+                run.figures.refine = made.refine
+    sets, tones, windows = made.sets, made.tones, made.windows
+    run.figures.dark_end = made.dark_end
     run.figures.windows = tuple(LayerWindows(i + 1, _plain(w.report)) for i, w in enumerate(windows))
     with run.stage("stipple"):
         cards = plate_cards(run, layers.colours, picture_mm, sets)
@@ -90,6 +87,45 @@ def stage_stipple(
     if tones:
         run.figures.tone_calibration = tones
     return sets
+
+
+@dataclass(frozen=True)
+class _Stippled:
+    """What the stipple stage computes before it writes: the holes (refined), tones, windows, figures."""
+
+    sets: list[DotSet]
+    tones: Any
+    windows: list[Any]
+    dark_end: tuple[DarkEnd, ...]
+    refine: Any
+
+
+def _stippled(
+    run: Run, layers: Layers, picture_mm: tuple[float, float], picture: Picture | None, tiling: TileGrid
+) -> _Stippled:
+    """Every layer's holes: stippled under its own can, with its windows, refined, clear of the posts."""
+    cfg = run.cfg
+    with run.stage("stipple"):
+        # Each layer's tone is chosen under its own paint's can (spray.profile).
+        jobs = layer_jobs(cfg, layer_sprays(run, layers.colours))
+        tasks, windows, hole_alphas = _tasks(run, layers, tiling, picture_mm, jobs)
+        sets, tones = stipple_layers(
+            tasks, hole_alphas, tiling, lambda i, k: run.seed_for("stipple", i, k), run.tasks.map
+        )
+    dark_end = tuple(
+        _dark_end(job, alpha, ds.amount(job.spray.amount), w.mask)
+        for job, alpha, ds, w in zip(jobs, layers.alphas, sets, windows, strict=True)
+    )
+    sets = [
+        with_windows(ds, w.polygons, cfg.stipple.window_web_mm()) for ds, w in zip(sets, windows, strict=True)
+    ]
+    refine = None
+    if cfg.refine.enabled:
+        sets = stage_refine(run, layers, sets, picture_mm, picture, tiling)
+        refine = run.figures.refine
+    # A mural's plates stand on posts: the few holes a post would shade go before anything scores them.
+    sets, _ = clear_post_sites(sets, tiling, post_plan(cfg, tiling))
+    return _Stippled(sets, tones, windows, dark_end, refine)
 
 
 def layer_jobs(cfg: JobConfig, sprays: Sequence[SprayConfig]) -> list[JobConfig]:
