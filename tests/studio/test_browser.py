@@ -77,10 +77,29 @@ def final_preview(driver):
     )
 
 
+def first_preview(driver):
+    """The page's first preview (any level): the page is up and its settings reach the server."""
+    return wait_for(
+        lambda: driver.find_element("id", "f-level").text not in ("", "—"), what="a first preview"
+    )
+
+
+def set_field(driver, field, value):
+    """Type ``value`` into the setting ``field`` and leave it (leaving the field is the change)."""
+    box = driver.find_element("id", field)
+    box.clear()
+    box.send_keys(value)
+    driver.find_element("id", "distance_m").click()
+
+
 def test_upload_change_layers_make_download(studio, browser, tmp_path):
     url, ws = studio
     by = "id"
     browser.get(url)
+    # A 60 mm picture keeps the test short: each final preview runs the job's plate-design trials. The
+    # 150 mm preview the page started is stale once the width changes, and is cancelled.
+    first_preview(browser)
+    set_field(browser, "width_mm", "60")
     bundled = final_preview(browser)
     # The last preview gives the range over the can prior (no can is measured yet).
     assert "depending on your can" in browser.find_element(by, "f-range").text
@@ -99,16 +118,10 @@ def test_upload_change_layers_make_download(studio, browser, tmp_path):
     assert not browser.find_element(by, "upload-error").is_displayed()
     four = final_preview(browser)
     assert four == bundled  # the same picture as the bundled one
-    layers = browser.find_element(by, "layers")
-    layers.clear()
-    layers.send_keys("3")
-    browser.find_element(by, "distance_m").click()  # leaving the field is the change
+    set_field(browser, "layers", "3")
     three = wait_for(lambda: (p := final_preview(browser)) != four and p, what="the preview to change")
     assert len(three[0].split("·")) == 3 and len(four[0].split("·")) == 4
-    # Make (a 60 mm picture, to keep the test short): progress per stage, then the zip.
-    width = browser.find_element(by, "width_mm")
-    width.clear()
-    width.send_keys("60")
+    # Make (the 60 mm picture): progress per stage, then the zip.
     # Crop: the middle 80 % of the width, typed.
     browser.find_element(by, "crop-panel").click()  # open the crop panel
     for field, value in (("crop_x", "10"), ("crop_w", "80")):
@@ -147,7 +160,7 @@ def test_the_calibration_wizard_fits_a_synthetic_photo_of_its_card(studio, brows
     url, ws = studio
     by = "id"
     browser.get(url)
-    final_preview(browser)
+    first_preview(browser)
     browser.find_element(by, "calibrate").click()  # open the wizard
     browser.find_element(by, "make-card").click()
     sheet = wait_for(lambda: browser.find_element(by, "card-sheet").is_displayed(), what="the card")
