@@ -4,7 +4,7 @@ import numpy as np
 
 from stencil_cad.config.io import parse_config
 from stencil_cad.model import Picture
-from stencil_cad.pipeline.primer import DARK_SHARE, dark_primer, prime_dark
+from stencil_cad.pipeline.primer import DARK_MIN_DELTA_E, DARK_SHARE, dark_primer, prime_dark
 from stencil_cad.record import Run
 
 
@@ -30,3 +30,16 @@ def test_the_run_names_the_primer_unless_the_config_chose_one():
         run = Run(cfg=cfg, out=None, quiet=True)  # type: ignore[arg-type]
         assert prime_dark(run, _picture(0.7)) is None
         assert run.cfg is cfg
+
+
+def test_a_dark_primer_keeps_paints_further_from_it_unless_the_config_says():
+    run = Run(cfg=parse_config({}, source="test"), out=None, quiet=True)  # type: ignore[arg-type]
+    prime_dark(run, _picture(0.7))
+    assert run.cfg.decompose.min_delta_e == DARK_MIN_DELTA_E
+    cfg = parse_config({"decompose": {"min_delta_e": 1.0}}, source="test")
+    run = Run(cfg=cfg, out=None, quiet=True)  # type: ignore[arg-type]
+    prime_dark(run, _picture(0.7))
+    assert run.cfg.decompose.min_delta_e == 1.0
+    run = Run(cfg=parse_config({}, source="test"), out=None, quiet=True)  # type: ignore[arg-type]
+    prime_dark(run, _picture(DARK_SHARE - 0.1))
+    assert run.cfg.decompose.min_delta_e == 2.0
