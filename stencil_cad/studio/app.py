@@ -57,21 +57,32 @@ class Previews:
         return token
 
     def events(self, cfg: Any, token: api.CancelToken) -> Generator[dict[str, Any], None, None]:
-        """The preview's levels as page events, until the last one or until a newer preview cancels it."""
-        with self.lock:
-            try:
-                token.check()
-                for p in api.previews(cfg, self.cache, token):
-                    yield {
+        """The preview's levels as page events, until the last one or until a newer preview cancels it.
+
+        The lock is held while a level is computed, never while the event waits to be sent: a page
+        that asks for a newer preview while a level is being computed leaves this generator at its
+        next ``yield`` for good (the stream that read it is gone), and a lock held there would keep
+        every later preview waiting.
+        """
+        levels = api.previews(cfg, self.cache, token)
+        try:
+            while True:
+                with self.lock:
+                    token.check()
+                    p = next(levels, None)
+                    if p is None:
+                        return
+                    event = {
                         **p.figures(),
                         "sprayed": _data_url(p.sprayed),
                         "reference": _data_url(p.reference),
                         "size_px": [int(p.sprayed.shape[1]), int(p.sprayed.shape[0])],
                     }
-            except api.Cancelled:
-                yield {"level": "cancelled"}
-            except UserError as exc:
-                yield {"level": "error", "error": str(exc)}
+                yield event
+        except api.Cancelled:
+            yield {"level": "cancelled"}
+        except UserError as exc:
+            yield {"level": "error", "error": str(exc)}
 
 
 def _data_url(img: Any) -> str:

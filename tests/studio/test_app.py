@@ -126,3 +126,28 @@ def test_a_newer_preview_cancels_the_older_ones_work(client):
     second = studio.previews.start()
     assert first.cancelled and not second.cancelled
     assert list(studio.previews.events(api.load_config(None), first)) == [{"level": "cancelled"}]
+
+
+def test_a_preview_left_mid_level_does_not_hold_up_the_next(ws):
+    """A page that asks for a newer preview while a level is computed leaves the older stream unread.
+
+    Its generator then stays at its next event for good; the next preview must still run (it waited
+    for ever when the lock was held across the event).
+    """
+    import threading
+
+    from stencil_cad.studio.app import Previews
+    from stencil_cad.studio.settings import config_data
+
+    previews = Previews()
+    cfg = api.load_config(config_data(SMALL, ws)[0])
+    older = previews.events(cfg, previews.start())
+    assert next(older)["level"] == "coarse"  # left here: the page went on to newer settings
+    newer = previews.events(api.load_config(config_data({**SMALL, "layers": 3}, ws)[0]), previews.start())
+    got: list = []
+    reader = threading.Thread(target=lambda: got.append(next(newer)), daemon=True)
+    reader.start()
+    reader.join(timeout=120)
+    assert got and got[0]["level"] == "coarse"
+    # The older preview was cancelled by the newer one: read again, it says so and stops.
+    assert next(older)["level"] == "cancelled"
