@@ -414,22 +414,40 @@ def windows_opacity(
     Returns:
         ``(H, W)`` opacity in [0, 1] (zeros without windows).
     """
-    from ..frames import rasterise_polygons
-
     h, w = int(shape_hw[0]), int(shape_hw[1])
     if not len(windows):
         return np.zeros((h, w))
+    cover = windows_cover(windows, (h, w), mm_per_px, supersample)
+    return spray_mask(cover, mm_per_px, cfg, spray_time=spray_time, geometry=geometry)
+
+
+def windows_cover(windows, shape_hw: tuple[int, int], mm_per_px: float, supersample: int = 4) -> np.ndarray:
+    """Each pixel's open fraction under the windows: rasterised ``supersample`` times finer and averaged back.
+
+    Only the pixels around the windows are rasterised (the same pixels as the whole raster's): on a
+    600 x 400 mm mural (1600 x 2400 px) the whole raster 4 times finer took about 0.5 s per layer and tile.
+
+    Args:
+        windows: Each ``(outer, inner rings)`` in picture mm.
+        shape_hw: ``(H, W)`` of the raster.
+        mm_per_px: Raster pixel size in mm.
+        supersample: Rasterising factor per axis. Defaults to 4.
+
+    Returns:
+        ``(H, W)`` open fraction in [0, 1].
+    """
+    from ..frames import rasterise_polygons
+
+    h, w = int(shape_hw[0]), int(shape_hw[1])
     f = max(int(supersample), 1)
-    # Only the pixels around the windows are rasterised (the same pixels as the whole raster's):
-    # on a 600 x 400 mm mural the whole raster 4 times finer took 1.4 s per layer and tile.
-    r0, r1, c0, c1 = _windows_box(windows, h, w, mm_per_px)
     cover = np.zeros((h, w))
+    r0, r1, c0, c1 = _windows_box(windows, h, w, mm_per_px)
     if r1 > r0 and c1 > c0:
         fine = rasterise_polygons(
             list(windows), (h * f, w * f), mm_per_px / f, (r0 * f, r1 * f, c0 * f, c1 * f)
         )
         cover[r0:r1, c0:c1] = fine.reshape(r1 - r0, f, c1 - c0, f).mean(axis=(1, 3))
-    return spray_mask(cover, mm_per_px, cfg, spray_time=spray_time, geometry=geometry)
+    return cover
 
 
 def _windows_box(windows, h: int, w: int, mm_per_px: float) -> tuple[int, int, int, int]:
