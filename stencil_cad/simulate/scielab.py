@@ -229,7 +229,7 @@ def _reference_wide_maps(ref: np.ndarray, plan: _Plan) -> list:
     import hashlib
 
     data = np.ascontiguousarray(ref)
-    digest = hashlib.blake2b(memoryview(data.view(np.uint8).reshape(-1)), digest_size=20).digest()
+    digest = hashlib.blake2b(data.data, digest_size=20).digest()
     key = (digest, data.shape, plan.k, tuple(tuple(ch) for ch in plan.wide))
     maps = _WIDE_CACHE.pop(key, None)
     if maps is None:
