@@ -424,8 +424,10 @@ def windows_opacity(
 def windows_cover(windows, shape_hw: tuple[int, int], mm_per_px: float, supersample: int = 4) -> np.ndarray:
     """Each pixel's open fraction under the windows: rasterised ``supersample`` times finer and averaged back.
 
-    Only the pixels around the windows are rasterised (the same pixels as the whole raster's): on a
-    600 x 400 mm mural (1600 x 2400 px) the whole raster 4 times finer took about 0.5 s per layer and tile.
+    Only the pixels around the windows are rasterised (the same pixels as the whole raster's): on the
+    600 x 400 mm coffee mural (1600 x 2400 px) rasterising the whole raster 4 times finer for every
+    layer and tile of every simulation took 107 s of the job's 545 s (py-spy), and the job's files
+    are the same without it.
 
     Args:
         windows: Each ``(outer, inner rings)`` in picture mm.
