@@ -17,12 +17,29 @@ size in this invocation, and null when there was none; ``speedup_vs_1`` is the o
 run's seconds over this one's. ``peak_mb_all`` sums the command and its worker processes.
 Run ``python -m benchmarks mural --case 4m2 --case 4m2-w2`` several times on a quiet machine
 and quote the medians: the speed-up is a ratio of wall clocks.
+
+Case ``mural600`` is the mural of issue 44 as a maker runs it: scikit-image's ``coffee`` photo
+(as ``benchmarks/quality.py`` loads it, saved as ``coffee.png``) at 600 x 400 mm, 3 layers,
+``stipple.process: fdm``, ``view.distance_m: 3``, ``--bed prusa_mk4`` on the command line and no
+``--workers`` (the job's own choice). Its row also gives ``scielab`` (the manifest's
+``simulate.scielab``, S-CIELAB at 3 m).
+
+``--baseline COMMIT`` (``python -m benchmarks mural --case mural600 --baseline 1e9aeab``; only
+``mural600`` when no case is named) also runs the same job with another commit's code in the
+same call, before this tree's: the commit's tree is exported from git into a scratch folder
+(removed afterwards, as ``python -m benchmarks e2e --baseline`` does) and its own ``stencil-cad
+run`` runs there. Each row then gives ``baseline_seconds``, ``baseline_cpu_seconds``,
+``baseline_scielab``, ``ratio_vs_baseline`` (this tree's wall clock over the commit's),
+``cpu_ratio_vs_baseline`` and ``baseline_commit``; ``baseline`` holds the commit's whole row. The
+exported tree starts with no compiled-kernel cache, so its run compiles the kernels that this
+tree may have cached (about 20 s of the mural on two cores).
 """
 
 from __future__ import annotations
 
 import json
 import resource
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -32,8 +49,11 @@ from pathlib import Path
 
 import yaml
 
-#: Case name: (width mm, height mm, workers; 0 = one process).
-CASES = {
+from .e2e import REPO, export_tree
+
+#: Case name: (width mm, height mm, workers; 0 = one process, None = the job's own choice).
+CASES: dict[str, tuple[float, float, int | None]] = {
+    "mural600": (600.0, 400.0, None),
     "1m2": (1000.0, 1000.0, 0),
     "4m2": (2000.0, 2000.0, 0),
     "4m2-w2": (2000.0, 2000.0, 2),
@@ -54,7 +74,18 @@ SMOKE_KEYS = (
     "stage_seconds",
 )
 #: Cases run only when asked for by name.
-ON_REQUEST = {"10m2-w1": (4000.0, 2500.0, 0), "1m2-w2": (1000.0, 1000.0, 2)}
+ON_REQUEST: dict[str, tuple[float, float, int | None]] = {
+    "10m2-w1": (4000.0, 2500.0, 0),
+    "1m2-w2": (1000.0, 1000.0, 2),
+}
+#: The mural of issue 44 (case ``mural600``): its job, and its bed given on the command line.
+MURAL600_JOB = {
+    "name": "coffee mural",
+    "decompose": {"layers": 3},
+    "stipple": {"process": "fdm"},
+    "view": {"distance_m": 3},
+}
+MURAL600_BED = "prusa_mk4"
 
 
 def _tree_rss_mb(pid: int) -> float:
@@ -87,43 +118,62 @@ def _photo(tmp: Path, width_mm: float) -> Path:
     return image
 
 
-def _run_case(
-    name: str, case: tuple[float, float, int], tmp: Path, job: dict | None = None
-) -> tuple[dict, Path]:
+def _coffee(tmp: Path) -> Path:
+    """scikit-image's ``coffee`` photo (600 x 400 px), as the quality benchmark loads it, saved as PNG."""
+    from PIL import Image
+    from skimage import data
+
+    image = tmp / "coffee.png"
+    if not image.exists():
+        Image.fromarray(data.coffee()).save(image)
+    return image
+
+
+def _command(name: str, case: tuple[float, float, int | None], tmp: Path, job: dict | None, root: Path):
+    """The config file's path, the output folder and the command line of one case, for the tree at ``root``."""
     width_mm, height_mm, workers = case
-    image = _photo(tmp, width_mm)
     area = width_mm * height_mm / 1e6
-    cfg = {
-        "name": f"mural_{area:g}m2",
-        "image": str(image),
-        "size": {"width_mm": width_mm, "height_mm": height_mm, "px_per_mm": "auto"},
-        "bed": "prusa_mk4",
-        "decompose": {"layers": 4},
-        "stipple": {"process": "fdm"},
-        **(job or {}),
-    }
-    path = tmp / f"{cfg['name']}.yaml"
+    tag = "" if root == REPO else "-baseline"
+    if name == "mural600":
+        cfg = {**MURAL600_JOB, "image": str(_coffee(tmp)), "size": {"width_mm": width_mm}}
+    else:
+        cfg = {
+            "name": f"mural_{area:g}m2",
+            "image": str(_photo(tmp, width_mm)),
+            "size": {"width_mm": width_mm, "height_mm": height_mm, "px_per_mm": "auto"},
+            "bed": "prusa_mk4",
+            "decompose": {"layers": 4},
+            "stipple": {"process": "fdm"},
+            **(job or {}),
+        }
+    path = tmp / f"{name}{tag}.yaml"
     path.write_text(yaml.safe_dump(cfg))
-    out = tmp / name
+    out = tmp / f"{name}{tag}"
+    cmd = [sys.executable, "-m", "stencil_cad", "run", str(path), "--out", str(out), "-q"]
+    if name == "mural600":
+        cmd += ["--bed", MURAL600_BED]
+    if workers is not None:
+        cmd += ["--workers", str(workers)]
+    return out, cmd
+
+
+def _run_case(
+    name: str,
+    case: tuple[float, float, int | None],
+    tmp: Path,
+    job: dict | None = None,
+    root: Path = REPO,
+) -> tuple[dict, Path]:
+    """One case made by the tree at ``root`` (this one, or a baseline commit's), in a child process."""
+    import os
+
+    width_mm, height_mm, workers = case
+    area = width_mm * height_mm / 1e6
+    out, cmd = _command(name, case, tmp, job, root)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
     t0 = time.perf_counter()
     c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
-    proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "stencil_cad",
-            "run",
-            str(path),
-            "--out",
-            str(out),
-            "-q",
-            "--workers",
-            str(workers),
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=root, env=env)
     peak = [0.0]
 
     def sample() -> None:
@@ -142,7 +192,7 @@ def _run_case(
         "bench": "mural",
         "case": name,
         "area_m2": round(area, 3),
-        "workers": max(workers, 1),
+        "workers": None if workers is None else max(workers, 1),
         "seconds": round(seconds, 1),
         "peak_mb_all": round(max(peak[0], kernel_peak), 1),
         # CPU of the command and every process it waited for (a local cluster's workers too):
@@ -157,8 +207,7 @@ def _run_case(
     row["tiles"] = len(m.get("tiles", [])) or 1
     row["holes"] = sum(r["dots"] for r in manifest.get("stipple", []))
     row["stage_seconds"] = manifest.get("seconds", {})
-    sim = m.get("simulation", {})
-    row["tiled_vs_global_max_abs"] = sim.get("tiled_vs_global_max_abs")
+    row["scielab"] = manifest.get("simulate", {}).get("scielab")
     return row, out
 
 
@@ -170,24 +219,61 @@ def _identical(a: Path, b: Path) -> bool:
     return all((a / n).read_bytes() == (b / n).read_bytes() for n in names if n != "manifest.json")
 
 
-def run(cases=None):
+def _with_baseline(row: dict, base: dict) -> None:
+    """The baseline commit's figures and the ratios against them, on this tree's row."""
+    row["baseline_commit"] = base["commit"]
+    row["baseline_seconds"] = base["seconds"]
+    row["baseline_cpu_seconds"] = base["cpu_seconds"]
+    row["baseline_scielab"] = base.get("scielab")
+    if base.get("error") is None and "error" not in row:
+        row["ratio_vs_baseline"] = round(row["seconds"] / base["seconds"], 3)
+        if base["cpu_seconds"]:
+            row["cpu_ratio_vs_baseline"] = round(row["cpu_seconds"] / base["cpu_seconds"], 3)
+    row["baseline"] = base
+
+
+def run(cases=None, baseline: str | None = None):
+    """The rows of ``cases`` (the default set; only ``mural600`` with a ``baseline`` commit unless cases are named).
+
+    Raises:
+        ValueError: ``baseline`` names no commit of this repository, or ``cases`` names no mural case.
+    """
     every = {**CASES, **ON_REQUEST}
+    if cases and not any(c in every for c in cases):
+        raise ValueError(f"no mural case among {', '.join(cases)}; choose from {', '.join(every)}")
+    if baseline is not None and not cases:
+        cases = ["mural600"]
     names = [c for c in every if (c in cases if cases else c in CASES)]
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
+        bases: dict[str, dict] = {}
+        if baseline is not None:
+            root = tmp / "baseline"
+            full = export_tree(baseline, root)
+            for name in names:
+                row, out = _run_case(name, every[name], tmp, root=root)
+                bases[name] = {**row, "commit": full}
+                shutil.rmtree(out, ignore_errors=True)
+            shutil.rmtree(root, ignore_errors=True)
         first = None
         one_process: dict[float, tuple[dict, Path]] = {}
         for name in names:
             row, out = _run_case(name, every[name], tmp)
             ok = "error" not in row
-            if ok and every[name][2] == 0:
+            if name in bases:
+                _with_baseline(row, bases[name])
+            if name == "mural600" or not ok:
+                # Not one of the square photo's murals whose rows are compared with each other.
+                yield row
+                continue
+            if every[name][2] == 0:
                 one_process[row["area_m2"]] = (row, out)
                 if first is None:
                     first = row
                 else:
                     row["ratio_to_1m2"] = round(row["seconds"] / first["seconds"], 2)
                     row["cpu_ratio_to_1m2"] = round(row["cpu_seconds"] / first["cpu_seconds"], 2)
-            elif ok:
+            else:
                 base = one_process.get(row["area_m2"])
                 row["identical"] = None if base is None else _identical(base[1], out)
                 if base is not None:

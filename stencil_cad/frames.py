@@ -82,7 +82,12 @@ def mm_to_raster(xy: np.ndarray, height_px: int, px_per_mm: float) -> np.ndarray
     return np.ascontiguousarray(np.stack([row, col], axis=1))
 
 
-def rasterise_polygons(polygons: list, shape: tuple[int, int], mm_per_px: float) -> np.ndarray:
+def rasterise_polygons(
+    polygons: list,
+    shape: tuple[int, int],
+    mm_per_px: float,
+    window: tuple[int, int, int, int] | None = None,
+) -> np.ndarray:
     """Pixels whose centres lie inside the polygons (even-odd rule): the inverse of :func:`stencil_cad.hardstencil.topology.mask_to_polygons`.
 
     A vectorised scan-line fill: every ring edge crossing a row of pixel centres
@@ -92,29 +97,37 @@ def rasterise_polygons(polygons: list, shape: tuple[int, int], mm_per_px: float)
         polygons: As returned by :func:`stencil_cad.hardstencil.topology.mask_to_polygons`.
         shape: ``(H, W)`` of the raster.
         mm_per_px: Pixel size in mm.
+        window: ``(r0, r1, c0, c1)``: only these rows and columns of the raster, or None: all.
+            The window's pixels are the same as the whole raster's (each crossing is found in the
+            whole raster's coordinates), at the cost of the window's area alone.
 
     Returns:
-        ``(H, W)`` bool.
+        ``(H, W)`` bool, or ``(r1 - r0, c1 - c0)`` with a ``window``.
     """
     h, w = shape
+    r_lo, r_hi, c_lo, c_hi = (0, h, 0, w) if window is None else window
+    if not (0 <= r_lo <= r_hi <= h and 0 <= c_lo <= c_hi <= w):
+        raise ValueError(f"window {window} is not inside the raster {shape}")
+    hw, ww = r_hi - r_lo, c_hi - c_lo
     rings = [ring for outer, holes in polygons for ring in (outer, *holes) if len(ring) >= 3]
     if not rings:
-        return np.zeros((h, w), dtype=bool)
+        return np.zeros((hw, ww), dtype=bool)
     rc = [mm_to_px(ring, h, mm_per_px) for ring in rings]
     r0 = np.concatenate([p[:, 0] for p in rc])
     c0 = np.concatenate([p[:, 1] for p in rc])
     r1 = np.concatenate([np.roll(p[:, 0], -1) for p in rc])
     c1 = np.concatenate([np.roll(p[:, 1], -1) for p in rc])
     # Rows r with lo <= r < hi: each crossing counted once, horizontal edges never.
-    start = np.maximum(np.ceil(np.minimum(r0, r1)), 0).astype(np.int64)
-    end = np.minimum(np.ceil(np.maximum(r0, r1)), h).astype(np.int64)
+    start = np.maximum(np.ceil(np.minimum(r0, r1)), r_lo).astype(np.int64)
+    end = np.minimum(np.ceil(np.maximum(r0, r1)), r_hi).astype(np.int64)
     count = np.maximum(end - start, 0)
     edge = np.repeat(np.arange(r0.size), count)
     first = np.cumsum(count) - count
     rows = start[edge] + (np.arange(edge.size) - first[edge])
     t = (rows - r0[edge]) / (r1[edge] - r0[edge])
     x = c0[edge] + t * (c1[edge] - c0[edge])
-    col = np.clip(np.ceil(x), 0, w).astype(np.int64)
-    toggles = np.zeros((h, w + 1), dtype=np.int64)
-    np.add.at(toggles, (rows, col), 1)
-    return (np.cumsum(toggles, axis=1)[:, :w] & 1).astype(bool)
+    # A crossing left of the window toggles all of its row, one right of it none.
+    col = np.clip(np.ceil(x), c_lo, c_hi).astype(np.int64) - c_lo
+    toggles = np.zeros((hw, ww + 1), dtype=np.int64)
+    np.add.at(toggles, (rows - r_lo, col), 1)
+    return (np.cumsum(toggles, axis=1)[:, :ww] & 1).astype(bool)

@@ -332,9 +332,6 @@ def _mural_lines(build: BuildFigures, m: MuralFigures | None) -> list[str]:
     ]
     sim = m.simulation if m is not None else None
     if sim is not None:
-        lines.append(
-            f"  tiles     simulated mural vs global: max difference {sim.tiled_vs_global_max_abs:.2g}"
-        )
         for c in sim.registration_cost or ():
             err = float(c.error_mm or 0.0)
             lines.append(

@@ -111,9 +111,8 @@ class RegistrationCost(ScoreRow):
 
 @dataclass(frozen=True)
 class MuralSimulation(KeyedRow):
-    """The tiled simulation against the global one, its scores in register and the registration costs."""
+    """The scores in register (the global simulation's) and the registration costs."""
 
-    tiled_vs_global_max_abs: float | None = None
     zero_error_scores: ScoreRow | None = None
     registration_cost: tuple[RegistrationCost, ...] | None = None
 
@@ -137,7 +136,7 @@ class MuralFigures:
     cost: Row
     part_sizes: Any
     built: MuralBuildFigures | None = None
-    #: The tiled simulation against the global one, and the registration costs.
+    #: The scores in register and the registration costs (the tiles shifted in simulation).
     simulation: MuralSimulation | None = None
 
     @classmethod

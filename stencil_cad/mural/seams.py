@@ -230,7 +230,7 @@ def simulate_tiles(
         ``(L, H, W)`` simulated opacities.
     """
     from ..simulate import spray_opacity
-    from ..simulate.opacity import windows_opacity
+    from ..simulate.opacity import spray_mask, windows_cover
     from ..simulate.spray import per_layer
 
     layers = len(spray_times)
@@ -238,16 +238,22 @@ def simulate_tiles(
     alphas = np.empty((layers, *shape), dtype=np.float64)
     for i in range(layers):
         trans = np.ones(shape, dtype=np.float64)
+        # Every tile's windows of the layer sprayed at once: their open areas add up as doses do
+        # (one blur per layer instead of one per tile and layer; the same as the global
+        # simulation's one call where no two windows overlap).
+        cover = None
         for k, t in enumerate(grid.tiles):
             ds = tile_sets[k][i]
             dx, dy = offset(k, i) if offset is not None else (0.0, 0.0)
             if ds.windows:
                 # A window lies inside its tile's core, so inside the sheet the wall lets paint through.
                 shift = np.array([t.origin[0] + dx, t.origin[1] + dy])
-                wins = [(np.asarray(o) + shift, ()) for o, _ in ds.windows]
-                trans *= 1.0 - windows_opacity(
-                    wins, shape, g, sprays[i], spray_time=spray_times[i], geometry=geometry
-                )
+                wins = [
+                    (np.asarray(o) + shift, tuple(np.asarray(r) + shift for r in inner))
+                    for o, inner in ds.windows
+                ]
+                tile_cover = windows_cover(wins, shape, g)
+                cover = tile_cover if cover is None else cover + tile_cover
             if len(ds) == 0:
                 continue
             crop = _sheet_crop(t.sheet, shape, g, dx, dy)
@@ -267,6 +273,8 @@ def simulate_tiles(
             )
             r0, r1, c0, c1 = crop
             trans[r0:r1, c0:c1] *= 1.0 - a
+        if cover is not None:
+            trans *= 1.0 - spray_mask(cover, g, sprays[i], spray_time=spray_times[i], geometry=geometry)
         alphas[i] = 1.0 - trans
     return alphas
 

@@ -414,15 +414,59 @@ def windows_opacity(
     Returns:
         ``(H, W)`` opacity in [0, 1] (zeros without windows).
     """
-    from ..frames import rasterise_polygons
-
     h, w = int(shape_hw[0]), int(shape_hw[1])
     if not len(windows):
         return np.zeros((h, w))
-    f = max(int(supersample), 1)
-    fine = rasterise_polygons(list(windows), (h * f, w * f), mm_per_px / f)
-    cover = fine.reshape(h, f, w, f).mean(axis=(1, 3))
+    cover = windows_cover(windows, (h, w), mm_per_px, supersample)
     return spray_mask(cover, mm_per_px, cfg, spray_time=spray_time, geometry=geometry)
+
+
+def windows_cover(windows, shape_hw: tuple[int, int], mm_per_px: float, supersample: int = 4) -> np.ndarray:
+    """Each pixel's open fraction under the windows: rasterised ``supersample`` times finer and averaged back.
+
+    Only the pixels around the windows are rasterised (the same pixels as the whole raster's): on the
+    600 x 400 mm coffee mural (1600 x 2400 px) rasterising the whole raster 4 times finer for every
+    layer and tile of every simulation took 107 s of the job's 545 s (py-spy), and the job's files
+    are the same without it.
+
+    Args:
+        windows: Each ``(outer, inner rings)`` in picture mm.
+        shape_hw: ``(H, W)`` of the raster.
+        mm_per_px: Raster pixel size in mm.
+        supersample: Rasterising factor per axis. Defaults to 4.
+
+    Returns:
+        ``(H, W)`` open fraction in [0, 1].
+    """
+    from ..frames import rasterise_polygons
+
+    h, w = int(shape_hw[0]), int(shape_hw[1])
+    f = max(int(supersample), 1)
+    cover = np.zeros((h, w))
+    r0, r1, c0, c1 = _windows_box(windows, h, w, mm_per_px)
+    if r1 > r0 and c1 > c0:
+        fine = rasterise_polygons(
+            list(windows), (h * f, w * f), mm_per_px / f, (r0 * f, r1 * f, c0 * f, c1 * f)
+        )
+        cover[r0:r1, c0:c1] = fine.reshape(r1 - r0, f, c1 - c0, f).mean(axis=(1, 3))
+    return cover
+
+
+def _windows_box(windows, h: int, w: int, mm_per_px: float) -> tuple[int, int, int, int]:
+    """``(r0, r1, c0, c1)``: the raster's rows and columns that hold every window's rings, a pixel to spare."""
+    rings = [
+        np.asarray(ring, dtype=np.float64).reshape(-1, 2)
+        for outer, inner in windows
+        for ring in (outer, *inner)
+    ]
+    pts = np.concatenate(rings) if rings else np.zeros((0, 2))
+    if not len(pts):
+        return 0, 0, 0, 0
+    rc = mm_to_px(pts, h, mm_per_px)
+    lo, hi = np.floor(rc.min(axis=0)) - 1, np.ceil(rc.max(axis=0)) + 2
+    r0, c0 = (int(max(v, 0)) for v in lo)
+    r1, c1 = int(min(hi[0], h)), int(min(hi[1], w))
+    return r0, max(r1, r0), c0, max(c1, c0)
 
 
 def _need(geometry):

@@ -189,3 +189,26 @@ def test_compiled_ciede2000_equals_scikit_image():
     assert np.all(got[0, :10] == 0.0)
     with pytest.raises(ValueError, match="same shape"):
         delta_e_xyz(a, b[:, :5])
+
+
+def test_the_references_wide_maps_are_kept_for_the_next_score_of_the_same_reference():
+    from stencil_cad.simulate import scielab as s
+
+    rng = np.random.default_rng(4)
+    ref = rng.random((300, 400, 3))
+    test = np.clip(ref + rng.normal(0, 0.05, ref.shape), 0, 1)
+    s._WIDE_CACHE.clear()
+    first = s.scielab(ref, test, 0.5, 3.0)
+    assert len(s._WIDE_CACHE) == 1
+    assert s.scielab(ref, test, 0.5, 3.0) == first and len(s._WIDE_CACHE) == 1
+    # Other pixels, or another distance, are another reference: scored afresh, as without the cache.
+    changed = ref.copy()
+    changed[10:20, 10:20] = 0.0
+    s._WIDE_CACHE.clear()
+    fresh = s.scielab(changed, test, 0.5, 3.0)
+    s._WIDE_CACHE.clear()
+    s.scielab(ref, test, 0.5, 3.0)
+    assert s.scielab(changed, test, 0.5, 3.0) == fresh != first
+    for d in (4.0, 5.0, 6.0, 7.0):
+        s.scielab(ref, test, 0.5, d)
+    assert len(s._WIDE_CACHE) == s._WIDE_CACHE_SIZE
