@@ -260,17 +260,13 @@ def simulate_tiles(
             if crop is None:
                 continue
             xy = ds.xy_mm + np.array([t.origin[0] + dx, t.origin[1] + dy])
-            a = spray_opacity(
-                xy,
-                ds.r_mm,
-                shape,
-                g,
-                sprays[i],
-                spray_time=spray_times[i],
-                crop=crop,
-                tail_tol=tail_tols[i],
-                geometry=geometry,
-            )
+            kw: dict[str, Any] = {
+                "spray_time": spray_times[i],
+                "crop": crop,
+                "tail_tol": tail_tols[i],
+                "geometry": geometry,
+            }
+            a = spray_opacity(xy, ds.r_mm, shape, g, sprays[i], **kw)
             r0, r1, c0, c1 = crop
             trans[r0:r1, c0:c1] *= 1.0 - a
         if cover is not None:
