@@ -48,6 +48,7 @@ agrees to 1e-12 (``tests/simulate/test_scielab.py``).
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -222,6 +223,8 @@ def _wide_maps(rgb: np.ndarray, plan: _Plan) -> list:
 #: reference takes 0.1 s.
 _WIDE_CACHE: dict[tuple, list] = {}
 _WIDE_CACHE_SIZE = 4
+#: The studio's previews and a job's tasks score from several threads at once.
+_WIDE_LOCK = threading.Lock()
 
 
 def _reference_wide_maps(ref: np.ndarray, plan: _Plan) -> list:
@@ -231,15 +234,17 @@ def _reference_wide_maps(ref: np.ndarray, plan: _Plan) -> list:
     data = np.ascontiguousarray(ref)
     digest = hashlib.blake2b(data.data, digest_size=20).digest()
     key = (digest, data.shape, plan.k, tuple(tuple(ch) for ch in plan.wide))
-    maps = _WIDE_CACHE.pop(key, None)
+    with _WIDE_LOCK:
+        maps = _WIDE_CACHE.pop(key, None)
     if maps is None:
         maps = _wide_maps(data, plan)
         for entry in maps:
             if entry is not None:
                 entry[0].setflags(write=False)
-    _WIDE_CACHE[key] = maps  # the most recent last
-    while len(_WIDE_CACHE) > _WIDE_CACHE_SIZE:
-        del _WIDE_CACHE[next(iter(_WIDE_CACHE))]
+    with _WIDE_LOCK:
+        _WIDE_CACHE[key] = maps  # the most recent last
+        while len(_WIDE_CACHE) > _WIDE_CACHE_SIZE:
+            del _WIDE_CACHE[next(iter(_WIDE_CACHE))]
     return maps
 
 
