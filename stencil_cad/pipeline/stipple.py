@@ -105,13 +105,9 @@ def _stippled(
 ) -> _Stippled:
     """Every layer's holes: stippled under its own can, with its windows, refined, clear of the posts."""
     cfg = run.cfg
-    with run.stage("stipple"):
-        # Each layer's tone is chosen under its own paint's can (spray.profile).
-        jobs = layer_jobs(cfg, layer_sprays(run, layers.colours))
-        tasks, windows, hole_alphas = _tasks(run, layers, tiling, picture_mm, jobs)
-        sets, tones = stipple_layers(
-            tasks, hole_alphas, tiling, lambda i, k: run.seed_for("stipple", i, k), run.tasks.map
-        )
+    # Each layer's tone is chosen under its own paint's can (spray.profile).
+    jobs = layer_jobs(cfg, layer_sprays(run, layers.colours))
+    sets, tones, windows = _holes(run, layers, picture_mm, tiling, jobs)
     dark_end = tuple(
         _dark_end(job, alpha, ds.amount(job.spray.amount), w.mask)
         for job, alpha, ds, w in zip(jobs, layers.alphas, sets, windows, strict=True)
@@ -126,6 +122,30 @@ def _stippled(
     # A mural's plates stand on posts: the few holes a post would shade go before anything scores them.
     sets, _ = clear_post_sites(sets, tiling, post_plan(cfg, tiling))
     return _Stippled(sets, tones, windows, dark_end, refine)
+
+
+def _holes(
+    run: Run, layers: Layers, picture_mm: tuple[float, float], tiling: TileGrid, jobs: list[JobConfig]
+) -> tuple[list[DotSet], Any, list[Any]]:
+    """Every layer's holes as stippled, before the refinement: ``(sets, tones, windows)``.
+
+    The stippler reads no ``refine`` setting, so the plate-design trials' unrefined screen and their
+    refined trial of the same design stipple alike: the holes are kept by the config without its
+    ``refine`` section, and the refined trial starts from the screen's (on the bundled example two
+    of its ten stipples).
+    """
+    cfg = run.cfg
+    key = ("holes", cfg.model_dump_json(exclude={"refine"}), id(layers), picture_mm, repr(tiling))
+    kept = run.kept.get(key)
+    if kept is not None:
+        return kept
+    with run.stage("stipple"):
+        tasks, windows, hole_alphas = _tasks(run, layers, tiling, picture_mm, jobs)
+        sets, tones = stipple_layers(
+            tasks, hole_alphas, tiling, lambda i, k: run.seed_for("stipple", i, k), run.tasks.map
+        )
+    run.kept[key] = (sets, tones, windows)
+    return sets, tones, windows
 
 
 def layer_jobs(cfg: JobConfig, sprays: Sequence[SprayConfig]) -> list[JobConfig]:

@@ -106,14 +106,14 @@ def test_a_photo_without_windows_tries_the_stand_offs_only():
     assert window_share(run.cfg, layers, TileGrid.whole(60.0, 60.0), (60.0, 60.0)) < WINDOW_SHARE
     cfg = choose_plates(run, layers, (60.0, 60.0), pic)
     fig = run.figures.standoff
-    assert fig is not None and [(t.windows, t.standoff_mm) for t in fig.trials] == [
-        ("auto", 10.0),
-        ("auto", 8.0),
-        ("auto", 12.0),
-        ("auto", 5.0),
-        ("auto", 15.0),
-    ]
-    best = min(fig.trials, key=lambda t: t.scielab)
+    tried = [(t.windows, t.standoff_mm) for t in fig.trials] if fig is not None else []
+    # The process's stand-off and the two near it, then each coarse step its near one points to.
+    assert tried[:3] == [("auto", 10.0), ("auto", 8.0), ("auto", 12.0)]
+    scores = {g: t.scielab for t, (_, g) in zip(fig.trials, tried, strict=True)}  # type: ignore[union-attr]
+    assert (5.0 in scores) == (scores[8.0] < scores[10.0])
+    assert (15.0 in scores) == (scores[12.0] < scores[10.0])
+    assert all(w == "auto" for w, _ in tried)
+    best = min(fig.trials, key=lambda t: t.scielab)  # type: ignore[union-attr]
     assert cfg.wall.standoff_mm == [best.standoff_mm] and fig.chosen == best
     assert fig.trial_mm_per_px == pytest.approx(2.0 * 0.25)
 
@@ -143,6 +143,38 @@ def _scripted(monkeypatch, scores: dict[tuple[str, float], float], refined=None)
         return table[(cfg.stipple.windows.value, float(cfg.wall.standoff_mm[0]))]
 
     monkeypatch.setattr(standoff, "_trial_score", trial)
+
+
+def test_a_coarse_step_is_tried_only_where_the_near_one_points(monkeypatch):
+    # Score against stand-off falls to one best wall and rises past it: a coarse step beyond a near
+    # step that did no better than the process's stand-off is not worth its trial.
+    pic, layers = _flat_layers()
+    down = {("auto", 10.0): 3.0, ("auto", 8.0): 2.8, ("auto", 12.0): 3.2, ("auto", 5.0): 2.5}
+    down |= {("off", 10.0): 4.0, ("off", 5.0): 4.2, ("off", 15.0): 3.9}
+    _scripted(monkeypatch, down)
+    monkeypatch.setattr(standoff, "window_share", lambda *a: 0.3)  # a photo with some windows
+    run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
+    cfg = choose_plates(run, layers, (60.0, 60.0), pic)
+    fig = run.figures.standoff
+    assert fig is not None and ("auto", 15.0) not in [(t.windows, t.standoff_mm) for t in fig.trials]
+    # Holes alone have no near steps: all theirs are tried.
+    assert {("off", 5.0), ("off", 15.0), ("auto", 5.0)} <= {(t.windows, t.standoff_mm) for t in fig.trials}
+    assert cfg.wall.standoff_mm == [5.0]
+    # Neither near step beats the process's stand-off: no coarse step of the config's windows.
+    _scripted(monkeypatch, down | {("auto", 8.0): 3.1})
+    run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
+    choose_plates(run, layers, (60.0, 60.0), pic)
+    fig = run.figures.standoff
+    assert fig is not None and len(fig.trials) == 6
+    assert not {("auto", 5.0), ("auto", 15.0)} & {(t.windows, t.standoff_mm) for t in fig.trials}
+
+
+def test_windows_carrying_almost_no_paint_are_not_tried_off():
+    from stencil_cad.pipeline.standoff import MIN_WINDOW_SHARE
+
+    cfg = _cfg()
+    assert all(w == "auto" for w, _ in candidates(cfg, MIN_WINDOW_SHARE / 2))
+    assert ("off", 10.0) in candidates(cfg, MIN_WINDOW_SHARE)
 
 
 def test_holes_alone_are_chosen_where_windows_spray_worse(monkeypatch):
