@@ -28,7 +28,7 @@ import logging
 import math
 import time
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, cast
+from typing import Any
 
 import numpy as np
 
@@ -37,9 +37,6 @@ from ..config.stipple import Windows
 from ..figures import PlateTrial, StandoffFigures
 from ..model import Layers, Picture
 from ..record import Run
-
-if TYPE_CHECKING:
-    from ..output import OutputDir
 
 log = logging.getLogger(__name__)
 
@@ -67,16 +64,6 @@ LOWEST_MM = 3.0
 NEAR_BY_MM = 2.0
 #: The trials simulate on a grid this many times coarser than the job's (at least ...).
 TRIAL_COARSENING = 2.0
-
-
-class _Discard:
-    """An output folder that keeps nothing: the trial stipples write no files."""
-
-    def __getattr__(self, name: str) -> Any:
-        def discard(*args: Any, **kwargs: Any) -> None:
-            return None
-
-        return discard
 
 
 def window_share(cfg: JobConfig, layers: Layers, tiling: Any, picture_mm: tuple[float, float]) -> float:
@@ -195,23 +182,18 @@ def _trial_score(
     from ..stipple.made import made_dots
     from .picture import source_reference
     from .profiles import layer_sprays
-    from .stipple import stage_stipple
+    from .stipple import stippled
 
     trial_cfg = (
         cfg
         if refined
         else cfg.model_copy(update={"refine": cfg.refine.model_copy(update={"enabled": False})})
     )
-    # The trial's stipple writes nothing: an output folder that discards every call stands in.
+    # The trial's own figures; its holes are kept for the job (``run.kept``), and it writes nothing.
     trial = Run(
-        cfg=trial_cfg,
-        out=cast("OutputDir", _Discard()),
-        quiet=True,
-        executor=run.executor,
-        cancel=run.cancel,
-        kept=run.kept,
+        cfg=trial_cfg, out=run.out, quiet=True, executor=run.executor, cancel=run.cancel, kept=run.kept
     )
-    dotsets = stage_stipple(trial, layers, picture_mm, picture)
+    dotsets = stippled(trial, layers, picture_mm, picture)[0].sets
     made = [made_dots(d, cfg.stipple, picture_mm) for d in dotsets]
     sim = simulate.simulate(
         layers,

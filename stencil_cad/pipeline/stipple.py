@@ -45,17 +45,9 @@ def stage_stipple(
     """
     from ..exchange.dots_csv import dots_to_csv, windows_to_json
 
-    bound_dots(run, picture_mm)
+    made, reused = stippled(run, layers, picture_mm, picture, grid)
     cfg = run.cfg
-    tiling = grid or TileGrid.whole(*picture_mm)
-    # The plate-design trials stipple (and refine) the design the job then keeps, exactly as the job
-    # would: the same config, layers, picture and tiling give the same holes, so they are reused.
-    key = ("stipple", cfg.model_dump_json(), id(layers), id(picture), picture_mm, repr(tiling))
-    made = run.kept.get(key)
-    if made is None:
-        made = _stippled(run, layers, picture_mm, picture, tiling)
-        run.kept[key] = made
-    else:
+    if reused:
         log.info("stipple: the holes the plate-design trials made for this design, reused")
         if made.refine is not None:
             with run.stage("refine"):
@@ -87,6 +79,31 @@ def stage_stipple(
     if tones:
         run.figures.tone_calibration = tones
     return sets
+
+
+def stippled(
+    run: Run,
+    layers: Layers,
+    picture_mm: tuple[float, float],
+    picture: Picture | None = None,
+    grid: mural.TileGrid | None = None,
+) -> tuple[_Stippled, bool]:
+    """What the stipple stage computes, without its files: ``(the holes and figures, whether kept)``.
+
+    ``stipple.dots`` is capped first (:func:`bound_dots`, which may set ``run.cfg``). The plate-design
+    trials call this and the job's stage then writes what they made for the design it keeps: the
+    same config, layers, picture and tiling give the same holes, so they are kept in ``run.kept``
+    (the second value says they were).
+    """
+    bound_dots(run, picture_mm)
+    tiling = grid or TileGrid.whole(*picture_mm)
+    key = ("stipple", run.cfg.model_dump_json(), id(layers), id(picture), picture_mm, repr(tiling))
+    made = run.kept.get(key)
+    if made is not None:
+        return made, True
+    made = _stippled(run, layers, picture_mm, picture, tiling)
+    run.kept[key] = made
+    return made, False
 
 
 @dataclass(frozen=True)
@@ -136,7 +153,7 @@ def _holes(
     """
     cfg = run.cfg
     key = ("holes", cfg.model_dump_json(exclude={"refine"}), id(layers), picture_mm, repr(tiling))
-    kept = run.kept.get(key)
+    kept: tuple[list[DotSet], Any, list[Any]] | None = run.kept.get(key)
     if kept is not None:
         return kept
     with run.stage("stipple"):
