@@ -297,6 +297,26 @@ def _picture_rgb(name: str) -> np.ndarray:
     return img[..., :3].astype(np.float64) / 255.0
 
 
+def picture_file(name: str, folder: Path) -> Path:
+    """The picture ``name`` saved as a PNG in ``folder``, as a maker would hand it to ``--image``.
+
+    A photo of scikit-image is saved with its own pixels (a grey one with one channel, as its file
+    has), a generated one as 8-bit RGB.
+    """
+    from PIL import Image
+
+    path = Path(folder) / f"{name}.png"
+    if name in GENERATED:
+        pixels = np.round(np.clip(_picture_rgb(name), 0.0, 1.0) * 255.0).astype(np.uint8)
+    else:
+        from skimage import data
+
+        pixels = np.asarray(getattr(data, name)())
+        pixels = pixels if pixels.ndim == 2 else pixels[..., :3]
+    Image.fromarray(pixels).save(path)
+    return path
+
+
 def _source_on_grid(name: str, cfg, shape, fit_to_size) -> np.ndarray:
     """The source photo resized to the simulated grid: the reference every score is taken against."""
     from skimage.transform import resize
