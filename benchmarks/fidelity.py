@@ -63,13 +63,17 @@ def job_default(cfg):
     return run_, pic, layers, dotsets, sim, ref
 
 
-def _default(cfg0, image: str, folder):
-    """The job's own design on the picture's file: ``(scores and figures of the design, the job's state)``."""
-    from stencil_cad.config.io import parse_config
+def job_config(image: str, settings: str, folder, size: dict | None = None):
+    """The config of a job on the picture ``image`` saved in ``folder``: the setting's, with that file as ``image``.
 
-    data = cfg0.model_dump(mode="json")
-    data["image"] = str(q.picture_file(image, folder))
-    cfg = parse_config(data, source=f"fidelity {image}")
+    Parsed as a user's config is (a config dumped and parsed again would give as chosen what the
+    config leaves to the job: the wall's stand-off, the plate's thickness).
+    """
+    return q._configs(size, image=q.picture_file(image, folder))[settings]
+
+
+def _default(cfg):
+    """The job's own design on the picture's file: ``(scores and figures of the design, the job's state)``."""
     run_, pic, layers, dotsets, sim, ref = job_default(cfg)
     seen = run_.figures.simulate
     cfg = run_.cfg
@@ -88,11 +92,12 @@ def _default(cfg0, image: str, folder):
     return scores, (run_, pic, layers, sim, ref)
 
 
-def _row(f, pipeline, image: str, settings: str, cfg0, folder) -> dict:
+def _row(f, pipeline, image: str, settings: str, folder, size: dict | None) -> dict:
     t0 = time.perf_counter()
+    cfg0 = job_config(image, settings, folder, size)
     # The rows are the job's only at the distances the job scores: the viewing distance and twice it.
     assert cfg0.view.distance_m == q.DISTANCES_M[0] and q.DISTANCES_M[1] == 2 * q.DISTANCES_M[0]
-    default, (run_, pic, layers, sim, ref) = _default(cfg0, image, folder)
+    default, (run_, pic, layers, sim, ref) = _default(cfg0)
     design = run_.figures.standoff
     shape, mm_per_px = sim.composite.shape[:2], sim.mm_per_px
     hard, _, res = q._hard(f, pipeline, cfg0, layers, pic, run_, ref, shape, mm_per_px)
@@ -130,11 +135,10 @@ def run(cases=None, size: dict | None = None):
     """One row per picture and process, then a ``median-<process>`` row per process run."""
     f = q._require()
     pipeline = f["pipeline"]
-    configs = q._configs(size)
     ratios: dict[str, list[tuple[float, float]]] = {}
     with tempfile.TemporaryDirectory(prefix="fidelity-") as folder:
         for image, settings in q._select(cases):
-            row = _row(f, pipeline, image, settings, configs[settings], folder)
+            row = _row(f, pipeline, image, settings, folder, size)
             ratios.setdefault(settings, []).append((row["default_over_hard_1m"], row["default_over_hard_2m"]))
             yield row
     for settings, got in ratios.items():

@@ -144,8 +144,11 @@ class _NullOut:
         return discard
 
 
-def _configs(size: dict | None = None) -> dict:
-    """The job config of each setting, validated like a user's config (``size``: another picture size)."""
+def _configs(size: dict | None = None, image: Path | None = None) -> dict:
+    """The job config of each setting, validated like a user's config.
+
+    ``size``: another picture size; ``image``: the picture's file (the config's ``image``).
+    """
     import yaml
 
     from stencil_cad.config.io import parse_config
@@ -154,6 +157,8 @@ def _configs(size: dict | None = None) -> dict:
         (Path(__file__).resolve().parents[1] / "stencil_cad/data/example.yaml").read_text()
     )
     sized = {"size": size} if size else {}
+    if image is not None:
+        sized["image"] = str(image)
     return {
         "fdm": parse_config({**sized}, source="quality fdm (defaults)"),
         "sla": parse_config(

@@ -26,3 +26,14 @@ def test_the_benchmarks_default_scores_as_the_job_does(tmp_path):
     design = {k: v for k, v in bench.figures.standoff.to_json().items() if k != "seconds"}
     assert design == {k: v for k, v in job["standoff"].items() if k != "seconds"}
     assert [s.dots for s in bench.figures.stipple] == [s["dots"] for s in job["stipple"]]
+
+
+def test_the_benchmarks_fdm_config_is_the_one_an_image_job_runs_with(tmp_path):
+    # What the job leaves to itself (the wall's stand-off, the plate's thickness) stays left to it.
+    cfg = fidelity.job_config("logo", "fdm", tmp_path)
+    # `stencil-cad run --image logo.png`: no config file, the defaults.
+    job = api.load_config({}, image=tmp_path / "logo.png")
+
+    assert cfg.chooses_standoff and job.chooses_standoff
+    assert cfg.thickness_fill == job.thickness_fill
+    assert cfg.model_dump(exclude={"name"}) == job.model_dump(exclude={"name"})
