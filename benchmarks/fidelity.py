@@ -2,16 +2,19 @@
 
 The must-show rows of :mod:`benchmarks.quality` without its sweeps: each picture of the quality
 benchmark (:data:`benchmarks.quality.KINDS`: its kind, source and licence) on FDM (the default
-config) and SLA (the bundled example's settings with SLA holes) is decomposed, its plate design
-chosen and refined exactly as ``stencil-cad run`` does (:func:`stencil_cad.pipeline.standoff.choose_plates`,
-with the thickness its wall asks for), sprayed, and scored with S-CIELAB at 1 m and 2 m against the
-source resized to the simulated grid; the hard stencil of the same job (as many colours as layers
-and primer, the process's feature and bridge rules) is sprayed at each of the quality benchmark's
-hard stand-offs and the best one at each distance is the reference. Each row gives both scores,
-the ratios at 1 m and 2 m, the worst can of the prior (``default_scielab_1m_worst``) and each
-layer's dose; after the rows of a process, a ``median-<process>`` row gives the median ratios.
-The full sweeps (holes only and windows at every stand-off, unrefined) stay in
-``python -m benchmarks quality``: this one runs in about a third of its time.
+config) and SLA (the bundled example's settings with SLA holes). The default is what
+``stencil-cad run`` makes of that config with the picture as its image (:func:`job_default`): the
+picture is saved as a PNG and the job's own steps run on it, loaded, decomposed, its plate design
+chosen, stippled and refined once (the holes the plate-design trials made reused), sprayed with the
+holes as the process makes them and scored by the simulate stage, S-CIELAB at 1 m and 2 m against
+the source resized to the simulated grid (the manifest's ``simulate.scielab`` and ``scielab_2x``);
+only the CAD, which no score reads, is left out. The hard stencil of the same job (as many colours
+as layers and primer, the process's feature and bridge rules) is sprayed at each of the quality
+benchmark's hard stand-offs, scored against the same reference on the same grid, and the best one
+at each distance is the reference. Each row gives both scores, the ratios at 1 m and 2 m, the worst
+can of the prior (``default_scielab_1m_worst``) and each layer's dose; after the rows of a process,
+a ``median-<process>`` row gives the median ratios. The full sweeps (holes only and windows at every
+stand-off, unrefined) stay in ``python -m benchmarks quality``.
 
 Run: ``python -m benchmarks fidelity [--case coffee-fdm] [--case grass]``.
 """

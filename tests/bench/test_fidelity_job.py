@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from benchmarks import fidelity
 from stencil_cad import api
 from stencil_cad.pipeline import run_command
 
 
+@pytest.mark.slow
 def test_the_benchmarks_default_scores_as_the_job_does(tmp_path):
     # The bundled example job (the config of `stencil-cad run` without one), made small; the CAD
     # files no score reads are left out.
