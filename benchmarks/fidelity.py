@@ -2,16 +2,19 @@
 
 The must-show rows of :mod:`benchmarks.quality` without its sweeps: each picture of the quality
 benchmark (:data:`benchmarks.quality.KINDS`: its kind, source and licence) on FDM (the default
-config) and SLA (the bundled example's settings with SLA holes) is decomposed, its plate design
-chosen and refined exactly as ``stencil-cad run`` does (:func:`stencil_cad.pipeline.standoff.choose_plates`,
-with the thickness its wall asks for), sprayed, and scored with S-CIELAB at 1 m and 2 m against the
-source resized to the simulated grid; the hard stencil of the same job (as many colours as layers
-and primer, the process's feature and bridge rules) is sprayed at each of the quality benchmark's
-hard stand-offs and the best one at each distance is the reference. Each row gives both scores,
-the ratios at 1 m and 2 m, the worst can of the prior (``default_scielab_1m_worst``) and each
-layer's dose; after the rows of a process, a ``median-<process>`` row gives the median ratios.
-The full sweeps (holes only and windows at every stand-off, unrefined) stay in
-``python -m benchmarks quality``: this one runs in about a third of its time.
+config) and SLA (the bundled example's settings with SLA holes). The default is what
+``stencil-cad run`` makes of that config with the picture as its image (:func:`job_default`): the
+picture is saved as a PNG and the job's own steps run on it, loaded, decomposed, its plate design
+chosen, stippled and refined once (the holes the plate-design trials made reused), sprayed with the
+holes as the process makes them and scored by the simulate stage, S-CIELAB at 1 m and 2 m against
+the source resized to the simulated grid (the manifest's ``simulate.scielab`` and ``scielab_2x``);
+only the CAD, which no score reads, is left out. The hard stencil of the same job (as many colours
+as layers and primer, the process's feature and bridge rules) is sprayed at each of the quality
+benchmark's hard stand-offs, scored against the same reference on the same grid, and the best one
+at each distance is the reference. Each row gives both scores, the ratios at 1 m and 2 m, the worst
+can of the prior (``default_scielab_1m_worst``) and each layer's dose; after the rows of a process,
+a ``median-<process>`` row gives the median ratios. The full sweeps (holes only and windows at every
+stand-off, unrefined) stay in ``python -m benchmarks quality``.
 
 Run: ``python -m benchmarks fidelity [--case coffee-fdm] [--case grass]``.
 """
@@ -19,6 +22,7 @@ Run: ``python -m benchmarks fidelity [--case coffee-fdm] [--case grass]``.
 from __future__ import annotations
 
 import statistics
+import tempfile
 import time
 
 from benchmarks import quality as q
@@ -36,37 +40,68 @@ SMOKE_KEYS = (
 )
 
 
-def _default(f, pipeline, cfg0, layers, pic, image: str):
-    """The job's own design, refined and sprayed: ``(scores, figures of the design, simulation, reference)``."""
-    from stencil_cad.pipeline.standoff import choose_plates
+def job_default(cfg):
+    """What ``stencil-cad run`` makes of ``cfg`` (its ``image``, or the bundled example).
 
-    size = (pic.width_mm, pic.height_mm)
-    run_ = pipeline.Run(cfg=cfg0, out=q._NullOut(), quiet=True)
-    cfg = choose_plates(run_, layers, size, pic)
-    design = run_.figures.standoff
+    Returns ``(run, picture, layers, holes, simulation, reference)``.
+
+    The job's own steps, in its order: the picture loaded as the job loads it, the plate sized, the
+    soft plates made (:func:`stencil_cad.pipeline.run.soft_plates`: decomposed, the plate design chosen,
+    stippled and refined once, the trials' holes reused) and simulated and scored by
+    :func:`stencil_cad.pipeline.simulate.stage_simulate` (the holes as the process makes them). Only
+    the CAD is left out, which no score reads. The run's ``figures.simulate`` holds the manifest's
+    ``simulate`` section.
+    """
+    from stencil_cad import pipeline
+    from stencil_cad.pipeline.run import computing, fit_thickness, plan_mural, soft_plates
+
     run_ = pipeline.Run(cfg=cfg, out=q._NullOut(), quiet=True)
-    stippled = pipeline.stage_stipple(run_, layers, size, pic)
-    refined = pipeline.stage_refine(run_, layers, stippled, size, pic)
-    sprays = q._sprays(pipeline, cfg, layers.colours)
-    sim = f["simulate"](layers, refined, cfg.spray, geometry=q._geometry(cfg), layer_sprays=sprays)
-    ref = q._source_on_grid(image, cfg, sim.composite.shape[:2], f["fit_to_size"])
+    pic = pipeline.load_picture(cfg)
+    size = (pic.width_mm, pic.height_mm)
+    with computing(run_, pic.shape[0] * pic.shape[1]):
+        grid = plan_mural(run_, size, pic.shape)
+        fit_thickness(run_, grid)
+        layers, dotsets = soft_plates(run_, pic, size, grid)
+        sim, ref = pipeline.stage_simulate(run_, pic, layers, dotsets, keep=True)
+    return run_, pic, layers, dotsets, sim, ref
+
+
+def job_config(image: str, settings: str, folder, size: dict | None = None):
+    """The config of a job on the picture ``image`` saved in ``folder``: the setting's, with that file as ``image``.
+
+    Parsed as a user's config is (a config dumped and parsed again would give as chosen what the
+    config leaves to the job: the wall's stand-off, the plate's thickness).
+    """
+    return q._configs(size, image=q.picture_file(image, folder))[settings]
+
+
+def _default(cfg):
+    """The job's own design on the picture's file: ``(scores and figures of the design, the job's state)``."""
+    run_, pic, layers, dotsets, sim, ref = job_default(cfg)
+    seen = run_.figures.simulate
+    cfg = run_.cfg
     scores = {
-        **q._scores(f, ref, sim.composite, sim.mm_per_px),
-        "holes": sum(map(len, refined)),
-        "doses": [round(d.amount(cfg.spray.amount), 4) for d in refined],
-        "by_can": q._by_can(f, cfg, layers, refined, ref, sprays),
+        # The job's own scores (the manifest's simulate.scielab and scielab_2x) at 1 m and 2 m.
+        f"scielab_{q.DISTANCES_M[0]:g}m": round(float(seen.scores["scielab"]), 3),
+        f"scielab_{q.DISTANCES_M[1]:g}m": round(float(seen.scores["scielab_2x"]), 3),
+        "de2000": round(float(seen.scores["de2000_mean"]), 3),
+        "holes": sum(map(len, dotsets)),
+        "doses": [round(d.amount(cfg.spray.amount), 4) for d in dotsets],
+        "by_can": {k: round(float(v), 3) for k, v in (seen.scielab_by_can or {}).items()},
         "windows": cfg.stipple.windows.value,
         "standoff_mm": float(cfg.wall.standoff_mm[0]),
         "thickness_mm": float(cfg.plate.thickness_mm),
     }
-    return scores, design, sim, ref, run_
+    return scores, (run_, pic, layers, sim, ref)
 
 
-def _row(f, pipeline, image: str, settings: str, cfg0) -> dict:
+def _row(f, pipeline, image: str, settings: str, folder, size: dict | None) -> dict:
     t0 = time.perf_counter()
-    pic = q._load(image, cfg0, f["fit_to_size"])
-    layers = pipeline.stage_decompose(pipeline.Run(cfg=cfg0, out=q._NullOut(), quiet=True), pic)
-    default, design, sim, ref, run_ = _default(f, pipeline, cfg0, layers, pic, image)
+    cfg0 = job_config(image, settings, folder, size)
+    # The rows are the job's only at the distances the job scores: the viewing distance and twice it.
+    assert cfg0.view.distance_m == q.DISTANCES_M[0] and q.DISTANCES_M[1] == 2 * q.DISTANCES_M[0]
+    default, (run_, pic, layers, sim, ref) = _default(cfg0)
+    design = run_.figures.standoff
     shape, mm_per_px = sim.composite.shape[:2], sim.mm_per_px
     hard, _, res = q._hard(f, pipeline, cfg0, layers, pic, run_, ref, shape, mm_per_px)
     row = {
@@ -85,7 +120,7 @@ def _row(f, pipeline, image: str, settings: str, cfg0) -> dict:
         row[f"hard_{key}"] = hard[best][key]
         row[f"hard_standoff_{d:g}m"] = best
         row[f"default_over_hard_{d:g}m"] = round(default[key] / hard[best][key], 3)
-    row["default_scielab_1m_worst"] = max(default["by_can"].values())
+    row["default_scielab_1m_worst"] = max(default["by_can"].values(), default=default["scielab_1m"])
     row["default_scielab_1m_by_can"] = default["by_can"]
     row["default_de2000"] = default["de2000"]
     row["default_windows"] = default["windows"]
@@ -103,12 +138,12 @@ def run(cases=None, size: dict | None = None):
     """One row per picture and process, then a ``median-<process>`` row per process run."""
     f = q._require()
     pipeline = f["pipeline"]
-    configs = q._configs(size)
     ratios: dict[str, list[tuple[float, float]]] = {}
-    for image, settings in q._select(cases):
-        row = _row(f, pipeline, image, settings, configs[settings])
-        ratios.setdefault(settings, []).append((row["default_over_hard_1m"], row["default_over_hard_2m"]))
-        yield row
+    with tempfile.TemporaryDirectory(prefix="fidelity-") as folder:
+        for image, settings in q._select(cases):
+            row = _row(f, pipeline, image, settings, folder, size)
+            ratios.setdefault(settings, []).append((row["default_over_hard_1m"], row["default_over_hard_2m"]))
+            yield row
     for settings, got in ratios.items():
         if len(got) > 1:
             yield {

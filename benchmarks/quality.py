@@ -144,8 +144,11 @@ class _NullOut:
         return discard
 
 
-def _configs(size: dict | None = None) -> dict:
-    """The job config of each setting, validated like a user's config (``size``: another picture size)."""
+def _configs(size: dict | None = None, image: Path | None = None) -> dict:
+    """The job config of each setting, validated like a user's config.
+
+    ``size``: another picture size; ``image``: the picture's file (the config's ``image``).
+    """
     import yaml
 
     from stencil_cad.config.io import parse_config
@@ -154,6 +157,8 @@ def _configs(size: dict | None = None) -> dict:
         (Path(__file__).resolve().parents[1] / "stencil_cad/data/example.yaml").read_text()
     )
     sized = {"size": size} if size else {}
+    if image is not None:
+        sized["image"] = str(image)
     return {
         "fdm": parse_config({**sized}, source="quality fdm (defaults)"),
         "sla": parse_config(
@@ -295,6 +300,26 @@ def _picture_rgb(name: str) -> np.ndarray:
     if img.ndim == 2:
         img = np.stack([img] * 3, axis=-1)
     return img[..., :3].astype(np.float64) / 255.0
+
+
+def picture_file(name: str, folder: Path) -> Path:
+    """The picture ``name`` saved as a PNG in ``folder``, as a maker would hand it to ``--image``.
+
+    A photo of scikit-image is saved with its own pixels (a grey one with one channel, as its file
+    has), a generated one as 8-bit RGB.
+    """
+    from PIL import Image
+
+    path = Path(folder) / f"{name}.png"
+    if name in GENERATED:
+        pixels = np.round(np.clip(_picture_rgb(name), 0.0, 1.0) * 255.0).astype(np.uint8)
+    else:
+        from skimage import data
+
+        pixels = np.asarray(getattr(data, name)())
+        pixels = pixels if pixels.ndim == 2 else pixels[..., :3]
+    Image.fromarray(pixels).save(path)
+    return path
 
 
 def _source_on_grid(name: str, cfg, shape, fit_to_size) -> np.ndarray:

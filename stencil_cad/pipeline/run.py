@@ -82,6 +82,20 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
             )
         save_config(run)
         return run_hard(run, picture)
+    layers, dotsets = soft_plates(run, picture, size, grid)
+    record_cost(run, grid, dotsets)
+    build_any(run, layers, dotsets, size, grid, picture)
+    return finish(run, "run")
+
+
+def soft_plates(
+    run: Run, picture: Picture, size: tuple[float, float], grid: TileGrid
+) -> tuple[Layers, list[DotSet]]:
+    """A soft job up to its holes: decomposed, its plate design chosen, stippled and refined.
+
+    What :func:`run_all` builds and simulates; a benchmark that scores what the job makes calls it
+    (and :func:`stencil_cad.pipeline.simulate.stage_simulate`) rather than repeating the steps.
+    """
     bound_dots(run, size)
     layers = stage_decompose(run, picture)
     # The plate design left to the job (windows, the wall's stand-off) is chosen for a one-plate
@@ -90,10 +104,7 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
     if not grid.tiled:
         design_plates(run, layers, size, picture)
     save_config(run)
-    dotsets = stage_stipple(run, layers, size, picture, grid)
-    record_cost(run, grid, dotsets)
-    build_any(run, layers, dotsets, size, grid, picture)
-    return finish(run, "run")
+    return layers, stage_stipple(run, layers, size, picture, grid)
 
 
 def plan_mural(run: Run, picture_mm: tuple[float, float], shape_px: tuple[int, ...]) -> TileGrid:
