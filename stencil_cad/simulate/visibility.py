@@ -15,6 +15,7 @@ of a geometric ladder where it falls below.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -182,7 +183,9 @@ def pattern_blend_distance_m(
     squares.sort(key=lambda s: (-s[0], s[1], s[2]))
     chosen = [(r0, c0) for _, r0, c0 in squares[:PATCHES]]
 
+    @functools.cache
     def worst(d: float) -> tuple[float, tuple[int, int]]:
+        # Cached: the bisection's last look is at a rung it has already scored.
         scores = [
             (
                 scielab(
