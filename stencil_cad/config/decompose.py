@@ -30,6 +30,7 @@ class OpacitySource(str, enum.Enum):
 
     auto = "auto"
     rgb = "rgb"
+    grey = "grey"
     alpha = "alpha"
 
 
@@ -139,7 +140,7 @@ class DecomposeConfig(StrictModel):
     primer: str = Field(
         "auto",
         description=(
-            "Primer (base coat) colour. 'auto': solved with the paints (white for a grey or alpha input). "
+            "Primer (base coat) colour. 'auto': solved with the paints (white for opacity_source grey or alpha). "
             "Or a hex string '#ffffff' / [r, g, b] 0-255: held fixed."
         ),
     )
@@ -154,9 +155,12 @@ class DecomposeConfig(StrictModel):
     opacity_source: OpacitySource = Field(
         OpacitySource.auto,
         description=(
-            "Choices: auto (a grey image is already an opacity map: one layer, opacity = darkness; "
-            "colour images are decomposed), rgb (always decompose the colours), alpha (the image's "
-            "alpha channel is the opacity of one layer; needs an RGBA image)."
+            "Choices: auto (the image's colours are decomposed, a grey image's into grey paints; the "
+            "same as rgb), rgb, grey (one layer of black whose opacity is the image's darkness, over a "
+            "white primer: one plate, but its sparse dark dots show at light tones; the fidelity "
+            "benchmark's grass photo scored S-CIELAB 4.57 at 1 m as one black layer and 2.79 as three "
+            "greys over black), alpha (the image's alpha channel is the opacity of one layer; needs an "
+            "RGBA image)."
         ),
     )
     min_delta_e: float = Field(

@@ -148,9 +148,8 @@ def _source(picture: Picture, cfg: DecomposeConfig) -> str:
         if picture.alpha is None:
             raise ValueError("decompose.opacity_source: 'alpha' needs an image with an alpha channel (RGBA)")
         return "alpha"
-    if src is OpacitySource.auto and picture.grey:
-        return "grey"
-    return "rgb"
+    # A grey picture is decomposed like any other (into grey paints) unless one layer of darkness is asked for.
+    return "grey" if src is OpacitySource.grey else "rgb"
 
 
 def _single_layer(picture: Picture, cfg: DecomposeConfig, source: str, t0: float) -> Layers:

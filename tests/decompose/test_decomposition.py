@@ -251,17 +251,20 @@ def test_flat_image_is_an_error_naming_the_primer(value):
     hexc = "#{0:02x}{0:02x}{0:02x}".format(round(value * 255))
     with pytest.raises(ValueError, match=f"one flat colour: prime the surface with {hexc}"):
         decompose(Picture(rgb=img, mm_per_px=1.0), DecomposeConfig(layers=3), np.random.default_rng(0))
-    # Grey input: a flat white is no ink either (a flat mid-grey is a valid 50 % layer).
+    # Grey input: a flat grey is one flat colour as any other; as one layer of darkness a flat
+    # white is no ink either, and a flat mid-grey is a valid 50 % layer.
+    for flat in (np.ones((8, 8, 3)), np.full((8, 8, 3), 0.5)):
+        with pytest.raises(ValueError, match="one flat colour"):
+            decompose(
+                Picture(rgb=flat, mm_per_px=1.0, grey=True), DecomposeConfig(), np.random.default_rng(0)
+            )
+    darkness = DecomposeConfig(opacity_source="grey")
     with pytest.raises(ValueError, match="one flat colour"):
         decompose(
-            Picture(rgb=np.ones((8, 8, 3)), mm_per_px=1.0, grey=True),
-            DecomposeConfig(),
-            np.random.default_rng(0),
+            Picture(rgb=np.ones((8, 8, 3)), mm_per_px=1.0, grey=True), darkness, np.random.default_rng(0)
         )
     grey = decompose(
-        Picture(rgb=np.full((8, 8, 3), 0.5), mm_per_px=1.0, grey=True),
-        DecomposeConfig(),
-        np.random.default_rng(0),
+        Picture(rgb=np.full((8, 8, 3), 0.5), mm_per_px=1.0, grey=True), darkness, np.random.default_rng(0)
     )
     np.testing.assert_allclose(grey.alphas, 0.5)
 
@@ -409,19 +412,28 @@ def test_fixed_palette_with_free_primer_moves_only_the_primer(synthetic):
     assert np.abs(layers.primer - PRIMER).max() * 255 <= 3.0
 
 
-def test_grey_picture_is_one_layer_of_darkness():
+def test_grey_picture_is_one_layer_of_darkness_when_asked():
     g = np.linspace(0.0, 1.0, 40)[None, :].repeat(10, axis=0)
     pic = Picture(rgb=np.repeat(g[..., None], 3, axis=2), mm_per_px=0.3, grey=True)
-    layers = decompose(pic, DecomposeConfig(), np.random.default_rng(0))
+    layers = decompose(pic, DecomposeConfig(opacity_source="grey"), np.random.default_rng(0))
     assert layers.count == 1
     np.testing.assert_allclose(layers.alphas[0], 1.0 - g, atol=1e-12)
     np.testing.assert_allclose(layers.primer, [1, 1, 1])
     np.testing.assert_allclose(layers.colours, [[0, 0, 0]])
     assert layers.info["rmse"] < 1e-9
     assert layers.mm_per_px == 0.3
-    # Asking for rgb decomposes the grey image instead.
-    multi = decompose(pic, DecomposeConfig(layers=2, opacity_source="rgb"), np.random.default_rng(0))
-    assert multi.count == 2
+
+
+def test_a_grey_picture_is_decomposed_into_grey_paints_by_default():
+    # One black layer sprays light tones as sparse dark dots; grey paints keep them fine.
+    rng = np.random.default_rng(3)
+    g = np.clip(np.linspace(0.05, 0.95, 60)[None, :].repeat(30, axis=0) + rng.normal(0, 0.02, (30, 60)), 0, 1)
+    pic = Picture(rgb=np.repeat(g[..., None], 3, axis=2), mm_per_px=0.3, grey=True)
+    layers = decompose(pic, DecomposeConfig(layers=3), np.random.default_rng(0))
+    assert layers.count >= 2 and layers.info["source"] == "rgb"
+    paints = np.vstack([layers.primer, layers.colours])
+    assert np.ptp(paints, axis=1).max() < 0.05  # every paint and the primer neutral
+    assert np.ptp(paints.mean(axis=1)) > 0.5  # from dark to light
 
 
 def test_alpha_channel_as_opacity():
