@@ -45,6 +45,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..config.thickness import FDM_THIN_LAYER_MM, FDM_THIN_PLATE_MM
 from ..figures.cost import CostFigures, PaintCost, PartCost
 from ..geometry import polygon_area
 from .laser import laser_stand, sheets_needed
@@ -141,9 +142,9 @@ EXPECTED_FILL = 0.35
 EXPECTED_OPEN = 0.12
 
 
-def _sheet_speed(mm_s: float) -> float:
+def _sheet_speed(mm_s: float, layer_mm: float = LAYER_MM) -> float:
     """A solid-sheet speed above the first layer, mm/s, as the profile's volumetric cap lets it print."""
-    return min(mm_s, MAX_FLOW_MM3_S / (LAYER_MM * SHEET_LINE_MM))
+    return min(mm_s, MAX_FLOW_MM3_S / (layer_mm * SHEET_LINE_MM))
 
 
 def hours_text(hours: float) -> str:
@@ -182,9 +183,14 @@ class PlateSpec:
     edge_mm: float
 
     @property
+    def layer_mm(self) -> float:
+        """The layer height it prints at: the thinnest FDM plate's 0.2 mm, else the profile's."""
+        return FDM_THIN_LAYER_MM if self.thickness_mm <= FDM_THIN_PLATE_MM + 1e-6 else LAYER_MM
+
+    @property
     def layers(self) -> int:
-        """Printed layers at the profile's layer height."""
-        return max(1, math.ceil(self.thickness_mm / LAYER_MM - 1e-6))
+        """Printed layers at :attr:`layer_mm`."""
+        return max(1, math.ceil(self.thickness_mm / self.layer_mm - 1e-6))
 
     @property
     def plastic_mm3(self) -> float:
@@ -200,7 +206,7 @@ class PlateSpec:
         """
         net = max(self.area_mm2 - self.open_mm2, 0.0) / SHEET_LINE_MM
         n = self.layers
-        solid, top = _sheet_speed(_SOLID_MM_S), _sheet_speed(_TOP_MM_S)
+        solid, top = _sheet_speed(_SOLID_MM_S, self.layer_mm), _sheet_speed(_TOP_MM_S, self.layer_mm)
         per_layer = [_FIRST_MM_S] + [solid] * max(n - 2, 0) + ([top] if n > 1 else [])
         return net * sum(1.0 / v for v in per_layer) + n * self.edge_mm / _HOLE_MM_S
 
