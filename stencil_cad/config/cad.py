@@ -8,7 +8,7 @@ from typing import Annotated
 
 from pydantic import Field, field_validator, model_validator
 
-from .base import StrictModel
+from .base import StrictModel, null_reads_as
 from .outline import OutlineConfig
 from .thickness import LABEL_FLOOR_MM
 
@@ -141,11 +141,8 @@ class PlateConfig(StrictModel):
         ),
     )
 
-    @field_validator("thickness_mm", mode="before")
-    @classmethod
-    def _thickness_default(cls, v):
-        # A job fills null in for its process and plate size (JobConfig); alone, the thinnest FDM plate.
-        return DEFAULT_THICKNESS_MM if v is None else v
+    # A job fills null in for its process and plate size (JobConfig); alone, the default.
+    _thickness_default = null_reads_as("thickness_mm", DEFAULT_THICKNESS_MM)
 
     @model_validator(mode="after")
     def _check(self) -> PlateConfig:
