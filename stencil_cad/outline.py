@@ -311,17 +311,27 @@ def outline_area(
     return path_area(path) if exact else polygon_area(path_ring(path, cfg.chord_tol_mm))
 
 
-def label_region(width_mm: float, height_mm: float, cfg: OutlineConfig) -> tuple[float, float, float, float]:
+def label_region(
+    width_mm: float, height_mm: float, cfg: OutlineConfig, solid_mm: float = 0.0
+) -> tuple[float, float, float, float]:
     """A rectangle in the bottom border for the label, clear of the picture and the plate edge.
 
     Its x range is the picture's, inset by ``cfg.label_gap_mm``, so it also keeps clear of the
     rounded corners; its y range is the bottom border minus the gap on both sides.
 
+    Args:
+        width_mm: Picture width in mm.
+        height_mm: Picture height in mm.
+        cfg: Outline config.
+        solid_mm: How far above the picture area's bottom edge the plate is solid all along (a mural
+            tile's band below its lowest hole, :data:`stencil_cad.config.outline.TILE_MARGIN_MM`);
+            the label rises into it. Defaults to 0 (the border alone).
+
     Returns:
-        ``(x0, y0, x1, y1)`` in mm, picture frame; ``y1 < 0``.
+        ``(x0, y0, x1, y1)`` in mm, picture frame; ``y1 < 0`` unless ``solid_mm`` lets it rise.
     """
     g, m = cfg.label_gap_mm, cfg.margin_mm
-    return (g, -m + g, width_mm - g, -g)
+    return (g, -m + g, width_mm - g, max(float(solid_mm), 0.0) - g)
 
 
 # ---------------------------------------------------------------- fit geometry

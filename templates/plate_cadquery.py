@@ -18,7 +18,7 @@ THICKNESS_MM = 0.9
 #: Label on the top face: "engrave", "emboss" or "none".
 LABEL = "engrave"
 #: Depth of an engraved label / height of an embossed one, in mm.
-LABEL_DEPTH_MM = 0.3
+LABEL_DEPTH_MM = 0.2
 #: Font size of the label in mm; shrinks to fit the label area.
 LABEL_HEIGHT_MM = 4.0
 #: Smallest font size in mm the label may shrink to.

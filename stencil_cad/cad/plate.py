@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..config.stipple import HOLE_FLOOR_MM
+from ..config.thickness import LABEL_FLOOR_MM
 from ..exchange.mesh import plate_mesh
 from ..geometry import as_ccw, point_ring_distance, points_in_ring, polygon_area, rings_cross
 from ..model import Holes, PlateGeometry, TriMesh
@@ -343,9 +344,10 @@ def perforated_plate(
     mode = getattr(label_mode, "value", label_mode)
     if mode not in ("engrave", "emboss", "none"):
         raise PlateBuildError(f"label mode must be engrave, emboss or none, got {mode!r}")
-    if mode == "engrave" and label_depth_mm > thickness_mm - 0.3:
+    if mode == "engrave" and label_depth_mm > thickness_mm - LABEL_FLOOR_MM + 1e-9:
         raise PlateBuildError(
-            f"label depth must be ≤ thickness - 0.3 ({thickness_mm - 0.3:g} mm), got {label_depth_mm}"
+            f"label depth must be ≤ thickness - {LABEL_FLOOR_MM:g} ({thickness_mm - LABEL_FLOOR_MM:g} mm), "
+            f"got {label_depth_mm}"
         )
     glyphs: tuple = ()
     box: tuple[float, float, float, float] | None = None

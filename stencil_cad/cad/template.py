@@ -254,6 +254,7 @@ def build_plate(
     *,
     rules: DesignRules | None = None,
     outline_ring=None,
+    label_solid_mm: float = 0.0,
 ) -> PlateModel:
     """Build one layer's plate: check the holes again, then run the plate template.
 
@@ -269,6 +270,8 @@ def build_plate(
             radius ≥ 0.5 mm, web ≥ ``cfg.min_web_mm``, inside the picture.
         outline_ring: ``(M, 2)`` counter-clockwise outline replacing the config's (a mural
             tile's outline with its sight notches), or None.
+        label_solid_mm: How far above the picture area's bottom edge the plate is solid all along
+            (a mural tile's band below its lowest hole): the label may rise into it. Defaults to 0.
 
     Returns:
         The plate model (build123d Part, description, analytic volume).
@@ -283,7 +286,7 @@ def build_plate(
     ring = (
         outline_mod.plate_outline(width_mm, height_mm, cfg.outline) if outline_ring is None else outline_ring
     )
-    area = outline_mod.label_region(width_mm, height_mm, cfg.outline)
+    area = outline_mod.label_region(width_mm, height_mm, cfg.outline, label_solid_mm)
     path = cfg.template if cfg.template is not None else builtin_template()
     model = run_template(
         path, holes, ring, area, label, config_overrides(cfg), strict=set(cfg.template_params)

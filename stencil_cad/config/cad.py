@@ -8,8 +8,9 @@ from typing import Annotated
 
 from pydantic import Field, field_validator, model_validator
 
-from .base import StrictModel
+from .base import StrictModel, null_reads_as
 from .outline import OutlineConfig
+from .thickness import LABEL_FLOOR_MM
 
 #: The plate's thickness outside a job, where no process or size is known, mm: the thinnest FDM plate
 #: (three 0.3 mm layers), which a job of the default size and process fills in too.
@@ -42,8 +43,9 @@ class PlateConfig(StrictModel):
             "Thinner prints faster and shades the spray less; too thin sags on the wall's ledge. null: the "
             "thinnest plate the process makes for the plate's longest side (picture plus margins, a mural's "
             "tile), whose sag under its own weight stays within 5 % of the process's stand-off, and thick "
-            "enough for an engraved label: fdm in whole 0.3 mm layers, 0.9 mm up to a 213 mm side, 1.2 to "
-            "246, 1.5 to 275, 1.8 to 301; sla in 0.1 mm layers from 0.8 mm (0.8 up to 160 mm, 1.0 to 179, 1.2 "
+            "enough for an engraved label: fdm 0.4 mm (two 0.2 mm layers) up to a 128 mm side, then whole "
+            "0.3 mm layers, 0.6 mm to 157, 0.9 to 192, 1.2 to 222, 1.5 to 248 (a mural's plates on posts: "
+            "the span between posts); sla in 0.1 mm layers from 0.8 mm (0.8 up to 160 mm, 1.0 to 179, 1.2 "
             "to 196); laser a stock sheet, 1 mm PETG up to 193 mm, 1.5 mm to 236, 2 mm to 273, "
             "3 mm to 334 (for 0.25-0.5 mm film give its thickness and label: none). The summary and the "
             "instruction sheet say which and why."
@@ -58,13 +60,14 @@ class PlateConfig(StrictModel):
         ),
     )
     label_depth_mm: float = Field(
-        0.3,
+        0.2,
         gt=0.0,
         le=5.0,
         description=(
             "Depth of an engraved label, or height of an embossed one, in mm. Range (0, 5]; an engraving "
-            "must leave ≥ 0.3 mm of plate under it (≤ thickness_mm - 0.3). The default 0.3 is one layer "
-            "of the shipped FDM profile, so a two-layer (0.6 mm) plate can carry it."
+            "must leave ≥ 0.2 mm of plate under it (≤ thickness_mm - 0.2). The default 0.2 is one layer "
+            "of the thinnest FDM plate (0.4 mm: two 0.2 mm layers), so it can carry it; on the shipped "
+            "profile's 0.3 mm layers the slicer cuts it from the whole top layer."
         ),
     )
     label_height_mm: float = Field(
@@ -138,18 +141,18 @@ class PlateConfig(StrictModel):
         ),
     )
 
-    @field_validator("thickness_mm", mode="before")
-    @classmethod
-    def _thickness_default(cls, v):
-        # A job fills null in for its process and plate size (JobConfig); alone, the thinnest FDM plate.
-        return DEFAULT_THICKNESS_MM if v is None else v
+    # A job fills null in for its process and plate size (JobConfig); alone, the default.
+    _thickness_default = null_reads_as("thickness_mm", DEFAULT_THICKNESS_MM)
 
     @model_validator(mode="after")
     def _check(self) -> PlateConfig:
-        if self.label is LabelMode.engrave and self.label_depth_mm > self.thickness_mm - 0.3:
+        if (
+            self.label is LabelMode.engrave
+            and self.label_depth_mm > self.thickness_mm - LABEL_FLOOR_MM + 1e-9
+        ):
             raise ValueError(
-                f"label_depth_mm must be ≤ thickness_mm - 0.3 ({self.thickness_mm - 0.3:g} mm) for an "
-                f"engraved label, got {self.label_depth_mm}"
+                f"label_depth_mm must be ≤ thickness_mm - {LABEL_FLOOR_MM:g} "
+                f"({self.thickness_mm - LABEL_FLOOR_MM:g} mm) for an engraved label, got {self.label_depth_mm}"
             )
         if self.label_min_height_mm > self.label_height_mm:
             raise ValueError(

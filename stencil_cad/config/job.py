@@ -17,7 +17,7 @@ from .cad import ExportConfig, LabelMode, PlateConfig, WallConfig
 from .compute import ComputeConfig
 from .decompose import DecomposeConfig
 from .hard import HardConfig
-from .outline import OutlineConfig
+from .outline import TILE_MARGIN_MM, OutlineConfig
 from .paints import PaintsConfig
 from .refine import RefineConfig
 from .rules import DesignRules
@@ -144,6 +144,7 @@ class JobConfig(StrictModel):
 
     #: The filled-in plate thickness and why, or None when plate.thickness_mm was given.
     _thickness_fill: Thickness | None = PrivateAttr(None)
+    _margin_filled: bool = PrivateAttr(False)
     #: Whether ``wall.standoff_mm`` was left to the job (null): a soft job may then choose it for
     #: its picture with the plates' windows (:meth:`with_standoff`, ``pipeline.standoff``).
     _standoff_filled: bool = PrivateAttr(False)
@@ -213,6 +214,15 @@ class JobConfig(StrictModel):
         fill = _thickness_for(process, side, probe)
         cfg = handler({**data, "plate": {**plate, "thickness_mm": fill.thickness_mm}})
         cfg._thickness_fill = fill
+        return cfg
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _fill_margin(cls, data, handler):
+        """``plate.outline.margin_mm`` left out (or null): the tiles' margin for a soft mural (:func:`_tile_margin`)."""
+        left = isinstance(data, dict) and _margin_left(data)
+        cfg = handler(_tile_margin(data) if left else data)
+        cfg._margin_filled = left
         return cfg
 
     @model_validator(mode="wrap")
@@ -343,6 +353,39 @@ class JobConfig(StrictModel):
         return self
 
 
+def _margin_left(data: dict) -> bool:
+    """Whether a raw config leaves ``plate.outline.margin_mm`` out (or null)."""
+    plate = data.get("plate") or {}
+    outline = (plate.get("outline") if isinstance(plate, dict) else None) or {}
+    return isinstance(outline, dict) and outline.get("margin_mm") is None
+
+
+def _tile_margin(data: dict) -> dict:
+    """The raw config with ``plate.outline.margin_mm`` filled in for a soft mural's tiles, when left null.
+
+    A picture wider or taller than the bed's longer side is tiled whatever its margins; its plates take
+    :data:`~stencil_cad.config.outline.TILE_MARGIN_MM`. Anything else, or a margin the rest of the
+    outline or the wall cannot take (a larger corner radius, label gap or wall opening), keeps the
+    plate's default.
+    """
+    plate = data.get("plate") or {}
+    outline = (plate.get("outline") if isinstance(plate, dict) else None) or {}
+    if not isinstance(plate, dict) or not isinstance(outline, dict) or outline.get("margin_mm") is not None:
+        return data
+    if (data.get("mode") or Mode.soft) not in (Mode.soft, Mode.soft.value):
+        return data
+    try:
+        size = SizeConfig.model_validate(data.get("size") or {})
+        bed = resolve_bed(parse_bed(data.get("bed")))
+        if bed is None or max(size.width_mm, size.height_mm or 0.0) <= max(bed.x_mm, bed.y_mm):
+            return data
+        tile = OutlineConfig.model_validate({**outline, "margin_mm": TILE_MARGIN_MM})
+        WallConfig.model_validate(data.get("wall") or {}).check_plate(tile, float("inf"))
+    except (ValidationError, ValueError, TypeError):
+        return data
+    return {**data, "plate": {**plate, "outline": {**outline, "margin_mm": TILE_MARGIN_MM}}}
+
+
 def _thickness_for(
     process: Process, side_mm: float, plate: PlateConfig, standoff_mm: float | None = None
 ) -> Thickness:
@@ -394,4 +437,6 @@ def parse_overrides(
         data["wall"]["standoff_mm"] = None  # filled in again (and chosen for the picture) for the new mode
     if cfg._thickness_fill is not None:
         data["plate"]["thickness_mm"] = None  # filled in again for the new image, bed or mode
+    if cfg._margin_filled:
+        data["plate"]["outline"]["margin_mm"] = None  # the tiles' margin for the new bed, size or mode
     return parse_config(data, source="command line")

@@ -5,7 +5,7 @@ middle towards the sprayed surface, and under the physical spray model every hol
 its stand-off (sigma = k * g). The fill-in takes the thinnest sheet the process makes (whole
 layers of the shipped profile, or a stock sheet for a laser) whose sag stays within
 :data:`SAG_LIMIT_FRACTION` of the process's stand-off, and never thinner than an engraved label
-needs (``label_depth_mm + 0.3``).
+needs (``label_depth_mm`` + :data:`LABEL_FLOOR_MM`).
 
 The model (Timoshenko & Woinowsky-Krieger, *Theory of Plates and Shells*, table 8: a simply
 supported square plate of side a under a uniform load q): ``w = 0.00406 * q * a**4 / D`` with
@@ -26,7 +26,17 @@ a 50 % change of blur), so a 5 % change is far below what a viewer sees.
 A mural's plates also stand on posts (:mod:`stencil_cad.mural.posts`): the fill-in then takes the
 panel between four posts (:func:`column_side_mm`: point supports at its corners, Timoshenko's
 0.00581 against the edge-supported 0.00406) instead of the whole plate, and an FDM plate comes out
-two layers (0.6 mm).
+0.4 mm: two 0.2 mm layers (:data:`FDM_THIN_PLATE_MM`).
+
+The thinnest FDM plate is two 0.2 mm layers, not two of the profile's 0.3 mm: a plate's filament
+is its plastic, and a two-layer plate's print time is its two layers' lines whatever their height
+(the first at the first-layer speed; the second under the volumetric cap, faster when thinner).
+Measured with PrusaSlicer 2.5 and the shipped profile on a plate of the 600 x 400 mm coffee mural
+(4,632 holes): 0.6 mm (two 0.3 mm layers) 1 h 32 min and 30.9 g, 0.4 mm (two 0.2 mm layers, the
+slicer told by :func:`stencil_cad.slicing.part_settings`) 1 h 29 min and 20.8 g (-3 % time, -33 %
+filament). It carries an engraved label one layer deep: the default ``label_depth_mm`` 0.2 over
+:data:`LABEL_FLOOR_MM` 0.2 (on 0.3 mm layers the slicer still cuts the engraving from the whole
+top layer: it slices at mid-layer).
 
 Sag in mm from this model (solid plate; times 2 for the perforation), PLA E 3.5 GPa, 1240 kg/m3:
 
@@ -40,7 +50,8 @@ side (mm)     150      200      250      300      360
 2.1 mm        0.02     0.05     0.13     0.27     0.56
 ==========  =======  =======  =======  =======  =======
 
-So with the perforation and the 0.5 mm limit an FDM plate is 0.6 mm (two layers) up to a 157 mm side,
+So with the perforation and the 0.5 mm limit an FDM plate is 0.4 mm (two 0.2 mm layers) up to a
+128 mm side, 0.6 mm (two 0.3 mm layers) up to a 157 mm side,
 0.9 mm up to a 192 mm side (the
 bundled example's 173 mm plates, a Prusa MINI's bed), 1.2 mm to 222 mm, 1.5 mm to 248 mm (a Prusa
 MK4's bed), 1.8 mm to 272 mm, 2.1 mm to 294 mm, 2.4 mm to 314 mm, and 3.3 mm on a 360 mm bed
@@ -72,8 +83,13 @@ COLUMN_SAG_COEFFICIENT = 0.00581
 PERFORATION_FACTOR = 2.0
 #: Largest sag as a fraction of the process's stand-off (see the module's text).
 SAG_LIMIT_FRACTION = 0.05
-#: An engraved label leaves this much plate under it (``plate.label_depth_mm`` is at most the thickness less this).
-LABEL_FLOOR_MM = 0.3
+#: An engraved label leaves this much plate under it (``plate.label_depth_mm`` is at most the thickness
+#: less this): one 0.2 mm layer of the thinnest FDM plate.
+LABEL_FLOOR_MM = 0.2
+#: The thinnest FDM plate, mm, and the layer height it prints at: two 0.2 mm layers (the profile's
+#: other plates are whole 0.3 mm layers; see the module's text).
+FDM_THIN_PLATE_MM = 0.4
+FDM_THIN_LAYER_MM = 0.2
 _G = 9.81
 
 
@@ -102,16 +118,24 @@ def _layers(height_mm: float, first: int, last: int) -> tuple[float, ...]:
     return tuple(round(n * height_mm, 3) for n in range(first, last + 1))
 
 
-#: Per process: FDM in PLA (E 3.5 GPa), whole 0.3 mm layers of the shipped prusa_fdm profile from
-#: two (a bottom and a top solid layer; a 0.3 mm engraving leaves the bottom one under the label, and
-#: only a plate carried by posts (:mod:`stencil_cad.mural.posts`) is flat that thin); SLA in a standard
+#: Per process: FDM in PLA (E 3.5 GPa), two 0.2 mm layers (:data:`FDM_THIN_PLATE_MM`: a bottom and
+#: a top solid layer; the 0.2 mm engraving leaves the bottom one under the label; flat up to a 128 mm
+#: side, so a small plate or a plate carried by posts, :mod:`stencil_cad.mural.posts`), then whole
+#: 0.3 mm layers of the shipped prusa_fdm profile from two; SLA in a standard
 #: resin (E about 2 GPa after post-cure), whole 0.1 mm layers of prusa_sla from 0.8 mm (the label's
 #: 0.7 mm; resin sheets thinner than that curl in the post-cure, a prior not measured here); a laser
 #: cuts stock sheet, PETG/PET 1 mm or acrylic and plywood 1.5-6 mm (E about 3 GPa). Thinner film
 #: (mylar 0.25-0.5 mm) cuts well but cannot hold an engraved label: give it as plate.thickness_mm
 #: with plate.label none.
 SHEETS: dict[Process, Sheet] = {
-    Process.fdm: Sheet("PLA", 3.5, 1240.0, 0.36, _layers(0.3, 2, 20), "whole 0.3 mm layers"),
+    Process.fdm: Sheet(
+        "PLA",
+        3.5,
+        1240.0,
+        0.36,
+        (FDM_THIN_PLATE_MM, *_layers(0.3, 2, 20)),
+        "two 0.2 mm layers or whole 0.3 mm layers",
+    ),
     Process.sla: Sheet("resin", 2.0, 1150.0, 0.35, _layers(0.1, 8, 60), "whole 0.1 mm layers"),
     Process.laser: Sheet(
         "PETG, acrylic or plywood", 3.0, 1300.0, 0.37, (1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0), "stock sheet"
@@ -166,7 +190,8 @@ def fill_thickness(
         process: The plate's process.
         side_mm: The plate's longest side in mm.
         standoff_mm: The process's stand-off in mm; the sag limit is :data:`SAG_LIMIT_FRACTION` of it.
-        at_least_mm: The thinnest plate the label allows (``label_depth_mm + 0.3`` for an engraving).
+        at_least_mm: The thinnest plate the label allows (``label_depth_mm`` + :data:`LABEL_FLOOR_MM`
+            for an engraving).
 
     Returns:
         The thickness, or the process's thickest when none stays within the limit (said in the reason).

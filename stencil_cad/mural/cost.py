@@ -6,8 +6,8 @@ The holes are the stippler's when it has run (still before any CAD), otherwise t
 expected count and open area (:data:`EXPECTED_FILL`, :data:`EXPECTED_OPEN`).
 
 **FDM print time and filament** follow PrusaSlicer with the shipped profile
-(``templates/prusa_fdm.ini``: 0.3 mm layers, 0.45 mm lines, 100 % infill for plates, walls
-sparse as :data:`stencil_cad.slicing.WALL_SETTINGS`). A plate's time is mostly its plastic,
+(``templates/prusa_fdm.ini``: 0.3 mm layers, 0.45 mm hole loops and 0.75 mm sheet lines, 100 %
+infill for plates, walls sparse as :data:`stencil_cad.slicing.WALL_SETTINGS`). A plate's time is mostly its plastic,
 ``(outline area - open area) x thickness`` at the profile's effective volumetric rate, plus a
 term per millimetre of hole edge per layer (each hole is a slow perimeter loop, a travel and a
 retraction on every layer) and a fixed overhead (heating, homing, the first layer). A wall is
@@ -18,8 +18,8 @@ plastic times a fitted factor (the slicer's overlaps and the first layer's squis
 The constants were fitted (least squares, relative error) on PrusaSlicer 2.x's own estimates
 (``; estimated printing time (normal mode)``, ``; filament used [mm]``) of parts made by
 ``stencil-cad run`` and sliced by ``stencil-cad slice``: the bundled example (four 173 mm plates of
-0.9 mm, 991-2,493 holes, and its 10 mm wall) and a 375 x 250 mm mural of ``coffee.png`` with
-2 layers on ``--bed prusa_mk4`` (4 tiles; its plates and walls). ``python -m benchmarks printed``
+0.9 mm, 991-2,493 holes, and its 10 mm wall) and the 600 x 400 mm mural of ``coffee.png`` with
+3 layers on ``--bed prusa_mk4`` (8 tiles; 0.6 mm plates on posts and the one wall). ``python -m benchmarks printed``
 prints the estimate beside the slicer's per part and in total; the fit and its residuals are
 recorded beside the constants.
 
@@ -45,6 +45,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..config.thickness import FDM_THIN_LAYER_MM, FDM_THIN_PLATE_MM
 from ..figures.cost import CostFigures, PaintCost, PartCost
 from ..geometry import polygon_area
 from .laser import laser_stand, sheets_needed
@@ -79,9 +80,14 @@ LASER_SPEED_MM_S = 10.0
 #: Time per pierce (each hole and the outline start a cut), s; same caveat.
 LASER_PIERCE_S = 0.1
 
-#: The shipped FDM profile's layer height and line width, mm (``templates/prusa_fdm.ini``).
+#: The shipped FDM profile's layer height and line widths, mm (``templates/prusa_fdm.ini``): hole
+#: loops and shells at :data:`LINE_MM`, the solid sheet (the first layer, solid and top infill) at
+#: :data:`SHEET_LINE_MM`.
 LAYER_MM = 0.3
 LINE_MM = 0.45
+SHEET_LINE_MM = 0.75
+#: The profile's ``max_volumetric_speed``, mm³/s: it caps the sheet's speed above the first layer.
+MAX_FLOW_MM3_S = 11.0
 #: Filament: 1.75 mm PLA at 1.24 g/cm³.
 FILAMENT_MM2 = math.pi * (1.75 / 2.0) ** 2
 PLA_G_PER_MM3 = 1.24e-3
@@ -101,37 +107,32 @@ _HOLE_MM_S = 35.0
 _WALL_PERIMETER_MM_S = 50.0
 _WALL_INFILL_MM_S = 80.0
 
-# Fitted (least squares on the relative error, the fixed overhead held at 60 s) on PrusaSlicer's
-# estimates of 17 parts: the bundled example's 4 plates (0.9 mm, 991-2,493 holes) and its wall,
-# the 375 x 250 mm coffee mural's 8 plates (1.2 mm, 1,090-6,066 holes) and 4 walls
-# (`python -m benchmarks printed --case cost`). From the stippler's holes, per part: plate hours
-# -8.4 % .. +6.9 %, wall hours -0.7 % .. +0.2 %, plate filament -5.2 % .. +2.8 %, walls within
-# 0.2 %. Totals: the example 8.45 h against the slicer's 8.22 h (+2.8 %), 165 g against 164 g
-# (+0.8 %); the mural 27.4 h against 27.9 h (-1.6 %), 537 g against 539 g (-0.3 %). From the
-# plan's expected holes (the dry run): the example 9.06 h (+10.2 %), 161 g (-1.8 %); the mural
-# 27.3 h (-2.0 %), 543 g (+0.7 %). Checked on parts the fit never saw: the 600 x 400 mm coffee
-# mural of 3 layers (8 tiles, 24 plates of 1.5 mm, 8 walls; 8 plates of every layer and 3 walls
-# sliced): plates -14.1 % .. -0.5 % (slower than modelled: 5 layers), walls +0.2 % .. +0.8 %,
-# filament within 3.4 %; the sliced parts' total 35.0 h against 36.9 h (-5.0 %), 733 g against
-# 730 g (+0.4 %); the plan's 109.1 h and 2,144 g against the slicer's scaled to all 32 parts
-# +0.3 % and +0.0 %. Refitting on all 33 parts moved no error below these (rms 5.1 %, the
-# example then +7 %): a new profile or a new plate design wants the parts measured again.
+# Refitted for the profile's 0.75 mm sheet lines (least squares on the relative error, the fixed
+# overhead held at 60 s) on PrusaSlicer 2.5's estimates of 12 plates: the bundled example's 4
+# (0.9 mm: three layers, 991-2,493 holes) and 8 of the 600 x 400 mm coffee mural's (0.6 mm on
+# posts: two layers, 1,043-6,047 holes; a plate of every layer on every tile column). Per plate
+# -7.2 % .. +3.9 %, filament -2.7 % .. +2.4 %; the walls' slowdown from the example's wall and the
+# mural's (1.21 and 1.22), each within 0.6 %. Each fit before this one's (the 0.45 mm sheet lines
+# of before: 17 parts of the example and a 375 x 250 mm mural; a 300 x 200 mm mural's 0.6 mm
+# plates for the two-layer edge term) measured the same way: a new profile or a new plate design
+# wants the parts measured again (`python -m benchmarks printed --case cost`, ``--case mural600``).
+# Checked on plates the fit never saw, the same mural's 0.4 mm plates (two 0.2 mm layers, 4 mm
+# margin; 8 of 24 sliced): -11.1 % .. +1.3 %, filament -4.8 % .. +1.9 %, the wall -1.4 %; the dry
+# run's 31.9 h and 471 g against the slicer's scaled to all 26 parts +0.7 % and -0.2 %.
 #: Fixed seconds per part (the start G-code's moves and purge line), held, not fitted.
 FIXED_S = 60.0
 #: Plate: the slicer's time over the plate's lines at the profile's speeds (acceleration, turns).
-PLATE_SLOWDOWN = 1.229
+PLATE_SLOWDOWN = 1.251
 #: Plate: seconds per mm of hole edge per layer beyond its loop at the hole speed (travel, retraction).
-PLATE_S_PER_EDGE_MM = 0.0453
+PLATE_S_PER_EDGE_MM = 0.0354
 #: Plate of two layers (a mural's plate on posts, :mod:`.posts`): seconds per mm of hole edge per
-#: layer, fitted (least squares, relative) on PrusaSlicer's estimates of the three 0.6 mm plates of a
-#: 300 x 200 mm coffee mural sliced (2,385-6,564 holes: 1 h 45 min-2 h 00 min, residuals -1.1 % ..
-#: +2.0 %). The thicker plates' :data:`PLATE_S_PER_EDGE_MM` over-stated them by 11-20 %: on two
-#: layers the slicer joins a hole's loops with fewer travels and retractions.
-PLATE_S_PER_EDGE_MM_THIN = 0.0106
+#: layer. Below :data:`PLATE_S_PER_EDGE_MM`: on two layers the slicer joins a hole's loops with
+#: fewer travels and retractions.
+PLATE_S_PER_EDGE_MM_THIN = 0.0279
 #: Plate: filament volume over the plate's plastic (overlapping lines; 1.02-1.10 measured).
 PLATE_FILAMENT = 1.047
 #: Wall: the slicer's time over the wall's lines at the profile's wall speeds.
-WALL_SLOWDOWN = 1.265
+WALL_SLOWDOWN = 1.215
 #: Wall: filament volume over the plastic its sparse slicing lays as modelled (0.960-0.963 measured).
 WALL_FILAMENT = 0.961
 
@@ -142,6 +143,11 @@ EXPECTED_FILL = 0.35
 #: The plan's expected open area per plate, as a share of the tile's picture area: measured
 #: 0.04-0.10 on the example (mean 0.08), 0.04-0.26 on the coffee mural (mean 0.14).
 EXPECTED_OPEN = 0.12
+
+
+def _sheet_speed(mm_s: float, layer_mm: float = LAYER_MM) -> float:
+    """A solid-sheet speed above the first layer, mm/s, as the profile's volumetric cap lets it print."""
+    return min(mm_s, MAX_FLOW_MM3_S / (layer_mm * SHEET_LINE_MM))
 
 
 def hours_text(hours: float) -> str:
@@ -180,9 +186,14 @@ class PlateSpec:
     edge_mm: float
 
     @property
+    def layer_mm(self) -> float:
+        """The layer height it prints at: the thinnest FDM plate's 0.2 mm, else the profile's."""
+        return FDM_THIN_LAYER_MM if self.thickness_mm <= FDM_THIN_PLATE_MM + 1e-6 else LAYER_MM
+
+    @property
     def layers(self) -> int:
-        """Printed layers at the profile's layer height."""
-        return max(1, math.ceil(self.thickness_mm / LAYER_MM - 1e-6))
+        """Printed layers at :attr:`layer_mm`."""
+        return max(1, math.ceil(self.thickness_mm / self.layer_mm - 1e-6))
 
     @property
     def plastic_mm3(self) -> float:
@@ -196,9 +207,10 @@ class PlateSpec:
         The first layer at the first-layer speed, the top one at the top-infill speed, the rest at
         the solid-infill speed; each hole's edge is a perimeter loop on every layer.
         """
-        net = max(self.area_mm2 - self.open_mm2, 0.0) / LINE_MM
+        net = max(self.area_mm2 - self.open_mm2, 0.0) / SHEET_LINE_MM
         n = self.layers
-        per_layer = [_FIRST_MM_S] + [_SOLID_MM_S] * max(n - 2, 0) + ([_TOP_MM_S] if n > 1 else [])
+        solid, top = _sheet_speed(_SOLID_MM_S, self.layer_mm), _sheet_speed(_TOP_MM_S, self.layer_mm)
+        per_layer = [_FIRST_MM_S] + [solid] * max(n - 2, 0) + ([top] if n > 1 else [])
         return net * sum(1.0 / v for v in per_layer) + n * self.edge_mm / _HOLE_MM_S
 
 
@@ -238,9 +250,9 @@ class WallSpec:
         infill = _WALL_INFILL * max(bulk, 0.0) / (LAYER_MM * LINE_MM)
         return (
             shell / _WALL_PERIMETER_MM_S
-            + skins / (LINE_MM * _SOLID_MM_S)
+            + skins / (SHEET_LINE_MM * _sheet_speed(_SOLID_MM_S))
             + infill / _WALL_INFILL_MM_S
-            + low / LINE_MM * (1.0 / _FIRST_MM_S - 1.0 / _SOLID_MM_S)
+            + low / SHEET_LINE_MM * (1.0 / _FIRST_MM_S - 1.0 / _sheet_speed(_SOLID_MM_S))
         )
 
 
@@ -366,7 +378,7 @@ def posts_print(cfg: JobConfig, grid: TileGrid, n: int) -> tuple[float, float]:
     t = cfg.plate.thickness_mm
     one = math.pi * (plan.radius_mm**2 * plan.height_mm + plan.pin_radius_mm**2 * t)
     layers = math.ceil((plan.height_mm + t) / LAYER_MM - 1e-6)
-    lines = n * one / (LAYER_MM * LINE_MM * _SOLID_MM_S) * PLATE_SLOWDOWN
+    lines = n * one / (LAYER_MM * SHEET_LINE_MM * _sheet_speed(_SOLID_MM_S)) * PLATE_SLOWDOWN
     return FIXED_S + max(lines, layers * MIN_LAYER_S), PLATE_FILAMENT * n * one
 
 

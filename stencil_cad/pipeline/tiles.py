@@ -346,6 +346,21 @@ class _Files:
             self.files.append((name, path.read_bytes()))
 
 
+def _solid_below(holes: Any, height_mm: float) -> float:
+    """How far above a tile's part bottom its plate is solid all along, mm: up to its lowest hole or window.
+
+    The part reaches the spray halo past the tile, solid, so a tile's label rises into that band (its
+    border is only the ledge, :data:`stencil_cad.config.outline.TILE_MARGIN_MM`). 0 for a hard
+    stencil's cut-outs (the label stays in the border); the part's height for a plate with no hole.
+    """
+    if not isinstance(holes, DotSet):
+        return 0.0
+    lows = [float(np.min(np.asarray(outer, dtype=np.float64)[:, 1])) for outer, _ in holes.windows]
+    if len(holes):
+        lows.append(float(np.min(np.asarray(holes.xy_mm)[:, 1] - np.asarray(holes.r_mm))))
+    return max(min(lows), 0.0) if lows else float(height_mm)
+
+
 def _build_plate(task: PartTask) -> PartResult:
     from .. import cad
     from ..exchange import dxf, svg
@@ -356,7 +371,9 @@ def _build_plate(task: PartTask) -> PartResult:
     exp = cfg.export
     w, h = task.size_mm
     try:
-        model = cad.build_plate(holes, w, h, cfg.plate, task.label, outline_ring=ring)
+        model = cad.build_plate(
+            holes, w, h, cfg.plate, task.label, outline_ring=ring, label_solid_mm=_solid_below(holes, h)
+        )
     except ValueError as exc:
         raise UserError(f"{stem}: {exc}") from exc
     check = cad.check_plate(model, holes, tolerance_mm=exp.stl_tolerance_mm)

@@ -5,6 +5,7 @@ from .placement import Placement, place, rotated_copy
 from .plates import export_3mf_project, plate_project, slice_plate
 from .profiles import (
     PROFILES,
+    THIN_PLATE_SETTINGS,
     WALL_SETTINGS,
     Profile,
     Slicer,
@@ -42,6 +43,7 @@ __all__ = [
     "HOLES_PER_TILE",
     "PROFILES",
     "SEAM_CLEARANCE_MM",
+    "THIN_PLATE_SETTINGS",
     "WALL_SETTINGS",
     "GcodeEstimate",
     "LayerPaths",

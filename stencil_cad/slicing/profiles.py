@@ -6,8 +6,11 @@ import enum
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..config.thickness import FDM_THIN_LAYER_MM, FDM_THIN_PLATE_MM
+
 __all__ = [
     "PROFILES",
+    "THIN_PLATE_SETTINGS",
     "WALL_SETTINGS",
     "Profile",
     "Slicer",
@@ -149,17 +152,52 @@ def is_wall(path: str | Path) -> bool:
     return "wall" in Path(path).stem.lower().split("_")
 
 
-def part_settings(profile: str | Profile, path: str | Path) -> dict[str, object]:
-    """Settings that win over a profile's for one part: :data:`WALL_SETTINGS` for a wall on PrusaSlicer FDM.
+#: PrusaSlicer settings for the thinnest FDM plate (:data:`stencil_cad.config.thickness.FDM_THIN_PLATE_MM`,
+#: 0.4 mm): two 0.2 mm layers instead of the profile's 0.3 mm (which would print it as 0.3 + 0.1 mm).
+THIN_PLATE_SETTINGS: dict[str, object] = {
+    "layer_height": FDM_THIN_LAYER_MM,
+    "first_layer_height": FDM_THIN_LAYER_MM,
+}
+
+
+def part_settings(
+    profile: str | Profile, path: str | Path, height_mm: float | None = None
+) -> dict[str, object]:
+    """Settings that win over a profile's for one part on PrusaSlicer FDM.
+
+    :data:`WALL_SETTINGS` for a wall, :data:`THIN_PLATE_SETTINGS` for a plate no thicker than the
+    thinnest FDM plate.
 
     Args:
         profile: The profile the part is sliced with.
-        path: The part's file (its name says whether it is a wall).
+        path: The part's file (its name says whether it is a wall; its height, unless given, whether
+            it is a thin plate).
+        height_mm: The part's height in mm, or None to read it from the STL (when there is one).
 
     Returns:
-        PrusaSlicer ini keys and values; empty for a plate, or for a profile other than PrusaSlicer FDM.
+        PrusaSlicer ini keys and values; empty for any other plate, or a profile other than PrusaSlicer FDM.
     """
     prof = get_profile(profile)
-    if prof.slicer is Slicer.PRUSA and prof.technology is Technology.FFF and is_wall(path):
+    if prof.slicer is not Slicer.PRUSA or prof.technology is not Technology.FFF:
+        return {}
+    if is_wall(path):
         return dict(WALL_SETTINGS)
+    if height_mm is None:
+        height_mm = _stl_height(path)
+    if height_mm is not None and height_mm <= FDM_THIN_PLATE_MM + 1e-3:
+        return dict(THIN_PLATE_SETTINGS)
     return {}
+
+
+def _stl_height(path: str | Path) -> float | None:
+    """The z extent in mm of an STL file, or None when there is no readable one."""
+    from ..exchange.mesh import read_stl
+
+    try:
+        tri = read_stl(path)
+    except (OSError, ValueError):
+        return None
+    if tri.size == 0:
+        return None
+    z = tri[..., 2]
+    return float(z.max() - z.min())

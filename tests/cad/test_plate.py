@@ -356,7 +356,7 @@ def test_template_with_syntax_error_raises(tmp_path):
 def test_perforated_plate_rejects_too_deep_engraving():
     ring = plate_outline(W, H, PlateConfig().outline)
     with pytest.raises(PlateBuildError, match="label depth"):
-        perforated_plate(grid_dots(), ring, None, None, thickness_mm=0.6, label_depth_mm=0.4)
+        perforated_plate(grid_dots(), ring, None, None, thickness_mm=0.6, label_depth_mm=0.45)
 
 
 @pytest.mark.parametrize("name", ["plate.py", pytest.param("plate_cadquery.py", marks=pytest.mark.slow)])

@@ -27,7 +27,9 @@ def test_sag_follows_plate_theory():
 @pytest.mark.parametrize(
     "process, side, want",
     [
-        (Process.fdm, 100.0, 0.6),
+        (Process.fdm, 100.0, 0.4),
+        (Process.fdm, 128.0, 0.4),
+        (Process.fdm, 130.0, 0.6),
         (Process.fdm, 157.0, 0.6),
         (Process.fdm, 160.0, 0.9),
         (Process.fdm, 173.0, 0.9),  # the bundled example's plate
@@ -55,12 +57,22 @@ def test_fill_is_the_thinnest_flat_plate(process, side, want):
 
 
 def test_fdm_fills_whole_layers_of_the_shipped_profile():
-    from stencil_cad.slicing.profiles import PROFILES
+    """Whole 0.3 mm layers of the profile, or the thinnest plate's two 0.2 mm layers (sliced as such)."""
+    from stencil_cad.config.thickness import FDM_THIN_LAYER_MM, FDM_THIN_PLATE_MM
+    from stencil_cad.slicing.profiles import PROFILES, THIN_PLATE_SETTINGS, part_settings
 
     layer = PROFILES["prusa_fdm"].layer_height_mm
+    thin = 0
     for side in range(50, 400, 7):
         t = fill_thickness(Process.fdm, side, 15.0).thickness_mm
-        assert t / layer == pytest.approx(round(t / layer))
+        if t == FDM_THIN_PLATE_MM:
+            thin += 1
+            assert t / FDM_THIN_LAYER_MM == pytest.approx(2)
+            assert part_settings("prusa_fdm", "layer_01.stl", t) == THIN_PLATE_SETTINGS
+        else:
+            assert t / layer == pytest.approx(round(t / layer))
+            assert part_settings("prusa_fdm", "layer_01.stl", t) == {}
+    assert thin
 
 
 def test_too_large_for_any_sheet_says_so():
@@ -79,7 +91,7 @@ def test_every_filled_thickness_holds_the_default_label(process, width):
 
 def test_a_deeper_label_raises_the_filled_thickness():
     cfg = parse_config({"plate": {"label_depth_mm": 1.0}}, source="test")
-    assert cfg.plate.thickness_mm == pytest.approx(1.5)  # 1.3 rounded up to whole 0.3 mm layers
+    assert cfg.plate.thickness_mm == pytest.approx(1.2)  # 1.0 + the 0.2 mm floor in whole 0.3 mm layers
     assert "label" in cfg.thickness_fill.reason
 
 

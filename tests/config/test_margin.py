@@ -1,0 +1,59 @@
+"""The plate margin left to the job: a plate's border, or only the ledge for a soft mural's tiles."""
+
+from __future__ import annotations
+
+import pytest
+
+from stencil_cad import mural
+from stencil_cad.config.io import parse_config
+from stencil_cad.config.job import parse_overrides
+from stencil_cad.config.outline import PLATE_MARGIN_MM, TILE_MARGIN_MM
+from stencil_cad.outline import label_region
+
+
+def job(**data):
+    return parse_config(data, source="test")
+
+
+def test_a_mural_wider_than_the_bed_takes_the_tiles_margin():
+    cfg = job(size={"width_mm": 600}, bed="prusa_mk4")
+    assert cfg.plate.outline.margin_mm == TILE_MARGIN_MM
+    assert job(size={"width_mm": 150}).plate.outline.margin_mm == PLATE_MARGIN_MM
+    assert job(size={"width_mm": 600}).plate.outline.margin_mm == PLATE_MARGIN_MM  # no bed: one plate
+    # Given, or a hard stencil's (its cut-outs leave no solid band for the label), it stays.
+    given = job(size={"width_mm": 600}, bed="prusa_mk4", plate={"outline": {"margin_mm": 8}})
+    assert given.plate.outline.margin_mm == 8
+    assert (
+        job(size={"width_mm": 600}, bed="prusa_mk4", mode="hard").plate.outline.margin_mm == PLATE_MARGIN_MM
+    )
+    # An outline the tiles' margin cannot take keeps the plate's.
+    round_corners = job(size={"width_mm": 600}, bed="prusa_mk4", plate={"outline": {"corner_radius_mm": 6}})
+    assert round_corners.plate.outline.margin_mm == PLATE_MARGIN_MM
+
+
+def test_the_bed_given_later_fills_the_margin_again():
+    cfg = job(size={"width_mm": 600})
+    assert cfg.plate.outline.margin_mm == PLATE_MARGIN_MM
+    assert parse_overrides(cfg, bed="prusa_mk4").plate.outline.margin_mm == TILE_MARGIN_MM
+    kept = job(size={"width_mm": 600}, plate={"outline": {"margin_mm": 10}})
+    assert parse_overrides(kept, bed="prusa_mk4").plate.outline.margin_mm == 10
+
+
+def test_tiles_plates_shrink_by_the_margin_they_no_longer_need():
+    tiles = job(size={"width_mm": 600}, bed="prusa_mk4")
+    wide = job(size={"width_mm": 600}, bed="prusa_mk4", plate={"outline": {"margin_mm": PLATE_MARGIN_MM}})
+    a, b = mural.plan_tiles(600, 400, tiles), mural.plan_tiles(600, 400, wide)
+    assert a.tiles[0].part_size == b.tiles[0].part_size  # the same tiles, halo and wall opening
+    pa = mural.part_sizes(*a.tiles[0].part_size, tiles)["plate"]
+    pb = mural.part_sizes(*b.tiles[0].part_size, wide)["plate"]
+    shrink = 2 * (PLATE_MARGIN_MM - TILE_MARGIN_MM)
+    assert pa == pytest.approx((pb[0] - shrink, pb[1] - shrink))
+
+
+def test_the_label_rises_into_the_solid_band_below_the_holes():
+    outline = job(size={"width_mm": 600}, bed="prusa_mk4").plate.outline
+    g = outline.label_gap_mm
+    x0, y0, x1, y1 = label_region(160.0, 210.0, outline)
+    assert (y0, y1) == pytest.approx((-TILE_MARGIN_MM + g, -g))
+    x0, y0, x1, y1 = label_region(160.0, 210.0, outline, solid_mm=7.0)
+    assert (x0, y0, x1, y1) == pytest.approx((g, -TILE_MARGIN_MM + g, 160.0 - g, 7.0 - g))
