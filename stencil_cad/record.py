@@ -52,6 +52,13 @@ class Run:
     #: the job's stipple reuses the holes the trials made for the design it keeps.
     kept: dict[Any, Any] = field(default_factory=dict[Any, Any])
 
+    def keep(self, key: Any, make: Callable[[], Any]) -> tuple[Any, bool]:
+        """``(what was kept under key, True)``, or ``(make(), False)`` after keeping it under ``key``."""
+        if key in self.kept:
+            return self.kept[key], True
+        value = self.kept[key] = make()
+        return value, False
+
     def rng_for(self, stage: str, index: int = 0) -> np.random.Generator:
         """An independent generator per stage and layer, derived from the seed.
 

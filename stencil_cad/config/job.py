@@ -353,25 +353,28 @@ class JobConfig(StrictModel):
         return self
 
 
-def _margin_left(data: dict) -> bool:
-    """Whether a raw config leaves ``plate.outline.margin_mm`` out (or null)."""
+def _plate_outline(data: dict) -> tuple[dict, dict] | None:
+    """A raw config's ``plate`` and ``plate.outline`` mappings (empty when left out), None when malformed."""
     plate = data.get("plate") or {}
     outline = (plate.get("outline") if isinstance(plate, dict) else None) or {}
-    return isinstance(outline, dict) and outline.get("margin_mm") is None
+    return (plate, outline) if isinstance(plate, dict) and isinstance(outline, dict) else None
+
+
+def _margin_left(data: dict) -> bool:
+    """Whether a raw config leaves ``plate.outline.margin_mm`` out (or null)."""
+    found = _plate_outline(data)
+    return found is not None and found[1].get("margin_mm") is None
 
 
 def _tile_margin(data: dict) -> dict:
-    """The raw config with ``plate.outline.margin_mm`` filled in for a soft mural's tiles, when left null.
+    """The raw config with ``plate.outline.margin_mm`` (left null: :func:`_margin_left`) filled in for a soft mural's tiles.
 
     A picture wider or taller than the bed's longer side is tiled whatever its margins; its plates take
     :data:`~stencil_cad.config.outline.TILE_MARGIN_MM`. Anything else, or a margin the rest of the
     outline or the wall cannot take (a larger corner radius, label gap or wall opening), keeps the
     plate's default.
     """
-    plate = data.get("plate") or {}
-    outline = (plate.get("outline") if isinstance(plate, dict) else None) or {}
-    if not isinstance(plate, dict) or not isinstance(outline, dict) or outline.get("margin_mm") is not None:
-        return data
+    plate, outline = _plate_outline(data) or ({}, {})
     if (data.get("mode") or Mode.soft) not in (Mode.soft, Mode.soft.value):
         return data
     try:

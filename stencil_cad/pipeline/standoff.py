@@ -13,19 +13,19 @@ where holes alone scored 2.20.
 
 So the designs are ranked by what they spray: each candidate's plates are stippled (without the
 refinement) and sprayed in simulation on a coarse grid, and scored at the viewing distance like the
-job's result; the best is kept. The candidates: windows on and off (only where the picture has
-windows), at the process's stand-off, :data:`LOWER_BY_MM` below and :data:`HIGHER_BY_MM` above it,
+job's result; the best is kept. The candidates: windows on and off (only where the windows carry
+:data:`MIN_WINDOW_SHARE` of the paint), at the process's stand-off, :data:`LOWER_BY_MM` below and :data:`HIGHER_BY_MM` above it,
 :data:`NEAR_BY_MM` either side of it and, for a measured can, the
 stand-off at which it blurs the holes as the prior's can does at the process's (:func:`matched_standoff`),
 and where windows carry at
 least :data:`WINDOW_SHARE` of the paint, windows at :data:`LOW_STANDOFFS_MM` too. A job whose config
 fixes both (a given stand-off and ``windows: off``, or a picture without windows) tries nothing.
+A coarse step past a near one that already scored worse is not tried (:func:`_screen`).
 """
 
 from __future__ import annotations
 
 import logging
-import math
 import time
 from collections.abc import Callable
 from typing import Any
@@ -216,8 +216,8 @@ def choose_plates(
 ) -> JobConfig:
     """The job's config with the plate design (windows, stand-off) this picture's plates spray best with.
 
-    The designs of :func:`candidates` are tried (:func:`_trial_score`, on the coarse grid of
-    :func:`trial_mm_per_px`) and the best kept; with one candidate the config comes back as it is.
+    The designs of :func:`candidates` are tried (:func:`_screen`, :func:`_trial_score`, on the coarse
+    grid of :func:`trial_mm_per_px`) and the best kept; with one candidate the config comes back as it is.
     The run calls it for one-plate jobs only (a mural keeps its config: trials over every tile would
     cost more than the job). Records figure ``standoff``: the share, the trials and the choice. Sets
     ``run.cfg``.
@@ -284,12 +284,12 @@ def _screen(
     """
     own_w, own_g = cfg.stipple.windows.value, float(cfg.wall.standoff_mm[0])
     steps = {own_g - LOWER_BY_MM: own_g - NEAR_BY_MM, own_g + HIGHER_BY_MM: own_g + NEAR_BY_MM}
-    done: dict[tuple[str, float], float] = {}
+    done: dict[tuple[str, float | None], float] = {}
     trials = []
+    pruning = share < WINDOW_SHARE
     for w, g in designs:
-        near, own = (w, steps.get(g, math.nan)), (w, own_g)
-        mostly_holes = share < WINDOW_SHARE and w == own_w
-        if mostly_holes and near in done and own in done and done[near] > done[own] * (1.0 + SCREEN_NOISE):
+        near, own = (w, steps.get(g)), (w, own_g)
+        if pruning and w == own_w and near in done and done[near] > done[own] * (1.0 + SCREEN_NOISE):
             continue
         done[(w, g)] = score(w, g)
         trials.append(PlateTrial(w, g, done[(w, g)]))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -98,12 +98,8 @@ def stippled(
     bound_dots(run, picture_mm)
     tiling = grid or TileGrid.whole(*picture_mm)
     key = ("stipple", run.cfg.model_dump_json(), id(layers), id(picture), picture_mm, repr(tiling))
-    made = run.kept.get(key)
-    if made is not None:
-        return made, True
-    made = _stippled(run, layers, picture_mm, picture, tiling)
-    run.kept[key] = made
-    return made, False
+    made, kept = run.keep(key, lambda: _stippled(run, layers, picture_mm, picture, tiling))
+    return cast("_Stippled", made), kept
 
 
 @dataclass(frozen=True)
@@ -149,20 +145,19 @@ def _holes(
     The stippler reads no ``refine`` setting, so the plate-design trials' unrefined screen and their
     refined trial of the same design stipple alike: the holes are kept by the config without its
     ``refine`` section, and the refined trial starts from the screen's (on the bundled example two
-    of its ten stipples).
+    of its six stipples).
     """
-    cfg = run.cfg
-    key = ("holes", cfg.model_dump_json(exclude={"refine"}), id(layers), picture_mm, repr(tiling))
-    kept: tuple[list[DotSet], Any, list[Any]] | None = run.kept.get(key)
-    if kept is not None:
-        return kept
-    with run.stage("stipple"):
-        tasks, windows, hole_alphas = _tasks(run, layers, tiling, picture_mm, jobs)
-        sets, tones = stipple_layers(
-            tasks, hole_alphas, tiling, lambda i, k: run.seed_for("stipple", i, k), run.tasks.map
-        )
-    run.kept[key] = (sets, tones, windows)
-    return sets, tones, windows
+
+    def make() -> tuple[list[DotSet], Any, list[Any]]:
+        with run.stage("stipple"):
+            tasks, windows, hole_alphas = _tasks(run, layers, tiling, picture_mm, jobs)
+            sets, tones = stipple_layers(
+                tasks, hole_alphas, tiling, lambda i, k: run.seed_for("stipple", i, k), run.tasks.map
+            )
+        return sets, tones, windows
+
+    key = ("holes", run.cfg.model_dump_json(exclude={"refine"}), id(layers), picture_mm, repr(tiling))
+    return cast("tuple[list[DotSet], Any, list[Any]]", run.keep(key, make)[0])
 
 
 def layer_jobs(cfg: JobConfig, sprays: Sequence[SprayConfig]) -> list[JobConfig]:
