@@ -6,7 +6,7 @@ import logging
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from ..colour import to_hex
 from ..config import DecomposeConfig, HardConfig, JobConfig
@@ -29,9 +29,16 @@ log = logging.getLogger(__name__)
 
 
 def stage_decompose(run: Run, picture: Picture) -> Layers:
-    """Decompose the picture into a primer and paint layers, and save them.
+    """Decompose the picture into a primer and paint layers, and save them (``layers.npz`` and its previews)."""
+    return decomposed(run, picture, save=True)
 
-    A mostly dark picture is primed with its dark colour (:mod:`.primer`), named in ``run.cfg``.
+
+def decomposed(run: Run, picture: Picture, save: bool = False) -> Layers:
+    """The picture's primer and paint layers as the decompose stage makes them; saved only when ``save``.
+
+    A mostly dark picture is primed with its dark colour (:mod:`.primer`), named in ``run.cfg``. The
+    layers come back as ``layers.npz`` holds them (float32 opacities), saved or not, so a preview or a
+    stage command run later on the saved file goes on from the same numbers as the job.
     """
     from dataclasses import replace
 
@@ -67,23 +74,13 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
             except ValueError as exc:
                 # A config that does not suit this image (e.g. opacity_source: alpha on RGB).
                 raise UserError(str(exc)) from exc
-        out = run.out
         # Timings go to the manifest only, so the same job writes the same bytes.
         saved = layers_to_npz(replace(layers, info={k: v for k, v in layers.info.items() if k != "seconds"}))
-        out.write_npz(LAYERS_NPZ, saved)
-        # Go on with exactly what was saved (float32 opacities), so a stage command run later
+        # Go on with exactly what is saved (float32 opacities), so a stage command run later
         # on layers.npz gives the same dots as this run.
         layers = layers_from_npz(saved)
-        from ..simulate import labelled
-
-        for i, a in enumerate(layers.alphas):
-            out.write_png(
-                f"{layer_stem(i)}_opacity.png",
-                labelled.opacity_card(a, layers.mm_per_px, i + 1, layers.count, to_hex(layers.colours[i])),
-            )
-        out.write_png("composite.png", layers.composite())
-        trace = "iteration,energy\n" + "".join(f"{k},{e:.10g}\n" for k, e in enumerate(layers.energy_trace))
-        out.write_text("energy.csv", trace)
+        if save:
+            _save(run, layers, saved)
     info = dict(layers.info)
     run.figures.decompose = DecomposeFigures(
         layers=layers.count,
@@ -97,6 +94,22 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
         tiled=_plain(info["tiled"]) if "tiled" in info else None,
     )
     return layers
+
+
+def _save(run: Run, layers: Layers, saved: dict[str, Any]) -> None:
+    """Write ``layers.npz`` (``saved``), each layer's opacity card, the composite and the energy trace."""
+    from ..simulate import labelled
+
+    out = run.out
+    out.write_npz(LAYERS_NPZ, saved)
+    for i, a in enumerate(layers.alphas):
+        out.write_png(
+            f"{layer_stem(i)}_opacity.png",
+            labelled.opacity_card(a, layers.mm_per_px, i + 1, layers.count, to_hex(layers.colours[i])),
+        )
+    out.write_png("composite.png", layers.composite())
+    trace = "iteration,energy\n" + "".join(f"{k},{e:.10g}\n" for k, e in enumerate(layers.energy_trace))
+    out.write_text("energy.csv", trace)
 
 
 def _decompose_tiles(run: Run, picture: Picture) -> TilePlan | None:

@@ -169,16 +169,6 @@ class Preview:
         }
 
 
-class _Discard:
-    """An output folder that keeps nothing: the preview writes no files."""
-
-    def __getattr__(self, name: str) -> Any:
-        def discard(*args: Any, **kwargs: Any) -> None:
-            return None
-
-        return discard
-
-
 @dataclass
 class PreviewCache:
     """What two previews can share, bounded: decompositions, unrefined hole sets and plate designs (least recently used dropped)."""
@@ -271,7 +261,8 @@ def previews(
     t0 = time.perf_counter()
     cache = cache or PreviewCache()
     pcfg = preview_config(cfg)
-    run = Run(cfg=pcfg, out=cast("Any", _Discard()), quiet=True, cancel=cancel)
+    # No output folder: every step a preview takes computes without writing (a write would fail).
+    run = Run(cfg=pcfg, out=cast("Any", None), quiet=True, cancel=cancel)
     picture = load_picture(pcfg)
     size = (picture.width_mm, picture.height_mm)
     grid, _ = tiles.plan(pcfg, *size, plate_layers(pcfg), picture.shape[0] * picture.shape[1])
@@ -389,18 +380,18 @@ def _quick(
     key = _half_key(run.cfg)
     hit = cache.get(cache.layers, key)
     if hit is None:
-        layers = stage_decompose_cached(half, load_picture(half.cfg), cache, key)
+        layers = _decomposed_cached(half, load_picture(half.cfg), cache, key)
     else:
         layers = hit[0]
         half.cfg = half.cfg.model_copy(update={"decompose": hit[1].decompose})
     return _Made(half, picture, layers, grid, size, t0).coarse()
 
 
-def stage_decompose_cached(run: Run, picture: Picture, cache: PreviewCache, key: str) -> Layers:
-    """The decompose stage's layers, kept in ``cache`` under ``key``."""
-    from .decompose import stage_decompose
+def _decomposed_cached(run: Run, picture: Picture, cache: PreviewCache, key: str) -> Layers:
+    """The decompose stage's layers (not saved), kept in ``cache`` under ``key``."""
+    from .decompose import decomposed
 
-    layers = stage_decompose(run, picture)
+    layers = decomposed(run, picture)
     cache.put(cache.layers, key, (layers, run.cfg))
     return layers
 
@@ -412,18 +403,19 @@ def _layers(run: Run, picture: Picture, cache: PreviewCache) -> Layers:
     if hit is not None:
         run.cfg = run.cfg.model_copy(update={"decompose": hit[1].decompose})
         return cast("Layers", hit[0])
-    return stage_decompose_cached(run, picture, cache, key)
+    return _decomposed_cached(run, picture, cache, key)
 
 
 def _stipple(
     run: Run, layers: Layers, size: tuple[float, float], picture: Picture, refined: bool
 ) -> list[DotSet]:
-    from .stipple import stage_stipple
+    from .stipple import stippled
 
     cfg = run.cfg
     plain = cfg.model_copy(update={"refine": cfg.refine.model_copy(update={"enabled": refined})})
     trial = Run(cfg=plain, out=run.out, quiet=True, executor=run.executor, cancel=run.cancel)
-    return stage_stipple(trial, layers, size, picture)
+    made, _ = stippled(trial, layers, size, picture)
+    return made.sets
 
 
 @dataclass
