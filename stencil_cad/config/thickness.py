@@ -38,6 +38,12 @@ filament). It carries an engraved label one layer deep: the default ``label_dept
 :data:`LABEL_FLOOR_MM` 0.2 (on 0.3 mm layers the slicer still cuts the engraving from the whole
 top layer: it slices at mid-layer).
 
+Thinner still, an FDM plate is one 0.3 mm layer of the shipped profile (:data:`FDM_SINGLE_LAYER_MM`),
+when nothing is engraved into it (``plate.label`` emboss or none: an engraving needs a layer under
+it) and it stays flat: up to a 111 mm side, so a mural's plate on posts every 78 mm
+(:data:`stencil_cad.mural.posts.SINGLE_LAYER_POST_PITCH_MM`). One layer instead of two is a quarter
+less plastic and no second pass over the sheet and its hole loops: the print is its first layer.
+
 Sag in mm from this model (solid plate; times 2 for the perforation), PLA E 3.5 GPa, 1240 kg/m3:
 
 ==========  =======  =======  =======  =======  =======

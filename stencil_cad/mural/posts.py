@@ -6,7 +6,9 @@ mostly its plastic. A mural's plates are instead also carried by short printed p
 the surface: each post is a foot as tall as the wall's stand-off with a pin on top that the maker
 pushes into a pin hole of the plate from below. The posts stand about every :data:`POST_PITCH_MM`,
 so the sag rule sees a panel between four posts (:func:`stencil_cad.config.thickness.column_side_mm`)
-instead of the whole plate, and the plates come out two 0.2 mm layers (0.4 mm) thick.
+instead of the whole plate, and the plates come out two 0.2 mm layers (0.4 mm) thick; with a label
+that needs no floor (``plate.label`` emboss or none) the posts stand every
+:data:`SINGLE_LAYER_POST_PITCH_MM` and the plates are one 0.3 mm layer.
 
 A post must shade no hole: under the plate the spray of a hole spreads out to the surface, and a
 post in its way would cut that spray. Each post's site is chosen per plate (each layer sprays
