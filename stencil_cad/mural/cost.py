@@ -145,8 +145,8 @@ class Rates:
         max_flow_mm3_s: The volumetric cap, mm³/s.
         plate_slowdown: Plate: the slicer's time over the plate's lines at these speeds (acceleration, turns).
         plate_s_per_edge_mm: Plate: seconds per mm of hole edge per layer beyond its loop (travel, retraction).
-        plate_s_per_edge_mm_thin: The same for a plate of two layers (a mural's plate on posts,
-            :mod:`.posts`): on two layers the slicer joins a hole's loops with fewer travels and retractions.
+        plate_s_per_edge_mm_thin: The same for a plate of one or two layers (a mural's plate on posts,
+            :mod:`.posts`): there the slicer joins a hole's loops with fewer travels and retractions.
         wall_slowdown: Wall: the slicer's time over the wall's lines at these speeds.
     """
 
