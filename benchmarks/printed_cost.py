@@ -52,8 +52,15 @@ MURAL = {
 #: The issue's mural (case ``mural600``, only when asked: ``--case mural600``): 600 x 400 mm, 3 layers.
 MURAL600 = {**MURAL, "name": "coffee mural", "size": {"width_mm": 600.0}, "decompose": {"layers": 3}}
 #: The issue's mural of at least 1 m² (case ``mural1m``, only when asked): 1,225 x 817 mm, 3 layers,
-#: at the photo's own 600 px across (0.48 px/mm; the job's default 2 px/mm needs a 2,450 px photo).
-MURAL1M = {**MURAL600, "name": "coffee mural 1 m2", "size": {"width_mm": 1225.0, "px_per_mm": 0.48}}
+#: at the photo's own 600 px across (0.48 px/mm; the job's default 2 px/mm needs a 2,450 px photo),
+#: without windows: with them the build stopped on a window that reached past its tile
+#: ("tile_B4_layer_02: ... reaches outside the picture area").
+MURAL1M = {
+    **MURAL600,
+    "name": "coffee mural 1 m2",
+    "size": {"width_mm": 1225.0, "px_per_mm": 0.48},
+    "stipple": {"process": "fdm", "windows": "off"},
+}
 _MURALS = {"mural": MURAL, "mural600": MURAL600, "mural1m": MURAL1M}
 
 
