@@ -23,7 +23,8 @@
 * ``cost_<job>_<part>`` / ``cost_<job>_total`` — the cost model's estimate against the slicer's,
   per part and in total, for the example and a small mural (:mod:`benchmarks.printed_cost`); the
   mural rows also give each part's and the total's slicer hours and grams per m² of picture and the
-  job's S-CIELAB at its viewing distance (``--case mural600``: the same for the 600 x 400 mm mural).
+  job's S-CIELAB at its viewing distance (``--case mural600``: the same for the 600 x 400 mm mural;
+  ``--case mural1m``: for a 1,225 x 817 mm one, 1 m²).
 
 Every slice is killed after ``STENCIL_BENCH_PRINTED_TIMEOUT`` seconds (default 900).
 """
@@ -282,7 +283,7 @@ def smoke():
 
 
 def run(cases: list[str] | None = None):
-    """Yield the rows; ``cases`` picks ``radius``, ``web``, ``example``, ``cost`` and/or ``mural600`` (all but the last by default)."""
+    """Yield the rows; ``cases`` picks ``radius``, ``web``, ``example``, ``cost``, ``mural600`` and/or ``mural1m`` (the first four by default)."""
     if sl.find_slicer(sl.Slicer.PRUSA) is None:
         yield {"bench": "printed", "case": "all", "skipped": "prusa-slicer not installed"}
         return
@@ -294,10 +295,10 @@ def run(cases: list[str] | None = None):
             yield from web_cases(Path(tmp))
         if "example" in wanted:
             yield from example_cases(Path(tmp))
-        if "cost" in wanted or "mural600" in wanted:
+        if {"cost", "mural600", "mural1m"} & set(wanted):
             from .printed_cost import cost_cases
 
-            jobs = (("example", "mural") if "cost" in wanted else ()) + (
-                ("mural600",) if "mural600" in wanted else ()
+            jobs = (("example", "mural") if "cost" in wanted else ()) + tuple(
+                j for j in ("mural600", "mural1m") if j in wanted
             )
             yield from cost_cases(Path(tmp), jobs)

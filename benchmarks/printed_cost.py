@@ -4,8 +4,8 @@ Rows of ``python -m benchmarks printed`` (case ``cost``; ``--case cost`` runs on
 
 * ``cost_<job>_<part>`` — one sliced part of the bundled example (``job`` ``example``: its four
   plates and its wall) or of a small FDM mural (``job`` ``mural``: ``coffee.png`` at
-  375 × 250 mm, 2 layers, ``--bed prusa_mk4``: 4 tiles, 8 plates of 1.2 mm and 4 walls; small so
-  that every part slices in under a minute): ``kind``, ``holes``, the estimate from the stippler's
+  375 × 250 mm, 2 layers, ``--bed prusa_mk4``, an embossed label: 4 tiles, 8 plates of one 0.3 mm
+  layer on posts and one wall; small so that every part slices in under a minute): ``kind``, ``holes``, the estimate from the stippler's
   holes (``estimate_hours``, ``estimate_filament_g``; what the manifest's ``cost`` holds), the
   slicer's (``slicer_hours``, ``slicer_filament_g``: ``; filament used [mm]`` at 1.24 g/cm³) and
   the relative errors (``hours_error``, ``filament_error``: estimate / slicer − 1);
@@ -46,10 +46,22 @@ MURAL = {
     "decompose": {"layers": 2},
     "stipple": {"process": "fdm"},
     "view": {"distance_m": 3},
+    # A raised label: the plates may then be one 0.3 mm layer (an engraving needs two).
+    "plate": {"label": "emboss"},
 }
 #: The issue's mural (case ``mural600``, only when asked: ``--case mural600``): 600 x 400 mm, 3 layers.
 MURAL600 = {**MURAL, "name": "coffee mural", "size": {"width_mm": 600.0}, "decompose": {"layers": 3}}
-_MURALS = {"mural": MURAL, "mural600": MURAL600}
+#: The issue's mural of at least 1 m² (case ``mural1m``, only when asked): 1,225 x 817 mm, 3 layers,
+#: at the photo's own 600 px across (0.48 px/mm; the job's default 2 px/mm needs a 2,450 px photo),
+#: without windows: with them the build stopped on a window that reached past its tile
+#: ("tile_B4_layer_02: ... reaches outside the picture area").
+MURAL1M = {
+    **MURAL600,
+    "name": "coffee mural 1 m2",
+    "size": {"width_mm": 1225.0, "px_per_mm": 0.48},
+    "stipple": {"process": "fdm", "windows": "off"},
+}
+_MURALS = {"mural": MURAL, "mural600": MURAL600, "mural1m": MURAL1M}
 
 
 def _timeout() -> float:
@@ -76,8 +88,8 @@ def _job(tmp: Path, job: str) -> Path:
     return out
 
 
-def _estimates(folder: Path) -> tuple[CostFigures, CostFigures, tuple[float, float] | None]:
-    """The estimate from the folder's holes, the plan's, and the bed the tiles were sized for."""
+def _estimates(folder: Path) -> tuple[CostFigures, CostFigures, str | tuple[float, float] | None]:
+    """The estimate from the folder's holes, the plan's, and the job's bed (a preset names its printer)."""
     manifest = json.loads((folder / "manifest.json").read_text())
     cfg = load_config(folder / "config.yaml")
     pic = manifest["picture"]
@@ -85,7 +97,7 @@ def _estimates(folder: Path) -> tuple[CostFigures, CostFigures, tuple[float, flo
     layers = cfg.decompose.layers
     holes = making_cost(grid, cfg, layers, read_dots(folder, layers))
     plan = making_cost(grid, cfg, layers)
-    return holes, plan, None if grid.bed is None else (grid.bed.x_mm, grid.bed.y_mm)
+    return holes, plan, cfg.bed
 
 
 def _stem(part: PartCost) -> str:
@@ -105,7 +117,7 @@ def _sample(parts: tuple[PartCost, ...]) -> list[PartCost]:
     return picked + [p for p in parts if p.kind == "wall"][::every] + [p for p in parts if p.kind == "posts"]
 
 
-def _slicer(folder: Path, stem: str, bed: tuple[float, float] | None) -> tuple[float, float] | None:
+def _slicer(folder: Path, stem: str, bed: str | tuple[float, float] | None) -> tuple[float, float] | None:
     """The slicer's ``(hours, grams)`` for one part: its G-code beside the STL, or sliced there now."""
     out = folder / f"{stem}.gcode"
     if not out.is_file():

@@ -12,7 +12,7 @@ import cadquery as cq
 
 from stencil_cad.cad.plate import perforated_plate
 
-#: Plate thickness in mm. Range [0.4, 20]. A job replaces it with plate.thickness_mm (given, or
+#: Plate thickness in mm. Range [0.3, 20]. A job replaces it with plate.thickness_mm (given, or
 #: filled in for its process and plate size).
 THICKNESS_MM = 0.9
 #: Label on the top face: "engrave", "emboss" or "none".

@@ -35,15 +35,16 @@ class PlateConfig(StrictModel):
     )
     thickness_mm: float = Field(
         DEFAULT_THICKNESS_MM,
-        ge=0.4,
+        ge=0.3,
         le=20.0,
         json_schema_extra={"anyOf": [{"type": "number"}, {"type": "null"}], "default": None},
         description=(
-            "Plate thickness in mm. Range [0.4, 20]. Plates are exported flat, z from 0 to the thickness. "
+            "Plate thickness in mm. Range [0.3, 20]. Plates are exported flat, z from 0 to the thickness. "
             "Thinner prints faster and shades the spray less; too thin sags on the wall's ledge. null: the "
             "thinnest plate the process makes for the plate's longest side (picture plus margins, a mural's "
             "tile), whose sag under its own weight stays within 5 % of the process's stand-off, and thick "
-            "enough for an engraved label: fdm 0.4 mm (two 0.2 mm layers) up to a 128 mm side, then whole "
+            "enough for an engraved label: fdm 0.3 mm (one layer; only with label emboss or none) up to a "
+            "111 mm side, 0.4 mm (two 0.2 mm layers) up to 128 mm, then whole "
             "0.3 mm layers, 0.6 mm to 157, 0.9 to 192, 1.2 to 222, 1.5 to 248 (a mural's plates on posts: "
             "the span between posts); sla in 0.1 mm layers from 0.8 mm (0.8 up to 160 mm, 1.0 to 179, 1.2 "
             "to 196); laser a stock sheet, 1 mm PETG up to 193 mm, 1.5 mm to 236, 2 mm to 273, "

@@ -38,6 +38,12 @@ filament). It carries an engraved label one layer deep: the default ``label_dept
 :data:`LABEL_FLOOR_MM` 0.2 (on 0.3 mm layers the slicer still cuts the engraving from the whole
 top layer: it slices at mid-layer).
 
+Thinner still, an FDM plate is one 0.3 mm layer of the shipped profile (:data:`FDM_SINGLE_LAYER_MM`),
+when nothing is engraved into it (``plate.label`` emboss or none: an engraving needs a layer under
+it) and it stays flat: up to a 111 mm side, so a mural's plate on posts every 78 mm
+(:data:`stencil_cad.mural.posts.SINGLE_LAYER_POST_PITCH_MM`). One layer instead of two is a quarter
+less plastic and no second pass over the sheet and its hole loops: the print is its first layer.
+
 Sag in mm from this model (solid plate; times 2 for the perforation), PLA E 3.5 GPa, 1240 kg/m3:
 
 ==========  =======  =======  =======  =======  =======
@@ -86,10 +92,14 @@ SAG_LIMIT_FRACTION = 0.05
 #: An engraved label leaves this much plate under it (``plate.label_depth_mm`` is at most the thickness
 #: less this): one 0.2 mm layer of the thinnest FDM plate.
 LABEL_FLOOR_MM = 0.2
-#: The thinnest FDM plate, mm, and the layer height it prints at: two 0.2 mm layers (the profile's
-#: other plates are whole 0.3 mm layers; see the module's text).
+#: The thinnest FDM plate that carries an engraved label, mm, and the layer height it prints at: two
+#: 0.2 mm layers (the profile's other plates are whole 0.3 mm layers; see the module's text).
 FDM_THIN_PLATE_MM = 0.4
 FDM_THIN_LAYER_MM = 0.2
+#: The thinnest FDM plate of all, mm: one layer of the shipped profile's 0.3 mm, for a plate whose
+#: label needs no floor (``plate.label`` emboss or none) carried densely enough (a mural's posts,
+#: :data:`stencil_cad.mural.posts.SINGLE_LAYER_POST_PITCH_MM`).
+FDM_SINGLE_LAYER_MM = 0.3
 _G = 9.81
 
 
@@ -133,8 +143,8 @@ SHEETS: dict[Process, Sheet] = {
         3.5,
         1240.0,
         0.36,
-        (FDM_THIN_PLATE_MM, *_layers(0.3, 2, 20)),
-        "two 0.2 mm layers or whole 0.3 mm layers",
+        (FDM_SINGLE_LAYER_MM, FDM_THIN_PLATE_MM, *_layers(0.3, 2, 20)),
+        "one 0.3 mm layer, two 0.2 mm layers or whole 0.3 mm layers",
     ),
     Process.sla: Sheet("resin", 2.0, 1150.0, 0.35, _layers(0.1, 8, 60), "whole 0.1 mm layers"),
     Process.laser: Sheet(

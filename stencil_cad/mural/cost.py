@@ -6,7 +6,8 @@ The holes are the stippler's when it has run (still before any CAD), otherwise t
 expected count and open area (:data:`EXPECTED_FILL`, :data:`EXPECTED_OPEN`).
 
 **FDM print time and filament** follow PrusaSlicer with the shipped profile
-(``templates/prusa_fdm.ini``: 0.3 mm layers, 0.45 mm hole loops and 0.75 mm sheet lines, 100 %
+(``templates/prusa_fdm.ini``, timed for the printer the bed names where the project knows it,
+:data:`PRINTER_FITS`, else for the profile's generic printer: 0.3 mm layers, 0.45 mm hole loops and 0.75 mm sheet lines, 100 %
 infill for plates, walls sparse as :data:`stencil_cad.slicing.WALL_SETTINGS`). A plate's time is mostly its plastic,
 ``(outline area - open area) x thickness`` at the profile's effective volumetric rate, plus a
 term per millimetre of hole edge per layer (each hole is a slow perimeter loop, a travel and a
@@ -45,7 +46,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..config.thickness import FDM_THIN_LAYER_MM, FDM_THIN_PLATE_MM
+from ..config.printers import printer_for_bed
+from ..config.thickness import FDM_SINGLE_LAYER_MM, FDM_THIN_LAYER_MM, FDM_THIN_PLATE_MM
 from ..figures.cost import CostFigures, PaintCost, PartCost
 from ..geometry import polygon_area
 from .laser import laser_stand, sheets_needed
@@ -58,14 +60,17 @@ if TYPE_CHECKING:
 __all__ = [
     "EXPECTED_FILL",
     "EXPECTED_OPEN",
+    "GENERIC_RATES",
     "LASER_PIERCE_S",
     "LASER_SPEED_MM_S",
     "PlateSpec",
+    "Rates",
     "WallSpec",
     "cut_seconds",
     "hours_text",
     "making_cost",
     "post_count",
+    "rates_for",
     "posts_print",
     "plate_print",
     "plate_specs",
@@ -98,15 +103,6 @@ _WALL_BOTTOM_LAYERS = 2
 _WALL_TOP_LAYERS = 3
 _WALL_INFILL = 0.10
 
-#: The shipped profile's speeds, mm/s: first layer, solid infill, the top layer, perimeters (a
-#: plate's hole loops print as external perimeters), and the wall's (``WALL_SETTINGS``).
-_FIRST_MM_S = 30.0
-_SOLID_MM_S = 80.0
-_TOP_MM_S = 60.0
-_HOLE_MM_S = 35.0
-_WALL_PERIMETER_MM_S = 50.0
-_WALL_INFILL_MM_S = 80.0
-
 # Refitted for the profile's 0.75 mm sheet lines (least squares on the relative error, the fixed
 # overhead held at 60 s) on PrusaSlicer 2.5's estimates of 12 plates: the bundled example's 4
 # (0.9 mm: three layers, 991-2,493 holes) and 8 of the 600 x 400 mm coffee mural's (0.6 mm on
@@ -121,18 +117,8 @@ _WALL_INFILL_MM_S = 80.0
 # run's 31.9 h and 471 g against the slicer's scaled to all 26 parts +0.7 % and -0.2 %.
 #: Fixed seconds per part (the start G-code's moves and purge line), held, not fitted.
 FIXED_S = 60.0
-#: Plate: the slicer's time over the plate's lines at the profile's speeds (acceleration, turns).
-PLATE_SLOWDOWN = 1.251
-#: Plate: seconds per mm of hole edge per layer beyond its loop at the hole speed (travel, retraction).
-PLATE_S_PER_EDGE_MM = 0.0354
-#: Plate of two layers (a mural's plate on posts, :mod:`.posts`): seconds per mm of hole edge per
-#: layer. Below :data:`PLATE_S_PER_EDGE_MM`: on two layers the slicer joins a hole's loops with
-#: fewer travels and retractions.
-PLATE_S_PER_EDGE_MM_THIN = 0.0279
 #: Plate: filament volume over the plate's plastic (overlapping lines; 1.02-1.10 measured).
 PLATE_FILAMENT = 1.047
-#: Wall: the slicer's time over the wall's lines at the profile's wall speeds.
-WALL_SLOWDOWN = 1.215
 #: Wall: filament volume over the plastic its sparse slicing lays as modelled (0.960-0.963 measured).
 WALL_FILAMENT = 0.961
 
@@ -145,9 +131,77 @@ EXPECTED_FILL = 0.35
 EXPECTED_OPEN = 0.12
 
 
-def _sheet_speed(mm_s: float, layer_mm: float = LAYER_MM) -> float:
-    """A solid-sheet speed above the first layer, mm/s, as the profile's volumetric cap lets it print."""
-    return min(mm_s, MAX_FLOW_MM3_S / (layer_mm * SHEET_LINE_MM))
+@dataclass(frozen=True)
+class Rates:
+    """The speeds a printer lays a part's lines at, and the factors fitted on the slicer's estimates.
+
+    Attributes:
+        first_mm_s: First layer, mm/s.
+        solid_mm_s: Solid infill, mm/s (under the volumetric cap).
+        top_mm_s: Top solid infill, mm/s (under the volumetric cap).
+        hole_mm_s: A plate's hole loops (external perimeters), mm/s.
+        wall_perimeter_mm_s: A wall's perimeters, mm/s.
+        wall_infill_mm_s: A wall's sparse infill, mm/s.
+        max_flow_mm3_s: The volumetric cap, mm³/s.
+        plate_slowdown: Plate: the slicer's time over the plate's lines at these speeds (acceleration, turns).
+        plate_s_per_edge_mm: Plate: seconds per mm of hole edge per layer beyond its loop (travel, retraction).
+        plate_s_per_edge_mm_thin: The same for a plate of one or two layers (a mural's plate on posts,
+            :mod:`.posts`): there the slicer joins a hole's loops with fewer travels and retractions.
+        wall_slowdown: Wall: the slicer's time over the wall's lines at these speeds.
+    """
+
+    first_mm_s: float
+    solid_mm_s: float
+    top_mm_s: float
+    hole_mm_s: float
+    wall_perimeter_mm_s: float
+    wall_infill_mm_s: float
+    max_flow_mm3_s: float
+    plate_slowdown: float
+    plate_s_per_edge_mm: float
+    plate_s_per_edge_mm_thin: float
+    wall_slowdown: float
+
+    def sheet_speed(self, mm_s: float, layer_mm: float = LAYER_MM) -> float:
+        """A solid-sheet speed above the first layer, mm/s, as the volumetric cap lets it print."""
+        return min(mm_s, self.max_flow_mm3_s / (layer_mm * SHEET_LINE_MM))
+
+
+#: The shipped profile's generic printer: its speeds (first layer, solid infill, the top layer, the
+#: hole loops as external perimeters, the wall's ``WALL_SETTINGS``) and the factors fitted as above.
+GENERIC_RATES = Rates(30.0, 80.0, 60.0, 35.0, 50.0, 80.0, MAX_FLOW_MM3_S, 1.251, 0.0354, 0.0279, 1.215)
+
+#: Per printer a bed preset names (:data:`stencil_cad.config.printers.PRINTERS`), the factors fitted on
+#: PrusaSlicer's estimates of parts sliced for it (``plate_slowdown``, ``plate_s_per_edge_mm``,
+#: ``plate_s_per_edge_mm_thin``, ``wall_slowdown``); its speeds are the printer's own.
+#: The MK4's: least squares on the relative error over 8 two-layer 0.4 mm plates of the 600 x 400 mm
+#: coffee mural (1,009-5,898 holes; -8.4 % .. +5.2 %) and its wall; the per-edge term of plates of
+#: three layers or more is not fitted (the generic ratio to the two-layer term). Checked on plates the
+#: fit never saw, one 0.3 mm layer with an embossed label: the same mural's 8 sliced plates -4.2 % ..
+#: +5.2 %, its wall +3.1 %, the dry run +3.8 % (hours) and -0.9 % (filament) of the slicer scaled
+#: to every part; the 375 x 250 mm mural's 8 plates -3.3 % .. +8.9 %, in total +1.7 %.
+PRINTER_FITS: dict[str, tuple[float, float, float, float]] = {
+    "prusa_mk4": (1.423, 0.076, 0.0599, 1.71),
+}
+
+
+def rates_for(bed: object) -> Rates:
+    """The :class:`Rates` for a job's ``bed``: its printer's (a preset that names one), else the generic printer's."""
+    printer = printer_for_bed(bed)
+    fit = PRINTER_FITS.get(bed) if isinstance(bed, str) else None
+    if printer is None or fit is None:
+        return GENERIC_RATES
+    v = printer.speed
+    return Rates(
+        v["first_layer"],
+        v["solid_infill"],
+        v["top_solid_infill"],
+        v["external_perimeter"],
+        v["perimeter"],
+        v["infill"],
+        printer.max_flow_mm3_s,
+        *fit,
+    )
 
 
 def hours_text(hours: float) -> str:
@@ -187,8 +241,9 @@ class PlateSpec:
 
     @property
     def layer_mm(self) -> float:
-        """The layer height it prints at: the thinnest FDM plate's 0.2 mm, else the profile's."""
-        return FDM_THIN_LAYER_MM if self.thickness_mm <= FDM_THIN_PLATE_MM + 1e-6 else LAYER_MM
+        """The layer height it prints at: 0.2 mm for the 0.4 mm plate, else the profile's (0.3 mm is one layer)."""
+        thin = FDM_SINGLE_LAYER_MM + 1e-6 < self.thickness_mm <= FDM_THIN_PLATE_MM + 1e-6
+        return FDM_THIN_LAYER_MM if thin else LAYER_MM
 
     @property
     def layers(self) -> int:
@@ -200,18 +255,18 @@ class PlateSpec:
         """The plate's solid volume, mm³."""
         return max(self.area_mm2 - self.open_mm2, 0.0) * self.thickness_mm
 
-    @property
-    def line_seconds(self) -> float:
-        """Seconds to lay the plate's lines at the profile's speeds (no acceleration, no travel).
+    def line_seconds(self, rates: Rates = GENERIC_RATES) -> float:
+        """Seconds to lay the plate's lines at the printer's speeds (no acceleration, no travel).
 
         The first layer at the first-layer speed, the top one at the top-infill speed, the rest at
         the solid-infill speed; each hole's edge is a perimeter loop on every layer.
         """
         net = max(self.area_mm2 - self.open_mm2, 0.0) / SHEET_LINE_MM
         n = self.layers
-        solid, top = _sheet_speed(_SOLID_MM_S, self.layer_mm), _sheet_speed(_TOP_MM_S, self.layer_mm)
-        per_layer = [_FIRST_MM_S] + [solid] * max(n - 2, 0) + ([top] if n > 1 else [])
-        return net * sum(1.0 / v for v in per_layer) + n * self.edge_mm / _HOLE_MM_S
+        solid = rates.sheet_speed(rates.solid_mm_s, self.layer_mm)
+        top = rates.sheet_speed(rates.top_mm_s, self.layer_mm)
+        per_layer = [rates.first_mm_s] + [solid] * max(n - 2, 0) + ([top] if n > 1 else [])
+        return net * sum(1.0 / v for v in per_layer) + n * self.edge_mm / rates.hole_mm_s
 
 
 @dataclass(frozen=True)
@@ -238,9 +293,8 @@ class WallSpec:
         infill = _WALL_INFILL * max(solid - shell - skins, 0.0)
         return min(shell + skins + infill, solid)
 
-    @property
-    def line_seconds(self) -> float:
-        """Seconds to lay the wall's lines at the profile's wall speeds (no acceleration, no travel)."""
+    def line_seconds(self, rates: Rates = GENERIC_RATES) -> float:
+        """Seconds to lay the wall's lines at the printer's wall speeds (no acceleration, no travel)."""
         (a_out, l_out), (a_open, l_open), (a_pocket, l_pocket) = self.rings
         s, d = self.standoff_mm, self.pocket_depth_mm
         low, top = a_out - a_open, a_out - a_pocket
@@ -248,24 +302,27 @@ class WallSpec:
         skins = _WALL_BOTTOM_LAYERS * low + _WALL_TOP_LAYERS * (top + (a_pocket - a_open))
         bulk = low * s + top * d - LAYER_MM * LINE_MM * shell - LAYER_MM * skins
         infill = _WALL_INFILL * max(bulk, 0.0) / (LAYER_MM * LINE_MM)
+        solid = rates.sheet_speed(rates.solid_mm_s)
         return (
-            shell / _WALL_PERIMETER_MM_S
-            + skins / (SHEET_LINE_MM * _sheet_speed(_SOLID_MM_S))
-            + infill / _WALL_INFILL_MM_S
-            + low / SHEET_LINE_MM * (1.0 / _FIRST_MM_S - 1.0 / _sheet_speed(_SOLID_MM_S))
+            shell / rates.wall_perimeter_mm_s
+            + skins / (SHEET_LINE_MM * solid)
+            + infill / rates.wall_infill_mm_s
+            + low / SHEET_LINE_MM * (1.0 / rates.first_mm_s - 1.0 / solid)
         )
 
 
-def plate_print(spec: PlateSpec) -> tuple[float, float]:
+def plate_print(spec: PlateSpec, rates: Rates = GENERIC_RATES) -> tuple[float, float]:
     """``(seconds, filament mm³)`` to print one plate with the shipped FDM profile, as modelled."""
-    per_edge = PLATE_S_PER_EDGE_MM_THIN if spec.layers <= 2 else PLATE_S_PER_EDGE_MM
-    seconds = FIXED_S + PLATE_SLOWDOWN * spec.line_seconds + per_edge * spec.edge_mm * spec.layers
+    per_edge = rates.plate_s_per_edge_mm_thin if spec.layers <= 2 else rates.plate_s_per_edge_mm
+    seconds = (
+        FIXED_S + rates.plate_slowdown * spec.line_seconds(rates) + per_edge * spec.edge_mm * spec.layers
+    )
     return seconds, PLATE_FILAMENT * spec.plastic_mm3
 
 
-def wall_print(spec: WallSpec) -> tuple[float, float]:
+def wall_print(spec: WallSpec, rates: Rates = GENERIC_RATES) -> tuple[float, float]:
     """``(seconds, filament mm³)`` to print one wall with the shipped profile's wall settings, as modelled."""
-    return FIXED_S + WALL_SLOWDOWN * spec.line_seconds, WALL_FILAMENT * spec.plastic_mm3
+    return FIXED_S + rates.wall_slowdown * spec.line_seconds(rates), WALL_FILAMENT * spec.plastic_mm3
 
 
 def _ring(ring: np.ndarray) -> tuple[float, float]:
@@ -364,7 +421,7 @@ def post_count(grid: TileGrid, cfg: JobConfig) -> int:
     return max(len(targets(*t.size, plan.pitch_mm)) for t in grid.tiles)
 
 
-def posts_print(cfg: JobConfig, grid: TileGrid, n: int) -> tuple[float, float]:
+def posts_print(cfg: JobConfig, grid: TileGrid, n: int, rates: Rates = GENERIC_RATES) -> tuple[float, float]:
     """``(seconds, filament mm³)`` to print ``n`` posts together, solid, as modelled.
 
     Their plastic at the plates' rate, but never under :data:`MIN_LAYER_S` a layer (the slicer slows
@@ -378,7 +435,7 @@ def posts_print(cfg: JobConfig, grid: TileGrid, n: int) -> tuple[float, float]:
     t = cfg.plate.thickness_mm
     one = math.pi * (plan.radius_mm**2 * plan.height_mm + plan.pin_radius_mm**2 * t)
     layers = math.ceil((plan.height_mm + t) / LAYER_MM - 1e-6)
-    lines = n * one / (LAYER_MM * SHEET_LINE_MM * _sheet_speed(_SOLID_MM_S)) * PLATE_SLOWDOWN
+    lines = n * one / (LAYER_MM * SHEET_LINE_MM * rates.sheet_speed(rates.solid_mm_s)) * rates.plate_slowdown
     return FIXED_S + max(lines, layers * MIN_LAYER_S), PLATE_FILAMENT * n * one
 
 
@@ -417,13 +474,14 @@ def making_cost(
 
     cfg = cfg.fit_plate_thickness(sag_side_mm(grid, cfg))
     laser = cfg.stipple.process.value == "laser"
+    rates = rates_for(cfg.bed)
     plates = plate_specs(grid, cfg, layers, dotsets)
     physical = cfg.spray.is_physical
     passes = [float(cfg.spray.passes) if not physical else d.amount(cfg.spray.passes) for d in dotsets or ()]
     parts = []
     cut_mm = cut_s = 0.0
     for p in plates:
-        seconds, mm3 = plate_print(p)
+        seconds, mm3 = plate_print(p, rates)
         cut = p.perimeter_mm + p.edge_mm
         if laser:
             seconds, mm3 = 0.0, 0.0
@@ -442,11 +500,11 @@ def making_cost(
             stand, None if grid.bed is None else (grid.bed.x_mm, grid.bed.y_mm)
         )
     for w in wall_specs(grid, cfg) if stand is None else ():
-        seconds, mm3 = wall_print(w)
+        seconds, mm3 = wall_print(w, rates)
         parts.append(_part("wall", w.tile, 0, 0, seconds, mm3, None, 0))
     n_posts = post_count(grid, cfg) if stand is None else 0
     if n_posts:
-        seconds, mm3 = posts_print(cfg, grid, n_posts)
+        seconds, mm3 = posts_print(cfg, grid, n_posts, rates)
         parts.append(_part("posts", "", n_posts, 0, seconds, mm3, None, 0))
     return CostFigures(
         basis="plan" if dotsets is None else "holes",

@@ -6,7 +6,9 @@ mostly its plastic. A mural's plates are instead also carried by short printed p
 the surface: each post is a foot as tall as the wall's stand-off with a pin on top that the maker
 pushes into a pin hole of the plate from below. The posts stand about every :data:`POST_PITCH_MM`,
 so the sag rule sees a panel between four posts (:func:`stencil_cad.config.thickness.column_side_mm`)
-instead of the whole plate, and the plates come out two 0.2 mm layers (0.4 mm) thick.
+instead of the whole plate, and the plates come out two 0.2 mm layers (0.4 mm) thick; with a label
+that needs no floor (``plate.label`` emboss or none) the posts stand every
+:data:`SINGLE_LAYER_POST_PITCH_MM` and the plates are one 0.3 mm layer.
 
 A post must shade no hole: under the plate the spray of a hole spreads out to the surface, and a
 post in its way would cut that spray. Each post's site is chosen per plate (each layer sprays
@@ -52,8 +54,10 @@ __all__ = [
     "PIN_RADIUS_MM",
     "POST_PITCH_MM",
     "POST_RADIUS_MM",
+    "SINGLE_LAYER_POST_PITCH_MM",
     "PostPlan",
     "clear_post_sites",
+    "post_pitch_mm",
     "post_plan",
     "post_sites",
     "post_span_mm",
@@ -69,6 +73,12 @@ __all__ = [
 #: posts under a plate of a Prusa MK4's bed (the 600 x 400 mm coffee mural: 2 a plate, as at the
 #: 100 mm of before, whose 0.6 mm plates used 50 % more filament).
 POST_PITCH_MM = 90.0
+#: Spacing of the targets where the plate may be one 0.3 mm layer (FDM, its thickness left to the
+#: process and a label that needs no floor: ``plate.label`` emboss or none;
+#: :data:`stencil_cad.config.thickness.FDM_SINGLE_LAYER_MM`): the sag model allows a 111 mm square
+#: at 0.3 mm, which the longest span the search allows at 78 mm (101 mm between posts) stays within.
+#: 4 posts under a plate of the 600 x 400 mm coffee mural instead of 2.
+SINGLE_LAYER_POST_PITCH_MM = 78.0
 #: How far a site may move from its target, as a share of the pitch (each way, in x and y).
 SEARCH_FRACTION = 0.15
 #: Where a window leaves no site within :data:`SEARCH_FRACTION`, the search widens to this share of
@@ -128,7 +138,21 @@ def post_plan(cfg: JobConfig, grid: TileGrid) -> PostPlan | None:
     if not grid.tiled or cfg.mode.value != "soft":
         return None
     height = min(cfg.wall.heights())
-    return PostPlan(POST_PITCH_MM, POST_RADIUS_MM + shade_reach_mm(cfg), height)
+    return PostPlan(post_pitch_mm(cfg), POST_RADIUS_MM + shade_reach_mm(cfg), height)
+
+
+def post_pitch_mm(cfg: JobConfig) -> float:
+    """The targets' spacing: :data:`SINGLE_LAYER_POST_PITCH_MM` where the plate may be one FDM layer, else :data:`POST_PITCH_MM`.
+
+    One layer where the process fills the thickness in and the label needs no floor (an engraving
+    needs two layers).
+    """
+    single = (
+        cfg.stipple.process.value == "fdm"
+        and cfg.plate.label.value != "engrave"
+        and cfg.thickness_fill.filled
+    )
+    return SINGLE_LAYER_POST_PITCH_MM if single else POST_PITCH_MM
 
 
 def shade_reach_mm(cfg: JobConfig) -> float:
@@ -158,9 +182,10 @@ def sag_side_mm(grid: TileGrid, cfg: JobConfig) -> float:
     from .tiling import part_sizes
 
     side = max(max(part_sizes(*t.part_size, cfg)["plate"]) for t in grid.tiles)
-    if post_plan(cfg, grid) is None:
+    plan = post_plan(cfg, grid)
+    if plan is None:
         return side
-    return min(side, column_side_mm(post_span_mm()))
+    return min(side, column_side_mm(post_span_mm(plan.pitch_mm)))
 
 
 def targets(w: float, h: float, pitch: float) -> np.ndarray:

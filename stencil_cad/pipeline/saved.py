@@ -190,6 +190,8 @@ def _check_order(path: Path, order: object, times: list[float]) -> None:
     Raises:
         UserError: Naming the step, both values and the fix.
     """
+    import math
+
     if order is None:
         return
     fix = "make order[].spray_time, order[].passes and spray_times agree, or re-run `stencil-cad stipple`"
@@ -207,10 +209,14 @@ def _check_order(path: Path, order: object, times: list[float]) -> None:
                 f"spray one amount and the plates be made for another; {fix}"
             )
         passes = step.get("passes")
-        if passes is not None and passes != max(1, round(float(t))):
+        # The hand sprays a dose in whole passes at a pace (SprayConfig.hand): 4.5 may be 4 slower
+        # passes or 5 quicker ones, so either whole number around the dose agrees with it.
+        lo, hi = max(1, math.floor(float(t))), max(1, math.ceil(float(t)))
+        if passes is not None and not (isinstance(passes, int) and lo <= passes <= hi):
+            said = f"{lo}" if lo == hi else f"{lo} or {hi}"
             raise UserError(
                 f"{path}: order[{i}].passes is {passes!r} but spray_times[{i}] is {t:g} "
-                f"({max(1, round(float(t)))} passes): the steps would spray one amount and the plates be "
+                f"({said} passes): the steps would spray one amount and the plates be "
                 f"made for another; {fix}"
             )
 

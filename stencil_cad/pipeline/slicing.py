@@ -270,7 +270,11 @@ def _bed_xy(bed: BedArg) -> tuple[float, float]:
 
 
 def _bed_overrides(prof: Profile, bed: BedArg) -> dict[str, Any]:
-    """Slicer settings that set the bed size (PrusaSlicer ``bed_shape``, Cura machine width/depth)."""
+    """Slicer settings for the bed: its size, and the printer a bed preset names.
+
+    The size is PrusaSlicer's ``bed_shape`` or Cura's machine width and depth; on PrusaSlicer FDM a
+    preset that names a printer adds its limits and speeds (:func:`stencil_cad.slicing.printer_settings`).
+    """
     from .. import slicing
     from ..config.bed import resolve_bed
 
@@ -282,4 +286,6 @@ def _bed_overrides(prof: Profile, bed: BedArg) -> dict[str, Any]:
         return {}
     if prof.slicer is slicing.Slicer.CURA:
         return {"machine_width": b.x_mm, "machine_depth": b.y_mm}
-    return {"bed_shape": f"0x0,{b.x_mm:g}x0,{b.x_mm:g}x{b.y_mm:g},0x{b.y_mm:g}"}
+    shape = {"bed_shape": f"0x0,{b.x_mm:g}x0,{b.x_mm:g}x{b.y_mm:g},0x{b.y_mm:g}"}
+    # A bed preset that names a printer slices for that printer's limits and its maker's speeds.
+    return {**shape, **slicing.printer_settings(prof, b.name)}

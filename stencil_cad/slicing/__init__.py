@@ -13,6 +13,7 @@ from .profiles import (
     get_profile,
     is_wall,
     part_settings,
+    printer_settings,
     templates_dir,
 )
 from .reports import MeshInfo, gcode_summary, output_problem, parse_info, parse_messages, sla_layer_count
@@ -72,6 +73,7 @@ __all__ = [
     "parse_info",
     "parse_messages",
     "part_settings",
+    "printer_settings",
     "place",
     "read_estimate",
     "plate_project",

@@ -6,7 +6,8 @@ import enum
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..config.thickness import FDM_THIN_LAYER_MM, FDM_THIN_PLATE_MM
+from ..config.printers import printer_for_bed
+from ..config.thickness import FDM_SINGLE_LAYER_MM, FDM_THIN_LAYER_MM, FDM_THIN_PLATE_MM
 
 __all__ = [
     "PROFILES",
@@ -18,6 +19,7 @@ __all__ = [
     "get_profile",
     "is_wall",
     "part_settings",
+    "printer_settings",
     "templates_dir",
 ]
 
@@ -184,7 +186,8 @@ def part_settings(
         return dict(WALL_SETTINGS)
     if height_mm is None:
         height_mm = _stl_height(path)
-    if height_mm is not None and height_mm <= FDM_THIN_PLATE_MM + 1e-3:
+    # A single-layer plate (0.3 mm) is one of the profile's own layers; a 0.4 mm one is two 0.2 mm layers.
+    if height_mm is not None and FDM_SINGLE_LAYER_MM + 1e-3 < height_mm <= FDM_THIN_PLATE_MM + 1e-3:
         return dict(THIN_PLATE_SETTINGS)
     return {}
 
@@ -201,3 +204,31 @@ def _stl_height(path: str | Path) -> float | None:
         return None
     z = tri[..., 2]
     return float(z.max() - z.min())
+
+
+def printer_settings(profile: str | Profile, bed: object) -> dict[str, object]:
+    """Settings that win over a PrusaSlicer FDM profile for the printer a bed preset names.
+
+    The printer's motion limits (emitted to the G-code, so the slicer's estimate and the printer
+    agree), its maker's accelerations and speeds, and its filament's volumetric cap
+    (:data:`stencil_cad.config.printers.PRINTERS`).
+
+    Args:
+        profile: The profile the part is sliced with.
+        bed: The job's ``bed`` (a preset name, a size, or None).
+
+    Returns:
+        PrusaSlicer ini keys and values; empty for a bed that names no known printer, or a profile
+        other than PrusaSlicer FDM.
+    """
+    prof = get_profile(profile)
+    printer = printer_for_bed(bed)
+    if printer is None or prof.slicer is not Slicer.PRUSA or prof.technology is not Technology.FFF:
+        return {}
+    return {
+        "machine_limits_usage": "emit_to_gcode",
+        **printer.limits,
+        **printer.accelerations,
+        **printer.speeds,
+        "max_volumetric_speed": printer.max_flow_mm3_s,
+    }

@@ -27,7 +27,9 @@ def test_sag_follows_plate_theory():
 @pytest.mark.parametrize(
     "process, side, want",
     [
-        (Process.fdm, 100.0, 0.4),
+        (Process.fdm, 100.0, 0.3),  # one layer: no label floor asked here
+        (Process.fdm, 111.0, 0.3),
+        (Process.fdm, 112.0, 0.4),
         (Process.fdm, 128.0, 0.4),
         (Process.fdm, 130.0, 0.6),
         (Process.fdm, 157.0, 0.6),
@@ -87,6 +89,12 @@ def test_every_filled_thickness_holds_the_default_label(process, width):
     cfg = parse_config({"stipple": {"process": process.value}, "size": {"width_mm": width}}, source="test")
     assert cfg.thickness_fill.filled
     assert cfg.plate.label_depth_mm <= cfg.plate.thickness_mm - LABEL_FLOOR_MM
+
+
+def test_an_engraved_label_keeps_the_fdm_plate_at_two_layers():
+    """A single 0.3 mm layer would leave no floor under the default 0.2 mm engraving."""
+    assert fill_thickness(Process.fdm, 100.0, 10.0).thickness_mm == pytest.approx(0.3)
+    assert fill_thickness(Process.fdm, 100.0, 10.0, 0.2 + LABEL_FLOOR_MM).thickness_mm == pytest.approx(0.4)
 
 
 def test_a_deeper_label_raises_the_filled_thickness():

@@ -204,3 +204,21 @@ def test_summary_says_the_cost_per_kind_and_the_slicers_total():
         [{"layer": 1, "print_hours": 1.5}, {"layer": 2, "print_hours": 1.25}], [{"print_hours": 1.0}]
     )
     assert _cost_lines(f)[-1] == "  slicer    PrusaSlicer's estimate: 3.8 h for the 3 part(s) it sliced"
+
+
+def test_a_single_layer_plate_is_one_layer_and_a_known_printer_prints_faster():
+    one = cost.PlateSpec("A1", 1, 30_000.0, 700.0, 0.3, 3000, 4000.0, 12_000.0)
+    two = cost.PlateSpec("A1", 1, 30_000.0, 700.0, 0.4, 3000, 4000.0, 12_000.0)
+    assert (one.layers, one.layer_mm) == (1, 0.3) and (two.layers, two.layer_mm) == (2, 0.2)
+    assert cost.plate_print(one)[0] < cost.plate_print(two)[0]
+    assert cost.plate_print(one)[1] == pytest.approx(cost.plate_print(two)[1] * 0.75)
+    mk4 = cost.rates_for("prusa_mk4")
+    assert (
+        cost.rates_for(None)
+        == cost.rates_for((250.0, 210.0))
+        == cost.rates_for("prusa_xl")
+        == cost.GENERIC_RATES
+    )
+    assert mk4 != cost.GENERIC_RATES and mk4.hole_mm_s == 170.0 and mk4.max_flow_mm3_s == 15.0
+    assert cost.plate_print(two, mk4)[0] < cost.plate_print(two)[0]
+    assert cost.plate_print(two, mk4)[1] == cost.plate_print(two)[1]

@@ -142,3 +142,25 @@ def test_a_target_inside_a_big_window_gets_no_post():
     sites, dropped = mural.post_sites(ds, t.sheet, plan)
     assert dropped == []
     assert not any(np.hypot(*(sites - aims[0]).T) < 0.5 * plan.pitch_mm) if len(sites) else True
+
+
+def test_posts_closer_together_let_a_plate_without_engraving_be_one_layer():
+    """Emboss or no label: the posts every 78 mm, and the plates one 0.3 mm layer within the sag limit."""
+    bed = cfg_io.parse_config({"bed": "prusa_mk4"}).bed
+    engraved = job(size={"width_mm": 600})
+    embossed = job(size={"width_mm": 600}, plate={"label": "emboss"})
+    given = job(size={"width_mm": 600}, plate={"label": "emboss", "thickness_mm": 0.4})
+    assert posts.post_pitch_mm(engraved) == posts.POST_PITCH_MM
+    assert posts.post_pitch_mm(given) == posts.POST_PITCH_MM
+    assert posts.post_pitch_mm(embossed) == posts.SINGLE_LAYER_POST_PITCH_MM < posts.POST_PITCH_MM
+    grid = mural.plan_tiles(600, 400, embossed.model_copy(update={"bed": bed}))
+    side = mural.sag_side_mm(grid, embossed)
+    assert side == pytest.approx(column_side_mm(posts.post_span_mm(posts.SINGLE_LAYER_POST_PITCH_MM)))
+    assert embossed.fit_plate_thickness(side).plate.thickness_mm == pytest.approx(0.3)
+    assert sag_mm(side, 0.3, SHEETS[embossed.stipple.process]) <= 0.05 * 10.0
+    # At the engraved plates' 90 mm the single layer would sag past the limit.
+    wide = column_side_mm(posts.post_span_mm(posts.POST_PITCH_MM))
+    assert sag_mm(wide, 0.3, SHEETS[embossed.stipple.process]) > 0.05 * 10.0
+    assert engraved.fit_plate_thickness(
+        mural.sag_side_mm(grid, engraved)
+    ).plate.thickness_mm == pytest.approx(0.4)

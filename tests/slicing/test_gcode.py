@@ -214,3 +214,36 @@ def test_job_with_print_estimate_lists_time_and_filament(tmp_path):
     html = (out / "instructions.html").read_text()
     assert html.count("PrusaSlicer: prints in about") == 3
     assert "all parts" in html
+
+
+def test_a_bed_that_names_a_printer_slices_for_its_limits_and_speeds():
+    from stencil_cad.config.printers import PRINTERS
+
+    mk4 = sl.printer_settings("prusa_fdm", "prusa_mk4")
+    assert mk4["machine_limits_usage"] == "emit_to_gcode"
+    assert mk4["machine_max_acceleration_extruding"] == 4000 and mk4["machine_max_jerk_x"] == 8
+    assert mk4["small_perimeter_speed"] == 170 and mk4["first_layer_speed"] == 40
+    assert mk4["max_volumetric_speed"] == PRINTERS["prusa_mk4"].max_flow_mm3_s == 15.0
+    # A custom size, a preset without a printer, or a resin profile keep the profile's machine.
+    assert sl.printer_settings("prusa_fdm", (250.0, 210.0)) == {}
+    assert sl.printer_settings("prusa_fdm", "prusa_xl") == {}
+    assert sl.printer_settings("prusa_sla", "prusa_mk4") == {}
+    assert sl.printer_settings("cura_fdm", "prusa_mk4") == {}
+
+
+@pytest.mark.slow
+@needs_prusa
+def test_the_mk4_slices_faster_and_emits_its_limits(tmp_path):
+    from stencil_cad.pipeline import print_estimate, slice_plates
+
+    hours = {}
+    for bed in ((250.0, 210.0), "prusa_mk4"):
+        folder = tmp_path / str(bed != "prusa_mk4")
+        folder.mkdir()
+        _radius_plate(folder / "layer_01.stl")
+        [(_, out, result)] = list(slice_plates([folder / "layer_01.stl"], "prusa_fdm", bed=bed))
+        assert result.ok, result.errors
+        hours[str(bed)] = print_estimate(out).print_hours
+        text = out.read_text()
+        assert ("M201 X4000 Y4000" in text) == (bed == "prusa_mk4")
+    assert hours["prusa_mk4"] < 0.9 * hours[str((250.0, 210.0))]
