@@ -4,7 +4,7 @@ Rows of ``python -m benchmarks printed`` (case ``cost``; ``--case cost`` runs on
 
 * ``cost_<job>_<part>`` — one sliced part of the bundled example (``job`` ``example``: its four
   plates and its wall) or of a small FDM mural (``job`` ``mural``: ``coffee.png`` at
-  375 × 250 mm, 2 layers, ``--bed prusa_mk4``, an embossed label: 4 tiles, 8 plates of one 0.3 mm
+  375 × 250 mm, 2 layers, ``--bed prusa_mk4``, the default raised label: 4 tiles, 8 plates of one 0.3 mm
   layer on posts and one wall; small so that every part slices in under a minute): ``kind``, ``holes``, the estimate from the stippler's
   holes (``estimate_hours``, ``estimate_filament_g``; what the manifest's ``cost`` holds), the
   slicer's (``slicer_hours``, ``slicer_filament_g``: ``; filament used [mm]`` at 1.24 g/cm³) and
@@ -46,8 +46,6 @@ MURAL = {
     "decompose": {"layers": 2},
     "stipple": {"process": "fdm"},
     "view": {"distance_m": 3},
-    # A raised label: the plates may then be one 0.3 mm layer (an engraving needs two).
-    "plate": {"label": "emboss"},
 }
 #: The issue's mural (case ``mural600``, only when asked: ``--case mural600``): 600 x 400 mm, 3 layers.
 MURAL600 = {**MURAL, "name": "coffee mural", "size": {"width_mm": 600.0}, "decompose": {"layers": 3}}

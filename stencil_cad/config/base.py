@@ -36,7 +36,7 @@ def resolved_palette(palette: str | Sequence[str] | Path | None, field: str) -> 
     return tuple(palette)
 
 
-def null_reads_as(field: str, default: float) -> classmethod:
+def null_reads_as(field: str, default: object) -> classmethod:
     """A before-validator of ``field``: null (left for the job to fill in) reads as ``default`` in a section alone.
 
     The job config fills such a field in for its process, size or bed before its section sees it.

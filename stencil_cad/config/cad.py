@@ -27,6 +27,14 @@ class LabelMode(str, enum.Enum):
     none = "none"
 
 
+def _nullable_label(schema: dict) -> None:
+    """The label's schema: one of the modes, or null (filled in by the job)."""
+    schema.pop("$ref", None)
+    schema.pop("allOf", None)
+    schema["anyOf"] = [{"enum": [m.value for m in LabelMode]}, {"type": "null"}]
+    schema["default"] = None
+
+
 class PlateConfig(StrictModel):
     """The stencil plate: a flat sheet with a hole per dot, a solid border and a label."""
 
@@ -54,12 +62,16 @@ class PlateConfig(StrictModel):
     )
     label: LabelMode = Field(
         LabelMode.engrave,
+        json_schema_extra=_nullable_label,
         description=(
             "Label on the top face's bottom border: layer number, spray order, paint colour, job name and "
             "an arrow pointing to the picture's top (it reads correctly only from above). "
-            "Choices: engrave (cut into the top), emboss (raised), none."
+            "Choices: engrave (cut into the top), emboss (raised), none. null: emboss on a soft FDM "
+            "mural's plates (a picture wider or taller than the bed), whose plates may then be one 0.3 mm "
+            "layer (an engraving needs a floor under it), engrave otherwise."
         ),
     )
+    _label_default = null_reads_as("label", LabelMode.engrave)
     label_depth_mm: float = Field(
         0.2,
         gt=0.0,

@@ -503,6 +503,7 @@ def default_yaml() -> str:
     values["wall"]["standoff_mm"] = None
     values["plate"]["thickness_mm"] = None
     values["plate"]["outline"]["margin_mm"] = None
+    values["plate"]["label"] = None
     head = [
         "# stencil_cad job config. Every key is optional; the values below are the defaults.",
         "# Run it with:  stencil-cad run this.yaml   (editors: `stencil-cad schema` prints a JSON Schema)",

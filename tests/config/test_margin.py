@@ -57,3 +57,20 @@ def test_the_label_rises_into_the_solid_band_below_the_holes():
     assert (y0, y1) == pytest.approx((-TILE_MARGIN_MM + g, -g))
     x0, y0, x1, y1 = label_region(160.0, 210.0, outline, solid_mm=7.0)
     assert (x0, y0, x1, y1) == pytest.approx((g, -TILE_MARGIN_MM + g, 160.0 - g, 7.0 - g))
+
+
+def test_a_soft_fdm_mural_raises_its_label_so_its_plates_may_be_one_layer():
+    from stencil_cad.config.cad import LabelMode
+
+    mural_cfg = job(size={"width_mm": 600}, bed="prusa_mk4")
+    assert mural_cfg.plate.label is LabelMode.emboss
+    assert job(size={"width_mm": 150}).plate.label is LabelMode.engrave  # one plate
+    assert job(size={"width_mm": 600}).plate.label is LabelMode.engrave  # no bed: one plate
+    assert job(size={"width_mm": 600}, bed="prusa_mk4", mode="hard").plate.label is LabelMode.engrave
+    sla = job(size={"width_mm": 600}, bed="prusa_mk4", stipple={"process": "sla"})
+    assert sla.plate.label is LabelMode.engrave
+    given = job(size={"width_mm": 600}, bed="prusa_mk4", plate={"label": "engrave"})
+    assert given.plate.label is LabelMode.engrave
+    # The bed given on the command line fills it in again; a label the config gives stays.
+    assert parse_overrides(job(size={"width_mm": 600}), bed="prusa_mk4").plate.label is LabelMode.emboss
+    assert parse_overrides(given, bed="prusa_mk4").plate.label is LabelMode.engrave
