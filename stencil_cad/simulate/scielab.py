@@ -191,21 +191,23 @@ def _wide_maps(rgb: np.ndarray, plan: _Plan) -> list:
 
     h, w = plan.shape
     out: list = []
+    opp = None
     for c, gaussians in enumerate(plan.wide):
         if not gaussians:
             out.append(None)
             continue
+        if opp is None:
+            # Every channel from one conversion (per pixel, so the same values as one per channel).
+            opp = np.empty((h, w, 3))
+            for r0 in range(0, h, 512):
+                opp[r0 : r0 + 512] = _srgb_to_opp(rgb[r0 : r0 + 512])
         # Cells of about a third of DIRECT_SIGMA_PX for the narrowest wide Gaussian, in input pixels.
         f = max(int(min(s for s, _ in gaussians) / plan.k // (DIRECT_SIGMA_PX / 3.0)), 1)
         # A Gaussian far wider than the picture (a small picture seen from far) sees the
         # mirrored picture over and over: four picture sizes of mirror are ample there.
         reach = min(4.0 * max(s for s, _ in gaussians) / plan.k, 4.0 * max(h, w))
         pad = f * int(math.ceil((reach + f) / f))
-        channel = np.empty((h, w))
-        for r0 in range(0, h, 512):
-            channel[r0 : r0 + 512] = _srgb_to_opp(rgb[r0 : r0 + 512])[..., c]
-        padded = np.pad(channel, ((pad, pad + (-h) % f), (pad, pad + (-w) % f)), mode="symmetric")
-        del channel
+        padded = np.pad(opp[..., c], ((pad, pad + (-h) % f), (pad, pad + (-w) % f)), mode="symmetric")
         hs, ws = padded.shape[0] // f, padded.shape[1] // f
         small = padded.reshape(hs, f, ws, f).mean(axis=(1, 3))
         del padded
