@@ -331,6 +331,27 @@ def test_sweep_panels():
     assert int(centre[0][1]) > int(centre[1][1]) > int(centre[2][1])
 
 
+def test_sweep_panel_at_factor_one_is_the_simulation_given(monkeypatch):
+    from stencil_cad.simulate import previews
+
+    layers = _layers()
+    dots = DotSet(xy_mm=np.array([[10.0, 10.0], [20.0, 12.0]]), r_mm=np.array([1.0, 1.5]))
+    cfg = SprayConfig(model="paper", px_per_mm=2.0)
+    done = sim.simulate(layers, [dots, dots], cfg)
+    want = previews.sweep_panels(layers, [dots, dots], cfg, factors=(0.5, 1.0, 2.0))
+    factors = []
+    real = previews.simulate
+
+    def counted(*args, **kwargs):
+        factors.append(kwargs["time_factor"])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(previews, "simulate", counted)
+    got = previews.sweep_panels(layers, [dots, dots], cfg, factors=(0.5, 1.0, 2.0), as_sprayed=done)
+    assert factors == [0.5, 2.0]
+    assert all(np.array_equal(a, b) for a, b in zip(got, want, strict=True))
+
+
 # --------------------------------------------------------------------------- calibration
 
 
