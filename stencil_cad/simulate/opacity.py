@@ -5,7 +5,6 @@ See :mod:`.spray` for the model and the error bound of the fast path's cut tails
 """
 
 import math
-import threading
 
 import numba
 import numpy as np
@@ -13,6 +12,7 @@ import numpy as np
 from ..config.spray import SprayConfig, SprayModel
 from ..frames import mm_to_px
 from ..parallel import njit_parallel
+from .kept import Kept, digest
 
 __all__ = ["dot_sigma_mm", "spray_mask", "spray_opacity", "tail_tolerance"]
 
@@ -453,10 +453,7 @@ def windows_cover(windows, shape_hw: tuple[int, int], mm_per_px: float, supersam
 #: a job sprays a layer's windows in its simulation, in every can of the prior and every panel of the
 #: sweep card, on the same raster. On the 600 x 400 mm coffee mural (3 layers, 1600 x 2400 px)
 #: rasterising them took 17 s of the job's 392 s (py-spy), each layer's windows again for every simulation.
-_COVER_CACHE: dict[tuple, tuple[tuple[int, int, int, int], np.ndarray | None]] = {}
-_COVER_CACHE_SIZE = 8
-#: The studio's previews and a job's tasks simulate from several threads at once.
-_COVER_LOCK = threading.Lock()
+_COVER_CACHE = Kept(8)
 
 
 def _cover_box(
@@ -467,35 +464,22 @@ def _cover_box(
     The box is :func:`_windows_box`'s; the fraction is None when the box is empty. The kept
     arrays are read-only.
     """
-    import hashlib
-
     from ..frames import rasterise_polygons
 
-    digest = hashlib.blake2b(digest_size=20)
-    for outer, inner in windows:
-        digest.update(b"o")
-        for ring in (outer, *inner):
-            a = np.ascontiguousarray(ring, dtype=np.float64)
-            digest.update(str(a.shape).encode())
-            digest.update(a.data)
-    key = (digest.digest(), h, w, mm_per_px, f)
-    with _COVER_LOCK:
-        kept = _COVER_CACHE.pop(key, None)
-    if kept is None:
+    def make() -> tuple[tuple[int, int, int, int], np.ndarray | None]:
         r0, r1, c0, c1 = box = _windows_box(windows, h, w, mm_per_px)
-        part = None
-        if r1 > r0 and c1 > c0:
-            fine = rasterise_polygons(
-                list(windows), (h * f, w * f), mm_per_px / f, (r0 * f, r1 * f, c0 * f, c1 * f)
-            )
-            part = fine.reshape(r1 - r0, f, c1 - c0, f).mean(axis=(1, 3))
-            part.setflags(write=False)
-        kept = (box, part)
-    with _COVER_LOCK:
-        _COVER_CACHE[key] = kept  # the most recent last
-        while len(_COVER_CACHE) > _COVER_CACHE_SIZE:
-            del _COVER_CACHE[next(iter(_COVER_CACHE))]
-    return kept
+        if not (r1 > r0 and c1 > c0):
+            return box, None
+        fine = rasterise_polygons(
+            list(windows), (h * f, w * f), mm_per_px / f, (r0 * f, r1 * f, c0 * f, c1 * f)
+        )
+        part = fine.reshape(r1 - r0, f, c1 - c0, f).mean(axis=(1, 3))
+        part.setflags(write=False)
+        return box, part
+
+    # Each window's rings in order, the outer ring of each marked, so no two sets of windows share a key.
+    rings = [a for outer, inner in windows for a in (np.zeros(0), outer, *inner)]
+    return _COVER_CACHE.get((digest(*rings), h, w, mm_per_px, f), make)
 
 
 def _windows_box(windows, h: int, w: int, mm_per_px: float) -> tuple[int, int, int, int]:

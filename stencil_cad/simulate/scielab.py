@@ -48,10 +48,11 @@ agrees to 1e-12 (``tests/simulate/test_scielab.py``).
 from __future__ import annotations
 
 import math
-import threading
 from dataclasses import dataclass
 
 import numpy as np
+
+from .kept import Kept, digest
 
 __all__ = [
     "DEFAULT_DISTANCE_M",
@@ -253,31 +254,21 @@ def _cell_map(channel: np.ndarray, f: int, gaussians: list[tuple[float, float]],
 #: registration cases). On a 1600 x 2400 px picture at 0.25 mm per pixel seen from 3 m, a score
 #: took 5.9 s with the reference's wide maps made again and 5.0 s with them kept; hashing the
 #: reference takes 0.1 s.
-_WIDE_CACHE: dict[tuple, list] = {}
-_WIDE_CACHE_SIZE = 4
-#: The studio's previews and a job's tasks score from several threads at once.
-_WIDE_LOCK = threading.Lock()
+_WIDE_CACHE = Kept(4)
 
 
 def _reference_wide_maps(ref: np.ndarray, plan: _Plan) -> list:
     """:func:`_wide_maps` of the reference, computed once for the same pixels and filters (read-only maps)."""
-    import hashlib
-
     data = np.ascontiguousarray(ref)
-    digest = hashlib.blake2b(data.data, digest_size=20).digest()
-    key = (digest, data.shape, plan.k, tuple(tuple(ch) for ch in plan.wide))
-    with _WIDE_LOCK:
-        maps = _WIDE_CACHE.pop(key, None)
-    if maps is None:
+
+    def make() -> list:
         maps = _wide_maps(data, plan)
         for entries in maps:
             for entry in entries or ():
                 entry[0].setflags(write=False)
-    with _WIDE_LOCK:
-        _WIDE_CACHE[key] = maps  # the most recent last
-        while len(_WIDE_CACHE) > _WIDE_CACHE_SIZE:
-            del _WIDE_CACHE[next(iter(_WIDE_CACHE))]
-    return maps
+        return maps
+
+    return _WIDE_CACHE.get((digest(data), plan.k, tuple(tuple(ch) for ch in plan.wide)), make)
 
 
 def _filter_region(part: np.ndarray, region, plan: _Plan, wide: list) -> np.ndarray:

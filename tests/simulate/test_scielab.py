@@ -234,4 +234,4 @@ def test_the_references_wide_maps_are_kept_for_the_next_score_of_the_same_refere
     assert s.scielab(changed, test, 0.5, 3.0) == fresh != first
     for d in (4.0, 5.0, 6.0, 7.0):
         s.scielab(ref, test, 0.5, d)
-    assert len(s._WIDE_CACHE) == s._WIDE_CACHE_SIZE
+    assert len(s._WIDE_CACHE) == s._WIDE_CACHE.size

@@ -485,6 +485,7 @@ def test_choose_tone_weights_the_spray_time_choice():
 def test_windows_are_rasterised_once_per_windows_and_raster(monkeypatch):
     from stencil_cad import frames
     from stencil_cad.simulate import opacity
+    from stencil_cad.simulate.kept import Kept
 
     calls = []
     real = frames.rasterise_polygons
@@ -494,7 +495,7 @@ def test_windows_are_rasterised_once_per_windows_and_raster(monkeypatch):
         return real(*args, **kwargs)
 
     monkeypatch.setattr(frames, "rasterise_polygons", counted)
-    monkeypatch.setattr(opacity, "_COVER_CACHE", {})
+    monkeypatch.setattr(opacity, "_COVER_CACHE", Kept(8))
     square = np.array([[10.0, 10.0], [30.0, 10.0], [30.0, 25.0], [10.0, 25.0]])
     hole = np.array([[15.0, 15.0], [20.0, 15.0], [20.0, 20.0]])
     windows = [(square, (hole,))]
