@@ -14,7 +14,9 @@ When a local cluster starts (see :func:`plan`):
 - ``compute.workers`` null (the default): one worker per core, but only when the working
   picture has more than ``compute.dask_above_mpx`` megapixels. Smaller jobs run in this
   process and pay no start-up cost (Dask's import and worker start take about 2 s here,
-  each worker then loads the compiled kernels again).
+  each worker then loads the compiled kernels again). A tiled mural whose plan estimates more
+  than :data:`MURAL_CLUSTER_SECONDS` of work also gets one worker per core (at least two),
+  whatever its picture's size: its tiles' tasks share the cores.
 
 Tasks are submitted a few per worker at a time and their results collected as they finish,
 so neither the workers nor this process ever hold every tile's inputs at once. One
@@ -34,6 +36,7 @@ from .executors import (
     executor,
 )
 from .planning import (
+    MURAL_CLUSTER_SECONDS,
     WORKER_BASE_BYTES,
     Plan,
     TaskMemoryError,
@@ -49,6 +52,7 @@ __all__ = [
     "CONNECT_TIMEOUT",
     "INLINE_BYTES",
     "IN_FLIGHT_PER_WORKER",
+    "MURAL_CLUSTER_SECONDS",
     "PROBE_SECONDS",
     "REMOTE_INLINE_BYTES",
     "RESEND",

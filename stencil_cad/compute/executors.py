@@ -552,15 +552,18 @@ def _quiet_dask_logs() -> None:
 
 
 @contextlib.contextmanager
-def executor(cfg: ComputeConfig, picture_px: int, quiet: bool = False) -> Iterator[Executor]:
+def executor(
+    cfg: ComputeConfig, picture_px: int, quiet: bool = False, mural_seconds: float | None = None
+) -> Iterator[Executor]:
     """The executor for a job: in this process, or a cluster started (and stopped) here.
 
     Args:
         cfg: The ``compute`` section.
         picture_px: Pixels of the working picture, for :func:`plan`.
         quiet: No progress bar.
+        mural_seconds: A tiled mural's estimated work in seconds, for :func:`plan`, or None.
     """
-    p = plan(cfg, picture_px)
+    p = plan(cfg, picture_px, mural_seconds)
     log.info("compute: %s (%s)", p.kind, p.reason)
     ex: Executor = Executor(p, quiet) if p.kind == "in_process" else DaskExecutor(p, cfg, quiet)
     try:

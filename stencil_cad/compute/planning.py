@@ -48,12 +48,25 @@ class Plan:
         return {"kind": self.kind, "workers": self.workers, "address": self.address, "reason": self.reason}
 
 
-def plan(cfg: ComputeConfig, picture_px: int) -> Plan:
+#: With ``compute.workers`` null, a tiled mural whose plan estimates more than this many seconds
+#: of work (:func:`stencil_cad.mural.plan_cost`) runs on a local cluster of one worker per core,
+#: whatever its picture's size: its tiles' tasks (placing and refining the holes, building the
+#: plates, the scores' blocks) then share the cores. The 600 x 400 mm coffee mural of
+#: ``python -m benchmarks mural --case mural600`` (0.96 MP, 8 tiles, planned at 349 s) on 2 workers
+#: of a shared 2-core machine: its refinement 59 s against 108 s in this process, the plates 51 s
+#: against 66 s, the hole placement 18 s against 31 s, the same files. A cluster costs a few seconds
+#: to start (and each worker loads the compiled kernels), which a small mural would not win back.
+MURAL_CLUSTER_SECONDS = 60.0
+
+
+def plan(cfg: ComputeConfig, picture_px: int, mural_seconds: float | None = None) -> Plan:
     """Decide where a job runs, before any work.
 
     Args:
         cfg: The ``compute`` section.
         picture_px: Pixels of the working picture (H x W).
+        mural_seconds: A tiled mural's estimated work in seconds (its plan's), or None when the
+            job is not a tiled mural.
 
     Returns:
         The plan; nothing is started yet.
@@ -70,6 +83,15 @@ def plan(cfg: ComputeConfig, picture_px: int) -> Plan:
             "local", workers=n, reason=f"compute.workers is {cfg.workers}" + (f"; {cut}" if cut else "")
         )
     mpx = picture_px / 1e6
+    if mpx <= cfg.dask_above_mpx and mural_seconds is not None and mural_seconds > MURAL_CLUSTER_SECONDS:
+        n, cut = capped_workers(cores(), cfg)
+        if n > 1:
+            return Plan(
+                "local",
+                workers=n,
+                reason=f"the mural's tiles (about {mural_seconds:.0f} s of work) share {n} workers"
+                + (f"; {cut}" if cut else ""),
+            )
     if mpx <= cfg.dask_above_mpx:
         return Plan(
             "in_process",

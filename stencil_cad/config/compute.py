@@ -43,9 +43,10 @@ class ComputeConfig(StrictModel):
         le=1024,
         description=(
             "Worker processes of a local Dask cluster (one thread each). null: one per core, and only "
-            "for big jobs (see dask_above_mpx); smaller jobs run in this process with no cluster to "
-            "start. 0: always in this process. N >= 1: always a local cluster of N workers. Ignored "
-            "when scheduler is set. The command line's --workers overrides it."
+            "for big jobs (see dask_above_mpx) and murals of several tiles whose plan estimates more "
+            "than a minute of work (on two cores or more); smaller jobs run in this process with no "
+            "cluster to start. 0: always in this process. N >= 1: always a local cluster of N workers. "
+            "Ignored when scheduler is set. The command line's --workers overrides it."
         ),
     )
     scheduler: str | None = Field(

@@ -13,7 +13,7 @@ import numpy as np
 from ..config import ComputeConfig, JobConfig, Mode
 from ..errors import UserError
 from ..exchange.png import png_bytes
-from ..figures import ComputeFigures, PictureFigures, PlateFigures
+from ..figures import ComputeFigures, MuralFigures, PictureFigures, PlateFigures
 from ..interrupts import CancelToken
 from ..model import DotSet, Layers, Picture
 from ..mural import TileGrid
@@ -37,17 +37,22 @@ log = logging.getLogger(__name__)
 
 
 @contextlib.contextmanager
-def computing(run: Run, picture_px: int, where: ComputeConfig | None = None) -> Iterator[None]:
+def computing(
+    run: Run, picture_px: int, where: ComputeConfig | None = None, mural: MuralFigures | None = None
+) -> Iterator[None]:
     """Open the job's executor (this process, or a Dask cluster: see :mod:`stencil_cad.compute`).
 
     Args:
         run: The command's state.
         picture_px: Pixels of the working picture (small jobs stay in this process).
         where: The ``compute`` section with the command line applied; defaults to the config's.
+        mural: The job's tiling as planned (a tiled mural's estimated work may start a
+            cluster), or None.
     """
     from .. import compute
 
-    with compute.executor(where or run.cfg.compute, picture_px, run.quiet) as ex:
+    seconds = float(mural.cost["estimated_seconds"]) if mural is not None and mural.tiled else None
+    with compute.executor(where or run.cfg.compute, picture_px, run.quiet, seconds) as ex:
         run.executor = ex
         run.figures.compute = ComputeFigures(**ex.plan.summary())
         try:
@@ -218,11 +223,14 @@ def run_command(
                 # `simulate` scores, and `stipple` refines, against the decomposition when the image is gone.
                 if command not in ("simulate", "stipple"):
                     raise
-        if picture is not None and command in ("run", "hard") and announce is not None:
-            announce(_plan_line(cfg, picture))
+        planned = _planned(cfg, picture) if picture is not None and command in ("run", "hard") else None
+        if planned is not None and announce is not None:
+            announce(tiles.plan_line(planned))
         if command in ("run", "hard", "decompose"):
             assert picture is not None  # load_picture raised otherwise
-            with computing(run, picture.shape[0] * picture.shape[1], where):
+            with computing(
+                run, picture.shape[0] * picture.shape[1], where, planned if command == "run" else None
+            ):
                 if command == "decompose":
                     save_config(run)
                     stage_decompose(run, picture)
@@ -238,11 +246,10 @@ def run_command(
     return run, files
 
 
-def _plan_line(cfg: JobConfig, picture: Picture) -> str:
-    """The one line saying what the job will cost (tiles, plates, holes, time)."""
+def _planned(cfg: JobConfig, picture: Picture) -> MuralFigures:
+    """The job's tiling as planned before any work: what :func:`tiles.plan_line` prints and where it runs."""
     shape = picture.shape
-    _, plan = tiles.plan(cfg, picture.width_mm, picture.height_mm, plate_layers(cfg), shape[0] * shape[1])
-    return tiles.plan_line(plan)
+    return tiles.plan(cfg, picture.width_mm, picture.height_mm, plate_layers(cfg), shape[0] * shape[1])[1]
 
 
 def _run_stage_command(
@@ -269,7 +276,7 @@ def _run_stage_command(
             check_dots(cfg, dotsets, size)
     # Every refusal above comes before any worker starts; the tasks then run where the whole
     # job's would (--workers, --scheduler).
-    with computing(run, layers.alphas.shape[1] * layers.alphas.shape[2], where):
+    with computing(run, layers.alphas.shape[1] * layers.alphas.shape[2], where, run.figures.mural):
         if not grid.tiled:
             # The plate design left to the job is chosen as the whole run chose it (the same
             # trials on the same layers and seed), so a stage command gives the run's files.

@@ -64,7 +64,14 @@ def stage_simulate(
         write_previews(run, ref, ideal, sim.composite, sim.mm_per_px, scores)
         factors = tuple(cfg.spray.sweep_factors)
         panels = simulate.sweep_panels(
-            layers, dotsets, cfg.spray, grid_mm, factors=factors, geometry=design, layer_sprays=sprays
+            layers,
+            dotsets,
+            cfg.spray,
+            grid_mm,
+            factors=factors,
+            geometry=design,
+            layer_sprays=sprays,
+            as_sprayed=sim,
         )
         from ..simulate import labelled
 

@@ -41,6 +41,7 @@ import numpy as np
 
 from ..config.spray import SprayConfig
 from ..frames import mm_to_px
+from .kept import Kept, digest
 
 __all__ = [
     "SprayGeometry",
@@ -296,8 +297,39 @@ def physical_opacity(
     """
     if not passes > 0.0:
         raise ValueError(f"passes must be > 0, got {passes}")
-    dose = physical_dose(xy_mm, r_mm, shape_hw, mm_per_px, cfg, geometry, exact=exact, crop=crop)
+    if exact or crop is not None:
+        dose = physical_dose(xy_mm, r_mm, shape_hw, mm_per_px, cfg, geometry, exact=exact, crop=crop)
+    else:
+        dose = _kept_dose(xy_mm, r_mm, shape_hw, mm_per_px, cfg, geometry)
     return opacity_of_dose(dose, passes * dose_per_pass(cfg))
+
+
+#: The whole raster's doses of the last few :func:`physical_opacity` calls, by the holes, the raster,
+#: the blur and the plate: a dose does not depend on the passes, and a job sprays the same holes at
+#: several passes (the sweep card's factors) and under cans of the same spread.
+_DOSE_CACHE = Kept(6)
+
+
+def _kept_dose(
+    xy_mm, r_mm, shape_hw, mm_per_px: float, cfg: SprayConfig, geometry: SprayGeometry
+) -> np.ndarray:
+    """:func:`physical_dose` over the whole raster, computed once for the same holes, raster, blur and plate (read-only)."""
+
+    def make() -> np.ndarray:
+        dose = physical_dose(xy_mm, r_mm, shape_hw, mm_per_px, cfg, geometry)
+        dose.setflags(write=False)
+        return dose
+
+    key = (
+        digest(*holes_array(xy_mm, r_mm)),
+        int(shape_hw[0]),
+        int(shape_hw[1]),
+        float(mm_per_px),
+        spread_sigma_mm(cfg, geometry.standoff_mm),
+        float(geometry.plate_thickness_mm),
+        float(cfg.can.spread_k),
+    )
+    return _DOSE_CACHE.get(key, make)
 
 
 def opacity_of_dose(dose: np.ndarray, depth: float) -> np.ndarray:

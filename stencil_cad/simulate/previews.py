@@ -10,7 +10,7 @@ import numpy as np
 from ..config.spray import SprayConfig
 from ..frames import mm_to_raster
 from ..model import DotSet, Layers
-from .spray import simulate
+from .spray import SimResult, simulate
 
 __all__ = ["colour_map", "dots_preview", "sweep", "sweep_panels"]
 
@@ -94,14 +94,20 @@ def sweep_panels(
     factors: tuple[float, ...] | None = None,
     geometry=None,
     layer_sprays=None,
+    as_sprayed: SimResult | None = None,
 ) -> list[np.ndarray]:
     """The panels of :func:`sweep`, one ``(H, W, 3)`` uint8 image per factor, for labelling.
 
     ``layer_sprays``: each layer's spray settings (see :func:`stencil_cad.simulate.simulate`).
+    ``as_sprayed``: the simulation with the same arguments at factor 1 (the job's own), whose
+    composite is factor 1's panel rather than simulating it again, or None.
     """
     factors = tuple(cfg.sweep_factors if factors is None else factors)
     panels = []
     for f in factors:
+        if f == 1.0 and as_sprayed is not None:
+            panels.append(_to_u8(as_sprayed.composite))
+            continue
         res = simulate(
             layers,
             dotsets,

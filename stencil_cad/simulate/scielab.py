@@ -48,10 +48,11 @@ agrees to 1e-12 (``tests/simulate/test_scielab.py``).
 from __future__ import annotations
 
 import math
-import threading
 from dataclasses import dataclass
 
 import numpy as np
+
+from .kept import Kept, digest
 
 __all__ = [
     "DEFAULT_DISTANCE_M",
@@ -95,6 +96,9 @@ DIRECT_SIGMA_PX = 24.0
 #: Pixels (after upsampling, margin included) of one block of the blockwise filter: about 50 MB
 #: per float copy of a block, so a score stays under 1 GB however large the picture.
 BLOCK_PIXELS = 2_000_000
+#: A wide Gaussian's cells are at most this many times smaller than the picture's shorter side.
+CELLS_PER_SIDE = 16
+
 
 _FWHM_TO_SIGMA = 1.0 / (2.0 * math.sqrt(2.0 * math.log(2.0)))
 
@@ -181,39 +185,68 @@ class _Plan:
 
 
 def _wide_maps(rgb: np.ndarray, plan: _Plan) -> list:
-    """Per channel, the wide Gaussians' weighted sum on a block-averaged grid: ``(map, cell, pad)``.
+    """Per channel, the wide Gaussians' weighted sums on block-averaged grids: ``[(map, cell, pad), ...]`` or None.
 
-    The channel is mirrored past the picture's edges (scipy's "reflect") by the Gaussians'
-    reach and rounded up to whole cells before averaging, so the picture's edge lies where
-    the whole-picture filter reflects it and every cell holds ``cell`` × ``cell`` pixels.
+    Each wide Gaussian is applied on cells of about a third of :data:`DIRECT_SIGMA_PX` of its own
+    width (Gaussians whose cells are the same size share one map). The channel is mirrored past
+    the picture's edges (scipy's "reflect") by the Gaussians' reach and rounded up to whole cells
+    before averaging, so the picture's edge lies where the whole-picture filter reflects it and
+    every cell holds ``cell`` × ``cell`` pixels.
     """
-    from scipy.ndimage import gaussian_filter
-
     h, w = plan.shape
     out: list = []
+    opp = None
     for c, gaussians in enumerate(plan.wide):
         if not gaussians:
             out.append(None)
             continue
-        # Cells of about a third of DIRECT_SIGMA_PX for the narrowest wide Gaussian, in input pixels.
-        f = max(int(min(s for s, _ in gaussians) / plan.k // (DIRECT_SIGMA_PX / 3.0)), 1)
-        # A Gaussian far wider than the picture (a small picture seen from far) sees the
-        # mirrored picture over and over: four picture sizes of mirror are ample there.
-        reach = min(4.0 * max(s for s, _ in gaussians) / plan.k, 4.0 * max(h, w))
-        pad = f * int(math.ceil((reach + f) / f))
-        channel = np.empty((h, w))
-        for r0 in range(0, h, 512):
-            channel[r0 : r0 + 512] = _srgb_to_opp(rgb[r0 : r0 + 512])[..., c]
-        padded = np.pad(channel, ((pad, pad + (-h) % f), (pad, pad + (-w) % f)), mode="symmetric")
-        del channel
-        hs, ws = padded.shape[0] // f, padded.shape[1] // f
-        small = padded.reshape(hs, f, ws, f).mean(axis=(1, 3))
-        del padded
-        acc = np.zeros_like(small)
+        if opp is None:
+            # Every channel from one conversion (per pixel, so the same values as one per channel).
+            opp = np.empty((h, w, 3))
+            for r0 in range(0, h, 512):
+                opp[r0 : r0 + 512] = _srgb_to_opp(rgb[r0 : r0 + 512])
+        by_cell: dict[int, list[tuple[float, float]]] = {}
         for sigma, weight in gaussians:
-            acc += weight * gaussian_filter(small, sigma / plan.k / f, mode="reflect", truncate=4.0)
-        out.append((acc, f, pad))
+            by_cell.setdefault(_cell(sigma, gaussians, plan), []).append((sigma, weight))
+        out.append([_cell_map(opp[..., c], f, group, plan) for f, group in by_cell.items()])
     return out
+
+
+def _cell(sigma: float, gaussians: list[tuple[float, float]], plan: _Plan) -> int:
+    """The cell side, input pixels, on which a wide Gaussian of a channel is applied.
+
+    Cells of about a third of :data:`DIRECT_SIGMA_PX` for the channel's narrowest wide Gaussian;
+    a wider one within the picture's size gets cells of its own width (at most a sixteenth of the
+    picture's shorter side). With the narrowest one's cells, the 7° luminance Gaussian seen from
+    6 m was applied on cells of 5 px with a kernel of 2,000 cells: 28 s of a 1600 x 2400 px score.
+    One wider than the picture sees the picture mirrored (cut at four picture sizes), and keeps
+    the narrowest one's cells: there, cells of its own width moved the score of a 300 x 450 px picture seen from 10 m by 7e-3.
+    """
+    h, w = plan.shape
+    third = DIRECT_SIGMA_PX / 3.0
+    narrowest = max(int(min(s for s, _ in gaussians) / plan.k // third), 1)
+    if sigma / plan.k > max(h, w):
+        return narrowest
+    return max(min(int(sigma / plan.k // third), min(h, w) // CELLS_PER_SIDE), narrowest)
+
+
+def _cell_map(channel: np.ndarray, f: int, gaussians: list[tuple[float, float]], plan: _Plan):
+    """``(map, f, pad)``: the Gaussians' weighted sum of ``channel`` on cells of ``f`` × ``f`` pixels."""
+    from scipy.ndimage import gaussian_filter
+
+    h, w = channel.shape
+    # A Gaussian far wider than the picture (a small picture seen from far) sees the
+    # mirrored picture over and over: four picture sizes of mirror are ample there.
+    reach = min(4.0 * max(s for s, _ in gaussians) / plan.k, 4.0 * max(h, w))
+    pad = f * int(math.ceil((reach + f) / f))
+    padded = np.pad(channel, ((pad, pad + (-h) % f), (pad, pad + (-w) % f)), mode="symmetric")
+    hs, ws = padded.shape[0] // f, padded.shape[1] // f
+    small = padded.reshape(hs, f, ws, f).mean(axis=(1, 3))
+    del padded
+    acc = np.zeros_like(small)
+    for sigma, weight in gaussians:
+        acc += weight * gaussian_filter(small, sigma / plan.k / f, mode="reflect", truncate=4.0)
+    return acc, f, pad
 
 
 #: The reference's wide maps of the last few scores, by the reference's bytes and the filters: a
@@ -221,31 +254,21 @@ def _wide_maps(rgb: np.ndarray, plan: _Plan) -> list:
 #: registration cases). On a 1600 x 2400 px picture at 0.25 mm per pixel seen from 3 m, a score
 #: took 5.9 s with the reference's wide maps made again and 5.0 s with them kept; hashing the
 #: reference takes 0.1 s.
-_WIDE_CACHE: dict[tuple, list] = {}
-_WIDE_CACHE_SIZE = 4
-#: The studio's previews and a job's tasks score from several threads at once.
-_WIDE_LOCK = threading.Lock()
+_WIDE_CACHE = Kept(4)
 
 
 def _reference_wide_maps(ref: np.ndarray, plan: _Plan) -> list:
     """:func:`_wide_maps` of the reference, computed once for the same pixels and filters (read-only maps)."""
-    import hashlib
-
     data = np.ascontiguousarray(ref)
-    digest = hashlib.blake2b(data.data, digest_size=20).digest()
-    key = (digest, data.shape, plan.k, tuple(tuple(ch) for ch in plan.wide))
-    with _WIDE_LOCK:
-        maps = _WIDE_CACHE.pop(key, None)
-    if maps is None:
+
+    def make() -> list:
         maps = _wide_maps(data, plan)
-        for entry in maps:
-            if entry is not None:
+        for entries in maps:
+            for entry in entries or ():
                 entry[0].setflags(write=False)
-    with _WIDE_LOCK:
-        _WIDE_CACHE[key] = maps  # the most recent last
-        while len(_WIDE_CACHE) > _WIDE_CACHE_SIZE:
-            del _WIDE_CACHE[next(iter(_WIDE_CACHE))]
-    return maps
+        return maps
+
+    return _WIDE_CACHE.get((digest(data), plan.k, tuple(tuple(ch) for ch in plan.wide)), make)
 
 
 def _filter_region(part: np.ndarray, region, plan: _Plan, wide: list) -> np.ndarray:
@@ -260,8 +283,7 @@ def _filter_region(part: np.ndarray, region, plan: _Plan, wide: list) -> np.ndar
     for c in range(3):
         for sigma, weight in plan.direct[c]:
             out[..., c] += weight * _upsampled_gaussian(opp[..., c], sigma, k)
-        if wide[c] is not None:
-            small, f, pad = wide[c]
+        for small, f, pad in wide[c] or ():
             # Upsampled pixel centres in input pixels, then in the padded picture's cells.
             ys = (pad + r0 + (np.arange(h) + 0.5) / k) / f - 0.5
             xs = (pad + c0 + (np.arange(w) + 0.5) / k) / f - 0.5

@@ -49,6 +49,20 @@ def test_small_jobs_stay_in_process_big_ones_start_a_cluster(monkeypatch):
     assert (remote.kind, remote.address) == ("remote", "tcp://10.1.2.3:8786")
 
 
+def test_a_long_tiled_mural_shares_the_cores_a_short_one_stays(monkeypatch):
+    monkeypatch.setattr(planning, "available_memory", lambda: 64e9)
+    monkeypatch.setattr(planning, "cores", lambda: 2)
+    cfg = JobConfig().compute
+    long_mural = compute.plan(cfg, 1_000_000, mural_seconds=planning.MURAL_CLUSTER_SECONDS + 1)
+    assert (long_mural.kind, long_mural.workers) == ("local", 2) and "mural" in long_mural.reason
+    assert compute.plan(cfg, 1_000_000, mural_seconds=planning.MURAL_CLUSTER_SECONDS).kind == "in_process"
+    assert compute.plan(cfg, 1_000_000).kind == "in_process"  # not a mural
+    assert compute.plan(ComputeConfig(workers=0), 1_000_000, mural_seconds=1e6).kind == "in_process"
+    # One core (or memory for one worker): a cluster would only add its start.
+    monkeypatch.setattr(planning, "cores", lambda: 1)
+    assert compute.plan(cfg, 1_000_000, mural_seconds=1e6).kind == "in_process"
+
+
 def test_a_task_that_cannot_fit_is_refused_with_its_need():
     cfg = ComputeConfig(memory_per_task=0.1)
     compute.check_fits("a tile", 0.09e9, cfg)

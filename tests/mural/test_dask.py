@@ -6,7 +6,9 @@ from pathlib import Path
 
 import pytest
 
+from stencil_cad import compute, pipeline
 from stencil_cad.cli import main
+from stencil_cad.config import io as cfg_io
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 from benchmarks.compare_outputs import manifest_content, manifest_differences  # noqa: E402
@@ -60,3 +62,30 @@ def test_small_mural_on_two_workers_writes_the_in_process_bytes(tmp_path):
     assert any(n.endswith(".stl") for n in plates)
     for name in plates:
         assert (rebuilt["0"] / name).read_bytes() == (rebuilt["2"] / name).read_bytes(), name
+
+
+class _Stop(Exception):
+    pass
+
+
+@pytest.mark.parametrize(
+    ("size", "tiled"),
+    [({"width_mm": 600, "height_mm": 400, "px_per_mm": "auto"}, True), ({"width_mm": 150}, False)],
+)
+def test_a_run_tells_the_executor_its_murals_planned_work(tmp_path, monkeypatch, size, tiled):
+    seen = []
+
+    def executor(cfg, picture_px, quiet=False, mural_seconds=None):
+        seen.append(mural_seconds)
+        raise _Stop
+
+    monkeypatch.setattr(compute, "executor", executor)
+    cfg = cfg_io.parse_config(
+        {"size": size, "bed": "prusa_mk4", "stipple": {"process": "fdm"}}, source="test"
+    )
+    with pytest.raises(_Stop):
+        pipeline.run_command("run", cfg, tmp_path / "out", quiet=True)
+    if tiled:
+        assert len(seen) == 1 and seen[0] > compute.MURAL_CLUSTER_SECONDS
+    else:
+        assert seen == [None]

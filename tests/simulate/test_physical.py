@@ -16,6 +16,7 @@ from stencil_cad.config.spray import SprayConfig
 from stencil_cad.errors import ConfigError
 from stencil_cad.frames import mm_to_px
 from stencil_cad.simulate import physical as phys
+from stencil_cad.simulate.kept import Kept
 
 PHYS = SprayConfig(model="physical")
 GEOM = phys.SprayGeometry(standoff_mm=10.0, plate_thickness_mm=1.2)
@@ -265,3 +266,33 @@ def test_a_layer_with_its_own_can_changes_only_its_own_simulation():
     assert all(per[1] is measured for _, per in prior)
     assert len({per[0].can.spread_k for _, per in prior}) > 1
     assert layer_can_prior([measured]) == [("nominal", [measured])]
+
+
+def test_a_dose_is_computed_once_for_the_same_holes_at_any_passes(monkeypatch):
+    doses = []
+    real = phys.physical_dose
+
+    def counted(*args, **kwargs):
+        doses.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(phys, "physical_dose", counted)
+    monkeypatch.setattr(phys, "_DOSE_CACHE", Kept(6))
+    xy, r = _holes()
+    shape = (120, 120)
+    want = [real(xy, r, shape, 0.25, PHYS, GEOM), real(xy, r, shape, 0.25, PHYS, GEOM)]
+    ones = phys.physical_opacity(xy, r, shape, 0.25, PHYS, GEOM, 1.0)
+    twos = phys.physical_opacity(xy.copy(), r.copy(), shape, 0.25, PHYS, GEOM, 2.0)
+    assert len(doses) == 1
+    depth = phys.dose_per_pass(PHYS)
+    np.testing.assert_array_equal(ones, phys.opacity_of_dose(want[0], depth))
+    np.testing.assert_array_equal(twos, phys.opacity_of_dose(want[1], 2.0 * depth))
+    # Other holes, another spread or plate, another raster: a dose of their own.
+    moved = xy + np.array([0.5, 0.0])
+    assert not np.array_equal(phys.physical_opacity(moved, r, shape, 0.25, PHYS, GEOM, 1.0), ones)
+    wide = SprayConfig(model="physical", can={"spread_k": 0.3})
+    assert not np.array_equal(phys.physical_opacity(xy, r, shape, 0.25, wide, GEOM, 1.0), ones)
+    thick = phys.SprayGeometry(standoff_mm=10.0, plate_thickness_mm=2.0)
+    assert not np.array_equal(phys.physical_opacity(xy, r, shape, 0.25, PHYS, thick, 1.0), ones)
+    assert phys.physical_opacity(xy, r, (100, 120), 0.25, PHYS, GEOM, 1.0).shape == (100, 120)
+    assert len(doses) == 5

@@ -126,6 +126,29 @@ def test_wide_gaussians_on_the_averaged_copy_match_an_exact_filter(n, mm_per_px,
     assert fast != exact  # the fast path did run
 
 
+def test_a_wider_gaussian_on_cells_of_its_own_width_scores_as_on_the_narrower_ones_cells(monkeypatch):
+    # With DIRECT_SIGMA_PX at 6 px, at 0.25 mm/px from 1 m the luminance 0.225° and 7° Gaussians
+    # (about 6.7 and 207 px) both go through averaged copies: the narrower on cells of 3 px, the
+    # wider (within the picture's 560 px) on cells of its own, at most a sixteenth of the 320 px side.
+    # Against both on the narrower one's cells (CELLS_PER_SIDE too large for any cell to grow).
+    from skimage import data
+    from skimage.transform import resize
+
+    import stencil_cad.simulate.scielab as sc
+
+    monkeypatch.setattr(sc, "DIRECT_SIGMA_PX", 6.0)
+    ref = resize(data.astronaut() / 255.0, (320, 560), anti_aliasing=True)
+    test = np.clip(ref + np.random.default_rng(3).normal(0, 0.08, ref.shape) + 0.03, 0, 1)
+    plan = sc._Plan(ref.shape[:2], 0.25, 1.0, sc.BLOCK_PIXELS)
+    assert [f for _, f, _ in sc._wide_maps(test, plan)[0]] == [3, 20]
+    own = scielab(ref, test, 0.25, 1.0)
+    monkeypatch.setattr(sc, "CELLS_PER_SIDE", 10**9)
+    assert [f for _, f, _ in sc._wide_maps(test, plan)[0]] == [3]
+    narrow = scielab(ref, test, 0.25, 1.0)
+    assert own == pytest.approx(narrow, abs=5e-4)
+    assert own != narrow  # the wider cells did run
+
+
 @pytest.mark.parametrize(
     "shape, k, sigma",
     [
@@ -211,4 +234,4 @@ def test_the_references_wide_maps_are_kept_for_the_next_score_of_the_same_refere
     assert s.scielab(changed, test, 0.5, 3.0) == fresh != first
     for d in (4.0, 5.0, 6.0, 7.0):
         s.scielab(ref, test, 0.5, d)
-    assert len(s._WIDE_CACHE) == s._WIDE_CACHE_SIZE
+    assert len(s._WIDE_CACHE) == s._WIDE_CACHE.size

@@ -331,6 +331,27 @@ def test_sweep_panels():
     assert int(centre[0][1]) > int(centre[1][1]) > int(centre[2][1])
 
 
+def test_sweep_panel_at_factor_one_is_the_simulation_given(monkeypatch):
+    from stencil_cad.simulate import previews
+
+    layers = _layers()
+    dots = DotSet(xy_mm=np.array([[10.0, 10.0], [20.0, 12.0]]), r_mm=np.array([1.0, 1.5]))
+    cfg = SprayConfig(model="paper", px_per_mm=2.0)
+    done = sim.simulate(layers, [dots, dots], cfg)
+    want = previews.sweep_panels(layers, [dots, dots], cfg, factors=(0.5, 1.0, 2.0))
+    factors = []
+    real = previews.simulate
+
+    def counted(*args, **kwargs):
+        factors.append(kwargs["time_factor"])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(previews, "simulate", counted)
+    got = previews.sweep_panels(layers, [dots, dots], cfg, factors=(0.5, 1.0, 2.0), as_sprayed=done)
+    assert factors == [0.5, 2.0]
+    assert all(np.array_equal(a, b) for a, b in zip(got, want, strict=True))
+
+
 # --------------------------------------------------------------------------- calibration
 
 
@@ -459,3 +480,35 @@ def test_choose_tone_weights_the_spray_time_choice():
     assert plain.predicted_rmse <= min(to_sparse.predicted_rmse, to_dark.predicted_rmse)
     with pytest.raises(ValueError, match="weight has"):
         cal.choose_tone(alpha, 0.5, 0.5, 0.5, cfg, mode=Calibrate.spray_time, weight=sparse[:, :10])
+
+
+def test_windows_are_rasterised_once_per_windows_and_raster(monkeypatch):
+    from stencil_cad import frames
+    from stencil_cad.simulate import opacity
+    from stencil_cad.simulate.kept import Kept
+
+    calls = []
+    real = frames.rasterise_polygons
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(frames, "rasterise_polygons", counted)
+    monkeypatch.setattr(opacity, "_COVER_CACHE", Kept(8))
+    square = np.array([[10.0, 10.0], [30.0, 10.0], [30.0, 25.0], [10.0, 25.0]])
+    hole = np.array([[15.0, 15.0], [20.0, 15.0], [20.0, 20.0]])
+    windows = [(square, (hole,))]
+    first = opacity.windows_cover(windows, (60, 80), 0.5)
+    again = opacity.windows_cover([(square.copy(), (hole.copy(),))], (60, 80), 0.5)
+    assert len(calls) == 1 and np.array_equal(first, again)
+    again[0, 0] = 1.0  # the caller's own array: the kept pixels are not touched
+    assert np.array_equal(opacity.windows_cover(windows, (60, 80), 0.5), first)
+    # Another window, raster or pixel size is rasterised afresh.
+    moved = opacity.windows_cover([(square + 1.0, (hole + 1.0,))], (60, 80), 0.5)
+    assert len(calls) == 2 and not np.array_equal(moved, first)
+    assert opacity.windows_cover(windows, (60, 80), 0.25).sum() != first.sum()
+    assert opacity.windows_cover(windows, (60, 80), 0.5, supersample=2).shape == first.shape
+    assert len(calls) == 4
+    # Each pixel's open fraction: the square's area less the triangle's, in pixels of 0.25 mm².
+    assert first.sum() * 0.25 == pytest.approx(20.0 * 15.0 - 12.5, rel=0.02)
