@@ -67,7 +67,11 @@ def allowed_area(
 ) -> np.ndarray:
     """Pixels a window may cover: inside one tile's core, ``seam_margin_mm`` clear of its seams.
 
-    Nor in a keep-out rectangle (``stipple.keepouts_mm``) grown by the same margin.
+    Nor in a keep-out rectangle (``stipple.keepouts_mm``) grown by the same margin. The whole
+    pixel keeps the margin, not only its centre: a window's outline is traced along its pixels'
+    edges, half a pixel past their centres. On a coarse grid (a 1.2 m mural at 0.48 px/mm, 2.08 mm
+    pixels) a margin on the centres alone left no pixel out between two tiles' cores, and one
+    window ran across every seam.
 
     Args:
         shape: ``(H, W)`` of the working grid.
@@ -88,14 +92,13 @@ def allowed_area(
     width, height = picture_mm
     out = np.zeros((h, w), dtype=bool)
     eps = 1e-6
+    m = seam_margin_mm + 0.5 * mm_per_px
     for x0, y0, x1, y1 in cores:
-        m = seam_margin_mm
         a0 = x0 + (m if x0 > eps else -1.0)
         b0 = y0 + (m if y0 > eps else -1.0)
         a1 = x1 - (m if x1 < width - eps else -1.0)
         b1 = y1 - (m if y1 < height - eps else -1.0)
         out |= (xx >= a0) & (xx < a1) & (yy >= b0) & (yy < b1)
-    m = seam_margin_mm
     for x0, y0, x1, y1 in keepouts:
         out &= ~((xx > x0 - m) & (xx < x1 + m) & (yy > y0 - m) & (yy < y1 + m))
     return out
@@ -153,6 +156,9 @@ def find_windows(
         return empty
     ones = np.ones(a.shape)
     cut, rep = process_layer(cut, np.zeros(a.shape, dtype=bool), ones, min_feature / s, bridge / s, False)
+    if allowed is not None:
+        # Widening a thin part dilates it: it may not grow past a seam's margin or into a keep-out.
+        cut &= allowed
     polys = mask_to_polygons(cut, s, SIMPLIFY_MM)
     # Bridges join every island to the frame, so a window has no inner ring; one that still has
     # (a bridge that could not be placed) is left to the holes.

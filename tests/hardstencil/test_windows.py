@@ -66,6 +66,26 @@ def test_windows_stay_clear_of_seams():
         assert x1 <= 34.0 + 1e-9 or x0 >= 36.0 - 1e-9
 
 
+@pytest.mark.parametrize("seam_mm", [175.0, 174.4, 175.6, 176.1])
+def test_windows_on_a_coarse_grid_keep_the_margin_from_every_seam(seam_mm):
+    # 0.48 px/mm: a pixel (2.08 mm) is wider than the two margins across a seam; the outline is
+    # traced along the pixels' edges, so a margin kept by the pixel centres alone let one window
+    # run across the seam (a 1.2 m mural's plate got a window past its part).
+    s = 1 / 0.48
+    h, w = 60, 168  # 125 x 350 mm
+    width, height = w * s, h * s
+    cores = [(0.0, 0.0, seam_mm, height), (seam_mm, 0.0, width, height)]
+    fdm = StippleConfig(process="fdm")
+    margin = window_sizes(fdm)[2]
+    allowed = allowed_area((h, w), s, cores, (width, height), margin)
+    win = find_windows(np.ones((h, w)), s, fdm, allowed)
+    assert win.report["windows"] == 2
+    for outer, _ in win.polygons:
+        x0, x1 = outer[:, 0].min(), outer[:, 0].max()
+        assert x1 <= seam_mm - margin + 1e-9 or x0 >= seam_mm + margin - 1e-9
+    assert not (win.mask & ~allowed).any()
+
+
 def test_windows_stay_out_of_keepouts():
     allowed = allowed_area((H, W), S, [(0.0, 0.0, 70.0, 50.0)], (70.0, 50.0), 1.0, [(20.0, 10.0, 30.0, 20.0)])
     win = find_windows(np.ones((H, W)), S, sla(), allowed)
