@@ -377,7 +377,9 @@ def test_small_mural_end_to_end(tmp_path):
     assert posts["valid"] and posts["n_solids"] == 1 and posts["rel_error"] < 1e-6
     assert posts["most"] == max(posts["per_plate"].values()) >= 1
     assert all(p["posts"] == posts["per_plate"][f"{p['tile']} {p['layer']}"] for p in plates)
-    assert m["plate"]["thickness_mm"] == 0.4  # two 0.2 mm layers on posts
+    # One 0.3 mm layer on posts: a soft FDM mural's label is raised, so nothing needs a floor.
+    assert m["config"]["plate"]["label"] == "emboss"
+    assert m["plate"]["thickness_mm"] == 0.3
     for p in plates:
         assert p["valid"] and p["n_solids"] == 1 and p["notches"] == 8
         assert max(p["bbox_mm"]) <= 200 and min(p["bbox_mm"]) <= 180
