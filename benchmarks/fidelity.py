@@ -27,8 +27,6 @@ import statistics
 import tempfile
 import time
 
-import numpy as np
-
 from benchmarks import quality as q
 
 #: The keys the readers of these rows use (checked on the smoke rows).
@@ -114,21 +112,16 @@ def blur_floor(f, cfg, layers, ref, mm_per_px: float) -> dict:
     Returns:
         ``{"blur_sigma_mm", "blur_floor_1m", "blur_floor_2m"}``; empty under the paper's spray model.
     """
-    from scipy.ndimage import gaussian_filter
-    from skimage.transform import resize
-
-    from stencil_cad.model import composite
+    from stencil_cad.simulate import blurred_composite
     from stencil_cad.simulate.physical import spread_sigma_mm
 
     if not cfg.spray.is_physical:
         return {}
     sigma = spread_sigma_mm(cfg.spray, float(cfg.wall.standoff_mm[0]))
-    shape = (layers.count, *ref.shape[:2])
-    alphas = resize(np.asarray(layers.alphas, dtype=np.float64), shape, order=1, anti_aliasing=False)
-    blurred = np.stack([gaussian_filter(a, sigma / mm_per_px, mode="nearest") for a in alphas])
-    scores = q._scores(
-        f, ref, np.clip(composite(layers.primer, layers.colours, blurred), 0.0, 1.0), mm_per_px
-    )
+    sprayed = blurred_composite(layers, sigma, mm_per_px)
+    if sprayed.shape != ref.shape:
+        raise ValueError(f"the blur floor's grid {sprayed.shape[:2]} is not the simulation's {ref.shape[:2]}")
+    scores = q._scores(f, ref, sprayed, mm_per_px)
     return {"blur_sigma_mm": round(sigma, 3)} | {
         f"blur_floor_{d:g}m": scores[f"scielab_{d:g}m"] for d in q.DISTANCES_M
     }

@@ -432,18 +432,9 @@ class _Made:
 
     def coarse(self) -> Preview:
         """The decomposition's opacities blurred as the can blurs a hole at the stand-off, composited."""
-        from scipy.ndimage import gaussian_filter
-
         from .. import simulate
-        from ..model import composite
 
-        cfg = self.run.cfg
-        shape = simulate.sim_shape(self.layers.alphas.shape[1:], self.layers.mm_per_px, PREVIEW_MM_PER_PX)
-        alphas = np.stack([simulate.resample(a, shape) for a in self.layers.alphas])
-        sigma_px = _blur_mm(cfg) / PREVIEW_MM_PER_PX
-        if sigma_px > 0.0:
-            alphas = np.stack([gaussian_filter(a, sigma_px) for a in alphas])
-        sprayed = np.clip(composite(self.layers.primer, self.layers.colours, alphas), 0.0, 1.0)
+        sprayed = simulate.blurred_composite(self.layers, _blur_mm(self.run.cfg), PREVIEW_MM_PER_PX)
         return self._preview("coarse", sprayed, None, None, self._cost(None), final=False)
 
     def sprayed(self, level: str, holes: list[DotSet], final: bool) -> Preview:

@@ -11,6 +11,7 @@ from .previews import colour_map, dots_preview, sweep, sweep_panels
 from .scores import delta_e_map, score
 from .spray import (
     SimResult,
+    blurred_composite,
     hole_kernels,
     layer_rmse,
     resample,
@@ -44,6 +45,7 @@ __all__ = [
     "hole_kernels",
     "layer_rmse",
     "packing_density",
+    "blurred_composite",
     "resample",
     "score",
     "sim_shape",

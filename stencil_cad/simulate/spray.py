@@ -105,6 +105,22 @@ def sim_shape(
     return h, w
 
 
+def blurred_composite(layers: Layers, sigma_mm: float, grid_mm_per_px: float) -> np.ndarray:
+    """The layers as a spray of blur ``sigma_mm`` would leave them with no dots: ``(H, W, 3)`` in [0, 1].
+
+    Each layer's opacity resampled to the grid (:func:`sim_shape`), blurred by a Gaussian of
+    ``sigma_mm`` and composited. The studio's first preview, and the fidelity benchmark's blur floor
+    (what no plate of that blur sprays sharper than).
+    """
+    from scipy.ndimage import gaussian_filter
+
+    shape = sim_shape(layers.alphas.shape[1:], layers.mm_per_px, grid_mm_per_px)
+    alphas = np.stack([resample(a, shape) for a in layers.alphas])
+    if sigma_mm > 0.0:
+        alphas = np.stack([gaussian_filter(a, sigma_mm / grid_mm_per_px) for a in alphas])
+    return np.clip(composite(layers.primer, layers.colours, alphas), 0.0, 1.0)
+
+
 def resample(img: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """Resample an ``(H, W)`` or ``(H, W, C)`` image to ``shape`` (bilinear, anti-aliased)."""
     from skimage.transform import resize
