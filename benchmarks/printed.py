@@ -8,10 +8,13 @@
   (``open_area_model``, mm² per hole), the mean open area drawn from layer 3 of the compensated
   plate's G-code at its extrusion widths (``open_area_gcode``), ``open_area_error``
   (gcode / model − 1) and its worst hole, the same for the uncompensated plate
-  (``*_uncompensated``), with the plate's ``print_hours`` and ``filament_m``;
-* ``web_<w>`` — the same plate at webs of 0.4, 0.5, 0.6 and 0.8 mm: per radius the least plastic
+  (``*_uncompensated``) and for the compensated plate's first layer (``*_first_layer``: all of a
+  one-layer plate, in the profile's wider first-layer lines), with the plate's ``print_hours`` and
+  ``filament_m``;
+* ``web_<w>`` — the same plate at webs of 0.4, 0.5, 0.6, 0.7 and 0.8 mm: per radius the least plastic
   the G-code lays on a web (``web_min_mm_r<r>``) and the webs with under half their width laid
-  (``webs_broken_r<r>``); the FDM preset's web is the thinnest with none broken;
+  (``webs_broken_r<r>``), on layer 3 and on the first layer (``*_first_layer``); the FDM preset's
+  web is the thinnest with none broken on layer 3, its one-layer web the thinnest on the first;
 * ``example_layer_NN`` / ``example_wall`` — the bundled example's parts sliced as
   ``stencil-cad slice`` slices them (walls sparse, :data:`stencil_cad.slicing.WALL_SETTINGS`):
   ``print_hours``, ``filament_m``, the plates' open areas (every hole of layer 3), and the job's
@@ -55,9 +58,12 @@ RADII = (0.5, 0.75, 1.0, 1.5)
 #: The test plate's web: the FDM preset's, every pair of neighbours at it.
 WEB_MM = PROCESS_PRESETS[Process.fdm][1]
 #: Webs the ``web_<w>`` cases print, to find the thinnest the shipped profile lays whole.
-WEBS_MM = (0.4, 0.5, 0.6, 0.8)
+WEBS_MM = (0.4, 0.5, 0.6, 0.7, 0.8)
 PX_MM = 0.025
 LAYER = 2  # layer 3, an inner layer (the first carries the elephant-foot compensation)
+#: The first layer: all of a one-layer plate (a soft FDM mural's), laid in the profile's wider
+#: first-layer lines and shrunk by its elephant-foot compensation.
+FIRST = 0
 
 
 def _timeout() -> float:
@@ -91,24 +97,30 @@ def write_radius_plate(path: Path, xy: np.ndarray, r: np.ndarray, size: np.ndarr
 
 
 def measured_areas(
-    gcode_path: Path, xy: np.ndarray, r: np.ndarray, lo: np.ndarray, hi: np.ndarray
+    gcode_path: Path, xy: np.ndarray, r: np.ndarray, lo: np.ndarray, hi: np.ndarray, layer_index: int = LAYER
 ) -> np.ndarray:
-    """Open area (mm²) of every hole on layer 3 of the G-code; holes in the plate's own frame."""
-    layer = gcode.layer_paths(gcode_path, LAYER)
+    """Open area (mm²) of every hole on layer 3 (or ``layer_index``) of the G-code; holes in the plate's own frame."""
+    layer = gcode.layer_paths(gcode_path, layer_index)
     shift = gcode.align_shift(layer, lo, hi)
     covered = gcode.rasterise(layer, lo + shift, tuple(hi - lo), PX_MM)
     return gcode.hole_open_areas(covered, lo + shift, PX_MM, xy + shift, r)
 
 
 def web_material(
-    gcode_path: Path, xy: np.ndarray, r: np.ndarray, lo: np.ndarray, hi: np.ndarray, web_mm: float
+    gcode_path: Path,
+    xy: np.ndarray,
+    r: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    web_mm: float,
+    layer_index: int = LAYER,
 ) -> np.ndarray:
-    """Plastic (mm) laid on layer 3 along the centre line between each hole and its right-hand neighbour.
+    """Plastic (mm) laid on layer 3 (or ``layer_index``) along the centre line between each hole and its right-hand neighbour.
 
     The neighbours are the holes of one hex row at the pitch ``2 r + web_mm``: the segment from one
     designed edge to the next is the web as asked; the plastic on it is what the printer made.
     """
-    layer = gcode.layer_paths(gcode_path, LAYER)
+    layer = gcode.layer_paths(gcode_path, layer_index)
     shift = gcode.align_shift(layer, lo, hi)
     covered = gcode.rasterise(layer, lo + shift, tuple(hi - lo), PX_MM)
     h_px = covered.shape[0]
@@ -142,9 +154,10 @@ def web_cases(tmp: Path):
         if common["ok"]:
             for radius in RADII:
                 m = asked == radius
-                laid = web_material(out, xy[m], asked[m], np.zeros(2), size, web)
-                row[f"web_min_mm_r{radius:g}"] = round(float(laid.min()), 3)
-                row[f"webs_broken_r{radius:g}"] = int((laid < 0.5 * web).sum())
+                for suffix, index in (("", LAYER), ("_first_layer", FIRST)):
+                    laid = web_material(out, xy[m], asked[m], np.zeros(2), size, web, index)
+                    row[f"web_min_mm_r{radius:g}{suffix}"] = round(float(laid.min()), 3)
+                    row[f"webs_broken_r{radius:g}{suffix}"] = int((laid < 0.5 * web).sum())
         yield row
 
 
@@ -182,8 +195,12 @@ def radius_cases(tmp: Path):
         if not common["ok"]:
             yield {"bench": "printed", "case": f"radius_plate_{name}", **common}
             return
-        measured[name] = (common, measured_areas(out, xy, drawn, np.zeros(2), size))
-    common, area = measured["compensated"]
+        measured[name] = (
+            common,
+            measured_areas(out, xy, drawn, np.zeros(2), size),
+            measured_areas(out, xy, drawn, np.zeros(2), size, FIRST),
+        )
+    common, area, first = measured["compensated"]
     before = measured["asked"][1]
     for radius in RADII:
         m = asked == radius
@@ -200,6 +217,8 @@ def radius_cases(tmp: Path):
             "open_area_error_worst": round(float((area[m] / model - 1).min()), 4),
             "open_area_gcode_uncompensated": round(float(before[m].mean()), 4),
             "open_area_error_uncompensated": round(float(before[m].mean()) / model - 1, 4),
+            "open_area_gcode_first_layer": round(float(first[m].mean()), 4),
+            "open_area_error_first_layer": round(float(first[m].mean()) / model - 1, 4),
         }
 
 

@@ -22,8 +22,8 @@ from .paints import PaintsConfig
 from .refine import RefineConfig
 from .rules import DesignRules
 from .spray import NOZZLE_HEIGHT_BY_PROCESS, Calibrate, SprayConfig
-from .stipple import Process, StippleConfig
-from .thickness import LABEL_FLOOR_MM, Thickness, fill_thickness, given_thickness
+from .stipple import ONE_LAYER_WEB_MM, PROCESS_PRESETS, Process, StippleConfig
+from .thickness import FDM_SINGLE_LAYER_MM, LABEL_FLOOR_MM, Thickness, fill_thickness, given_thickness
 from .view import ViewConfig
 
 #: The wall's stand-off (mm) soft stencils of each process score best from at 1 m under the physical
@@ -146,6 +146,8 @@ class JobConfig(StrictModel):
     _thickness_fill: Thickness | None = PrivateAttr(None)
     _margin_filled: bool = PrivateAttr(False)
     _label_filled: bool = PrivateAttr(False)
+    #: Whether ``stipple.web_mm`` was left null and filled in for plates of one layer (:func:`_one_layer_web`).
+    _web_filled: bool = PrivateAttr(False)
     #: Whether ``wall.standoff_mm`` was left to the job (null): a soft job may then choose it for
     #: its picture with the plates' windows (:meth:`with_standoff`, ``pipeline.standoff``).
     _standoff_filled: bool = PrivateAttr(False)
@@ -219,6 +221,16 @@ class JobConfig(StrictModel):
 
     @model_validator(mode="wrap")
     @classmethod
+    def _fill_web(cls, data, handler):
+        """``stipple.web_mm`` left out (or null) on a plate of one layer: the web such a plate prints (:func:`_one_layer_web`).
+
+        Runs after the thickness fill (a wrap validator declared later runs first, and this one
+        works on what its handler returns).
+        """
+        return _one_layer_web(handler(data))
+
+    @model_validator(mode="wrap")
+    @classmethod
     def _fill_margin(cls, data, handler):
         """``plate.outline.margin_mm`` left out (or null): the tiles' margin for a soft mural (:func:`_tile_margin`)."""
         left = isinstance(data, dict) and _margin_left(data)
@@ -288,7 +300,7 @@ class JobConfig(StrictModel):
         self.wall.check_plate(plate.outline, plate.thickness_mm)
         cfg = self.model_copy(update={"plate": plate})
         cfg._thickness_fill = fill
-        return cfg
+        return _one_layer_web(cfg)
 
     def design_rules(self, width_mm: float, height_mm: float, keepouts: Sequence = ()) -> DesignRules:
         """The job's hole design rules over a picture area (see :meth:`StippleConfig.design_rules`)."""
@@ -435,6 +447,28 @@ def _tile_margin(data: dict) -> dict:
     return {**data, "plate": {**plate, "outline": {**outline, "margin_mm": TILE_MARGIN_MM}}}
 
 
+def _one_layer_web(cfg: JobConfig) -> JobConfig:
+    """``cfg`` with the web of a one-layer plate filled in, or the preset's again.
+
+    A plate printed in one layer (``plate.thickness_mm`` at most one FDM layer) is all first layer,
+    which needs a wider web than the process's preset (:data:`~stencil_cad.config.stipple.ONE_LAYER_WEB_MM`).
+    A ``stipple.web_mm`` the config gives is kept; one this function filled in follows the thickness
+    when it is chosen again (:meth:`JobConfig.fit_plate_thickness`).
+    """
+    st = cfg.stipple
+    if st.web_mm is not None and not cfg._web_filled:
+        return cfg
+    one_layer = cfg.plate.thickness_mm <= FDM_SINGLE_LAYER_MM + 1e-9
+    web = ONE_LAYER_WEB_MM.get(st.process) if one_layer else None
+    if web is not None and web <= PROCESS_PRESETS[st.process][1]:
+        web = None
+    if web == st.web_mm:
+        return cfg
+    out = cfg.model_copy(update={"stipple": st.model_copy(update={"web_mm": web})})
+    out._web_filled = web is not None
+    return out
+
+
 def _thickness_for(
     process: Process, side_mm: float, plate: PlateConfig, standoff_mm: float | None = None
 ) -> Thickness:
@@ -490,4 +524,6 @@ def parse_overrides(
         data["plate"]["outline"]["margin_mm"] = None  # the tiles' margin for the new bed, size or mode
     if cfg._label_filled:
         data["plate"]["label"] = None  # raised again for a mural on the new bed, size or mode
+    if cfg._web_filled:
+        data["stipple"]["web_mm"] = None  # filled in again for the new plate thickness
     return parse_config(data, source="command line")

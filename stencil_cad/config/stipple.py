@@ -13,7 +13,8 @@ design guidance (checked 2026-11):
   0.6 mm web prints whole at every radius (at least 0.55 mm of plastic on each),
   a 0.5 mm web breaks between r = 0.5 mm holes (5 of 15 webs under half laid) and
   a 0.4 mm web between r = 0.5 and 0.75 mm holes (all of them). Hole floor
-  r = 0.5 mm, web 0.6 mm.
+  r = 0.5 mm, web 0.6 mm; 0.7 mm on a plate of one layer, which is all first
+  layer (:data:`ONE_LAYER_WEB_MM`).
 * ``sla`` — resin printers resolve features down to about 0.5 mm (Hycube
   "3D design guidelines": SLA minimum feature 0.5 mm). Hole floor r = 0.5 mm,
   web 0.5 mm, margin 2 mm.
@@ -77,6 +78,16 @@ PROCESS_PRESETS: dict[Process, tuple[float, float, float]] = {
     Process.laser: (0.5, 0.6, 0.0),
 }
 
+#: The web in mm a plate printed in one layer needs, where the process's preset web is thinner
+#: (``stipple.web_mm`` left null; a soft FDM mural's plates are one 0.3 mm layer,
+#: :mod:`stencil_cad.config.thickness`). Such a plate is all first layer, which the shipped profile
+#: lays in 0.8 mm lines under its elephant-foot compensation: there PrusaSlicer lays nothing across a
+#: 0.6 or 0.65 mm web between r = 0.5 mm holes (every web of the test plate; the holes print as
+#: slots), while a 0.7 mm web prints whole at every radius (at least 0.62 mm of plastic). From layer
+#: 2 up, in 0.45 mm hole loops, 0.6 mm holds (python -m benchmarks printed --case web: the
+#: ``*_first_layer`` keys against the others).
+ONE_LAYER_WEB_MM: dict[Process, float] = {Process.fdm: 0.7}
+
 #: Radius in mm each process takes off a drawn hole (see ``stipple.hole_offset_mm``): FDM measured
 #: from PrusaSlicer's G-code with the shipped prusa_fdm profile (python -m benchmarks printed), resin
 #: over-cure a prior, laser 0 because the DXF/SVG writers compensate export.dxf_kerf_mm.
@@ -101,7 +112,8 @@ class StippleConfig(StrictModel):
         Process.fdm,
         description=(
             "Manufacturing process; sets the hole floor, web and edge margin unless they are given. "
-            "Choices: fdm (r >= 0.5 mm, web 0.6 mm: the thinnest the shipped profile prints whole), sla (r >= 0.5 mm, web 0.5 mm), laser (r >= 0.5 mm, "
+            "Choices: fdm (r >= 0.5 mm, web 0.6 mm: the thinnest the shipped profile prints whole; 0.7 mm on a plate "
+            "of one layer, such as a soft mural's), sla (r >= 0.5 mm, web 0.5 mm), laser (r >= 0.5 mm, "
             "web 0.6 mm); every preset's edge margin is 0 (the plate's solid border holds holes at the "
             "picture's edge)."
         ),
@@ -118,7 +130,7 @@ class StippleConfig(StrictModel):
         le=20.0,
         description=(
             "Minimum web (material left) between two holes in mm: centre distance >= r_i + r_j + web. "
-            "null for the process preset. Range (0, 20]."
+            "null for the process preset (fdm: 0.7 mm when the plate is one layer, 0.6 mm otherwise). Range (0, 20]."
         ),
     )
     edge_margin_mm: float | None = Field(

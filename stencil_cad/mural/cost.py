@@ -7,7 +7,7 @@ expected count and open area (:data:`EXPECTED_FILL`, :data:`EXPECTED_OPEN`).
 
 **FDM print time and filament** follow PrusaSlicer with the shipped profile
 (``templates/prusa_fdm.ini``, timed for the printer the bed names where the project knows it,
-:data:`PRINTER_FITS`, else for the profile's generic printer: 0.3 mm layers, 0.45 mm hole loops and 0.75 mm sheet lines, 100 %
+:data:`PRINTER_FITS`, else for the profile's generic printer: 0.3 mm layers, 0.45 mm hole loops, 0.75 mm sheet lines and a 0.8 mm first layer, 100 %
 infill for plates, walls sparse as :data:`stencil_cad.slicing.WALL_SETTINGS`). A plate's time is mostly its plastic,
 ``(outline area - open area) x thickness`` at the profile's effective volumetric rate, plus a
 term per millimetre of hole edge per layer (each hole is a slow perimeter loop, a travel and a
@@ -86,11 +86,13 @@ LASER_SPEED_MM_S = 10.0
 LASER_PIERCE_S = 0.1
 
 #: The shipped FDM profile's layer height and line widths, mm (``templates/prusa_fdm.ini``): hole
-#: loops and shells at :data:`LINE_MM`, the solid sheet (the first layer, solid and top infill) at
-#: :data:`SHEET_LINE_MM`.
+#: loops and shells at :data:`LINE_MM`, the solid sheet (solid and top infill) at
+#: :data:`SHEET_LINE_MM`, the first layer at :data:`FIRST_LINE_MM`.
 LAYER_MM = 0.3
 LINE_MM = 0.45
 SHEET_LINE_MM = 0.75
+#: The first layer's lines, mm: the whole of a one-layer plate.
+FIRST_LINE_MM = 0.8
 #: The profile's ``max_volumetric_speed``, mm³/s: it caps the sheet's speed above the first layer.
 MAX_FLOW_MM3_S = 11.0
 #: Filament: 1.75 mm PLA at 1.24 g/cm³.
@@ -261,12 +263,13 @@ class PlateSpec:
         The first layer at the first-layer speed, the top one at the top-infill speed, the rest at
         the solid-infill speed; each hole's edge is a perimeter loop on every layer.
         """
-        net = max(self.area_mm2 - self.open_mm2, 0.0) / SHEET_LINE_MM
+        sheet = max(self.area_mm2 - self.open_mm2, 0.0)
         n = self.layers
         solid = rates.sheet_speed(rates.solid_mm_s, self.layer_mm)
         top = rates.sheet_speed(rates.top_mm_s, self.layer_mm)
-        per_layer = [rates.first_mm_s] + [solid] * max(n - 2, 0) + ([top] if n > 1 else [])
-        return net * sum(1.0 / v for v in per_layer) + n * self.edge_mm / rates.hole_mm_s
+        above = [solid] * max(n - 2, 0) + ([top] if n > 1 else [])
+        lines = sheet / FIRST_LINE_MM / rates.first_mm_s + sheet / SHEET_LINE_MM * sum(1.0 / v for v in above)
+        return lines + n * self.edge_mm / rates.hole_mm_s
 
 
 @dataclass(frozen=True)
@@ -307,7 +310,8 @@ class WallSpec:
             shell / rates.wall_perimeter_mm_s
             + skins / (SHEET_LINE_MM * solid)
             + infill / rates.wall_infill_mm_s
-            + low / SHEET_LINE_MM * (1.0 / rates.first_mm_s - 1.0 / solid)
+            + low / FIRST_LINE_MM / rates.first_mm_s
+            - low / SHEET_LINE_MM / solid
         )
 
 

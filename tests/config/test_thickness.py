@@ -149,3 +149,35 @@ def test_a_plate_template_keeps_its_own_thickness(tmp_path):
     assert "thickness_mm" not in cfg.plate.model_fields_set  # the template's THICKNESS_MM stands
     assert not cfg.thickness_fill.filled
     assert "template" in cfg.thickness_fill.reason
+
+
+def test_a_plate_of_one_layer_keeps_the_wider_web_its_first_layer_prints():
+    """A one-layer FDM plate is all first layer: 0.7 mm webs, given webs kept, the preset's on thicker plates."""
+    from stencil_cad.config.stipple import ONE_LAYER_WEB_MM, PROCESS_PRESETS
+
+    one = ONE_LAYER_WEB_MM[Process.fdm]
+    preset = PROCESS_PRESETS[Process.fdm][1]
+    assert one > preset
+    mural = parse_overrides(parse_config({"size": {"width_mm": 600.0}}, source="test"), bed="prusa_mk4")
+    assert mural.stipple.resolved_web_mm == preset  # its plates are not one layer until fitted to the posts
+    thin = mural.fit_plate_thickness(90.0)
+    assert thin.plate.thickness_mm == pytest.approx(0.3)
+    assert thin.stipple.resolved_web_mm == one
+    assert thin.design_rules(100.0, 100.0).web_mm == one
+    # Fitted again to a thicker plate, the filled web follows; a new bed fills both in again.
+    assert thin.fit_plate_thickness(400.0).stipple.resolved_web_mm == preset
+    assert parse_overrides(thin, seed=2).stipple.resolved_web_mm == preset
+    # Given, on a plate of one layer too: kept; a given 0.3 mm plate gets the one-layer web.
+    given = parse_config(
+        {"stipple": {"web_mm": 0.6}, "plate": {"thickness_mm": 0.3, "label": "none"}}, source="test"
+    )
+    assert given.stipple.resolved_web_mm == 0.6
+    assert (
+        parse_config({"plate": {"thickness_mm": 0.3, "label": "none"}}, source="test").stipple.web_mm == one
+    )
+    # SLA and thicker FDM plates keep their presets.
+    sla = parse_config(
+        {"stipple": {"process": "sla"}, "plate": {"thickness_mm": 0.3, "label": "none"}}, source="test"
+    )
+    assert sla.stipple.resolved_web_mm == PROCESS_PRESETS[Process.sla][1]
+    assert JobConfig().stipple.resolved_web_mm == preset
