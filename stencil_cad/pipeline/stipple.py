@@ -207,24 +207,22 @@ def layer_windows(
 ) -> tuple[list[Any], list[Any]]:
     """Every layer's windows (:mod:`stencil_cad.hardstencil.windows`) and where its holes may not go.
 
-    A window stays inside one tile's core, a bridge width clear of its seams.
+    A window stays inside one tile's core; two tiles' windows meet at their seam.
 
     Returns:
         ``(windows per layer, per layer an (H, W) bool mask closed to holes or None)``.
     """
-    from ..hardstencil.windows import allowed_area, find_windows, window_sizes
+    from ..hardstencil.windows import tile_windows
     from ..stipple.windows import closed_to_holes
 
     s = layers.mm_per_px
-    shape = layers.alphas.shape[1:]
-    _, _, bridge = window_sizes(cfg.stipple)
     keepouts = cfg.stipple.design_rules(*picture_mm).keepouts
-    allowed = allowed_area(shape, s, [t.core for t in tiling.tiles], picture_mm, bridge, keepouts)
+    cores = [t.core for t in tiling.tiles]
     clear = cfg.stipple.resolved_hole_min_r_mm + cfg.stipple.resolved_web_mm
     # Each window's edge is pulled in by its own paint's blur (spray.profile).
     jobs = jobs or [cfg] * layers.count
     windows = [
-        find_windows(a, s, cfg.stipple, allowed, window_inset_mm(job))
+        tile_windows(a, s, cfg.stipple, cores, picture_mm, keepouts, window_inset_mm(job))
         for a, job in zip(layers.alphas, jobs, strict=True)
     ]
     closed = [closed_to_holes(w.mask, s, clear) if w.polygons else None for w in windows]

@@ -11,7 +11,7 @@ from stencil_cad.config import JobConfig, PlateConfig
 from stencil_cad.config.stipple import StippleConfig
 from stencil_cad.frames import rasterise_polygons
 from stencil_cad.geometry import polygon_area
-from stencil_cad.hardstencil.windows import allowed_area, find_windows, window_sizes
+from stencil_cad.hardstencil.windows import allowed_area, find_windows, tile_windows, window_sizes
 from stencil_cad.stipple import check_rules, stipple_layer
 from stencil_cad.stipple.windows import hole_alpha, window_clearance, with_windows
 
@@ -84,6 +84,38 @@ def test_windows_on_a_coarse_grid_keep_the_margin_from_every_seam(seam_mm):
         x0, x1 = outer[:, 0].min(), outer[:, 0].max()
         assert x1 <= seam_mm - margin + 1e-9 or x0 >= seam_mm + margin - 1e-9
     assert not (win.mask & ~allowed).any()
+
+
+@pytest.mark.parametrize("seam_mm", [175.0, 174.4, 175.6, 176.1])
+def test_tiles_windows_meet_at_their_seam_and_never_cross_it(seam_mm):
+    # A mural's tiles find their windows in their own cores: a solid region across a seam is one
+    # window on each side, and where the seam runs along pixel edges the two meet on it, with no
+    # band of sheet and no blur inset between them (a dark line at every seam of a mural).
+    s = 1 / 0.48 if seam_mm != 175.0 else 0.5
+    h, w = (60, 168) if seam_mm != 175.0 else (250, 700)
+    width, height = w * s, h * s
+    cores = [(0.0, 0.0, seam_mm, height), (seam_mm, 0.0, width, height)]
+    fdm = StippleConfig(process="fdm")
+    win = tile_windows(np.ones((h, w)), s, fdm, cores, (width, height), inset_mm=1.5)
+    assert win.report["windows"] == 2
+    left, right = sorted((o[:, 0].min(), o[:, 0].max()) for o, _ in win.polygons)
+    assert left[1] <= seam_mm + 1e-9 and right[0] >= seam_mm - 1e-9
+    gap = right[0] - left[1]
+    assert gap < s + 1e-9  # at most the one pixel a seam cuts through
+    if seam_mm == 175.0:  # on a pixel edge: they meet
+        assert gap == pytest.approx(0.0, abs=1e-9)
+    # No inset at the picture's edge either: the plate's border is there.
+    assert left[0] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_one_core_finds_the_windows_of_the_whole_picture():
+    cfg = sla()
+    alpha = ramp_with_island()
+    one = tile_windows(alpha, S, cfg, [(0.0, 0.0, W * S, H * S)], (W * S, H * S), inset_mm=0.5)
+    whole = find_windows(alpha, S, cfg, np.ones((H, W), dtype=bool), 0.5)
+    assert one.report == whole.report
+    assert (one.mask == whole.mask).all()
+    assert all(np.array_equal(a[0], b[0]) for a, b in zip(one.polygons, whole.polygons, strict=True))
 
 
 def test_windows_stay_out_of_keepouts():
