@@ -324,6 +324,7 @@ def build_any(
             layers,
             dotsets,
             keep=True,
+            workers_busy=True,
             also=lambda sim, ref: registration.start_registration(
                 run, sim, ref, layers, built.made, grid, built.per_tile
             ),

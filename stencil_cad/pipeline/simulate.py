@@ -35,6 +35,7 @@ def stage_simulate(
     dotsets: list[DotSet],
     keep: bool = False,
     also: Callable[[Any, np.ndarray], Any] | None = None,
+    workers_busy: bool = False,
 ) -> Any:
     """Spray every plate in simulation, composite, score against the input, save previews.
 
@@ -60,6 +61,10 @@ def stage_simulate(
         keep: Return the simulation and the reference rather than the scores.
         also: ``also(sim, reference)``, called once the design stand-off is simulated (a
             mural's registration cases start their tasks there), or None.
+        workers_busy: The job's workers are busy with tasks started before (a mural's plates):
+            the scores and the other cans are then computed in this process, where the
+            reference's filtered blocks and the cans' doses are shared, rather than sent to
+            the workers and computed there again.
     """
     from .. import resolution, simulate
     from ..simulate.physical import SprayGeometry
@@ -75,9 +80,9 @@ def stage_simulate(
         sim = simulate.simulate(layers, dotsets, cfg.spray, grid_mm, geometry=design, layer_sprays=sprays)
         ref = source_reference(cfg, picture, layers, sim.composite.shape[:2], sim.mm_per_px)
         started = also(sim, ref) if also is not None else None
-        cans = _start_cans(run, layers, dotsets, ref, grid_mm, design, sprays)
+        cans = _start_cans(run, layers, dotsets, ref, grid_mm, design, sprays, here=workers_busy)
         visible = _start_visibility(run, layers, dotsets, sim)
-        scores = _scores(run, ref, sim.composite, sim.mm_per_px)
+        scores = _scores(run, ref, sim.composite, sim.mm_per_px, here=workers_busy)
         run.out.write_png("simulated.png", sim.composite)
         ideal = _resample(layers.composite(), sim.composite.shape[:2])
         write_previews(run, ref, ideal, sim.composite, sim.mm_per_px, scores)
@@ -212,7 +217,13 @@ def can_score(per_layer: list[SprayConfig], job: CanJob) -> float:
     from ..simulate import scielab
 
     other = simulate.simulate(
-        job.layers, job.dotsets, job.spray, job.grid_mm, geometry=job.design, layer_sprays=per_layer
+        job.layers,
+        job.dotsets,
+        job.spray,
+        job.grid_mm,
+        geometry=job.design,
+        layer_sprays=per_layer,
+        errors=False,
     )
     return float(scielab.scielab(job.reference, other.composite, other.mm_per_px, job.distance_m))
 
@@ -225,11 +236,13 @@ def _start_cans(
     grid_mm: float | None,
     design: SprayGeometry | None,
     sprays: list[SprayConfig],
+    here: bool = False,
 ) -> tuple[list[str], Any] | None:
     """Start every other can's simulation and score (:mod:`.simulate.cans`): ``(names, started)``.
 
     Each can of the prior changes the layers without a measured profile (``sprays``: each
     layer's settings). None when the prior is one can (the paper model, or every layer measured).
+    With ``here`` the cans run in this process when collected.
     """
     from ..simulate.cans import layer_can_prior
 
@@ -239,7 +252,12 @@ def _start_cans(
     # The job's own can ("nominal") is already simulated and scored.
     others = [(name, per_layer) for name, per_layer in cans if name != "nominal"]
     job = CanJob(layers, dotsets, run.cfg.spray, grid_mm, design, ref, run.cfg.view.distance_m)
-    return [name for name, _ in cans], run.tasks.start(can_score, [p for _, p in others], "score cans", job)
+    per_can = [p for _, p in others]
+    if here:
+        from ..compute import Started
+
+        return [name for name, _ in cans], Started(lambda: (can_score(p, job) for p in per_can))
+    return [name for name, _ in cans], run.tasks.start(can_score, per_can, "score cans", job)
 
 
 def _scores_by_can(cans: tuple[list[str], Any] | None, nominal: dict[str, Any]) -> dict[str, Any]:
@@ -305,13 +323,16 @@ def spraying_steps(cfg: JobConfig, layers: Layers, amounts: Sequence[float]) -> 
     return tuple(out)
 
 
-def _scores(run: Run, reference: np.ndarray, sprayed: np.ndarray, mm_per_px: float) -> dict[str, Any]:
-    """Pixel scores and S-CIELAB at the viewing distance and twice it, on one grid."""
+def _scores(
+    run: Run, reference: np.ndarray, sprayed: np.ndarray, mm_per_px: float, here: bool = False
+) -> dict[str, Any]:
+    """Pixel scores and S-CIELAB at the viewing distance and twice it, on one grid (its blocks as tasks unless ``here``)."""
     from .. import simulate
     from ..simulate import scielab
 
     scores = simulate.score(reference, sprayed)
-    scores.update(scielab.view_scores(reference, sprayed, mm_per_px, run.cfg.view.distance_m, run.tasks.map))
+    where = None if here else run.tasks.map
+    scores.update(scielab.view_scores(reference, sprayed, mm_per_px, run.cfg.view.distance_m, where))
     return scores
 
 
