@@ -19,8 +19,11 @@ When a local cluster starts (see :func:`plan`):
   whatever its picture's size: its tiles' tasks share the cores.
 
 Tasks are submitted a few per worker at a time and their results collected as they finish,
-so neither the workers nor this process ever hold every tile's inputs at once. One
-progress bar counts every task of the job.
+so neither the workers nor this process ever hold every tile's inputs at once. A stage's few
+long tasks that this process need not wait for (a mural's plates and walls, the simulation's
+other cans and registration cases) are started at once instead (:meth:`Executor.start`), at a
+lower priority than mapped tasks, and collected later: a cluster runs them while this process
+goes on with its own work. One progress bar counts every task of the job.
 """
 
 from .executors import (
@@ -33,6 +36,7 @@ from .executors import (
     RESEND,
     DaskExecutor,
     Executor,
+    Started,
     executor,
 )
 from .planning import (
@@ -60,6 +64,7 @@ __all__ = [
     "DaskExecutor",
     "Executor",
     "Plan",
+    "Started",
     "TaskMemoryError",
     "available_memory",
     "capped_workers",

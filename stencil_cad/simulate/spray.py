@@ -212,6 +212,7 @@ def simulate(
     time_factor: float = 1.0,
     geometry=None,
     layer_sprays: Sequence[SprayConfig] | None = None,
+    errors: bool = True,
 ) -> SimResult:
     """Spray every layer's stencil, composite the colours and score each layer's tone.
 
@@ -234,6 +235,8 @@ def simulate(
             needed by the physical model, whose spray times are passes.
         layer_sprays: Each layer's spray settings (its paint's profile, see
             :meth:`stencil_cad.config.JobConfig.layer_spray`), or None: ``cfg`` for every layer.
+        errors: Score each layer's tone (``layer_rmse``, ``info["layer_tone_rmse"]``); False
+            leaves them empty, for a caller that reads only the opacities and the composite.
 
     Returns:
         The :class:`SimResult`.
@@ -258,9 +261,10 @@ def simulate(
         alphas[i] = _layer_opacity(dots, shape, g, sprays[i], a, geometry)
         seconds.append(round(time.perf_counter() - t0, 4))
         b = _blur_mm_for(dots, sprays[i], fallback_r, geometry)
-        layer_err, tone_err = _layer_errors(layers.alphas[i], alphas[i], shape, b, g)
-        rmse.append(layer_err)
-        tone_rmse.append(tone_err)
+        if errors:
+            layer_err, tone_err = _layer_errors(layers.alphas[i], alphas[i], shape, b, g)
+            rmse.append(layer_err)
+            tone_rmse.append(tone_err)
         blur.append(round(b, 4))
     comp = np.clip(composite(layers.primer, layers.colours, alphas), 0.0, 1.0)
     info = {

@@ -279,3 +279,33 @@ def test_a_refused_connection_fails_at_once(monkeypatch):
         with compute.executor(ComputeConfig(scheduler=f"tcp://127.0.0.1:{port}"), 10):
             pass
     assert time.monotonic() - t0 < 5
+
+
+def _scaled(item, shared):
+    return item * shared
+
+
+def test_started_tasks_run_when_collected_in_process():
+    ex = compute.Executor(compute.Plan("in_process"), quiet=True)
+    ran = []
+    started = ex.start(lambda i: ran.append(i) or i * i, range(4), "squares")
+    assert ran == [] and ex.tasks == 4
+    assert started.results() == [0, 1, 4, 9] and started.results() == [0, 1, 4, 9] and ran == [0, 1, 2, 3]
+    assert ex.start(_scaled, [1, 2], "scaled", shared=10).results() == [10, 20]
+    ex.close()
+
+
+@pytest.mark.slow
+def test_started_tasks_on_a_local_cluster_match_in_process(monkeypatch):
+    logging.getLogger("stencil_cad").setLevel(logging.WARNING)
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
+    shared = np.arange(300_000, dtype=np.float64)
+    with compute.executor(ComputeConfig(workers=2), 10, quiet=True) as ex:
+        started = ex.start(_scaled, range(5), "scaled", shared=shared)
+        # A map asked for meanwhile runs beside the started tasks.
+        assert list(ex.map(_square, range(6), "squares")) == [i * i for i in range(6)]
+        got = started.results()
+        assert all(np.array_equal(g, i * shared) for i, g in enumerate(got))
+        assert ex.start(_square, range(3), "squares").results() == [0, 1, 4]
+        dropped = ex.start(_square, range(3), "squares")
+        dropped.cancel()

@@ -342,7 +342,7 @@ def test_small_mural_end_to_end(tmp_path):
     import ezdxf
 
     from stencil_cad import pipeline
-    from stencil_cad.pipeline import tiles
+    from stencil_cad.pipeline import registration
 
     cfg = job(
         name="mural test",
@@ -366,7 +366,9 @@ def test_small_mural_end_to_end(tmp_path):
     sim = mu["simulation"]
     # In register, the tiled mural is the global simulation (tested above): its scores are the job's.
     assert sim["zero_error_scores"]["scielab"] == round(m["simulate"]["scielab"], 5)
-    assert [(c["between"], c["error_mm"]) for c in sim["registration_cost"]] == list(tiles.REGISTRATION_CASES)
+    assert [(c["between"], c["error_mm"]) for c in sim["registration_cost"]] == list(
+        registration.REGISTRATION_CASES
+    )
     for c in sim["registration_cost"]:
         assert c["cost_scielab"] == pytest.approx(c["scielab"] - m["simulate"]["scielab"], abs=2e-5)
     plates, walls = m["build"]["plates"], m["build"]["walls"]

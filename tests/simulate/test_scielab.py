@@ -235,3 +235,50 @@ def test_the_references_wide_maps_are_kept_for_the_next_score_of_the_same_refere
     for d in (4.0, 5.0, 6.0, 7.0):
         s.scielab(ref, test, 0.5, d)
     assert len(s._WIDE_CACHE) == s._WIDE_CACHE.size
+
+
+def test_cell_means_without_the_mirrored_picture_are_numpys_to_the_bit():
+    from stencil_cad.simulate import cells
+
+    rng = np.random.default_rng(5)
+    cases = [
+        (1600, 2400, 78, 2574),
+        (1600, 2400, 8, 304),
+        (37, 53, 3, 201),
+        (64, 64, 9, 36),
+        (300, 450, 150, 1800),
+    ]
+    cases += [(int(h), int(w), int(min(f, h, w)), int(p)) for h, w, f, p in rng.integers(5, 300, (40, 4))]
+    for h, w, f, pad in cases:
+        pad = f * -(-pad // f)
+        x = rng.normal(size=(h, w))
+        padded = np.pad(x, ((pad, pad + (-h) % f), (pad, pad + (-w) % f)), mode="symmetric")
+        want = padded.reshape(padded.shape[0] // f, f, padded.shape[1] // f, f).mean(axis=(1, 3))
+        got = cells.cell_means(
+            x, cells.mirrored(h, pad, pad + (-h) % f), cells.mirrored(w, pad, pad + (-w) % f), f
+        )
+        assert got.shape == want.shape and np.array_equal(got.view(np.int64), want.view(np.int64)), (
+            h,
+            w,
+            f,
+            pad,
+        )
+
+
+def test_the_references_filtered_blocks_are_kept_and_score_as_before():
+    from stencil_cad.simulate import scielab as s
+
+    rng = np.random.default_rng(6)
+    ref = rng.random((700, 900, 3))
+    tests = [np.clip(ref + rng.normal(0, sd, ref.shape), 0, 1) for sd in (0.05, 0.1)]
+    s._REF_BLOCKS.clear()
+    fresh = []
+    for t in tests:
+        fresh.append(s.scielab(ref, t, 0.5, 3.0, block_pixels=400_000))
+        s._REF_BLOCKS.clear()
+    kept = [s.scielab(ref, t, 0.5, 3.0, block_pixels=400_000) for t in tests]
+    assert kept == fresh and len(s._REF_BLOCKS) > 0
+    # A small picture's blocks (a patch scored at many distances) are not kept.
+    s._REF_BLOCKS.clear()
+    s.scielab(ref[:100, :100], tests[0][:100, :100], 0.5, 3.0)
+    assert len(s._REF_BLOCKS) == 0

@@ -512,3 +512,17 @@ def test_windows_are_rasterised_once_per_windows_and_raster(monkeypatch):
     assert len(calls) == 4
     # Each pixel's open fraction: the square's area less the triangle's, in pixels of 0.25 mm².
     assert first.sum() * 0.25 == pytest.approx(20.0 * 15.0 - 12.5, rel=0.02)
+
+
+def test_a_simulation_without_its_tone_errors_sprays_the_same():
+    rng = np.random.default_rng(3)
+    alphas = rng.random((2, 40, 60))
+    layers = Layers(
+        primer=np.ones(3), colours=np.array([[0.8, 0.2, 0.1], [0.1, 0.2, 0.6]]), alphas=alphas, mm_per_px=0.5
+    )
+    dots = [DotSet(xy_mm=rng.random((30, 2)) * [30.0, 20.0], r_mm=np.full(30, 0.6)) for _ in range(2)]
+    cfg = SprayConfig(model="paper", spray_time=0.8, nozzle_height=2.0)
+    full = sim.simulate(layers, dots, cfg, 0.25)
+    bare = sim.simulate(layers, dots, cfg, 0.25, errors=False)
+    assert np.array_equal(full.alphas, bare.alphas) and np.array_equal(full.composite, bare.composite)
+    assert len(full.layer_rmse) == 2 and bare.layer_rmse == () and bare.info["layer_tone_rmse"] == []
