@@ -250,7 +250,9 @@ class DaskExecutor(Executor):
         ``shared`` is scattered once to every worker; each item travels inside its task, so keep
         the items small. The started tasks run at a lower priority than :meth:`map`'s, so a
         score's blocks asked for meanwhile run on the next free worker rather than after every
-        started task. Dask runs a task again elsewhere when its worker dies.
+        started task. Dask runs a task again elsewhere when its worker dies; a task cancelled
+        because ``shared`` went with every worker that held it is sent again with ``shared``
+        (:data:`RESEND` times), and a scatter that meets a dying worker is tried again.
         """
         if not self._connected():
             raise self._scheduler_lost(desc)
@@ -258,17 +260,55 @@ class DaskExecutor(Executor):
         bar = self._progress(len(items), desc)
         self._maps += 1
         tag = f"{desc.replace(' ', '_')}-{self._maps}"
-        common = None if shared is None else self.client.scatter([shared], broadcast=True, hash=False)[0]
-        args = () if common is None else (common,)
-        live = {
-            i: self.client.submit(fn, item, *args, pure=False, key=f"{tag}-{i}", priority=-1)
-            for i, item in enumerate(items)
-        }
+        held: list[Any] = []  # the futures of ``shared`` on the cluster, the newest last
+
+        def scatter_shared() -> tuple[Any, ...]:
+            if shared is None:
+                return ()
+            for attempt in range(1, RESEND + 1):
+                try:
+                    held.append(self.client.scatter([shared], broadcast=True, hash=False)[0])
+                    return (held[-1],)
+                except (KeyError, OSError):
+                    # A worker that died as the data went out (its address gone from the
+                    # scheduler, or its connection closed): the other workers take it.
+                    if not self._connected():
+                        raise self._scheduler_lost(desc) from None
+                    if not self._workers_left():
+                        raise self._workers_lost(desc) from None
+                    if attempt == RESEND:
+                        raise
+            raise AssertionError("unreachable")
+
+        args = scatter_shared()
+
+        def send(i: int, sent: int) -> Any:
+            key = f"{tag}-{i}" if sent == 0 else f"{tag}-{i}-again{sent}"
+            return self.client.submit(fn, items[i], *args, pure=False, key=key, priority=-1)
+
+        live = {i: send(i, 0) for i in range(len(items))}
 
         def results() -> Iterator[Any]:
+            nonlocal args
             try:
                 for i in range(len(items)):
-                    result = self._result(live[i], desc)
+                    sent = 0
+                    while True:
+                        fut = live[i]
+                        try:
+                            result = self._result(fut, desc)
+                            break
+                        except CancelledError:
+                            lost = shared is not None and fut.status == "cancelled" and self._connected()
+                            if not lost or sent >= RESEND or not self._workers_left():
+                                raise
+                        log.info(
+                            "%s: task %d lost its shared input with a worker; sending both again", desc, i
+                        )
+                        fut.release()
+                        sent += 1
+                        args = scatter_shared()
+                        live[i] = send(i, sent)
                     live.pop(i).release()
                     bar.update(1)
                     interrupts.check()
@@ -284,8 +324,8 @@ class DaskExecutor(Executor):
             for fut in live.values():
                 fut.cancel()
             live.clear()
-            if common is not None:
-                common.release()
+            for data in held:
+                data.release()
 
         return Started(results, cancel)
 
