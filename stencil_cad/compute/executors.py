@@ -263,22 +263,9 @@ class DaskExecutor(Executor):
         held: list[Any] = []  # the futures of ``shared`` on the cluster, the newest last
 
         def scatter_shared() -> tuple[Any, ...]:
-            if shared is None:
-                return ()
-            for attempt in range(1, RESEND + 1):
-                try:
-                    held.append(self.client.scatter([shared], broadcast=True, hash=False)[0])
-                    return (held[-1],)
-                except (KeyError, OSError):
-                    # A worker that died as the data went out (its address gone from the
-                    # scheduler, or its connection closed): the other workers take it.
-                    if not self._connected():
-                        raise self._scheduler_lost(desc) from None
-                    if not self._workers_left():
-                        raise self._workers_lost(desc) from None
-                    if attempt == RESEND:
-                        raise
-            raise AssertionError("unreachable")
+            if shared is not None:
+                held.append(self._broadcast(shared, desc))
+            return () if shared is None else (held[-1],)
 
         args = scatter_shared()
 
@@ -328,6 +315,22 @@ class DaskExecutor(Executor):
                 data.release()
 
         return Started(results, cancel)
+
+    def _broadcast(self, data: Any, desc: str) -> Any:
+        """Scatter ``data`` to every worker: its future. Tried again when it meets a worker that dies."""
+        for attempt in range(1, RESEND + 1):
+            try:
+                return self.client.scatter([data], broadcast=True, hash=False)[0]
+            except (KeyError, OSError):
+                # A worker that died as the data went out (its address gone from the scheduler,
+                # or its connection closed): the other workers take it.
+                if not self._connected():
+                    raise self._scheduler_lost(desc) from None
+                if not self._workers_left():
+                    raise self._workers_lost(desc) from None
+                if attempt == RESEND:
+                    raise
+        raise AssertionError("unreachable")
 
     def _submit(
         self, fn: Callable[[Any], Any], item: Any, key: str, inline: int, load: dict[str, int], desc: str
