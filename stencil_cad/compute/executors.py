@@ -235,11 +235,8 @@ class DaskExecutor(Executor):
                     yield done.pop(next_out)
                     next_out += 1
         except (OSError, CancelledError, TimeoutError) as exc:
-            if self._connected():
-                if not self._workers_left():
-                    raise self._workers_lost(desc) from exc
-                raise
-            raise self._scheduler_lost(desc) from exc
+            self._name_loss(desc, exc)
+            raise
         finally:
             for fut in pending:
                 fut.cancel()
@@ -301,11 +298,8 @@ class DaskExecutor(Executor):
                     interrupts.check()
                     yield result
             except (OSError, CancelledError, TimeoutError) as exc:
-                if self._connected():
-                    if not self._workers_left():
-                        raise self._workers_lost(desc) from exc
-                    raise
-                raise self._scheduler_lost(desc) from exc
+                self._name_loss(desc, exc)
+                raise
 
         def cancel() -> None:
             for fut in live.values():
@@ -315,6 +309,13 @@ class DaskExecutor(Executor):
                 data.release()
 
         return Started(results, cancel)
+
+    def _name_loss(self, desc: str, exc: BaseException) -> None:
+        """Raise the user's error for a lost scheduler or the loss of every worker behind ``exc``; else return."""
+        if not self._connected():
+            raise self._scheduler_lost(desc) from exc
+        if not self._workers_left():
+            raise self._workers_lost(desc) from exc
 
     def _broadcast(self, data: Any, desc: str) -> Any:
         """Scatter ``data`` to every worker: its future. Tried again when it meets a worker that dies."""
