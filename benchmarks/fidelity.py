@@ -128,6 +128,8 @@ def blur_floor(f, cfg, layers, ref, mm_per_px: float) -> dict:
 
 
 def _row(f, pipeline, image: str, settings: str, folder, size: dict | None) -> dict:
+    from stencil_cad.decompose.light import paint_of_plates
+
     t0 = time.perf_counter()
     cfg0 = job_config(image, settings, folder, size)
     # The rows are the job's only at the distances the job scores: the viewing distance and twice it.
@@ -142,7 +144,8 @@ def _row(f, pipeline, image: str, settings: str, folder, size: dict | None) -> d
         "image": image,
         "kind": q.KINDS[image],
         "process": settings,
-        "layers": int(layers.count),
+        "layers": len(set(paint_of_plates(layers.colours))),
+        "plates": int(layers.count),
         "hard_layers": int(res.count),
     }
     for d in q.DISTANCES_M:

@@ -474,16 +474,19 @@ def smoke():
 def _hard(f, pipeline, cfg0, layers, pic, run_, ref, shape, mm_per_px):
     """The best hard stencil of the same job at each stand-off: ``(scores by height, seconds, stencils)``.
 
-    As many colours as the soft job's layers and primer, the process's feature and bridge rules,
-    each cut-out sprayed (full cover of its paint) on the soft simulation's grid, so both are scored
-    on the same pixels.
+    As many colours as the soft job's paints and primer (with light plates, two of the soft job's
+    plates share a paint: the maker buys the same cans for both), the process's feature and bridge
+    rules, each cut-out sprayed (full cover of its paint) on the soft simulation's grid, so both are
+    scored on the same pixels.
     """
+    from stencil_cad.decompose.light import paint_of_plates
     from stencil_cad.model import composite
     from stencil_cad.pipeline.commands import _process_rules
 
     t0 = time.perf_counter()
     rules = _process_rules(cfg0)
-    hard_cfg = cfg0.hard.model_copy(update={"colours": layers.count + 1})
+    paints = len(set(paint_of_plates(layers.colours)))
+    hard_cfg = cfg0.hard.model_copy(update={"colours": paints + 1})
     res = f["make_hard_stencils"](
         pic, hard_cfg, rules["min_feature_mm"], rules["bridge_min_mm"], run_.rng_for("hard")
     )
@@ -518,7 +521,12 @@ def run(cases=None, size: dict | None = None):
             cfg0 = configs[settings]
             pic = _load(image, cfg0, f["fit_to_size"])
             t0 = time.perf_counter()
-            layers = pipeline.stage_decompose(pipeline.Run(cfg=cfg0, out=_NullOut(), quiet=True), pic)
+            from stencil_cad.decompose.light import paint_of_plates
+            from stencil_cad.pipeline.decompose import plates_of
+
+            run0 = pipeline.Run(cfg=cfg0, out=_NullOut(), quiet=True)
+            # The plates a one-plate job stipples (two per paint with light plates).
+            layers = plates_of(run0, pipeline.stage_decompose(run0, pic), tiled=False)
             t_decompose = time.perf_counter() - t0
             soft, plain, timing, sim1, ref, run_ = _soft(f, pipeline, cfg0, layers, pic, image, "off")
             # What the job does by default: the plate design it chooses for the picture (windows on
@@ -565,7 +573,8 @@ def run(cases=None, size: dict | None = None):
                 "image": image,
                 "kind": KINDS[image],
                 "settings": {"name": settings, **_settings_fields(cfg0)},
-                "layers": int(layers.count),
+                "layers": len(set(paint_of_plates(layers.colours))),
+                "plates": int(layers.count),
                 "hard_layers": int(res.count),
                 "soft_nozzle_height": hs,
                 "hard_nozzle_height": hh,

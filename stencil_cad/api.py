@@ -214,9 +214,8 @@ def run_stage(stage: str, cfg: JobConfig, out: Path | str, **kwargs: Any) -> Job
 def dry_run(cfg: JobConfig) -> list[str]:
     """The plan and what making it costs, from the config and the image alone; nothing is written."""
     from . import pipeline
-    from .pipeline.run import plate_layers
 
-    return pipeline.dry_run(cfg, plate_layers(cfg))
+    return pipeline.dry_run(cfg)
 
 
 def previews(

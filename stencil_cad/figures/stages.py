@@ -122,8 +122,10 @@ class DecomposeFigures:
     solver: Row
     #: A big picture solved in tiles: the tiling's figures (None: solved whole).
     tiled: Row | None = None
+    #: Plates the layers are stippled on: twice the layers with light plates (None: one per layer).
+    plates: int | None = None
 
-    _OWN: ClassVar[tuple[str, ...]] = ("layers", "primer", "colours", "iterations", "tiled")
+    _OWN: ClassVar[tuple[str, ...]] = ("layers", "primer", "colours", "iterations", "tiled", "plates")
 
     @classmethod
     def from_json(cls, section: Row) -> DecomposeFigures:
@@ -135,6 +137,7 @@ class DecomposeFigures:
             iterations=section.get("iterations", 0),
             solver={k: v for k, v in section.items() if k not in cls._OWN},
             tiled=section.get("tiled"),
+            plates=section.get("plates"),
         )
 
     @property
@@ -159,6 +162,8 @@ class DecomposeFigures:
         }
         if self.tiled is not None:
             out["tiled"] = self.tiled
+        if self.plates is not None and self.plates != self.layers:
+            out["plates"] = self.plates
         return out
 
 

@@ -358,6 +358,8 @@ def _paint_table(
         f"at {cov:g} m² per {can_ml:g} ml can. Paint that lands on the plate is not counted: sweeping "
         "the whole plate uses more."
     )
+    if any(r.cans_to_buy == 0 for r in prow.values()):
+        paint_note += " 0 cans: the plate sprays the same paint as an earlier plate (its light plate), from the same cans."
     return paint_rows, paint_note
 
 

@@ -49,12 +49,11 @@ def cost_lines(made: CostFigures) -> list[str]:
     return lines
 
 
-def dry_run(cfg: JobConfig, layers: int) -> list[str]:
+def dry_run(cfg: JobConfig) -> list[str]:
     """The plan and its cost from the config and the image alone, in seconds; nothing is written.
 
     Args:
         cfg: The resolved job config.
-        layers: Plates per tile.
 
     Returns:
         The plan line, then the cost in total, per square metre and per part (the plan's expected holes).
@@ -66,6 +65,6 @@ def dry_run(cfg: JobConfig, layers: int) -> list[str]:
 
     picture = load_picture(cfg)
     shape = picture.shape
-    grid, plan = tiles.plan(cfg, picture.width_mm, picture.height_mm, layers, shape[0] * shape[1])
-    made = mural.making_cost(grid, cfg, layers)
+    grid, plan = tiles.plan(cfg, picture.width_mm, picture.height_mm, shape[0] * shape[1])
+    made = mural.making_cost(grid, cfg, tiles.plate_layers(cfg, grid.tiled))
     return [tiles.plan_line(plan), *cost_lines(made)]

@@ -96,6 +96,22 @@ def decomposed(run: Run, picture: Picture, save: bool = False) -> Layers:
     return layers
 
 
+def plates_of(run: Run, layers: Layers, tiled: bool) -> Layers:
+    """The plates the job stipples from its paint layers: two per paint with light plates, else the layers.
+
+    With ``stipple.light_plates`` (:func:`stencil_cad.pipeline.tiles.light_plates_on`) each paint gets
+    a light and a dark plate (:func:`stencil_cad.decompose.light.light_plates`). Split from the layers as ``layers.npz`` holds them, so a stage command on the saved file makes
+    the same plates. Figure ``decompose.plates`` says how many.
+    """
+    from ..decompose.light import light_plates
+    from .tiles import light_plates_on
+
+    plates = light_plates(layers) if light_plates_on(run.cfg, tiled) else layers
+    if run.figures.decompose is not None:
+        run.figures.decompose = replace(run.figures.decompose, plates=plates.count)
+    return plates
+
+
 def _save(run: Run, layers: Layers, saved: dict[str, Any]) -> None:
     """Write ``layers.npz`` (``saved``), each layer's opacity card, the composite and the energy trace."""
     from ..simulate import labelled

@@ -58,6 +58,7 @@ from ..figures import CostFigures
 from ..interrupts import CancelToken
 from ..model import DotSet, Layers, Picture
 from ..record import Run
+from .decompose import plates_of
 
 #: Refinement iterations of the last preview (the job's default is 90): on the bundled example 30
 #: iterations on the preview grid scored 3.98 at 1 m against the full job's 3.99.
@@ -254,7 +255,7 @@ def previews(
     """
     from . import tiles
     from .picture import load_picture
-    from .run import fit_thickness, plate_layers
+    from .run import fit_thickness
 
     if cfg.mode == Mode.hard:
         raise UserError("the preview shows soft (stippled) jobs; hard mode has no preview yet (use `run`)")
@@ -265,14 +266,14 @@ def previews(
     run = Run(cfg=pcfg, out=cast("Any", None), quiet=True, cancel=cancel)
     picture = load_picture(pcfg)
     size = (picture.width_mm, picture.height_mm)
-    grid, _ = tiles.plan(pcfg, *size, plate_layers(pcfg), picture.shape[0] * picture.shape[1])
+    grid, _ = tiles.plan(pcfg, *size, picture.shape[0] * picture.shape[1])
     run.cfg = fit_thickness(run, grid)
     decomposed = cache.get(cache.layers, decomposition_key(run.cfg)) is not None
     if not decomposed:
         # Not decomposed yet: the first preview comes from a decomposition at half the resolution.
         yield _quick(run, picture, cache, grid, size, t0)
         run.check()
-    layers = _layers(run, picture, cache)
+    layers = plates_of(run, _layers(run, picture, cache), grid.tiled)
     made = _Made(run, picture, layers, grid, size, t0)
     if decomposed:
         yield made.coarse()
@@ -384,7 +385,7 @@ def _quick(
     else:
         layers = hit[0]
         half.cfg = half.cfg.model_copy(update={"decompose": hit[1].decompose})
-    return _Made(half, picture, layers, grid, size, t0).coarse()
+    return _Made(half, picture, plates_of(half, layers, grid.tiled), grid, size, t0).coarse()
 
 
 def _decomposed_cached(run: Run, picture: Picture, cache: PreviewCache, key: str) -> Layers:

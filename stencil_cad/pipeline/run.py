@@ -23,7 +23,7 @@ from . import registration, tiles
 from .build import check_template, stage_build
 from .commands import run_hard
 from .cost import record_cost
-from .decompose import stage_decompose
+from .decompose import plates_of, stage_decompose
 from .manifest import finish, save_config
 from .names import STAGE_COMMANDS, run_outputs, stage_outputs
 from .picture import load_picture
@@ -102,7 +102,7 @@ def soft_plates(
     (and :func:`stencil_cad.pipeline.simulate.stage_simulate`) rather than repeating the steps.
     """
     bound_dots(run, size)
-    layers = stage_decompose(run, picture)
+    layers = plates_of(run, stage_decompose(run, picture), grid.tiled)
     # The plate design left to the job (windows, the wall's stand-off) is chosen for a one-plate
     # picture (a mural keeps the config's: trials over every tile would cost more than the job);
     # the saved config records it.
@@ -116,7 +116,7 @@ def plan_mural(run: Run, picture_mm: tuple[float, float], shape_px: tuple[int, .
     """Tile the picture for the bed (one tile when it fits) and check every part fits, before any work."""
     from . import tiles
 
-    grid, fig = tiles.plan(run.cfg, *picture_mm, plate_layers(run.cfg), int(shape_px[0]) * int(shape_px[1]))
+    grid, fig = tiles.plan(run.cfg, *picture_mm, int(shape_px[0]) * int(shape_px[1]))
     run.figures.mural = fig
     return grid
 
@@ -153,15 +153,6 @@ def design_plates(run: Run, layers: Layers, size: tuple[float, float], picture: 
     plate = run.figures.plate
     if plate is not None and plate.thickness_mm != run.cfg.plate.thickness_mm:
         record_plate(run, plate.side_mm)
-
-
-def plate_layers(cfg: JobConfig) -> int:
-    """Plates per tile the job plans for: the paint layers, or in hard mode one per colour but the primer."""
-    if cfg.mode != Mode.hard:
-        return cfg.decompose.layers
-    # A palette given as a list fixes the colours; a can list's length is known once it is read.
-    palette = cfg.hard.palette
-    return (len(palette) if isinstance(palette, list) else cfg.hard.colours) - 1
 
 
 def run_command(
@@ -249,7 +240,7 @@ def run_command(
 def _planned(cfg: JobConfig, picture: Picture) -> MuralFigures:
     """The job's tiling as planned before any work: what :func:`tiles.plan_line` prints and where it runs."""
     shape = picture.shape
-    return tiles.plan(cfg, picture.width_mm, picture.height_mm, plate_layers(cfg), shape[0] * shape[1])[1]
+    return tiles.plan(cfg, picture.width_mm, picture.height_mm, shape[0] * shape[1])[1]
 
 
 def _run_stage_command(
@@ -259,6 +250,7 @@ def _run_stage_command(
     size = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
     grid = plan_mural(run, size, layers.alphas.shape[1:])
     cfg = fit_thickness(run, grid)
+    layers = plates_of(run, layers, grid.tiled)
     run.out.check_free(stage_outputs(cfg, command, layers.count, grid))
     if abs(size[0] - cfg.size.width_mm) > 0.01 * cfg.size.width_mm:
         log.warning(

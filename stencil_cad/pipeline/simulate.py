@@ -445,6 +445,7 @@ def write_steps(
 ) -> None:
     """Per layer, the simulated picture after it is sprayed, and its paint estimate."""
     from ..decompose import paints
+    from ..decompose.light import paint_of_plates
     from ..model import composite
 
     cfg = run.cfg.paints
@@ -457,6 +458,14 @@ def write_steps(
         mean = float(np.mean(alphas[i]))
         est = paints.paint_estimate(area, mean, cfg.coverage_m2_per_can, cfg.can_ml)
         rows.append({"layer": i + 1, "hex": to_hex(colours[i]), "mean_opacity": mean, **est})
+    # Plates of one paint (a light and a dark plate) spray from the same cans: the paint's cans are
+    # counted on its first plate, 0 on the others.
+    paint = paint_of_plates(colours)
+    for k in set(paint):
+        mine = [r for r, p in zip(rows, paint, strict=True) if p == k]
+        cans = sum(r["cans"] for r in mine)
+        for j, r in enumerate(mine):
+            r["cans_to_buy"] = max(1, math.ceil(cans - 1e-9)) if j == 0 else 0
     run.figures.paint = PaintFigures(
         sprayed_area_m2=area * 1e-6,
         coverage_m2_per_can=cfg.coverage_m2_per_can,

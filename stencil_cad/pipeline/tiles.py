@@ -35,8 +35,34 @@ if TYPE_CHECKING:
     from ..record import Run
 
 
+def light_plates_on(cfg: JobConfig, tiled: bool) -> bool:
+    """Whether each paint is sprayed through a light and a dark plate (``stipple.light_plates``).
+
+    ``auto``: on for a one-plate soft job under the physical spray model (the dose is what the light
+    plate lowers), off for a mural (``tiled``), where the second plate would double the printer-hours.
+    """
+    from ..config import Mode
+    from ..config.stipple import LightPlates
+
+    choice = cfg.stipple.light_plates
+    if cfg.mode == Mode.hard or choice == LightPlates.off:
+        return False
+    return choice == LightPlates.on or (not tiled and cfg.spray.is_physical)
+
+
+def plate_layers(cfg: JobConfig, tiled: bool) -> int:
+    """Plates per tile the job plans for: the paint layers (two each with light plates), or one per colour but the primer (hard)."""
+    from ..config import Mode
+
+    if cfg.mode != Mode.hard:
+        return cfg.decompose.layers * (2 if light_plates_on(cfg, tiled) else 1)
+    # A palette given as a list fixes the colours; a can list's length is known once it is read.
+    palette = cfg.hard.palette
+    return (len(palette) if isinstance(palette, list) else cfg.hard.colours) - 1
+
+
 def plan(
-    cfg: JobConfig, width_mm: float, height_mm: float, layers: int, work_px: int
+    cfg: JobConfig, width_mm: float, height_mm: float, work_px: int
 ) -> tuple[mural.TileGrid, MuralFigures]:
     """Tile the picture for the bed and check every part fits, before any work.
 
@@ -47,6 +73,7 @@ def plan(
         UserError: A part cannot fit the bed.
     """
     grid = mural.plan_tiles(width_mm, height_mm, cfg)
+    layers = plate_layers(cfg, grid.tiled)
     sizes = mural.check_fits_bed(grid, cfg)
     made = mural.making_cost(grid, cfg, layers)
     cost = {

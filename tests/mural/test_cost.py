@@ -178,8 +178,13 @@ def test_cost_figures_read_back_and_show_on_the_sheet_and_summary():
 def test_plan_line_says_the_printer_hours_and_filament():
     from stencil_cad.pipeline import tiles
 
-    cfg = job(size={"width_mm": 600, "height_mm": 400}, bed="prusa_mk4", stipple={"process": "fdm"})
-    _, plan = tiles.plan(cfg, 600, 400, 3, 1_000_000)
+    cfg = job(
+        size={"width_mm": 600, "height_mm": 400},
+        bed="prusa_mk4",
+        stipple={"process": "fdm"},
+        decompose={"layers": 3},
+    )
+    _, plan = tiles.plan(cfg, 600, 400, 1_000_000)
     line = tiles.plan_line(plan)
     assert "24 plates, 1 wall(s)" in line
     assert f"about {plan.cost['printer_hours']:.1f} printer-hours" in line and "g PLA" in line

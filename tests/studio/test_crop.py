@@ -10,7 +10,6 @@ from stencil_cad import api
 from stencil_cad.errors import UserError
 from stencil_cad.imaging import example_image_path
 from stencil_cad.pipeline import tiles
-from stencil_cad.pipeline.run import plate_layers
 from stencil_cad.studio import Workspace, create_app
 from stencil_cad.studio.settings import config_data, crop_box
 
@@ -62,9 +61,7 @@ def test_a_murals_tiles_come_from_the_jobs_tiling(ws):
     cfg = api.load_config(data)
     first = next(iter(api.previews(cfg)))
     assert first.tiles > 1 and len(first.tile_cores) == first.tiles
-    grid, _ = tiles.plan(
-        cfg, *first.size_mm, plate_layers(cfg), first.sprayed.shape[0] * first.sprayed.shape[1]
-    )
+    grid, _ = tiles.plan(cfg, *first.size_mm, first.sprayed.shape[0] * first.sprayed.shape[1])
     assert [t[0] for t in first.tile_cores] == [t.name for t in grid.tiles]
     assert first.tile_cores[0][1:] == pytest.approx(grid.tiles[0].core)
     shown = first.figures()["tiles_mm"]
