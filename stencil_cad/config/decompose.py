@@ -83,7 +83,8 @@ class DecomposeConfig(StrictModel):
         ge=1,
         le=MAX_LAYERS,
         description=(
-            f"Number of paint layers L (plates), sprayed over the primer. Integer in [1, {MAX_LAYERS}]. "
+            f"Number of paint layers L, sprayed over the primer. Integer in [1, {MAX_LAYERS}]. Each is one "
+            "plate, or two (a light and a dark plate of its paint) with stipple.light_plates. "
             "With a palette list of N cans and N > layers, the best `layers` cans are chosen; with "
             "N <= layers all N cans are used. An image with fewer distinct colours than L + 1 gets "
             "fewer layers (with a warning)."

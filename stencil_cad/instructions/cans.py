@@ -47,11 +47,11 @@ def unmeasured_warning(rows: Sequence[LayerProfile] | None) -> str | None:
     whole = len(bad) == len(rows)
     verb = "sprays" if len(bad) == 1 else "spray"
     who = "Every layer sprays" if whole else f"{_numbers(bad).capitalize()} {verb}"
-    these = "your cans" if whole else ("that paint" if len(bad) == 1 else "those paints")
-    each = (
-        {True: "each of the paints", False: "each of those paints"}[whole] if len(bad) > 1 else "that paint"
-    )
-    each = "the paint" if whole and len(bad) == 1 else each
+    # A paint's light and dark plates are two layers of one paint.
+    paints = len({r.hex for r in rows if not r.measured})
+    these = "your cans" if whole else ("that paint" if paints == 1 else "those paints")
+    each = {True: "each of the paints", False: "each of those paints"}[whole] if paints > 1 else "that paint"
+    each = "the paint" if whole and paints == 1 else each
     return (
         f"{who} with can constants nobody measured (the priors of spray.can): the simulated picture and "
         f"the passes are a guess for {these}. To know, {MEASURE.format(paints=each)}."

@@ -242,6 +242,7 @@ def _steps(f: Figures, s: JobSettings, names: set[str]) -> list[Step]:
     # A plate's own count (hard mode's cut-outs are not simulated as holes) and its cut-outs' sizes.
     built = {p.number: p for p in (f.build.plates if f.build is not None else ())}
     how = _how(f, s)
+    pair = _light_and_dark(order) if s.mode == "soft" else {}
     steps = []
     for k, o in enumerate(order):
         plate = str(o.plate)
@@ -260,12 +261,24 @@ def _steps(f: Figures, s: JobSettings, names: set[str]) -> list[Step]:
                 after_image=f"{plate}_after.png",
                 kind="holes" if s.mode == "soft" else "cut-outs",
                 how=how.get(number, ""),
-                detail=_cutout_detail(own.cutouts if own is not None else None),
+                detail=pair.get(k) or _cutout_detail(own.cutouts if own is not None else None),
                 passes=o.passes,
                 speed_m_s=o.pass_speed_m_s,
             )
         )
     return steps
+
+
+def _light_and_dark(order: Sequence[Any]) -> dict[int, str]:
+    """Which steps are a paint's light plate and its dark plate (two steps of one paint in a row)."""
+    out = {}
+    for k in range(1, len(order)):
+        if order[k].hex == order[k - 1].hex and k - 1 not in out:
+            out[k - 1] = "its light plate: this paint's light tones, at a small dose"
+            out[k] = (
+                f"its dark plate: the same paint and can as step {order[k - 1].step}, for its darker tones"
+            )
+    return out
 
 
 def _cutout_detail(fig: Cutouts | None) -> str:

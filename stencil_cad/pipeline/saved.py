@@ -52,7 +52,10 @@ def read_dots(folder: Path, count: int | None = None, max_time: float = 800.0) -
             f"no layer_NN_dots.csv in {folder} (run `stencil-cad stipple` first, or pass --from DIR)"
         )
     if count is not None and len(files) != count:
-        raise UserError(f"{folder} has {len(files)} dots files but the decomposition has {count} layers")
+        raise UserError(
+            f"{folder} has {len(files)} dots files but the job stipples {count} plates (a light and a dark "
+            "plate per paint with stipple.light_plates): run `stencil-cad stipple` on this folder again"
+        )
     out = []
     for f in files:
         text = read_checked(f, "dots file", limit=DATA_LIMIT, fix="re-run `stencil-cad stipple`")

@@ -71,7 +71,8 @@ def test_catalogue_snaps_every_paint_to_a_can_and_shows_the_cost(soft_job):
         assert row["can"] in cans and row["delta_e2000"] >= 0
     assert np.isfinite(snap["rmse_snapped"]) and np.isfinite(snap["rmse_solved"])
     spray = json.loads((soft_job / "spray.json").read_text())
-    assert [o["hex"] for o in spray["order"]] == m["decompose"]["colours"]
+    # Each paint's light plate, then its dark plate.
+    assert list(dict.fromkeys(o["hex"] for o in spray["order"])) == m["decompose"]["colours"]
     assert all(o["name"] == cans[o["hex"]].label for o in spray["order"])
     html = (soft_job / "instructions.html").read_text()
     assert "cost of using the cans" in html
@@ -109,6 +110,22 @@ def test_every_output_of_the_maker_is_written(soft_job):
     assert {"instructions.html", "instructions.pdf", "swatch.png", "spray.json"} <= names
     listed = {r["name"] for r in json.loads((soft_job / "manifest.json").read_text())["files"]}
     assert names == listed | {"manifest.json"}
+
+
+def test_a_paints_light_and_dark_plates_spray_from_one_can(soft_job):
+    # The default one-plate job sprays each paint through a light plate and then a dark plate.
+    order = json.loads((soft_job / "spray.json").read_text())["order"]
+    m = json.loads((soft_job / "manifest.json").read_text())
+    assert m["decompose"]["plates"] == len(order) > m["decompose"]["layers"] == 2
+    html = (soft_job / "instructions.html").read_text()
+    cans = {r["layer"]: r["cans_to_buy"] for r in m["paint"]["layers"]}
+    pairs = [k for k in range(1, len(order)) if order[k]["hex"] == order[k - 1]["hex"]]
+    assert pairs
+    for k in pairs:
+        # The dark plate's paint is bought with its light plate's.
+        assert cans[k] >= 1 and cans[k + 1] == 0
+        assert f"its dark plate: the same paint and can as step {k}" in html
+    assert "its light plate: this paint" in html
 
 
 @pytest.mark.slow

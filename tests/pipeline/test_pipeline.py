@@ -105,7 +105,8 @@ def test_quality_figures_reach_the_manifest(small_run):
     sim = json.loads((out / "manifest.json").read_text())["simulate"]
     for k in ("de2000_mean", "de2000_p95", "psnr", "ssim"):
         assert np.isfinite(sim[k])
-    assert len(sim["layer_rmse"]) == 2
+    # One figure per plate: two paints, each a light and a dark plate.
+    assert len(sim["layer_rmse"]) == 4
 
 
 def test_same_seed_same_dots(small_run, tmp_path):
@@ -138,7 +139,7 @@ def test_build_rejects_overlapping_dots_and_writes_nothing(small_run, tmp_path, 
     _, _, out = small_run
     d = tmp_path / "bad"
     d.mkdir()
-    for name in ("layers.npz", "config.yaml", "layer_01_dots.csv", "layer_02_dots.csv"):
+    for name in ("layers.npz", "config.yaml", *(f"layer_{i:02d}_dots.csv" for i in (1, 2, 3, 4))):
         (d / name).write_bytes((out / name).read_bytes())
     rows = (d / "layer_01_dots.csv").read_text().splitlines()
     x, y, r = rows[1].split(",")

@@ -57,23 +57,26 @@ def test_a_layer_keyed_to_its_profile_sprays_with_it_and_the_others_do_not(tmp_p
     code, cap = _run(tmp_path, "keyed", keyed, capsys, quiet=False)
     assert code == 0, cap.err
     plain, keyed = tmp_path / "plain", tmp_path / "keyed"
-    # Layer 1 is stippled and sprayed as before; layer 2's thin can asks for more passes and holes.
-    assert _read(plain, "layer_01_dots.csv") == _read(keyed, "layer_01_dots.csv")
-    assert _read(plain, "layer_02_dots.csv") != _read(keyed, "layer_02_dots.csv")
+    # Each paint is a light and a dark plate (plates 1-2 paint 1, plates 3-4 paint 2), and both plates
+    # of paint 2 spray with its thin can.
+    assert json.loads(_read(keyed, "manifest.json"))["decompose"]["plates"] == 4
+    # Paint 1 is stippled and sprayed as before; paint 2's thin can asks for more passes and holes.
+    for plate in (1, 2):
+        assert _read(plain, f"layer_{plate:02d}_dots.csv") == _read(keyed, f"layer_{plate:02d}_dots.csv")
+    assert _read(plain, "layer_04_dots.csv") != _read(keyed, "layer_04_dots.csv")
     before, after = (json.loads(_read(o, "spray.json"))["order"] for o in (plain, keyed))
-    assert before[0]["passes"] == after[0]["passes"] and after[1]["passes"] > before[1]["passes"]
+    assert before[0]["passes"] == after[0]["passes"] and after[3]["passes"] > before[3]["passes"]
     m = json.loads(_read(keyed, "manifest.json"))
     rows = m["spray_profiles"]
-    assert [r["profile"] for r in rows] == [None, "thin.yaml"] and [r["measured"] for r in rows] == [
-        False,
-        True,
-    ]
-    assert rows[1]["key"] == "2" and rows[1]["deposit_per_pass"] == 0.5
+    assert [r["profile"] for r in rows] == [None, None, "thin.yaml", "thin.yaml"]
+    assert [r["measured"] for r in rows] == [False, False, True, True]
+    assert rows[2]["key"] == rows[3]["key"] == "2" and rows[3]["deposit_per_pass"] == 0.5
     # Layer 1's can is still unmeasured: it alone gets the prior of cans.
     assert len(m["simulate"]["scielab_by_can"]) > 2
     html = _read(keyed, "instructions.html")
-    assert "thin.yaml" in html and "Layer 1 sprays with can constants nobody measured" in html
-    assert "layer 2 profile thin.yaml (measured: thin test)" in cap.out
+    assert "thin.yaml" in html and "Layers 1, 2 spray with can constants nobody measured" in html
+    assert "the passes are a guess for that paint" in html
+    assert "layer 3 profile thin.yaml (measured: thin test)" in cap.out
 
 
 def test_a_key_for_a_layer_the_job_does_not_have_stops_it_with_exit_code_2(tmp_path, capsys):
