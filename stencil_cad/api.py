@@ -29,6 +29,7 @@ import numpy as np
 
 from .config import ComputeConfig, JobConfig
 from .interrupts import Cancelled, CancelToken
+from .names import SIMULATED_PNG
 
 if TYPE_CHECKING:
     from .figures import Figures
@@ -67,7 +68,7 @@ class JobResult:
 
     def simulated(self) -> np.ndarray | None:
         """The simulated sprayed picture, ``(H, W, 3)`` ndarray of float in [0, 1]; None if the job did not spray."""
-        path = self.out / "simulated.png"
+        path = self.out / SIMULATED_PNG
         if not path.is_file():
             return None
         from PIL import Image

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from . import __version__, interrupts
 from .errors import ConfigError, UserError
+from .names import CARD_JSON, CONFIG_COPY, INIT_CONFIG, SPRAY_PROFILE_YAML
 
 log = logging.getLogger("stencil_cad")
 
@@ -66,7 +67,7 @@ def _card_parsers(sub) -> None:
     sp.add_argument(
         "--out",
         type=Path,
-        default=Path("spray_profile.yaml"),
+        default=Path(SPRAY_PROFILE_YAML),
         help="profile to write (default: spray_profile.yaml)",
     )
     sp.add_argument("--force", action="store_true", help="replace an existing profile")
@@ -183,7 +184,7 @@ def _parser() -> argparse.ArgumentParser:
     _studio_parser(sub)
     sp = sub.add_parser("init", help="write a commented config file")
     sp.add_argument(
-        "path", nargs="?", type=Path, default=Path("stencil.yaml"), help="where (default: stencil.yaml)"
+        "path", nargs="?", type=Path, default=Path(INIT_CONFIG), help="where (default: stencil.yaml)"
     )
     sp.add_argument("--force", action="store_true", help="replace an existing file")
     sub.add_parser("schema", help="print the config's JSON Schema (for editor completion)")
@@ -349,7 +350,7 @@ def _card(args) -> int:
             f"  sheet     card_sheet.pdf, {c['sheet_mm'][0]:g} × {c['sheet_mm'][1]:g} mm on {c['paper']} with the "
             "steps: print at 100 %\n"
             f"  then      spray the card {c['passes']} passes in each wall on the sheet, photograph it "
-            f"(docs/guides/spraying.md, 'Measuring your can') and run: stencil-cad calibrate PHOTO --card {args.out / 'card.json'}"
+            f"(docs/guides/spraying.md, 'Measuring your can') and run: stencil-cad calibrate PHOTO --card {args.out / CARD_JSON}"
         )
     return 0
 
@@ -423,8 +424,8 @@ def _load_job(args):
     if config_path is None and args.command in ("decompose", "stipple", "build", "simulate"):
         # A stage command in a run's folder uses the folder's config (the docs' promise).
         folder = src or args.out
-        if folder is not None and (folder / "config.yaml").exists():
-            config_path = folder / "config.yaml"
+        if folder is not None and (folder / CONFIG_COPY).exists():
+            config_path = folder / CONFIG_COPY
     if config_path is None and args.image is None and args.command in ("run", "decompose", "hard"):
         # No config and no image: the bundled example job (api.load_config's default).
         source = None

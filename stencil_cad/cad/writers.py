@@ -15,6 +15,7 @@ import numpy as np
 from ..exchange.mesh import stl_bytes, threemf_bytes
 from ..exchange.step import step_text
 from ..model import TriMesh
+from ..names import part_file
 
 __all__ = ["occt_mesh", "write_3mf", "write_mesh_files", "write_step", "write_stl"]
 
@@ -37,13 +38,13 @@ def write_mesh_files(out, model, stem: str, export) -> None:
         export: The ``export`` config section.
     """
     if export.step:
-        with out.open_path(f"{stem}.step") as p:
+        with out.open_path(part_file(stem, ".step")) as p:
             write_step(model, p)
     if export.stl:
-        with out.open_path(f"{stem}.stl") as p:
+        with out.open_path(part_file(stem, ".stl")) as p:
             write_stl(model, p, export.stl_tolerance_mm)
     if export.three_mf:
-        with out.open_path(f"{stem}.3mf") as p:
+        with out.open_path(part_file(stem, ".3mf")) as p:
             write_3mf(model, p, export.stl_tolerance_mm)
 
 

@@ -11,6 +11,7 @@ from ..colour import to_hex
 from ..errors import UserError
 from ..figures import BuildFigures
 from ..model import CutLayer, DotSet, Holes, Layers
+from ..names import part_file
 from ..output import plain as _plain
 from ..record import Run
 from ..stipple.made import drawn_dots
@@ -52,7 +53,7 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
                 dxf_info = {}
                 drawing = dxf.stencil_for(h, ring, stem.upper(), *model.cut_label())
                 if exp.dxf:
-                    with run.out.open_path(f"{stem}.dxf") as p:
+                    with run.out.open_path(part_file(stem, ".dxf")) as p:
                         info = dxf.write_dxf_stencils(
                             p,
                             [drawing],
@@ -63,7 +64,7 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
                     # Laser software wants +X/+Y: the drawing is shifted by this much from the picture frame.
                     dxf_info = {"dxf_offset_mm": [round(float(v), 4) for v in info.offset_mm]}
                 if exp.svg:
-                    with run.out.open_path(f"{stem}.svg") as p:
+                    with run.out.open_path(part_file(stem, ".svg")) as p:
                         sinfo = svg.write_svg(
                             p, drawing, kerf_mm=exp.kerf_mm, title=f"{cfg.name} {stem} of {len(holes)}"
                         )
@@ -86,11 +87,13 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
             wm = wall_mod.build_wall(
                 width_mm, height_mm, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, standoff
             )
-            with run.out.open_path(f"{stem}.step") as p:
+            with run.out.open_path(part_file(stem, ".step")) as p:
                 wall_mod.wall_step(wm, p)
-            with run.out.open_path(f"{stem}.stl") as p:
+            with run.out.open_path(part_file(stem, ".stl")) as p:
                 wall_mod.wall_stl(wm, p, exp.stl_tolerance_mm)
-            walls.append({"file": f"{stem}.step", "standoff_mm": standoff, **wall_mod.check_wall(wm)})
+            walls.append(
+                {"file": part_file(stem, ".step"), "standoff_mm": standoff, **wall_mod.check_wall(wm)}
+            )
     run.figures.build = BuildFigures.from_rows(results, walls)
 
 

@@ -17,6 +17,7 @@ from ..figures import ComputeFigures, MuralFigures, PictureFigures, PlateFigures
 from ..interrupts import CancelToken
 from ..model import DotSet, Layers, Picture
 from ..mural import TileGrid
+from ..names import INPUT_PNG
 from ..output import OutputDir
 from ..record import Run
 from . import registration, tiles
@@ -71,7 +72,7 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
     size = (picture.width_mm, picture.height_mm)
     grid = plan_mural(run, size, picture.shape)
     cfg = fit_thickness(run, grid)
-    run.sheet_images["input.png"] = png_bytes(np.asarray(picture.rgb, dtype=np.float64))
+    run.sheet_images[INPUT_PNG] = png_bytes(np.asarray(picture.rgb, dtype=np.float64))
     run.figures.picture = PictureFigures(
         source=picture.source,
         width_mm=round(size[0], 3),

@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from .. import mural
+from ..names import part_file
 from ..output import plain as _plain
 from ..record import Run
 from .names import POST_STEM
@@ -24,13 +25,13 @@ def write_post(
         plan.radius_mm, plan.height_mm, plan.pin_radius_mm, run.cfg.plate.thickness_mm
     )
     stem = POST_STEM
-    with run.out.open_path(f"{stem}.step") as p:
+    with run.out.open_path(part_file(stem, ".step")) as p:
         post_mod.post_step(model, p)
-    with run.out.open_path(f"{stem}.stl") as p:
+    with run.out.open_path(part_file(stem, ".stl")) as p:
         post_mod.post_stl(model, p, run.cfg.export.stl_tolerance_mm)
     dropped = sum(int(s.get("removed_post", 0)) for s in (st.report for st in run.figures.stipple or ()))
     return {
-        "file": f"{stem}.step",
+        "file": part_file(stem, ".step"),
         "height_mm": plan.height_mm,
         "radius_mm": plan.radius_mm,
         "pin_radius_mm": plan.pin_radius_mm,
@@ -71,9 +72,9 @@ def write_laser_stand(run: Run, parts: list[CutPart], bed: Bed | None) -> list[d
             layer_name=part.name.upper(),
             label=part.name,
         )
-        with run.out.open_path(f"{part.name}.dxf") as p:
+        with run.out.open_path(part_file(part.name, ".dxf")) as p:
             dxf.write_dxf_stencils(p, [drawing], kerf_mm=exp.kerf_mm, deterministic=True)
-        with run.out.open_path(f"{part.name}.svg") as p:
+        with run.out.open_path(part_file(part.name, ".svg")) as p:
             svg.write_svg(p, drawing, kerf_mm=exp.kerf_mm, title=f"{run.cfg.name} {part.name}")
         rows.append(
             {
@@ -82,7 +83,7 @@ def write_laser_stand(run: Run, parts: list[CutPart], bed: Bed | None) -> list[d
                 "thickness_mm": part.thickness_mm,
                 "cut_m": round(part.cut_mm / 1000.0, 3),
                 "cut_minutes": round(cut_seconds(part.cut_mm, part.pierces) / 60.0, 2),
-                "files": [f"{part.name}.dxf", f"{part.name}.svg"],
+                "files": [part_file(part.name, ".dxf"), part_file(part.name, ".svg")],
                 **_plain(check),
             }
         )
