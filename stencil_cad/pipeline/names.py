@@ -9,6 +9,8 @@ if TYPE_CHECKING:
 
 import logging
 
+from ..command_table import SAVED_STAGES
+from ..command_table import command as command_named
 from ..config import JobConfig
 from ..names import (
     CARD_JSON,
@@ -86,25 +88,28 @@ LATER_STAGES = {
 
 def run_outputs(cfg: JobConfig, command: str) -> list[str]:
     """Names and patterns of the files a whole run or `decompose` may write (checked before work)."""
-    if command == "decompose":
+    if not command_named(command).whole:
         return list(DECOMPOSE_FILES)
     return [*RUN_FILES, *RUN_PATTERNS]
 
 
 def stage_outputs(cfg: JobConfig, command: str, count: int, grid: mural.TileGrid | None = None) -> list[str]:
     """Names a stage command will write, so it can refuse before doing the work."""
-    if command == "build" and grid is not None and grid.tiled:
+    cmd = command_named(command)
+    if not cmd.saved:
+        return []
+    if cmd.builds and grid is not None and grid.tiled:
         return tile_outputs(cfg, grid, count)
-    if command == "stipple":
+    if cmd.stipples:
         return [n for i in range(count) for n in (dots_name(i), dots_png(layer_stem(i)))] + [
             SPRAY_JSON,
             SWATCH_PNG,
         ]
-    if command == "build":
+    if cmd.builds:
         exts = cfg.export.plate_extensions()
         names = [part_file(layer_stem(i), e) for i in range(count) for e in exts]
         return names + [part_file(s, e) for s in wall_stems(cfg.wall.heights()) for e in (".step", ".stl")]
-    if command == "simulate":
+    if cmd.simulates:
         return [SIMULATED_PNG, PREVIEW_PNG, SWEEP_PNG, *simulated_stems(cfg)] + [
             step_name(i) for i in range(count)
         ]
@@ -112,7 +117,7 @@ def stage_outputs(cfg: JobConfig, command: str, count: int, grid: mural.TileGrid
 
 
 #: Commands that run one stage on the intermediates a previous command saved.
-STAGE_COMMANDS = ("stipple", "build", "simulate")
+STAGE_COMMANDS = SAVED_STAGES
 
 
 def tile_stem(tile: mural.Tile, i: int) -> str:
