@@ -37,6 +37,9 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
+#: The card plate's files, whatever the job's ``export`` asks.
+CARD_FORMATS = (".step", ".stl", ".dxf")
+
 
 def _card_walls(run: Run, card: CardLayout) -> list[dict[str, Any]]:
     """Build, check and export the card's walls, one per stand-off; their manifest rows."""
@@ -102,6 +105,7 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
 
     from .. import cad, outline
     from ..exchange import dxf
+    from ..exchange.writers import write_part
     from ..testcard import layout as card_mod
 
     cfg = run.cfg
@@ -120,14 +124,10 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
         except ValueError as exc:
             raise UserError(f"card plate: {exc}") from exc
         check = cad.check_plate(model, card.dots, tolerance_mm=exp.stl_tolerance_mm)
-        with run.out.open_path(part_file(CARD_PLATE_STEM, ".step")) as p:
-            cad.write_step(model, p)
-        with run.out.open_path(part_file(CARD_PLATE_STEM, ".stl")) as p:
-            cad.write_stl(model, p, exp.stl_tolerance_mm)
         ring = outline.plate_outline(w, h, cfg.plate.outline)
-        with run.out.open_path(part_file(CARD_PLATE_STEM, ".dxf")) as p:
-            drawing = dxf.stencil_for(card.dots, ring, "CARD", *model.cut_label())
-            dxf.write_dxf_stencils(p, [drawing], kerf_mm=exp.kerf_mm, deterministic=True)
+        drawing = dxf.stencil_for(card.dots, ring, "CARD", *model.cut_label())
+        # The card is always made in every way a can is tested: printed (STEP, STL) or cut (DXF).
+        write_part(run.out, CARD_PLATE_STEM, cad.plate_part(model, drawing), CARD_FORMATS, exp)
         walls = _card_walls(run, card)
         heights = [fp.standoff_mm for fp in card.footprints]
         _card_sheet(run, card, paper)

@@ -10,6 +10,9 @@ from ..output import plain as _plain
 from ..record import Run
 from .names import POST_STEM
 
+#: A laser-cut stand part's files.
+LASER_FORMATS = (".dxf", ".svg")
+
 if TYPE_CHECKING:
     from ..config.bed import Bed
     from ..mural.laser import CutPart
@@ -55,7 +58,8 @@ def write_laser_stand(run: Run, parts: list[CutPart], bed: Bed | None) -> list[d
         UserError: A part fails its checks.
     """
     from ..errors import UserError
-    from ..exchange import dxf, svg
+    from ..exchange import dxf
+    from ..exchange.writers import PartFiles, write_part
     from ..mural.cost import cut_seconds
 
     exp = run.cfg.export
@@ -72,10 +76,8 @@ def write_laser_stand(run: Run, parts: list[CutPart], bed: Bed | None) -> list[d
             layer_name=part.name.upper(),
             label=part.name,
         )
-        with run.out.open_path(part_file(part.name, ".dxf")) as p:
-            dxf.write_dxf_stencils(p, [drawing], kerf_mm=exp.kerf_mm, deterministic=True)
-        with run.out.open_path(part_file(part.name, ".svg")) as p:
-            svg.write_svg(p, drawing, kerf_mm=exp.kerf_mm, title=f"{run.cfg.name} {part.name}")
+        files = PartFiles(name=part.name, drawing=drawing, title=f"{run.cfg.name} {part.name}")
+        write_part(run.out, part.name, files, LASER_FORMATS, exp)
         rows.append(
             {
                 "name": part.name,
@@ -83,7 +85,7 @@ def write_laser_stand(run: Run, parts: list[CutPart], bed: Bed | None) -> list[d
                 "thickness_mm": part.thickness_mm,
                 "cut_m": round(part.cut_mm / 1000.0, 3),
                 "cut_minutes": round(cut_seconds(part.cut_mm, part.pierces) / 60.0, 2),
-                "files": [part_file(part.name, ".dxf"), part_file(part.name, ".svg")],
+                "files": [part_file(part.name, e) for e in LASER_FORMATS],
                 **_plain(check),
             }
         )
