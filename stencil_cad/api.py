@@ -27,8 +27,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .command_table import JOB_COMMANDS
+from .command_table import SAVED_STAGES as _SAVED_STAGES
 from .config import ComputeConfig, JobConfig
 from .interrupts import Cancelled, CancelToken
+from .names import SIMULATED_PNG
 
 if TYPE_CHECKING:
     from .figures import Figures
@@ -36,9 +39,9 @@ if TYPE_CHECKING:
     from .testcard.fit import CardFit
 
 #: The commands :func:`run` takes: the whole job, hard mode, and the stages run on saved intermediates.
-COMMANDS = ("run", "hard", "decompose", "stipple", "build", "simulate")
+COMMANDS = JOB_COMMANDS
 #: The stages that read a run's saved intermediates (``src``).
-SAVED_STAGES = ("stipple", "build", "simulate")
+SAVED_STAGES = _SAVED_STAGES
 
 #: Called ``(event, stage)``: event ``"start"`` or ``"done"``, stage a name such as ``"decompose"``.
 Progress = Callable[[str, str], None]
@@ -67,7 +70,7 @@ class JobResult:
 
     def simulated(self) -> np.ndarray | None:
         """The simulated sprayed picture, ``(H, W, 3)`` ndarray of float in [0, 1]; None if the job did not spray."""
-        path = self.out / "simulated.png"
+        path = self.out / SIMULATED_PNG
         if not path.is_file():
             return None
         from PIL import Image

@@ -8,22 +8,22 @@ import logging
 import signal
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from . import __version__, interrupts
+from .command_table import COMMANDS
+from .command_table import command as command_named
 from .errors import ConfigError, UserError
+from .names import CARD_JSON, CONFIG_COPY, INIT_CONFIG, SPRAY_PROFILE_YAML
 
 log = logging.getLogger("stencil_cad")
 
 EXAMPLE_OUT = Path("output") / "example"
 
 
-def _card_parsers(sub) -> None:
-    """The calibration card's two commands: ``card`` writes it, ``calibrate`` measures a can from its photo."""
-    sp = sub.add_parser(
-        "card",
-        help="write the calibration card: a test plate, its wall(s), the sheet to spray it on, card.json",
-    )
+def _card_args(sp: argparse.ArgumentParser) -> None:
+    """``card`` writes the calibration card."""
     sp.add_argument(
         "config", nargs="?", type=Path, help="job config YAML whose holes, plate and wall the card uses"
     )
@@ -47,9 +47,10 @@ def _card_parsers(sub) -> None:
     g = sp.add_mutually_exclusive_group()
     g.add_argument("-v", "--verbose", action="store_true", help="log each step; show tracebacks")
     g.add_argument("-q", "--quiet", action="store_true", help="no summary")
-    sp = sub.add_parser(
-        "calibrate", help="measure a can from a photo of the sprayed calibration card; write a spray profile"
-    )
+
+
+def _calibrate_args(sp: argparse.ArgumentParser) -> None:
+    """``calibrate`` measures a can from a photo of the sprayed card."""
     sp.add_argument(
         "photo", type=Path, help="photo (JPEG/PNG) of the sprayed card sheet, all markers in view"
     )
@@ -66,18 +67,15 @@ def _card_parsers(sub) -> None:
     sp.add_argument(
         "--out",
         type=Path,
-        default=Path("spray_profile.yaml"),
+        default=Path(SPRAY_PROFILE_YAML),
         help="profile to write (default: spray_profile.yaml)",
     )
     sp.add_argument("--force", action="store_true", help="replace an existing profile")
     sp.add_argument("-v", "--verbose", action="store_true", help="log each step; show tracebacks")
 
 
-def _studio_parser(sub) -> None:
+def _studio_args(sp: argparse.ArgumentParser) -> None:
     """``studio``: the local web page."""
-    sp = sub.add_parser(
-        "studio", help="open the studio: a local web page that previews the sprayed result as you choose"
-    )
     sp.add_argument(
         "--host",
         default="127.0.0.1",
@@ -140,23 +138,18 @@ def _job_args(sp: argparse.ArgumentParser, with_from: bool = False, dry_run: boo
     g.add_argument("-q", "--quiet", action="store_true", help="no progress bars or summary")
 
 
-def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
-        prog="stencil-cad",
-        description="Turn an image into spray-paint stencils to 3D-print or laser-cut.",
-    )
-    p.add_argument("--version", action="version", version=f"stencil-cad {__version__}")
-    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+def _stage_args(sp: argparse.ArgumentParser) -> None:
+    """A stage command's arguments: a job's, with ``--from``."""
+    _job_args(sp, with_from=True)
 
-    _job_args(
-        sub.add_parser("run", help="run the whole job: decompose, stipple, build, simulate"), dry_run=True
-    )
-    _job_args(sub.add_parser("decompose", help="decompose the image into primer + paint layers (layers.npz)"))
-    _job_args(sub.add_parser("stipple", help="stipple saved layers into holes (layer_NN_dots.csv)"), True)
-    _job_args(sub.add_parser("build", help="build plates and wall from saved dots (STEP, STL, DXF)"), True)
-    _job_args(sub.add_parser("simulate", help="spray saved dots in simulation and score the result"), True)
-    _job_args(sub.add_parser("hard", help="hard-stencil mode: flat colours, cut-outs held by bridges"))
-    sp = sub.add_parser("slice", help="slice exported plate STLs with a shipped print profile")
+
+def _run_args(sp: argparse.ArgumentParser) -> None:
+    """``run``'s arguments: a job's, with ``--dry-run``."""
+    _job_args(sp, dry_run=True)
+
+
+def _slice_args(sp: argparse.ArgumentParser) -> None:
+    """``slice``: exported plate STLs through a shipped print profile."""
     sp.add_argument("stl", nargs="+", type=Path, help="plate STL files (e.g. output/example/layer_01.stl)")
     sp.add_argument(
         "--profile",
@@ -179,14 +172,30 @@ def _parser() -> argparse.ArgumentParser:
     sp.add_argument(
         "-v", "--verbose", action="store_true", help="show the slicer's log on failure; tracebacks"
     )
-    _card_parsers(sub)
-    _studio_parser(sub)
-    sp = sub.add_parser("init", help="write a commented config file")
+
+
+def _init_args(sp: argparse.ArgumentParser) -> None:
+    """``init``: where to write the commented config."""
     sp.add_argument(
-        "path", nargs="?", type=Path, default=Path("stencil.yaml"), help="where (default: stencil.yaml)"
+        "path", nargs="?", type=Path, default=Path(INIT_CONFIG), help="where (default: stencil.yaml)"
     )
     sp.add_argument("--force", action="store_true", help="replace an existing file")
-    sub.add_parser("schema", help="print the config's JSON Schema (for editor completion)")
+
+
+def _no_args(sp: argparse.ArgumentParser) -> None:
+    """A command without arguments."""
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="stencil-cad",
+        description="Turn an image into spray-paint stencils to 3D-print or laser-cut.",
+    )
+    p.add_argument("--version", action="version", version=f"stencil-cad {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    for command in COMMANDS:
+        setup, _ = _CLI[command.name]
+        setup(sub.add_parser(command.name, help=command.help))
     return p
 
 
@@ -247,26 +256,23 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _dispatch(args) -> int:
+    _, handler = _CLI[args.command]
+    return handler(args)
+
+
+def _schema(args) -> int:
     from .config import io as cfg_io
 
-    if args.command == "schema":
-        print(json.dumps(cfg_io.json_schema(), indent=2))
-        return 0
-    if args.command == "slice":
-        return _slice(args)
-    if args.command == "card":
-        return _card(args)
-    if args.command == "calibrate":
-        return _calibrate(args)
-    if args.command == "studio":
-        return _studio(args)
-    if args.command == "init":
-        from . import pipeline
+    print(json.dumps(cfg_io.json_schema(), indent=2))
+    return 0
 
-        pipeline.write_default_config(args.path, force=args.force)
-        print(f"wrote {args.path}; edit it, then: stencil-cad run {args.path}")
-        return 0
-    return _job(args)
+
+def _init(args) -> int:
+    from . import pipeline
+
+    pipeline.write_default_config(args.path, force=args.force)
+    print(f"wrote {args.path}; edit it, then: stencil-cad run {args.path}")
+    return 0
 
 
 def _slice(args) -> int:
@@ -349,7 +355,7 @@ def _card(args) -> int:
             f"  sheet     card_sheet.pdf, {c['sheet_mm'][0]:g} × {c['sheet_mm'][1]:g} mm on {c['paper']} with the "
             "steps: print at 100 %\n"
             f"  then      spray the card {c['passes']} passes in each wall on the sheet, photograph it "
-            f"(docs/guides/spraying.md, 'Measuring your can') and run: stencil-cad calibrate PHOTO --card {args.out / 'card.json'}"
+            f"(docs/guides/spraying.md, 'Measuring your can') and run: stencil-cad calibrate PHOTO --card {args.out / CARD_JSON}"
         )
     return 0
 
@@ -420,12 +426,13 @@ def _load_job(args):
 
     src = getattr(args, "src", None)
     config_path = args.config
-    if config_path is None and args.command in ("decompose", "stipple", "build", "simulate"):
+    command = command_named(args.command)
+    if config_path is None and command.job and not command.whole:
         # A stage command in a run's folder uses the folder's config (the docs' promise).
         folder = src or args.out
-        if folder is not None and (folder / "config.yaml").exists():
-            config_path = folder / "config.yaml"
-    if config_path is None and args.image is None and args.command in ("run", "decompose", "hard"):
+        if folder is not None and (folder / CONFIG_COPY).exists():
+            config_path = folder / CONFIG_COPY
+    if config_path is None and args.image is None and command.from_picture:
         # No config and no image: the bundled example job (api.load_config's default).
         source = None
     else:
@@ -433,7 +440,7 @@ def _load_job(args):
     from .config.bed import parse_bed_arg
 
     bed = parse_bed_arg(args.bed) if getattr(args, "bed", None) else None
-    cfg = api.load_config(source, image=args.image, seed=args.seed, hard=args.command == "hard", bed=bed)
+    cfg = api.load_config(source, image=args.image, seed=args.seed, hard=command.hard, bed=bed)
     if args.out is not None:
         out = args.out
     elif args.config is None and args.image is None:
@@ -467,6 +474,23 @@ def _job(args) -> int:
     if not args.quiet:
         print(result.summary())
     return 0
+
+
+#: Each command's arguments and the function that runs it (its name and help: :data:`COMMANDS`).
+_CLI: dict[str, tuple[Callable[[argparse.ArgumentParser], None], Callable[[argparse.Namespace], int]]] = {
+    "run": (_run_args, _job),
+    "decompose": (_job_args, _job),
+    "stipple": (_stage_args, _job),
+    "build": (_stage_args, _job),
+    "simulate": (_stage_args, _job),
+    "hard": (_job_args, _job),
+    "slice": (_slice_args, _slice),
+    "card": (_card_args, _card),
+    "calibrate": (_calibrate_args, _calibrate),
+    "studio": (_studio_args, _studio),
+    "init": (_init_args, _init),
+    "schema": (_no_args, _schema),
+}
 
 
 if __name__ == "__main__":

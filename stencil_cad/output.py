@@ -40,10 +40,10 @@ from . import interrupts
 from .errors import OutputError, UserError
 from .exchange.png import png_bytes
 from .files import kind, read_bytes
+from .names import MANIFEST
 
 log = logging.getLogger(__name__)
 
-MANIFEST = "manifest.json"
 #: Written into every manifest so a later ``--force`` can tell it from a hand-written one.
 GENERATOR = "stencil-cad"
 LOCK = ".stencil-cad.lock"

@@ -18,7 +18,7 @@ from .plate import (
 )
 from .template import build_plate, check_plate_template
 from .validate import PlateCheckError, check_plate
-from .writers import write_3mf, write_mesh_files, write_step, write_stl
+from .writers import plate_part, write_3mf, write_step, write_stl
 
 __all__ = [
     "LabelInfo",
@@ -32,8 +32,8 @@ __all__ = [
     "label_text",
     "make_solid",
     "perforated_plate",
+    "plate_part",
     "write_3mf",
-    "write_mesh_files",
     "write_step",
     "write_stl",
 ]

@@ -12,11 +12,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ..exchange.dxf import DxfStencil
 from ..exchange.mesh import stl_bytes, threemf_bytes
 from ..exchange.step import step_text
+from ..exchange.writers import PartFiles
 from ..model import TriMesh
 
-__all__ = ["occt_mesh", "write_3mf", "write_mesh_files", "write_step", "write_stl"]
+__all__ = ["occt_mesh", "plate_part", "write_3mf", "write_step", "write_stl"]
 
 
 def _name(model) -> str:
@@ -27,24 +29,21 @@ def _name(model) -> str:
     return f"{job} layer {label.layer} of {label.layers}"
 
 
-def write_mesh_files(out, model, stem: str, export) -> None:
-    """Write a plate's STEP, STL and 3MF, as the ``export`` config asks, through an output folder.
+def plate_part(model, drawing: DxfStencil | None = None, title: str = "") -> PartFiles:
+    """A built plate as the registry of writers (:mod:`stencil_cad.exchange.writers`) reads it.
 
     Args:
-        out: The output folder (an :class:`~stencil_cad.output.OutputDir`: ``open_path``).
         model: A :class:`~stencil_cad.cad.plate.PlateModel`.
-        stem: File stem, e.g. ``layer_01`` or ``tile_B3_layer_01``.
-        export: The ``export`` config section.
+        drawing: Its cut drawing, for the DXF and SVG. Defaults to none.
+        title: The SVG's title. Defaults to none.
     """
-    if export.step:
-        with out.open_path(f"{stem}.step") as p:
-            write_step(model, p)
-    if export.stl:
-        with out.open_path(f"{stem}.stl") as p:
-            write_stl(model, p, export.stl_tolerance_mm)
-    if export.three_mf:
-        with out.open_path(f"{stem}.3mf") as p:
-            write_3mf(model, p, export.stl_tolerance_mm)
+    return PartFiles(
+        name=_name(model),
+        step=lambda path: write_step(model, path),
+        mesh=model.mesh,
+        drawing=drawing,
+        title=title,
+    )
 
 
 def write_step(model, path: str | os.PathLike) -> None:

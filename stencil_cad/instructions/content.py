@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..figures import Cutouts, Figures, WallRow
+from ..names import after_png, cut_png, dots_png
 from . import make, mural
 from .cans import layer_can, unmeasured_warning, uses_profiles
 from .settings import JobSettings
@@ -248,7 +249,7 @@ def _steps(f: Figures, s: JobSettings, names: set[str]) -> list[Step]:
         plate = str(o.plate)
         number = int(o.step or 0)
         own = built.get(number)
-        plate_img = f"{plate}_dots.png" if f"{plate}_dots.png" in names else f"{plate}_cut.png"
+        plate_img = dots_png(plate) if dots_png(plate) in names else cut_png(plate)
         steps.append(
             Step(
                 number=number,
@@ -258,7 +259,7 @@ def _steps(f: Figures, s: JobSettings, names: set[str]) -> list[Step]:
                 spray_time=o.spray_time,
                 holes=holes[k] if k < len(holes) else (own.hole_count if own is not None else None),
                 plate_image=plate_img,
-                after_image=f"{plate}_after.png",
+                after_image=after_png(plate),
                 kind="holes" if s.mode == "soft" else "cut-outs",
                 how=how.get(number, ""),
                 detail=pair.get(k) or _cutout_detail(own.cutouts if own is not None else None),

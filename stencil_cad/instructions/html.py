@@ -6,6 +6,7 @@ import base64
 import html
 from collections.abc import Mapping, Sequence
 
+from ..names import INPUT_PNG, MURAL_MAP_PNG, PREVIEW_PNG, SIMULATED_PNG
 from . import mural
 from .content import _NO_CAN, Sheet, _amount, _drop, _plate_caption, _plates_text, _unit_note
 
@@ -86,7 +87,7 @@ def _html_paints_and_wall(sheet: Sheet, images: Mapping[str, bytes]) -> list[str
     out.append("<h2>Set up the wall</h2><ol>" + "".join(f"<li>{e(x)}</li>" for x in sheet.wall) + "</ol>")
     if sheet.tiles:
         out.append("<h3>Tile map</h3>" + tile_map_svg(sheet.tiles, sheet.width_mm, sheet.height_mm))
-        out.append(_img(images, "mural_map.png", "the mural map: grid lines, tiles and order of work"))
+        out.append(_img(images, MURAL_MAP_PNG, "the mural map: grid lines, tiles and order of work"))
     if sheet.mural is not None:
         out.append(mural.mural_html(sheet.mural, e, _chip))
     return out
@@ -139,7 +140,7 @@ def _html_make_and_checks(sheet: Sheet, images: Mapping[str, bytes]) -> list[str
         out.append("<table><tr><th>quality, simulated spray vs picture</th><th>value</th></tr>")
         out += [f"<tr><td>{e(k)}</td><td>{e(v)}</td></tr>" for k, v in sheet.scores]
         out.append("</table>")
-    out.append(_img(images, "preview.png", "input, ideal layers, simulated spray, error map"))
+    out.append(_img(images, PREVIEW_PNG, "input, ideal layers, simulated spray, error map"))
     out.append("<ul>")
     for text, ok in sheet.checks:
         out.append(
@@ -174,9 +175,9 @@ def render_html(sheet: Sheet, images: Mapping[str, bytes]) -> str:
         f"{_plates_text(sheet)}. Picture {sheet.width_mm:g} × {sheet.height_mm:g} mm; "
         f"viewing distance: {e(sheet.viewing)}.</p>",
         '<div class="pair">',
-        f"<figure>{_img(images, 'input.png', 'the picture asked for')}<figcaption>The picture "
+        f"<figure>{_img(images, INPUT_PNG, 'the picture asked for')}<figcaption>The picture "
         f"({sheet.width_mm:g} × {sheet.height_mm:g} mm)</figcaption></figure>",
-        f"<figure>{_img(images, 'simulated.png', 'the simulated spray')}<figcaption>What the plates "
+        f"<figure>{_img(images, SIMULATED_PNG, 'the simulated spray')}<figcaption>What the plates "
         "give, simulated</figcaption></figure>",
         "</div>",
         "<h2>Paints, in spray order</h2>",

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from ..config.bed import Bed
 from ..figures import BuildFigures, CostFigures, PartCost, PlateRow, WallRow
 from ..mural.cost import LASER_PIERCE_S, LASER_SPEED_MM_S, cut_seconds, hours_text
+from ..names import WALL_STEM
 from ..slicing import bed_size, place
 from .settings import JobSettings
 
@@ -91,7 +92,7 @@ def wall_parts(build: BuildFigures | None) -> list[Part]:
     """Every wall of the job (one per stand-off height, per tile for a mural)."""
     out = []
     for w in build.walls if build is not None else ():
-        stem = str(w.file if w.has("file") else "wall.step").rsplit(".", 1)[0]
+        stem = str(w.file).rsplit(".", 1)[0] if w.has("file") else WALL_STEM
         out.append(
             Part(
                 kind="wall",

@@ -7,6 +7,7 @@ import io
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from ..names import INPUT_PNG, MURAL_MAP_PNG, PREVIEW_PNG, SIMULATED_PNG
 from . import mural
 from .content import _NO_CAN, Sheet, _amount, _drop, _plate_caption, _plates_text, _unit_note
 
@@ -219,8 +220,8 @@ def _pdf_checks(sheet: Sheet, k: _PdfKit) -> list[Any]:
             )
         )
         story.append(Spacer(1, 4))
-    if k.images.get("preview.png"):
-        story.append(k.img("preview.png", k.page_w))
+    if k.images.get(PREVIEW_PNG):
+        story.append(k.img(PREVIEW_PNG, k.page_w))
     for text, ok in sheet.checks:
         story.append(k.p(f"{'passed' if ok else 'FAILED'}: {text}"))
     if sheet.warnings:
@@ -249,7 +250,7 @@ def render_pdf(sheet: Sheet, images: Mapping[str, bytes]) -> bytes:
         Spacer(1, 4),
         Table(
             [
-                [k.img("input.png", k.half), k.img("simulated.png", k.half)],
+                [k.img(INPUT_PNG, k.half), k.img(SIMULATED_PNG, k.half)],
                 [k.p("The picture", k.small), k.p("What the plates give, simulated", k.small)],
             ],
             colWidths=[k.page_w / 2, k.page_w / 2],
@@ -261,8 +262,8 @@ def render_pdf(sheet: Sheet, images: Mapping[str, bytes]) -> bytes:
     if sheet.tiles:
         story.append(k.heading("Tile map", k.h3))
         story.append(_tile_drawing(sheet.tiles, sheet.width_mm, sheet.height_mm, k.page_w * 0.6))
-        if k.images.get("mural_map.png"):
-            story.append(k.img("mural_map.png", k.page_w))
+        if k.images.get(MURAL_MAP_PNG):
+            story.append(k.img(MURAL_MAP_PNG, k.page_w))
     if sheet.mural is not None:
         story += mural.mural_pdf(sheet.mural, k)
     story += _pdf_steps(sheet, k)

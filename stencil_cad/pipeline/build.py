@@ -11,6 +11,7 @@ from ..colour import to_hex
 from ..errors import UserError
 from ..figures import BuildFigures
 from ..model import CutLayer, DotSet, Holes, Layers
+from ..names import part_file
 from ..output import plain as _plain
 from ..record import Run
 from ..stipple.made import drawn_dots
@@ -23,7 +24,8 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
     """Build, check and export one plate per layer and the wall(s)."""
     from .. import cad, outline
     from ..cad import wall as wall_mod
-    from ..exchange import dxf, svg
+    from ..exchange import dxf
+    from ..exchange.writers import ONE_PLATE_ORDER, part_figures, wanted, write_part
 
     cfg = run.cfg
     width_mm, height_mm = picture_mm
@@ -48,27 +50,10 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
                     raise UserError(f"{layer_stem(i)}: {exc}") from exc
                 check = cad.check_plate(model, h, tolerance_mm=exp.stl_tolerance_mm)
                 stem = layer_stem(i)
-                cad.write_mesh_files(run.out, model, stem, exp)
-                dxf_info = {}
                 drawing = dxf.stencil_for(h, ring, stem.upper(), *model.cut_label())
-                if exp.dxf:
-                    with run.out.open_path(f"{stem}.dxf") as p:
-                        info = dxf.write_dxf_stencils(
-                            p,
-                            [drawing],
-                            kerf_mm=exp.kerf_mm,
-                            # Fixed dates and GUIDs: the same job writes the same bytes, wherever it ran.
-                            deterministic=True,
-                        )
-                    # Laser software wants +X/+Y: the drawing is shifted by this much from the picture frame.
-                    dxf_info = {"dxf_offset_mm": [round(float(v), 4) for v in info.offset_mm]}
-                if exp.svg:
-                    with run.out.open_path(f"{stem}.svg") as p:
-                        sinfo = svg.write_svg(
-                            p, drawing, kerf_mm=exp.kerf_mm, title=f"{cfg.name} {stem} of {len(holes)}"
-                        )
-                    dxf_info["svg_offset_mm"] = [round(float(v), 4) for v in sinfo.offset_mm]
-                    dxf_info["svg_circles"] = sinfo.circles  # type: ignore[assignment]
+                part = cad.plate_part(model, drawing, title=f"{cfg.name} {stem} of {len(holes)}")
+                written = write_part(run.out, stem, part, wanted(exp, ONE_PLATE_ORDER), exp)
+                dxf_info = part_figures(written)
                 cut = round(dxf.cut_length_mm(h, ring), 1)
                 (x0, y0, _), (x1, y1, _) = check["bbox"]
                 size = [round(x1 - x0, 3), round(y1 - y0, 3)]
@@ -86,11 +71,13 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
             wm = wall_mod.build_wall(
                 width_mm, height_mm, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, standoff
             )
-            with run.out.open_path(f"{stem}.step") as p:
+            with run.out.open_path(part_file(stem, ".step")) as p:
                 wall_mod.wall_step(wm, p)
-            with run.out.open_path(f"{stem}.stl") as p:
+            with run.out.open_path(part_file(stem, ".stl")) as p:
                 wall_mod.wall_stl(wm, p, exp.stl_tolerance_mm)
-            walls.append({"file": f"{stem}.step", "standoff_mm": standoff, **wall_mod.check_wall(wm)})
+            walls.append(
+                {"file": part_file(stem, ".step"), "standoff_mm": standoff, **wall_mod.check_wall(wm)}
+            )
     run.figures.build = BuildFigures.from_rows(results, walls)
 
 

@@ -12,6 +12,16 @@ from ..config import JobConfig
 from ..errors import OutputError, UserError
 from ..figures import HardFigures, SimulateFigures
 from ..model import Layers, Picture
+from ..names import (
+    CARD_PLATE_STEM,
+    CARD_SHEET_PDF,
+    CARD_SHEET_PNG,
+    INIT_CONFIG,
+    SEGMENTATION_PNG,
+    SIMULATED_PNG,
+    cut_png,
+    part_file,
+)
 from ..output import plain as _plain
 from ..record import Run
 from .build import stage_build
@@ -27,6 +37,9 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
+#: The card plate's files, whatever the job's ``export`` asks.
+CARD_FORMATS = (".step", ".stl", ".dxf")
+
 
 def _card_walls(run: Run, card: CardLayout) -> list[dict[str, Any]]:
     """Build, check and export the card's walls, one per stand-off; their manifest rows."""
@@ -38,11 +51,11 @@ def _card_walls(run: Run, card: CardLayout) -> list[dict[str, Any]]:
     heights = [fp.standoff_mm for fp in card.footprints]
     for g, stem in zip(heights, card_stems(heights), strict=True):
         wm = wall_mod.build_wall(w, h, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, g)
-        with run.out.open_path(f"{stem}.step") as p:
+        with run.out.open_path(part_file(stem, ".step")) as p:
             wall_mod.wall_step(wm, p)
-        with run.out.open_path(f"{stem}.stl") as p:
+        with run.out.open_path(part_file(stem, ".stl")) as p:
             wall_mod.wall_stl(wm, p, exp.stl_tolerance_mm)
-        walls.append({"file": f"{stem}.step", "standoff_mm": g, **wall_mod.check_wall(wm)})
+        walls.append({"file": part_file(stem, ".step"), "standoff_mm": g, **wall_mod.check_wall(wm)})
     return walls
 
 
@@ -53,14 +66,14 @@ def _card_sheet(run: Run, card: CardLayout, paper: str) -> None:
 
     cfg = run.cfg
     heights = [fp.standoff_mm for fp in card.footprints]
-    run.out.write_png("card_sheet.png", printout.printout_png(card))
+    run.out.write_png(CARD_SHEET_PNG, printout.printout_png(card))
     sp = cfg.spray
     steps = printout.card_steps(card, sp.can_distance_mm, sp.pass_speed_m_s)
     try:
         pdf = printout.printout_pdf(card, paper=paper, steps=steps)
     except ValueError as exc:
         raise UserError(f"card sheet: {exc}") from exc
-    run.out.write_bytes("card_sheet.pdf", pdf)
+    run.out.write_bytes(CARD_SHEET_PDF, pdf)
     run.out.write_json(
         CARD_JSON,
         card_mod.card_description(
@@ -73,9 +86,9 @@ def _card_sheet(run: Run, card: CardLayout, paper: str) -> None:
                     "passes": card.passes,
                 },
                 "files": {
-                    "plate": "card_plate.step",
-                    "walls": [f"{s}.step" for s in card_stems(heights)],
-                    "sheet": "card_sheet.pdf",
+                    "plate": part_file(CARD_PLATE_STEM, ".step"),
+                    "walls": [part_file(s, ".step") for s in card_stems(heights)],
+                    "sheet": CARD_SHEET_PDF,
                 },
             },
         ),
@@ -92,6 +105,7 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
 
     from .. import cad, outline
     from ..exchange import dxf
+    from ..exchange.writers import write_part
     from ..testcard import layout as card_mod
 
     cfg = run.cfg
@@ -110,14 +124,10 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
         except ValueError as exc:
             raise UserError(f"card plate: {exc}") from exc
         check = cad.check_plate(model, card.dots, tolerance_mm=exp.stl_tolerance_mm)
-        with run.out.open_path("card_plate.step") as p:
-            cad.write_step(model, p)
-        with run.out.open_path("card_plate.stl") as p:
-            cad.write_stl(model, p, exp.stl_tolerance_mm)
         ring = outline.plate_outline(w, h, cfg.plate.outline)
-        with run.out.open_path("card_plate.dxf") as p:
-            drawing = dxf.stencil_for(card.dots, ring, "CARD", *model.cut_label())
-            dxf.write_dxf_stencils(p, [drawing], kerf_mm=exp.kerf_mm, deterministic=True)
+        drawing = dxf.stencil_for(card.dots, ring, "CARD", *model.cut_label())
+        # The card is always made in every way a can is tested: printed (STEP, STL) or cut (DXF).
+        write_part(run.out, CARD_PLATE_STEM, cad.plate_part(model, drawing), CARD_FORMATS, exp)
         walls = _card_walls(run, card)
         heights = [fp.standoff_mm for fp in card.footprints]
         _card_sheet(run, card, paper)
@@ -170,10 +180,10 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
                 "hard mode: the image has a single flat colour, so there is nothing to cut "
                 "(prime the surface with it, or use an image with more colours)"
             )
-        run.out.write_png("segmentation.png", hard.palette[hard.labels])
+        run.out.write_png(SEGMENTATION_PNG, hard.palette[hard.labels])
         colours = np.array([cl.colour for cl in hard.cut_layers]).reshape(-1, 3)
         for i, card in enumerate(plate_cards(run, colours, size, hard.cut_layers)):
-            run.out.write_png(f"{layer_stem(i)}_cut.png", card)
+            run.out.write_png(cut_png(layer_stem(i)), card)
         sprays = _hard_sprays(run, colours)
         amounts = [float(sp.amount) for sp in sprays]
         write_spray_order(run, hard.primer, colours, amounts)
@@ -197,7 +207,7 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
         geometry = SprayGeometry.for_job(cfg)
         alphas, comp = hardstencil.simulate_hard(hard, cfg.spray, geometry=geometry, layer_sprays=sprays)
         scores = _scores(run, picture.rgb, comp, picture.mm_per_px)
-        run.out.write_png("simulated.png", comp)
+        run.out.write_png(SIMULATED_PNG, comp)
         write_previews(run, picture.rgb, hardstencil.render_ideal(hard), comp, picture.mm_per_px, scores)
         write_steps(run, hard.primer, hard.colours, alphas, picture.mm_per_px)
     run.figures.simulate = SimulateFigures(_plain(scores))
@@ -231,5 +241,5 @@ def write_default_config(path: Path, *, force: bool = False) -> None:
     from ..files import write_text_over
 
     if path.is_dir():
-        raise OutputError(f"{path} is a folder; give a file path such as {path / 'stencil.yaml'}")
+        raise OutputError(f"{path} is a folder; give a file path such as {path / INIT_CONFIG}")
     write_text_over(path, cfg_io.default_yaml(), "config", force=force, error=OutputError)

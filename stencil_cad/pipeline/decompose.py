@@ -13,6 +13,7 @@ from ..config import DecomposeConfig, HardConfig, JobConfig
 from ..errors import ConfigError, UserError
 from ..figures import CansFigures, CanSnap, DecomposeFigures, Figures
 from ..model import Layers, Picture
+from ..names import COMPOSITE_PNG, ENERGY_CSV, opacity_png
 from ..output import plain as _plain
 from ..record import Run
 from .names import LAYERS_NPZ, layer_stem
@@ -120,12 +121,12 @@ def _save(run: Run, layers: Layers, saved: dict[str, Any]) -> None:
     out.write_npz(LAYERS_NPZ, saved)
     for i, a in enumerate(layers.alphas):
         out.write_png(
-            f"{layer_stem(i)}_opacity.png",
+            opacity_png(layer_stem(i)),
             labelled.opacity_card(a, layers.mm_per_px, i + 1, layers.count, to_hex(layers.colours[i])),
         )
-    out.write_png("composite.png", layers.composite())
+    out.write_png(COMPOSITE_PNG, layers.composite())
     trace = "iteration,energy\n" + "".join(f"{k},{e:.10g}\n" for k, e in enumerate(layers.energy_trace))
-    out.write_text("energy.csv", trace)
+    out.write_text(ENERGY_CSV, trace)
 
 
 def _decompose_tiles(run: Run, picture: Picture) -> TilePlan | None:

@@ -11,6 +11,7 @@ from typing import Any
 import yaml
 
 from .. import __version__
+from ..command_table import command as command_named
 from ..output import MANIFEST, OutputDir, manifest_header
 from ..record import Run
 from .names import CONFIG_COPY, INSTRUCTIONS, LATER_STAGES, STAGE_FILES
@@ -46,10 +47,11 @@ def finish(run: Run, command: str) -> list[Path]:
     if run.template is not None:
         manifest["template"] = run.template
     old_path = run.out.path / MANIFEST
-    if command != "run" and command != "hard" and old_path.exists():
+    whole = command_named(command).whole
+    if not whole and old_path.exists():
         manifest = _merge_manifest(old_path, manifest, run.out)
         run.stale = manifest.get("stale", {}).get("files", [])
-    if command in ("run", "hard") and run.cfg.export.instructions:
+    if whole and run.cfg.export.instructions:
         with run.stage("instructions"):
             write_instructions(run, manifest)
         manifest["seconds"] = run.times

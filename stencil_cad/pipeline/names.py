@@ -1,4 +1,4 @@
-"""Every file name a job writes, in one place: stems per layer, wall, tile and step, and the sets each command may write."""
+"""The names each command may write for its config, built from :mod:`stencil_cad.names` (every file name)."""
 
 from __future__ import annotations
 
@@ -9,42 +9,64 @@ if TYPE_CHECKING:
 
 import logging
 
+from ..command_table import SAVED_STAGES
+from ..command_table import command as command_named
 from ..config import JobConfig
-from ..output import MANIFEST
+from ..names import (
+    CARD_JSON,
+    CONFIG_COPY,
+    DECOMPOSE_FILES,
+    INSTRUCTIONS,
+    LAYERS_NPZ,
+    MURAL_MAP_PNG,
+    POST_STEM,
+    PREVIEW_PNG,
+    RUN_FILES,
+    RUN_PATTERNS,
+    SIMULATED_PNG,
+    SPRAY_JSON,
+    STAGE_FILES,
+    SWATCH_PNG,
+    SWEEP_PNG,
+    card_stems,
+    dots_name,
+    dots_png,
+    layer_stem,
+    part_file,
+    simulated_wall_name,
+    step_name,
+    wall_stems,
+    windows_name,
+)
+from ..names import tile_stem as _tile_stem
+from ..names import tile_wall_stems as _tile_wall_stems
+
+__all__ = [
+    "CARD_JSON",
+    "CONFIG_COPY",
+    "INSTRUCTIONS",
+    "LATER_STAGES",
+    "LAYERS_NPZ",
+    "POST_STEM",
+    "RUN_FILES",
+    "SPRAY_JSON",
+    "STAGE_COMMANDS",
+    "STAGE_FILES",
+    "card_stems",
+    "dots_name",
+    "layer_stem",
+    "run_outputs",
+    "simulated_stems",
+    "stage_outputs",
+    "step_name",
+    "tile_outputs",
+    "tile_stem",
+    "tile_wall_stems",
+    "wall_stems",
+    "windows_name",
+]
 
 log = logging.getLogger(__name__)
-
-
-LAYERS_NPZ = "layers.npz"
-#: The stem of a mural's post (:mod:`stencil_cad.mural.posts`; every post is the same part).
-POST_STEM = "post"
-CONFIG_COPY = "config.yaml"
-
-
-def dots_name(i: int) -> str:
-    """File name of layer ``i``'s dots (0-based index, 1-based in the name)."""
-    return f"layer_{i + 1:02d}_dots.csv"
-
-
-def windows_name(i: int) -> str:
-    """File name of layer ``i``'s windows (a hybrid plate's cut-outs), written when it has any."""
-    return f"layer_{i + 1:02d}_windows.json"
-
-
-def wall_stems(heights: list[float]) -> list[str]:
-    """File stems of the walls (``heights``: :meth:`~stencil_cad.config.WallConfig.heights`).
-
-    ``wall`` for one stand-off height, ``wall_10mm`` … for several.
-    """
-    return ["wall"] if len(heights) == 1 else [f"wall_{h:g}mm" for h in heights]
-
-
-def layer_stem(i: int) -> str:
-    """Stem of layer ``i``'s files (0-based index, 1-based in the name)."""
-    return f"layer_{i + 1:02d}"
-
-
-SPRAY_JSON = "spray.json"
 
 
 def simulated_stems(cfg: JobConfig) -> list[str]:
@@ -52,24 +74,9 @@ def simulated_stems(cfg: JobConfig) -> list[str]:
     heights = cfg.wall.heights()
     if not cfg.spray.is_physical or len(heights) == 1:
         return []
-    return [f"simulated_{stem}.png" for stem in wall_stems(heights)]
+    return [simulated_wall_name(stem) for stem in wall_stems(heights)]
 
 
-def step_name(i: int) -> str:
-    """File name of the simulated picture after layer ``i`` (0-based)."""
-    return f"{layer_stem(i)}_after.png"
-
-
-INSTRUCTIONS = ("instructions.html", "instructions.pdf")
-
-
-#: The files each stage writes (shell patterns), for telling which files a re-run makes stale.
-STAGE_FILES = {
-    "stipple": ("layer_*_dots.csv", "layer_*_windows.json", "layer_*_dots.png", SPRAY_JSON, "swatch.png"),
-    "build": ("layer_[0-9][0-9].*", "wall*.step", "wall*.stl", "tile_*", "mural_map.png"),
-    "simulate": ("simulated*.png", "preview.png", "sweep.png", "layer_*_after.png"),
-    "instructions": INSTRUCTIONS,
-}
 #: The stages that read what each stage writes, directly or through another.
 LATER_STAGES = {
     "decompose": ("stipple", "build", "simulate"),
@@ -79,81 +86,48 @@ LATER_STAGES = {
 }
 
 
-CARD_JSON = "card.json"
-
-
-def card_stems(standoffs_mm: list[float]) -> list[str]:
-    """File stems of the card's walls: ``card_wall_6mm`` … (one per stand-off)."""
-    return [f"card_wall_{h:g}mm" for h in sorted(set(standoffs_mm))]
-
-
-#: Files a whole run writes besides the ``layer_NN*`` and ``wall*`` files.
-RUN_FILES = (
-    CONFIG_COPY,
-    LAYERS_NPZ,
-    SPRAY_JSON,
-    MANIFEST,
-    "swatch.png",
-    "composite.png",
-    "energy.csv",
-    "simulated.png",
-    "preview.png",
-    "sweep.png",
-    "segmentation.png",
-)
-
-
 def run_outputs(cfg: JobConfig, command: str) -> list[str]:
     """Names and patterns of the files a whole run or `decompose` may write (checked before work)."""
-    if command == "decompose":
-        return [
-            CONFIG_COPY,
-            LAYERS_NPZ,
-            MANIFEST,
-            "swatch.png",
-            "composite.png",
-            "energy.csv",
-            "layer_*_opacity.png",
-        ]
-    return [*RUN_FILES, "layer_*", "wall*", "tile_*", "mural_map.png"]
+    if not command_named(command).whole:
+        return list(DECOMPOSE_FILES)
+    return [*RUN_FILES, *RUN_PATTERNS]
 
 
 def stage_outputs(cfg: JobConfig, command: str, count: int, grid: mural.TileGrid | None = None) -> list[str]:
     """Names a stage command will write, so it can refuse before doing the work."""
-    if command == "build" and grid is not None and grid.tiled:
+    cmd = command_named(command)
+    if not cmd.saved:
+        return []
+    if cmd.builds and grid is not None and grid.tiled:
         return tile_outputs(cfg, grid, count)
-    if command == "stipple":
-        return [n for i in range(count) for n in (dots_name(i), f"{layer_stem(i)}_dots.png")] + [
+    if cmd.stipples:
+        return [n for i in range(count) for n in (dots_name(i), dots_png(layer_stem(i)))] + [
             SPRAY_JSON,
-            "swatch.png",
+            SWATCH_PNG,
         ]
-    if command == "build":
+    if cmd.builds:
         exts = cfg.export.plate_extensions()
-        names = [layer_stem(i) + e for i in range(count) for e in exts]
-        return names + [s + e for s in wall_stems(cfg.wall.heights()) for e in (".step", ".stl")]
-    if command == "simulate":
-        return ["simulated.png", "preview.png", "sweep.png", *simulated_stems(cfg)] + [
+        names = [part_file(layer_stem(i), e) for i in range(count) for e in exts]
+        return names + [part_file(s, e) for s in wall_stems(cfg.wall.heights()) for e in (".step", ".stl")]
+    if cmd.simulates:
+        return [SIMULATED_PNG, PREVIEW_PNG, SWEEP_PNG, *simulated_stems(cfg)] + [
             step_name(i) for i in range(count)
         ]
     return []
 
 
 #: Commands that run one stage on the intermediates a previous command saved.
-STAGE_COMMANDS = ("stipple", "build", "simulate")
+STAGE_COMMANDS = SAVED_STAGES
 
 
 def tile_stem(tile: mural.Tile, i: int) -> str:
     """Stem of a tile's layer files, e.g. ``tile_B3_layer_02`` (layer ``i`` 0-based)."""
-    return f"tile_{tile.name}_layer_{i + 1:02d}"
+    return _tile_stem(tile.name, i)
 
 
 def tile_wall_stems(tile: mural.Tile, heights: list[float]) -> list[str]:
     """Stems of a tile's walls: ``tile_B3_wall`` or ``tile_B3_wall_10mm`` … for several heights."""
-    return (
-        [f"tile_{tile.name}_wall"]
-        if len(heights) == 1
-        else [f"tile_{tile.name}_wall_{h:g}mm" for h in heights]
-    )
+    return _tile_wall_stems(tile.name, heights)
 
 
 def tile_outputs(cfg: JobConfig, grid: mural.TileGrid, count: int) -> list[str]:
@@ -165,11 +139,13 @@ def tile_outputs(cfg: JobConfig, grid: mural.TileGrid, count: int) -> list[str]:
     walls = wall_tiles(grid)
     laser = laser_stand(cfg, grid)
     for t in grid.tiles:
-        names += [tile_stem(t, i) + e for i in range(count) for e in exts]
+        names += [part_file(tile_stem(t, i), e) for i in range(count) for e in exts]
         if t.name in walls and laser is None:
-            names += [s + e for s in tile_wall_stems(t, cfg.wall.heights()) for e in (".step", ".stl")]
+            names += [
+                part_file(s, e) for s in tile_wall_stems(t, cfg.wall.heights()) for e in (".step", ".stl")
+            ]
     if laser is not None:
-        names += [p.name + e for p in laser for e in (".dxf", ".svg")]
+        names += [part_file(p.name, e) for p in laser for e in (".dxf", ".svg")]
     elif post_plan(cfg, grid) is not None:
-        names += [POST_STEM + e for e in (".step", ".stl")]
-    return names + ["mural_map.png"]
+        names += [part_file(POST_STEM, e) for e in (".step", ".stl")]
+    return names + [MURAL_MAP_PNG]

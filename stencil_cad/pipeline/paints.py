@@ -11,6 +11,7 @@ from ..colour import to_hex
 from ..config import JobConfig, Mode
 from ..figures import OrderStep, PrimerRow, SprayOrderFigures
 from ..model import DotSet
+from ..names import SWATCH_PNG
 from ..record import Run
 from .decompose import can_names
 from .names import SPRAY_JSON, layer_stem
@@ -78,7 +79,7 @@ def write_spray_order(run: Run, primer: np.ndarray, colours: np.ndarray, spray_t
         steps=tuple(OrderStep.from_json(o) for o in order),
     )
     run.out.write_png(
-        "swatch.png",
+        SWATCH_PNG,
         labelled.swatch_card(
             to_hex(primer),
             [{**o, "note": f"plate {o['plate']}"} for o in order],

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..command_table import command as command_named
 from ..config import ComputeConfig, JobConfig, Mode
 from ..errors import UserError
 from ..exchange.png import png_bytes
@@ -17,6 +18,7 @@ from ..figures import ComputeFigures, MuralFigures, PictureFigures, PlateFigures
 from ..interrupts import CancelToken
 from ..model import DotSet, Layers, Picture
 from ..mural import TileGrid
+from ..names import INPUT_PNG
 from ..output import OutputDir
 from ..record import Run
 from . import registration, tiles
@@ -25,7 +27,7 @@ from .commands import run_hard
 from .cost import record_cost
 from .decompose import plates_of, stage_decompose
 from .manifest import finish, save_config
-from .names import STAGE_COMMANDS, run_outputs, stage_outputs
+from .names import run_outputs, stage_outputs
 from .picture import load_picture
 from .saved import check_dots, check_fresh, check_rows, read_dots, read_layers
 from .simulate import stage_simulate
@@ -71,7 +73,7 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
     size = (picture.width_mm, picture.height_mm)
     grid = plan_mural(run, size, picture.shape)
     cfg = fit_thickness(run, grid)
-    run.sheet_images["input.png"] = png_bytes(np.asarray(picture.rgb, dtype=np.float64))
+    run.sheet_images[INPUT_PNG] = png_bytes(np.asarray(picture.rgb, dtype=np.float64))
     run.figures.picture = PictureFigures(
         source=picture.source,
         width_mm=round(size[0], 3),
@@ -191,38 +193,37 @@ def run_command(
     Returns:
         ``(run, files)``: the run's state (figures, timings) and the files written.
     """
-    stage_cmd = command in STAGE_COMMANDS
+    cmd = command_named(command)
+    stage_cmd = cmd.saved
     src = (src or out_path) if stage_cmd else None
     # `decompose` is a stage too: it adds to a run's folder and never removes later stages' files.
     run = Run(cfg=cfg, out=None, quiet=quiet, progress=progress, cancel=cancel)  # type: ignore[arg-type]
     # Everything that can be checked is checked before the first stage: the template (Python
     # code, loaded now), the output folder (created, locked, probed for writing), the image.
-    if command in ("run", "hard", "build"):
+    if cmd.builds:
         check_template(run)
-    out = OutputDir(out_path, force=force, allow_existing=stage_cmd or command == "decompose")
+    out = OutputDir(out_path, force=force, allow_existing=not cmd.whole)
     run.out = out
     t0 = time.perf_counter()
     try:
         if not stage_cmd:
             out.check_free(run_outputs(cfg, command))
         picture = None
-        if command in ("run", "decompose", "hard", "simulate", "stipple"):
+        if cmd.reads_picture:
             try:
                 with run.stage("load"):
                     picture = load_picture(cfg)
             except UserError:
                 # `simulate` scores, and `stipple` refines, against the decomposition when the image is gone.
-                if command not in ("simulate", "stipple"):
+                if not cmd.saved:
                     raise
-        planned = _planned(cfg, picture) if picture is not None and command in ("run", "hard") else None
+        planned = _planned(cfg, picture) if picture is not None and cmd.whole else None
         if planned is not None and announce is not None:
             announce(tiles.plan_line(planned))
-        if command in ("run", "hard", "decompose"):
+        if cmd.from_picture:
             assert picture is not None  # load_picture raised otherwise
-            with computing(
-                run, picture.shape[0] * picture.shape[1], where, planned if command == "run" else None
-            ):
-                if command == "decompose":
+            with computing(run, picture.shape[0] * picture.shape[1], where, None if cmd.hard else planned):
+                if not cmd.whole:
                     save_config(run)
                     stage_decompose(run, picture)
                     files = finish(run, "decompose")
@@ -260,11 +261,12 @@ def _run_stage_command(
             cfg.size.width_mm,
         )
     dotsets = None
-    if command != "stipple":
+    cmd = command_named(command)
+    if cmd.reads_dots:
         check_fresh(src, command)
         dotsets = read_dots(src, layers.count, max_time=8.0 * cfg.spray.amount_cap)
         check_rows(cfg, dotsets, size)
-        if command == "build":
+        if cmd.builds:
             check_dots(cfg, dotsets, size)
     # Every refusal above comes before any worker starts; the tasks then run where the whole
     # job's would (--workers, --scheduler).
@@ -275,7 +277,7 @@ def _run_stage_command(
             design_plates(run, layers, size, picture)
         if dotsets is None:
             record_cost(run, grid, stage_stipple(run, layers, size, picture, grid))
-        elif command == "build":
+        elif cmd.builds:
             record_cost(run, grid, dotsets)
             build_any(run, layers, dotsets, size, grid, picture, simulate=False)
         else:

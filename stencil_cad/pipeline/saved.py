@@ -10,6 +10,7 @@ import numpy as np
 from ..config import JobConfig
 from ..errors import ConfigError, UserError
 from ..model import DotSet, Layers
+from ..names import DOTS_PATTERN, windows_beside
 from .names import LAYERS_NPZ, SPRAY_JSON, STAGE_FILES, dots_name
 
 log = logging.getLogger(__name__)
@@ -46,7 +47,7 @@ def read_dots(folder: Path, count: int | None = None, max_time: float = 800.0) -
     from ..files import DATA_LIMIT
     from ..files import read_text as read_checked
 
-    files = sorted(folder.glob("layer_*_dots.csv"))
+    files = sorted(folder.glob(DOTS_PATTERN))
     if not files:
         raise UserError(
             f"no layer_NN_dots.csv in {folder} (run `stencil-cad stipple` first, or pass --from DIR)"
@@ -63,7 +64,7 @@ def read_dots(folder: Path, count: int | None = None, max_time: float = 800.0) -
             out.append(dots_from_csv(text))
         except ValueError as exc:
             raise UserError(f"{f}: {str(exc)[:300]}") from None
-        windows = f.with_name(f.name.replace("_dots.csv", "_windows.json"))
+        windows = f.with_name(windows_beside(f.name))
         if windows.exists():
             from dataclasses import replace as _replace
 

@@ -14,6 +14,7 @@ from ..colour import to_hex
 from ..config import JobConfig
 from ..figures import PaintFigures, PaintLayer, SimulateFigures, SprayStep
 from ..model import DotSet, Layers, Picture
+from ..names import PREVIEW_PNG, SIMULATED_PNG, SWEEP_PNG
 from ..output import plain as _plain
 from ..record import Run
 from ..stipple.made import made_dots
@@ -83,7 +84,7 @@ def stage_simulate(
         cans = _start_cans(run, layers, dotsets, ref, grid_mm, design, sprays, here=workers_busy)
         visible = _start_visibility(run, layers, dotsets, sim)
         scores = _scores(run, ref, sim.composite, sim.mm_per_px, here=workers_busy)
-        run.out.write_png("simulated.png", sim.composite)
+        run.out.write_png(SIMULATED_PNG, sim.composite)
         ideal = _resample(layers.composite(), sim.composite.shape[:2])
         write_previews(run, ref, ideal, sim.composite, sim.mm_per_px, scores)
         write_sweep(run, layers, dotsets, sim, grid_mm, design, sprays)
@@ -130,7 +131,7 @@ def write_sweep(
         as_sprayed=sim,
     )
     run.out.write_png(
-        "sweep.png", labelled.sweep_card(panels, factors, sim.mm_per_px, unit=cfg.spray.amount_unit)
+        SWEEP_PNG, labelled.sweep_card(panels, factors, sim.mm_per_px, unit=cfg.spray.amount_unit)
     )
 
 
@@ -426,7 +427,7 @@ def write_previews(
         f"picture {sprayed.shape[1] * mm_per_px:g} × {sprayed.shape[0] * mm_per_px:g} mm",
     ]
     run.out.write_png(
-        "preview.png",
+        PREVIEW_PNG,
         labelled.job_preview(
             reference,
             ideal,

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..errors import OutputError, UserError
 from ..figures import BuildFigures, PrintEstimate
+from ..names import part_file, partial_name
 from ..record import Run
 
 if TYPE_CHECKING:
@@ -110,7 +111,7 @@ def plate_projects(
     overrides = _bed_overrides(prof, bed)
     jobs = _slice_jobs(stls, prof, bed, ".3mf", force=force, timeout_s=timeout_s)
     for stl, out, turn in jobs:
-        tmp = out.with_name(f".{out.name}.partial.3mf")
+        tmp = out.with_name(partial_name(out.name))
         slicing.remove_partial(tmp)
         try:
             slicing.plate_project(
@@ -231,12 +232,12 @@ def stage_print_estimate(run: Run) -> None:
     total_h = total_m = 0.0
     with run.stage("print_estimate"), tempfile.TemporaryDirectory(prefix="stencil_print_") as tmp:
         for row, stem in parts:
-            stl = run.out.stage / f"{stem}.stl"
+            stl = run.out.stage / part_file(stem, ".stl")
             lay = slicing.place(slicing.stl_footprint(stl), bed_xy)
             if lay.rotate_deg is None:
                 row["print"] = "larger than the bed either way round: not sliced"
                 continue
-            out = Path(tmp) / f"{stem}.gcode"
+            out = Path(tmp) / part_file(stem, ".gcode")
             settings = {**slicing.part_settings(prof, stl), **bed}
             result = slicing.slice_plate(stl, out, prof, overrides=settings, rotate_deg=lay.rotate_deg)
             if not result.ok:

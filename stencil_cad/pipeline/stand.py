@@ -5,9 +5,13 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from .. import mural
+from ..names import part_file
 from ..output import plain as _plain
 from ..record import Run
 from .names import POST_STEM
+
+#: A laser-cut stand part's files.
+LASER_FORMATS = (".dxf", ".svg")
 
 if TYPE_CHECKING:
     from ..config.bed import Bed
@@ -24,13 +28,13 @@ def write_post(
         plan.radius_mm, plan.height_mm, plan.pin_radius_mm, run.cfg.plate.thickness_mm
     )
     stem = POST_STEM
-    with run.out.open_path(f"{stem}.step") as p:
+    with run.out.open_path(part_file(stem, ".step")) as p:
         post_mod.post_step(model, p)
-    with run.out.open_path(f"{stem}.stl") as p:
+    with run.out.open_path(part_file(stem, ".stl")) as p:
         post_mod.post_stl(model, p, run.cfg.export.stl_tolerance_mm)
     dropped = sum(int(s.get("removed_post", 0)) for s in (st.report for st in run.figures.stipple or ()))
     return {
-        "file": f"{stem}.step",
+        "file": part_file(stem, ".step"),
         "height_mm": plan.height_mm,
         "radius_mm": plan.radius_mm,
         "pin_radius_mm": plan.pin_radius_mm,
@@ -54,7 +58,8 @@ def write_laser_stand(run: Run, parts: list[CutPart], bed: Bed | None) -> list[d
         UserError: A part fails its checks.
     """
     from ..errors import UserError
-    from ..exchange import dxf, svg
+    from ..exchange import dxf
+    from ..exchange.writers import PartFiles, write_part
     from ..mural.cost import cut_seconds
 
     exp = run.cfg.export
@@ -71,10 +76,8 @@ def write_laser_stand(run: Run, parts: list[CutPart], bed: Bed | None) -> list[d
             layer_name=part.name.upper(),
             label=part.name,
         )
-        with run.out.open_path(f"{part.name}.dxf") as p:
-            dxf.write_dxf_stencils(p, [drawing], kerf_mm=exp.kerf_mm, deterministic=True)
-        with run.out.open_path(f"{part.name}.svg") as p:
-            svg.write_svg(p, drawing, kerf_mm=exp.kerf_mm, title=f"{run.cfg.name} {part.name}")
+        files = PartFiles(name=part.name, drawing=drawing, title=f"{run.cfg.name} {part.name}")
+        write_part(run.out, part.name, files, LASER_FORMATS, exp)
         rows.append(
             {
                 "name": part.name,
@@ -82,7 +85,7 @@ def write_laser_stand(run: Run, parts: list[CutPart], bed: Bed | None) -> list[d
                 "thickness_mm": part.thickness_mm,
                 "cut_m": round(part.cut_mm / 1000.0, 3),
                 "cut_minutes": round(cut_seconds(part.cut_mm, part.pierces) / 60.0, 2),
-                "files": [f"{part.name}.dxf", f"{part.name}.svg"],
+                "files": [part_file(part.name, e) for e in LASER_FORMATS],
                 **_plain(check),
             }
         )

@@ -14,6 +14,7 @@ from ..figures import DarkEnd, LayerStipple, LayerWindows
 from ..model import DotSet, Layers, Picture, coat_contrast
 from ..mural import TileGrid, clear_post_sites, post_plan
 from ..mural.stipple import StippleTask, stipple_layers
+from ..names import dots_png
 from ..output import plain as _plain
 from ..record import Run
 from ..stipple.windows import with_windows
@@ -61,7 +62,7 @@ def stage_stipple(
             run.out.write_text(dots_name(i), dots_to_csv(ds))
             if ds.windows:
                 run.out.write_text(windows_name(i), windows_to_json(ds.windows))
-            run.out.write_png(f"{layer_stem(i)}_dots.png", cards[i])
+            run.out.write_png(dots_png(layer_stem(i)), cards[i])
         write_spray_order(run, layers.primer, layers.colours, [ds.amount(cfg.spray.amount) for ds in sets])
     run.figures.stipple = tuple(
         LayerStipple(layer=i + 1, dots=len(ds), report=_plain(ds.report), spray_time=ds.spray_time)

@@ -24,6 +24,7 @@ from ..colour import to_hex
 from ..errors import UserError
 from ..figures import BuildFigures, MuralBed, MuralBuildFigures, MuralFigures, TileRow
 from ..model import DotSet, Layers, Picture
+from ..names import MURAL_MAP_PNG, part_file
 from ..output import plain as _plain
 from . import stand
 from .names import tile_stem, tile_wall_stems
@@ -430,7 +431,8 @@ def _solid_below(holes: Any, height_mm: float) -> float:
 
 def _build_plate(task: PartTask) -> PartResult:
     from .. import cad
-    from ..exchange import dxf, svg
+    from ..exchange import dxf
+    from ..exchange.writers import TILE_ORDER, part_figures, wanted, write_part
 
     cfg, stem, holes, ring = task.cfg, task.stem, task.holes, task.ring
     if holes is None or ring is None or task.label is None:
@@ -448,7 +450,6 @@ def _build_plate(task: PartTask) -> PartResult:
     if task.bed is not None and not task.bed.fits(x1 - x0, y1 - y0):
         raise UserError(f"{stem}: plate is {x1 - x0:.1f} × {y1 - y0:.1f} mm, larger than the bed {task.bed}")
     files = _Files()
-    cad.write_mesh_files(files, model, stem, exp)
     row = {
         "tile": task.tile,
         "layer": task.label.layer,
@@ -460,21 +461,11 @@ def _build_plate(task: PartTask) -> PartResult:
     }
     drawing = dxf.stencil_for(holes, ring, stem.upper(), *model.cut_label())
     row["cut_length_mm"] = round(dxf.cut_length_mm(holes, ring), 1)
-    if exp.svg:
-        with files.open_path(f"{stem}.svg") as p:
-            sinfo = svg.write_svg(p, drawing, kerf_mm=exp.kerf_mm, title=f"{cfg.name} {stem}")
-        row["svg_offset_mm"] = [round(float(v), 4) for v in sinfo.offset_mm]
-        row["svg_circles"] = sinfo.circles
-    if exp.dxf:
-        with files.open_path(f"{stem}.dxf") as p:
-            info = dxf.write_dxf_stencils(
-                p,
-                [drawing],
-                kerf_mm=exp.kerf_mm,
-                # Fixed dates and GUIDs: the same job writes the same bytes, wherever it ran.
-                deterministic=True,
-            )
-        row["dxf_offset_mm"] = [round(float(v), 4) for v in info.offset_mm]
+    part = cad.plate_part(model, drawing, title=f"{cfg.name} {stem}")
+    written = write_part(files, stem, part, wanted(exp, TILE_ORDER), exp)
+    row.update(part_figures(written))
+    info = written.get(".dxf")
+    if info is not None:
         bx = info.bbox_mm
         sheet = (bx[2] - bx[0], bx[3] - bx[1])
         row["dxf_sheet_mm"] = [round(v, 3) for v in sheet]
@@ -502,13 +493,13 @@ def _build_wall(task: PartTask) -> PartResult:
             f"{stem}: wall is {bb[3] - bb[0]:.1f} × {bb[4] - bb[1]:.1f} mm, larger than the bed {task.bed}"
         )
     files = _Files()
-    with files.open_path(f"{stem}.step") as p:
+    with files.open_path(part_file(stem, ".step")) as p:
         wall_mod.wall_step(wm, p)
-    with files.open_path(f"{stem}.stl") as p:
+    with files.open_path(part_file(stem, ".stl")) as p:
         wall_mod.wall_stl(wm, p, cfg.export.stl_tolerance_mm)
     row = {
         "tile": task.tile,
-        "file": f"{stem}.step",
+        "file": part_file(stem, ".step"),
         "standoff_mm": task.standoff_mm,
         "notches": wall_notches,
         **wcheck,
@@ -519,7 +510,7 @@ def _build_wall(task: PartTask) -> PartResult:
 def write_map(run: Run, grid: mural.TileGrid, layers: Layers, picture: Picture | None) -> None:
     """Write ``mural_map.png``: the grid over the picture, names, positions, order of work."""
     preview = picture.rgb if picture is not None else layers.composite()
-    run.out.write_png("mural_map.png", mural.mural_map(grid, layers.count, preview))
+    run.out.write_png(MURAL_MAP_PNG, mural.mural_map(grid, layers.count, preview))
 
 
 def _planned(run: Run) -> MuralFigures:

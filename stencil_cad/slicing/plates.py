@@ -15,6 +15,7 @@ from pathlib import Path
 
 from ..exchange.mesh import read_stl
 from ..geometry import mesh_genus
+from ..names import TURNED_STL, ini_beside
 from .placement import rotated_copy
 from .profiles import Profile, Slicer, Technology, get_profile
 from .reports import parse_messages
@@ -66,7 +67,7 @@ def export_3mf_project(
         f"--{k.replace('_', '-')}={_format_override(k, v).split('=', 1)[1]}"
         for k, v in (overrides or {}).items()
     ]
-    full_ini = output.with_name(output.name + ".ini")
+    full_ini = output.with_name(ini_beside(output.name))
     try:
         _run_checked([exe, "--load", str(prof.path), *settings, "--save", str(full_ini)], timeout_s, full_ini)
         cmd = [exe, "--export-3mf", "--load", str(prof.path), *settings]
@@ -131,7 +132,7 @@ def slice_plate(
     prof = get_profile(profile)
     with tempfile.TemporaryDirectory(prefix="stencil_tiles_", dir=work_dir) as tmp:
         if rotate_deg:
-            model = rotated_copy(model, Path(tmp) / "turned.stl")
+            model = rotated_copy(model, Path(tmp) / TURNED_STL)
         if tiles is None:
             tiles = prof.slicer is Slicer.PRUSA and prof.technology is Technology.FFF and _has_manifold3d()
             if tiles:
@@ -174,7 +175,7 @@ def plate_project(
     prof = get_profile(profile)
     with tempfile.TemporaryDirectory(prefix="stencil_tiles_") as tmp:
         if rotate_deg:
-            model = rotated_copy(model, Path(tmp) / "turned.stl")
+            model = rotated_copy(model, Path(tmp) / TURNED_STL)
         tiles = prof.technology is Technology.FFF and _has_manifold3d()
         if tiles:
             tiles = mesh_genus(read_stl(model)) > 1.5 * holes_per_tile

@@ -17,6 +17,7 @@ from scipy.sparse.csgraph import connected_components
 
 from ..exchange.mesh import read_stl, write_triangles_stl
 from ..geometry import index_triangles, mesh_genus
+from ..names import slice_tile_name
 
 log = logging.getLogger(__name__)
 
@@ -178,7 +179,7 @@ def split_into_tiles(
     nx, ny = (max(1, int(g)) for g in grid)
     out_dir = Path(out_dir)
     if nx * ny == 1:
-        dest = out_dir / "tile_0_0.stl"
+        dest = out_dir / slice_tile_name(0, 0)
         write_triangles_stl(dest, tri)
         return [dest]
     solid = m3d.Manifold(
@@ -208,7 +209,7 @@ def split_into_tiles(
             if len(piece.tri_verts) == 0:
                 continue
             corners = np.asarray(piece.vert_properties, dtype=np.float64)[:, :3][np.asarray(piece.tri_verts)]
-            dest = out_dir / f"tile_{i}_{j}.stl"
+            dest = out_dir / slice_tile_name(i, j)
             write_triangles_stl(dest, corners)
             paths.append(dest)
     log.info("split %s into %d x %d tiles", model, nx, ny)

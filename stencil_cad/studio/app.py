@@ -26,6 +26,7 @@ from starlette.staticfiles import StaticFiles
 from .. import api
 from ..errors import UserError
 from ..files import DATA_LIMIT
+from ..names import job_zip_download
 from .calibrate import Calibration
 from .jobs import JOB_ZIP, Busy, Jobs
 from .settings import DEFAULTS, can_list, config_data
@@ -289,7 +290,7 @@ class Studio:
             return _error("no such file in the job", 404)
         self.ws.touch(folder)
         if path.name == JOB_ZIP:
-            return FileResponse(path, filename=f"stencil-job-{folder.name[:8]}.zip")
+            return FileResponse(path, filename=job_zip_download(folder.name[:8]))
         return FileResponse(path)
 
 

@@ -23,6 +23,7 @@ from .. import api
 from ..config.profiles import DEFAULT_KEY, profile_key
 from ..errors import UserError
 from ..files import DATA_LIMIT
+from ..names import CARD_JSON, PROFILE_JSON_PATTERN, profile_json, profile_yaml
 from .settings import config_data
 from .workspace import MAKING, Workspace, new_id
 
@@ -83,7 +84,7 @@ class Calibration:
             return _error(f"paint: {exc}")
         ident = new_id()
         photo = self.ws.tmp / f"{ident}.photo"
-        profile = self.ws.tmp / f"{ident}.yaml"
+        profile = self.ws.tmp / profile_yaml(ident)
         try:
             size = 0
             with open(photo, "wb") as fh:
@@ -96,7 +97,7 @@ class Calibration:
                     fh.write(chunk)
             try:
                 fit, report = await run_in_threadpool(
-                    api.calibrate, photo, folder / "card.json", profile, paint=paint
+                    api.calibrate, photo, folder / CARD_JSON, profile, paint=paint
                 )
             except UserError as exc:
                 return _error(str(exc).replace(str(photo), name))
@@ -104,8 +105,8 @@ class Calibration:
                 **_fit_figures(fit, paint, name, report.replace(str(profile), "the profile")),
                 "key": key,
             }
-            (self.ws.profiles / f"{ident}.json").write_text(json.dumps(figures), encoding="utf-8")
-            os.replace(profile, self.ws.profiles / f"{ident}.yaml")
+            (self.ws.profiles / profile_json(ident)).write_text(json.dumps(figures), encoding="utf-8")
+            os.replace(profile, self.ws.profiles / profile_yaml(ident))
             return JSONResponse({"id": ident, **figures})
         finally:
             photo.unlink(missing_ok=True)
@@ -114,7 +115,9 @@ class Calibration:
     async def profiles(self, request: Request) -> Response:
         """``GET /api/profiles``: the spray profiles kept, with the paint each was measured for."""
         out = []
-        for p in sorted(self.ws.profiles.glob("*.json"), key=lambda p: p.stat().st_mtime, reverse=True):
+        for p in sorted(
+            self.ws.profiles.glob(PROFILE_JSON_PATTERN), key=lambda p: p.stat().st_mtime, reverse=True
+        ):
             if self.ws.profile_path(p.stem) is not None:
                 out.append({"id": p.stem, **json.loads(p.read_text(encoding="utf-8"))})
         return JSONResponse(out)

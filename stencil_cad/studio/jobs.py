@@ -19,13 +19,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from .. import names
 from .workspace import Workspace, new_id
 
 #: Name of the config that reproduces a job, in its folder and its zip.
-JOB_YAML = "job.yaml"
-JOB_ZIP = "job.zip"
+JOB_YAML = names.JOB_YAML
+JOB_ZIP = names.JOB_ZIP
 #: The spray profile a job sprays with (when the page chose one), beside ``job.yaml``.
-PROFILE_YAML = "spray_profile.yaml"
+PROFILE_YAML = names.SPRAY_PROFILE_YAML
 
 
 class Busy(Exception):
@@ -215,7 +216,7 @@ def write_reproducible(folder: Path, cfg_json: dict[str, Any], image: Path | Non
         # One copy per paint, numbered in the mapping's order: spray_profile_1.yaml, ...
         copies = {}
         for n, (key, path) in enumerate(profile.items(), start=1):
-            name = PROFILE_YAML.replace(".yaml", f"_{n}.yaml")
+            name = names.numbered_profile_yaml(n)
             shutil.copyfile(path, folder / name)
             copies[key] = name
         data["spray"] = {**data["spray"], "profile": copies}

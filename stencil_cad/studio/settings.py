@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import UserError
+from ..names import profile_json, upload_png
 from .workspace import Workspace
 
 #: The settings the page sends, with their defaults (the bundled example's).
@@ -85,7 +86,7 @@ def profile_key_of(profile_id: str, ws: Workspace) -> str:
 
     from ..config.profiles import DEFAULT_KEY
 
-    meta = ws.profiles / f"{profile_id}.json"
+    meta = ws.profiles / profile_json(profile_id)
     try:
         return str(json.loads(meta.read_text(encoding="utf-8")).get("key") or DEFAULT_KEY)
     except (OSError, ValueError):
@@ -177,8 +178,8 @@ def cropped(source: Path, crop: Any, ws: Workspace) -> Path:
         done = ws.upload_path(ident)
         if done is not None:
             return done
-        out = ws.uploads / f"{ident}.png"
-        part = ws.tmp / f"{ident}.png"
+        out = ws.uploads / upload_png(ident)
+        part = ws.tmp / upload_png(ident)
         icc = upright.info.get("icc_profile")
         try:
             upright.crop(box).save(part, format="PNG", **({"icc_profile": icc} if icc else {}))

@@ -16,6 +16,8 @@ import uuid
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..names import profile_yaml
+
 #: Default cap on the workspace's size: 2 GB (the bundled example's job folder is about 30 MB).
 DEFAULT_CAP_BYTES = 2 << 30
 #: Identifiers the studio makes: 32 hex digits.
@@ -75,7 +77,7 @@ class Workspace:
         """The spray profile ``profile_id``, or None."""
         if not is_id(profile_id):
             return None
-        p = self.profiles / f"{profile_id}.yaml"
+        p = self.profiles / profile_yaml(profile_id)
         return p if p.is_file() else None
 
     def card_dir(self, card_id: str) -> Path | None:

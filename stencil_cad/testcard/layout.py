@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..model import DotSet
+from ..names import CARD_JSON
 
 if TYPE_CHECKING:
     from ..config.job import JobConfig
@@ -459,7 +460,7 @@ def layout_from_description(desc: dict) -> CardLayout:
         layout = CardLayout(
             width_mm=w,
             height_mm=h,
-            dots=DotSet(xy_mm=xy, r_mm=r, report={"source": "card.json"}),
+            dots=DotSet(xy_mm=xy, r_mm=r, report={"source": CARD_JSON}),
             features=feats,
             footprints=foots,
             plate_thickness_mm=float(desc["plate_thickness_mm"]),

@@ -175,3 +175,16 @@ def test_the_readme_is_short_and_links_into_the_docs():
     assert "pip install . && stencil-cad run" in text and "bash .ci/run" in text
     for target in ("docs/getting-started.md", "CONTRIBUTING.md", "LICENSE", "docs/overview.png"):
         assert target in text and (ROOT / target).exists(), target
+
+
+def test_the_examples_figures_live_in_the_readme_only():
+    """Getting started includes the README's paragraph on the example, so its figures cannot drift apart."""
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    start, end = "<!-- example-start -->", "<!-- example-end -->"
+    assert readme.count(start) == 1 and readme.count(end) == 1
+    paragraph = readme.split(start, 1)[1].split(end, 1)[0]
+    page = (DOCS / "getting-started.md").read_text(encoding="utf-8")
+    assert f"```{{include}} ../README.md\n:start-after: {start}\n:end-before: {end}\n```" in page
+    figures = re.findall(r"\d+\.\d\d\b|\d+ × \d+ mm|\d+ seconds|\d+\.\d GB", paragraph)
+    assert len(figures) >= 6, figures
+    assert [f for f in figures if f in page] == []

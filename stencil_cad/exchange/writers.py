@@ -1,0 +1,156 @@
+"""The writers of a part's files by extension: one registry every plate, card and stand part goes through.
+
+A new file format is one entry of :data:`WRITERS` (and its flag in the ``export`` config, which
+:meth:`~stencil_cad.config.ExportConfig.plate_extensions` reads); the callers name extensions,
+never writers.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Protocol
+
+from ..config import ExportConfig
+from ..model import TriMesh
+from ..names import part_file
+from .dxf import DxfInfo, DxfStencil, write_dxf_stencils
+from .mesh import stl_bytes, threemf_bytes
+from .svg import SvgInfo, write_svg
+
+__all__ = [
+    "ONE_PLATE_ORDER",
+    "TILE_ORDER",
+    "WRITERS",
+    "PartFiles",
+    "Writer",
+    "part_figures",
+    "wanted",
+    "write_part",
+]
+
+
+class _Folder(Protocol):
+    def open_path(self, name: str) -> Any: ...
+
+
+@dataclass(frozen=True)
+class PartFiles:
+    """What a part's writers read; a part without a field is never asked for the formats that need it.
+
+    Attributes:
+        name: The model's name inside its STEP, STL and 3MF.
+        step: Writes the part's STEP to a path (the kernel-free writer, or OCCT's for a template's solid).
+        mesh: The part's mesh for a chord tolerance in mm (STL, 3MF).
+        drawing: The part's cut drawing (DXF, SVG).
+        title: The SVG's title.
+    """
+
+    name: str = ""
+    step: Callable[[Path], None] | None = None
+    mesh: Callable[[float], TriMesh] | None = None
+    drawing: DxfStencil | None = None
+    title: str = ""
+
+
+@dataclass(frozen=True)
+class Writer:
+    """One format's writer.
+
+    Attributes:
+        write: Writes a part to a path with the ``export`` settings; returns what it wrote, or None.
+        figures: The manifest's keys for what it wrote (empty for most formats).
+    """
+
+    write: Callable[[PartFiles, Path, ExportConfig], Any]
+    figures: Callable[[Any], dict[str, Any]]
+
+
+def _none(_: Any) -> dict[str, Any]:
+    return {}
+
+
+def _need(value: Any, part: PartFiles, what: str) -> Any:
+    if value is None:
+        raise ValueError(f"{part.name or 'this part'} has no {what} to write")
+    return value
+
+
+def _step(part: PartFiles, path: Path, export: ExportConfig) -> None:
+    _need(part.step, part, "STEP")(path)
+
+
+def _stl(part: PartFiles, path: Path, export: ExportConfig) -> None:
+    path.write_bytes(stl_bytes(_need(part.mesh, part, "mesh")(export.stl_tolerance_mm), part.name))
+
+
+def _3mf(part: PartFiles, path: Path, export: ExportConfig) -> None:
+    path.write_bytes(threemf_bytes(_need(part.mesh, part, "mesh")(export.stl_tolerance_mm), part.name))
+
+
+def _dxf(part: PartFiles, path: Path, export: ExportConfig) -> DxfInfo:
+    # Fixed dates and GUIDs: the same job writes the same bytes, wherever it ran.
+    drawing = _need(part.drawing, part, "drawing")
+    return write_dxf_stencils(path, [drawing], kerf_mm=export.kerf_mm, deterministic=True)
+
+
+def _dxf_figures(info: DxfInfo) -> dict[str, Any]:
+    # Laser software wants +X/+Y: the drawing is shifted by this much from the picture frame.
+    return {"dxf_offset_mm": [round(float(v), 4) for v in info.offset_mm]}
+
+
+def _svg(part: PartFiles, path: Path, export: ExportConfig) -> SvgInfo:
+    return write_svg(path, _need(part.drawing, part, "drawing"), kerf_mm=export.kerf_mm, title=part.title)
+
+
+def _svg_figures(info: SvgInfo) -> dict[str, Any]:
+    return {"svg_offset_mm": [round(float(v), 4) for v in info.offset_mm], "svg_circles": info.circles}
+
+
+#: Every format a part is written in, by extension.
+WRITERS: dict[str, Writer] = {
+    ".step": Writer(_step, _none),
+    ".stl": Writer(_stl, _none),
+    ".3mf": Writer(_3mf, _none),
+    ".dxf": Writer(_dxf, _dxf_figures),
+    ".svg": Writer(_svg, _svg_figures),
+}
+
+#: The order a one-plate job writes a plate's files in (the manifest's file table keeps it).
+ONE_PLATE_ORDER = (".step", ".stl", ".3mf", ".dxf", ".svg")
+#: The order a mural's tile plate writes its files in: its SVG before its DXF, as it always has.
+TILE_ORDER = (".step", ".stl", ".3mf", ".svg", ".dxf")
+
+
+def wanted(export: ExportConfig, order: Iterable[str]) -> list[str]:
+    """The extensions the ``export`` config asks for, in ``order``."""
+    on = set(export.plate_extensions())
+    return [e for e in order if e in on]
+
+
+def write_part(
+    folder: _Folder, stem: str, part: PartFiles, extensions: Iterable[str], export: ExportConfig
+) -> dict[str, Any]:
+    """Write ``part`` as ``stem`` plus each extension, in order, through an output folder's ``open_path``.
+
+    Returns:
+        What each writer wrote, by extension (None for most formats).
+
+    Raises:
+        KeyError: An extension without a writer.
+    """
+    out: dict[str, Any] = {}
+    for ext in extensions:
+        writer = WRITERS[ext]
+        with folder.open_path(part_file(stem, ext)) as p:
+            out[ext] = writer.write(part, Path(p), export)
+    return out
+
+
+def part_figures(written: dict[str, Any]) -> dict[str, Any]:
+    """The manifest's keys for what :func:`write_part` wrote, in the order it wrote them."""
+    figures: dict[str, Any] = {}
+    for ext, info in written.items():
+        figures.update(WRITERS[ext].figures(info))
+    return figures
