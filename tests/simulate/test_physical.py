@@ -153,7 +153,9 @@ def test_physical_tone_calibration_chooses_a_dose_the_hand_sprays():
     choice = response_tone_for(alpha, 0.5, job)
     sp = job.spray
     # A dose on the spray.dose_step grid, sprayed as whole passes at a pace the hand keeps.
-    assert choice.spray_time in sp.doses() and 1 <= choice.spray_time <= sp.max_passes
+    assert choice.spray_time in sp.doses() and 0.75 <= choice.spray_time <= sp.max_passes
+    # Under one pass: one quicker pass, within the hand's pace (0.5 would ask for twice the pace).
+    assert sp.doses()[:2] == [0.75, 1.0] and sp.hand(0.75) == (1, pytest.approx(sp.pass_speed_m_s / 0.75))
     n, speed = sp.hand(choice.spray_time)
     assert n * sp.pass_speed_m_s / speed == pytest.approx(choice.spray_time)
     assert SWEEP_PACE[0] <= speed / sp.pass_speed_m_s <= SWEEP_PACE[1]
