@@ -483,6 +483,14 @@ def physical_hole_kernels(
         ``(sigma_mm, peak, dsigma_dr, dpeak_dr)``, each shaped like ``r_mm``.
     """
     r = np.asarray(r_mm, dtype=np.float64)
+    if r.ndim == 1 and r.size > 1:
+        # Each radius once: a refined layer's holes mostly sit at the radius floor (70-82 % of each
+        # layer's on the example), and every value below is a function of the hole's own radius, so
+        # the kernels are the same bits (the example job's 1,015 calls: 1.92 CPU-s, now 0.94).
+        u, inv = np.unique(r, return_inverse=True)
+        if u.size < r.size:
+            sigma, peak, dsigma, dpeak = physical_hole_kernels(u, cfg, passes, geometry)
+            return sigma[inv], peak[inv], dsigma[inv], dpeak[inv]
     s = spread_sigma_mm(cfg, geometry.standoff_mm)
     depth = passes * dose_per_pass(cfg)
     t, k = geometry.plate_thickness_mm, cfg.can.spread_k

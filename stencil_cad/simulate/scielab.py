@@ -52,7 +52,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .cells import cell_means, mirrored
+from .cells import cell_means, gaussian_reflect, mirrored
 from .kept import Kept, digest
 
 __all__ = [
@@ -233,8 +233,6 @@ def _cell(sigma: float, gaussians: list[tuple[float, float]], plan: _Plan) -> in
 
 def _cell_map(channel: np.ndarray, f: int, gaussians: list[tuple[float, float]], plan: _Plan):
     """``(map, f, pad)``: the Gaussians' weighted sum of ``channel`` on cells of ``f`` × ``f`` pixels."""
-    from scipy.ndimage import gaussian_filter
-
     h, w = channel.shape
     # A Gaussian far wider than the picture (a small picture seen from far) sees the
     # mirrored picture over and over: four picture sizes of mirror are ample there.
@@ -243,7 +241,7 @@ def _cell_map(channel: np.ndarray, f: int, gaussians: list[tuple[float, float]],
     small = cell_means(channel, mirrored(h, pad, pad + (-h) % f), mirrored(w, pad, pad + (-w) % f), f)
     acc = np.zeros_like(small)
     for sigma, weight in gaussians:
-        acc += weight * gaussian_filter(small, sigma / plan.k / f, mode="reflect", truncate=4.0)
+        acc += weight * gaussian_reflect(small, sigma / plan.k / f)
     return acc, f, pad
 
 

