@@ -153,7 +153,10 @@ def _job_scores(folder: Path) -> dict:
     return {
         "scielab_1m": round(sim["scielab"], 3),
         "scielab_2m": round(sim["scielab_2x"], 3),
-        "passes": [int(p) for p in sim["spray_time"]],
+        # As the hand sprays each plate's dose (spray.json): whole passes at a pace, one for a dose
+        # under a pass.
+        "passes": [int(o["passes"]) for o in json.loads((folder / "spray.json").read_text())["order"]],
+        "doses": [round(float(t), 4) for t in sim["spray_time"]],
         "standoff_mm": sim.get("standoff_mm"),
         "design": design.get("reason"),
     }

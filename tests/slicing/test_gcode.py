@@ -208,11 +208,12 @@ def test_job_with_print_estimate_lists_time_and_filament(tmp_path):
     assert main(["run", str(cfg), "--out", str(out), "-q"]) == 0
     build = json.loads((out / "manifest.json").read_text())["build"]
     rows = [*build["plates"], *build["walls"]]
-    assert len(rows) == 3
+    # Two paints, each a light and a dark plate, and the wall.
+    assert len(rows) == 5
     assert all(r["print_hours"] > 0 and r["filament_m"] > 0 for r in rows)
     assert build["print"]["hours"] == pytest.approx(sum(r["print_hours"] for r in rows), abs=0.01)
     html = (out / "instructions.html").read_text()
-    assert html.count("PrusaSlicer: prints in about") == 3
+    assert html.count("PrusaSlicer: prints in about") == 5
     assert "all parts" in html
 
 

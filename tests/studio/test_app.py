@@ -112,8 +112,10 @@ def test_the_preview_improves_level_by_level_and_says_what_making_costs(client, 
     assert [e["level"] for e in got] == ["coarse", "stippled", "refined", "designed"]
     assert [e["final"] for e in got] == [False, False, False, True]
     last = got[-1]
-    assert len(last["paints"]) == 2 and len(last["passes"]) == 2 and all(n > 0 for n in last["holes"])
-    assert (last["plates"], last["walls"], last["tiles"]) == (2, 1, 1)
+    # Two paints, each through a light and a dark plate: figures per plate, in spray order.
+    assert len(set(last["paints"])) == 2 and len(last["passes"]) == len(last["paints"]) == last["plates"]
+    assert all(n > 0 for n in last["holes"])
+    assert (last["plates"], last["walls"], last["tiles"]) == (4, 1, 1)
     assert last["cost"]["printer_hours"] > 0 and last["cost"]["paint"]
     assert 0 < last["scielab_2x"] < last["scielab"]
     assert last["sprayed"].startswith("data:image/png;base64,")

@@ -97,9 +97,12 @@ function showPreview(p) {
   $("f-cost").textContent = c.cut_m != null
     ? `${c.sheets} sheet(s), laser cut ${fmt(c.cut_m, 1)} m in about ${fmt(c.cut_hours, 1)} h`
     : `about ${fmt(c.printer_hours, 1)} printer-hours, ${fmt(c.filament_m, 0)} m of filament (${fmt(c.filament_g, 0)} g)`;
-  const swatches = [p.primer, ...p.paints].map((h) => `<span class="swatch" style="background:${h}" title="${h}"></span>`).join(" ");
+  // A paint's light and dark plates (stipple.light_plates) are one paint: each paint shown once.
+  const paints = [...new Set(p.paints)];
+  const swatches = [p.primer, ...paints].map((h) => `<span class="swatch" style="background:${h}" title="${h}"></span>`).join(" ");
   const cans = (c.paint || []).reduce((s, x) => s + x.cans, 0);
-  $("f-paint").innerHTML = `${swatches} primer + ${p.paints.length} paints` + (c.paint && c.paint.length ? `, ${fmt(cans, 2)} can(s) in all` : "");
+  const plates = paints.length < p.paints.length ? ` on ${p.paints.length} plates` : "";
+  $("f-paint").innerHTML = `${swatches} primer + ${paints.length} paints${plates}` + (c.paint && c.paint.length ? `, ${fmt(cans, 2)} can(s) in all` : "");
   $("sprayed").dataset.level = p.level;
   paintKeys(p);
   drawTiles(p);
@@ -207,7 +210,7 @@ async function profiles(select) {
 
 function paintKeys(p) {
   // The paints the wizard can key a profile to: this preview's layers by hex, the can list by name.
-  const opts = p.paints.map((h, i) => `<option value="${h}">layer ${i + 1}</option>`);
+  const opts = [...new Set(p.paints)].map((h, i) => `<option value="${h}">layer ${i + 1}</option>`);
   for (const c of state.cans || []) opts.push(`<option value="${c.name}">${c.hex}</option>`);
   $("paint-keys").innerHTML = opts.join("");
 }
