@@ -270,7 +270,7 @@ class StippleConfig(StrictModel):
             "instead of a few far apart, and a dark plate for the rest, with the same can "
             "(stencil_cad.decompose.light). Choices: auto (on for a one-plate job under the physical spray "
             "model; off for a mural, whose plates would double its printer-hours), on, off (one plate per "
-            "paint). The bundled example: S-CIELAB at 1 m 2.67 with light plates, 3.71 without; twice the "
+            "paint). The bundled example: S-CIELAB at 1 m 2.68 with light plates, 3.71 without; twice the "
             "plates to print and spray."
         ),
     )

@@ -18,7 +18,7 @@ plate's are.
 
 Measured on the bundled example (``python -m benchmarks fidelity``-style job, S-CIELAB at 1 m on
 the FDM plates it is designed for): 3.71 with one plate per paint (the trials chose an 8 mm wall),
-2.67 with light plates (the trials chose 5 mm); at a fixed 8 mm wall 3.71 against 2.85. ``below``
+2.68 with light plates (the trials chose 5 mm); at a fixed 8 mm wall 3.71 against 2.85. ``below``
 0.25 and 0.4 scored alike at 8 mm (2.83, 2.85). A decomposition into twice the paints instead
 (8 layers, 8 mm) scored 4.53, so the gain is the second dose, not the plate count. Doses under one
 pass (one quicker pass, :meth:`stencil_cad.config.SprayConfig.doses`) gained nothing further on the
