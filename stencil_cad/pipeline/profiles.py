@@ -41,15 +41,13 @@ def layer_sprays(run: Run, colours: np.ndarray | Sequence[Any]) -> list[SprayCon
     Raises:
         ConfigError: A key of ``spray.profile`` names no layer, or two keys name one.
     """
-    from ..decompose.light import paint_of_plates
-
     cfg = run.cfg
     hexes = [to_hex(c) for c in colours]
     names = can_names(run.figures)
     # A key's layer number is its paint's: a paint's light and dark plates spray from one can.
-    paint = paint_of_plates(np.asarray(colours, dtype=np.float64))
-    cfg.check_profile_keys([hexes[paint.index(k)] for k in range(max(paint, default=-1) + 1)], names)
-    keys = [cfg.layer_profile_key(paint[i] + 1, h, names.get(h)) for i, h in enumerate(hexes)]
+    paints = list(dict.fromkeys(hexes))
+    cfg.check_profile_keys(paints, names)
+    keys = [cfg.layer_profile_key(paints.index(h) + 1, h, names.get(h)) for h in hexes]
     sprays = [_paint_prior(cfg.spray.for_profile_key(k), c) for k, c in zip(keys, colours, strict=True)]
     run.figures.spray_profiles = profile_rows(hexes, keys, sprays)
     return sprays
