@@ -87,6 +87,42 @@ def test_gradient_is_exact(eye_mm, view):
                 assert grads[k][i, j] == pytest.approx(fd, rel=2e-3, abs=1e-6)
 
 
+@pytest.mark.parametrize(
+    ("view", "lam", "windows"), [(False, 0.7, False), (True, 0.0, True), (False, 0.0, False)]
+)
+def test_one_layers_g_and_q_after_a_move_equal_the_whole_evaluations(view, lam, windows):
+    """The add/remove moves' one-layer update gives every number the whole evaluation gives."""
+    rng = np.random.default_rng(8)
+    pitch, shape = 0.25, (64, 64)
+    colours = np.array([[0.8, 0.2, 0.1], [0.1, 0.1, 0.3], [0.8, 0.2, 0.1]])
+    target = rng.uniform(0.2, 0.9, (*shape, 3)).astype(np.float32)
+    alphas = rng.uniform(0.0, 0.8, (3, *shape)).astype(np.float32)
+    fixed = rng.uniform(0.5, 1.0, (3, *shape)).astype(np.float32) if windows else None
+    state = []
+    for _ in range(3):
+        xy = rng.uniform(3, 13, (12, 2))
+        state.append(
+            refine._Layer(
+                x=xy[:, 0], y=xy[:, 1], r=rng.uniform(0.5, 1.0, 12), rules=None, spray_time=0.9, rmax=1.0
+            )
+        )
+    viewer = refine._Viewer(target, pitch, refine.ViewFilters(scielab.filters_mm(0.25))) if view else None
+    args = (state, _kernels(), pitch, target, alphas, lam, PRIMER, colours, 0.4 / pitch)
+
+    def whole():
+        return refine._evaluate(*args, want_q=True, viewer=viewer, fixed_trans=fixed)
+
+    trans = whole().trans.copy()
+    state[1].x = state[1].x[:-3] + 0.3
+    state[1].y, state[1].r = state[1].y[:-3], state[1].r[:-3]
+    after = whole()
+    for want in (0, 1, 2):
+        t = trans.copy()
+        g, q = refine._layer_g_and_q(*args, viewer, fixed, t, 1, want)
+        assert np.array_equal(t, after.trans)
+        assert np.array_equal(g, after.gq[0, want]) and np.array_equal(q, after.gq[1, want])
+
+
 def _rules(w=30.0, h=30.0, keepouts=()):
     return DesignRules(
         hole_min_r_mm=0.5, web_mm=0.5, edge_margin_mm=2.0, width_mm=w, height_mm=h, keepouts=keepouts
