@@ -379,7 +379,7 @@ def _settings_fields(cfg) -> dict:
         "calibrate": sp.calibrate.value if st.tone.value == "response" else "n/a (linear tone)",
         "spray_model": sp.model.value,
         "spray_time": sp.spray_time,
-        "hole_min_r_mm": st.resolved_hole_min_r_mm,
+        "hole_min_r_mm": st.hole_floor_mm,
         "web_mm": st.resolved_web_mm,
         "refine_iterations": cfg.refine.iterations,
     }

@@ -332,8 +332,12 @@ class StippleConfig(StrictModel):
         return value
 
     @property
-    def resolved_hole_min_r_mm(self) -> float:
-        """Hole floor radius in mm (given value or the process preset)."""
+    def hole_floor_mm(self) -> float:
+        """The job's hole floor: the smallest hole radius in mm (``hole_min_r_mm`` or the process preset).
+
+        The one route to the floor: a module that needs it reads this property, or the
+        ``DesignRules`` built from it when it is handed no config (a house test keeps it so).
+        """
         if self.hole_min_r_mm is not None:
             return float(self.hole_min_r_mm)
         return PROCESS_PRESETS[self.process][0]
@@ -353,7 +357,7 @@ class StippleConfig(StrictModel):
                 the label area the CAD stage chose), added to ``keepouts_mm``.
         """
         return DesignRules(
-            hole_min_r_mm=self.resolved_hole_min_r_mm,
+            hole_min_r_mm=self.hole_floor_mm,
             web_mm=self.resolved_web_mm,
             edge_margin_mm=self.resolved_edge_margin_mm,
             width_mm=float(width_mm),
@@ -395,7 +399,7 @@ class StippleConfig(StrictModel):
         """Hole radius in mm (smallest radius with variable_radius)."""
         if self.radius_mm is not None:
             return float(self.radius_mm)
-        return self.resolved_hole_min_r_mm
+        return self.hole_floor_mm
 
     @property
     def resolved_max_radius_mm(self) -> float:
@@ -408,7 +412,7 @@ class StippleConfig(StrictModel):
 
     @model_validator(mode="after")
     def _cross_checks(self) -> StippleConfig:
-        floor = self.resolved_hole_min_r_mm
+        floor = self.hole_floor_mm
         if self.radius_mm is not None and self.radius_mm < floor:
             raise ValueError(
                 f"radius_mm must be ≥ the hole floor ({floor} mm for process {self.process.value}), "

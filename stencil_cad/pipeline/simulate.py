@@ -347,7 +347,7 @@ class SeenJob:
     alphas: np.ndarray
     mm_per_px: float
     blur_sigma_mm: list[float]
-    hole_min_r_mm: float
+    hole_floor_mm: float
 
 
 def _start_visibility(run: Run, layers: Layers, dotsets: list[DotSet], sim: Any) -> Any:
@@ -361,7 +361,7 @@ def _start_visibility(run: Run, layers: Layers, dotsets: list[DotSet], sim: Any)
         sim.alphas,
         sim.mm_per_px,
         list(sim.info["blur_sigma_mm"]),
-        run.cfg.stipple.resolved_hole_min_r_mm,
+        run.cfg.stipple.hole_floor_mm,
     )
     return run.tasks.start(dots_seen, [None], "dots seen", job)
 
@@ -390,7 +390,7 @@ def dots_seen(_: None, job: SeenJob) -> dict[str, Any]:
     )
     pattern *= np.abs(lum)
     k = int(np.argmax(pattern))
-    r = float(dotsets[k].r_mm.min()) if len(dotsets[k]) else job.hole_min_r_mm
+    r = float(dotsets[k].r_mm.min()) if len(dotsets[k]) else job.hole_floor_mm
     return {
         "dots_blend_m": d,
         "dots_blend_layer": k + 1,
