@@ -7,13 +7,21 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import Field, PrivateAttr, ValidationError, field_validator, model_validator
+from pydantic import (
+    Field,
+    PrivateAttr,
+    SerializerFunctionWrapHandler,
+    ValidationError,
+    field_validator,
+    model_serializer,
+    model_validator,
+)
 
 from ..errors import ConfigError
 from . import profiles
 from .base import StrictModel
 from .bed import BED_DESCRIPTION, parse_bed, resolve_bed
-from .cad import ExportConfig, LabelMode, PlateConfig, WallConfig
+from .cad import ExportConfig, LabelMode, PlateConfig, Standoff, WallConfig
 from .compute import ComputeConfig
 from .decompose import DecomposeConfig
 from .hard import HardConfig
@@ -148,9 +156,8 @@ class JobConfig(StrictModel):
     _label_filled: bool = PrivateAttr(False)
     #: Whether ``stipple.web_mm`` was left null and filled in for plates of one layer (:func:`_one_layer_web`).
     _web_filled: bool = PrivateAttr(False)
-    #: Whether ``wall.standoff_mm`` was left to the job (null): a soft job may then choose it for
-    #: its picture with the plates' windows (:meth:`with_standoff`, ``pipeline.standoff``).
-    _standoff_filled: bool = PrivateAttr(False)
+    #: The stand-off in mm the job chose for its picture (:meth:`with_standoff`), or None.
+    _standoff_chosen: float | None = PrivateAttr(None)
 
     @field_validator("bed", mode="before")
     @classmethod
@@ -162,21 +169,18 @@ class JobConfig(StrictModel):
     def _fill_by_process(cls, data):
         """Keys left out (or null) that take the best value of the job's process and mode.
 
-        ``spray.nozzle_height`` (:data:`NOZZLE_HEIGHT_BY_PROCESS`), ``export.dxf_kerf_mm``
-        (:data:`KERF_BY_PROCESS`) and ``wall.standoff_mm`` (:data:`STANDOFF_BY_PROCESS`, or
-        :data:`HARD_STANDOFF_MM` for hard stencils). A section given as a model object, or a key
-        given a value, is kept as given.
+        ``spray.nozzle_height`` (:data:`NOZZLE_HEIGHT_BY_PROCESS`) and ``export.dxf_kerf_mm``
+        (:data:`KERF_BY_PROCESS`). A section given as a model object, or a key given a value, is
+        kept as given. ``wall.standoff_mm`` stays null: :attr:`standoff` says what the job uses.
         """
         if not isinstance(data, dict):
             return data
         process = _process_of(data.get("stipple"))
         if process is None:
             return data  # the stipple section's own validation names what is wrong
-        hard = str(getattr(data.get("mode"), "value", data.get("mode"))) == Mode.hard.value
         fills = {
             ("spray", "nozzle_height"): NOZZLE_HEIGHT_BY_PROCESS[process],
             ("export", "dxf_kerf_mm"): KERF_BY_PROCESS[process],
-            ("wall", "standoff_mm"): [HARD_STANDOFF_MM if hard else STANDOFF_BY_PROCESS[process]],
         }
         for (section, key), value in fills.items():
             raw = data.get(section) or {}
@@ -251,29 +255,49 @@ class JobConfig(StrictModel):
         cfg._label_filled = left
         return cfg
 
-    @model_validator(mode="wrap")
-    @classmethod
-    def _note_standoff(cls, data, handler):
-        """Remember that ``wall.standoff_mm`` was left out (or null), so a soft job may choose it."""
+    @model_serializer(mode="wrap")
+    def _listed_standoff(self, handler: SerializerFunctionWrapHandler):
+        """A dump is the resolved config (the saved config, the manifest): it lists the stand-off used.
+
+        So a stage command that reads the saved config repeats the run's walls.
+        """
+        data = handler(self)
         wall = data.get("wall") if isinstance(data, dict) else None
-        filled = isinstance(data, dict) and (
-            wall is None or (isinstance(wall, dict) and wall.get("standoff_mm") is None)
-        )
-        cfg = handler(data)
-        cfg._standoff_filled = bool(filled)
-        return cfg
+        if isinstance(wall, dict) and "standoff_mm" in wall:
+            wall["standoff_mm"] = list(self.standoff.listed_mm)
+        return data
+
+    @property
+    def standoff(self) -> Standoff:
+        """The wall's stand-off the job uses: the one accessor (``wall.standoff_mm`` is what the maker set).
+
+        The one the job chose for its picture (:meth:`with_standoff`); else the maker's
+        ``wall.standoff_mm``; else :data:`STANDOFF_BY_PROCESS` (:data:`HARD_STANDOFF_MM` for hard
+        stencils).
+        """
+        if self._standoff_chosen is not None:
+            return Standoff((self._standoff_chosen,), "job")
+        if self.wall.standoff_mm is not None:
+            return Standoff(tuple(self.wall.standoff_mm), "maker")
+        g = HARD_STANDOFF_MM if self.mode == Mode.hard else STANDOFF_BY_PROCESS[self.stipple.process]
+        return Standoff((g,), "default")
 
     @property
     def chooses_standoff(self) -> bool:
         """Whether the job chooses its wall's stand-off for the picture: left null, soft, physical spray."""
-        return self._standoff_filled and self.mode == Mode.soft and self.spray.is_physical
+        return self.wall.standoff_mm is None and self.mode == Mode.soft and self.spray.is_physical
 
     def with_standoff(self, standoff_mm: float) -> JobConfig:
-        """This config with the wall at one stand-off in mm (still marked as chosen by the job)."""
-        wall = WallConfig.model_validate({**self.wall.model_dump(), "standoff_mm": [float(standoff_mm)]})
-        cfg = self.model_copy(update={"wall": wall})
-        cfg._standoff_filled = self._standoff_filled
-        cfg._thickness_fill = self._thickness_fill
+        """This config with the stand-off the job chose, in mm (:attr:`standoff`); ``wall.standoff_mm`` is kept.
+
+        Raises:
+            ValueError: The stand-off is outside ``wall.standoff_mm``'s range, [0.5, 300] mm.
+        """
+        g = float(standoff_mm)
+        if not 0.5 <= g <= 300.0:
+            raise ValueError(f"wall.standoff_mm: a stand-off must be in [0.5, 300] mm, got {g:g}")
+        cfg = self.model_copy()
+        cfg._standoff_chosen = g
         return cfg
 
     @property
@@ -509,15 +533,15 @@ def parse_overrides(
     if seed is not None:
         data["seed"] = seed
     if hard:
-        if cfg.mode != Mode.hard and cfg.wall.standoff_mm == [STANDOFF_BY_PROCESS[cfg.stipple.process]]:
+        if cfg.mode != Mode.hard and cfg.standoff.listed_mm == (STANDOFF_BY_PROCESS[cfg.stipple.process],):
             # The soft stencil's default wall: hard mode fills in its own (a user who wrote exactly
             # this height for a soft job gets the hard one too).
             data["wall"]["standoff_mm"] = None
         data["mode"] = Mode.hard.value
     if bed is not None:
         data["bed"] = list(bed) if isinstance(bed, tuple) else bed
-    if cfg._standoff_filled:
-        data["wall"]["standoff_mm"] = None  # filled in again (and chosen for the picture) for the new mode
+    if cfg.wall.standoff_mm is None:
+        data["wall"]["standoff_mm"] = None  # the default again (and chosen for the picture) for the new mode
     if cfg._thickness_fill is not None:
         data["plate"]["thickness_mm"] = None  # filled in again for the new image, bed or mode
     if cfg._margin_filled:

@@ -404,7 +404,7 @@ def wall_specs(grid: TileGrid, cfg: JobConfig) -> list[WallSpec]:
         opening = np.array([[-o, -o], [w + o, -o], [w + o, h + o], [-o, h + o]])
         pocket = offset_outline(w, h, oc, wc.clearance_mm)
         rings = (_ring(outer), _ring(opening), _ring(pocket))
-        for s in wc.heights():
+        for s in cfg.standoff.walls_mm:
             out.append(WallSpec(t.name if grid.tiled else "", float(s), depth, rings))
     return out
 

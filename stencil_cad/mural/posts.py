@@ -137,7 +137,7 @@ def post_plan(cfg: JobConfig, grid: TileGrid) -> PostPlan | None:
     """
     if not grid.tiled or cfg.mode.value != "soft":
         return None
-    height = min(cfg.wall.heights())
+    height = min(cfg.standoff.walls_mm)
     return PostPlan(post_pitch_mm(cfg), POST_RADIUS_MM + shade_reach_mm(cfg), height)
 
 
@@ -167,7 +167,7 @@ def shade_reach_mm(cfg: JobConfig) -> float:
         return spray_halo_mm(cfg)
     from ..simulate.physical import spread_sigma_mm
 
-    h = max(cfg.wall.heights())
+    h = max(cfg.standoff.walls_mm)
     sigma = max(spread_sigma_mm(sp.model_copy(update={"can": c}), h) for c in sp.all_cans())
     return SHADE_SIGMAS * sigma
 

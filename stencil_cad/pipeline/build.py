@@ -66,7 +66,7 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
                 results.append(row)
                 bar.update(1)
         walls = []
-        heights = cfg.wall.heights()
+        heights = cfg.standoff.walls_mm
         for standoff, stem in zip(heights, wall_stems(heights), strict=True):
             wm = wall_mod.build_wall(
                 width_mm, height_mm, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, standoff

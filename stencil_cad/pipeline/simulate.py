@@ -46,7 +46,7 @@ def stage_simulate(
 
     Under the physical model every wall height gets its own simulation and score
     (``simulated_wall_10mm.png`` …); the main pictures and scores are those of the design
-    stand-off (``wall.standoff_mm[0]``), which the tone calibration designed the dots for.
+    stand-off (``cfg.standoff.design_mm``), which the tone calibration designed the dots for.
 
     The long computations that need nothing this process computes next (every other can's
     simulation and score, where the holes show most, and what ``also`` starts) are started as
@@ -155,7 +155,7 @@ def _walls(
     sim, scores, ref = done
     per_wall = []
     stems = simulated_stems(cfg)
-    for h, name in zip(cfg.wall.heights() if stems else [], stems, strict=True):
+    for h, name in zip(cfg.standoff.walls_mm if stems else [], stems, strict=True):
         # Extra walls exist only under the physical model, where design is set.
         assert design is not None
         if h == design.standoff_mm:

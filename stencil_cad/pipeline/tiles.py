@@ -139,7 +139,7 @@ def start_build_tiles(run: Run, layers: Layers, dotsets: list[DotSet], grid: mur
     per_tile, posts = _with_posts(cfg, dotsets, holes_tile, grid)
     # A laser-cut mural stands in a frame and on spacers cut from sheet: no printed wall or post.
     laser = mural.laser_stand(cfg, grid)
-    heights = cfg.wall.heights() if laser is None else []
+    heights = cfg.standoff.walls_mm if laser is None else []
     tasks = _part_tasks(cfg, layers, grid, per_tile, heights)
     # Each plate and wall is a task (built, checked and exported where it runs); the files
     # come back as bytes and are staged in task order, so the output is the same whichever

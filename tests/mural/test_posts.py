@@ -34,7 +34,7 @@ def test_one_plate_has_no_posts_and_a_mural_has():
     assert mural.post_plan(cfg, mural.TileGrid.whole(150, 100)) is None
     plan = mural.post_plan(cfg, _mural_grid(cfg))
     assert plan is not None
-    assert plan.height_mm == min(cfg.wall.heights())
+    assert plan.height_mm == min(cfg.standoff.walls_mm)
     assert plan.keepout_mm == pytest.approx(posts.POST_RADIUS_MM + posts.shade_reach_mm(cfg))
     assert posts.POST_RADIUS_MM < plan.keepout_mm < posts.POST_RADIUS_MM + mural.spray_halo_mm(cfg)
     assert plan.pin_hole_mm > plan.pin_radius_mm
