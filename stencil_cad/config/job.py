@@ -27,21 +27,16 @@ from .decompose import DecomposeConfig
 from .hard import HardConfig
 from .outline import TILE_MARGIN_MM, OutlineConfig
 from .paints import PaintsConfig
+from .process import FDM_SINGLE_LAYER_MM, Method, Process
 from .refine import RefineConfig
 from .rules import DesignRules
-from .spray import NOZZLE_HEIGHT_BY_PROCESS, Calibrate, SprayConfig
-from .stipple import ONE_LAYER_WEB_MM, PROCESS_PRESETS, Process, StippleConfig
-from .thickness import FDM_SINGLE_LAYER_MM, LABEL_FLOOR_MM, Thickness, fill_thickness, given_thickness
+from .spray import Calibrate, SprayConfig
+from .stipple import StippleConfig
+from .thickness import LABEL_FLOOR_MM, Thickness, fill_thickness, given_thickness
 from .view import ViewConfig
 
-#: The wall's stand-off (mm) soft stencils of each process score best from at 1 m under the physical
-#: spray model (wall.standoff_mm's description gives the figures).
-STANDOFF_BY_PROCESS: dict[Process, float] = {Process.fdm: 10.0, Process.sla: 10.0, Process.laser: 10.0}
 #: The lowest stand-off a plate's sag limit follows (5 % of it, :mod:`.thickness`), mm.
 SAG_STANDOFF_FLOOR_MM = 5.0
-#: Laser kerf in mm per process when export.dxf_kerf_mm is not given: a CO2 laser cuts card, PET or 3 mm
-#: plywood 0.1-0.3 mm wide (Ponoko, Snijlab: about 0.2 mm); FDM and resin plates are not cut.
-KERF_BY_PROCESS: dict[Process, float] = {Process.fdm: 0.0, Process.sla: 0.0, Process.laser: 0.2}
 #: The wall's stand-off (mm) of hard stencils: low, so their cut-outs keep sharp edges.
 HARD_STANDOFF_MM = 1.0
 
@@ -169,8 +164,8 @@ class JobConfig(StrictModel):
     def _fill_by_process(cls, data):
         """Keys left out (or null) that take the best value of the job's process and mode.
 
-        ``spray.nozzle_height`` (:data:`NOZZLE_HEIGHT_BY_PROCESS`) and ``export.dxf_kerf_mm``
-        (:data:`KERF_BY_PROCESS`). A section given as a model object, or a key given a value, is
+        ``spray.nozzle_height`` and ``export.dxf_kerf_mm``, from the process's record
+        (:class:`~stencil_cad.config.process.ProcessRecord`). A section given as a model object, or a key given a value, is
         kept as given. ``wall.standoff_mm`` stays null: :attr:`standoff` says what the job uses.
         """
         if not isinstance(data, dict):
@@ -179,8 +174,8 @@ class JobConfig(StrictModel):
         if process is None:
             return data  # the stipple section's own validation names what is wrong
         fills = {
-            ("spray", "nozzle_height"): NOZZLE_HEIGHT_BY_PROCESS[process],
-            ("export", "dxf_kerf_mm"): KERF_BY_PROCESS[process],
+            ("spray", "nozzle_height"): process.record.nozzle_height,
+            ("export", "dxf_kerf_mm"): process.record.dxf_kerf_mm,
         }
         for (section, key), value in fills.items():
             raw = data.get(section) or {}
@@ -272,14 +267,14 @@ class JobConfig(StrictModel):
         """The wall's stand-off the job uses: the one accessor (``wall.standoff_mm`` is what the maker set).
 
         The one the job chose for its picture (:meth:`with_standoff`); else the maker's
-        ``wall.standoff_mm``; else :data:`STANDOFF_BY_PROCESS` (:data:`HARD_STANDOFF_MM` for hard
-        stencils).
+        ``wall.standoff_mm``; else the process's (its record's ``standoff_mm``; :data:`HARD_STANDOFF_MM`
+        for hard stencils).
         """
         if self._standoff_chosen is not None:
             return Standoff((self._standoff_chosen,), "job")
         if self.wall.standoff_mm is not None:
             return Standoff(tuple(self.wall.standoff_mm), "maker")
-        g = HARD_STANDOFF_MM if self.mode == Mode.hard else STANDOFF_BY_PROCESS[self.stipple.process]
+        g = HARD_STANDOFF_MM if self.mode == Mode.hard else self.stipple.process.record.standoff_mm
         return Standoff((g,), "default")
 
     @property
@@ -435,7 +430,7 @@ def _label_left(data: dict) -> bool:
 
 
 def _mural_label(data: dict) -> dict:
-    """The raw config with ``plate.label`` (left null: :func:`_label_left`) raised for a soft FDM mural.
+    """The raw config with ``plate.label`` (left null: :func:`_label_left`) raised for a soft FDM mural (an extruding process).
 
     An engraving needs a floor under it, so an engraved plate prints in two layers at least; a raised
     label lets a mural's plates on posts be one 0.3 mm layer (:mod:`.thickness`). On the 600 x 400 mm
@@ -447,7 +442,11 @@ def _mural_label(data: dict) -> dict:
     plate = data.get("plate") or {}
     stipple = data.get("stipple") or {}
     process = stipple.get("process", Process.fdm.value) if isinstance(stipple, dict) else None
-    if process not in (Process.fdm, Process.fdm.value) or not _soft_mural(data):
+    try:
+        method = Process(process).record.method
+    except (ValueError, TypeError):
+        return data  # the stipple section's own validation names what is wrong
+    if method is not Method.extrude or not _soft_mural(data):
         return data
     return {**data, "plate": {**plate, "label": LabelMode.emboss.value}}
 
@@ -475,7 +474,7 @@ def _one_layer_web(cfg: JobConfig) -> JobConfig:
     """``cfg`` with the web of a one-layer plate filled in, or the preset's again.
 
     A plate printed in one layer (``plate.thickness_mm`` at most one FDM layer) is all first layer,
-    which needs a wider web than the process's preset (:data:`~stencil_cad.config.stipple.ONE_LAYER_WEB_MM`).
+    which needs a wider web than the process's preset (its record's ``one_layer_web_mm``).
     A ``stipple.web_mm`` the config gives is kept; one this function filled in follows the thickness
     when it is chosen again (:meth:`JobConfig.fit_plate_thickness`).
     """
@@ -483,8 +482,8 @@ def _one_layer_web(cfg: JobConfig) -> JobConfig:
     if st.web_mm is not None and not cfg._web_filled:
         return cfg
     one_layer = cfg.plate.thickness_mm <= FDM_SINGLE_LAYER_MM + 1e-9
-    web = ONE_LAYER_WEB_MM.get(st.process) if one_layer else None
-    if web is not None and web <= PROCESS_PRESETS[st.process][1]:
+    web = st.process.record.one_layer_web_mm if one_layer else None
+    if web is not None and web <= st.process.record.web_mm:
         web = None
     if web == st.web_mm:
         return cfg
@@ -498,7 +497,7 @@ def _thickness_for(
 ) -> Thickness:
     """The filled-in thickness of ``plate`` (its label's floor) for its process, longest side and stand-off."""
     floor = plate.label_depth_mm + LABEL_FLOOR_MM if plate.label is LabelMode.engrave else 0.0
-    g = STANDOFF_BY_PROCESS[process]
+    g = process.record.standoff_mm
     if standoff_mm is not None:
         # Under SAG_STANDOFF_FLOOR_MM the blur is mostly the paint's bleed, and a window sprayed from a
         # wall a millimetre high only sharpens where the plate sags onto the surface.
@@ -533,7 +532,7 @@ def parse_overrides(
     if seed is not None:
         data["seed"] = seed
     if hard:
-        if cfg.mode != Mode.hard and cfg.standoff.listed_mm == (STANDOFF_BY_PROCESS[cfg.stipple.process],):
+        if cfg.mode != Mode.hard and cfg.standoff.listed_mm == (cfg.stipple.process.record.standoff_mm,):
             # The soft stencil's default wall: hard mode fills in its own (a user who wrote exactly
             # this height for a soft job gets the hard one too).
             data["wall"]["standoff_mm"] = None

@@ -45,6 +45,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 
 from ..config.bed import Bed, resolve_bed
+from ..config.process import Method
 from ..errors import UserError
 
 if TYPE_CHECKING:
@@ -466,7 +467,7 @@ def cut_stand(cfg: JobConfig, grid: TileGrid) -> bool:
 
     A soft mural of laser-cut plates: every part is cut, none printed.
     """
-    return cfg.stipple.process.value == "laser" and grid.tiled and cfg.mode.value == "soft"
+    return cfg.stipple.process.record.method is Method.cut and grid.tiled and cfg.mode.value == "soft"
 
 
 def wall_key(t: Tile) -> tuple[float, ...]:

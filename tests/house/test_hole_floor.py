@@ -19,10 +19,9 @@ PACKAGE = Path(stencil_cad.__file__).parent
 ROUTE = "hole_floor_mm"
 #: The package that defines the floor: the schema, its presets and the rules value object.
 HOME = "config/"
-#: Names that read the floor another way: the schema's key (and the rules' field), the old
-#: property, and the table the presets live in.
+#: Names that read the floor another way: the schema's key (and the rules' and the process
+#: record's field of that name), and the old property.
 OTHER_WAYS = ("hole_min_r_mm", "resolved_hole_min_r_mm")
-PRESET_TABLES = ("PROCESS_PRESETS",)
 #: Modules handed the job's ``DesignRules`` and no config: they read the floor from the rules.
 RULES_READERS = {
     "stipple/rules.py": "enforces and checks the DesignRules it is given",
@@ -51,9 +50,9 @@ def floor_reads(rel: str, tree: ast.Module) -> list[tuple[int, str]]:
             found.append((node.value.lineno, f"{node.arg}="))
         elif isinstance(node, ast.Name | ast.alias):
             name = node.id if isinstance(node, ast.Name) else node.name
-            if name in PRESET_TABLES or name in OTHER_WAYS:
+            if name in OTHER_WAYS:
                 found.append((getattr(node, "lineno", 0), name))
-        elif isinstance(node, ast.Constant) and node.value in OTHER_WAYS + PRESET_TABLES:
+        elif isinstance(node, ast.Constant) and node.value in OTHER_WAYS:
             found.append((node.lineno, repr(node.value)))
     return found
 
@@ -85,7 +84,7 @@ def test_the_rule_sees_each_other_way():
         "b = cfg.stipple.resolved_hole_min_r_mm\n"
         "c = cfg.stipple.design_rules(1, 1).hole_min_r_mm\n"
         "d = replace(rules, hole_min_r_mm=1.0)\n"
-        "from stencil_cad.config.stipple import PROCESS_PRESETS\n"
+        "r = cfg.stipple.process.record.hole_min_r_mm\n"
         "e = getattr(cfg.stipple, 'hole_min_r_mm')\n"
         "f = cfg.stipple.hole_floor_mm\n"
     )

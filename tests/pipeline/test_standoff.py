@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from stencil_cad.config.io import parse_config
-from stencil_cad.config.job import STANDOFF_BY_PROCESS, parse_overrides
+from stencil_cad.config.job import parse_overrides
 from stencil_cad.figures import PlateTrial, StandoffFigures
 from stencil_cad.model import Layers, Picture
 from stencil_cad.mural import TileGrid
@@ -24,7 +24,7 @@ def _cfg(**extra):
 def test_only_a_stand_off_left_null_is_chosen():
     cfg = _cfg()
     assert cfg.chooses_standoff and cfg.wall.standoff_mm is None
-    assert cfg.standoff.listed_mm == (STANDOFF_BY_PROCESS[cfg.stipple.process],)
+    assert cfg.standoff.listed_mm == (cfg.stipple.process.record.standoff_mm,)
     assert cfg.standoff.source == "default"
     assert not _cfg(wall={"standoff_mm": [10.0]}).chooses_standoff
     assert not _cfg(mode="hard").chooses_standoff
@@ -33,7 +33,7 @@ def test_only_a_stand_off_left_null_is_chosen():
     assert parse_overrides(cfg, seed=5).chooses_standoff
     low = cfg.with_standoff(4.0)
     assert low.standoff.listed_mm == (4.0,) and low.standoff.source == "job" and low.chooses_standoff
-    assert low.wall.standoff_mm is None and cfg.standoff.design_mm == STANDOFF_BY_PROCESS[cfg.stipple.process]
+    assert low.wall.standoff_mm is None and cfg.standoff.design_mm == cfg.stipple.process.record.standoff_mm
     assert low.plate.thickness_mm == cfg.plate.thickness_mm
 
 

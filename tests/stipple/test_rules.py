@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from pydantic import ValidationError
 
 from stencil_cad.config import StippleConfig
-from stencil_cad.config.stipple import PROCESS_PRESETS, Process
+from stencil_cad.config.process import Process
 from stencil_cad.stipple.rules import (
     DesignRules,
     DotRuleError,
@@ -37,7 +37,8 @@ def brute_min_web(xy, r):
 @pytest.mark.parametrize("process", list(Process))
 def test_presets_resolve_and_override(process):
     cfg = StippleConfig(process=process)
-    r, web, margin = PROCESS_PRESETS[process]
+    rec = process.record
+    r, web, margin = rec.hole_min_r_mm, rec.web_mm, rec.edge_margin_mm
     assert (cfg.hole_floor_mm, cfg.resolved_web_mm, cfg.resolved_edge_margin_mm) == (r, web, margin)
     assert cfg.resolved_radius_mm == r
     assert cfg.resolved_max_radius_mm == r
