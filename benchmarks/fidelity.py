@@ -93,7 +93,7 @@ def _default(cfg):
         "doses": [round(d.amount(cfg.spray.amount), 4) for d in dotsets],
         "by_can": {k: round(float(v), 3) for k, v in (seen.scielab_by_can or {}).items()},
         "windows": cfg.stipple.windows.value,
-        "standoff_mm": float(cfg.wall.standoff_mm[0]),
+        "standoff_mm": cfg.standoff.design_mm,
         "thickness_mm": float(cfg.plate.thickness_mm),
     }
     return scores, (run_, pic, layers, sim, ref)
@@ -117,7 +117,7 @@ def blur_floor(f, cfg, layers, ref, mm_per_px: float) -> dict:
 
     if not cfg.spray.is_physical:
         return {}
-    sigma = spread_sigma_mm(cfg.spray, float(cfg.wall.standoff_mm[0]))
+    sigma = spread_sigma_mm(cfg.spray, cfg.standoff.design_mm)
     sprayed = blurred_composite(layers, sigma, mm_per_px)
     if sprayed.shape != ref.shape:
         raise ValueError(f"the blur floor's grid {sprayed.shape[:2]} is not the simulation's {ref.shape[:2]}")

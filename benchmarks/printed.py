@@ -48,7 +48,7 @@ import numpy as np
 import yaml
 
 from stencil_cad import slicing as sl
-from stencil_cad.config.stipple import PROCESS_HOLE_OFFSET_MM, PROCESS_PRESETS, Process
+from stencil_cad.config.process import Process
 from stencil_cad.exchange.mesh import plate_mesh, read_stl, stl_bytes
 from stencil_cad.model import PlateGeometry
 from stencil_cad.slicing import gcode
@@ -56,7 +56,7 @@ from stencil_cad.stipple.made import drawn_radii
 
 RADII = (0.5, 0.75, 1.0, 1.5)
 #: The test plate's web: the FDM preset's, every pair of neighbours at it.
-WEB_MM = PROCESS_PRESETS[Process.fdm][1]
+WEB_MM = Process.fdm.record.web_mm
 #: Webs the ``web_<w>`` cases print, to find the thinnest the shipped profile lays whole.
 WEBS_MM = (0.4, 0.5, 0.6, 0.7, 0.8)
 PX_MM = 0.025
@@ -144,7 +144,7 @@ def web_cases(tmp: Path):
     A web the printer leaves out shows here (``webs_broken``: under half its width laid), not as a
     larger hole: the open-area count stops at the designed circle.
     """
-    offset = PROCESS_HOLE_OFFSET_MM[Process.fdm]
+    offset = Process.fdm.record.hole_offset_mm
     for web in WEBS_MM:
         xy, asked, size = radius_holes(web)
         stl, out = tmp / f"web_{web:g}.stl", tmp / f"web_{web:g}.gcode"
@@ -183,7 +183,7 @@ def radius_cases(tmp: Path):
     its drawn webs are 2 x the offset under the preset's web.
     """
     xy, asked, size = radius_holes()
-    offset = PROCESS_HOLE_OFFSET_MM[Process.fdm]
+    offset = Process.fdm.record.hole_offset_mm
     measured = {}
     for name, drawn in (
         ("asked", asked),

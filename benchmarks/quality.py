@@ -379,7 +379,7 @@ def _settings_fields(cfg) -> dict:
         "calibrate": sp.calibrate.value if st.tone.value == "response" else "n/a (linear tone)",
         "spray_model": sp.model.value,
         "spray_time": sp.spray_time,
-        "hole_min_r_mm": st.resolved_hole_min_r_mm,
+        "hole_min_r_mm": st.hole_floor_mm,
         "web_mm": st.resolved_web_mm,
         "refine_iterations": cfg.refine.iterations,
     }
@@ -410,7 +410,7 @@ def _job_choice(pipeline, cfg0, layers, pic):
 
     run_ = pipeline.Run(cfg=cfg0, out=_NullOut(), quiet=True)
     cfg = choose_plates(run_, layers, (pic.width_mm, pic.height_mm), pic)
-    h = float(cfg.wall.standoff_mm[0]) if cfg.spray.is_physical else float(cfg.spray.nozzle_height)
+    h = cfg.standoff.design_mm if cfg.spray.is_physical else float(cfg.spray.nozzle_height)
     return cfg.stipple.windows.value, h, run_.figures.standoff
 
 

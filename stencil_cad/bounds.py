@@ -21,7 +21,7 @@ def max_dots(stipple_cfg, width_mm: float, height_mm: float) -> int:
     Returns:
         The bound (0 when no hole fits).
     """
-    r = stipple_cfg.resolved_hole_min_r_mm
+    r = stipple_cfg.hole_floor_mm
     d = 2.0 * r + stipple_cfg.resolved_web_mm
     inset = stipple_cfg.resolved_edge_margin_mm + r
     w, h = width_mm - 2.0 * inset, height_mm - 2.0 * inset

@@ -255,14 +255,7 @@ def check_holes(
     """
     if len(holes.r_mm):
         if rules is None:
-            rules = DesignRules(
-                hole_min_r_mm=HOLE_FLOOR_MM,
-                web_mm=min_web_mm,
-                # Inside the picture: the plate's solid border holds a hole at its edge.
-                edge_margin_mm=0.0,
-                width_mm=width_mm,
-                height_mm=height_mm,
-            )
+            rules = DesignRules.any_job(width_mm, height_mm, min_web_mm)
         try:
             check_rules(holes.xy_mm, holes.r_mm, rules)
         except DotRuleError as exc:

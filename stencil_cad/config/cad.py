@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import enum
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated
 
@@ -15,8 +16,34 @@ from .thickness import LABEL_FLOOR_MM
 #: The plate's thickness outside a job, where no process or size is known, mm: the thinnest FDM plate
 #: (three 0.3 mm layers), which a job of the default size and process fills in too.
 DEFAULT_THICKNESS_MM = 0.9
-#: The wall's stand-off of a wall section outside a job, where no process or mode is known, mm.
-DEFAULT_STANDOFF_MM = 10.0
+
+
+@dataclass(frozen=True)
+class Standoff:
+    """The wall's stand-off a job uses, in mm: read through :attr:`stencil_cad.config.JobConfig.standoff`.
+
+    ``wall.standoff_mm`` is only what the maker set (null: the job chooses); this record is what
+    the job uses, whoever set it.
+
+    Attributes:
+        listed_mm: The stand-offs in the order a resolved config lists them (``wall.standoff_mm`` of
+            the saved config and the manifest): the one the job chose for its picture; else the
+            maker's, as given; else the process's (or hard mode's) default.
+        source: Who set it: ``maker``, ``job`` (chosen for the picture) or ``default``.
+    """
+
+    listed_mm: tuple[float, ...]
+    source: str
+
+    @property
+    def design_mm(self) -> float:
+        """The stand-off the holes are designed, refined and simulated for: the first listed."""
+        return self.listed_mm[0]
+
+    @property
+    def walls_mm(self) -> list[float]:
+        """Every wall's stand-off, ascending and distinct: one wall is made per value."""
+        return sorted(set(self.listed_mm))
 
 
 class LabelMode(str, enum.Enum):
@@ -183,11 +210,10 @@ class WallConfig(StrictModel):
     clearance, takes the plate, whose key tabs drop into matching notches.
     """
 
-    standoff_mm: list[Annotated[float, Field(ge=0.5, le=300.0)]] = Field(
-        default_factory=lambda: [DEFAULT_STANDOFF_MM],
-        min_length=1,
-        max_length=8,
-        json_schema_extra={"anyOf": [{"type": "array"}, {"type": "null"}], "default": None},
+    standoff_mm: (
+        Annotated[list[Annotated[float, Field(ge=0.5, le=300.0)]], Field(min_length=1, max_length=8)] | None
+    ) = Field(
+        None,
         description=(
             "Stand-off heights in mm: the plate's underside above the sprayed surface. One wall is made "
             "per value, and every wall takes the same plates. Each in [0.5, 300]; 1 to 8 values. "
@@ -251,20 +277,14 @@ class WallConfig(StrictModel):
 
     @field_validator("standoff_mm", mode="before")
     @classmethod
-    def _standoff_default(cls, v):
-        # A job fills null in with its process's or mode's value (JobConfig); alone, the SLA one.
-        if v is None:
-            return [DEFAULT_STANDOFF_MM]
-        # One number where a list is asked: the one stand-off the user meant.
+    def _one_standoff(cls, v):
+        # One number where a list is asked: the one stand-off the user meant. null stays null: the
+        # job chooses (JobConfig.standoff says what it uses).
         return [v] if isinstance(v, (int, float)) and not isinstance(v, bool) else v
 
     def pocket_depth(self, plate_thickness_mm: float) -> float:
         """Pocket depth in mm for a plate of the given thickness."""
         return plate_thickness_mm if self.pocket_depth_mm is None else self.pocket_depth_mm
-
-    def heights(self) -> list[float]:
-        """The distinct stand-off heights in mm, ascending."""
-        return sorted(set(self.standoff_mm))
 
     def check_plate(self, outline: OutlineConfig, plate_thickness_mm: float) -> None:
         """Cross-checks against the plate; the job config calls this.

@@ -7,33 +7,36 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import Field, PrivateAttr, ValidationError, field_validator, model_validator
+from pydantic import (
+    Field,
+    PrivateAttr,
+    SerializerFunctionWrapHandler,
+    ValidationError,
+    field_validator,
+    model_serializer,
+    model_validator,
+)
 
 from ..errors import ConfigError
 from . import profiles
 from .base import StrictModel
 from .bed import BED_DESCRIPTION, parse_bed, resolve_bed
-from .cad import ExportConfig, LabelMode, PlateConfig, WallConfig
+from .cad import ExportConfig, LabelMode, PlateConfig, Standoff, WallConfig
 from .compute import ComputeConfig
 from .decompose import DecomposeConfig
 from .hard import HardConfig
 from .outline import TILE_MARGIN_MM, OutlineConfig
 from .paints import PaintsConfig
+from .process import FDM_SINGLE_LAYER_MM, Method, Process
 from .refine import RefineConfig
 from .rules import DesignRules
-from .spray import NOZZLE_HEIGHT_BY_PROCESS, Calibrate, SprayConfig
-from .stipple import ONE_LAYER_WEB_MM, PROCESS_PRESETS, Process, StippleConfig
-from .thickness import FDM_SINGLE_LAYER_MM, LABEL_FLOOR_MM, Thickness, fill_thickness, given_thickness
+from .spray import Calibrate, SprayConfig
+from .stipple import StippleConfig
+from .thickness import LABEL_FLOOR_MM, Thickness, fill_thickness, given_thickness
 from .view import ViewConfig
 
-#: The wall's stand-off (mm) soft stencils of each process score best from at 1 m under the physical
-#: spray model (wall.standoff_mm's description gives the figures).
-STANDOFF_BY_PROCESS: dict[Process, float] = {Process.fdm: 10.0, Process.sla: 10.0, Process.laser: 10.0}
 #: The lowest stand-off a plate's sag limit follows (5 % of it, :mod:`.thickness`), mm.
 SAG_STANDOFF_FLOOR_MM = 5.0
-#: Laser kerf in mm per process when export.dxf_kerf_mm is not given: a CO2 laser cuts card, PET or 3 mm
-#: plywood 0.1-0.3 mm wide (Ponoko, Snijlab: about 0.2 mm); FDM and resin plates are not cut.
-KERF_BY_PROCESS: dict[Process, float] = {Process.fdm: 0.0, Process.sla: 0.0, Process.laser: 0.2}
 #: The wall's stand-off (mm) of hard stencils: low, so their cut-outs keep sharp edges.
 HARD_STANDOFF_MM = 1.0
 
@@ -148,9 +151,8 @@ class JobConfig(StrictModel):
     _label_filled: bool = PrivateAttr(False)
     #: Whether ``stipple.web_mm`` was left null and filled in for plates of one layer (:func:`_one_layer_web`).
     _web_filled: bool = PrivateAttr(False)
-    #: Whether ``wall.standoff_mm`` was left to the job (null): a soft job may then choose it for
-    #: its picture with the plates' windows (:meth:`with_standoff`, ``pipeline.standoff``).
-    _standoff_filled: bool = PrivateAttr(False)
+    #: The stand-off in mm the job chose for its picture (:meth:`with_standoff`), or None.
+    _standoff_chosen: float | None = PrivateAttr(None)
 
     @field_validator("bed", mode="before")
     @classmethod
@@ -162,21 +164,18 @@ class JobConfig(StrictModel):
     def _fill_by_process(cls, data):
         """Keys left out (or null) that take the best value of the job's process and mode.
 
-        ``spray.nozzle_height`` (:data:`NOZZLE_HEIGHT_BY_PROCESS`), ``export.dxf_kerf_mm``
-        (:data:`KERF_BY_PROCESS`) and ``wall.standoff_mm`` (:data:`STANDOFF_BY_PROCESS`, or
-        :data:`HARD_STANDOFF_MM` for hard stencils). A section given as a model object, or a key
-        given a value, is kept as given.
+        ``spray.nozzle_height`` and ``export.dxf_kerf_mm``, from the process's record
+        (:class:`~stencil_cad.config.process.ProcessRecord`). A section given as a model object, or a key given a value, is
+        kept as given. ``wall.standoff_mm`` stays null: :attr:`standoff` says what the job uses.
         """
         if not isinstance(data, dict):
             return data
         process = _process_of(data.get("stipple"))
         if process is None:
             return data  # the stipple section's own validation names what is wrong
-        hard = str(getattr(data.get("mode"), "value", data.get("mode"))) == Mode.hard.value
         fills = {
-            ("spray", "nozzle_height"): NOZZLE_HEIGHT_BY_PROCESS[process],
-            ("export", "dxf_kerf_mm"): KERF_BY_PROCESS[process],
-            ("wall", "standoff_mm"): [HARD_STANDOFF_MM if hard else STANDOFF_BY_PROCESS[process]],
+            ("spray", "nozzle_height"): process.record.nozzle_height,
+            ("export", "dxf_kerf_mm"): process.record.dxf_kerf_mm,
         }
         for (section, key), value in fills.items():
             raw = data.get(section) or {}
@@ -251,29 +250,49 @@ class JobConfig(StrictModel):
         cfg._label_filled = left
         return cfg
 
-    @model_validator(mode="wrap")
-    @classmethod
-    def _note_standoff(cls, data, handler):
-        """Remember that ``wall.standoff_mm`` was left out (or null), so a soft job may choose it."""
+    @model_serializer(mode="wrap")
+    def _listed_standoff(self, handler: SerializerFunctionWrapHandler):
+        """A dump is the resolved config (the saved config, the manifest): it lists the stand-off used.
+
+        So a stage command that reads the saved config repeats the run's walls.
+        """
+        data = handler(self)
         wall = data.get("wall") if isinstance(data, dict) else None
-        filled = isinstance(data, dict) and (
-            wall is None or (isinstance(wall, dict) and wall.get("standoff_mm") is None)
-        )
-        cfg = handler(data)
-        cfg._standoff_filled = bool(filled)
-        return cfg
+        if isinstance(wall, dict) and "standoff_mm" in wall:
+            wall["standoff_mm"] = list(self.standoff.listed_mm)
+        return data
+
+    @property
+    def standoff(self) -> Standoff:
+        """The wall's stand-off the job uses: the one accessor (``wall.standoff_mm`` is what the maker set).
+
+        The one the job chose for its picture (:meth:`with_standoff`); else the maker's
+        ``wall.standoff_mm``; else the process's (its record's ``standoff_mm``; :data:`HARD_STANDOFF_MM`
+        for hard stencils).
+        """
+        if self._standoff_chosen is not None:
+            return Standoff((self._standoff_chosen,), "job")
+        if self.wall.standoff_mm is not None:
+            return Standoff(tuple(self.wall.standoff_mm), "maker")
+        g = HARD_STANDOFF_MM if self.mode == Mode.hard else self.stipple.process.record.standoff_mm
+        return Standoff((g,), "default")
 
     @property
     def chooses_standoff(self) -> bool:
         """Whether the job chooses its wall's stand-off for the picture: left null, soft, physical spray."""
-        return self._standoff_filled and self.mode == Mode.soft and self.spray.is_physical
+        return self.wall.standoff_mm is None and self.mode == Mode.soft and self.spray.is_physical
 
     def with_standoff(self, standoff_mm: float) -> JobConfig:
-        """This config with the wall at one stand-off in mm (still marked as chosen by the job)."""
-        wall = WallConfig.model_validate({**self.wall.model_dump(), "standoff_mm": [float(standoff_mm)]})
-        cfg = self.model_copy(update={"wall": wall})
-        cfg._standoff_filled = self._standoff_filled
-        cfg._thickness_fill = self._thickness_fill
+        """This config with the stand-off the job chose, in mm (:attr:`standoff`); ``wall.standoff_mm`` is kept.
+
+        Raises:
+            ValueError: The stand-off is outside ``wall.standoff_mm``'s range, [0.5, 300] mm.
+        """
+        g = float(standoff_mm)
+        if not 0.5 <= g <= 300.0:
+            raise ValueError(f"wall.standoff_mm: a stand-off must be in [0.5, 300] mm, got {g:g}")
+        cfg = self.model_copy()
+        cfg._standoff_chosen = g
         return cfg
 
     @property
@@ -411,7 +430,7 @@ def _label_left(data: dict) -> bool:
 
 
 def _mural_label(data: dict) -> dict:
-    """The raw config with ``plate.label`` (left null: :func:`_label_left`) raised for a soft FDM mural.
+    """The raw config with ``plate.label`` (left null: :func:`_label_left`) raised for a soft FDM mural (an extruding process).
 
     An engraving needs a floor under it, so an engraved plate prints in two layers at least; a raised
     label lets a mural's plates on posts be one 0.3 mm layer (:mod:`.thickness`). On the 600 x 400 mm
@@ -423,7 +442,11 @@ def _mural_label(data: dict) -> dict:
     plate = data.get("plate") or {}
     stipple = data.get("stipple") or {}
     process = stipple.get("process", Process.fdm.value) if isinstance(stipple, dict) else None
-    if process not in (Process.fdm, Process.fdm.value) or not _soft_mural(data):
+    try:
+        method = Process(process).record.method
+    except (ValueError, TypeError):
+        return data  # the stipple section's own validation names what is wrong
+    if method is not Method.extrude or not _soft_mural(data):
         return data
     return {**data, "plate": {**plate, "label": LabelMode.emboss.value}}
 
@@ -451,7 +474,7 @@ def _one_layer_web(cfg: JobConfig) -> JobConfig:
     """``cfg`` with the web of a one-layer plate filled in, or the preset's again.
 
     A plate printed in one layer (``plate.thickness_mm`` at most one FDM layer) is all first layer,
-    which needs a wider web than the process's preset (:data:`~stencil_cad.config.stipple.ONE_LAYER_WEB_MM`).
+    which needs a wider web than the process's preset (its record's ``one_layer_web_mm``).
     A ``stipple.web_mm`` the config gives is kept; one this function filled in follows the thickness
     when it is chosen again (:meth:`JobConfig.fit_plate_thickness`).
     """
@@ -459,8 +482,8 @@ def _one_layer_web(cfg: JobConfig) -> JobConfig:
     if st.web_mm is not None and not cfg._web_filled:
         return cfg
     one_layer = cfg.plate.thickness_mm <= FDM_SINGLE_LAYER_MM + 1e-9
-    web = ONE_LAYER_WEB_MM.get(st.process) if one_layer else None
-    if web is not None and web <= PROCESS_PRESETS[st.process][1]:
+    web = st.process.record.one_layer_web_mm if one_layer else None
+    if web is not None and web <= st.process.record.web_mm:
         web = None
     if web == st.web_mm:
         return cfg
@@ -474,7 +497,7 @@ def _thickness_for(
 ) -> Thickness:
     """The filled-in thickness of ``plate`` (its label's floor) for its process, longest side and stand-off."""
     floor = plate.label_depth_mm + LABEL_FLOOR_MM if plate.label is LabelMode.engrave else 0.0
-    g = STANDOFF_BY_PROCESS[process]
+    g = process.record.standoff_mm
     if standoff_mm is not None:
         # Under SAG_STANDOFF_FLOOR_MM the blur is mostly the paint's bleed, and a window sprayed from a
         # wall a millimetre high only sharpens where the plate sags onto the surface.
@@ -509,15 +532,15 @@ def parse_overrides(
     if seed is not None:
         data["seed"] = seed
     if hard:
-        if cfg.mode != Mode.hard and cfg.wall.standoff_mm == [STANDOFF_BY_PROCESS[cfg.stipple.process]]:
+        if cfg.mode != Mode.hard and cfg.standoff.listed_mm == (cfg.stipple.process.record.standoff_mm,):
             # The soft stencil's default wall: hard mode fills in its own (a user who wrote exactly
             # this height for a soft job gets the hard one too).
             data["wall"]["standoff_mm"] = None
         data["mode"] = Mode.hard.value
     if bed is not None:
         data["bed"] = list(bed) if isinstance(bed, tuple) else bed
-    if cfg._standoff_filled:
-        data["wall"]["standoff_mm"] = None  # filled in again (and chosen for the picture) for the new mode
+    if cfg.wall.standoff_mm is None:
+        data["wall"]["standoff_mm"] = None  # the default again (and chosen for the picture) for the new mode
     if cfg._thickness_fill is not None:
         data["plate"]["thickness_mm"] = None  # filled in again for the new image, bed or mode
     if cfg._margin_filled:

@@ -8,7 +8,7 @@ Built by :meth:`stencil_cad.config.StippleConfig.design_rules` (and
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 #: No hole is ever smaller than this radius in mm, whatever the process (the paper's floor).
 HOLE_FLOOR_MM = 0.5
@@ -25,7 +25,9 @@ class DesignRules:
     """Design rules of one hole set, all in mm.
 
     Attributes:
-        hole_min_r_mm: Smallest allowed hole radius (>= 0.5 mm).
+        hole_min_r_mm: Smallest allowed hole radius (>= 0.5 mm): the job's hole floor
+            (:attr:`stencil_cad.config.StippleConfig.hole_floor_mm`), or :data:`HOLE_FLOOR_MM`
+            for rules that hold whatever the job (:meth:`any_job`, :meth:`with_any_floor`).
         web_mm: Minimum material between two holes.
         edge_margin_mm: Minimum material between a hole and the picture-area
             border or a keep-out rectangle.
@@ -54,3 +56,26 @@ class DesignRules:
         for k, (x0, y0, x1, y1) in enumerate(self.keepouts):
             if not (x1 > x0 and y1 > y0):
                 raise ValueError(f"keep-out {k} must have x1 > x0 and y1 > y0, got ({x0}, {y0}, {x1}, {y1})")
+
+    @classmethod
+    def any_job(cls, width_mm: float, height_mm: float, web_mm: float) -> DesignRules:
+        """The rules every job's holes keep over a picture area, whatever its process.
+
+        The floor is :data:`HOLE_FLOOR_MM`, the web ``web_mm`` and the margin 0 (inside the
+        picture: the plate's solid border holds a hole at its edge).
+        """
+        return cls(
+            hole_min_r_mm=HOLE_FLOOR_MM,
+            web_mm=web_mm,
+            edge_margin_mm=0.0,
+            width_mm=width_mm,
+            height_mm=height_mm,
+        )
+
+    def with_any_floor(self) -> DesignRules:
+        """These rules with the floor of every job (:data:`HOLE_FLOOR_MM`) in place of this job's.
+
+        A hole the process makes a little under the stippler's radius (at the picture's margin,
+        where it is not drawn larger) still keeps these.
+        """
+        return replace(self, hole_min_r_mm=min(self.hole_min_r_mm, HOLE_FLOOR_MM))

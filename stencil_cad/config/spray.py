@@ -11,14 +11,12 @@ from pydantic import Field, field_validator, model_validator
 
 from ..errors import ConfigError
 from .base import StrictModel
+from .process import Process
 from .profiles import DEFAULT_KEY, profile_key
-from .stipple import Process
 
-#: The nozzle height each process's soft stencils score best from, seen from 1 m (stipple.process ->
-#: spray.nozzle_height; see the field's description for the figures).
-NOZZLE_HEIGHT_BY_PROCESS: dict[Process, float] = {Process.fdm: 30.0, Process.sla: 30.0, Process.laser: 30.0}
-#: The nozzle height of a spray section outside a job, where no process is known.
-DEFAULT_NOZZLE_HEIGHT = NOZZLE_HEIGHT_BY_PROCESS[Process.sla]
+#: The nozzle height of a spray section outside a job, where no process is known (a job fills in its
+#: process's, :attr:`stencil_cad.config.process.ProcessRecord.nozzle_height`).
+DEFAULT_NOZZLE_HEIGHT = Process.sla.record.nozzle_height
 #: The sweep speeds a layer's dose may ask for, as multiples of ``spray.pass_speed_m_s``: a hand that
 #: sweeps at about 0.5 m/s keeps an even pace between about 0.3 and 0.75 m/s; slower drips sooner,
 #: faster leaves gaps between the fan's overlapping passes.

@@ -1,28 +1,8 @@
 """Config section `stipple` (owned by the stipple stage).
 
-Process presets set the hole floor, the minimum web between holes and the
-margin to the picture edge / label area. Each value below follows published
-design guidance (checked 2026-11):
-
-* ``fdm`` — measured from PrusaSlicer's own G-code with the shipped ``prusa_fdm``
-  profile (0.4 mm nozzle), not from service guides (which advise holes of 2 mm
-  diameter and 0.8 mm walls for parts that must be dimensionally exact):
-  ``python -m benchmarks printed --case radius --case web`` rasterises an inner
-  layer's extrusions at their widths. Holes of r = 0.5-1.5 mm drawn larger by the
-  process's hole offset open within 5 % of their designed area at a 0.6 mm web; a
-  0.6 mm web prints whole at every radius (at least 0.55 mm of plastic on each),
-  a 0.5 mm web breaks between r = 0.5 mm holes (5 of 15 webs under half laid) and
-  a 0.4 mm web between r = 0.5 and 0.75 mm holes (all of them). Hole floor
-  r = 0.5 mm, web 0.6 mm; 0.7 mm on a plate of one layer, which is all first
-  layer (:data:`ONE_LAYER_WEB_MM`).
-* ``sla`` — resin printers resolve features down to about 0.5 mm (Hycube
-  "3D design guidelines": SLA minimum feature 0.5 mm). Hole floor r = 0.5 mm,
-  web 0.5 mm, margin 2 mm.
-* ``laser`` — laser kerf is about 0.1–0.3 mm (Ponoko and Snijlab: about 0.2 mm;
-  Cut Laser Cut: 0.08–0.45 mm) and cut lines closer than about 0.5 mm can burn
-  away entirely (Cut Laser Cut, "What is laser kerf"). Hole floor r = 0.5 mm,
-  web 0.6 mm (raise it for thick or soft sheet: the same source advises webs no
-  thinner than the sheet), margin 2 mm.
+The process (``stipple.process``, :mod:`.process`) presets the hole floor, the minimum web
+between holes, the margin to the picture edge / label area and the hole offset; its record says
+where each value comes from.
 
 The global hole floor is r = 0.5 mm whatever the preset: a spray stencil hole
 smaller than 1 mm across clogs with paint.
@@ -37,17 +17,10 @@ from collections.abc import Sequence
 from pydantic import Field, field_validator, model_validator
 
 from .base import StrictModel
+from .process import PROCESSES, Process
 from .rules import HOLE_FLOOR_MM, DesignRules, as_rect
 
 log = logging.getLogger(__name__)
-
-
-class Process(str, enum.Enum):
-    """Manufacturing process of the stencil plates."""
-
-    fdm = "fdm"
-    sla = "sla"
-    laser = "laser"
 
 
 class Tone(str, enum.Enum):
@@ -60,42 +33,6 @@ class Tone(str, enum.Enum):
 #: Old values of ``stipple.tone`` read for one release (old -> new): the tone mode was called
 #: ``calibrated``, a word that also names the photo-fit command ``stencil-cad calibrate``.
 TONE_RENAMED: dict[str, Tone] = {"calibrated": Tone.response}
-
-
-#: Preset values per process: (hole_min_r_mm, web_mm, edge_margin_mm). The edge margin is 0:
-#: the plate's solid border (plate.outline.margin_mm, at least 3 mm) holds the holes at the
-#: picture's edge, as it holds the hard stencils' cut-outs, which reach it. A margin leaves a
-#: band along the edge unsprayed: python -m benchmarks quality's rocket-sla scored S-CIELAB 2.34
-#: at 1 m with the 2 mm margin of before, 1.80 without it (its 2 mm edge band held a quarter of
-#: the error). The floor does not grow with the viewing distance: on the 600 x 400 mm coffee mural
-#: seen from 3 m (FDM, 3 layers), a 1 mm floor halved the holes (39,271 against 84,772) but cut the
-#: plan's printer-hours by only 5 % and S-CIELAB at 3 m rose from 1.71 to 3.61 (sparse large holes
-#: show in the light tones); ``variable_radius`` (r 0.5 to 1.0 mm) there: 43,846 holes, -7 % of the
-#: plan's hours, S-CIELAB 4.82.
-PROCESS_PRESETS: dict[Process, tuple[float, float, float]] = {
-    Process.fdm: (0.5, 0.6, 0.0),
-    Process.sla: (0.5, 0.5, 0.0),
-    Process.laser: (0.5, 0.6, 0.0),
-}
-
-#: The web in mm a plate printed in one layer needs, where the process's preset web is thinner
-#: (``stipple.web_mm`` left null; a soft FDM mural's plates are one 0.3 mm layer,
-#: :mod:`stencil_cad.config.thickness`). Such a plate is all first layer, which the shipped profile
-#: lays in 0.8 mm lines under its elephant-foot compensation: there PrusaSlicer lays nothing across a
-#: 0.6 or 0.65 mm web between r = 0.5 mm holes (every web of the test plate; the holes print as
-#: slots), while a 0.7 mm web prints whole at every radius (at least 0.62 mm of plastic). From layer
-#: 2 up, in 0.45 mm hole loops, 0.6 mm holds (python -m benchmarks printed --case web: the
-#: ``*_first_layer`` keys against the others).
-ONE_LAYER_WEB_MM: dict[Process, float] = {Process.fdm: 0.7}
-
-#: Radius in mm each process takes off a drawn hole (see ``stipple.hole_offset_mm``): FDM measured
-#: from PrusaSlicer's G-code with the shipped prusa_fdm profile (python -m benchmarks printed), resin
-#: over-cure a prior, laser 0 because the DXF/SVG writers compensate export.dxf_kerf_mm.
-PROCESS_HOLE_OFFSET_MM: dict[Process, float] = {
-    Process.fdm: 0.015,
-    Process.sla: 0.02,
-    Process.laser: 0.0,
-}
 
 
 class Windows(str, enum.Enum):
@@ -120,10 +57,8 @@ class StippleConfig(StrictModel):
         Process.fdm,
         description=(
             "Manufacturing process; sets the hole floor, web and edge margin unless they are given. "
-            "Choices: fdm (r >= 0.5 mm, web 0.6 mm: the thinnest the shipped profile prints whole; 0.7 mm on a plate "
-            "of one layer, such as a soft mural's), sla (r >= 0.5 mm, web 0.5 mm), laser (r >= 0.5 mm, "
-            "web 0.6 mm); every preset's edge margin is 0 (the plate's solid border holds holes at the "
-            "picture's edge)."
+            f"Choices: {', '.join(rec.choice(p.value) for p, rec in PROCESSES.items())}; every preset's "
+            "edge margin is 0 (the plate's solid border holds holes at the picture's edge)."
         ),
     )
     hole_min_r_mm: float | None = Field(
@@ -332,11 +267,15 @@ class StippleConfig(StrictModel):
         return value
 
     @property
-    def resolved_hole_min_r_mm(self) -> float:
-        """Hole floor radius in mm (given value or the process preset)."""
+    def hole_floor_mm(self) -> float:
+        """The job's hole floor: the smallest hole radius in mm (``hole_min_r_mm`` or the process preset).
+
+        The one route to the floor: a module that needs it reads this property, or the
+        ``DesignRules`` built from it when it is handed no config (a house test keeps it so).
+        """
         if self.hole_min_r_mm is not None:
             return float(self.hole_min_r_mm)
-        return PROCESS_PRESETS[self.process][0]
+        return self.process.record.hole_min_r_mm
 
     @property
     def tone_from_response(self) -> bool:
@@ -353,7 +292,7 @@ class StippleConfig(StrictModel):
                 the label area the CAD stage chose), added to ``keepouts_mm``.
         """
         return DesignRules(
-            hole_min_r_mm=self.resolved_hole_min_r_mm,
+            hole_min_r_mm=self.hole_floor_mm,
             web_mm=self.resolved_web_mm,
             edge_margin_mm=self.resolved_edge_margin_mm,
             width_mm=float(width_mm),
@@ -366,7 +305,7 @@ class StippleConfig(StrictModel):
         """Minimum web between holes in mm (given value or the process preset)."""
         if self.web_mm is not None:
             return float(self.web_mm)
-        return PROCESS_PRESETS[self.process][1]
+        return self.process.record.web_mm
 
     def window_web_mm(self) -> float:
         """The web kept between a hole and a window, in mm.
@@ -381,21 +320,21 @@ class StippleConfig(StrictModel):
         """Radius in mm the process takes off each drawn hole (given value or the process preset)."""
         if self.hole_offset_mm is not None:
             return float(self.hole_offset_mm)
-        return PROCESS_HOLE_OFFSET_MM[self.process]
+        return self.process.record.hole_offset_mm
 
     @property
     def resolved_edge_margin_mm(self) -> float:
         """Margin to the picture border and keep-outs in mm (given value or the preset)."""
         if self.edge_margin_mm is not None:
             return float(self.edge_margin_mm)
-        return PROCESS_PRESETS[self.process][2]
+        return self.process.record.edge_margin_mm
 
     @property
     def resolved_radius_mm(self) -> float:
         """Hole radius in mm (smallest radius with variable_radius)."""
         if self.radius_mm is not None:
             return float(self.radius_mm)
-        return self.resolved_hole_min_r_mm
+        return self.hole_floor_mm
 
     @property
     def resolved_max_radius_mm(self) -> float:
@@ -408,7 +347,7 @@ class StippleConfig(StrictModel):
 
     @model_validator(mode="after")
     def _cross_checks(self) -> StippleConfig:
-        floor = self.resolved_hole_min_r_mm
+        floor = self.hole_floor_mm
         if self.radius_mm is not None and self.radius_mm < floor:
             raise ValueError(
                 f"radius_mm must be ≥ the hole floor ({floor} mm for process {self.process.value}), "

@@ -26,7 +26,7 @@ a 50 % change of blur), so a 5 % change is far below what a viewer sees.
 A mural's plates also stand on posts (:mod:`stencil_cad.mural.posts`): the fill-in then takes the
 panel between four posts (:func:`column_side_mm`: point supports at its corners, Timoshenko's
 0.00581 against the edge-supported 0.00406) instead of the whole plate, and an FDM plate comes out
-0.4 mm: two 0.2 mm layers (:data:`FDM_THIN_PLATE_MM`).
+0.4 mm: two 0.2 mm layers (:data:`~stencil_cad.config.process.FDM_THIN_PLATE_MM`).
 
 The thinnest FDM plate is two 0.2 mm layers, not two of the profile's 0.3 mm: a plate's filament
 is its plastic, and a two-layer plate's print time is its two layers' lines whatever their height
@@ -38,7 +38,7 @@ filament). It carries an engraved label one layer deep: the default ``label_dept
 :data:`LABEL_FLOOR_MM` 0.2 (on 0.3 mm layers the slicer still cuts the engraving from the whole
 top layer: it slices at mid-layer).
 
-Thinner still, an FDM plate is one 0.3 mm layer of the shipped profile (:data:`FDM_SINGLE_LAYER_MM`),
+Thinner still, an FDM plate is one 0.3 mm layer of the shipped profile (:data:`~stencil_cad.config.process.FDM_SINGLE_LAYER_MM`),
 when nothing is engraved into it (``plate.label`` emboss or none: an engraving needs a layer under
 it) and it stays flat: up to a 111 mm side, so a mural's plate on posts every 78 mm
 (:data:`stencil_cad.mural.posts.SINGLE_LAYER_POST_PITCH_MM`). One layer instead of two is a quarter
@@ -78,7 +78,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .stipple import Process
+from .process import Process, Sheet
 
 #: Sag coefficient of a simply supported square plate under a uniform load (Timoshenko, table 8).
 SQUARE_SAG_COEFFICIENT = 0.00406
@@ -92,65 +92,7 @@ SAG_LIMIT_FRACTION = 0.05
 #: An engraved label leaves this much plate under it (``plate.label_depth_mm`` is at most the thickness
 #: less this): one 0.2 mm layer of the thinnest FDM plate.
 LABEL_FLOOR_MM = 0.2
-#: The thinnest FDM plate that carries an engraved label, mm, and the layer height it prints at: two
-#: 0.2 mm layers (the profile's other plates are whole 0.3 mm layers; see the module's text).
-FDM_THIN_PLATE_MM = 0.4
-FDM_THIN_LAYER_MM = 0.2
-#: The thinnest FDM plate of all, mm: one layer of the shipped profile's 0.3 mm, for a plate whose
-#: label needs no floor (``plate.label`` emboss or none) carried densely enough (a mural's posts,
-#: :data:`stencil_cad.mural.posts.SINGLE_LAYER_POST_PITCH_MM`).
-FDM_SINGLE_LAYER_MM = 0.3
 _G = 9.81
-
-
-@dataclass(frozen=True)
-class Sheet:
-    """The sheets a process makes a plate from.
-
-    Attributes:
-        material: In words, for the reason line.
-        modulus_gpa: Young's modulus E in GPa.
-        density_kg_m3: Density in kg/m³.
-        poisson: Poisson's ratio.
-        thicknesses_mm: The thicknesses it makes, thinnest first.
-        made_as: How the thicknesses come about, for the reason line.
-    """
-
-    material: str
-    modulus_gpa: float
-    density_kg_m3: float
-    poisson: float
-    thicknesses_mm: tuple[float, ...]
-    made_as: str
-
-
-def _layers(height_mm: float, first: int, last: int) -> tuple[float, ...]:
-    return tuple(round(n * height_mm, 3) for n in range(first, last + 1))
-
-
-#: Per process: FDM in PLA (E 3.5 GPa), two 0.2 mm layers (:data:`FDM_THIN_PLATE_MM`: a bottom and
-#: a top solid layer; the 0.2 mm engraving leaves the bottom one under the label; flat up to a 128 mm
-#: side, so a small plate or a plate carried by posts, :mod:`stencil_cad.mural.posts`), then whole
-#: 0.3 mm layers of the shipped prusa_fdm profile from two; SLA in a standard
-#: resin (E about 2 GPa after post-cure), whole 0.1 mm layers of prusa_sla from 0.8 mm (the label's
-#: 0.7 mm; resin sheets thinner than that curl in the post-cure, a prior not measured here); a laser
-#: cuts stock sheet, PETG/PET 1 mm or acrylic and plywood 1.5-6 mm (E about 3 GPa). Thinner film
-#: (mylar 0.25-0.5 mm) cuts well but cannot hold an engraved label: give it as plate.thickness_mm
-#: with plate.label none.
-SHEETS: dict[Process, Sheet] = {
-    Process.fdm: Sheet(
-        "PLA",
-        3.5,
-        1240.0,
-        0.36,
-        (FDM_SINGLE_LAYER_MM, FDM_THIN_PLATE_MM, *_layers(0.3, 2, 20)),
-        "one 0.3 mm layer, two 0.2 mm layers or whole 0.3 mm layers",
-    ),
-    Process.sla: Sheet("resin", 2.0, 1150.0, 0.35, _layers(0.1, 8, 60), "whole 0.1 mm layers"),
-    Process.laser: Sheet(
-        "PETG, acrylic or plywood", 3.0, 1300.0, 0.37, (1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0), "stock sheet"
-    ),
-}
 
 
 def sag_mm(side_mm: float, thickness_mm: float, sheet: Sheet, perforated: bool = True) -> float:
@@ -206,7 +148,7 @@ def fill_thickness(
     Returns:
         The thickness, or the process's thickest when none stays within the limit (said in the reason).
     """
-    sheet = SHEETS[process]
+    sheet = process.record.sheet
     limit = SAG_LIMIT_FRACTION * standoff_mm
     flat = [t for t in sheet.thicknesses_mm if sag_mm(side_mm, t, sheet) <= limit]
     labelled = [t for t in sheet.thicknesses_mm if t >= at_least_mm - 1e-9] or [sheet.thicknesses_mm[-1]]

@@ -55,7 +55,7 @@ def window_sizes(cfg: StippleConfig) -> tuple[float, float, float]:
     hole floor), whichever is larger; the feature and bridge sizes are hard mode's for the same
     process (twice the hole floor; the web, at least 1 mm).
     """
-    floor = cfg.resolved_hole_min_r_mm
+    floor = cfg.hole_floor_mm
     web = cfg.resolved_web_mm
     return max(cfg.min_window_mm, 4.0 * (2.0 * floor + web)), 2.0 * floor, max(web, 1.0)
 

@@ -14,6 +14,7 @@ import math
 from dataclasses import dataclass
 
 from ..config.bed import Bed
+from ..config.process import Method, Process
 from ..figures import BuildFigures, CostFigures, PartCost, PlateRow, WallRow
 from ..mural.cost import LASER_PIERCE_S, LASER_SPEED_MM_S, cut_seconds, hours_text
 from ..names import WALL_STEM
@@ -239,11 +240,20 @@ def part_advice(settings: JobSettings, part: Part) -> str:
     if part.kind == "wall":
         # A wall is a deep frame: FDM whatever the plates' process.
         return _fdm(part, bed, thickness)
-    if settings.process == "laser":
+    method = _method(settings.process)
+    if method is Method.cut:
         return _laser(part, settings.kerf_mm, "cut-outs" if settings.hard else "holes")
-    if settings.process == "sla":
+    if method is Method.cure:
         return _sla(part, bed, thickness)
     return _fdm(part, bed, thickness)
+
+
+def _method(process: str) -> Method:
+    """How the saved job's process makes plates (a process this version does not know: as FDM)."""
+    try:
+        return Process(process).record.method
+    except ValueError:
+        return Method.extrude
 
 
 def plate_checks(p: PlateRow, label: str) -> list[tuple[str, bool]]:

@@ -47,7 +47,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..config.printers import printer_for_bed
-from ..config.thickness import FDM_SINGLE_LAYER_MM, FDM_THIN_LAYER_MM, FDM_THIN_PLATE_MM
+from ..config.process import FDM_SINGLE_LAYER_MM, FDM_THIN_LAYER_MM, FDM_THIN_PLATE_MM, Method
 from ..figures.cost import CostFigures, PaintCost, PartCost
 from ..geometry import polygon_area
 from .laser import laser_stand, sheets_needed
@@ -338,7 +338,7 @@ def _holes(cfg: JobConfig, r: np.ndarray) -> tuple[float, float]:
     """``(open mm², edge mm)`` of holes of radii ``r`` as drawn (larger by the hole offset when compensated)."""
     st = cfg.stipple
     drawn = np.asarray(r, dtype=np.float64)
-    if st.compensate and st.process.value == "fdm":
+    if st.compensate and st.process.record.method is Method.extrude:
         drawn = drawn + max(st.resolved_hole_offset_mm, 0.0)
     return float(np.sum(np.pi * drawn**2)), float(np.sum(2.0 * np.pi * drawn))
 
@@ -404,7 +404,7 @@ def wall_specs(grid: TileGrid, cfg: JobConfig) -> list[WallSpec]:
         opening = np.array([[-o, -o], [w + o, -o], [w + o, h + o], [-o, h + o]])
         pocket = offset_outline(w, h, oc, wc.clearance_mm)
         rings = (_ring(outer), _ring(opening), _ring(pocket))
-        for s in wc.heights():
+        for s in cfg.standoff.walls_mm:
             out.append(WallSpec(t.name if grid.tiled else "", float(s), depth, rings))
     return out
 
@@ -477,7 +477,7 @@ def making_cost(
     from .posts import sag_side_mm
 
     cfg = cfg.fit_plate_thickness(sag_side_mm(grid, cfg))
-    laser = cfg.stipple.process.value == "laser"
+    laser = cfg.stipple.process.record.method is Method.cut
     rates = rates_for(cfg.bed)
     plates = plate_specs(grid, cfg, layers, dotsets)
     physical = cfg.spray.is_physical

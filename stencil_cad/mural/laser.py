@@ -112,7 +112,7 @@ def laser_stand(cfg: JobConfig, grid: TileGrid) -> list[CutPart] | None:
     if not cut_stand(cfg, grid):
         return None
     oc, wc = cfg.plate.outline, cfg.wall
-    standoff = min(wc.heights())
+    standoff = min(cfg.standoff.walls_mm)
     stock, n = frame_stock(standoff)
     first = next(t for t in grid.tiles if t.name in wall_tiles(grid))
     w, h = first.part_size

@@ -44,6 +44,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..config.process import Method
 from .tiling import TileGrid, spray_halo_mm
 
 if TYPE_CHECKING:
@@ -68,14 +69,14 @@ __all__ = [
 ]
 
 #: Spacing of the posts' target points, mm. 90 mm lets the thinnest FDM plate (0.4 mm: two 0.2 mm
-#: layers, :data:`stencil_cad.config.thickness.FDM_THIN_PLATE_MM`) stay within the sag limit (5 % of a
+#: layers, :data:`stencil_cad.config.process.FDM_THIN_PLATE_MM`) stay within the sag limit (5 % of a
 #: 10 mm stand-off: 0.49 mm by the model for the longest span the search allows) and still puts 2-4
 #: posts under a plate of a Prusa MK4's bed (the 600 x 400 mm coffee mural: 2 a plate, as at the
 #: 100 mm of before, whose 0.6 mm plates used 50 % more filament).
 POST_PITCH_MM = 90.0
 #: Spacing of the targets where the plate may be one 0.3 mm layer (FDM, its thickness left to the
 #: process and a label that needs no floor: ``plate.label`` emboss or none;
-#: :data:`stencil_cad.config.thickness.FDM_SINGLE_LAYER_MM`): the sag model allows a 111 mm square
+#: :data:`stencil_cad.config.process.FDM_SINGLE_LAYER_MM`): the sag model allows a 111 mm square
 #: at 0.3 mm, which the longest span the search allows at 78 mm (101 mm between posts) stays within.
 #: 4 posts under a plate of the 600 x 400 mm coffee mural instead of 2.
 SINGLE_LAYER_POST_PITCH_MM = 78.0
@@ -137,7 +138,7 @@ def post_plan(cfg: JobConfig, grid: TileGrid) -> PostPlan | None:
     """
     if not grid.tiled or cfg.mode.value != "soft":
         return None
-    height = min(cfg.wall.heights())
+    height = min(cfg.standoff.walls_mm)
     return PostPlan(post_pitch_mm(cfg), POST_RADIUS_MM + shade_reach_mm(cfg), height)
 
 
@@ -148,7 +149,7 @@ def post_pitch_mm(cfg: JobConfig) -> float:
     needs two layers).
     """
     single = (
-        cfg.stipple.process.value == "fdm"
+        cfg.stipple.process.record.method is Method.extrude
         and cfg.plate.label.value != "engrave"
         and cfg.thickness_fill.filled
     )
@@ -167,7 +168,7 @@ def shade_reach_mm(cfg: JobConfig) -> float:
         return spray_halo_mm(cfg)
     from ..simulate.physical import spread_sigma_mm
 
-    h = max(cfg.wall.heights())
+    h = max(cfg.standoff.walls_mm)
     sigma = max(spread_sigma_mm(sp.model_copy(update={"can": c}), h) for c in sp.all_cans())
     return SHADE_SIGMAS * sigma
 

@@ -152,7 +152,7 @@ def refine_halo_mm(cfg: JobConfig, eye_sigma_mm: float) -> float:
     return (
         2.0 * tiling.spray_halo_mm(cfg)
         + st.resolved_edge_margin_mm
-        + 2.0 * max(st.resolved_max_radius_mm, cfg.refine.max_radius_factor * st.resolved_hole_min_r_mm)
+        + 2.0 * max(st.resolved_max_radius_mm, cfg.refine.max_radius_factor * st.hole_floor_mm)
         + 3.0 * eye_sigma_mm
     )
 

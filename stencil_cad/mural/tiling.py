@@ -45,6 +45,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 
 from ..config.bed import Bed, resolve_bed
+from ..config.process import Method
 from ..errors import UserError
 
 if TYPE_CHECKING:
@@ -263,7 +264,7 @@ def spray_halo_mm(cfg: JobConfig) -> float:
         from ..simulate.physical import spread_sigma_mm
 
         # The widest blur of any layer's can (each paint may have its own profile).
-        h = max(cfg.wall.heights())
+        h = max(cfg.standoff.walls_mm)
         sigma = max(spread_sigma_mm(sp.model_copy(update={"can": c}), h) for c in sp.all_cans())
         return float(5.0 * sigma + cfg.stipple.resolved_max_radius_mm + 1.0)
     a = sp.spray_time
@@ -419,7 +420,7 @@ def plan_cost(grid: TileGrid, cfg: JobConfig, layers: int, work_px: int) -> dict
     per_mm2 = 2.0 / (math.sqrt(3.0) * d * d)
     holes_max = int(per_mm2 * grid.width_mm * grid.height_mm * layers)
     # A laser-cut mural stands in a laser-cut frame (:mod:`.laser`): no printed wall.
-    walls = 0 if cut_stand(cfg, grid) else len(wall_tiles(grid)) * len(cfg.wall.heights())
+    walls = 0 if cut_stand(cfg, grid) else len(wall_tiles(grid)) * len(cfg.standoff.walls_mm)
     plates = len(grid.tiles) * layers
     # Half the full-ink count: a photo's layers average about half their densest tone.
     est = (
@@ -466,7 +467,7 @@ def cut_stand(cfg: JobConfig, grid: TileGrid) -> bool:
 
     A soft mural of laser-cut plates: every part is cut, none printed.
     """
-    return cfg.stipple.process.value == "laser" and grid.tiled and cfg.mode.value == "soft"
+    return cfg.stipple.process.record.method is Method.cut and grid.tiled and cfg.mode.value == "soft"
 
 
 def wall_key(t: Tile) -> tuple[float, ...]:

@@ -66,7 +66,7 @@ def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tu
                 results.append(row)
                 bar.update(1)
         walls = []
-        heights = cfg.wall.heights()
+        heights = cfg.standoff.walls_mm
         for standoff, stem in zip(heights, wall_stems(heights), strict=True):
             wm = wall_mod.build_wall(
                 width_mm, height_mm, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, standoff
@@ -115,7 +115,7 @@ def try_template(run: Run) -> None:
     cfg = run.cfg
     w = cfg.size.width_mm
     h = cfg.size.height_mm or w
-    r = max(cfg.stipple.design_rules(w, h).hole_min_r_mm, 0.5)
+    r = cfg.stipple.hole_floor_mm
     one = DotSet(xy_mm=np.array([[w / 2.0, h / 2.0]]), r_mm=np.array([r]))
     label = cad.LabelInfo(layer=1, layers=cfg.decompose.layers, colour="#000000", job=cfg.name)
     try:

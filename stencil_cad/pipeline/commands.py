@@ -227,8 +227,8 @@ def _hard_sprays(run: Run, colours: np.ndarray) -> list[Any]:
 
 def _process_rules(cfg: JobConfig) -> dict[str, Any]:
 
-    rules = cfg.stipple.design_rules(cfg.size.width_mm, cfg.size.height_mm or cfg.size.width_mm)
-    return {"min_feature_mm": 2 * rules.hole_min_r_mm, "bridge_min_mm": max(rules.web_mm, 1.0)}
+    st = cfg.stipple
+    return {"min_feature_mm": 2 * st.hole_floor_mm, "bridge_min_mm": max(st.resolved_web_mm, 1.0)}
 
 
 def write_default_config(path: Path, *, force: bool = False) -> None:

@@ -71,7 +71,7 @@ log = logging.getLogger(__name__)
 
 def simulated_stems(cfg: JobConfig) -> list[str]:
     """Extra simulated pictures, one per wall, when the physical model sees several stand-offs."""
-    heights = cfg.wall.heights()
+    heights = cfg.standoff.walls_mm
     if not cfg.spray.is_physical or len(heights) == 1:
         return []
     return [simulated_wall_name(stem) for stem in wall_stems(heights)]
@@ -108,7 +108,7 @@ def stage_outputs(cfg: JobConfig, command: str, count: int, grid: mural.TileGrid
     if cmd.builds:
         exts = cfg.export.plate_extensions()
         names = [part_file(layer_stem(i), e) for i in range(count) for e in exts]
-        return names + [part_file(s, e) for s in wall_stems(cfg.wall.heights()) for e in (".step", ".stl")]
+        return names + [part_file(s, e) for s in wall_stems(cfg.standoff.walls_mm) for e in (".step", ".stl")]
     if cmd.simulates:
         return [SIMULATED_PNG, PREVIEW_PNG, SWEEP_PNG, *simulated_stems(cfg)] + [
             step_name(i) for i in range(count)
@@ -142,7 +142,7 @@ def tile_outputs(cfg: JobConfig, grid: mural.TileGrid, count: int) -> list[str]:
         names += [part_file(tile_stem(t, i), e) for i in range(count) for e in exts]
         if t.name in walls and laser is None:
             names += [
-                part_file(s, e) for s in tile_wall_stems(t, cfg.wall.heights()) for e in (".step", ".stl")
+                part_file(s, e) for s in tile_wall_stems(t, cfg.standoff.walls_mm) for e in (".step", ".stl")
             ]
     if laser is not None:
         names += [part_file(p.name, e) for p in laser for e in (".dxf", ".svg")]

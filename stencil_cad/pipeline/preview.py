@@ -292,7 +292,7 @@ def previews(
         run.check()
         windows, standoff = _design(run, cfg, grid, layers, size, picture, cache)
         made.designed = True
-        if (windows, standoff) != (run.cfg.stipple.windows.value, float(run.cfg.wall.standoff_mm[0])):
+        if (windows, standoff) != (run.cfg.stipple.windows.value, run.cfg.standoff.design_mm):
             from .standoff import with_design
 
             run.cfg = with_design(run.cfg, windows, standoff)
@@ -342,7 +342,7 @@ def _design(
     if hit is not None:
         return cast("tuple[str, float]", hit)
     chosen = choose_plates(job, layers, size, picture)
-    design = (chosen.stipple.windows.value, float(chosen.wall.standoff_mm[0]))
+    design = (chosen.stipple.windows.value, chosen.standoff.design_mm)
     cache.put(cache.designs, key, design)
     return design
 
@@ -525,7 +525,7 @@ class _Made:
             walls=walls,
             tiles=len(self.grid.tiles),
             cost=cost,
-            standoff_mm=float(cfg.wall.standoff_mm[0]),
+            standoff_mm=cfg.standoff.design_mm,
             seconds=time.perf_counter() - self.t0,
             windows=cfg.stipple.windows.value,
             designed=self.designed,
@@ -540,7 +540,7 @@ def _blur_mm(cfg: JobConfig) -> float:
     from ..simulate import dot_sigma_mm
 
     if cfg.spray.is_physical:
-        return float(cfg.spray.can.spread_k) * float(cfg.wall.standoff_mm[0])
+        return float(cfg.spray.can.spread_k) * cfg.standoff.design_mm
     return float(dot_sigma_mm(cfg.stipple.resolved_radius_mm, cfg.spray.nozzle_height))
 
 

@@ -53,7 +53,7 @@ def stage_refine(
     target = source_reference(cfg, picture, layers, shape, grid_mm)
     rules = cfg.stipple.design_rules(*picture_mm)
     rc = cfg.refine
-    settings = refine_settings(cfg, rules.hole_min_r_mm)
+    settings = refine_settings(cfg)
     alpha_targets = np.stack([spray.resample(a, shape) for a in layers.alphas]) if layers.count else None
 
     from ..mural import refine as mural_refine
@@ -92,18 +92,17 @@ def stage_refine(
     return [with_windows(ds, w, cfg.stipple.window_web_mm()) for ds, w in zip(out, windows, strict=True)]
 
 
-def refine_settings(cfg: JobConfig, hole_min_r_mm: float) -> Any:
+def refine_settings(cfg: JobConfig) -> Any:
     """The refinement's settings from the ``refine`` section and the viewer's filters at ``view.distance_m``."""
     from ..simulate import scielab
     from ..stipple import refine
 
-    rules_floor = hole_min_r_mm
-    rc = cfg.refine
+    rc, st = cfg.refine, cfg.stipple
     return refine.RefineSettings(
         iterations=rc.iterations,
         step_mm=rc.step_mm,
         radius_step_mm=rc.radius_step_mm,
-        max_radius_mm=max(rc.max_radius_factor * rules_floor, cfg.stipple.resolved_max_radius_mm),
+        max_radius_mm=max(rc.max_radius_factor * st.hole_floor_mm, st.resolved_max_radius_mm),
         add_remove_every=rc.add_remove_every,
         eye_sigma_mm=scielab.smallest_sigma_mm(cfg.view.distance_m),
         layer_weight=rc.layer_weight,

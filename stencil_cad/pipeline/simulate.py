@@ -46,7 +46,7 @@ def stage_simulate(
 
     Under the physical model every wall height gets its own simulation and score
     (``simulated_wall_10mm.png`` …); the main pictures and scores are those of the design
-    stand-off (``wall.standoff_mm[0]``), which the tone calibration designed the dots for.
+    stand-off (``cfg.standoff.design_mm``), which the tone calibration designed the dots for.
 
     The long computations that need nothing this process computes next (every other can's
     simulation and score, where the holes show most, and what ``also`` starts) are started as
@@ -155,7 +155,7 @@ def _walls(
     sim, scores, ref = done
     per_wall = []
     stems = simulated_stems(cfg)
-    for h, name in zip(cfg.wall.heights() if stems else [], stems, strict=True):
+    for h, name in zip(cfg.standoff.walls_mm if stems else [], stems, strict=True):
         # Extra walls exist only under the physical model, where design is set.
         assert design is not None
         if h == design.standoff_mm:
@@ -347,7 +347,7 @@ class SeenJob:
     alphas: np.ndarray
     mm_per_px: float
     blur_sigma_mm: list[float]
-    hole_min_r_mm: float
+    hole_floor_mm: float
 
 
 def _start_visibility(run: Run, layers: Layers, dotsets: list[DotSet], sim: Any) -> Any:
@@ -361,7 +361,7 @@ def _start_visibility(run: Run, layers: Layers, dotsets: list[DotSet], sim: Any)
         sim.alphas,
         sim.mm_per_px,
         list(sim.info["blur_sigma_mm"]),
-        run.cfg.stipple.resolved_hole_min_r_mm,
+        run.cfg.stipple.hole_floor_mm,
     )
     return run.tasks.start(dots_seen, [None], "dots seen", job)
 
@@ -390,7 +390,7 @@ def dots_seen(_: None, job: SeenJob) -> dict[str, Any]:
     )
     pattern *= np.abs(lum)
     k = int(np.argmax(pattern))
-    r = float(dotsets[k].r_mm.min()) if len(dotsets[k]) else job.hole_min_r_mm
+    r = float(dotsets[k].r_mm.min()) if len(dotsets[k]) else job.hole_floor_mm
     return {
         "dots_blend_m": d,
         "dots_blend_layer": k + 1,

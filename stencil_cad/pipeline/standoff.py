@@ -104,7 +104,7 @@ def candidates(cfg: JobConfig, share: float) -> list[tuple[str, float]]:
     config's windows, :data:`NEAR_BY_MM` either side), and for windows the :data:`LOW_STANDOFFS_MM`
     too where they carry at least :data:`WINDOW_SHARE` of the paint.
     """
-    own = (cfg.stipple.windows.value, float(cfg.wall.standoff_mm[0]))
+    own = (cfg.stipple.windows.value, cfg.standoff.design_mm)
     windows = (
         [Windows.auto.value, Windows.off.value]
         if own[0] == Windows.auto.value and share >= MIN_WINDOW_SHARE
@@ -146,9 +146,9 @@ def matched_standoff(cfg: JobConfig) -> float | None:
     if not measured:
         return None
     k_prior = float(CanConstants.model_fields["spread_k"].default)
-    g = round(2.0 * float(cfg.wall.standoff_mm[0]) * k_prior / float(np.median(measured))) / 2.0
+    g = round(2.0 * cfg.standoff.design_mm * k_prior / float(np.median(measured))) / 2.0
     g = min(50.0, max(2.0, g))
-    return None if g == float(cfg.wall.standoff_mm[0]) else g
+    return None if g == cfg.standoff.design_mm else g
 
 
 def with_design(cfg: JobConfig, windows: str, standoff_mm: float) -> JobConfig:
@@ -159,7 +159,7 @@ def with_design(cfg: JobConfig, windows: str, standoff_mm: float) -> JobConfig:
     """
     if windows != cfg.stipple.windows.value:
         cfg = cfg.model_copy(update={"stipple": cfg.stipple.model_copy(update={"windows": Windows(windows)})})
-    if standoff_mm == float(cfg.wall.standoff_mm[0]):
+    if standoff_mm == cfg.standoff.design_mm:
         return cfg
     cfg = cfg.with_standoff(standoff_mm)
     fill = cfg.thickness_fill
@@ -282,7 +282,7 @@ def _screen(
     follow the holes' curve (a flat-colour test logo scored 5.60 from 10 mm, 6.13 from 8, 2.40 from
     4 and 2.31 from 1).
     """
-    own_w, own_g = cfg.stipple.windows.value, float(cfg.wall.standoff_mm[0])
+    own_w, own_g = cfg.stipple.windows.value, cfg.standoff.design_mm
     steps = {own_g - LOWER_BY_MM: own_g - NEAR_BY_MM, own_g + HIGHER_BY_MM: own_g + NEAR_BY_MM}
     done: dict[tuple[str, float | None], float] = {}
     trials = []

@@ -219,7 +219,7 @@ def layer_windows(
     s = layers.mm_per_px
     keepouts = cfg.stipple.design_rules(*picture_mm).keepouts
     cores = [t.core for t in tiling.tiles]
-    clear = cfg.stipple.resolved_hole_min_r_mm + cfg.stipple.resolved_web_mm
+    clear = cfg.stipple.hole_floor_mm + cfg.stipple.resolved_web_mm
     # Each window's edge is pulled in by its own paint's blur (spray.profile).
     jobs = jobs or [cfg] * layers.count
     windows = [
@@ -290,7 +290,7 @@ def bound_dots(run: Run, picture_mm: tuple[float, float]) -> None:
             "using %d (set stipple.dots ≤ %d, or null to derive it from the picture)",
             cfg.stipple.dots,
             most,
-            cfg.stipple.resolved_hole_min_r_mm,
+            cfg.stipple.hole_floor_mm,
             cfg.stipple.resolved_web_mm,
             picture_mm[0],
             picture_mm[1],

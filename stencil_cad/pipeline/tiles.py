@@ -139,7 +139,7 @@ def start_build_tiles(run: Run, layers: Layers, dotsets: list[DotSet], grid: mur
     per_tile, posts = _with_posts(cfg, dotsets, holes_tile, grid)
     # A laser-cut mural stands in a frame and on spacers cut from sheet: no printed wall or post.
     laser = mural.laser_stand(cfg, grid)
-    heights = cfg.wall.heights() if laser is None else []
+    heights = cfg.standoff.walls_mm if laser is None else []
     tasks = _part_tasks(cfg, layers, grid, per_tile, heights)
     # Each plate and wall is a task (built, checked and exported where it runs); the files
     # come back as bytes and are staged in task order, so the output is the same whichever
@@ -272,13 +272,12 @@ def _check_unions(cfg: JobConfig, grid: mural.TileGrid, sets: dict[str, list[Dot
     """
     from dataclasses import replace
 
-    from ..config.rules import HOLE_FLOOR_MM
     from ..stipple import rules as dots
 
     design = cfg.stipple.design_rules(grid.width_mm, grid.height_mm)
     made_less = max(cfg.stipple.resolved_hole_offset_mm, 0.0)
     offset = made_less if cfg.stipple.compensate else 0.0
-    floor = replace(design, hole_min_r_mm=min(design.hole_min_r_mm, HOLE_FLOOR_MM))
+    floor = design.with_any_floor()
     rules = {"asked": design, "made": floor, "drawn": replace(floor, web_mm=design.web_mm - 2.0 * offset)}
     # A hole the margin keeps from growing (or every hole, uncompensated) is made its radius less
     # the offset: at the 0.5 mm floor of every preset, 0.485 mm under FDM. The made webs lose

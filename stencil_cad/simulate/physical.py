@@ -84,13 +84,13 @@ class SprayGeometry:
 
         Args:
             job_cfg: The :class:`~stencil_cad.config.JobConfig`.
-            standoff_mm: A stand-off in mm. Defaults to ``wall.standoff_mm[0]``, the one the tone
-                calibration designs the dots for.
+            standoff_mm: A stand-off in mm. Defaults to the job's design stand-off
+                (``JobConfig.standoff.design_mm``), the one the tone calibration designs the dots for.
 
         Returns:
             The geometry.
         """
-        g = float(job_cfg.wall.standoff_mm[0] if standoff_mm is None else standoff_mm)
+        g = float(job_cfg.standoff.design_mm if standoff_mm is None else standoff_mm)
         return cls(standoff_mm=g, plate_thickness_mm=float(job_cfg.plate.thickness_mm))
 
     @classmethod

@@ -517,7 +517,7 @@ def plate_response(job_cfg: JobConfig, amount: float) -> ToneCurve:
     st = job_cfg.stipple
     r1 = st.resolved_max_radius_mm
     if job_cfg.refine.enabled:
-        r1 = max(r1, job_cfg.refine.max_radius_factor * st.resolved_hole_min_r_mm)
+        r1 = max(r1, job_cfg.refine.max_radius_factor * st.hole_floor_mm)
     return tone_response(
         st.resolved_radius_mm,
         st.resolved_web_mm,

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..config.printers import printer_for_bed
-from ..config.thickness import FDM_SINGLE_LAYER_MM, FDM_THIN_LAYER_MM, FDM_THIN_PLATE_MM
+from ..config.process import FDM_SINGLE_LAYER_MM, FDM_THIN_LAYER_MM, FDM_THIN_PLATE_MM
 
 __all__ = [
     "PROFILES",
@@ -154,7 +154,7 @@ def is_wall(path: str | Path) -> bool:
     return "wall" in Path(path).stem.lower().split("_")
 
 
-#: PrusaSlicer settings for the thinnest FDM plate (:data:`stencil_cad.config.thickness.FDM_THIN_PLATE_MM`,
+#: PrusaSlicer settings for the thinnest FDM plate (:data:`stencil_cad.config.process.FDM_THIN_PLATE_MM`,
 #: 0.4 mm): two 0.2 mm layers instead of the profile's 0.3 mm (which would print it as 0.3 + 0.1 mm).
 THIN_PLATE_SETTINGS: dict[str, object] = {
     "layer_height": FDM_THIN_LAYER_MM,

@@ -173,7 +173,7 @@ def _patch_holes(
 
 def _standoffs(job_cfg: JobConfig, standoffs_mm: list[float] | None) -> list[float]:
     """The stand-offs the card is made for, sorted (see :func:`card_layout`)."""
-    heights = sorted(set(standoffs_mm if standoffs_mm else job_cfg.wall.standoff_mm))
+    heights = sorted(set(standoffs_mm)) if standoffs_mm else job_cfg.standoff.walls_mm
     if not standoffs_mm and len(heights) == 1:
         h = heights[0]
         # A low wall, where the bleed and the spread blur alike, beside the job's: two heights whose

@@ -7,6 +7,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from stencil_cad.cad.wall import Wall, build_wall, wall_step, wall_stl
+from stencil_cad.config import JobConfig
 from stencil_cad.config.cad import WallConfig
 from stencil_cad.config.outline import KeyTab, OutlineConfig, Side
 from stencil_cad.outline import (
@@ -123,8 +124,9 @@ def test_wall_blocks_overspray_on_every_side(default_wall):
 def test_several_heights_take_the_same_plate():
     outline = OutlineConfig()
     cfg = WallConfig(standoff_mm=[15.0, 5.0, 15.0, 8.5])
-    assert cfg.heights() == [5.0, 8.5, 15.0]
-    walls = [build_wall(W, H, outline, cfg, T, s) for s in cfg.heights()]
+    heights = JobConfig(wall=cfg).standoff.walls_mm
+    assert heights == [5.0, 8.5, 15.0]
+    walls = [build_wall(W, H, outline, cfg, T, s) for s in heights]
     for w in walls:
         assert len(w.part.solids()) == 1
         assert w.part.volume == pytest.approx(w.volume_mm3, rel=1e-6)

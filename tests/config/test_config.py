@@ -132,10 +132,11 @@ def test_nozzle_height_defaults_to_the_process_best(data, want):
 
 def test_nozzle_height_is_filled_in_from_the_process(monkeypatch):
     """Each process gets its own entry of the table, and a dumped config keeps what it resolved to."""
-    from stencil_cad.config.spray import NOZZLE_HEIGHT_BY_PROCESS
-    from stencil_cad.config.stipple import Process
+    from dataclasses import replace
 
-    monkeypatch.setitem(NOZZLE_HEIGHT_BY_PROCESS, Process.fdm, 22.0)
+    from stencil_cad.config.process import PROCESSES, Process
+
+    monkeypatch.setitem(PROCESSES, Process.fdm, replace(PROCESSES[Process.fdm], nozzle_height=22.0))
     fdm = parse_config({"stipple": {"process": "fdm"}}, source="test")
     assert fdm.spray.nozzle_height == 22.0
     assert parse_config({"stipple": {"process": "laser"}}, source="test").spray.nozzle_height == 30.0

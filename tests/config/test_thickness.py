@@ -4,12 +4,11 @@ import pytest
 
 from stencil_cad.config import JobConfig
 from stencil_cad.config.io import default_yaml, parse_config
-from stencil_cad.config.job import STANDOFF_BY_PROCESS, parse_overrides
+from stencil_cad.config.job import parse_overrides
 from stencil_cad.config.stipple import Process
 from stencil_cad.config.thickness import (
     LABEL_FLOOR_MM,
     SAG_LIMIT_FRACTION,
-    SHEETS,
     fill_thickness,
     sag_mm,
 )
@@ -17,7 +16,7 @@ from stencil_cad.config.thickness import (
 
 def test_sag_follows_plate_theory():
     # Solid PLA, 150 mm square, 0.9 mm: 0.00406 q a^4 / D by hand is 0.092 mm; sag ~ a^4 / t^2.
-    pla = SHEETS[Process.fdm]
+    pla = Process.fdm.record.sheet
     assert sag_mm(150.0, 0.9, pla, perforated=False) == pytest.approx(0.092, abs=0.002)
     assert sag_mm(300.0, 0.9, pla, perforated=False) == pytest.approx(16 * sag_mm(150.0, 0.9, pla, False))
     assert sag_mm(150.0, 1.8, pla, perforated=False) == pytest.approx(sag_mm(150.0, 0.9, pla, False) / 4)
@@ -48,10 +47,10 @@ def test_sag_follows_plate_theory():
     ],
 )
 def test_fill_is_the_thinnest_flat_plate(process, side, want):
-    got = fill_thickness(process, side, STANDOFF_BY_PROCESS[process])
+    got = fill_thickness(process, side, process.record.standoff_mm)
     assert got.thickness_mm == pytest.approx(want)
-    limit = SAG_LIMIT_FRACTION * STANDOFF_BY_PROCESS[process]
-    sheet = SHEETS[process]
+    limit = SAG_LIMIT_FRACTION * process.record.standoff_mm
+    sheet = process.record.sheet
     assert sag_mm(side, got.thickness_mm, sheet) <= limit
     thinner = [t for t in sheet.thicknesses_mm if t < got.thickness_mm]
     assert all(sag_mm(side, t, sheet) > limit for t in thinner)
@@ -60,7 +59,7 @@ def test_fill_is_the_thinnest_flat_plate(process, side, want):
 
 def test_fdm_fills_whole_layers_of_the_shipped_profile():
     """Whole 0.3 mm layers of the profile, or the thinnest plate's two 0.2 mm layers (sliced as such)."""
-    from stencil_cad.config.thickness import FDM_THIN_LAYER_MM, FDM_THIN_PLATE_MM
+    from stencil_cad.config.process import FDM_THIN_LAYER_MM, FDM_THIN_PLATE_MM
     from stencil_cad.slicing.profiles import PROFILES, THIN_PLATE_SETTINGS, part_settings
 
     layer = PROFILES["prusa_fdm"].layer_height_mm
@@ -79,7 +78,7 @@ def test_fdm_fills_whole_layers_of_the_shipped_profile():
 
 def test_too_large_for_any_sheet_says_so():
     got = fill_thickness(Process.laser, 900.0, 10.0)
-    assert got.thickness_mm == SHEETS[Process.laser].thicknesses_mm[-1]
+    assert got.thickness_mm == Process.laser.record.sheet.thicknesses_mm[-1]
     assert "thickest" in got.reason
 
 
@@ -153,10 +152,8 @@ def test_a_plate_template_keeps_its_own_thickness(tmp_path):
 
 def test_a_plate_of_one_layer_keeps_the_wider_web_its_first_layer_prints():
     """A one-layer FDM plate is all first layer: 0.7 mm webs, given webs kept, the preset's on thicker plates."""
-    from stencil_cad.config.stipple import ONE_LAYER_WEB_MM, PROCESS_PRESETS
-
-    one = ONE_LAYER_WEB_MM[Process.fdm]
-    preset = PROCESS_PRESETS[Process.fdm][1]
+    one = Process.fdm.record.one_layer_web_mm
+    preset = Process.fdm.record.web_mm
     assert one > preset
     mural = parse_overrides(parse_config({"size": {"width_mm": 600.0}}, source="test"), bed="prusa_mk4")
     assert mural.stipple.resolved_web_mm == preset  # its plates are not one layer until fitted to the posts
@@ -179,5 +176,5 @@ def test_a_plate_of_one_layer_keeps_the_wider_web_its_first_layer_prints():
     sla = parse_config(
         {"stipple": {"process": "sla"}, "plate": {"thickness_mm": 0.3, "label": "none"}}, source="test"
     )
-    assert sla.stipple.resolved_web_mm == PROCESS_PRESETS[Process.sla][1]
+    assert sla.stipple.resolved_web_mm == Process.sla.record.web_mm
     assert JobConfig().stipple.resolved_web_mm == preset

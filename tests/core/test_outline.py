@@ -6,6 +6,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from pydantic import ValidationError
 
+from stencil_cad.config import JobConfig
 from stencil_cad.config.cad import WallConfig
 from stencil_cad.config.outline import KeyTab, OutlineConfig, Side
 from stencil_cad.geometry import polygon_area
@@ -268,7 +269,7 @@ def test_wall_config_against_plate():
         WallConfig(pocket_depth_mm=2.0).check_plate(outline, 1.2)
     with pytest.raises(ValueError, match="ledge"):
         WallConfig(opening_margin_mm=9.5).check_plate(outline, 1.2)
-    assert WallConfig(standoff_mm=[12.0, 5.0, 12.0]).heights() == [5.0, 12.0]
+    assert JobConfig(wall={"standoff_mm": [12.0, 5.0, 12.0]}).standoff.walls_mm == [5.0, 12.0]
     assert WallConfig().pocket_depth(1.5) == 1.5
     assert WallConfig(pocket_depth_mm=1.0).pocket_depth(1.5) == 1.0
 

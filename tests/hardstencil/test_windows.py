@@ -137,7 +137,7 @@ def hybrid_layer():
     cfg = sla().model_copy(update={"tone": "linear"})
     alpha = ramp_with_island()
     win = find_windows(alpha, S, cfg)
-    left = hole_alpha(alpha, win.mask, S, cfg.resolved_hole_min_r_mm + cfg.resolved_web_mm)
+    left = hole_alpha(alpha, win.mask, S, cfg.hole_floor_mm + cfg.resolved_web_mm)
     ds = stipple_layer(left, S, cfg, np.random.default_rng(3))
     return with_windows(ds, win.polygons, cfg.resolved_web_mm), cfg, win
 

@@ -88,7 +88,7 @@ def test_totals_are_the_sum_of_the_parts_and_grams_follow_the_volume():
     plates = [p for p in made.parts if p.kind == "plate"]
     walls = [p for p in made.parts if p.kind == "wall"]
     # One wall serves every tile (all of one size and notches), the posts printed together.
-    assert len(plates) == 2 * len(grid.tiles) and len(walls) == len(cfg.wall.heights())
+    assert len(plates) == 2 * len(grid.tiles) and len(walls) == len(cfg.standoff.walls_mm)
     assert [p.layer for p in made.parts if p.kind == "posts"] == [mural.cost.post_count(grid, cfg)]
     # Every hole on exactly one plate of its layer.
     assert sum(p.holes for p in plates if p.layer == 1) == 4000

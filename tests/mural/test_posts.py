@@ -7,7 +7,7 @@ import pytest
 
 from stencil_cad import mural
 from stencil_cad.config import io as cfg_io
-from stencil_cad.config.thickness import SHEETS, column_side_mm, sag_mm
+from stencil_cad.config.thickness import column_side_mm, sag_mm
 from stencil_cad.model import DotSet
 from stencil_cad.mural import posts
 
@@ -34,7 +34,7 @@ def test_one_plate_has_no_posts_and_a_mural_has():
     assert mural.post_plan(cfg, mural.TileGrid.whole(150, 100)) is None
     plan = mural.post_plan(cfg, _mural_grid(cfg))
     assert plan is not None
-    assert plan.height_mm == min(cfg.wall.heights())
+    assert plan.height_mm == min(cfg.standoff.walls_mm)
     assert plan.keepout_mm == pytest.approx(posts.POST_RADIUS_MM + posts.shade_reach_mm(cfg))
     assert posts.POST_RADIUS_MM < plan.keepout_mm < posts.POST_RADIUS_MM + mural.spray_halo_mm(cfg)
     assert plan.pin_hole_mm > plan.pin_radius_mm
@@ -108,7 +108,7 @@ def test_posts_let_a_mural_plate_be_two_thin_layers():
     fitted = cfg.fit_plate_thickness(side)
     assert fitted.plate.thickness_mm == pytest.approx(0.4)  # two 0.2 mm layers
     # The panel between posts stays within the sag limit (5 % of the 10 mm stand-off).
-    assert sag_mm(side, 0.4, SHEETS[cfg.stipple.process]) <= 0.05 * 10.0
+    assert sag_mm(side, 0.4, cfg.stipple.process.record.sheet) <= 0.05 * 10.0
     # Without posts the same tiles' plates would have to be much thicker.
     whole = max(max(mural.part_sizes(*t.size, cfg)["plate"]) for t in grid.tiles)
     assert cfg.fit_plate_thickness(whole).plate.thickness_mm >= 1.5
@@ -157,10 +157,10 @@ def test_posts_closer_together_let_a_plate_without_engraving_be_one_layer():
     side = mural.sag_side_mm(grid, embossed)
     assert side == pytest.approx(column_side_mm(posts.post_span_mm(posts.SINGLE_LAYER_POST_PITCH_MM)))
     assert embossed.fit_plate_thickness(side).plate.thickness_mm == pytest.approx(0.3)
-    assert sag_mm(side, 0.3, SHEETS[embossed.stipple.process]) <= 0.05 * 10.0
+    assert sag_mm(side, 0.3, embossed.stipple.process.record.sheet) <= 0.05 * 10.0
     # At the engraved plates' 90 mm the single layer would sag past the limit.
     wide = column_side_mm(posts.post_span_mm(posts.POST_PITCH_MM))
-    assert sag_mm(wide, 0.3, SHEETS[embossed.stipple.process]) > 0.05 * 10.0
+    assert sag_mm(wide, 0.3, embossed.stipple.process.record.sheet) > 0.05 * 10.0
     assert engraved.fit_plate_thickness(
         mural.sag_side_mm(grid, engraved)
     ).plate.thickness_mm == pytest.approx(0.4)

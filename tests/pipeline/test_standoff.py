@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from stencil_cad.config.io import parse_config
-from stencil_cad.config.job import STANDOFF_BY_PROCESS, parse_overrides
+from stencil_cad.config.job import parse_overrides
 from stencil_cad.figures import PlateTrial, StandoffFigures
 from stencil_cad.model import Layers, Picture
 from stencil_cad.mural import TileGrid
@@ -23,14 +23,17 @@ def _cfg(**extra):
 
 def test_only_a_stand_off_left_null_is_chosen():
     cfg = _cfg()
-    assert cfg.chooses_standoff and cfg.wall.standoff_mm == [STANDOFF_BY_PROCESS[cfg.stipple.process]]
+    assert cfg.chooses_standoff and cfg.wall.standoff_mm is None
+    assert cfg.standoff.listed_mm == (cfg.stipple.process.record.standoff_mm,)
+    assert cfg.standoff.source == "default"
     assert not _cfg(wall={"standoff_mm": [10.0]}).chooses_standoff
     assert not _cfg(mode="hard").chooses_standoff
     assert not _cfg(spray={"model": "paper"}).chooses_standoff
     # The command line's overrides keep it left to the job; a chosen one keeps the mark.
     assert parse_overrides(cfg, seed=5).chooses_standoff
     low = cfg.with_standoff(4.0)
-    assert low.wall.standoff_mm == [4.0] and low.chooses_standoff
+    assert low.standoff.listed_mm == (4.0,) and low.standoff.source == "job" and low.chooses_standoff
+    assert low.wall.standoff_mm is None and cfg.standoff.design_mm == cfg.stipple.process.record.standoff_mm
     assert low.plate.thickness_mm == cfg.plate.thickness_mm
 
 
@@ -75,7 +78,7 @@ def test_candidates_follow_what_the_config_leaves_to_the_job():
 def test_with_design_sets_windows_and_stand_off():
     cfg = _cfg()
     off = with_design(cfg, "off", 15.0)
-    assert off.stipple.windows.value == "off" and off.wall.standoff_mm == [15.0] and off.chooses_standoff
+    assert off.stipple.windows.value == "off" and off.standoff.listed_mm == (15.0,) and off.chooses_standoff
     assert with_design(cfg, "auto", 10.0) is cfg
 
 
@@ -115,7 +118,7 @@ def test_a_photo_without_windows_tries_the_stand_offs_only():
     assert (15.0 in scores) == (scores[12.0] <= scores[10.0] * noise)
     assert all(w == "auto" for w, _ in tried)
     best = min(fig.trials, key=lambda t: t.scielab)  # type: ignore[union-attr]
-    assert cfg.wall.standoff_mm == [best.standoff_mm] and fig.chosen == best
+    assert cfg.standoff.listed_mm == (best.standoff_mm,) and fig.chosen == best
     assert fig.trial_mm_per_px == pytest.approx(2.0 * 0.25)
 
 
@@ -131,7 +134,7 @@ def test_flat_colour_art_sprays_from_lower_down():
     # say so, and the job takes the best.
     assert scores[("auto", 10.0)] > min(scores[("auto", 1.0)], scores[("auto", 4.0)])
     assert scores[("off", 10.0)] > scores[("auto", 10.0)]
-    assert cfg.wall.standoff_mm == [fig.standoff_mm] and fig.standoff_mm < 10.0
+    assert cfg.standoff.listed_mm == (fig.standoff_mm,) and fig.standoff_mm < 10.0
     assert fig.windows == "auto" and cfg.stipple.windows.value == "auto"
     assert run.cfg is cfg and cfg.chooses_standoff
 
@@ -141,7 +144,7 @@ def _scripted(monkeypatch, scores: dict[tuple[str, float], float], refined=None)
 
     def trial(run, cfg, layers, picture_mm, picture, grid=None, refined_trial=False, **kw):
         table = (refined or scores) if kw.get("refined", refined_trial) else scores
-        return table[(cfg.stipple.windows.value, float(cfg.wall.standoff_mm[0]))]
+        return table[(cfg.stipple.windows.value, cfg.standoff.design_mm)]
 
     monkeypatch.setattr(standoff, "_trial_score", trial)
 
@@ -160,7 +163,7 @@ def test_a_coarse_step_is_tried_only_where_the_near_one_points(monkeypatch):
     assert fig is not None and ("auto", 15.0) not in [(t.windows, t.standoff_mm) for t in fig.trials]
     # Holes alone have no near steps: all theirs are tried.
     assert {("off", 5.0), ("off", 15.0), ("auto", 5.0)} <= {(t.windows, t.standoff_mm) for t in fig.trials}
-    assert cfg.wall.standoff_mm == [5.0]
+    assert cfg.standoff.listed_mm == (5.0,)
     # Neither near step beats the process's stand-off: no coarse step of the config's windows.
     _scripted(monkeypatch, down | {("auto", 8.0): 3.1})
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
@@ -195,7 +198,7 @@ def test_holes_alone_are_chosen_where_windows_spray_worse(monkeypatch):
     )
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
     cfg = choose_plates(run, layers, (60.0, 60.0), pic)
-    assert cfg.stipple.windows.value == "off" and cfg.wall.standoff_mm == [15.0]
+    assert cfg.stipple.windows.value == "off" and cfg.standoff.listed_mm == (15.0,)
     fig = run.figures.standoff
     assert fig is not None and fig.windows == "off" and fig.standoff_mm == 15.0
     assert "holes only, 15 mm" in fig.reason and "2.20" in fig.reason
@@ -211,7 +214,7 @@ def test_the_two_best_of_different_stand_offs_are_told_apart_refined(monkeypatch
     _scripted(monkeypatch, unrefined, refined)
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
     cfg = choose_plates(run, layers, (60.0, 60.0), pic)
-    assert cfg.wall.standoff_mm == [4.0]
+    assert cfg.standoff.listed_mm == (4.0,)
     fig = run.figures.standoff
     assert fig is not None and [t.standoff_mm for t in fig.refined] == [1.0, 4.0]
     assert "refined, windows, 4 mm scored 3.90 against windows, 1 mm 4.40" in fig.reason
@@ -224,7 +227,7 @@ def test_the_two_best_of_different_stand_offs_are_told_apart_refined(monkeypatch
         ("off", 10.0),
         ("auto", 1.0),
     ]
-    assert cfg.wall.standoff_mm == [10.0] and cfg.stipple.windows.value == "off"
+    assert cfg.standoff.listed_mm == (10.0,) and cfg.stipple.windows.value == "off"
 
 
 def test_a_tie_keeps_the_config_own_design(monkeypatch):
@@ -232,7 +235,7 @@ def test_a_tie_keeps_the_config_own_design(monkeypatch):
     _scripted(monkeypatch, dict.fromkeys(candidates(_cfg(), 0.9), 1.0))
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
     cfg = choose_plates(run, layers, (60.0, 60.0), pic)
-    assert cfg.stipple.windows.value == "auto" and cfg.wall.standoff_mm == [10.0]
+    assert cfg.stipple.windows.value == "auto" and cfg.standoff.listed_mm == (10.0,)
 
 
 def test_a_given_stand_off_is_kept():
@@ -240,7 +243,7 @@ def test_a_given_stand_off_is_kept():
     run = Run(cfg=_cfg(wall={"standoff_mm": [10.0]}), out=None)  # type: ignore[arg-type]
     cfg = choose_plates(run, layers, (60.0, 60.0), pic)
     # Holes alone cannot spray the logo's solids: the windows stay, and so does the given stand-off.
-    assert cfg.stipple.windows.value == "auto" and cfg.wall.standoff_mm == [10.0]
+    assert cfg.stipple.windows.value == "auto" and cfg.standoff.listed_mm == (10.0,)
     assert run.figures.standoff is not None and len(run.figures.standoff.trials) == 2
 
 
@@ -248,7 +251,7 @@ def test_windows_off_are_kept_and_never_go_low():
     pic, layers = _flat_layers()
     run = Run(cfg=_cfg(stipple={**_SLA["stipple"], "windows": "off"}), out=None)  # type: ignore[arg-type]
     cfg = choose_plates(run, layers, (60.0, 60.0), pic)
-    assert cfg.stipple.windows.value == "off" and cfg.wall.standoff_mm[0] in (5.0, 10.0, 15.0)
+    assert cfg.stipple.windows.value == "off" and cfg.standoff.design_mm in (5.0, 10.0, 15.0)
 
 
 def test_nothing_left_to_the_job_tries_nothing(monkeypatch):

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from pydantic import ValidationError
 
 from stencil_cad.config import StippleConfig
-from stencil_cad.config.stipple import PROCESS_PRESETS, Process
+from stencil_cad.config.process import Process
 from stencil_cad.stipple.rules import (
     DesignRules,
     DotRuleError,
@@ -37,12 +37,13 @@ def brute_min_web(xy, r):
 @pytest.mark.parametrize("process", list(Process))
 def test_presets_resolve_and_override(process):
     cfg = StippleConfig(process=process)
-    r, web, margin = PROCESS_PRESETS[process]
-    assert (cfg.resolved_hole_min_r_mm, cfg.resolved_web_mm, cfg.resolved_edge_margin_mm) == (r, web, margin)
+    rec = process.record
+    r, web, margin = rec.hole_min_r_mm, rec.web_mm, rec.edge_margin_mm
+    assert (cfg.hole_floor_mm, cfg.resolved_web_mm, cfg.resolved_edge_margin_mm) == (r, web, margin)
     assert cfg.resolved_radius_mm == r
     assert cfg.resolved_max_radius_mm == r
     over = StippleConfig(process=process, hole_min_r_mm=1.5, web_mm=1.1, edge_margin_mm=0.0)
-    assert (over.resolved_hole_min_r_mm, over.resolved_web_mm, over.resolved_edge_margin_mm) == (
+    assert (over.hole_floor_mm, over.resolved_web_mm, over.resolved_edge_margin_mm) == (
         1.5,
         1.1,
         0.0,
@@ -54,9 +55,9 @@ def test_presets_resolve_and_override(process):
 def test_presets_follow_guidance():
     # FDM from the shipped profile's G-code (python -m benchmarks printed --case web): r 0.5 mm holes
     # open within 5 % and a 0.6 mm web prints whole, a 0.5 mm one breaks; resin holds about 0.5 mm.
-    assert StippleConfig(process="fdm").resolved_hole_min_r_mm == 0.5
+    assert StippleConfig(process="fdm").hole_floor_mm == 0.5
     assert StippleConfig(process="fdm").resolved_web_mm == 0.6
-    assert StippleConfig(process="sla").resolved_hole_min_r_mm == 0.5
+    assert StippleConfig(process="sla").hole_floor_mm == 0.5
     assert 0.5 <= StippleConfig(process="laser").resolved_web_mm
 
 
