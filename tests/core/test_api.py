@@ -119,10 +119,14 @@ def test_the_last_preview_is_of_the_plate_design_the_job_chooses(monkeypatch):
         ("refined", 14.0, False),
     ]
     assert len(seen) == 2
+    # The process's stand-off fixed (the windows still the job's): its own trials, not the design
+    # chosen where the stand-off was left to the job.
+    ten = list(api.previews(api.load_config(cfg, overrides={"wall": {"standoff_mm": [10.0]}}), cache))
+    assert [p.standoff_mm for p in ten[:3]] == [10.0] * 3 and len(seen) == 3
     # A config that fixes the design (its stand-off and no windows) runs none either.
     fixed = api.load_config(cfg, overrides={"wall": {"standoff_mm": [12.0]}, "stipple": {"windows": "off"}})
     last = list(api.previews(fixed, cache))[-1]
-    assert (last.level, last.standoff_mm, last.designed, len(seen)) == ("refined", 12.0, False, 2)
+    assert (last.level, last.standoff_mm, last.designed, len(seen)) == ("refined", 12.0, False, 3)
 
 
 def test_the_prior_design_is_lower_with_light_plates():
