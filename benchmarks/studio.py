@@ -11,6 +11,8 @@ in this process) for its S-CIELAB at 1 m. A row per kind of change gives the med
 - ``close_preview_s``: from the change to the first preview within :data:`CLOSE` of the job's S-CIELAB
   at 1 m (None when no preview came that close: ``close_n`` counts those that did);
 - ``preview_scielab_1m``: the last preview's S-CIELAB at 1 m; ``job_scielab_1m``: the job's;
+- ``levels`` (per change): each preview's level, seconds, S-CIELAB at 1 m and stand-off in mm;
+  ``job_standoff_mm``: the wall the job chose (None when the config fixes it);
 - ``last_preview_s``: from the change to the last preview (``designed`` when the stand-off is left to the
   job: its plate-design trials run first, ``refined`` otherwise);
 - ``close_sprayed_s``: from the change to the first preview of sprayed holes (``stippled`` or
@@ -83,12 +85,13 @@ def one_change(settings: dict[str, Any], cache: Any, ws: Any, out: Path) -> dict
     cfg = _config(settings, ws)
     shown = []
     for p in api.previews(cfg, cache):
-        shown.append((time.perf_counter() - t0, p.level, p.scielab))
+        shown.append((time.perf_counter() - t0, p.level, p.scielab, p.standoff_mm))
     result = api.run(cfg, out)
     sim = result.figures.simulate
     job = float(sim.scielab) if sim is not None and sim.scielab is not None else float("nan")
-    close = next((t for t, _, s in shown if abs(s - job) <= CLOSE), None)
-    sprayed = next((t for t, lvl, s in shown if lvl != "coarse" and abs(s - job) <= CLOSE), None)
+    close = next((t for t, _, s, _ in shown if abs(s - job) <= CLOSE), None)
+    sprayed = next((t for t, lvl, s, _ in shown if lvl != "coarse" and abs(s - job) <= CLOSE), None)
+    design = result.figures.standoff
     return {
         "first_preview_s": shown[0][0],
         "close_preview_s": close,
@@ -96,7 +99,8 @@ def one_change(settings: dict[str, Any], cache: Any, ws: Any, out: Path) -> dict
         "last_preview_s": shown[-1][0],
         "preview_scielab_1m": shown[-1][2],
         "job_scielab_1m": job,
-        "levels": [[lvl, round(t, 2), round(s, 3)] for t, lvl, s in shown],
+        "job_standoff_mm": None if design is None else design.standoff_mm,
+        "levels": [[lvl, round(t, 2), round(s, 3), g] for t, lvl, s, g in shown],
     }
 
 

@@ -1,14 +1,13 @@
 """A fast, progressive preview of what a job sprays: the same stages as the job, on a coarser grid, nothing written.
 
-Three or four levels, each better and slower than the one before. Measured before the last level ran the
-job's plate-design trials: on the bundled example the last scored 3.98 at 1 m against the full job's
-3.99; after one change of its settings (``python -m benchmarks studio``, five changes of each kind,
-medians, on two cores shared with other work at a load average of 6-15) the first preview came in
-1.1-2.0 s, one within 0.5 of the job's S-CIELAB at 1 m in 2.1-10.9 s and the last in 8.0-14.6 s.
-With the trials (a fresh cache, load average 6-15): on the bundled example ``refined`` (10 mm) came
-at 20.5 s and scored 3.87 against the job's 3.71; the job chose 8 mm, and ``designed``, at 8 mm,
-scored 3.83 at 200 s (the trials most of it); a 30 mm version in three layers (the job kept 10 mm)
-scored 8.70 against the job's 8.97, at 14.5 s:
+Three or four levels, each better and slower than the one before. On the bundled example with light
+plates (eight plates), after one change of its settings (``python -m benchmarks studio``, five changes
+of each kind, medians, two cores shared with other work at a load average of 1-6) the first preview
+came in 0.6-1.2 s, one within 0.5 of the job's S-CIELAB at 1 m in 0.6-3.8 s (often the coarse level;
+the refined holes in 7-13 s) and the last, after the trials, in 59-94 s (a fixed stand-off: 8.2 s
+and 9.8 s). When the previews before
+the trials showed the process's 10 mm and the job chose 5 mm, a change of paints took 58.7 s to a
+close preview:
 
 - ``coarse``: the decomposition, its opacities blurred as the can blurs them at the wall's stand-off
   (sigma = spread x stand-off) and composited: how the tones land, before any hole is placed. When
@@ -27,17 +26,20 @@ the viewing distance and twice it); the last also sprays its holes with every ca
 as the job's ``scielab_by_can`` does, for the range of scores the maker's can may give.
 
 The plate design is the job's: when the config leaves the windows or the stand-off to the job
-(:func:`leaves_design`), the ``stippled`` and ``refined`` levels show the config's own design
-(quickly), and then the job's own plate-design trials (:func:`stencil_cad.pipeline.standoff.choose_plates`,
-on the job's config and grid) choose the design the last level, ``designed``, shows. A mural keeps the
-config's design, as the job does.
+(:func:`leaves_design`), the levels before the trials show a design the trials are likely to choose
+(the job's own when these settings' trials ran before; else :func:`start_design`, the one the trials
+chose most often for the same picture, process, spray and distance, or the prior of
+:func:`stencil_cad.pipeline.standoff.prior_design`), and then the job's own plate-design trials
+(:func:`stencil_cad.pipeline.standoff.choose_plates`, on the job's config and grid) choose the design
+the last level, ``designed``, shows. The decomposition is the job's, at the config's stand-off. A
+mural keeps the config's design, as the job does.
 
 What does not change between two settings is kept (:class:`PreviewCache`): the decomposition, keyed on
 everything it reads (the image file, the size, the decomposition and paints sections, the seed and what
 the plates can spray), the unrefined holes, keyed on the whole config but the refinement, view and
 paints' cost settings, and the plate design chosen, keyed on the decomposition and the whole job config
-but its name and output settings (:func:`design_key`). All are bounded (a few entries each, least
-recently used dropped).
+but its name and output settings (:func:`design_key`), and the designs chosen by :func:`family_key`.
+All are bounded (a few entries each, least recently used dropped).
 """
 
 from __future__ import annotations
@@ -172,12 +174,13 @@ class Preview:
 
 @dataclass
 class PreviewCache:
-    """What two previews can share, bounded: decompositions, unrefined hole sets and plate designs (least recently used dropped)."""
+    """What two previews can share, bounded: decompositions, unrefined hole sets, plate designs and each family's (least recently used dropped)."""
 
     entries: int = CACHE_ENTRIES
     layers: OrderedDict[str, tuple[Layers, JobConfig]] = field(default_factory=OrderedDict)
     holes: OrderedDict[str, list[DotSet]] = field(default_factory=OrderedDict)
     designs: OrderedDict[str, tuple[str, float]] = field(default_factory=OrderedDict)
+    families: OrderedDict[str, dict[tuple[str, float], int]] = field(default_factory=OrderedDict)
 
     def get(self, table: OrderedDict[str, Any], key: str) -> Any:
         """The entry under ``key`` (marked as just used), or None."""
@@ -256,6 +259,7 @@ def previews(
     from . import tiles
     from .picture import load_picture
     from .run import fit_thickness
+    from .standoff import with_design
 
     if cfg.mode == Mode.hard:
         raise UserError("the preview shows soft (stippled) jobs; hard mode has no preview yet (use `run`)")
@@ -268,18 +272,25 @@ def previews(
     size = (picture.width_mm, picture.height_mm)
     grid, _ = tiles.plan(pcfg, *size, picture.shape[0] * picture.shape[1])
     run.cfg = fit_thickness(run, grid)
+    designing = not grid.tiled and leaves_design(run.cfg)
+    start = start_design(cfg, cache) if designing else None
     decomposed = cache.get(cache.layers, decomposition_key(run.cfg)) is not None
     if not decomposed:
         # Not decomposed yet: the first preview comes from a decomposition at half the resolution.
-        yield _quick(run, picture, cache, grid, size, t0)
+        yield _quick(run, picture, cache, grid, size, t0, start)
         run.check()
     layers = plates_of(run, _layers(run, picture, cache), grid.tiled)
-    made = _Made(run, picture, layers, grid, size, t0)
+    # Decomposed as the job decomposes (at the config's stand-off); the holes start at ``start``.
+    own, job_cfg, known = run.cfg, run.cfg, None
+    if designing:
+        job_cfg = _job_config(run, cfg, grid)
+        known = cast("tuple[str, float] | None", cache.get(cache.designs, design_key(job_cfg)))
+        run.cfg = with_design(own, *(known or cast("tuple[str, float]", start)))
+    made = _Made(run, picture, layers, grid, size, t0, designed=known is not None)
     if decomposed:
         yield made.coarse()
         run.check()
     holes = _holes(run, layers, size, picture, cache)
-    designing = not grid.tiled and leaves_design(run.cfg)
     refining = run.cfg.refine.enabled
     yield made.sprayed("stippled", holes, final=not (refining or designing))
     if refining:
@@ -290,12 +301,10 @@ def previews(
         yield made.sprayed("refined", refined, final=not designing)
     if designing:
         run.check()
-        windows, standoff = _design(run, cfg, grid, layers, size, picture, cache)
+        windows, standoff = known or _design(run, job_cfg, layers, size, picture, cache, family_key(cfg))
         made.designed = True
         if (windows, standoff) != (run.cfg.stipple.windows.value, run.cfg.standoff.design_mm):
-            from .standoff import with_design
-
-            run.cfg = with_design(run.cfg, windows, standoff)
+            run.cfg = with_design(own, windows, standoff)
             holes = _holes(run, layers, size, picture, cache)
             if refining:
                 run.check()
@@ -315,35 +324,65 @@ def design_key(job_cfg: JobConfig) -> str:
     dump = job_cfg.model_dump(mode="json")
     for k in ("export", "compute", "name"):
         dump.pop(k, None)
-    return _digest("design", decomposition_key(job_cfg), dump)
+    # A stand-off left to the job and the same one fixed dump alike: only the first is chosen again.
+    return _digest("design", decomposition_key(job_cfg), dump, job_cfg.chooses_standoff)
+
+
+def family_key(cfg: JobConfig) -> str:
+    """What a plate design rests on but the paints, layers and size: the image, how its plates are made, sprayed and seen."""
+    dump = cfg.model_dump(mode="json")
+    parts = [dump[k] for k in ("mode", "stipple", "spray", "wall", "refine", "view")]
+    return _digest("family", _image_key(cfg), parts, cfg.chooses_standoff)
+
+
+def start_design(cfg: JobConfig, cache: PreviewCache) -> tuple[str, float]:
+    """The plate design ``(windows, stand-off in mm)`` a preview starts at before its trials have run.
+
+    The design the trials chose most often for ``cfg``'s family (:func:`family_key`: the same picture,
+    process, spray and distance, other paints, layers or size), counted in ``cache``, the prior
+    (:func:`stencil_cad.pipeline.standoff.prior_design`) winning a tie and standing alone before any
+    trial. A count, not the last choice: on the bundled example the trials chose 5 mm for four of five
+    paint sets and 8 mm for one, and the set after that one chose 5 mm again.
+    """
+    from .standoff import prior_design
+
+    prior = prior_design(cfg)
+    votes = cast("dict[tuple[str, float], int]", cache.get(cache.families, family_key(cfg)) or {})
+    return max([prior, *votes], key=lambda d: (votes.get(d, 0), d == prior))
+
+
+def _job_config(run: Run, cfg: JobConfig, grid: Any) -> JobConfig:
+    """The job's config as its plate-design trials read it: its own grid, the plate thickness its tiling asks, the primer chosen."""
+    from .run import fit_thickness
+
+    job = Run(cfg=cfg, out=run.out, quiet=True, cancel=run.cancel)
+    return fit_thickness(job, grid).model_copy(update={"decompose": run.cfg.decompose})
 
 
 def _design(
     run: Run,
-    cfg: JobConfig,
-    grid: Any,
+    job_cfg: JobConfig,
     layers: Layers,
     size: tuple[float, float],
     picture: Picture,
     cache: PreviewCache,
+    family: str,
 ) -> tuple[str, float]:
     """The plate design the job chooses, ``(windows, stand-off in mm)``: its own trials, on its own grid.
 
-    The trials run on the job's config (not the preview's grid or iterations), so the design is the one
-    the job makes; it is kept in ``cache`` under :func:`design_key`.
+    The trials run on the job's config ``job_cfg`` (:func:`_job_config`: not the preview's grid or
+    iterations), so the design is the one the job makes; it is kept in ``cache`` under
+    :func:`design_key`, and counted among its ``family``'s choices (:func:`family_key`, :func:`start_design`).
     """
-    from .run import fit_thickness
     from .standoff import choose_plates
 
-    job = Run(cfg=cfg, out=run.out, quiet=True, cancel=run.cancel)
-    job.cfg = fit_thickness(job, grid).model_copy(update={"decompose": run.cfg.decompose})
-    key = design_key(job.cfg)
-    hit = cache.get(cache.designs, key)
-    if hit is not None:
-        return cast("tuple[str, float]", hit)
+    job = Run(cfg=job_cfg, out=run.out, quiet=True, cancel=run.cancel)
     chosen = choose_plates(job, layers, size, picture)
     design = (chosen.stipple.windows.value, chosen.standoff.design_mm)
-    cache.put(cache.designs, key, design)
+    cache.put(cache.designs, design_key(job_cfg), design)
+    votes = dict(cache.get(cache.families, family) or {})
+    votes[design] = votes.get(design, 0) + 1
+    cache.put(cache.families, family, votes)
     return design
 
 
@@ -372,10 +411,20 @@ def _half_key(cfg: JobConfig) -> str:
 
 
 def _quick(
-    run: Run, picture: Picture, cache: PreviewCache, grid: Any, size: tuple[float, float], t0: float
+    run: Run,
+    picture: Picture,
+    cache: PreviewCache,
+    grid: Any,
+    size: tuple[float, float],
+    t0: float,
+    start: tuple[str, float] | None,
 ) -> Preview:
-    """The coarse level from a decomposition at half the resolution (about half the time of the job's)."""
+    """The coarse level from a decomposition at half the resolution (about half the time of the job's).
+
+    Decomposed at the config's stand-off, as the job decomposes; blurred at the ``start`` design's.
+    """
     from .picture import load_picture
+    from .standoff import with_design
 
     half = Run(cfg=half_config(run.cfg), out=run.out, quiet=True, cancel=run.cancel)
     key = _half_key(run.cfg)
@@ -385,6 +434,8 @@ def _quick(
     else:
         layers = hit[0]
         half.cfg = half.cfg.model_copy(update={"decompose": hit[1].decompose})
+    if start is not None:
+        half.cfg = with_design(half.cfg, *start)
     return _Made(half, picture, plates_of(half, layers, grid.tiled), grid, size, t0).coarse()
 
 

@@ -9,6 +9,21 @@ from stencil_cad.pipeline.preview import PreviewCache, decomposition_key, holes_
 SMALL = {"size": {"width_mm": 40.0}, "decompose": {"layers": 2}}
 
 
+def small_example(layers: int = 2):
+    """The bundled example at 40 mm from a mapping that leaves the stand-off to the job, as the studio's does."""
+    import yaml
+
+    from stencil_cad.imaging import example_config_path
+
+    data = yaml.safe_load(example_config_path().read_text(encoding="utf-8"))
+    data.pop("image")
+    cfg = api.load_config(
+        {**data, "size": {**data["size"], "width_mm": 40.0}, "decompose": {"layers": layers}}
+    )
+    assert cfg.chooses_standoff
+    return cfg
+
+
 def test_a_config_from_the_example_a_mapping_and_overrides():
     example = api.load_config(None)
     assert example.name == "example" and example.decompose.layers == 4
@@ -77,13 +92,14 @@ def test_the_last_preview_is_of_the_plate_design_the_job_chooses(monkeypatch):
         return run.cfg
 
     monkeypatch.setattr(standoff, "choose_plates", choose)
-    cfg = api.load_config(None, overrides=SMALL)
+    cfg = small_example()
     cache = api.preview_cache()
     shown = list(api.previews(cfg, cache))
+    # Before the trials the previews start at the prior: with light plates, 5 mm below the process's 10 mm.
     assert [(p.level, p.standoff_mm, p.designed, p.final) for p in shown] == [
-        ("coarse", 10.0, False, False),
-        ("stippled", 10.0, False, False),
-        ("refined", 10.0, False, False),
+        ("coarse", 5.0, False, False),
+        ("stippled", 5.0, False, False),
+        ("refined", 5.0, False, False),
         ("designed", 14.0, True, True),
     ]
     assert shown[-1].windows == "off" and shown[-1].final
@@ -91,12 +107,41 @@ def test_the_last_preview_is_of_the_plate_design_the_job_chooses(monkeypatch):
     assert (
         seen[0].spray.px_per_mm == cfg.spray.px_per_mm and seen[0].refine.iterations == cfg.refine.iterations
     )
-    # The design is kept: the same settings again run no trials.
-    assert list(api.previews(cfg, cache))[-1].standoff_mm == 14.0 and len(seen) == 1
+    # The design is kept: the same settings again run no trials, and every level shows the job's design.
+    again = list(api.previews(cfg, cache))
+    assert [(p.standoff_mm, p.windows, p.designed) for p in again] == [(14.0, "off", True)] * 4
+    assert len(seen) == 1
+    # Other paints (another decomposition): the trials run again, the previews before them start at
+    # the design last chosen for the same picture, process and spray.
+    other = list(api.previews(small_example(layers=3), cache))
+    assert [(p.level, p.standoff_mm, p.designed) for p in other][1:3] == [
+        ("stippled", 14.0, False),
+        ("refined", 14.0, False),
+    ]
+    assert len(seen) == 2
+    # The process's stand-off fixed (the windows still the job's): its own trials, not the design
+    # chosen where the stand-off was left to the job.
+    ten = list(api.previews(api.load_config(cfg, overrides={"wall": {"standoff_mm": [10.0]}}), cache))
+    assert [p.standoff_mm for p in ten[:3]] == [10.0] * 3 and len(seen) == 3
     # A config that fixes the design (its stand-off and no windows) runs none either.
     fixed = api.load_config(cfg, overrides={"wall": {"standoff_mm": [12.0]}, "stipple": {"windows": "off"}})
     last = list(api.previews(fixed, cache))[-1]
-    assert (last.level, last.standoff_mm, last.designed, len(seen)) == ("refined", 12.0, False, 1)
+    assert (last.level, last.standoff_mm, last.designed, len(seen)) == ("refined", 12.0, False, 3)
+
+
+def test_the_prior_design_is_lower_with_light_plates():
+    from stencil_cad.pipeline.standoff import prior_design
+
+    cfg = small_example()
+    assert prior_design(cfg) == ("auto", 5.0)
+    from stencil_cad.config.stipple import LightPlates
+
+    one_plate = cfg.model_copy(
+        update={"stipple": cfg.stipple.model_copy(update={"light_plates": LightPlates.off})}
+    )
+    assert one_plate.chooses_standoff and prior_design(one_plate) == ("auto", 10.0)
+    fixed = api.load_config(cfg, overrides={"wall": {"standoff_mm": [12.0]}})
+    assert prior_design(fixed) == ("auto", 12.0)
 
 
 def test_a_preview_stops_when_cancelled():
