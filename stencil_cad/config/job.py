@@ -5,7 +5,7 @@ from __future__ import annotations
 import enum
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import (
     Field,
@@ -249,6 +249,26 @@ class JobConfig(StrictModel):
         cfg = handler(_mural_label(data) if left else data)
         cfg._label_filled = left
         return cfg
+
+    def unfilled_data(self) -> dict[str, Any]:
+        """The config's data with every value it filled in (not the maker's) null again.
+
+        What a changed config is parsed from (``--image``, ``--bed``, ``hard``, the API's overrides),
+        so that it fills them in again for the change: the stand-off the job chooses, the plate's
+        thickness, the tiles' margin, the mural's raised label, the one-layer web.
+        """
+        data = self.model_dump(mode="json")
+        if self.wall.standoff_mm is None:
+            data["wall"]["standoff_mm"] = None
+        if self._thickness_fill is not None:
+            data["plate"]["thickness_mm"] = None
+        if self._margin_filled:
+            data["plate"]["outline"]["margin_mm"] = None
+        if self._label_filled:
+            data["plate"]["label"] = None
+        if self._web_filled:
+            data["stipple"]["web_mm"] = None
+        return data
 
     @model_serializer(mode="wrap")
     def _listed_standoff(self, handler: SerializerFunctionWrapHandler):
@@ -526,7 +546,7 @@ def parse_overrides(
     """
     from .io import parse_config
 
-    data = cfg.model_dump(mode="json")
+    data = cfg.unfilled_data()
     if image is not None:
         data["image"] = str(image)
     if seed is not None:
@@ -539,14 +559,4 @@ def parse_overrides(
         data["mode"] = Mode.hard.value
     if bed is not None:
         data["bed"] = list(bed) if isinstance(bed, tuple) else bed
-    if cfg.wall.standoff_mm is None:
-        data["wall"]["standoff_mm"] = None  # the default again (and chosen for the picture) for the new mode
-    if cfg._thickness_fill is not None:
-        data["plate"]["thickness_mm"] = None  # filled in again for the new image, bed or mode
-    if cfg._margin_filled:
-        data["plate"]["outline"]["margin_mm"] = None  # the tiles' margin for the new bed, size or mode
-    if cfg._label_filled:
-        data["plate"]["label"] = None  # raised again for a mural on the new bed, size or mode
-    if cfg._web_filled:
-        data["stipple"]["web_mm"] = None  # filled in again for the new plate thickness
     return parse_config(data, source="command line")

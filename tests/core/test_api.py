@@ -36,6 +36,16 @@ def test_a_config_from_the_example_a_mapping_and_overrides():
         api.run(cfg, "nowhere", command="paint")
 
 
+def test_overrides_keep_what_the_config_left_to_the_job():
+    """A config changed through the API fills in again what it filled in: the wall stays the job's to choose."""
+    cfg = api.load_config()
+    assert cfg.chooses_standoff
+    changed = api.load_config(cfg, overrides={"decompose": {"layers": 3}})
+    assert changed.chooses_standoff and changed.wall.standoff_mm is None
+    fixed = api.load_config(cfg, overrides={"wall": {"standoff_mm": [8.0]}})
+    assert not fixed.chooses_standoff and fixed.standoff.design_mm == 8.0
+
+
 def test_the_decomposition_is_keyed_on_what_it_reads():
     cfg = api.load_config(None)
     key = decomposition_key(cfg)
