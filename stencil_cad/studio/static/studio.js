@@ -87,7 +87,9 @@ function showPreview(p) {
   $("f-passes").textContent = p.passes ? p.passes.join(" · ") : "—";
   $("f-holes").textContent = p.holes ? p.holes.map((n) => n.toLocaleString()).join(" · ") : "—";
   $("f-parts").textContent = `${p.plates} plates, ${p.walls} wall(s), ${p.tiles} tile(s)`;
-  $("f-standoff").textContent = `${p.standoff_mm} mm, windows ${p.windows}` + (p.designed ? " (the job's choice)" : "");
+  // Before the plate-design trials, an automatic wall is the likeliest choice, not yet the job's.
+  const likely = !p.designed && $("standoff_mode").value === "auto" ? " (likely; the job's trials come last)" : "";
+  $("f-standoff").textContent = `${p.standoff_mm} mm, windows ${p.windows}` + (p.designed ? " (the job's choice)" : likely);
   if (p.scielab_range) {
     $("f-range").textContent = `between ${fmt(p.scielab_range[0])} and ${fmt(p.scielab_range[1])} depending on your can`;
   } else {
