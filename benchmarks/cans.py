@@ -73,14 +73,14 @@ def _job(folder: Path):
     from stencil_cad.decompose.light import light_plates
     from stencil_cad.imaging import load_picture
     from stencil_cad.model import DotSet
+    from stencil_cad.mural import light_plates_on
     from stencil_cad.pipeline.saved import read_dots, read_layers
-    from stencil_cad.pipeline.tiles import light_plates_on
     from stencil_cad.stipple.made import made_dots
 
     cfg = load_config(folder / "config.yaml")
     # The plates the one-plate job stippled from its saved layers (a light and a dark plate per paint).
     layers = read_layers(folder)
-    if light_plates_on(cfg, tiled=False):
+    if light_plates_on(cfg, False):
         layers = light_plates(layers)
     size_mm = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
     dots = read_dots(folder, layers.count, max_time=8.0 * cfg.spray.amount_cap)

@@ -34,9 +34,9 @@ import yaml
 
 from stencil_cad.config.io import load_config
 from stencil_cad.figures import CostFigures, PartCost
-from stencil_cad.mural import making_cost, plan_tiles
+from stencil_cad.mural import making_cost, plan_tiles, plate_layers
 from stencil_cad.mural.cost import FILAMENT_MM2, PLA_G_PER_MM3
-from stencil_cad.pipeline import read_dots, slice_plates, tiles
+from stencil_cad.pipeline import read_dots, slice_plates
 from stencil_cad.slicing import gcode
 
 #: The small mural: big enough for 4 tiles on a Prusa MK4, small enough to slice every part.
@@ -90,7 +90,7 @@ def _estimates(folder: Path) -> tuple[CostFigures, CostFigures, str | tuple[floa
     # The plates the job made (a light and a dark plate per paint on a one-plate job) and the plan's.
     made = int(manifest["decompose"].get("plates", cfg.decompose.layers))
     holes = making_cost(grid, cfg, made, read_dots(folder, made))
-    plan = making_cost(grid, cfg, tiles.plate_layers(cfg, grid.tiled))
+    plan = making_cost(grid, cfg, plate_layers(cfg, grid))
     return holes, plan, cfg.bed
 
 

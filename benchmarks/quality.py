@@ -526,7 +526,7 @@ def run(cases=None, size: dict | None = None):
 
             run0 = pipeline.Run(cfg=cfg0, out=_NullOut(), quiet=True)
             # The plates a one-plate job stipples (two per paint with light plates).
-            layers = plates_of(run0, pipeline.stage_decompose(run0, pic), tiled=False)
+            layers = plates_of(run0, pipeline.stage_decompose(run0, pic), False)
             t_decompose = time.perf_counter() - t0
             soft, plain, timing, sim1, ref, run_ = _soft(f, pipeline, cfg0, layers, pic, image, "off")
             # What the job does by default: the plate design it chooses for the picture (windows on

@@ -139,6 +139,11 @@ class MuralFigures:
     #: The scores in register and the registration costs (the tiles shifted in simulation).
     simulation: MuralSimulation | None = None
 
+    @property
+    def mural_seconds(self) -> float | None:
+        """A tiled mural's estimated work in seconds (which may start a cluster), or None for one plate."""
+        return float(self.cost["estimated_seconds"]) if self.tiled else None
+
     @classmethod
     def from_json(cls, section: Row) -> MuralFigures:
         """The manifest's ``mural`` section."""

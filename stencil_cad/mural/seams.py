@@ -11,11 +11,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..model import DotSet
+from ..errors import UserError
+from ..model import DotSet, Holes
 from .tiling import TileGrid
 
 if TYPE_CHECKING:
-    from ..config import SprayConfig
+    from ..config import JobConfig, SprayConfig
     from ..simulate.physical import SprayGeometry
 
 # --------------------------------------------------------------------------- holes
@@ -50,6 +51,56 @@ def split_dots(dotset: DotSet, grid: TileGrid) -> list[DotSet]:
             )
         )
     return out
+
+
+def per_tile(layers: Sequence[Holes], grid: TileGrid) -> list[list[Holes]]:
+    """Per tile, per layer, the tile's holes in the tile frame (each hole to the tile owning its centre).
+
+    One tile's holes are the layers as they are: its tile frame is the picture's.
+    """
+    if not grid.tiled:
+        return [list(layers)]
+    split = [split_dots(ds, grid) for ds in layers]  # type: ignore[arg-type]  # a mural's holes are DotSets
+    return [[split[i][k] for i in range(len(layers))] for k in range(len(grid.tiles))]
+
+
+def check_unions(cfg: JobConfig, grid: TileGrid, sets: dict[str, list[DotSet]]) -> None:
+    """The union of the tiles' holes is the global set (same count) and keeps the rules across every seam.
+
+    ``sets`` holds the holes ``asked`` (the design rules), ``made`` by the process (the web never
+    under its minimum, the hole never under the 0.5 mm floor by more than the process's offset: a
+    hole at the picture's margin is not grown, so it is made a little under the stippler's radius,
+    as on a one-plate job) and
+    ``drawn`` on the plates (the web less twice the process's offset, which the process gives back).
+    A picture of one tile has no seam: nothing to check.
+
+    Raises:
+        UserError: A layer's holes break the rules across a seam.
+    """
+    from ..stipple import rules as dots
+
+    if not grid.tiled:
+        return
+    design = cfg.stipple.design_rules(grid.width_mm, grid.height_mm)
+    made_less = max(cfg.stipple.resolved_hole_offset_mm, 0.0)
+    offset = made_less if cfg.stipple.compensate else 0.0
+    floor = design.with_any_floor()
+    rules = {"asked": design, "made": floor, "drawn": replace(floor, web_mm=design.web_mm - 2.0 * offset)}
+    # A hole the margin keeps from growing (or every hole, uncompensated) is made its radius less
+    # the offset: at the 0.5 mm floor of every preset, 0.485 mm under FDM. The made webs lose
+    # nothing by the tolerance: each is the drawn web (checked to the 0.001 mm) plus twice the offset.
+    tol = {"made": dots.CHECK_TOL_MM + made_less}
+    for kind, layer_sets in sets.items():
+        for i, ds in enumerate(layer_sets):
+            u = to_mural(split_dots(ds, grid), grid)
+            if len(u) != len(ds):
+                raise RuntimeError(f"layer {i + 1}: tiles hold {len(u)} {kind} holes, the mural {len(ds)}")
+            try:
+                dots.check_rules(u.xy_mm, u.r_mm, rules[kind], tol.get(kind, dots.CHECK_TOL_MM))
+            except ValueError as exc:
+                raise UserError(
+                    f"layer {i + 1} ({kind} holes, all tiles in mural coordinates): {exc}"
+                ) from None
 
 
 def to_mural(tile_sets: list[DotSet], grid: TileGrid) -> DotSet:

@@ -486,6 +486,83 @@ def wall_tiles(grid: TileGrid) -> dict[str, list[str]]:
     return out
 
 
+def has_seams(grid: TileGrid) -> bool:
+    """Whether tiles meet at seams: a mural's map, registration cases, per-tile figures and seam checks exist only then."""
+    return grid.tiled
+
+
+def part_name(tile: Tile, grid: TileGrid) -> str | None:
+    """The tile's name in its parts' file names (``tile_B3_layer_02``), or None for one tile (``layer_02``)."""
+    return tile.name if grid.tiled else None
+
+
+def sight_lines(tile: Tile) -> tuple[list[float], list[float]]:
+    """The grid lines a tile's plate and wall carry as sight notches, in the part frame.
+
+    The core's edges (:meth:`Tile.part_lines`) on a part that reaches past its core; none on a
+    one-plate job's part, which ends at the picture.
+    """
+    return tile.part_lines() if tile.part is not None else ([], [])
+
+
+def label_band(tile: Tile) -> bool:
+    """Whether a tile's plate label may rise into the solid band below its lowest hole.
+
+    A mural's part reaches the spray halo past its core, solid, so its label rises into that band;
+    a one-plate job's label stays in the border.
+    """
+    return tile.part is not None
+
+
+def chooses_design(grid: TileGrid) -> bool:
+    """Whether the job chooses the plate design it leaves to itself (windows, the wall's stand-off) for its picture.
+
+    A one-plate job does; a mural keeps the config's: trials over every tile would cost more than the job.
+    """
+    return not grid.tiled
+
+
+def check_mode(grid: TileGrid, cfg: JobConfig) -> None:
+    """Refuse a hard-mode job whose picture is cut into tiles: hard mode makes one plate per layer.
+
+    Raises:
+        UserError: A hard job whose plate does not fit the bed.
+    """
+    if cfg.mode.value == "hard" and grid.tiled:
+        raise UserError(
+            f"hard mode makes one plate per layer, and a {grid.width_mm:.0f} × {grid.height_mm:.0f} mm picture's "
+            f"plate does not fit the bed {grid.bed}; use soft mode for a tiled mural, a larger bed or a smaller size"
+        )
+
+
+def light_plates_on(cfg: JobConfig, grid: TileGrid | bool) -> bool:
+    """Whether each paint is sprayed through a light and a dark plate (``stipple.light_plates``).
+
+    ``auto``: on for a one-plate soft job under the physical spray model (the dose is what the light
+    plate lowers), off for a mural, where the second plate would double the printer-hours.
+
+    Args:
+        cfg: The job config.
+        grid: The job's tiling, or whether the job is a mural (for a caller without the tiling).
+    """
+    from ..config.stipple import LightPlates
+
+    choice = cfg.stipple.light_plates
+    if cfg.mode.value == "hard" or choice == LightPlates.off:
+        return False
+    is_mural = grid if isinstance(grid, bool) else grid.tiled
+    return choice == LightPlates.on or (not is_mural and cfg.spray.is_physical)
+
+
+def plate_layers(cfg: JobConfig, grid: TileGrid | bool) -> int:
+    """Plates per tile the job plans for: the paint layers (two each with light plates), or one per colour but the primer (hard)."""
+    if cfg.mode.value != "hard":
+        return cfg.decompose.layers * (2 if light_plates_on(cfg, grid) else 1)
+    # A palette given as a list fixes the colours; a can list's length is known once it is read.
+    palette = cfg.hard.palette
+    return (len(palette) if isinstance(palette, list) else cfg.hard.colours) - 1
+
+
 def tile_label(tile: Tile | None, grid: TileGrid) -> str:
     """The tile part of a plate label, e.g. ``"B3 of 2x4"``, or empty for one tile."""
     if tile is None or not grid.tiled:

@@ -1,84 +1,453 @@
-"""The build stage's glue: plates and walls built, checked and exported, one plate per layer or per tile and layer."""
+"""The build stage's glue: every tile's plates and walls as tasks, built, checked and exported.
+
+One path for every job: a one-plate job is the 1 × 1 tiling (:meth:`stencil_cad.mural.TileGrid.whole`),
+a mural is N × M, and the tiling decides what differs (names, sight notches, posts, the stand).
+Tiles are a layer over the global result: the stipple stage places the holes into one hole set
+per layer over the whole picture, :func:`stencil_cad.mural.per_tile` hands each hole to one tile,
+and each tile's plates and wall are built in the tile's own frame. Every tile is independent of
+the others once the holes are split, so each part is a separate task.
+"""
 
 from __future__ import annotations
 
+import contextlib
 import logging
-from collections.abc import Sequence
+import tempfile
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from .. import mural
 from ..colour import to_hex
 from ..errors import UserError
 from ..figures import BuildFigures
-from ..model import CutLayer, DotSet, Holes, Layers
+from ..model import CutLayer, DotSet, Holes, Layers, Picture
 from ..names import part_file
 from ..output import plain as _plain
 from ..record import Run
-from ..stipple.made import drawn_dots
-from .names import layer_stem, wall_stems
+from . import stand, tiles
+from .names import part_stem, part_wall_stems
+
+if TYPE_CHECKING:
+    from ..cad import LabelInfo
+    from ..config.bed import Bed
+    from ..config.job import JobConfig
 
 log = logging.getLogger(__name__)
 
 
-def stage_build(run: Run, layers: Layers, holes: Sequence[Holes], picture_mm: tuple[float, float]) -> None:
-    """Build, check and export one plate per layer and the wall(s)."""
-    from .. import cad, outline
-    from ..cad import wall as wall_mod
-    from ..exchange import dxf
-    from ..exchange.writers import ONE_PLATE_ORDER, part_figures, wanted, write_part
+def stage_build(
+    run: Run, layers: Layers, holes: Sequence[Holes], grid: mural.TileGrid, picture: Picture | None = None
+) -> list[list[Holes]]:
+    """Build, check and export every tile's plates (one per layer) and wall(s): see :func:`start_build`.
 
+    Returns:
+        Per tile, per layer, the tile's holes as the process makes them, in the tile frame.
+    """
+    return finish_build(run, start_build(run, layers, holes, grid, picture))
+
+
+@dataclass
+class BuildStarted:
+    """A job's plates and walls started as its tasks (:func:`start_build`), not yet collected."""
+
+    asked: list[Holes]
+    drawn: list[Holes]
+    made: list[Holes]
+    holes_tile: list[list[Holes]]
+    posts: dict[Any, Any]
+    grid: mural.TileGrid
+    laser: Any
+    tasks: Any
+    layers: Layers
+    picture: Picture | None
+    #: Per tile, per layer, the tile's holes as the process makes them, in the tile frame.
+    per_tile: list[list[Holes]]
+
+
+def start_build(
+    run: Run, layers: Layers, holes: Sequence[Holes], grid: mural.TileGrid, picture: Picture | None = None
+) -> BuildStarted:
+    """Start every tile's plates and walls as the job's tasks; :func:`finish_build` collects them.
+
+    The plates draw the holes compensated for the process (``stipple.compensate``): each hole is
+    grown over the whole picture before the holes are split among the tiles, so a hole at a seam
+    keeps the web to its neighbours on the next tile's plate too. The holes are checked across
+    the seams and split here, before any task starts, so this process can simulate meanwhile.
+    """
     cfg = run.cfg
-    width_mm, height_mm = picture_mm
-    exp = cfg.export
-    results = []
+    asked = list(holes)
+    drawn, made = drawn_and_made(cfg, asked, grid)
+    mural.check_unions(cfg, grid, {"asked": asked, "made": made, "drawn": drawn})  # type: ignore[dict-item]
+    holes_tile = mural.per_tile(drawn, grid)
+    per_tile, posts = _with_posts(cfg, asked, holes_tile, grid)
+    # A laser-cut mural stands in a frame and on spacers cut from sheet: no printed wall or post.
+    laser = mural.laser_stand(cfg, grid)
+    heights = cfg.standoff.walls_mm if laser is None else []
+    tasks = _part_tasks(cfg, layers, grid, per_tile, heights)
+    # Each plate and wall is a task (built, checked and exported where it runs); the files
+    # come back as bytes and are staged in task order, so the output is the same whichever
+    # process built what.
+    started = run.tasks.start(build_part, tasks, "build")
+    per_made = mural.per_tile(made, grid)
+    return BuildStarted(
+        asked, drawn, made, holes_tile, posts, grid, laser, started, layers, picture, per_made
+    )
+
+
+def finish_build(run: Run, started: BuildStarted) -> list[list[Holes]]:
+    """Collect the parts :func:`start_build` started: stage their files, record the build.
+
+    Returns:
+        Per tile, per layer, the tile's holes as the process makes them, in the tile frame.
+    """
+    cfg, grid = run.cfg, started.grid
+    plates: list[dict[str, Any]] = []
+    walls: list[dict[str, Any]] = []
     with run.stage("build"):
-        ring = outline.plate_outline(width_mm, height_mm, cfg.plate.outline)
-        with run.bar(len(holes), "build") as bar:
-            for i, asked in enumerate(holes):
-                # The plate draws each hole larger by what the process takes off (stipple.compensate).
-                h = drawn_dots(asked, cfg.stipple, picture_mm) if isinstance(asked, DotSet) else asked
-                label = cad.LabelInfo(
-                    layer=i + 1,
-                    layers=len(holes),
-                    colour=to_hex(layers.colours[i]),
-                    job=cfg.name,
-                )
-                try:
-                    model = cad.build_plate(h, width_mm, height_mm, cfg.plate, label)
-                except ValueError as exc:
-                    # Holes that break the rules, a label that cannot fit, a bad template.
-                    raise UserError(f"{layer_stem(i)}: {exc}") from exc
-                check = cad.check_plate(model, h, tolerance_mm=exp.stl_tolerance_mm)
-                stem = layer_stem(i)
-                drawing = dxf.stencil_for(h, ring, stem.upper(), *model.cut_label())
-                part = cad.plate_part(model, drawing, title=f"{cfg.name} {stem} of {len(holes)}")
-                written = write_part(run.out, stem, part, wanted(exp, ONE_PLATE_ORDER), exp)
-                dxf_info = part_figures(written)
-                cut = round(dxf.cut_length_mm(h, ring), 1)
-                (x0, y0, _), (x1, y1, _) = check["bbox"]
-                size = [round(x1 - x0, 3), round(y1 - y0, 3)]
-                row = {"layer": i + 1, **_plain(check), **dxf_info, "cut_length_mm": cut, "bbox_mm": size}
-                row["windows"] = len(getattr(h, "windows", ()))
-                if isinstance(h, CutLayer):
-                    row["cutouts"] = h.cutout_figures()
-                elif len(h.r_mm):
-                    row["drawn_minus_asked_mm"] = round(float(np.mean(h.r_mm - asked.r_mm)), 4)
-                results.append(row)
-                bar.update(1)
-        walls = []
-        heights = cfg.standoff.walls_mm
-        for standoff, stem in zip(heights, wall_stems(heights), strict=True):
-            wm = wall_mod.build_wall(
-                width_mm, height_mm, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, standoff
+        for res in started.tasks.results():
+            for name, data in res.files:
+                run.out.write_bytes(name, data)
+            (plates if res.kind == "plate" else walls).append(res.row)
+        plan = mural.post_plan(cfg, grid)
+        post_row = stand_rows = None
+        if started.laser is not None:
+            stand_rows = stand.write_laser_stand(run, started.laser, grid.bed)
+        elif plan is not None and any(started.posts.values()):
+            post_row = stand.write_post(run, plan, started.posts)
+    served = mural.wall_tiles(grid)
+    for row in walls:
+        if "tile" in row:
+            row["tiles"] = served.get(str(row["tile"]), [row["tile"]])
+    for row in plates:
+        if "tile" in row:
+            row["posts"] = len(started.posts.get((str(row["tile"]), int(row["layer"])), []))
+        i = int(row["layer"]) - 1
+        asked, drawn = started.asked[i], started.drawn[i]
+        if isinstance(asked, DotSet) and len(asked):
+            row["drawn_minus_asked_mm"] = round(float(np.mean(drawn.r_mm - asked.r_mm)), 4)
+    run.figures.build = BuildFigures.from_rows(plates, walls)
+    if mural.has_seams(grid):
+        # A mural's holes are round (hard mode makes one plate per layer).
+        tiles.record_tiles(
+            run,
+            cast("list[DotSet]", started.asked),
+            cast("list[DotSet]", started.drawn),
+            cast("list[list[DotSet]]", started.holes_tile),
+            grid,
+            post_row,
+            stand_rows,
+            started.layers,
+            started.picture,
+        )
+    return started.per_tile
+
+
+def _with_posts(
+    cfg: JobConfig, asked: list[Holes], per_tile: list[list[Holes]], grid: mural.TileGrid
+) -> tuple[list[list[Holes]], dict[tuple[str, int], list[list[float]]]]:
+    """Each plate's drawn holes in its part frame with a pin hole at each of its posts, and the posts' sites per (tile, layer).
+
+    The sites are in mural mm.
+
+    The holes move from the tile's sheet frame to its part frame (:attr:`stencil_cad.mural.Tile.part`).
+    The sites come from the saved holes (:func:`stencil_cad.mural.post_sites`, every one clear);
+    a pin hole is drawn larger by the process's offset like every hole (``stipple.compensate``).
+    """
+    plan = mural.post_plan(cfg, grid)
+    st = cfg.stipple
+    grow = max(st.resolved_hole_offset_mm, 0.0) if st.compensate else 0.0
+    out, counts = [], {}
+    for k, t in enumerate(grid.tiles):
+        shift = np.array(t.origin) - np.array(t.part_origin)
+        row = []
+        for i, holes in enumerate(per_tile[k]):
+            if shift.any() and isinstance(holes, DotSet):
+                holes = mural.shifted(holes, *shift)
+                if holes.windows:
+                    holes = replace(
+                        holes, windows=tuple((np.asarray(o) + shift, inner) for o, inner in holes.windows)
+                    )
+            if plan is not None and isinstance(holes, DotSet):
+                sites, _ = mural.post_sites(asked[i], t.sheet, plan)  # type: ignore[arg-type]
+                drawn_plan = replace(plan, pin_hole_mm=plan.pin_hole_mm + grow)
+                holes = mural.with_pin_holes(holes, sites - np.array(t.part_origin), drawn_plan)
+                counts[(t.name, i + 1)] = [[round(float(v), 4) for v in site] for site in sites]
+            row.append(holes)
+        out.append(row)
+    return out, counts
+
+
+def drawn_and_made(
+    cfg: JobConfig, holes: list[Holes], grid: mural.TileGrid
+) -> tuple[list[Holes], list[Holes]]:
+    """Every layer's holes over the whole picture as the plates draw them and as the process makes them.
+
+    :func:`stencil_cad.stipple.made.drawn_dots` and :func:`~stencil_cad.stipple.made.made_dots`
+    over the picture area, the same as the simulation's (:func:`stage_simulate` sprays the made
+    holes), so a mural's tiled simulation equals the global one. A hard layer's cut-outs are
+    drawn and made as they are.
+    """
+    from ..stipple.made import drawn_dots, made_dots
+
+    size = (grid.width_mm, grid.height_mm)
+    return (
+        [drawn_dots(d, cfg.stipple, size) if isinstance(d, DotSet) else d for d in holes],
+        [made_dots(d, cfg.stipple, size) if isinstance(d, DotSet) else d for d in holes],
+    )
+
+
+@dataclass(frozen=True)
+class PartTask:
+    """One plate or wall of a tile: everything a worker needs to build, check and export it.
+
+    Attributes:
+        kind: ``"plate"`` or ``"wall"``.
+        stem: File stem, e.g. ``layer_02`` or ``tile_B3_layer_02``.
+        cfg: The job config.
+        size_mm: ``(w, h)`` of the part's picture area in mm.
+        lines: The tile's sight lines (none for a one-plate job's parts).
+        bed: The bed every part must fit, or None.
+        tile: The tile's name in the files and figures, or None for one tile.
+        holes: A plate's holes in the part frame (None for a wall).
+        label: A plate's label (None for a wall).
+        ring: A plate's outline ring, notched on the sight lines (None for a wall).
+        notches: A plate's notch count.
+        standoff_mm: A wall's stand-off height (None for a plate).
+        title: A plate's title in its SVG.
+        order: A plate's file extensions in writing order (those the ``export`` config asks for).
+        label_band: The plate's label may rise into the solid band below its lowest hole.
+    """
+
+    kind: str
+    stem: str
+    cfg: JobConfig
+    size_mm: tuple[float, float]
+    lines: tuple[list[float], list[float]]
+    bed: Bed | None
+    tile: str | None
+    holes: Holes | None = None
+    label: LabelInfo | None = None
+    ring: np.ndarray | None = None
+    notches: int = 0
+    standoff_mm: float | None = None
+    title: str = ""
+    order: tuple[str, ...] = ()
+    label_band: bool = False
+
+
+@dataclass(frozen=True)
+class PartResult:
+    """What a :class:`PartTask` made: its files (name, bytes) in writing order and its manifest row."""
+
+    kind: str
+    files: tuple[Any, ...]
+    row: dict[str, Any]
+
+
+def _part_tasks(
+    cfg: JobConfig, layers: Layers, grid: mural.TileGrid, per_tile: list[list[Holes]], heights: list[float]
+) -> Iterator[PartTask]:
+    """Every tile's plates (one per layer) and walls, tile by tile, made one at a time."""
+    from .. import cad, outline
+    from ..exchange.writers import ONE_PLATE_ORDER, TILE_ORDER, wanted
+
+    n = len(per_tile[0]) if per_tile else 0
+    made_walls: set[Any] = set()
+    for k, t in enumerate(grid.tiles):
+        w, h = t.part_size
+        lines = mural.sight_lines(t)
+        ring, notches = mural.notched_ring(
+            outline.plate_outline(w, h, cfg.plate.outline), lines, mural.PLATE_NOTCH_MM
+        )
+        name = mural.part_name(t, grid)
+        common: dict[str, Any] = {
+            "cfg": cfg,
+            "size_mm": (w, h),
+            "lines": lines,
+            "bed": grid.bed,
+            "tile": name,
+        }
+        # A tile's plate is one of the mural's; a one-plate job's says which of the layers it is.
+        order = wanted(cfg.export, ONE_PLATE_ORDER if name is None else TILE_ORDER)
+        for i, holes in enumerate(per_tile[k]):
+            label = cad.LabelInfo(
+                layer=i + 1,
+                layers=n,
+                colour=to_hex(layers.colours[i]),
+                job=cfg.name,
+                tile=mural.tile_label(t, grid),
             )
-            with run.out.open_path(part_file(stem, ".step")) as p:
-                wall_mod.wall_step(wm, p)
-            with run.out.open_path(part_file(stem, ".stl")) as p:
-                wall_mod.wall_stl(wm, p, exp.stl_tolerance_mm)
-            walls.append(
-                {"file": part_file(stem, ".step"), "standoff_mm": standoff, **wall_mod.check_wall(wm)}
+            stem = part_stem(name, i)
+            yield PartTask(
+                kind="plate",
+                stem=stem,
+                holes=holes,
+                label=label,
+                ring=ring,
+                notches=notches,
+                title=f"{cfg.name} {stem}" + (f" of {n}" if name is None else ""),
+                order=tuple(order),
+                label_band=mural.label_band(t),
+                **common,
             )
-    run.figures.build = BuildFigures.from_rows(results, walls)
+        # One wall serves every tile whose plates have its size and notches (every tile of a mural).
+        key = mural.wall_key(t)
+        if key in made_walls:
+            continue
+        made_walls.add(key)
+        for standoff, stem in zip(heights, part_wall_stems(name, heights), strict=True):
+            yield PartTask(kind="wall", stem=stem, standoff_mm=standoff, **common)
+
+
+def build_part(task: PartTask) -> PartResult:
+    """Build, check and export one plate or wall (a task: pure, the same task gives the same bytes).
+
+    Raises:
+        UserError: The holes break the rules, the label cannot fit, or the part does not fit the bed.
+    """
+    return _build_plate(task) if task.kind == "plate" else _build_wall(task)
+
+
+class _Files:
+    """Collects the files a task writes as (name, bytes), through the output folder's ``open_path`` interface.
+
+    Each file is written into a private temporary folder where the task runs (a worker may be
+    another machine) and read back, so the files travel with the task's result.
+    """
+
+    def __init__(self) -> None:
+        self.files: list[tuple[str, bytes]] = []
+
+    @contextlib.contextmanager
+    def open_path(self, name: str) -> Iterator[Path]:
+        """Yield a temporary path to write ``name`` to; its bytes are kept when the block succeeds."""
+        with tempfile.TemporaryDirectory(prefix="stencil-part-") as tmp:
+            path = Path(tmp) / name
+            yield path
+            self.files.append((name, path.read_bytes()))
+
+
+def _solid_below(holes: Any, height_mm: float) -> float:
+    """How far above a tile's part bottom its plate is solid all along, mm: up to its lowest hole or window.
+
+    The part reaches the spray halo past the tile, solid, so a tile's label rises into that band (its
+    border is only the ledge, :data:`stencil_cad.config.outline.TILE_MARGIN_MM`). 0 for a hard
+    stencil's cut-outs (the label stays in the border); the part's height for a plate with no hole.
+    """
+    if not isinstance(holes, DotSet):
+        return 0.0
+    lows = [float(np.min(np.asarray(outer, dtype=np.float64)[:, 1])) for outer, _ in holes.windows]
+    if len(holes):
+        lows.append(float(np.min(np.asarray(holes.xy_mm)[:, 1] - np.asarray(holes.r_mm))))
+    return max(min(lows), 0.0) if lows else float(height_mm)
+
+
+def _build_plate(task: PartTask) -> PartResult:
+    from .. import cad
+    from ..exchange import dxf
+    from ..exchange.writers import part_figures, write_part
+
+    cfg, stem, holes, ring, label = task.cfg, task.stem, task.holes, task.ring, task.label
+    if holes is None or ring is None or label is None:
+        raise ValueError(f"{stem}: a plate task needs its holes, outline and label")
+    exp = cfg.export
+    w, h = task.size_mm
+    solid = _solid_below(holes, h) if task.label_band else 0.0
+    try:
+        model = cad.build_plate(holes, w, h, cfg.plate, label, outline_ring=ring, label_solid_mm=solid)
+    except ValueError as exc:
+        # Holes that break the rules, a label that cannot fit, a bad template.
+        raise UserError(f"{stem}: {exc}") from exc
+    check = cad.check_plate(model, holes, tolerance_mm=exp.stl_tolerance_mm)
+    (x0, y0, _), (x1, y1, _) = check["bbox"]
+    if task.bed is not None and not task.bed.fits(x1 - x0, y1 - y0):
+        raise UserError(f"{stem}: plate is {x1 - x0:.1f} × {y1 - y0:.1f} mm, larger than the bed {task.bed}")
+    files = _Files()
+    drawing = dxf.stencil_for(holes, ring, stem.upper(), *model.cut_label())
+    cut = round(dxf.cut_length_mm(holes, ring), 1)
+    written = write_part(files, stem, cad.plate_part(model, drawing, title=task.title), task.order, exp)
+    info = written.get(".dxf")
+    sheet = None if info is None else (info.bbox_mm[2] - info.bbox_mm[0], info.bbox_mm[3] - info.bbox_mm[1])
+    if sheet is not None and task.bed is not None and not task.bed.fits(*sheet):
+        raise UserError(
+            f"{stem}.dxf: sheet is {sheet[0]:.1f} × {sheet[1]:.1f} mm, larger than the bed {task.bed}"
+        )
+    row = _plate_row(
+        task, _plain(check), part_figures(written), cut, [round(x1 - x0, 3), round(y1 - y0, 3)], sheet
+    )
+    return PartResult("plate", tuple(files.files), row)
+
+
+def _plate_row(
+    task: PartTask,
+    check: dict[str, Any],
+    figures: dict[str, Any],
+    cut: float,
+    size: list[float],
+    sheet: tuple[float, float] | None,
+) -> dict[str, Any]:
+    """A plate's manifest row: a one-plate job's by layer, a mural's by tile and layer with its file, notches and sheet."""
+    assert task.label is not None and task.holes is not None
+    holes = task.holes
+    # A hybrid plate's windows: through holes beside the round ones.
+    windows = len(getattr(holes, "windows", ()))
+    if task.tile is None:
+        row = {
+            "layer": task.label.layer,
+            **check,
+            **figures,
+            "cut_length_mm": cut,
+            "bbox_mm": size,
+            "windows": windows,
+        }
+        if isinstance(holes, CutLayer):
+            row["cutouts"] = holes.cutout_figures()
+        return row
+    row = {
+        "tile": task.tile,
+        "layer": task.label.layer,
+        "file": task.stem,
+        "notches": task.notches,
+        "bbox_mm": size,
+        "windows": windows,
+        "cut_length_mm": cut,
+        **figures,
+    }
+    if sheet is not None:
+        row["dxf_sheet_mm"] = [round(v, 3) for v in sheet]
+    return {**row, **check}
+
+
+def _build_wall(task: PartTask) -> PartResult:
+    from ..cad import registration
+    from ..cad import wall as wall_mod
+
+    cfg, stem = task.cfg, task.stem
+    w, h = task.size_mm
+    if task.standoff_mm is None:
+        raise ValueError(f"{stem}: a wall task needs its stand-off height")
+    wm = wall_mod.build_wall(w, h, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, task.standoff_mm)
+    wm, wall_notches = registration.notch_wall(wm, task.lines, w, cfg.wall.finger_slot_mm)
+    wcheck = wall_mod.check_wall(wm)
+    bb = wcheck["bbox"]
+    if task.bed is not None and not task.bed.fits(bb[3] - bb[0], bb[4] - bb[1]):
+        raise UserError(
+            f"{stem}: wall is {bb[3] - bb[0]:.1f} × {bb[4] - bb[1]:.1f} mm, larger than the bed {task.bed}"
+        )
+    files = _Files()
+    with files.open_path(part_file(stem, ".step")) as p:
+        wall_mod.wall_step(wm, p)
+    with files.open_path(part_file(stem, ".stl")) as p:
+        wall_mod.wall_stl(wm, p, cfg.export.stl_tolerance_mm)
+    row: dict[str, Any] = {} if task.tile is None else {"tile": task.tile}
+    row.update(file=part_file(stem, ".step"), standoff_mm=task.standoff_mm)
+    if task.tile is not None:
+        row["notches"] = wall_notches
+    return PartResult("wall", tuple(files.files), {**row, **wcheck})
 
 
 def check_template(run: Run) -> None:

@@ -33,6 +33,7 @@ from .profiles import layer_sprays
 from .simulate import _scores, spraying_steps, write_previews, write_steps
 
 if TYPE_CHECKING:
+    from ..mural import TileGrid
     from ..testcard.layout import CardLayout
 
 log = logging.getLogger(__name__)
@@ -154,8 +155,11 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
     return finish(run, "card")
 
 
-def run_hard(run: Run, picture: Picture) -> list[Path]:
-    """Hard-stencil mode: segmentation, bridges, plates with polygon cut-outs, simulation."""
+def run_hard(run: Run, picture: Picture, grid: TileGrid) -> list[Path]:
+    """Hard-stencil mode: segmentation, bridges, plates with polygon cut-outs, simulation.
+
+    ``grid`` is the job's tiling: one tile (hard mode makes one plate per layer).
+    """
     from .. import hardstencil
 
     # Cut-outs are sprayed from their own nozzle height: the simulation, the spray order and
@@ -200,7 +204,7 @@ def run_hard(run: Run, picture: Picture) -> list[Path]:
         alphas=hard.cut_masks.astype(np.float64),
         mm_per_px=picture.mm_per_px,
     )
-    stage_build(run, layers, hard.cut_layers, size)
+    stage_build(run, layers, hard.cut_layers, grid)
     with run.stage("simulate"):
         from ..simulate.physical import SprayGeometry
 

@@ -66,5 +66,5 @@ def dry_run(cfg: JobConfig) -> list[str]:
     picture = load_picture(cfg)
     shape = picture.shape
     grid, plan = tiles.plan(cfg, picture.width_mm, picture.height_mm, shape[0] * shape[1])
-    made = mural.making_cost(grid, cfg, tiles.plate_layers(cfg, grid.tiled))
+    made = mural.making_cost(grid, cfg, mural.plate_layers(cfg, grid))
     return [tiles.plan_line(plan), *cost_lines(made)]

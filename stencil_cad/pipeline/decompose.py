@@ -22,6 +22,7 @@ if TYPE_CHECKING:
     from ..decompose.paints import Can
     from ..decompose.sprayed import PlateReach
     from ..decompose.tiled import TilePlan
+    from ..mural import TileGrid
 
 #: A config section with a palette that may name a can list (the decomposition's or hard mode's).
 Section = TypeVar("Section", DecomposeConfig, HardConfig)
@@ -97,17 +98,18 @@ def decomposed(run: Run, picture: Picture, save: bool = False) -> Layers:
     return layers
 
 
-def plates_of(run: Run, layers: Layers, tiled: bool) -> Layers:
+def plates_of(run: Run, layers: Layers, grid: TileGrid | bool) -> Layers:
     """The plates the job stipples from its paint layers: two per paint with light plates, else the layers.
 
-    With ``stipple.light_plates`` (:func:`stencil_cad.pipeline.tiles.light_plates_on`) each paint gets
+    With ``stipple.light_plates`` (:func:`stencil_cad.mural.light_plates_on`, which the tiling
+    ``grid`` decides, or a bool: whether the job is a mural) each paint gets
     a light and a dark plate (:func:`stencil_cad.decompose.light.light_plates`). Split from the layers as ``layers.npz`` holds them, so a stage command on the saved file makes
     the same plates. Figure ``decompose.plates`` says how many.
     """
     from ..decompose.light import light_plates
-    from .tiles import light_plates_on
+    from ..mural import light_plates_on
 
-    plates = light_plates(layers) if light_plates_on(run.cfg, tiled) else layers
+    plates = light_plates(layers) if light_plates_on(run.cfg, grid) else layers
     if run.figures.decompose is not None:
         run.figures.decompose = replace(run.figures.decompose, plates=plates.count)
     return plates

@@ -59,9 +59,9 @@ __all__ = [
     "simulated_stems",
     "stage_outputs",
     "step_name",
-    "tile_outputs",
-    "tile_stem",
-    "tile_wall_stems",
+    "build_outputs",
+    "part_stem",
+    "part_wall_stems",
     "wall_stems",
     "windows_name",
 ]
@@ -93,22 +93,18 @@ def run_outputs(cfg: JobConfig, command: str) -> list[str]:
     return [*RUN_FILES, *RUN_PATTERNS]
 
 
-def stage_outputs(cfg: JobConfig, command: str, count: int, grid: mural.TileGrid | None = None) -> list[str]:
-    """Names a stage command will write, so it can refuse before doing the work."""
+def stage_outputs(cfg: JobConfig, command: str, count: int, grid: mural.TileGrid) -> list[str]:
+    """Names a stage command will write for the job's tiling, so it can refuse before doing the work."""
     cmd = command_named(command)
     if not cmd.saved:
         return []
-    if cmd.builds and grid is not None and grid.tiled:
-        return tile_outputs(cfg, grid, count)
+    if cmd.builds:
+        return build_outputs(cfg, grid, count)
     if cmd.stipples:
         return [n for i in range(count) for n in (dots_name(i), dots_png(layer_stem(i)))] + [
             SPRAY_JSON,
             SWATCH_PNG,
         ]
-    if cmd.builds:
-        exts = cfg.export.plate_extensions()
-        names = [part_file(layer_stem(i), e) for i in range(count) for e in exts]
-        return names + [part_file(s, e) for s in wall_stems(cfg.standoff.walls_mm) for e in (".step", ".stl")]
     if cmd.simulates:
         return [SIMULATED_PNG, PREVIEW_PNG, SWEEP_PNG, *simulated_stems(cfg)] + [
             step_name(i) for i in range(count)
@@ -120,32 +116,35 @@ def stage_outputs(cfg: JobConfig, command: str, count: int, grid: mural.TileGrid
 STAGE_COMMANDS = SAVED_STAGES
 
 
-def tile_stem(tile: mural.Tile, i: int) -> str:
-    """Stem of a tile's layer files, e.g. ``tile_B3_layer_02`` (layer ``i`` 0-based)."""
-    return _tile_stem(tile.name, i)
+def part_stem(tile: str | None, i: int) -> str:
+    """Stem of a plate's files: ``layer_02`` for one tile (``tile`` None), ``tile_B3_layer_02`` on a mural."""
+    return layer_stem(i) if tile is None else _tile_stem(tile, i)
 
 
-def tile_wall_stems(tile: mural.Tile, heights: list[float]) -> list[str]:
-    """Stems of a tile's walls: ``tile_B3_wall`` or ``tile_B3_wall_10mm`` … for several heights."""
-    return _tile_wall_stems(tile.name, heights)
+def part_wall_stems(tile: str | None, heights: list[float]) -> list[str]:
+    """Stems of a tile's walls: ``wall`` (``wall_10mm`` …) for one tile (``tile`` None), ``tile_B3_wall`` … on a mural."""
+    return wall_stems(heights) if tile is None else _tile_wall_stems(tile, heights)
 
 
-def tile_outputs(cfg: JobConfig, grid: mural.TileGrid, count: int) -> list[str]:
-    """Names the tiled build writes (so a stage command can refuse before the work)."""
+def build_outputs(cfg: JobConfig, grid: mural.TileGrid, count: int) -> list[str]:
+    """Names the build writes for a tiling (so a stage command can refuse before the work)."""
     exts = cfg.export.plate_extensions()
     names = []
-    from ..mural import laser_stand, post_plan, wall_tiles
+    from ..mural import has_seams, laser_stand, part_name, post_plan, wall_tiles
 
     walls = wall_tiles(grid)
     laser = laser_stand(cfg, grid)
     for t in grid.tiles:
-        names += [part_file(tile_stem(t, i), e) for i in range(count) for e in exts]
+        name = part_name(t, grid)
+        names += [part_file(part_stem(name, i), e) for i in range(count) for e in exts]
         if t.name in walls and laser is None:
             names += [
-                part_file(s, e) for s in tile_wall_stems(t, cfg.standoff.walls_mm) for e in (".step", ".stl")
+                part_file(s, e)
+                for s in part_wall_stems(name, cfg.standoff.walls_mm)
+                for e in (".step", ".stl")
             ]
     if laser is not None:
         names += [part_file(p.name, e) for p in laser for e in (".dxf", ".svg")]
     elif post_plan(cfg, grid) is not None:
         names += [part_file(POST_STEM, e) for e in (".step", ".stl")]
-    return names + [MURAL_MAP_PNG]
+    return names + ([MURAL_MAP_PNG] if has_seams(grid) else [])

@@ -90,8 +90,10 @@ def start_registration(
     dotsets: list[DotSet],
     grid: mural.TileGrid,
     per_tile: list[list[DotSet]],
-) -> tuple[Any, float]:
+) -> tuple[Any, float] | None:
     """Start the registration cases (:data:`REGISTRATION_CASES`) as the job's tasks: ``(started, start time)``.
+
+    None for one tile: no seam to register.
 
     Args:
         run: The run.
@@ -105,6 +107,8 @@ def start_registration(
     from .. import simulate
     from ..simulate.physical import SprayGeometry
 
+    if not mural.has_seams(grid):
+        return None
     t0 = time.perf_counter()
     shape = sim.alphas.shape[1:]
     g = sim.mm_per_px
@@ -131,7 +135,7 @@ def start_registration(
     return run.tasks.start(registration_case, list(REGISTRATION_CASES), "registration cases", job), t0
 
 
-def stage_mural_simulate(run: Run, started: tuple[Any, float]) -> None:
+def stage_mural_simulate(run: Run, started: tuple[Any, float] | None) -> None:
     """The cost of misregistration: the tiles (or the layers) sprayed shifted apart, scored against the mural in register.
 
     In register the tiled simulation equals the global one (tested to 1e-6 in the tests of
@@ -142,8 +146,10 @@ def stage_mural_simulate(run: Run, started: tuple[Any, float]) -> None:
 
     Args:
         run: The run.
-        started: What :func:`start_registration` returned.
+        started: What :func:`start_registration` returned (None: no case, nothing to record).
     """
+    if started is None:
+        return
     seen = run.figures.simulate
     if seen is None:
         raise AssertionError("the mural's registration costs need the global simulation's scores")

@@ -7,9 +7,11 @@ import logging
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
+from .. import mural
 from ..command_table import command as command_named
 from ..config import ComputeConfig, JobConfig, Mode
 from ..errors import UserError
@@ -22,7 +24,7 @@ from ..names import INPUT_PNG
 from ..output import OutputDir
 from ..record import Run
 from . import registration, tiles
-from .build import check_template, stage_build
+from .build import check_template, finish_build, start_build
 from .commands import run_hard
 from .cost import record_cost
 from .decompose import plates_of, stage_decompose
@@ -40,7 +42,7 @@ log = logging.getLogger(__name__)
 
 @contextlib.contextmanager
 def computing(
-    run: Run, picture_px: int, where: ComputeConfig | None = None, mural: MuralFigures | None = None
+    run: Run, picture_px: int, where: ComputeConfig | None = None, planned: MuralFigures | None = None
 ) -> Iterator[None]:
     """Open the job's executor (this process, or a Dask cluster: see :mod:`stencil_cad.compute`).
 
@@ -48,12 +50,12 @@ def computing(
         run: The command's state.
         picture_px: Pixels of the working picture (small jobs stay in this process).
         where: The ``compute`` section with the command line applied; defaults to the config's.
-        mural: The job's tiling as planned (a tiled mural's estimated work may start a
+        planned: The job's tiling as planned (a tiled mural's estimated work may start a
             cluster), or None.
     """
     from .. import compute
 
-    seconds = float(mural.cost["estimated_seconds"]) if mural is not None and mural.tiled else None
+    seconds = planned.mural_seconds if planned is not None else None
     with compute.executor(where or run.cfg.compute, picture_px, run.quiet, seconds) as ex:
         run.executor = ex
         run.figures.compute = ComputeFigures(**ex.plan.summary())
@@ -82,16 +84,12 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
         mm_per_px=picture.mm_per_px,
     )
     if cfg.mode == Mode.hard:
-        if grid.tiled:
-            raise UserError(
-                f"hard mode makes one plate per layer, and a {size[0]:.0f} × {size[1]:.0f} mm picture's plate does "
-                f"not fit the bed {grid.bed}; use soft mode for a tiled mural, a larger bed or a smaller size"
-            )
+        mural.check_mode(grid, cfg)
         save_config(run)
-        return run_hard(run, picture)
+        return run_hard(run, picture, grid)
     layers, dotsets = soft_plates(run, picture, size, grid)
     record_cost(run, grid, dotsets)
-    build_any(run, layers, dotsets, size, grid, picture)
+    build_any(run, layers, dotsets, grid, picture)
     return finish(run, "run")
 
 
@@ -104,12 +102,9 @@ def soft_plates(
     (and :func:`stencil_cad.pipeline.simulate.stage_simulate`) rather than repeating the steps.
     """
     bound_dots(run, size)
-    layers = plates_of(run, stage_decompose(run, picture), grid.tiled)
-    # The plate design left to the job (windows, the wall's stand-off) is chosen for a one-plate
-    # picture (a mural keeps the config's: trials over every tile would cost more than the job);
-    # the saved config records it.
-    if not grid.tiled:
-        design_plates(run, layers, size, picture)
+    layers = plates_of(run, stage_decompose(run, picture), grid)
+    # The saved config records the plate design the job chose.
+    design_plates(run, layers, size, picture, grid)
     save_config(run)
     return layers, stage_stipple(run, layers, size, picture, grid)
 
@@ -149,8 +144,16 @@ def record_plate(run: Run, side_mm: float) -> None:
     )
 
 
-def design_plates(run: Run, layers: Layers, size: tuple[float, float], picture: Picture | None) -> None:
-    """The plate design left to the job (:func:`choose_plates`), and the plate thickness its wall asks for."""
+def design_plates(
+    run: Run, layers: Layers, size: tuple[float, float], picture: Picture | None, grid: TileGrid
+) -> None:
+    """The plate design left to the job (:func:`choose_plates`), and the plate thickness its wall asks for.
+
+    Chosen for the picture when the tiling says so (:func:`stencil_cad.mural.chooses_design`: a
+    one-plate job; a mural keeps the config's).
+    """
+    if not mural.chooses_design(grid):
+        return
     choose_plates(run, layers, size, picture)
     plate = run.figures.plate
     if plate is not None and plate.thickness_mm != run.cfg.plate.thickness_mm:
@@ -251,7 +254,7 @@ def _run_stage_command(
     size = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
     grid = plan_mural(run, size, layers.alphas.shape[1:])
     cfg = fit_thickness(run, grid)
-    layers = plates_of(run, layers, grid.tiled)
+    layers = plates_of(run, layers, grid)
     run.out.check_free(stage_outputs(cfg, command, layers.count, grid))
     if abs(size[0] - cfg.size.width_mm) > 0.01 * cfg.size.width_mm:
         log.warning(
@@ -271,15 +274,14 @@ def _run_stage_command(
     # Every refusal above comes before any worker starts; the tasks then run where the whole
     # job's would (--workers, --scheduler).
     with computing(run, layers.alphas.shape[1] * layers.alphas.shape[2], where, run.figures.mural):
-        if not grid.tiled:
-            # The plate design left to the job is chosen as the whole run chose it (the same
-            # trials on the same layers and seed), so a stage command gives the run's files.
-            design_plates(run, layers, size, picture)
+        # The plate design left to the job is chosen as the whole run chose it (the same
+        # trials on the same layers and seed), so a stage command gives the run's files.
+        design_plates(run, layers, size, picture, grid)
         if dotsets is None:
             record_cost(run, grid, stage_stipple(run, layers, size, picture, grid))
         elif cmd.builds:
             record_cost(run, grid, dotsets)
-            build_any(run, layers, dotsets, size, grid, picture, simulate=False)
+            build_any(run, layers, dotsets, grid, picture, simulate=False)
         else:
             stage_simulate(run, picture, layers, dotsets)
         return finish(run, command)
@@ -289,43 +291,43 @@ def build_any(
     run: Run,
     layers: Layers,
     dotsets: list[DotSet],
-    picture_mm: tuple[float, float],
     grid: TileGrid,
     picture: Picture | None = None,
     simulate: bool = True,
 ) -> None:
-    """Build (and simulate): one plate per layer, or per tile and layer for a mural."""
-    if not grid.tiled:
-        stage_build(run, layers, dotsets, picture_mm)
-        if run.cfg.export.print_estimate:
-            stage_print_estimate(run)
-        if simulate:
-            stage_simulate(run, picture, layers, dotsets)
-        return
-    if not simulate:
-        tiles.stage_build_tiles(run, layers, dotsets, grid)
-        tiles.write_map(run, grid, layers, picture)
-        return
-    # The plates and walls are tasks that need nothing the simulation computes: they start
-    # first, and this process simulates while they run. A mural's plates are compensated like
-    # a one-plate job's, and sprayed as made; its registration cases start as tasks once the
-    # global simulation is there.
-    built = tiles.start_build_tiles(run, layers, dotsets, grid)
-    try:
-        _, _, cases = stage_simulate(
-            run,
-            picture,
-            layers,
-            dotsets,
-            keep=True,
-            workers_busy=True,
-            also=lambda sim, ref: registration.start_registration(
-                run, sim, ref, layers, built.made, grid, built.per_tile
-            ),
-        )
-    except BaseException:
-        built.tasks.cancel()
-        raise
-    tiles.finish_build_tiles(run, built)
-    tiles.write_map(run, grid, layers, picture)
+    """Build (and simulate): every tile's plates and walls, one tile for a one-plate job.
+
+    The plates and walls are tasks that need nothing the simulation computes: they start first,
+    and this process simulates while they run. The plates are sprayed as made; a mural's
+    registration cases start as tasks once the global simulation is there.
+    """
+    built = start_build(run, layers, dotsets, grid, picture)
+    cases = None
+    if simulate:
+        try:
+            _, _, cases = stage_simulate(
+                run,
+                picture,
+                layers,
+                dotsets,
+                keep=True,
+                workers_busy=True,
+                # A soft job's holes are round.
+                also=lambda sim, ref: registration.start_registration(
+                    run,
+                    sim,
+                    ref,
+                    layers,
+                    cast("list[DotSet]", built.made),
+                    grid,
+                    cast("list[list[DotSet]]", built.per_tile),
+                ),
+            )
+        except BaseException:
+            built.tasks.cancel()
+            raise
+    finish_build(run, built)
+    # PrusaSlicer's estimate slices a one-plate job's plates (a mural's parts are estimated by its plan).
+    if run.cfg.export.print_estimate and not mural.has_seams(grid):
+        stage_print_estimate(run)
     registration.stage_mural_simulate(run, cases)

@@ -6,7 +6,7 @@ import pytest
 from stencil_cad.config.io import parse_config
 from stencil_cad.decompose.light import LIGHT_BELOW, light_plates, paint_of_plates
 from stencil_cad.model import Layers
-from stencil_cad.pipeline.tiles import light_plates_on, plate_layers
+from stencil_cad.mural import light_plates_on, plate_layers
 
 
 def _layers(seed=0, count=3, shape=(20, 30)):

@@ -159,7 +159,7 @@ def test_interrupted_run_leaves_nothing(tmp_path, monkeypatch):
     def boom(*a, **k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(pipeline_run, "stage_build", boom)
+    monkeypatch.setattr(pipeline_run, "start_build", boom)
     cfg = tmp_path / "c.yaml"
     cfg.write_text(SMALL)
     assert main(["run", str(cfg), "--out", str(tmp_path / "o"), "-q"]) == 130

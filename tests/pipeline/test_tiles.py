@@ -9,7 +9,7 @@ from stencil_cad import mural
 from stencil_cad.config import io as cfg_io
 from stencil_cad.errors import UserError
 from stencil_cad.model import DotSet
-from stencil_cad.pipeline import tiles
+from stencil_cad.pipeline import build
 
 
 def _grid(**stipple):
@@ -43,12 +43,12 @@ def test_holes_at_a_seam_grow_and_keep_the_web_on_the_plates_as_made():
     asked, rules = _seam_pairs(cfg, grid)
     offset = cfg.stipple.resolved_hole_offset_mm
     assert offset > 0
-    (drawn,), (made,) = tiles.drawn_and_made(cfg, [asked], grid)
+    (drawn,), (made,) = build.drawn_and_made(cfg, [asked], grid)
     # Each hole grows by the offset, the pairs across the seam too (their made web is the minimum).
     np.testing.assert_allclose(drawn.r_mm, asked.r_mm + offset)
     np.testing.assert_allclose(made.r_mm, asked.r_mm)
-    tiles._check_unions(cfg, grid, {"asked": [asked], "made": [made], "drawn": [drawn]})
-    per_tile = tiles._per_tile([drawn], grid)
+    mural.check_unions(cfg, grid, {"asked": [asked], "made": [made], "drawn": [drawn]})
+    per_tile = mural.per_tile([drawn], grid)
     assert [len(t[0]) for t in per_tile] == [len(asked) // 2 + 1, len(asked) // 2]
     n = (len(asked) - 1) // 2
     gap = np.linalg.norm(drawn.xy_mm[:n] - drawn.xy_mm[n : 2 * n], axis=1) - 2 * drawn.r_mm[:n]
@@ -58,7 +58,7 @@ def test_holes_at_a_seam_grow_and_keep_the_web_on_the_plates_as_made():
 def test_without_compensation_the_plates_are_drawn_as_asked():
     cfg, grid = _grid(compensate=False)
     asked, _ = _seam_pairs(cfg, grid)
-    (drawn,), (made,) = tiles.drawn_and_made(cfg, [asked], grid)
+    (drawn,), (made,) = build.drawn_and_made(cfg, [asked], grid)
     assert drawn is asked
     np.testing.assert_allclose(made.r_mm, asked.r_mm - cfg.stipple.resolved_hole_offset_mm)
 
@@ -72,4 +72,4 @@ def test_a_web_broken_across_a_seam_is_refused():
         report={},
     )
     with pytest.raises(UserError, match=r"layer 1 \(asked holes, all tiles in mural coordinates\)"):
-        tiles._check_unions(cfg, grid, {"asked": [close]})
+        mural.check_unions(cfg, grid, {"asked": [close]})
