@@ -35,6 +35,7 @@ if TYPE_CHECKING:
     from ..cad import LabelInfo
     from ..config.bed import Bed
     from ..config.job import JobConfig
+    from ..config.rules import DesignRules
 
 log = logging.getLogger(__name__)
 
@@ -220,6 +221,9 @@ class PartTask:
         title: A plate's title in its SVG.
         order: A plate's file extensions in writing order (those the ``export`` config asks for).
         label_band: The plate's label may rise into the solid band below its lowest hole.
+        rules: The design rules a plate's holes are checked against again, or None: the plate's own floor.
+        cut_name: The name cut into a plate's drawing, or None: its stem in capitals.
+        what: The part's name in an error, or None: its stem.
     """
 
     kind: str
@@ -237,15 +241,19 @@ class PartTask:
     title: str = ""
     order: tuple[str, ...] = ()
     label_band: bool = False
+    rules: DesignRules | None = None
+    cut_name: str | None = None
+    what: str | None = None
 
 
 @dataclass(frozen=True)
 class PartResult:
-    """What a :class:`PartTask` made: its files (name, bytes) in writing order and its manifest row."""
+    """What a :class:`PartTask` made: its files (name, bytes) in writing order, its manifest row and its solid's check."""
 
     kind: str
     files: tuple[Any, ...]
     row: dict[str, Any]
+    check: dict[str, Any]
 
 
 def _part_tasks(
@@ -358,16 +366,18 @@ def _build_plate(task: PartTask) -> PartResult:
     w, h = task.size_mm
     solid = _solid_below(holes, h) if task.label_band else 0.0
     try:
-        model = cad.build_plate(holes, w, h, cfg.plate, label, outline_ring=ring, label_solid_mm=solid)
+        model = cad.build_plate(
+            holes, w, h, cfg.plate, label, rules=task.rules, outline_ring=ring, label_solid_mm=solid
+        )
     except ValueError as exc:
         # Holes that break the rules, a label that cannot fit, a bad template.
-        raise UserError(f"{stem}: {exc}") from exc
+        raise UserError(f"{task.what or stem}: {exc}") from exc
     check = cad.check_plate(model, holes, tolerance_mm=exp.stl_tolerance_mm)
     (x0, y0, _), (x1, y1, _) = check["bbox"]
     if task.bed is not None and not task.bed.fits(x1 - x0, y1 - y0):
         raise UserError(f"{stem}: plate is {x1 - x0:.1f} × {y1 - y0:.1f} mm, larger than the bed {task.bed}")
     files = _Files()
-    drawing = dxf.stencil_for(holes, ring, stem.upper(), *model.cut_label())
+    drawing = dxf.stencil_for(holes, ring, task.cut_name or stem.upper(), *model.cut_label())
     cut = round(dxf.cut_length_mm(holes, ring), 1)
     written = write_part(files, stem, cad.plate_part(model, drawing, title=task.title), task.order, exp)
     info = written.get(".dxf")
@@ -376,10 +386,9 @@ def _build_plate(task: PartTask) -> PartResult:
         raise UserError(
             f"{stem}.dxf: sheet is {sheet[0]:.1f} × {sheet[1]:.1f} mm, larger than the bed {task.bed}"
         )
-    row = _plate_row(
-        task, _plain(check), part_figures(written), cut, [round(x1 - x0, 3), round(y1 - y0, 3)], sheet
-    )
-    return PartResult("plate", tuple(files.files), row)
+    plain = _plain(check)
+    row = _plate_row(task, plain, part_figures(written), cut, [round(x1 - x0, 3), round(y1 - y0, 3)], sheet)
+    return PartResult("plate", tuple(files.files), row, plain)
 
 
 def _plate_row(
@@ -447,7 +456,7 @@ def _build_wall(task: PartTask) -> PartResult:
     row.update(file=part_file(stem, ".step"), standoff_mm=task.standoff_mm)
     if task.tile is not None:
         row["notches"] = wall_notches
-    return PartResult("wall", tuple(files.files), {**row, **wcheck})
+    return PartResult("wall", tuple(files.files), {**row, **wcheck}, wcheck)
 
 
 def check_template(run: Run) -> None:

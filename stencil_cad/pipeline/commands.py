@@ -42,22 +42,44 @@ log = logging.getLogger(__name__)
 CARD_FORMATS = (".step", ".stl", ".dxf")
 
 
-def _card_walls(run: Run, card: CardLayout) -> list[dict[str, Any]]:
-    """Build, check and export the card's walls, one per stand-off; their manifest rows."""
-    from ..cad import wall as wall_mod
+def _card_parts(run: Run, card: CardLayout, ring: np.ndarray) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """Build, check and export the card's plate and its walls (one per stand-off) as a job's parts are built.
 
-    cfg, exp = run.cfg, run.cfg.export
+    Returns:
+        ``(check, walls)``: the plate's solid check and the walls' manifest rows.
+    """
+    from dataclasses import replace
+
+    from .. import cad
+    from .build import PartTask, build_part
+
+    cfg = run.cfg
     w, h = card.width_mm, card.height_mm
-    walls = []
+    common: dict[str, Any] = {"cfg": cfg, "size_mm": (w, h), "lines": ([], []), "bed": None, "tile": None}
+    plate = PartTask(
+        kind="plate",
+        stem=CARD_PLATE_STEM,
+        holes=card.dots,
+        label=cad.LabelInfo(layer=1, layers=1, colour="", job="CARD"),
+        ring=ring,
+        # The card is always made in every way a can is tested: printed (STEP, STL) or cut (DXF).
+        order=CARD_FORMATS,
+        # The job's process rules, without its picture's keep-outs.
+        rules=replace(cfg.stipple.design_rules(w, h), keepouts=()),
+        cut_name="CARD",
+        what="card plate",
+        **common,
+    )
     heights = [fp.standoff_mm for fp in card.footprints]
-    for g, stem in zip(heights, card_stems(heights), strict=True):
-        wm = wall_mod.build_wall(w, h, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, g)
-        with run.out.open_path(part_file(stem, ".step")) as p:
-            wall_mod.wall_step(wm, p)
-        with run.out.open_path(part_file(stem, ".stl")) as p:
-            wall_mod.wall_stl(wm, p, exp.stl_tolerance_mm)
-        walls.append({"file": part_file(stem, ".step"), "standoff_mm": g, **wall_mod.check_wall(wm)})
-    return walls
+    walls = [
+        PartTask(kind="wall", stem=stem, standoff_mm=g, **common)
+        for g, stem in zip(heights, card_stems(heights), strict=True)
+    ]
+    results = [build_part(task) for task in (plate, *walls)]
+    for res in results:
+        for name, data in res.files:
+            run.out.write_bytes(name, data)
+    return results[0].check, [res.row for res in results[1:]]
 
 
 def _card_sheet(run: Run, card: CardLayout, paper: str) -> None:
@@ -102,11 +124,7 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
     The plate takes the job's hole radii, web, plate and key; it is built, checked and exported
     exactly like a layer's plate, and its walls like the job's.
     """
-    from dataclasses import replace
-
-    from .. import cad, outline
-    from ..exchange import dxf
-    from ..exchange.writers import write_part
+    from .. import outline
     from ..testcard import layout as card_mod
 
     cfg = run.cfg
@@ -115,21 +133,9 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
     except ValueError as exc:
         raise UserError(f"card: {exc}") from exc
     w, h = card.width_mm, card.height_mm
-    exp = cfg.export
     with run.stage("card"):
-        # The job's process rules, without its picture's keep-outs.
-        rules = replace(cfg.stipple.design_rules(w, h), keepouts=())
-        label = cad.LabelInfo(layer=1, layers=1, colour="", job="CARD")
-        try:
-            model = cad.build_plate(card.dots, w, h, cfg.plate, label, rules=rules)
-        except ValueError as exc:
-            raise UserError(f"card plate: {exc}") from exc
-        check = cad.check_plate(model, card.dots, tolerance_mm=exp.stl_tolerance_mm)
         ring = outline.plate_outline(w, h, cfg.plate.outline)
-        drawing = dxf.stencil_for(card.dots, ring, "CARD", *model.cut_label())
-        # The card is always made in every way a can is tested: printed (STEP, STL) or cut (DXF).
-        write_part(run.out, CARD_PLATE_STEM, cad.plate_part(model, drawing), CARD_FORMATS, exp)
-        walls = _card_walls(run, card)
+        check, walls = _card_parts(run, card, ring)
         heights = [fp.standoff_mm for fp in card.footprints]
         _card_sheet(run, card, paper)
     size = ring.max(axis=0) - ring.min(axis=0)
@@ -146,7 +152,7 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
             }
             for f in card.features
         ],
-        "plate": _plain(check),
+        "plate": check,
         "walls": walls,
         "sheet_mm": [round(v, 1) for v in card.sheet_mm],
         "paper": paper,
