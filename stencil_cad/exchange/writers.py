@@ -7,6 +7,7 @@ never writers.
 
 from __future__ import annotations
 
+import tempfile
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,7 +26,9 @@ __all__ = [
     "WRITERS",
     "PartFiles",
     "Writer",
+    "part_bytes",
     "part_figures",
+    "path_bytes",
     "wanted",
     "write_part",
 ]
@@ -148,8 +151,45 @@ def write_part(
     return out
 
 
+def path_bytes(name: str, write: Callable[[Path], Any]) -> tuple[bytes, Any]:
+    """The bytes ``write`` writes to a file named ``name``, and what it returned.
+
+    For a part built where a task runs (a worker may be another machine): its files travel back
+    as bytes with the task's result, and the caller writes them. The writer writes a path (OCCT's
+    writers take nothing else) in a private temporary folder, removed at once.
+    """
+    with tempfile.TemporaryDirectory(prefix="stencil-part-") as tmp:
+        path = Path(tmp) / name
+        got = write(path)
+        return path.read_bytes(), got
+
+
+def _writing(writer: Writer, part: PartFiles, export: ExportConfig) -> Callable[[Path], Any]:
+    return lambda path: writer.write(part, path, export)
+
+
+def part_bytes(
+    stem: str, part: PartFiles, extensions: Iterable[str], export: ExportConfig
+) -> tuple[list[tuple[str, bytes]], dict[str, Any]]:
+    """``part``'s files as ``stem`` plus each extension, in order, as ``(name, bytes)``; the caller writes them.
+
+    Returns:
+        ``(files, written)``: the files, and what each writer wrote by extension (None for most formats).
+
+    Raises:
+        KeyError: An extension without a writer.
+    """
+    files: list[tuple[str, bytes]] = []
+    written: dict[str, Any] = {}
+    for ext in extensions:
+        writer, name = WRITERS[ext], part_file(stem, ext)
+        data, written[ext] = path_bytes(name, _writing(writer, part, export))
+        files.append((name, data))
+    return files, written
+
+
 def part_figures(written: dict[str, Any]) -> dict[str, Any]:
-    """The manifest's keys for what :func:`write_part` wrote, in the order it wrote them."""
+    """The manifest's keys for what :func:`write_part` (or :func:`part_bytes`) wrote, in the order it wrote them."""
     figures: dict[str, Any] = {}
     for ext, info in written.items():
         figures.update(WRITERS[ext].figures(info))

@@ -10,12 +10,9 @@ the others once the holes are split, so each part is a separate task.
 
 from __future__ import annotations
 
-import contextlib
 import logging
-import tempfile
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
-from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
@@ -320,25 +317,6 @@ def build_part(task: PartTask) -> PartResult:
     return _build_plate(task) if task.kind == "plate" else _build_wall(task)
 
 
-class _Files:
-    """Collects the files a task writes as (name, bytes), through the output folder's ``open_path`` interface.
-
-    Each file is written into a private temporary folder where the task runs (a worker may be
-    another machine) and read back, so the files travel with the task's result.
-    """
-
-    def __init__(self) -> None:
-        self.files: list[tuple[str, bytes]] = []
-
-    @contextlib.contextmanager
-    def open_path(self, name: str) -> Iterator[Path]:
-        """Yield a temporary path to write ``name`` to; its bytes are kept when the block succeeds."""
-        with tempfile.TemporaryDirectory(prefix="stencil-part-") as tmp:
-            path = Path(tmp) / name
-            yield path
-            self.files.append((name, path.read_bytes()))
-
-
 def _solid_below(holes: Any, height_mm: float) -> float:
     """How far above a tile's part bottom its plate is solid all along, mm: up to its lowest hole or window.
 
@@ -357,7 +335,7 @@ def _solid_below(holes: Any, height_mm: float) -> float:
 def _build_plate(task: PartTask) -> PartResult:
     from .. import cad
     from ..exchange import dxf
-    from ..exchange.writers import part_figures, write_part
+    from ..exchange.writers import part_bytes, part_figures
 
     cfg, stem, holes, ring, label = task.cfg, task.stem, task.holes, task.ring, task.label
     if holes is None or ring is None or label is None:
@@ -376,10 +354,9 @@ def _build_plate(task: PartTask) -> PartResult:
     (x0, y0, _), (x1, y1, _) = check["bbox"]
     if task.bed is not None and not task.bed.fits(x1 - x0, y1 - y0):
         raise UserError(f"{stem}: plate is {x1 - x0:.1f} × {y1 - y0:.1f} mm, larger than the bed {task.bed}")
-    files = _Files()
     drawing = dxf.stencil_for(holes, ring, task.cut_name or stem.upper(), *model.cut_label())
     cut = round(dxf.cut_length_mm(holes, ring), 1)
-    written = write_part(files, stem, cad.plate_part(model, drawing, title=task.title), task.order, exp)
+    files, written = part_bytes(stem, cad.plate_part(model, drawing, title=task.title), task.order, exp)
     info = written.get(".dxf")
     sheet = None if info is None else (info.bbox_mm[2] - info.bbox_mm[0], info.bbox_mm[3] - info.bbox_mm[1])
     if sheet is not None and task.bed is not None and not task.bed.fits(*sheet):
@@ -388,7 +365,7 @@ def _build_plate(task: PartTask) -> PartResult:
         )
     plain = _plain(check)
     row = _plate_row(task, plain, part_figures(written), cut, [round(x1 - x0, 3), round(y1 - y0, 3)], sheet)
-    return PartResult("plate", tuple(files.files), row, plain)
+    return PartResult("plate", tuple(files), row, plain)
 
 
 def _plate_row(
@@ -434,6 +411,7 @@ def _plate_row(
 def _build_wall(task: PartTask) -> PartResult:
     from ..cad import registration
     from ..cad import wall as wall_mod
+    from ..exchange.writers import path_bytes
 
     cfg, stem = task.cfg, task.stem
     w, h = task.size_mm
@@ -447,16 +425,16 @@ def _build_wall(task: PartTask) -> PartResult:
         raise UserError(
             f"{stem}: wall is {bb[3] - bb[0]:.1f} × {bb[4] - bb[1]:.1f} mm, larger than the bed {task.bed}"
         )
-    files = _Files()
-    with files.open_path(part_file(stem, ".step")) as p:
-        wall_mod.wall_step(wm, p)
-    with files.open_path(part_file(stem, ".stl")) as p:
-        wall_mod.wall_stl(wm, p, cfg.export.stl_tolerance_mm)
+    step, stl = part_file(stem, ".step"), part_file(stem, ".stl")
+    files = (
+        (step, path_bytes(step, lambda p: wall_mod.wall_step(wm, p))[0]),
+        (stl, path_bytes(stl, lambda p: wall_mod.wall_stl(wm, p, cfg.export.stl_tolerance_mm))[0]),
+    )
     row: dict[str, Any] = {} if task.tile is None else {"tile": task.tile}
     row.update(file=part_file(stem, ".step"), standoff_mm=task.standoff_mm)
     if task.tile is not None:
         row["notches"] = wall_notches
-    return PartResult("wall", tuple(files.files), {**row, **wcheck}, wcheck)
+    return PartResult("wall", files, {**row, **wcheck}, wcheck)
 
 
 def check_template(run: Run) -> None:

@@ -10,6 +10,7 @@ from stencil_cad.config import io as cfg_io
 from stencil_cad.errors import UserError
 from stencil_cad.model import DotSet
 from stencil_cad.pipeline import build
+from stencil_cad.pipeline.names import build_outputs
 
 
 def _grid(**stipple):
@@ -73,3 +74,23 @@ def test_a_web_broken_across_a_seam_is_refused():
     )
     with pytest.raises(UserError, match=r"layer 1 \(asked holes, all tiles in mural coordinates\)"):
         mural.check_unions(cfg, grid, {"asked": [close]})
+
+
+def test_a_one_plate_job_is_the_one_by_one_tiling():
+    # The build takes one path: on one tile the tiling names the parts as a one-plate job's,
+    # cuts no sight notch, keeps the holes as they are and has no seam (no map, no seam check).
+    cfg = cfg_io.parse_config({"size": {"width_mm": 100, "height_mm": 80}}, "test")
+    grid = mural.TileGrid.whole(100.0, 80.0)
+    (tile,) = grid.tiles
+    assert mural.part_name(tile, grid) is None
+    assert mural.sight_lines(tile) == ([], [])
+    assert not mural.has_seams(grid) and not mural.label_band(tile)
+    holes = DotSet(xy_mm=np.array([[50.0, 40.0]]), r_mm=np.array([1.0]), report={})
+    assert mural.per_tile([holes], grid) == [[holes]]
+    names = build_outputs(cfg, grid, 2)
+    assert names[:4] == ["layer_01.step", "layer_01.stl", "layer_01.dxf", "layer_01.svg"]
+    assert "mural_map.png" not in names and "wall.step" in names
+    mural_cfg, tiled = _grid()
+    assert mural.has_seams(tiled) and mural.part_name(tiled.tiles[0], tiled) == "A1"
+    assert all(mural.sight_lines(t) == t.part_lines() for t in tiled.tiles)
+    assert build_outputs(mural_cfg, tiled, 1)[-1] == "mural_map.png"
