@@ -242,7 +242,7 @@ def test_killed_workers_cost_a_retry_not_the_job(cluster, tmp_path, in_process, 
         os.kill(pid, signal.SIGKILL)
         cluster.add_worker()
 
-    killer = _Killer(cluster, ["refine_tiles", "build_tiles"], kill_and_replace)
+    killer = _Killer(cluster, ["refine_tiles", "build-"], kill_and_replace)
     killer.start()
     try:
         code, out = _run_on(cluster, tmp_path, "killed")
@@ -250,7 +250,7 @@ def test_killed_workers_cost_a_retry_not_the_job(cluster, tmp_path, in_process, 
         killer.stop.set()
         killer.join()
     assert code == 0
-    assert [h.split("-")[0] for h in killer.hits] == ["refine_tiles", "build_tiles"], killer.hits
+    assert [h.split("-")[0] for h in killer.hits] == ["refine_tiles", "build"], killer.hits
     # A refinement task's input (a region of the picture, over 64 KB) lived on the killed worker
     # only: it was sent again.
     assert "refine tiles: task" in caplog.text and "sending both again" in caplog.text, caplog.text
