@@ -47,9 +47,10 @@ class _Forced:
 
 def _job(case: str, size: dict | None = None):
     """The job config and picture of a case: the bundled example as shipped, or a picture under its settings."""
+    from stencil_cad.plan.picture import load_picture
+
     from benchmarks.quality import _configs, _load
     from stencil_cad.imaging import fit_to_size
-    from stencil_cad.pipeline.picture import load_picture
 
     if case == "example":
         from pathlib import Path
@@ -68,16 +69,19 @@ def _job(case: str, size: dict | None = None):
 
 
 def _score(cfg, pic, layers) -> float:
+    from stencil_cad.plan.profiles import layer_sprays
+
     from benchmarks.quality import _NullOut
     from stencil_cad import pipeline
-    from stencil_cad.pipeline.profiles import layer_sprays
+    from stencil_cad.plan import holes
     from stencil_cad.simulate import simulate
     from stencil_cad.simulate.physical import SprayGeometry
     from stencil_cad.simulate.scielab import scielab
 
     size = (pic.width_mm, pic.height_mm)
     run_ = pipeline.Run(cfg=cfg, out=_NullOut(), quiet=True)
-    sets = pipeline.stage_stipple(run_, layers, size, pic)
+    # Stippled and refined as the job makes them, nothing written.
+    sets = holes.refined(run_, layers, holes.stippled(run_, layers, size)[0], size, pic)[0].sets
     sprays = layer_sprays(run_, layers.colours)  # each paint's deposit, as the job sprays it
     sim = simulate(layers, sets, cfg.spray, geometry=SprayGeometry.for_job(cfg), layer_sprays=sprays)
     ref = np.clip(_reference(cfg, pic, sim.composite.shape[:2]), 0.0, 1.0)

@@ -57,7 +57,8 @@ def job_default(cfg):
     ``simulate`` section.
     """
     from stencil_cad import pipeline
-    from stencil_cad.pipeline.run import computing, fit_thickness, plan_mural, soft_plates
+    from stencil_cad.pipeline.run import computing, plan_mural, soft_plates
+    from stencil_cad.plan.tiles import fit_thickness
 
     run_ = pipeline.Run(cfg=cfg, out=q._NullOut(), quiet=True)
     pic = pipeline.load_picture(cfg)

@@ -39,7 +39,7 @@ setting's plates can spray.
 
 Case names are ``<image>-<settings>``; ``--case astronaut`` runs both settings of one image.
 The soft side runs the pipeline's own stage functions with an output that writes nothing;
-the hard side calls the same functions as ``pipeline.run_hard`` without the CAD.
+the hard side calls the same functions as ``pipeline.run.run_hard`` without the CAD.
 
 Run: ``python -m benchmarks quality [--case coffee] [--case chelsea-sla]``.
 """
@@ -205,7 +205,7 @@ def _geometry(cfg):
 
 def _sprays(pipeline, cfg, colours) -> list:
     """Each layer's spray settings as the job's stages take them (its paint's profile and deposit prior)."""
-    from stencil_cad.pipeline.profiles import layer_sprays
+    from stencil_cad.plan.profiles import layer_sprays
 
     return layer_sprays(pipeline.Run(cfg=cfg, out=_NullOut(), quiet=True), colours)
 
@@ -416,19 +416,22 @@ def _job_choice(pipeline, cfg0, layers, pic):
 
 def _soft(f, pipeline, cfg0, layers, pic, image: str, windows: str, by_can: bool = True, heights=None):
     """The soft stencil at each stand-off: ``(refined, stippled, timing, last simulation, reference, run)``."""
+    from stencil_cad.plan import holes
+    from stencil_cad.plan.refinement import refine_holes
+
     size = (pic.width_mm, pic.height_mm)
     soft, plain, timing = {}, {}, {}
     for h in heights or _heights(cfg0, hard=False):
         cfg = _at_height(cfg0, h, refine=False, windows=windows)
         run_ = pipeline.Run(cfg=cfg, out=_NullOut(), quiet=True)
         t0 = time.perf_counter()
-        stippled = pipeline.stage_stipple(run_, layers, size, pic)
+        stippled = holes.refined(run_, layers, holes.stippled(run_, layers, size)[0], size, pic)[0].sets
         t_stipple = time.perf_counter() - t0
         run_r = pipeline.Run(
             cfg=_at_height(cfg0, h, refine=True, windows=windows), out=_NullOut(), quiet=True
         )
         t0 = time.perf_counter()
-        refined = pipeline.stage_refine(run_r, layers, stippled, size, pic)
+        refined = refine_holes(run_r, layers, stippled, size, pic)
         t_refine = time.perf_counter() - t0
         # Every layer sprays as the job sprays it: its paint's deposit prior (or measured profile).
         sprays = _sprays(pipeline, cfg, layers.colours)
@@ -481,10 +484,10 @@ def _hard(f, pipeline, cfg0, layers, pic, run_, ref, shape, mm_per_px):
     """
     from stencil_cad.decompose.light import paint_of_plates
     from stencil_cad.model import composite
-    from stencil_cad.pipeline.commands import _process_rules
+    from stencil_cad.pipeline.hard import process_rules
 
     t0 = time.perf_counter()
-    rules = _process_rules(cfg0)
+    rules = process_rules(cfg0)
     paints = len(set(paint_of_plates(layers.colours)))
     hard_cfg = cfg0.hard.model_copy(update={"colours": paints + 1})
     res = f["make_hard_stencils"](
@@ -501,7 +504,7 @@ def _hard(f, pipeline, cfg0, layers, pic, run_, ref, shape, mm_per_px):
                 mm_per_px,
                 sp,
                 geometry=_geometry(hcfg),
-                # As pipeline.run_hard sprays them: full cover (of each paint) under the physical model.
+                # As pipeline.run.run_hard sprays them: full cover (of each paint) under the physical model.
                 spray_time=float(sp.full_cover_passes()) if sp.is_physical else None,
             )
         hard_comp = np.clip(composite(res.primer, res.colours, alphas), 0.0, 1.0)

@@ -186,12 +186,12 @@ def run(
         UserError: A problem the user can fix (the message names it and the fix).
         Cancelled: ``cancel`` was cancelled.
     """
-    from . import pipeline
+    from .pipeline import run as pipeline_run
 
     if command not in COMMANDS:
         raise ValueError(f"command must be one of {', '.join(COMMANDS)}, got {command!r}")
     out = Path(out)
-    r, files = pipeline.run_command(
+    r, files = pipeline_run.run_command(
         command,
         cfg,
         out,
@@ -278,14 +278,15 @@ def make_card(
     """
     import time
 
-    from . import pipeline
     from .output import OutputDir
+    from .pipeline.commands import run_card
+    from .record import Run
 
     folder = OutputDir(Path(out), force=force)
-    r = pipeline.Run(cfg=cfg, out=folder, quiet=quiet)
+    r = Run(cfg=cfg, out=folder, quiet=quiet)
     t0 = time.perf_counter()
     try:
-        files = pipeline.run_card(r, standoffs_mm, paper)
+        files = run_card(r, standoffs_mm, paper)
     except BaseException:
         folder.abort()
         raise

@@ -268,9 +268,9 @@ def _schema(args) -> int:
 
 
 def _init(args) -> int:
-    from . import pipeline
+    from .pipeline.commands import write_default_config
 
-    pipeline.write_default_config(args.path, force=args.force)
+    write_default_config(args.path, force=args.force)
     print(f"wrote {args.path}; edit it, then: stencil-cad run {args.path}")
     return 0
 

@@ -2,7 +2,7 @@
 
 Names are built here and nowhere else (``tests/house`` fails on a file-name literal elsewhere):
 a module that writes or reads a job's file asks this one for its name. Which names a command
-may write for a given config is :mod:`stencil_cad.pipeline.names`, built from these.
+may write for a given config is :mod:`stencil_cad.plan.names`, built from these.
 Extensions alone (``".step"``) name formats, not files, and are used where formats are chosen.
 """
 

@@ -1,7 +1,7 @@
 """What each layer's can was, in words: the spray profile it used and whether it was measured.
 
 Read from the manifest's ``spray_profiles`` (one row per layer, see
-:func:`stencil_cad.pipeline.profiles.layer_sprays`); the summary and the sheet say the same.
+:func:`stencil_cad.plan.profiles.layer_sprays`); the summary and the sheet say the same.
 """
 
 from __future__ import annotations

@@ -24,9 +24,9 @@ from ..figures import BuildFigures
 from ..model import CutLayer, DotSet, Holes, Layers, Picture
 from ..names import part_file
 from ..output import plain as _plain
+from ..plan import tiles
+from ..plan.names import part_stem, part_wall_stems
 from ..record import Run
-from . import stand, tiles
-from .names import part_stem, part_wall_stems
 
 if TYPE_CHECKING:
     from ..cad import LabelInfo
@@ -35,17 +35,6 @@ if TYPE_CHECKING:
     from ..config.rules import DesignRules
 
 log = logging.getLogger(__name__)
-
-
-def stage_build(
-    run: Run, layers: Layers, holes: Sequence[Holes], grid: mural.TileGrid, picture: Picture | None = None
-) -> list[list[Holes]]:
-    """Build, check and export every tile's plates (one per layer) and wall(s): see :func:`start_build`.
-
-    Returns:
-        Per tile, per layer, the tile's holes as the process makes them, in the tile frame.
-    """
-    return finish_build(run, start_build(run, layers, holes, grid, picture))
 
 
 @dataclass
@@ -69,7 +58,7 @@ class BuildStarted:
 def start_build(
     run: Run, layers: Layers, holes: Sequence[Holes], grid: mural.TileGrid, picture: Picture | None = None
 ) -> BuildStarted:
-    """Start every tile's plates and walls as the job's tasks; :func:`finish_build` collects them.
+    """Start every tile's plates and walls as the job's tasks; :func:`collect_parts` collects them.
 
     The plates draw the holes compensated for the process (``stipple.compensate``): each hole is
     grown over the whole picture before the holes are split among the tiles, so a hole at a seam
@@ -96,26 +85,37 @@ def start_build(
     )
 
 
-def finish_build(run: Run, started: BuildStarted) -> list[list[Holes]]:
-    """Collect the parts :func:`start_build` started: stage their files, record the build.
+def collect_parts(run: Run, started: BuildStarted) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """Collect the parts :func:`start_build` started and stage their files, in task order.
+
+    Returns:
+        ``(plates, walls)``: the plates' and walls' rows, for :func:`record_build`.
+    """
+    plates: list[dict[str, Any]] = []
+    walls: list[dict[str, Any]] = []
+    for res in started.tasks.results():
+        for name, data in res.files:
+            run.out.write_bytes(name, data)
+        (plates if res.kind == "plate" else walls).append(res.row)
+    return plates, walls
+
+
+def record_build(
+    run: Run,
+    started: BuildStarted,
+    plates: list[dict[str, Any]],
+    walls: list[dict[str, Any]],
+    post_row: dict[str, Any] | None = None,
+    stand_rows: list[dict[str, Any]] | None = None,
+) -> list[list[Holes]]:
+    """Figure ``build`` from the parts' rows (:func:`collect_parts`), and a mural's tiles with its stand's rows.
+
+    ``post_row`` and ``stand_rows`` are the stand's (:func:`stencil_cad.pipeline.stand.stage_stand`).
 
     Returns:
         Per tile, per layer, the tile's holes as the process makes them, in the tile frame.
     """
-    cfg, grid = run.cfg, started.grid
-    plates: list[dict[str, Any]] = []
-    walls: list[dict[str, Any]] = []
-    with run.stage("build"):
-        for res in started.tasks.results():
-            for name, data in res.files:
-                run.out.write_bytes(name, data)
-            (plates if res.kind == "plate" else walls).append(res.row)
-        plan = mural.post_plan(cfg, grid)
-        post_row = stand_rows = None
-        if started.laser is not None:
-            stand_rows = stand.write_laser_stand(run, started.laser, grid.bed)
-        elif plan is not None and any(started.posts.values()):
-            post_row = stand.write_post(run, plan, started.posts)
+    grid = started.grid
     served = mural.wall_tiles(grid)
     for row in walls:
         if "tile" in row:

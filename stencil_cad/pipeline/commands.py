@@ -1,4 +1,4 @@
-"""The commands beside the job: the calibration card, hard-stencil mode and the default config."""
+"""The commands beside the job: the calibration card and the default config."""
 
 from __future__ import annotations
 
@@ -8,32 +8,20 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..config import JobConfig
 from ..errors import OutputError, UserError
-from ..figures import HardFigures, SimulateFigures
-from ..model import Layers, Picture
 from ..names import (
     CARD_PLATE_STEM,
     CARD_SHEET_PDF,
     CARD_SHEET_PNG,
     INIT_CONFIG,
-    SEGMENTATION_PNG,
-    SIMULATED_PNG,
-    cut_png,
     part_file,
 )
-from ..output import plain as _plain
+from ..plan.names import CARD_JSON, card_stems
 from ..record import Run
-from .build import stage_build
-from .decompose import _with_can_list
+from .build import PartTask, build_part
 from .manifest import finish
-from .names import CARD_JSON, card_stems, layer_stem
-from .paints import plate_cards, write_spray_order
-from .profiles import layer_sprays
-from .simulate import _scores, spraying_steps, write_previews, write_steps
 
 if TYPE_CHECKING:
-    from ..mural import TileGrid
     from ..testcard.layout import CardLayout
 
 log = logging.getLogger(__name__)
@@ -51,7 +39,6 @@ def _card_parts(run: Run, card: CardLayout, ring: np.ndarray) -> tuple[dict[str,
     from dataclasses import replace
 
     from .. import cad
-    from .build import PartTask, build_part
 
     cfg = run.cfg
     w, h = card.width_mm, card.height_mm
@@ -159,86 +146,6 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
         "passes": card.passes,
     }
     return finish(run, "card")
-
-
-def run_hard(run: Run, picture: Picture, grid: TileGrid) -> list[Path]:
-    """Hard-stencil mode: segmentation, bridges, plates with polygon cut-outs, simulation.
-
-    ``grid`` is the job's tiling: one tile (hard mode makes one plate per layer).
-    """
-    from .. import hardstencil
-
-    # Cut-outs are sprayed from their own nozzle height: the simulation, the spray order and
-    # the maker's spraying steps all read it from the spray section.
-    # Under the physical model a cut-out gets whole passes enough for full cover.
-    spray = run.cfg.spray.model_copy(update={"nozzle_height": run.cfg.hard.nozzle_height})
-    if spray.is_physical:
-        spray = spray.model_copy(update={"passes": float(spray.full_cover_passes())})
-    cfg = run.cfg = run.cfg.model_copy(update={"spray": spray})
-    size = (picture.width_mm, picture.height_mm)
-    with run.stage("segment"):
-        rules = _process_rules(cfg)
-        hcfg = _with_can_list(run, cfg.hard, "hard.palette")
-        try:
-            hard = hardstencil.make_hard_stencils(
-                picture, hcfg, rules["min_feature_mm"], rules["bridge_min_mm"], run.rng_for("hard")
-            )
-        except ValueError as exc:
-            raise UserError(f"hard mode: {exc}") from exc
-        if hard.count == 0:
-            raise UserError(
-                "hard mode: the image has a single flat colour, so there is nothing to cut "
-                "(prime the surface with it, or use an image with more colours)"
-            )
-        run.out.write_png(SEGMENTATION_PNG, hard.palette[hard.labels])
-        colours = np.array([cl.colour for cl in hard.cut_layers]).reshape(-1, 3)
-        for i, card in enumerate(plate_cards(run, colours, size, hard.cut_layers)):
-            run.out.write_png(cut_png(layer_stem(i)), card)
-        sprays = _hard_sprays(run, colours)
-        amounts = [float(sp.amount) for sp in sprays]
-        write_spray_order(run, hard.primer, colours, amounts)
-    run.figures.hard = HardFigures.from_json(
-        {
-            **_plain(hard.report),
-            "warnings": [str(w) for w in hard.report.get("warnings", [])],
-            "per_layer": [_plain(r) for r in hard.report.get("per_layer", [])],
-        }
-    )
-    layers = Layers(
-        primer=hard.primer,
-        colours=np.array([cl.colour for cl in hard.cut_layers]).reshape(-1, 3),
-        alphas=hard.cut_masks.astype(np.float64),
-        mm_per_px=picture.mm_per_px,
-    )
-    stage_build(run, layers, hard.cut_layers, grid)
-    with run.stage("simulate"):
-        from ..simulate.physical import SprayGeometry
-
-        geometry = SprayGeometry.for_job(cfg)
-        alphas, comp = hardstencil.simulate_hard(hard, cfg.spray, geometry=geometry, layer_sprays=sprays)
-        scores = _scores(run, picture.rgb, comp, picture.mm_per_px)
-        run.out.write_png(SIMULATED_PNG, comp)
-        write_previews(run, picture.rgb, hardstencil.render_ideal(hard), comp, picture.mm_per_px, scores)
-        write_steps(run, hard.primer, hard.colours, alphas, picture.mm_per_px)
-    run.figures.simulate = SimulateFigures(_plain(scores))
-    run.figures.spraying = spraying_steps(cfg, layers, amounts)
-    return finish(run, "hard")
-
-
-def _hard_sprays(run: Run, colours: np.ndarray) -> list[Any]:
-    """Each cut layer's spray settings: its paint's profile, with whole passes enough for its own cover."""
-    out = []
-    for sp in layer_sprays(run, colours):
-        if sp is not run.cfg.spray and sp.is_physical:
-            sp = sp.model_copy(update={"passes": float(sp.full_cover_passes())})
-        out.append(sp)
-    return out
-
-
-def _process_rules(cfg: JobConfig) -> dict[str, Any]:
-
-    st = cfg.stipple
-    return {"min_feature_mm": 2 * st.hole_floor_mm, "bridge_min_mm": max(st.resolved_web_mm, 1.0)}
 
 
 def write_default_config(path: Path, *, force: bool = False) -> None:

@@ -14,8 +14,8 @@ from ..config import JobConfig
 from ..figures import CostFigures
 from ..model import DotSet
 from ..mural.cost import hours_text
+from ..plan.picture import load_picture
 from ..record import Run
-from .picture import load_picture
 
 
 def record_cost(run: Run, grid: mural.TileGrid, dotsets: Sequence[DotSet]) -> CostFigures:
@@ -61,7 +61,7 @@ def dry_run(cfg: JobConfig) -> list[str]:
     Raises:
         UserError: The image cannot be read, or a part does not fit the bed.
     """
-    from . import tiles
+    from ..plan import tiles
 
     picture = load_picture(cfg)
     shape = picture.shape

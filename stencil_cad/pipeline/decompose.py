@@ -5,27 +5,24 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from dataclasses import replace
-from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, Any
 
 from ..colour import to_hex
-from ..config import DecomposeConfig, HardConfig, JobConfig
+from ..config import DecomposeConfig, JobConfig
 from ..errors import ConfigError, UserError
-from ..figures import CansFigures, CanSnap, DecomposeFigures, Figures
+from ..figures import CansFigures, CanSnap, DecomposeFigures
 from ..model import Layers, Picture
 from ..names import COMPOSITE_PNG, ENERGY_CSV, opacity_png
 from ..output import plain as _plain
+from ..plan.cans import with_can_list
+from ..plan.names import LAYERS_NPZ, layer_stem
 from ..record import Run
-from .names import LAYERS_NPZ, layer_stem
 
 if TYPE_CHECKING:
     from ..decompose.paints import Can
     from ..decompose.sprayed import PlateReach
     from ..decompose.tiled import TilePlan
     from ..mural import TileGrid
-
-#: A config section with a palette that may name a can list (the decomposition's or hard mode's).
-Section = TypeVar("Section", DecomposeConfig, HardConfig)
 
 log = logging.getLogger(__name__)
 
@@ -46,7 +43,7 @@ def decomposed(run: Run, picture: Picture, save: bool = False) -> Layers:
 
     from .. import decompose as dec
     from ..exchange.layers_npz import layers_from_npz, layers_to_npz
-    from .primer import prime_dark
+    from ..plan.primer import prime_dark
 
     primed = prime_dark(run, picture)
 
@@ -58,7 +55,7 @@ def decomposed(run: Run, picture: Picture, save: bool = False) -> Layers:
                 bar.update(1)
                 bar.set_postfix(energy=f"{energy:.4g}", refresh=False)
 
-            dcfg = _with_can_list(run, run.cfg.decompose, "decompose.palette")
+            dcfg = with_can_list(run, run.cfg.decompose, "decompose.palette")
             reach = plate_reach(run.cfg)
             try:
                 tiles = _decompose_tiles(run, picture)
@@ -205,21 +202,6 @@ def _decompose_tiled(
     return tiled.assemble(coarse, tiles, results, picture.mm_per_px)
 
 
-def _with_can_list(run: Run, section: Section, where: str) -> Section:
-    """A config section whose palette CSV (a can list) is replaced by its colours; the cans are noted."""
-    from ..decompose import paints
-
-    if not isinstance(section.palette, Path):
-        return section
-    try:
-        cans = paints.load_cans(section.palette)
-    except (ValueError, ConfigError) as exc:
-        raise ConfigError(f"{where}: {exc}") from None
-    run.figures.cans = replace(run.figures.cans or CansFigures(), can_list=[c.__dict__ for c in cans])
-    hexes = paints.to_hex_list(cans)
-    return section.model_copy(update={"palette": hexes if where.startswith("decompose") else list(hexes)})
-
-
 def _catalogue(run: Run) -> list[Can]:
     from ..decompose import paints
 
@@ -273,12 +255,3 @@ def _snap_to_catalogue(
     run.figures.cans = replace(run.figures.cans or CansFigures(), snap=CanSnap.from_json(snap))
     log.info("paints: snapped to the catalogue, composite RMSE %.2f → %.2f (0-255 units)", before, after)
     return snapped
-
-
-def can_names(figures: Figures) -> dict[str, str]:
-    """``{hex: can label}`` of every can this job knows (its can list and catalogue)."""
-    from ..decompose import paints
-
-    known = figures.cans or CansFigures()
-    rows = [*(known.can_list or []), *(known.catalogue or [])]
-    return paints.names_by_hex([paints.Can(**r) for r in rows])

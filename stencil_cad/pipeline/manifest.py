@@ -13,8 +13,8 @@ import yaml
 from .. import __version__
 from ..command_table import command as command_named
 from ..output import MANIFEST, OutputDir, manifest_header
+from ..plan.names import CONFIG_COPY, INSTRUCTIONS, LATER_STAGES, STAGE_FILES
 from ..record import Run
-from .names import CONFIG_COPY, INSTRUCTIONS, LATER_STAGES, STAGE_FILES
 
 log = logging.getLogger(__name__)
 

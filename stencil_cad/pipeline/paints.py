@@ -1,8 +1,13 @@
-"""The paints a maker sprays: ``spray.json``, the swatch card and the plate previews with their can names."""
+"""The paints stage: ``spray.json``, the swatch card and the plate previews with their can names.
+
+Run once a job's holes (or hard mode's cut-outs) are placed: :func:`write_plate_previews`, then
+:func:`write_spray_order`.
+"""
 
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -12,9 +17,9 @@ from ..config import JobConfig, Mode
 from ..figures import OrderStep, PrimerRow, SprayOrderFigures
 from ..model import DotSet
 from ..names import SWATCH_PNG
+from ..plan.cans import can_names
+from ..plan.names import SPRAY_JSON, layer_stem
 from ..record import Run
-from .decompose import can_names
-from .names import SPRAY_JSON, layer_stem
 
 log = logging.getLogger(__name__)
 
@@ -115,3 +120,15 @@ def plate_cards(
             )
         )
     return cards
+
+
+def write_plate_previews(
+    run: Run,
+    colours: np.ndarray,
+    picture_mm: tuple[float, float],
+    holes: list[Any],
+    name: Callable[[str], str],
+) -> None:
+    """Write each plate's preview (:func:`plate_cards`) as ``name(layer stem)``: ``dots_png`` or ``cut_png``."""
+    for i, card in enumerate(plate_cards(run, colours, picture_mm, holes)):
+        run.out.write_png(name(layer_stem(i)), card)

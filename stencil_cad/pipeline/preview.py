@@ -102,7 +102,7 @@ class Preview:
             prior (``nominal`` first), as the job's ``simulate.scielab_by_can``; None when the prior
             is one can (every layer measured, or the paper model) and on the other levels.
         size_mm: The picture's ``(width, height)``, mm.
-        tile_cores: Each tile of the job's tiling (:func:`stencil_cad.pipeline.tiles.plan`, as the job
+        tile_cores: Each tile of the job's tiling (:func:`stencil_cad.plan.tiles.plan`, as the job
             tiles): its name and the part of the picture it owns, ``(name, x0, y0, x1, y1)`` mm from the
             picture's bottom-left corner; one tile for a picture that fits the bed.
     """
@@ -256,9 +256,10 @@ def previews(
     Raises:
         UserError: The image cannot be read, the config asks for hard mode, or a part does not fit the bed.
     """
-    from . import tiles
-    from .picture import load_picture
-    from .run import fit_thickness
+    from .. import mural
+    from ..plan import tiles
+    from ..plan.picture import load_picture
+    from ..plan.tiles import fit_thickness
     from .standoff import with_design
 
     if cfg.mode == Mode.hard:
@@ -272,14 +273,14 @@ def previews(
     size = (picture.width_mm, picture.height_mm)
     grid, _ = tiles.plan(pcfg, *size, picture.shape[0] * picture.shape[1])
     run.cfg = fit_thickness(run, grid)
-    designing = not grid.tiled and leaves_design(run.cfg)
+    designing = mural.chooses_design(grid) and leaves_design(run.cfg)
     start = start_design(cfg, cache) if designing else None
     decomposed = cache.get(cache.layers, decomposition_key(run.cfg)) is not None
     if not decomposed:
         # Not decomposed yet: the first preview comes from a decomposition at half the resolution.
         yield _quick(run, picture, cache, grid, size, t0, start)
         run.check()
-    layers = plates_of(run, _layers(run, picture, cache), grid.tiled)
+    layers = plates_of(run, _layers(run, picture, cache), grid)
     # Decomposed as the job decomposes (at the config's stand-off); the holes start at ``start``.
     own, job_cfg, known = run.cfg, run.cfg, None
     if designing:
@@ -294,10 +295,10 @@ def previews(
     refining = run.cfg.refine.enabled
     yield made.sprayed("stippled", holes, final=not (refining or designing))
     if refining:
-        from .refine import stage_refine
+        from ..plan.refinement import refine_holes
 
         run.check()
-        refined = stage_refine(run, layers, holes, size, picture)
+        refined = refine_holes(run, layers, holes, size, picture)
         yield made.sprayed("refined", refined, final=not designing)
     if designing:
         run.check()
@@ -308,7 +309,7 @@ def previews(
             holes = _holes(run, layers, size, picture, cache)
             if refining:
                 run.check()
-                refined = stage_refine(run, layers, holes, size, picture)
+                refined = refine_holes(run, layers, holes, size, picture)
         yield made.sprayed("designed", refined if refining else holes, final=True)
 
 
@@ -353,7 +354,7 @@ def start_design(cfg: JobConfig, cache: PreviewCache) -> tuple[str, float]:
 
 def _job_config(run: Run, cfg: JobConfig, grid: Any) -> JobConfig:
     """The job's config as its plate-design trials read it: its own grid, the plate thickness its tiling asks, the primer chosen."""
-    from .run import fit_thickness
+    from ..plan.tiles import fit_thickness
 
     job = Run(cfg=cfg, out=run.out, quiet=True, cancel=run.cancel)
     return fit_thickness(job, grid).model_copy(update={"decompose": run.cfg.decompose})
@@ -423,7 +424,7 @@ def _quick(
 
     Decomposed at the config's stand-off, as the job decomposes; blurred at the ``start`` design's.
     """
-    from .picture import load_picture
+    from ..plan.picture import load_picture
     from .standoff import with_design
 
     half = Run(cfg=half_config(run.cfg), out=run.out, quiet=True, cancel=run.cancel)
@@ -436,7 +437,7 @@ def _quick(
         half.cfg = half.cfg.model_copy(update={"decompose": hit[1].decompose})
     if start is not None:
         half.cfg = with_design(half.cfg, *start)
-    return _Made(half, picture, plates_of(half, layers, grid.tiled), grid, size, t0).coarse()
+    return _Made(half, picture, plates_of(half, layers, grid), grid, size, t0).coarse()
 
 
 def _decomposed_cached(run: Run, picture: Picture, cache: PreviewCache, key: str) -> Layers:
@@ -461,13 +462,12 @@ def _layers(run: Run, picture: Picture, cache: PreviewCache) -> Layers:
 def _stipple(
     run: Run, layers: Layers, size: tuple[float, float], picture: Picture, refined: bool
 ) -> list[DotSet]:
-    from .stipple import stippled
+    from ..plan import holes
 
     cfg = run.cfg
     plain = cfg.model_copy(update={"refine": cfg.refine.model_copy(update={"enabled": refined})})
     trial = Run(cfg=plain, out=run.out, quiet=True, executor=run.executor, cancel=run.cancel)
-    made, _ = stippled(trial, layers, size, picture)
-    return made.sets
+    return holes.refined(trial, layers, holes.stippled(trial, layers, size)[0], size, picture)[0].sets
 
 
 @dataclass
@@ -492,9 +492,9 @@ class _Made:
     def sprayed(self, level: str, holes: list[DotSet], final: bool) -> Preview:
         """The holes sprayed as the process makes them, on the preview grid."""
         from .. import mural, simulate
+        from ..plan.profiles import layer_sprays
         from ..simulate.physical import SprayGeometry
         from ..stipple.made import made_dots
-        from .profiles import layer_sprays
 
         cfg = self.run.cfg
         self.run.check()
@@ -550,8 +550,8 @@ class _Made:
         others: dict[str, np.ndarray] | None = None,
     ) -> Preview:
         from ..colour import to_hex
+        from ..plan.picture import source_reference
         from ..simulate.scielab import scielab
-        from .picture import source_reference
 
         cfg = self.run.cfg
         ref = source_reference(cfg, self.picture, self.layers, sprayed.shape[:2], PREVIEW_MM_PER_PX)

@@ -16,8 +16,8 @@ import numpy as np
 from .. import mural
 from ..figures import MuralSimulation
 from ..model import DotSet, Layers
-from .profiles import layer_sprays
-from .tiles import _planned
+from ..plan.profiles import layer_sprays
+from ..plan.tiles import _planned
 
 if TYPE_CHECKING:
     from ..config.spray import SprayConfig

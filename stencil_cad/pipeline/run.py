@@ -16,26 +16,32 @@ from ..command_table import command as command_named
 from ..config import ComputeConfig, JobConfig, Mode
 from ..errors import UserError
 from ..exchange.png import png_bytes
-from ..figures import ComputeFigures, MuralFigures, PictureFigures, PlateFigures
+from ..figures import ComputeFigures, MuralFigures, PictureFigures
 from ..interrupts import CancelToken
 from ..model import DotSet, Layers, Picture
 from ..mural import TileGrid
-from ..names import INPUT_PNG
+from ..names import INPUT_PNG, cut_png, dots_png
 from ..output import OutputDir
+from ..plan import tiles
+from ..plan.holes import bound_dots
+from ..plan.names import run_outputs, stage_outputs
+from ..plan.picture import load_picture
+from ..plan.tiles import fit_thickness, record_plate
 from ..record import Run
-from . import registration, tiles
-from .build import check_template, finish_build, start_build
-from .commands import run_hard
+from . import registration
+from .build import BuildStarted, check_template, collect_parts, record_build, start_build
 from .cost import record_cost
 from .decompose import plates_of, stage_decompose
+from .hard import hard_config, stage_segment
 from .manifest import finish, save_config
-from .names import run_outputs, stage_outputs
-from .picture import load_picture
+from .paints import write_plate_previews, write_spray_order
+from .refine import stage_refine
 from .saved import check_dots, check_fresh, check_rows, read_dots, read_layers
-from .simulate import stage_simulate
+from .simulate import stage_simulate, stage_simulate_hard
 from .slicing import stage_print_estimate
+from .stand import stage_stand
 from .standoff import choose_plates
-from .stipple import bound_dots, stage_stipple
+from .stipple import save_dots, stage_stipple
 
 log = logging.getLogger(__name__)
 
@@ -106,42 +112,29 @@ def soft_plates(
     # The saved config records the plate design the job chose.
     design_plates(run, layers, size, picture, grid)
     save_config(run)
-    return layers, stage_stipple(run, layers, size, picture, grid)
+    return layers, plate_holes(run, layers, size, picture, grid)
+
+
+def plate_holes(
+    run: Run, layers: Layers, size: tuple[float, float], picture: Picture | None, grid: TileGrid
+) -> list[DotSet]:
+    """Every plate's holes: stippled, refined, saved (``dots_N.csv``), previewed, and the spray order."""
+    made = stage_stipple(run, layers, size, grid=grid)
+    sets = stage_refine(run, layers, made, size, picture, grid)
+    with run.stage("stipple"):
+        save_dots(run, made, sets)
+        write_plate_previews(run, layers.colours, size, sets, dots_png)
+        write_spray_order(
+            run, layers.primer, layers.colours, [ds.amount(run.cfg.spray.amount) for ds in sets]
+        )
+    return sets
 
 
 def plan_mural(run: Run, picture_mm: tuple[float, float], shape_px: tuple[int, ...]) -> TileGrid:
     """Tile the picture for the bed (one tile when it fits) and check every part fits, before any work."""
-    from . import tiles
-
     grid, fig = tiles.plan(run.cfg, *picture_mm, int(shape_px[0]) * int(shape_px[1]))
     run.figures.mural = fig
     return grid
-
-
-def fit_thickness(run: Run, grid: TileGrid) -> JobConfig:
-    """Fill the plate thickness in for the plates the tiling plans (when the config leaves it to the process).
-
-    The config chose it for the plate size it knew (:meth:`JobConfig.fit_plate_thickness`); the picture's
-    height and the mural's tiles are known now. Records the thickness and why as figure ``plate``.
-    """
-    from ..mural.posts import sag_side_mm
-
-    side = sag_side_mm(grid, run.cfg)
-    run.cfg = run.cfg.fit_plate_thickness(side)
-    record_plate(run, side)
-    return run.cfg
-
-
-def record_plate(run: Run, side_mm: float) -> None:
-    """Figure ``plate``: the thickness of ``run.cfg`` and why, for plates of longest side ``side_mm``."""
-    fill = run.cfg.thickness_fill
-    run.figures.plate = PlateFigures(
-        thickness_mm=run.cfg.plate.thickness_mm,
-        filled=fill.filled,
-        side_mm=round(side_mm, 1),
-        sag_mm=round(fill.sag_mm, 3) if fill.filled else None,
-        thickness_reason=fill.reason,
-    )
 
 
 def design_plates(
@@ -278,7 +271,7 @@ def _run_stage_command(
         # trials on the same layers and seed), so a stage command gives the run's files.
         design_plates(run, layers, size, picture, grid)
         if dotsets is None:
-            record_cost(run, grid, stage_stipple(run, layers, size, picture, grid))
+            record_cost(run, grid, plate_holes(run, layers, size, picture, grid))
         elif cmd.builds:
             record_cost(run, grid, dotsets)
             build_any(run, layers, dotsets, grid, picture, simulate=False)
@@ -326,8 +319,33 @@ def build_any(
         except BaseException:
             built.tasks.cancel()
             raise
-    finish_build(run, built)
+    build_parts(run, built)
     # PrusaSlicer's estimate slices a one-plate job's plates (a mural's parts are estimated by its plan).
     if run.cfg.export.print_estimate and not mural.has_seams(grid):
         stage_print_estimate(run)
     registration.stage_mural_simulate(run, cases)
+
+
+def build_parts(run: Run, built: BuildStarted) -> None:
+    """Collect the plates and walls :func:`start_build` started, write a mural's stand, record the build."""
+    with run.stage("build"):
+        plates, walls = collect_parts(run, built)
+        post_row, stand_rows = stage_stand(run, built.grid, built.laser, built.posts)
+    record_build(run, built, plates, walls, post_row, stand_rows)
+
+
+def run_hard(run: Run, picture: Picture, grid: TileGrid) -> list[Path]:
+    """Hard-stencil mode: segmentation, bridges, plates with polygon cut-outs, simulation.
+
+    ``grid`` is the job's tiling: one tile (hard mode makes one plate per layer).
+    """
+    # Cut-outs are sprayed from their own nozzle height, with whole passes for full cover.
+    run.cfg = hard_config(run.cfg)
+    size = (picture.width_mm, picture.height_mm)
+    with run.stage("segment"):
+        cut = stage_segment(run, picture)
+        write_plate_previews(run, cut.layers.colours, size, cut.hard.cut_layers, cut_png)
+        write_spray_order(run, cut.hard.primer, cut.layers.colours, cut.amounts)
+    build_parts(run, start_build(run, cut.layers, cut.hard.cut_layers, grid))
+    stage_simulate_hard(run, picture, cut.hard, cut.layers, cut.sprays, cut.amounts)
+    return finish(run, "hard")

@@ -11,7 +11,7 @@ from ..config import JobConfig
 from ..errors import ConfigError, UserError
 from ..model import DotSet, Layers
 from ..names import DOTS_PATTERN, windows_beside
-from .names import LAYERS_NPZ, SPRAY_JSON, STAGE_FILES, dots_name
+from ..plan.names import LAYERS_NPZ, SPRAY_JSON, STAGE_FILES, dots_name
 
 log = logging.getLogger(__name__)
 

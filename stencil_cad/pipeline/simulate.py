@@ -16,11 +16,11 @@ from ..figures import PaintFigures, PaintLayer, SimulateFigures, SprayStep
 from ..model import DotSet, Layers, Picture
 from ..names import PREVIEW_PNG, SIMULATED_PNG, SWEEP_PNG
 from ..output import plain as _plain
+from ..plan.names import simulated_stems, step_name
+from ..plan.picture import _resample, source_reference
+from ..plan.profiles import layer_sprays
 from ..record import Run
 from ..stipple.made import made_dots
-from .names import simulated_stems, step_name
-from .picture import _resample, source_reference
-from .profiles import layer_sprays
 
 if TYPE_CHECKING:
     from ..config.spray import SprayConfig
@@ -473,3 +473,25 @@ def write_steps(
         can_ml=cfg.can_ml,
         layers=tuple(PaintLayer.from_json(r) for r in rows),
     )
+
+
+def stage_simulate_hard(
+    run: Run, picture: Picture, hard: Any, layers: Layers, sprays: list[Any], amounts: list[float]
+) -> None:
+    """Spray hard mode's cut-outs ``hard`` (each layer with its settings ``sprays``), score and preview them.
+
+    Writes ``simulated.png``, the previews and the spraying steps; figures ``simulate`` and ``spraying``.
+    """
+    from .. import hardstencil
+    from ..simulate.physical import SprayGeometry
+
+    cfg = run.cfg
+    with run.stage("simulate"):
+        geometry = SprayGeometry.for_job(cfg)
+        alphas, comp = hardstencil.simulate_hard(hard, cfg.spray, geometry=geometry, layer_sprays=sprays)
+        scores = _scores(run, picture.rgb, comp, picture.mm_per_px)
+        run.out.write_png(SIMULATED_PNG, comp)
+        write_previews(run, picture.rgb, hardstencil.render_ideal(hard), comp, picture.mm_per_px, scores)
+        write_steps(run, hard.primer, hard.colours, alphas, picture.mm_per_px)
+    run.figures.simulate = SimulateFigures(_plain(scores))
+    run.figures.spraying = spraying_steps(cfg, layers, amounts)

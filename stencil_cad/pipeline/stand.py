@@ -7,8 +7,8 @@ from typing import TYPE_CHECKING, Any
 from .. import mural
 from ..names import part_file
 from ..output import plain as _plain
+from ..plan.names import POST_STEM
 from ..record import Run
-from .names import POST_STEM
 
 #: A laser-cut stand part's files.
 LASER_FORMATS = (".dxf", ".svg")
@@ -16,6 +16,31 @@ LASER_FORMATS = (".dxf", ".svg")
 if TYPE_CHECKING:
     from ..config.bed import Bed
     from ..mural.laser import CutPart
+
+
+def stage_stand(
+    run: Run,
+    grid: mural.TileGrid,
+    laser: list[CutPart] | None,
+    posts: dict[tuple[str, int], list[list[float]]],
+) -> tuple[dict[str, Any] | None, list[dict[str, Any]] | None]:
+    """A mural's stand beyond its walls: the laser-cut frame and spacers ``laser``, or the post its plates stand on.
+
+    Args:
+        run: The run.
+        grid: The job's tiling (its bed, and the posts it plans: :func:`stencil_cad.mural.post_plan`).
+        laser: The laser-cut stand's parts (:func:`stencil_cad.mural.laser_stand`), or None.
+        posts: The posts' sites per (tile, layer) from the build.
+
+    Returns:
+        ``(post_row, stand_rows)``: the post's figures, or the laser-cut parts' rows (None when absent).
+    """
+    plan = mural.post_plan(run.cfg, grid)
+    if laser is not None:
+        return None, write_laser_stand(run, laser, grid.bed)
+    if plan is not None and any(posts.values()):
+        return write_post(run, plan, posts), None
+    return None, None
 
 
 def write_post(

@@ -74,9 +74,9 @@ def window_share(cfg: JobConfig, layers: Layers, tiling: Any, picture_mm: tuple[
     """Share of the layers' paint that goes through their windows, in [0, 1].
 
     The paint is each layer's opacity above ``stipple.opacity_threshold``, summed over layers and
-    pixels; windows as the stipple stage finds them (:func:`stencil_cad.pipeline.stipple.layer_windows`).
+    pixels; windows as the stipple stage finds them (:func:`stencil_cad.plan.holes.layer_windows`).
     """
-    from .stipple import layer_windows
+    from ..plan.holes import layer_windows
 
     windows, _ = layer_windows(cfg, layers, tiling, picture_mm)
     paint = through = 0.0
@@ -130,12 +130,12 @@ def candidates(cfg: JobConfig, share: float) -> list[tuple[str, float]]:
 def prior_design(cfg: JobConfig) -> tuple[str, float]:
     """The plate design ``(windows, stand-off in mm)`` the trials are likeliest to choose, before they run.
 
-    With light plates (:func:`stencil_cad.pipeline.tiles.light_plates_on`) and the stand-off left to
+    With light plates (:func:`stencil_cad.plan.tiles.light_plates_on`) and the stand-off left to
     the job, the stand-off :data:`LOWER_BY_MM` below the process's: light plates make the light tones
     of close holes, which need less blur (the bundled example's trials chose 5 mm with light plates,
     8 mm without). Otherwise the config's own design, the first the trials try.
     """
-    from .tiles import light_plates_on
+    from ..plan.tiles import light_plates_on
 
     own = (cfg.stipple.windows.value, cfg.standoff.design_mm)
     lower = own[1] - LOWER_BY_MM
@@ -198,12 +198,12 @@ def _trial_score(
     ``refined``, refined as the job refines them.
     """
     from .. import resolution, simulate
+    from ..plan import holes
+    from ..plan.picture import source_reference
+    from ..plan.profiles import layer_sprays
     from ..simulate.physical import SprayGeometry
     from ..simulate.scielab import scielab
     from ..stipple.made import made_dots
-    from .picture import source_reference
-    from .profiles import layer_sprays
-    from .stipple import stippled
 
     trial_cfg = (
         cfg
@@ -214,7 +214,9 @@ def _trial_score(
     trial = Run(
         cfg=trial_cfg, out=run.out, quiet=True, executor=run.executor, cancel=run.cancel, kept=run.kept
     )
-    dotsets = stippled(trial, layers, picture_mm, picture)[0].sets
+    # Stippled, then refined (when the trial's config refines), as the job's stages run them.
+    unrefined = holes.stippled(trial, layers, picture_mm)[0]
+    dotsets = holes.refined(trial, layers, unrefined, picture_mm, picture)[0].sets
     made = [made_dots(d, cfg.stipple, picture_mm) for d in dotsets]
     sim = simulate.simulate(
         layers,

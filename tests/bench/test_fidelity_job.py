@@ -8,7 +8,7 @@ import pytest
 
 from benchmarks import fidelity
 from stencil_cad import api
-from stencil_cad.pipeline import run_command
+from stencil_cad.pipeline.run import run_command
 
 
 @pytest.mark.slow

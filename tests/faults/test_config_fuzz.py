@@ -7,7 +7,7 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import stencil_cad.pipeline as pipeline
+import stencil_cad.pipeline.run as pipeline_run
 from stencil_cad.cli import main
 from stencil_cad.config import JobConfig
 
@@ -63,7 +63,7 @@ yaml_noise = st.lists(
 
 
 def _check(tmp_path, capsys, monkeypatch, text):
-    monkeypatch.setattr(pipeline, "run_command", lambda *a, **k: (_ for _ in ()).throw(SystemExit(0)))
+    monkeypatch.setattr(pipeline_run, "run_command", lambda *a, **k: (_ for _ in ()).throw(SystemExit(0)))
     cfg = tmp_path / "fuzz.yaml"
     cfg.write_text(text, encoding="utf-8")
     try:

@@ -75,7 +75,7 @@ def test_the_route_is_one_property_and_is_taken():
                 readers.add(rel)
     assert defined == ["config/stipple.py"]
     # Not a vacuous rule: the modules that need the floor take the route.
-    assert {"bounds.py", "pipeline/stipple.py", "pipeline/refine.py", "simulate/tone.py"} <= readers
+    assert {"bounds.py", "plan/holes.py", "plan/refinement.py", "simulate/tone.py"} <= readers
 
 
 def test_the_rule_sees_each_other_way():

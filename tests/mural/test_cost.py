@@ -176,7 +176,7 @@ def test_cost_figures_read_back_and_show_on_the_sheet_and_summary():
 
 
 def test_plan_line_says_the_printer_hours_and_filament():
-    from stencil_cad.pipeline import tiles
+    from stencil_cad.plan import tiles
 
     cfg = job(
         size={"width_mm": 600, "height_mm": 400},

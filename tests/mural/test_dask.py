@@ -6,7 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from stencil_cad import compute, pipeline
+from stencil_cad import compute
+from stencil_cad.pipeline import run as pipeline_run
 from stencil_cad.cli import main
 from stencil_cad.config import io as cfg_io
 
@@ -84,7 +85,7 @@ def test_a_run_tells_the_executor_its_murals_planned_work(tmp_path, monkeypatch,
         {"size": size, "bed": "prusa_mk4", "stipple": {"process": "fdm"}}, source="test"
     )
     with pytest.raises(_Stop):
-        pipeline.run_command("run", cfg, tmp_path / "out", quiet=True)
+        pipeline_run.run_command("run", cfg, tmp_path / "out", quiet=True)
     if tiled:
         assert len(seen) == 1 and seen[0] > compute.MURAL_CLUSTER_SECONDS
     else:

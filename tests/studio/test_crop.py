@@ -9,7 +9,7 @@ from starlette.testclient import TestClient
 from stencil_cad import api
 from stencil_cad.errors import UserError
 from stencil_cad.imaging import example_image_path
-from stencil_cad.pipeline import tiles
+from stencil_cad.plan import tiles
 from stencil_cad.studio import Workspace, create_app
 from stencil_cad.studio.settings import config_data, crop_box
 

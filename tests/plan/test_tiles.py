@@ -1,10 +1,10 @@
-"""The order of the stages: the plate thickness chosen again for the plates the tiling plans."""
+"""The tiling's plan: the plate thickness chosen again for the plates the tiling plans."""
 
 import pytest
 
 from stencil_cad.config.io import parse_config
 from stencil_cad.mural import TileGrid
-from stencil_cad.pipeline.run import fit_thickness
+from stencil_cad.plan.tiles import fit_thickness
 from stencil_cad.record import Run
 
 

@@ -1,4 +1,4 @@
-"""The tiles' glue: the plan made before any work, and what a mural's build records beyond its parts.
+"""The tiling planned before any work, the plate thickness it asks for, and what a mural's build records beyond its parts.
 
 The parts themselves (every tile's plates and walls, one tile for a one-plate job) are built by
 :mod:`stencil_cad.pipeline.build`.
@@ -10,7 +10,7 @@ from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 from .. import mural
-from ..figures import MuralBed, MuralBuildFigures, MuralFigures, TileRow
+from ..figures import MuralBed, MuralBuildFigures, MuralFigures, PlateFigures, TileRow
 from ..model import DotSet, Layers, Picture
 from ..names import MURAL_MAP_PNG
 
@@ -26,6 +26,32 @@ def light_plates_on(cfg: JobConfig, tiled: bool) -> bool:
     tiling at hand (the plate-design trials of a one-plate job).
     """
     return mural.light_plates_on(cfg, tiled)
+
+
+def fit_thickness(run: Run, grid: mural.TileGrid) -> JobConfig:
+    """Fill the plate thickness in for the plates the tiling plans (when the config leaves it to the process).
+
+    The config chose it for the plate size it knew (:meth:`JobConfig.fit_plate_thickness`); the picture's
+    height and the mural's tiles are known now. Records the thickness and why as figure ``plate``.
+    """
+    from ..mural.posts import sag_side_mm
+
+    side = sag_side_mm(grid, run.cfg)
+    run.cfg = run.cfg.fit_plate_thickness(side)
+    record_plate(run, side)
+    return run.cfg
+
+
+def record_plate(run: Run, side_mm: float) -> None:
+    """Figure ``plate``: the thickness of ``run.cfg`` and why, for plates of longest side ``side_mm``."""
+    fill = run.cfg.thickness_fill
+    run.figures.plate = PlateFigures(
+        thickness_mm=run.cfg.plate.thickness_mm,
+        filled=fill.filled,
+        side_mm=round(side_mm, 1),
+        sag_mm=round(fill.sag_mm, 3) if fill.filled else None,
+        thickness_reason=fill.reason,
+    )
 
 
 def plan(

@@ -19,7 +19,7 @@ from ..colour import to_hex
 from ..config import SprayConfig
 from ..figures import LayerProfile
 from ..record import Run
-from .decompose import can_names
+from .cans import can_names
 
 __all__ = ["layer_sprays", "profile_rows"]
 

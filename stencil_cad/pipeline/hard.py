@@ -1,0 +1,104 @@
+"""Hard mode's glue: the picture segmented into flat-colour cut layers held by bridges, and each layer's spray.
+
+:func:`stencil_cad.pipeline.run.run_hard` orders hard mode's stages: :func:`hard_config`,
+:func:`stage_segment`, the paints' previews and spray order, the build and
+:func:`stencil_cad.pipeline.simulate.stage_simulate_hard`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..config import JobConfig, SprayConfig
+from ..errors import UserError
+from ..figures import HardFigures
+from ..model import Layers, Picture
+from ..names import SEGMENTATION_PNG
+from ..output import plain as _plain
+from ..plan.cans import with_can_list
+from ..plan.profiles import layer_sprays
+from ..record import Run
+
+
+@dataclass(frozen=True)
+class Segmented:
+    """What the segment stage made: the cut stencils, their layers, each layer's spray settings and amount."""
+
+    hard: Any
+    layers: Layers
+    sprays: list[SprayConfig]
+    amounts: list[float]
+
+
+def hard_config(cfg: JobConfig) -> JobConfig:
+    """``cfg`` as hard mode sprays: from the cut-outs' own nozzle height, with whole passes enough for full cover.
+
+    The simulation, the spray order and the maker's spraying steps all read it from the spray
+    section; the passes only under the physical model.
+    """
+    spray = cfg.spray.model_copy(update={"nozzle_height": cfg.hard.nozzle_height})
+    if spray.is_physical:
+        spray = spray.model_copy(update={"passes": float(spray.full_cover_passes())})
+    return cfg.model_copy(update={"spray": spray})
+
+
+def stage_segment(run: Run, picture: Picture) -> Segmented:
+    """Segment the picture into cut layers with bridges; write ``segmentation.png``; figure ``hard``.
+
+    Runs inside the ``segment`` stage, which the run opens (the paints' previews follow in it).
+
+    Raises:
+        UserError: The segmentation fails, or the image has a single flat colour.
+    """
+    from .. import hardstencil
+
+    cfg = run.cfg
+    rules = process_rules(cfg)
+    hcfg = with_can_list(run, cfg.hard, "hard.palette")
+    try:
+        hard = hardstencil.make_hard_stencils(
+            picture, hcfg, rules["min_feature_mm"], rules["bridge_min_mm"], run.rng_for("hard")
+        )
+    except ValueError as exc:
+        raise UserError(f"hard mode: {exc}") from exc
+    if hard.count == 0:
+        raise UserError(
+            "hard mode: the image has a single flat colour, so there is nothing to cut "
+            "(prime the surface with it, or use an image with more colours)"
+        )
+    run.out.write_png(SEGMENTATION_PNG, hard.palette[hard.labels])
+    colours = np.array([cl.colour for cl in hard.cut_layers]).reshape(-1, 3)
+    sprays = _hard_sprays(run, colours)
+    run.figures.hard = HardFigures.from_json(
+        {
+            **_plain(hard.report),
+            "warnings": [str(w) for w in hard.report.get("warnings", [])],
+            "per_layer": [_plain(r) for r in hard.report.get("per_layer", [])],
+        }
+    )
+    layers = Layers(
+        primer=hard.primer,
+        colours=colours,
+        alphas=hard.cut_masks.astype(np.float64),
+        mm_per_px=picture.mm_per_px,
+    )
+    return Segmented(hard, layers, sprays, [float(sp.amount) for sp in sprays])
+
+
+def _hard_sprays(run: Run, colours: np.ndarray) -> list[Any]:
+    """Each cut layer's spray settings: its paint's profile, with whole passes enough for its own cover."""
+    out = []
+    for sp in layer_sprays(run, colours):
+        if sp is not run.cfg.spray and sp.is_physical:
+            sp = sp.model_copy(update={"passes": float(sp.full_cover_passes())})
+        out.append(sp)
+    return out
+
+
+def process_rules(cfg: JobConfig) -> dict[str, Any]:
+    """The process's smallest cut feature and bridge, in mm, that hard mode segments with."""
+    st = cfg.stipple
+    return {"min_feature_mm": 2 * st.hole_floor_mm, "bridge_min_mm": max(st.resolved_web_mm, 1.0)}
