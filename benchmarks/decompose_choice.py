@@ -47,10 +47,9 @@ class _Forced:
 
 def _job(case: str, size: dict | None = None):
     """The job config and picture of a case: the bundled example as shipped, or a picture under its settings."""
-    from stencil_cad.plan.picture import load_picture
-
     from benchmarks.quality import _configs, _load
     from stencil_cad.imaging import fit_to_size
+    from stencil_cad.plan.picture import load_picture
 
     if case == "example":
         from pathlib import Path
@@ -69,11 +68,10 @@ def _job(case: str, size: dict | None = None):
 
 
 def _score(cfg, pic, layers) -> float:
-    from stencil_cad.plan.profiles import layer_sprays
-
     from benchmarks.quality import _NullOut
     from stencil_cad import pipeline
     from stencil_cad.plan import holes
+    from stencil_cad.plan.profiles import layer_sprays
     from stencil_cad.simulate import simulate
     from stencil_cad.simulate.physical import SprayGeometry
     from stencil_cad.simulate.scielab import scielab

@@ -35,9 +35,9 @@ def stage_decompose(run: Run, picture: Picture) -> Layers:
 def decomposed(run: Run, picture: Picture, save: bool = False) -> Layers:
     """The picture's primer and paint layers as the decompose stage makes them; saved only when ``save``.
 
-    A mostly dark picture is primed with its dark colour (:mod:`.primer`), named in ``run.cfg``. The
-    layers come back as ``layers.npz`` holds them (float32 opacities), saved or not, so a preview or a
-    stage command run later on the saved file goes on from the same numbers as the job.
+    A mostly dark picture is primed with its dark colour (:mod:`stencil_cad.plan.primer`), named in
+    ``run.cfg``. The layers come back as ``layers.npz`` holds them (float32 opacities), saved or not,
+    so a preview or a stage command run later on the saved file goes on from the same numbers as the job.
     """
     from dataclasses import replace
 

@@ -7,9 +7,9 @@ from pathlib import Path
 import pytest
 
 from stencil_cad import compute
-from stencil_cad.pipeline import run as pipeline_run
 from stencil_cad.cli import main
 from stencil_cad.config import io as cfg_io
+from stencil_cad.pipeline import run as pipeline_run
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 from benchmarks.compare_outputs import manifest_content, manifest_differences  # noqa: E402

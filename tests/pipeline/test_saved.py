@@ -2,11 +2,11 @@
 
 import numpy as np
 import pytest
-from stencil_cad.plan.names import dots_name, windows_name
 
 from stencil_cad.exchange.dots_csv import dots_to_csv, windows_to_json
 from stencil_cad.model import DotSet
 from stencil_cad.pipeline.saved import read_dots
+from stencil_cad.plan.names import dots_name, windows_name
 
 
 def test_read_dots_brings_back_the_windows(tmp_path):

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from stencil_cad.plan.names import build_outputs
 
 from stencil_cad import mural
 from stencil_cad.config import io as cfg_io
 from stencil_cad.errors import UserError
 from stencil_cad.model import DotSet
 from stencil_cad.pipeline import build
+from stencil_cad.plan.names import build_outputs
 
 
 def _grid(**stipple):

@@ -1,10 +1,10 @@
 """A mostly dark picture is primed with its dark colour, the light parts sprayed over it."""
 
 import numpy as np
-from stencil_cad.plan.primer import DARK_MIN_DELTA_E, DARK_SHARE, dark_primer, prime_dark
 
 from stencil_cad.config.io import parse_config
 from stencil_cad.model import Picture
+from stencil_cad.plan.primer import DARK_MIN_DELTA_E, DARK_SHARE, dark_primer, prime_dark
 from stencil_cad.record import Run
 
 

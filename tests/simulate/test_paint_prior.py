@@ -2,9 +2,9 @@
 
 import numpy as np
 import pytest
-from stencil_cad.plan.profiles import layer_sprays
 
 from stencil_cad.config.io import parse_config
+from stencil_cad.plan.profiles import layer_sprays
 from stencil_cad.record import Run
 from stencil_cad.simulate.cans import DARK_DEPOSIT, LIGHT_DEPOSIT, deposit_prior
 
