@@ -26,7 +26,7 @@ def summary(run: Run, files: list[Path], out_path: Path) -> str:
     f = run.figures
     lines = [f"stencil-cad: {run.cfg.name} → {out_path}/ ({len(files)} files)"]
     lines += _layer_lines(run, f)
-    if f.standoff is not None and f.standoff.trials:
+    if f.standoff is not None and (f.standoff.trials or f.standoff.refined):
         lines.append(f"  design    {f.standoff.reason}")
     lines += _build_lines(run, f)
     lines += _cost_lines(f)

@@ -236,7 +236,8 @@ def choose_plates(
     """The job's config with the plate design (windows, stand-off) this picture's plates spray best with.
 
     The designs of :func:`candidates` are tried (:func:`_screen`, :func:`_trial_score`, on the coarse
-    grid of :func:`trial_mm_per_px`) and the best kept; with one candidate the config comes back as it is.
+    grid of :func:`trial_mm_per_px`) and the best kept, or with light plates the two walls of
+    :func:`direct_pair` refined outright; with one candidate the config comes back as it is.
     The run calls it for one-plate jobs only (a mural keeps its config: trials over every tile would
     cost more than the job). Records figure ``standoff``: the share, the trials and the choice. Sets
     ``run.cfg``.
@@ -251,21 +252,27 @@ def choose_plates(
         share = window_share(cfg, layers, TileGrid.whole(*picture_mm), picture_mm)
         designs = candidates(cfg, share)
         grid = trial_mm_per_px(cfg)
+        direct = direct_pair(cfg, share)
         trials: list[PlateTrial] = []
-        if len(designs) > 1:
-            trials = _screen(
-                designs,
-                cfg,
-                share,
-                lambda w, g: round(
-                    _trial_score(run, with_design(cfg, w, g), layers, picture_mm, picture, grid), 3
-                ),
-            )
-        # The first best wins a tie: the config's own design is tried first.
-        best = min(trials, key=lambda t: t.scielab) if trials else PlateTrial(*designs[0], float("nan"))
-        refined = _refined_pair(run, cfg, layers, picture_mm, picture, grid, trials)
-        if refined:
-            best = next(t for t in trials if t.label == min(refined, key=lambda t: t.scielab).label)
+        if direct:
+            # Light plates: the unrefined screen ranks walls badly, so two walls are refined outright.
+            refined = [_refined_trial(run, cfg, layers, picture_mm, picture, grid, w, g) for w, g in direct]
+            best = min(refined, key=lambda t: t.scielab)
+        else:
+            if len(designs) > 1:
+                trials = _screen(
+                    designs,
+                    cfg,
+                    share,
+                    lambda w, g: round(
+                        _trial_score(run, with_design(cfg, w, g), layers, picture_mm, picture, grid), 3
+                    ),
+                )
+            # The first best wins a tie: the config's own design is tried first.
+            best = min(trials, key=lambda t: t.scielab) if trials else PlateTrial(*designs[0], float("nan"))
+            refined = _refined_pair(run, cfg, layers, picture_mm, picture, grid, trials)
+            if refined:
+                best = next(t for t in trials if t.label == min(refined, key=lambda t: t.scielab).label)
         run.cfg = with_design(cfg, best.windows, best.standoff_mm)
     fig = StandoffFigures(
         window_share=round(share, 3),
@@ -273,12 +280,12 @@ def choose_plates(
         trials=tuple(trials),
         reason=_reason(designs[0], best, trials, cfg.view.distance_m, refined),
         windows=best.windows,
-        trial_mm_per_px=round(grid, 4) if trials else None,
+        trial_mm_per_px=round(grid, 4) if trials or direct else None,
         seconds=round(time.perf_counter() - t0, 2),
         refined=tuple(refined),
     )
     run.figures.standoff = fig
-    if trials:
+    if trials or direct:
         log.info("plates: %s", fig.reason)
     return run.cfg
 
@@ -339,12 +346,51 @@ def _refined_pair(
     second = next((t for t in ranked if t.standoff_mm != first.standoff_mm), None)
     if second is None:
         return []
-    out = []
-    for t in (first, second):
-        design = with_design(cfg, t.windows, t.standoff_mm)
-        score = _trial_score(run, design, layers, picture_mm, picture, grid, refined=True)
-        out.append(PlateTrial(t.windows, t.standoff_mm, round(score, 3)))
-    return out
+    return [
+        _refined_trial(run, cfg, layers, picture_mm, picture, grid, t.windows, t.standoff_mm)
+        for t in (first, second)
+    ]
+
+
+def _refined_trial(
+    run: Run,
+    cfg: JobConfig,
+    layers: Layers,
+    picture_mm: tuple[float, float],
+    picture: Picture | None,
+    grid: float,
+    windows: str,
+    standoff_mm: float,
+) -> PlateTrial:
+    """The design's plates stippled, refined as the job refines them and sprayed on the trials' grid."""
+    design = with_design(cfg, windows, standoff_mm)
+    score = _trial_score(run, design, layers, picture_mm, picture, grid, refined=True)
+    return PlateTrial(windows, standoff_mm, round(score, 3))
+
+
+def direct_pair(cfg: JobConfig, share: float) -> list[tuple[str, float]]:
+    """The two walls refined outright, without the unrefined screen; empty where the screen runs.
+
+    With light plates (:func:`stencil_cad.plan.tiles.light_plates_on`) the unrefined screen
+    ranks walls badly: the light plates' close holes are what the refinement sharpens. On the
+    bundled example it put 8 mm first (5.03 against 5.73 at 5 mm) and refinement reversed that
+    (2.58 against 2.74), and 9 of the fidelity benchmark's 12 FDM pictures kept 5 or 8 mm. So where
+    the config leaves the stand-off to the job, the windows are not in question (they carry under
+    :data:`MIN_WINDOW_SHARE` of the paint) and no can is measured, the walls
+    :data:`LOWER_BY_MM` and :data:`NEAR_BY_MM` below the process's are refined and the better kept:
+    the four unrefined screens (a quarter of the job's CPU on the example) are not made.
+    """
+    from ..plan.tiles import light_plates_on
+
+    own_w, own_g = cfg.stipple.windows.value, cfg.standoff.design_mm
+    low, near = own_g - LOWER_BY_MM, own_g - NEAR_BY_MM
+    if not (cfg.chooses_standoff and cfg.refine.enabled and low >= LOWEST_MM):
+        return []
+    if share >= MIN_WINDOW_SHARE and own_w == Windows.auto.value:
+        return []
+    if matched_standoff(cfg) is not None or not light_plates_on(cfg, tiled=False):
+        return []
+    return [(own_w, low), (own_w, near)]
 
 
 def _reason(
@@ -355,6 +401,12 @@ def _reason(
     refined: list[PlateTrial] | None = None,
 ) -> str:
     """Why the design was chosen, in one line."""
+    if not trials and refined:
+        lost = max(refined, key=lambda t: t.scielab)
+        return (
+            f"{best.label} (chosen): refined, it scored {best.scielab:.2f} (S-CIELAB at {distance_m:g} m) "
+            f"against {lost.label} {lost.scielab:.2f}"
+        )
     if not trials:
         return f"{best.label}: the only design left to the job"
     kept = "the config's own" if (best.windows, best.standoff_mm) == own else "chosen"

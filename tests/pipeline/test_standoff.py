@@ -105,7 +105,8 @@ def _photo_layers() -> tuple[Picture, Layers]:
 
 def test_a_photo_without_windows_tries_the_stand_offs_only():
     pic, layers = _photo_layers()
-    run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
+    # One plate per paint: the unrefined screen ranks the walls (light plates refine two outright).
+    run = Run(cfg=_cfg(stipple={**_SLA["stipple"], "light_plates": "off"}), out=None)  # type: ignore[arg-type]
     assert window_share(run.cfg, layers, TileGrid.whole(60.0, 60.0), (60.0, 60.0)) < WINDOW_SHARE
     cfg = choose_plates(run, layers, (60.0, 60.0), pic)
     fig = run.figures.standoff
@@ -177,6 +178,40 @@ def test_a_coarse_step_is_tried_only_where_the_near_one_points(monkeypatch):
     choose_plates(run, layers, (60.0, 60.0), pic)
     fig = run.figures.standoff
     assert fig is not None and ("auto", 5.0) in {(t.windows, t.standoff_mm) for t in fig.trials}
+
+
+def test_light_plates_refine_two_walls_outright(monkeypatch):
+    # The bundled example's case: unrefined, 8 mm looked best; refined, 5 mm is. No screen is made.
+    from stencil_cad.pipeline.standoff import MIN_WINDOW_SHARE, direct_pair
+
+    pic, layers = _photo_layers()
+    monkeypatch.setattr(standoff, "window_share", lambda *a: MIN_WINDOW_SHARE / 2)
+    _scripted(monkeypatch, {}, {("auto", 5.0): 2.58, ("auto", 8.0): 2.74})
+    run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
+    cfg = choose_plates(run, layers, (60.0, 60.0), pic)
+    fig = run.figures.standoff
+    assert fig is not None and fig.trials == () and cfg.standoff.listed_mm == (5.0,)
+    assert [(t.standoff_mm, t.scielab) for t in fig.refined] == [(5.0, 2.58), (8.0, 2.74)]
+    assert "windows, 5 mm (chosen): refined, it scored 2.58" in fig.reason and "8 mm 2.74" in fig.reason
+    assert fig.trial_mm_per_px is not None
+    # The other wall wins where it sprays better; a tie keeps the lower one (the likelier).
+    _scripted(monkeypatch, {}, {("auto", 5.0): 2.9, ("auto", 8.0): 2.7})
+    run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
+    assert choose_plates(run, layers, (60.0, 60.0), pic).standoff.listed_mm == (8.0,)
+    _scripted(monkeypatch, {}, {("auto", 5.0): 2.7, ("auto", 8.0): 2.7})
+    run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
+    assert choose_plates(run, layers, (60.0, 60.0), pic).standoff.listed_mm == (5.0,)
+    # The screen still runs where windows are in question, the wall is given, or plates are not light.
+    cfg = _cfg()
+    assert direct_pair(cfg, MIN_WINDOW_SHARE / 2) == [("auto", 5.0), ("auto", 8.0)]
+    assert direct_pair(cfg, MIN_WINDOW_SHARE) == []
+    assert direct_pair(_cfg(stipple={**_SLA["stipple"], "windows": "off"}), 0.3) == [
+        ("off", 5.0),
+        ("off", 8.0),
+    ]
+    assert direct_pair(_cfg(wall={"standoff_mm": [10.0]}), 0.0) == []
+    assert direct_pair(_cfg(stipple={**_SLA["stipple"], "light_plates": "off"}), 0.0) == []
+    assert direct_pair(_cfg(refine={"enabled": False}), 0.0) == []
 
 
 def test_windows_carrying_almost_no_paint_are_not_tried_off():
@@ -304,6 +339,13 @@ def test_the_summary_says_what_was_chosen_and_why(monkeypatch, tmp_path):
     choose_plates(run, layers, (60.0, 60.0), pic)
     lines = [line for line in summary(run, [], tmp_path).splitlines() if line.startswith("  design")]
     assert len(lines) == 1 and "holes only, 15 mm (chosen)" in lines[0] and "1.50" in lines[0]
+    # Two walls refined outright (light plates, no screen) are told too.
+    monkeypatch.setattr(standoff, "window_share", lambda *a: 0.0)
+    _scripted(monkeypatch, {}, {("auto", 5.0): 2.6, ("auto", 8.0): 2.7})
+    run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
+    choose_plates(run, layers, (60.0, 60.0), pic)
+    lines = [line for line in summary(run, [], tmp_path).splitlines() if line.startswith("  design")]
+    assert len(lines) == 1 and "windows, 5 mm (chosen): refined" in lines[0]
 
 
 def test_a_measured_cap_is_tried_at_the_stand_off_that_keeps_the_priors_blur(tmp_path):
