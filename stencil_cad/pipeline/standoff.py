@@ -21,6 +21,10 @@ and where windows carry at
 least :data:`WINDOW_SHARE` of the paint, windows at :data:`LOW_STANDOFFS_MM` too. A job whose config
 fixes both (a given stand-off and ``windows: off``, or a picture without windows) tries nothing.
 A coarse step past a near one that already scored worse is not tried (:func:`_screen`).
+
+With light plates the unrefined screen ranks walls badly (the light plates' close holes are what
+the refinement sharpens), so where the windows are not in question and no can is measured, two
+walls are refined outright instead (:func:`direct_pair`).
 """
 
 from __future__ import annotations
