@@ -167,13 +167,13 @@ def run_hard(run: Run, picture: Picture, grid: TileGrid) -> list[Path]:
     ``grid`` is the job's tiling: one tile (hard mode makes one plate per layer).
     """
     from .. import hardstencil
+    from ..simulate.models import sprayer
 
     # Cut-outs are sprayed from their own nozzle height: the simulation, the spray order and
     # the maker's spraying steps all read it from the spray section.
     # Under the physical model a cut-out gets whole passes enough for full cover.
     spray = run.cfg.spray.model_copy(update={"nozzle_height": run.cfg.hard.nozzle_height})
-    if spray.is_physical:
-        spray = spray.model_copy(update={"passes": float(spray.full_cover_passes())})
+    spray = sprayer(spray).for_cutouts(spray)
     cfg = run.cfg = run.cfg.model_copy(update={"spray": spray})
     size = (picture.width_mm, picture.height_mm)
     with run.stage("segment"):
@@ -227,10 +227,12 @@ def run_hard(run: Run, picture: Picture, grid: TileGrid) -> list[Path]:
 
 def _hard_sprays(run: Run, colours: np.ndarray) -> list[Any]:
     """Each cut layer's spray settings: its paint's profile, with whole passes enough for its own cover."""
+    from ..simulate.models import sprayer
+
     out = []
     for sp in layer_sprays(run, colours):
-        if sp is not run.cfg.spray and sp.is_physical:
-            sp = sp.model_copy(update={"passes": float(sp.full_cover_passes())})
+        if sp is not run.cfg.spray:
+            sp = sprayer(sp).for_cutouts(sp)
         out.append(sp)
     return out
 
