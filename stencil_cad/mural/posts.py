@@ -161,7 +161,7 @@ def shade_reach_mm(cfg: JobConfig) -> float:
 
     :data:`SHADE_SIGMAS` of the widest blur of any layer's can under the tallest wall: the paint a
     post at that distance stops is the Gaussian's tail beyond it, within the narrow angle the foot
-    subtends (under 1 % of the hole's paint). The paper model: the mural's spray halo.
+    subtends (under 1 % of the hole's paint). A model without one blur (the paper's): the mural's spray halo.
     """
     from ..simulate.models import sprayer
 

@@ -191,11 +191,11 @@ def _patch_layouts(
 def _dose_patches(
     radius_mm: float, max_radius_mm: float, web_mm: float, spacing_factor: float, cfg_key: str, geometry
 ) -> tuple[tuple[int, np.ndarray], ...]:
-    """A model whose dose is linear in the amount: each tone sample's patch as unit-depth dose, shared by every dose compared.
+    """Each tone sample's patch as unit-depth dose, shared by every amount compared (a dose-linear model).
 
     Under the physical model the dose field does not depend on the passes (nor does a patch's layout:
-    the physical hole kernel's width does not), so the calibration's 20-30 candidate doses map one set of patches
-    through ``1 - exp(-depth dose)`` instead of spraying the patches again for each: on the example
+    the physical hole kernel's width does not), so the calibration's 20-30 candidate doses map one
+    set of patches through ``1 - exp(-depth dose)`` instead of spraying the patches again for each: on the example
     the stand-off trials' tone calibration went from about a third of the job's CPU time to a few
     per cent, with the same curves to the last digit.
     """
