@@ -95,7 +95,7 @@ def _can_lines(run: Run, rows: Sequence[LayerProfile]) -> list[str]:
     """The can each layer sprayed with (when the job keys profiles to paints), and the unmeasured ones."""
     from .instructions.cans import layer_can, unmeasured_warning, uses_profiles
 
-    if not run.cfg.spray.is_physical or not rows:
+    if not run.cfg.spray.has_cans or not rows:
         return []
     lines = []
     if uses_profiles(rows):

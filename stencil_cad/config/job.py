@@ -299,8 +299,8 @@ class JobConfig(StrictModel):
 
     @property
     def chooses_standoff(self) -> bool:
-        """Whether the job chooses its wall's stand-off for the picture: left null, soft, physical spray."""
-        return self.wall.standoff_mm is None and self.mode == Mode.soft and self.spray.is_physical
+        """Whether the job chooses its wall's stand-off for the picture: left null, soft, a spray model that sees the wall."""
+        return self.wall.standoff_mm is None and self.mode == Mode.soft and self.spray.has_wall
 
     def with_standoff(self, standoff_mm: float) -> JobConfig:
         """This config with the stand-off the job chose, in mm (:attr:`standoff`); ``wall.standoff_mm`` is kept.

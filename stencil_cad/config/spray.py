@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import enum
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -32,10 +33,57 @@ class Calibrate(str, enum.Enum):
 
 
 class SprayModel(str, enum.Enum):
-    """Which spray model the simulator and the tone calibration use."""
+    """Which spray model the simulator and the tone calibration use.
+
+    What a model means for the settings is its :class:`ModelTerms` (:attr:`terms`, in
+    :data:`MODEL_TERMS`); how it sprays is its class in :mod:`stencil_cad.simulate.models`.
+    """
 
     paper = "paper"
     physical = "physical"
+
+    @property
+    def terms(self) -> ModelTerms:
+        """What this model means for the settings: its row of :data:`MODEL_TERMS`."""
+        return MODEL_TERMS[self]
+
+
+@dataclass(frozen=True)
+class ModelTerms:
+    """What a spray model means for the settings, the run's figures and the maker's sheet.
+
+    Attributes:
+        amount_field: The ``spray`` field that holds a layer's base amount of paint.
+        amount_unit: That amount's unit, in words.
+        has_wall: The model sees the wall: a hole's blur follows the wall's stand-off and the
+            plate's thickness shades it, so every spray needs the plate's geometry and a job may
+            choose its stand-off for the picture.
+        has_cans: The model sprays a can's constants (``spray.can``, a spray profile, the prior of
+            cans), and its amount is passes of that can at a distance and a pace.
+        light_plates: ``stipple.light_plates: auto`` gives a one-plate job light plates.
+    """
+
+    amount_field: str
+    amount_unit: str
+    has_wall: bool
+    has_cans: bool
+    light_plates: bool
+
+
+#: Each spray model's terms: a new model is a member of :class:`SprayModel`, its row here and its
+#: class in :mod:`stencil_cad.simulate.models`.
+MODEL_TERMS: dict[SprayModel, ModelTerms] = {
+    SprayModel.paper: ModelTerms(
+        amount_field="spray_time",
+        amount_unit="spray time",
+        has_wall=False,
+        has_cans=False,
+        light_plates=False,
+    ),
+    SprayModel.physical: ModelTerms(
+        amount_field="passes", amount_unit="passes", has_wall=True, has_cans=True, light_plates=True
+    ),
+}
 
 
 class CanConstants(StrictModel):
@@ -310,8 +358,27 @@ class SprayConfig(StrictModel):
 
     @property
     def is_physical(self) -> bool:
-        """True under the physical spray model."""
+        """True under the physical spray model.
+
+        The package asks what a model does instead (:attr:`has_wall`, :attr:`has_cans`,
+        :mod:`stencil_cad.simulate.models`); this stays for scripts that name the model.
+        """
         return self.model == SprayModel.physical
+
+    @property
+    def terms(self) -> ModelTerms:
+        """What the spray model means for these settings (:data:`MODEL_TERMS`)."""
+        return MODEL_TERMS[self.model]
+
+    @property
+    def has_wall(self) -> bool:
+        """Whether the spray model sees the wall (stand-off and plate thickness): :attr:`ModelTerms.has_wall`."""
+        return self.terms.has_wall
+
+    @property
+    def has_cans(self) -> bool:
+        """Whether the spray model sprays a can's constants in passes: :attr:`ModelTerms.has_cans`."""
+        return self.terms.has_cans
 
     @property
     def is_measured(self) -> bool:
@@ -422,13 +489,12 @@ class SprayConfig(StrictModel):
     @property
     def amount(self) -> float:
         """The base amount of paint per layer in the model's unit: passes (physical) or spray time A (paper)."""
-        return self.passes if self.model == SprayModel.physical else self.spray_time
+        return float(getattr(self, self.terms.amount_field))
 
     @property
     def amount_cap(self) -> float:
         """Largest base amount the config accepts: ``passes``' or ``spray_time``'s upper bound."""
-        name = "passes" if self.model == SprayModel.physical else "spray_time"
-        for meta in type(self).model_fields[name].metadata:
+        for meta in type(self).model_fields[self.terms.amount_field].metadata:
             if getattr(meta, "le", None) is not None:
                 return float(meta.le)
         return math.inf  # pragma: no cover - both fields are bounded
@@ -436,7 +502,7 @@ class SprayConfig(StrictModel):
     @property
     def amount_unit(self) -> str:
         """``passes`` or ``spray time``."""
-        return "passes" if self.model == SprayModel.physical else "spray time"
+        return self.terms.amount_unit
 
     @field_validator("nozzle_height", mode="before")
     @classmethod

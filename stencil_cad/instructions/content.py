@@ -230,7 +230,7 @@ def _how(f: Figures, s: JobSettings) -> dict[int | None, str]:
     how = {r.layer: str(r.text or "") for r in f.spraying or ()}
     # The can each layer sprays with, named when the job keys spray profiles to its paints.
     cans = f.spray_profiles or ()
-    if s.physical and uses_profiles(cans):
+    if s.has_cans and uses_profiles(cans):
         for row in cans:
             how[row.layer] = (how.get(row.layer, "") + f"; can: {layer_can(row)}").lstrip("; ")
     return how
@@ -474,13 +474,13 @@ def _warnings(f: Figures, s: JobSettings) -> list[str]:
     warnings = f.decompose.warnings if f.decompose is not None else []
     warnings += [str(w) for w in (f.hard.warnings if f.hard is not None else None) or []]
     warnings += _dark_end_warnings(f)
-    unmeasured = unmeasured_warning(f.spray_profiles or ()) if s.physical else None
+    unmeasured = unmeasured_warning(f.spray_profiles or ()) if s.has_cans else None
     return warnings + ([unmeasured] if unmeasured else [])
 
 
 def _spray_how(s: JobSettings, section: str) -> str:
     """How to hold and move the can: the physical model's distance and speed, or the paper's height."""
-    if s.physical:
+    if s.has_cans:
         cm = s.can_distance_mm / 10.0
         speed = s.pass_speed_m_s
         return (

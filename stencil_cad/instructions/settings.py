@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from ..config.bed import Bed, resolve_bed
+from ..config.spray import SprayModel
 
 if TYPE_CHECKING:
     from ..config import JobConfig
@@ -96,9 +97,12 @@ class JobSettings:
         return cls.from_json(cfg.model_dump(mode="json"))
 
     @property
-    def physical(self) -> bool:
-        """Whether the job sprays under the physical model (the only one with can constants)."""
-        return self.spray_model == "physical"
+    def has_cans(self) -> bool:
+        """Whether the job's spray model sprays a can's constants in passes (the physical model's terms)."""
+        try:
+            return SprayModel(self.spray_model).terms.has_cans
+        except ValueError:  # a model this version does not know
+            return False
 
     @property
     def hard(self) -> bool:

@@ -480,8 +480,8 @@ def making_cost(
     laser = cfg.stipple.process.record.method is Method.cut
     rates = rates_for(cfg.bed)
     plates = plate_specs(grid, cfg, layers, dotsets)
-    physical = cfg.spray.is_physical
-    passes = [float(cfg.spray.passes) if not physical else d.amount(cfg.spray.passes) for d in dotsets or ()]
+    own = cfg.spray.has_cans  # a layer's own amount counts passes
+    passes = [float(cfg.spray.passes) if not own else d.amount(cfg.spray.passes) for d in dotsets or ()]
     parts = []
     cut_mm = cut_s = 0.0
     for p in plates:

@@ -161,15 +161,13 @@ def shade_reach_mm(cfg: JobConfig) -> float:
 
     :data:`SHADE_SIGMAS` of the widest blur of any layer's can under the tallest wall: the paint a
     post at that distance stops is the Gaussian's tail beyond it, within the narrow angle the foot
-    subtends (under 1 % of the hole's paint). The paper model: the mural's spray halo.
+    subtends (under 1 % of the hole's paint). A model without one blur (the paper's): the mural's spray halo.
     """
-    sp = cfg.spray
-    if not sp.is_physical:
-        return spray_halo_mm(cfg)
-    from ..simulate.physical import spread_sigma_mm
+    from ..simulate.models import sprayer
 
-    h = max(cfg.standoff.walls_mm)
-    sigma = max(spread_sigma_mm(sp.model_copy(update={"can": c}), h) for c in sp.all_cans())
+    sigma = sprayer(cfg.spray).widest_blur_mm(cfg)
+    if sigma is None:
+        return spray_halo_mm(cfg)
     return SHADE_SIGMAS * sigma
 
 

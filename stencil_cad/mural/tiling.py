@@ -78,9 +78,6 @@ HALO_TAIL = 1e-9
 PLATE_NOTCH_MM = 1.0
 WALL_NOTCH_MM = 1.5
 
-#: Largest spray-time multiplier the tone calibration may choose (calibrate._A_FACTORS).
-_CALIBRATION_MAX_FACTOR = 8.0
-
 
 @dataclass(frozen=True)
 class Tile:
@@ -250,28 +247,16 @@ def region_bounds(
 def spray_halo_mm(cfg: JobConfig) -> float:
     """How far a sheet must reach past its tile so that no hole's spray is cut, in mm.
 
-    The largest hole's Gaussian at the largest spray time the job can use falls below
+    The job's spray model says (:meth:`stencil_cad.simulate.models.Sprayer.halo_mm`): under the
+    paper's, the largest hole's Gaussian at the largest spray time the job can use falls below
     :data:`HALO_TAIL` there.
 
     Args:
         cfg: The job config.
     """
-    from ..simulate import dot_sigma_mm
+    from ..simulate.models import sprayer
 
-    sp = cfg.spray
-    if sp.is_physical:
-        # One blur for every hole; the physical splat reaches 5 sigma past the hole's edge.
-        from ..simulate.physical import spread_sigma_mm
-
-        # The widest blur of any layer's can (each paint may have its own profile).
-        h = max(cfg.standoff.walls_mm)
-        sigma = max(spread_sigma_mm(sp.model_copy(update={"can": c}), h) for c in sp.all_cans())
-        return float(5.0 * sigma + cfg.stipple.resolved_max_radius_mm + 1.0)
-    a = sp.spray_time
-    if cfg.chooses_spray_time:
-        a = min(100.0, a * _CALIBRATION_MAX_FACTOR)
-    sigma = float(dot_sigma_mm(cfg.stipple.resolved_max_radius_mm, sp.nozzle_height))
-    return sigma * math.sqrt(2.0 * math.log(max(a, 1.0) / HALO_TAIL))
+    return sprayer(cfg.spray).halo_mm(cfg, HALO_TAIL)
 
 
 def part_sizes(sheet_w: float, sheet_h: float, cfg: JobConfig) -> dict[str, tuple[float, float]]:
@@ -551,7 +536,7 @@ def light_plates_on(cfg: JobConfig, grid: TileGrid | bool) -> bool:
     if cfg.mode.value == "hard" or choice == LightPlates.off:
         return False
     is_mural = grid if isinstance(grid, bool) else grid.tiled
-    return choice == LightPlates.on or (not is_mural and cfg.spray.is_physical)
+    return choice == LightPlates.on or (not is_mural and cfg.spray.terms.light_plates)
 
 
 def plate_layers(cfg: JobConfig, grid: TileGrid | bool) -> int:

@@ -163,9 +163,10 @@ def plate_reach(cfg: JobConfig) -> PlateReach:
     """
     from ..decompose.sprayed import PlateReach
     from ..simulate import tone
+    from ..simulate.models import sprayer
 
     st = cfg.stipple
-    amount = float(cfg.spray.max_passes) if cfg.spray.is_physical else cfg.spray.amount
+    amount = sprayer(cfg.spray).reach_amount(cfg.spray)
     curve = tone.plate_response(cfg, amount)
     return PlateReach(
         darkest=float(curve.max_opacity),

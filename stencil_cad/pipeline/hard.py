@@ -39,9 +39,10 @@ def hard_config(cfg: JobConfig) -> JobConfig:
     The simulation, the spray order and the maker's spraying steps all read it from the spray
     section; the passes only under the physical model.
     """
+    from ..simulate.models import sprayer
+
     spray = cfg.spray.model_copy(update={"nozzle_height": cfg.hard.nozzle_height})
-    if spray.is_physical:
-        spray = spray.model_copy(update={"passes": float(spray.full_cover_passes())})
+    spray = sprayer(spray).for_cutouts(spray)
     return cfg.model_copy(update={"spray": spray})
 
 
@@ -90,10 +91,12 @@ def stage_segment(run: Run, picture: Picture) -> Segmented:
 
 def _hard_sprays(run: Run, colours: np.ndarray) -> list[Any]:
     """Each cut layer's spray settings: its paint's profile, with whole passes enough for its own cover."""
+    from ..simulate.models import sprayer
+
     out = []
     for sp in layer_sprays(run, colours):
-        if sp is not run.cfg.spray and sp.is_physical:
-            sp = sp.model_copy(update={"passes": float(sp.full_cover_passes())})
+        if sp is not run.cfg.spray:
+            sp = sprayer(sp).for_cutouts(sp)
         out.append(sp)
     return out
 

@@ -61,7 +61,7 @@ def write_spray_order(run: Run, primer: np.ndarray, colours: np.ndarray, spray_t
     ]
     sp = run.cfg.spray
     how: dict[str, Any] = {"unit": sp.amount_unit}
-    if sp.is_physical:
+    if sp.has_cans:
         for o, t in zip(order, spray_times, strict=True):
             o["passes"], speed = sp.hand(float(t))
             o["pass_speed_m_s"] = round(speed, 3)

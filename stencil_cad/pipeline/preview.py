@@ -588,11 +588,9 @@ class _Made:
 
 def _blur_mm(cfg: JobConfig) -> float:
     """The blur of a hole's spray, sigma in mm: the can's spread times the stand-off, or the paper model's."""
-    from ..simulate import dot_sigma_mm
+    from ..simulate.models import sprayer
 
-    if cfg.spray.is_physical:
-        return float(cfg.spray.can.spread_k) * cfg.standoff.design_mm
-    return float(dot_sigma_mm(cfg.stipple.resolved_radius_mm, cfg.spray.nozzle_height))
+    return sprayer(cfg.spray).rough_blur_mm(cfg)
 
 
 #: A callback told each preview as it is made.

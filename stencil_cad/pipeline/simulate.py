@@ -288,7 +288,7 @@ def spraying_steps(cfg: JobConfig, layers: Layers, amounts: Sequence[float]) -> 
     per_pass = sweep_seconds(cfg, w_px * layers.mm_per_px, h_px * layers.mm_per_px)
     for i, amount in enumerate(amounts):
         paint = to_hex(layers.colours[i])
-        if sp.is_physical:
+        if sp.has_cans:
             n, speed = sp.hand(float(amount))
             cm = sp.can_distance_mm / 10.0
             seconds = n * per_pass * sp.pass_speed_m_s / speed

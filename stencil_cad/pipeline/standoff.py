@@ -160,7 +160,7 @@ def matched_standoff(cfg: JobConfig) -> float | None:
     from ..config.spray import CanConstants
 
     spray = cfg.spray
-    if not spray.is_physical:
+    if not spray.has_cans:
         return None
     cans = [*([spray.can] if spray.is_measured else []), *spray.layer_cans.values()]
     measured = [c.spread_k for c in cans if c.spread_k > 0.0]

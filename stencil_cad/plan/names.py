@@ -70,9 +70,9 @@ log = logging.getLogger(__name__)
 
 
 def simulated_stems(cfg: JobConfig) -> list[str]:
-    """Extra simulated pictures, one per wall, when the physical model sees several stand-offs."""
+    """Extra simulated pictures, one per wall, when the spray model sees several stand-offs (the physical one)."""
     heights = cfg.standoff.walls_mm
-    if not cfg.spray.is_physical or len(heights) == 1:
+    if not cfg.spray.has_wall or len(heights) == 1:
         return []
     return [simulated_wall_name(stem) for stem in wall_stems(heights)]
 

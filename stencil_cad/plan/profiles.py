@@ -63,7 +63,7 @@ def _paint_prior(spray: SprayConfig, paint: Any) -> SprayConfig:
     from ..simulate.cans import deposit_prior
 
     default = type(spray.can).model_fields["deposit_per_pass"].default
-    if not spray.is_physical or spray.is_measured or spray.can.deposit_per_pass != default:
+    if not spray.has_cans or spray.is_measured or spray.can.deposit_per_pass != default:
         return spray
     can = spray.can.model_copy(update={"deposit_per_pass": deposit_prior(paint)})
     return spray.model_copy(update={"can": can})

@@ -152,7 +152,7 @@ def can_prior(cfg: SprayConfig, cans: Sequence[PriorCan] = CAN_PRIOR) -> list[tu
         ``(name, settings)`` per can: the whole prior under the physical model without a measured
         profile; only ``("nominal", cfg)`` under the paper model or with a measured can.
     """
-    if not cfg.is_physical or cfg.is_measured:
+    if not cfg.has_cans or cfg.is_measured:
         return [("nominal", cfg)]
     out = []
     for can in cans:

@@ -95,8 +95,8 @@ class SprayGeometry:
 
     @classmethod
     def for_job(cls, job_cfg, standoff_mm: float | None = None) -> SprayGeometry | None:
-        """:meth:`of_job` under the physical spray model; None under the paper's (no wall, no can)."""
-        return cls.of_job(job_cfg, standoff_mm) if job_cfg.spray.is_physical else None
+        """:meth:`of_job` under a spray model that sees the wall (the physical one); None under the paper's."""
+        return cls.of_job(job_cfg, standoff_mm) if job_cfg.spray.has_wall else None
 
 
 def spread_sigma_mm(cfg: SprayConfig, standoff_mm: float) -> float:

@@ -25,8 +25,9 @@ Two evaluations of the same model are provided (in :mod:`.opacity`):
   so ``tol = max_error / (8 max(1, n_eff))``.
 
 ``spray.model: physical`` replaces this model by the one in :mod:`stencil_cad.simulate.physical`
-(stand-off, can distance, passes); every public function here dispatches on it, and takes the
-plate's ``geometry`` (stand-off, thickness) for it.
+(stand-off, can distance, passes); every public function here asks the job's model
+(:func:`stencil_cad.simulate.models.sprayer`), and takes the plate's ``geometry`` (stand-off,
+thickness) for a model that sees the wall.
 
 The optical depth ``-ln(1 - I)`` used by the tone calibration is additive over
 holes; where a hole clamps (N >= 1) it is infinite, so the calibration works on
@@ -36,7 +37,6 @@ mean opacities, never on summed depths, and needs no cap.
 from __future__ import annotations
 
 import logging
-import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -44,9 +44,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..config.spray import SprayConfig, SprayModel
+from ..config.spray import SprayConfig
 from ..model import DotSet, Layers, composite
-from .opacity import _check_params, _need, dot_sigma_mm, spray_opacity, windows_opacity
+from .models import sprayer
+from .opacity import spray_opacity, windows_opacity
 
 if TYPE_CHECKING:
     from .physical import SprayGeometry
@@ -159,10 +160,7 @@ def layer_rmse(target: np.ndarray, simulated: np.ndarray) -> float:
 
 def _blur_mm_for(dots: DotSet, cfg: SprayConfig, fallback_r_mm: float, geometry=None) -> float:
     r = float(np.median(dots.r_mm)) if len(dots) else fallback_r_mm
-    if cfg.model == SprayModel.physical:
-        sigma, *_ = hole_kernels(r, cfg, cfg.amount, geometry=_need(geometry))
-        return float(sigma)
-    return float(dot_sigma_mm(r, cfg.nozzle_height))
+    return sprayer(cfg).blur_mm(r, cfg, geometry)
 
 
 def hole_kernels(
@@ -192,14 +190,7 @@ def hole_kernels(
         dimensionless, mm per mm, per mm) and ``"product"`` or ``"exp"``.
     """
     r = np.asarray(r_mm, dtype=np.float64)
-    if spray_cfg.model == SprayModel.physical:
-        from .physical import physical_hole_kernels
-
-        sigma, peak, ds, dp = physical_hole_kernels(r, spray_cfg, float(layer_spray_time), _need(geometry))
-        return sigma, peak, ds, dp, "exp"
-    _check_params(float(layer_spray_time), spray_cfg.nozzle_height)
-    f = math.sqrt(1.0 + spray_cfg.nozzle_height) / 2.0
-    return r * f, np.full_like(r, float(layer_spray_time)), np.full_like(r, f), np.zeros_like(r), "product"
+    return sprayer(spray_cfg).hole_kernels(r, spray_cfg, layer_spray_time, geometry)
 
 
 def simulate(
@@ -250,8 +241,9 @@ def simulate(
     g = _grid(cfg, grid_mm_per_px)
     spray_times, sprays = _spray_times(dotsets, cfg, spray_times), per_layer(cfg, layer_sprays, layers.count)
     shape = sim_shape(layers.alphas.shape[1:], layers.mm_per_px, g)
-    physical = cfg.model == SprayModel.physical
-    _check_scale(dotsets, cfg, g, geometry)
+    model = sprayer(cfg)
+    r_min = min((float(d.r_mm.min()) for d in dotsets if len(d)), default=None)
+    model.check_scale(r_min, cfg, g, geometry)
     fallback_r = _median_radius(dotsets)
     alphas = np.zeros((layers.count, *shape), dtype=np.float64)
     rmse, tone_rmse, seconds, blur = [], [], [], []
@@ -270,11 +262,7 @@ def simulate(
     info = {
         "holes": [len(d) for d in dotsets],
         "spray_time": [float(t) * time_factor for t in spray_times],
-        **(
-            {"model": "physical", "standoff_mm": geometry.standoff_mm}
-            if physical
-            else {"nozzle_height": cfg.nozzle_height}
-        ),
+        **model.info(cfg, geometry),
         "blur_sigma_mm": blur,
         "layer_tone_rmse": [round(x, 5) for x in tone_rmse],
         "seconds": seconds,
@@ -318,25 +306,12 @@ def _layer_opacity(dots: DotSet, shape, g: float, cfg: SprayConfig, a: float, ge
     out = np.zeros(shape)
     if len(dots):
         out = spray_opacity(dots.xy_mm, dots.r_mm, shape, g, cfg, spray_time=a, geometry=geometry)
-    elif cfg.model != SprayModel.physical:
-        _check_params(a, cfg.nozzle_height)
+    else:
+        sprayer(cfg).check(cfg, a)
     if dots.windows:
         win = windows_opacity(dots.windows, shape, g, cfg, spray_time=a, geometry=geometry)
         out = 1.0 - (1.0 - out) * (1.0 - win)
     return out
-
-
-def _check_scale(dotsets: list[DotSet], cfg: SprayConfig, g: float, geometry) -> None:
-    """Require the geometry under the physical model; warn when the paper model's dots are under half a pixel."""
-    r_min = min((float(d.r_mm.min()) for d in dotsets if len(d)), default=None)
-    if cfg.model == SprayModel.physical:
-        _need(geometry)
-    elif r_min is not None and dot_sigma_mm(r_min, cfg.nozzle_height) < 0.5 * g:
-        log.warning(
-            "spray dots (sigma %.3f mm) are under half a simulation pixel (%.3f mm): raise spray.px_per_mm",
-            float(dot_sigma_mm(r_min, cfg.nozzle_height)),
-            g,
-        )
 
 
 def _layer_errors(target_alpha, simulated, shape, blur_mm: float, g: float) -> tuple[float, float]:

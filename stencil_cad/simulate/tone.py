@@ -46,7 +46,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..config.spray import Calibrate, SprayConfig, SprayModel
+from ..config.spray import Calibrate, SprayConfig
+from .models import sprayer
 from .opacity import spray_opacity
 from .spray import hole_kernels
 
@@ -73,9 +74,6 @@ _CELLS = 10
 #: Jitter of the response patch's hexagonal lattice, as a fraction of the spacing (a
 #: relaxed weighted-Voronoi stipple is locally hexagonal with small disorder).
 _JITTER = 0.08
-#: Spray-time multipliers tried by ``calibrate: spray_time`` (1/64 to 8: a hole sprays about
-#: ``A 2 pi sigma^2`` of paint and sigma grows with the nozzle height, so high nozzles want low A).
-_A_FACTORS = tuple(2.0 ** (k / 2.0) for k in range(-12, 7))
 
 
 def packing_density(max_radius_mm: float, web_mm: float, spacing_factor: float = 1.15) -> float:
@@ -170,7 +168,7 @@ def _patch_layouts(
     geometry,
 ):
     """Each tone sample's response patch: ``(k, xy_mm, r_mm, n_px, px_mm)`` (seeded, so always the same)."""
-    physical = cfg.model == SprayModel.physical
+    reach = sprayer(cfg).kernel_reach(spray_time)
     rho_pack = packing_density(max_radius_mm, web_mm, spacing_factor)
     rng = np.random.default_rng(20150901)
     for k, t in enumerate(_T_SAMPLES):
@@ -185,7 +183,6 @@ def _patch_layouts(
         n_px = int(math.ceil(width / px))
         px = width / n_px
         # Holes beyond the patch edge up to the fast path's reach, so the patch has no border.
-        reach = 5.0 if physical else math.sqrt(2.0 * math.log(max(spray_time, 1.0) * 1e6))
         margin = sigma * reach + spacing
         yield k, _hex_patch(spacing, width, margin, rng), r, n_px, px
 
@@ -194,19 +191,18 @@ def _patch_layouts(
 def _dose_patches(
     radius_mm: float, max_radius_mm: float, web_mm: float, spacing_factor: float, cfg_key: str, geometry
 ) -> tuple[tuple[int, np.ndarray], ...]:
-    """Physical model: each tone sample's patch as unit-depth dose, shared by every dose compared.
+    """Each tone sample's patch as unit-depth dose, shared by every amount compared (a dose-linear model).
 
-    The dose field does not depend on the passes (nor does a patch's layout: the physical hole
-    kernel's width does not), so the calibration's 20-30 candidate doses map one set of patches
-    through ``1 - exp(-depth dose)`` instead of spraying the patches again for each: on the example
+    Under the physical model the dose field does not depend on the passes (nor does a patch's layout:
+    the physical hole kernel's width does not), so the calibration's 20-30 candidate doses map one
+    set of patches through ``1 - exp(-depth dose)`` instead of spraying the patches again for each: on the example
     the stand-off trials' tone calibration went from about a third of the job's CPU time to a few
     per cent, with the same curves to the last digit.
     """
-    from .physical import physical_dose
-
     cfg = SprayConfig.model_validate_json(cfg_key)
+    model = sprayer(cfg)
     return tuple(
-        (k, physical_dose(xy, r, (n_px, n_px), px, cfg, geometry))
+        (k, model.unit_dose(xy, r, (n_px, n_px), px, cfg, geometry))
         for k, xy, r, n_px, px in _patch_layouts(
             radius_mm, max_radius_mm, web_mm, spacing_factor, 1.0, cfg, geometry
         )
@@ -226,12 +222,11 @@ def _response(
     cfg = SprayConfig.model_validate_json(cfg_key)
     mean = np.zeros(_T_SAMPLES.size)
     var = np.zeros(_T_SAMPLES.size)
-    if cfg.model == SprayModel.physical:
-        from .physical import dose_per_pass, opacity_of_dose
+    model = sprayer(cfg)
+    if model.dose_is_linear:
+        from .physical import opacity_of_dose
 
-        if not spray_time > 0.0:
-            raise ValueError(f"passes must be > 0, got {spray_time}")
-        depth = spray_time * dose_per_pass(cfg)
+        depth = model.depth(cfg, spray_time)
         for k, dose in _dose_patches(radius_mm, max_radius_mm, web_mm, spacing_factor, cfg_key, geometry):
             opacity = opacity_of_dose(dose, depth)
             mean[k] = float(opacity.mean())
@@ -273,7 +268,7 @@ def tone_response(
     """
     a = cfg.amount if spray_time is None else float(spray_time)
     r1 = radius_mm if max_radius_mm is None else float(max_radius_mm)
-    if cfg.model != SprayModel.physical:
+    if not cfg.has_wall:
         geometry = None
     return _response(float(radius_mm), r1, float(web_mm), float(spacing_factor), a, _model_key(cfg), geometry)
 
@@ -382,9 +377,7 @@ def _sampled(a: np.ndarray, weight: np.ndarray | None) -> tuple[np.ndarray, np.n
 
 def full_coat(cfg: SprayConfig, amount: float) -> float:
     """The opacity an open area gets at a spray amount (passes under the physical model)."""
-    if cfg.model == SprayModel.physical:
-        return float(-math.expm1(-amount * cfg.dose_per_pass))
-    return float(-math.expm1(-amount * (1.0 + cfg.nozzle_height) / 2.0))
+    return sprayer(cfg).full_coat(cfg, amount)
 
 
 def _windows_mse(windows, weight, cfg: SprayConfig, amount: float) -> float:
@@ -404,12 +397,8 @@ def _windows_mse(windows, weight, cfg: SprayConfig, amount: float) -> float:
 
 def _spray_time_candidates(mode: Calibrate, cfg: SprayConfig) -> list[float]:
     """The spray times (or passes, under the physical model) the calibrated choice compares."""
-    if mode == Calibrate.spray_time and cfg.model == SprayModel.physical:
-        # A hand sprays whole passes (at most spray.max_passes) at a pace it can vary a little:
-        # doses in steps of spray.dose_step.
-        return cfg.doses()
     if mode == Calibrate.spray_time:
-        return sorted({min(100.0, cfg.spray_time * f) for f in _A_FACTORS})
+        return sprayer(cfg).amount_candidates(cfg)
     return [cfg.amount]
 
 
