@@ -47,7 +47,8 @@ SMOKE_KEYS = (
 def job_default(cfg):
     """What ``stencil-cad run`` makes of ``cfg`` (its ``image``, or the bundled example).
 
-    Returns ``(run, picture, layers, holes, simulation, reference)``.
+    Returns ``(run, plan, picture, layers, holes, simulation, reference)``: ``plan`` is the job's plan
+    with its design (:class:`stencil_cad.plan.plan.Plan`; its ``cfg`` is the config as the job resolved it).
 
     The job's own steps, in its order: the picture loaded as the job loads it, the plate sized, the
     soft plates made (:func:`stencil_cad.pipeline.run.soft_plates`: decomposed, the plate design chosen,
@@ -57,18 +58,16 @@ def job_default(cfg):
     ``simulate`` section.
     """
     from stencil_cad import pipeline
-    from stencil_cad.pipeline.run import computing, plan_mural, soft_plates
-    from stencil_cad.plan.tiles import fit_thickness
+    from stencil_cad.pipeline.run import computing, plan_job, soft_plates
 
     run_ = pipeline.Run(cfg=cfg, out=q._NullOut(), quiet=True)
     pic = pipeline.load_picture(cfg)
     size = (pic.width_mm, pic.height_mm)
     with computing(run_, pic.shape[0] * pic.shape[1]):
-        grid = plan_mural(run_, size, pic.shape)
-        fit_thickness(run_, grid)
-        layers, dotsets = soft_plates(run_, pic, size, grid)
-        sim, ref = pipeline.stage_simulate(run_, pic, layers, dotsets, keep=True)
-    return run_, pic, layers, dotsets, sim, ref
+        plan = plan_job(run_, size, pic.shape)
+        plan, layers, dotsets = soft_plates(run_, plan, pic)
+        sim, ref = pipeline.stage_simulate(run_, plan, pic, layers, dotsets, keep=True)
+    return run_, plan, pic, layers, dotsets, sim, ref
 
 
 def job_config(image: str, settings: str, folder, size: dict | None = None):
@@ -82,9 +81,9 @@ def job_config(image: str, settings: str, folder, size: dict | None = None):
 
 def _default(cfg):
     """The job's own design on the picture's file: ``(scores and figures of the design, the job's state)``."""
-    run_, pic, layers, dotsets, sim, ref = job_default(cfg)
+    run_, plan, pic, layers, dotsets, sim, ref = job_default(cfg)
     seen = run_.figures.simulate
-    cfg = run_.cfg
+    cfg = plan.cfg
     scores = {
         # The job's own scores (the manifest's simulate.scielab and scielab_2x) at 1 m and 2 m.
         f"scielab_{q.DISTANCES_M[0]:g}m": round(float(seen.scores["scielab"]), 3),
@@ -97,7 +96,7 @@ def _default(cfg):
         "standoff_mm": cfg.standoff.design_mm,
         "thickness_mm": float(cfg.plate.thickness_mm),
     }
-    return scores, (run_, pic, layers, sim, ref)
+    return scores, (run_, cfg, pic, layers, sim, ref)
 
 
 def blur_floor(f, cfg, layers, ref, mm_per_px: float) -> dict:
@@ -135,7 +134,7 @@ def _row(f, pipeline, image: str, settings: str, folder, size: dict | None) -> d
     cfg0 = job_config(image, settings, folder, size)
     # The rows are the job's only at the distances the job scores: the viewing distance and twice it.
     assert cfg0.view.distance_m == q.DISTANCES_M[0] and q.DISTANCES_M[1] == 2 * q.DISTANCES_M[0]
-    default, (run_, pic, layers, sim, ref) = _default(cfg0)
+    default, (run_, job_cfg, pic, layers, sim, ref) = _default(cfg0)
     design = run_.figures.standoff
     shape, mm_per_px = sim.composite.shape[:2], sim.mm_per_px
     hard, _, res = q._hard(f, pipeline, cfg0, layers, pic, run_, ref, shape, mm_per_px)
@@ -165,7 +164,7 @@ def _row(f, pipeline, image: str, settings: str, folder, size: dict | None) -> d
     row["default_doses"] = default["doses"]
     row["default_holes"] = default["holes"]
     row["default_reason"] = design.reason if design is not None else "nothing left to the job"
-    row |= blur_floor(f, run_.cfg, layers, ref, mm_per_px)
+    row |= blur_floor(f, job_cfg, layers, ref, mm_per_px)
     row["hard_by_standoff"] = {f"{h:g}": v for h, v in hard.items()}
     row["seconds"] = round(time.perf_counter() - t0, 2)
     return row

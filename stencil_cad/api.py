@@ -191,7 +191,7 @@ def run(
     if command not in COMMANDS:
         raise ValueError(f"command must be one of {', '.join(COMMANDS)}, got {command!r}")
     out = Path(out)
-    r, files = pipeline_run.run_command(
+    r, resolved, files = pipeline_run.run_command(
         command,
         cfg,
         out,
@@ -203,7 +203,7 @@ def run(
         progress=progress,
         cancel=cancel,
     )
-    return JobResult(command, r.cfg, out, tuple(files), r.figures, dict(r.times), r)
+    return JobResult(command, resolved, out, tuple(files), r.figures, dict(r.times), r)
 
 
 def run_stage(stage: str, cfg: JobConfig, out: Path | str, **kwargs: Any) -> JobResult:

@@ -28,7 +28,12 @@ log = logging.getLogger(__name__)
 
 @dataclass
 class Run:
-    """State of one command: config, output folder, timings and the figures for the manifest."""
+    """State of one command: config, output folder, timings and the figures for the manifest.
+
+    ``cfg`` is the maker's config as given, and it stays so: it cannot be set again. What the job
+    decides beyond it (the thickness, the primer, the plate design …) is its plan
+    (:class:`stencil_cad.plan.plan.Plan`), which the orchestrator passes to the stages.
+    """
 
     cfg: JobConfig
     out: OutputDir
@@ -51,6 +56,11 @@ class Run:
     #: Results a stage computed, by what they depend on, shared with the run's plate-design trials:
     #: the job's stipple reuses the holes the trials made for the design it keeps.
     kept: dict[Any, Any] = field(default_factory=dict[Any, Any])
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name == "cfg" and "cfg" in self.__dict__:
+            raise AttributeError("Run.cfg is the maker's config as given; a job's decisions go in its Plan")
+        object.__setattr__(self, name, value)
 
     def keep(self, key: Any, make: Callable[[], Any]) -> tuple[Any, bool]:
         """``(what was kept under key, True)``, or ``(make(), False)`` after keeping it under ``key``."""

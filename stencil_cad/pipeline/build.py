@@ -26,6 +26,7 @@ from ..names import part_file
 from ..output import plain as _plain
 from ..plan import tiles
 from ..plan.names import part_stem, part_wall_stems
+from ..plan.plan import Plan
 from ..record import Run
 
 if TYPE_CHECKING:
@@ -53,19 +54,21 @@ class BuildStarted:
     picture: Picture | None
     #: Per tile, per layer, the tile's holes as the process makes them, in the tile frame.
     per_tile: list[list[Holes]]
+    #: The job's planned config the parts are built under.
+    cfg: JobConfig
 
 
 def start_build(
-    run: Run, layers: Layers, holes: Sequence[Holes], grid: mural.TileGrid, picture: Picture | None = None
+    run: Run, plan: Plan, layers: Layers, holes: Sequence[Holes], picture: Picture | None = None
 ) -> BuildStarted:
-    """Start every tile's plates and walls as the job's tasks; :func:`collect_parts` collects them.
+    """Start every tile's plates and walls of ``plan`` (its config and tiling) as the job's tasks; :func:`collect_parts` collects them.
 
     The plates draw the holes compensated for the process (``stipple.compensate``): each hole is
     grown over the whole picture before the holes are split among the tiles, so a hole at a seam
     keeps the web to its neighbours on the next tile's plate too. The holes are checked across
     the seams and split here, before any task starts, so this process can simulate meanwhile.
     """
-    cfg = run.cfg
+    cfg, grid = plan.cfg, plan.grid
     asked = list(holes)
     drawn, made = drawn_and_made(cfg, asked, grid)
     mural.check_unions(cfg, grid, {"asked": asked, "made": made, "drawn": drawn})  # type: ignore[dict-item]
@@ -81,7 +84,7 @@ def start_build(
     started = run.tasks.start(build_part, tasks, "build")
     per_made = mural.per_tile(made, grid)
     return BuildStarted(
-        asked, drawn, made, holes_tile, posts, grid, laser, started, layers, picture, per_made
+        asked, drawn, made, holes_tile, posts, grid, laser, started, layers, picture, per_made, cfg
     )
 
 
@@ -132,6 +135,7 @@ def record_build(
         # A mural's holes are round (hard mode makes one plate per layer).
         tiles.record_tiles(
             run,
+            started.cfg,
             cast("list[DotSet]", started.asked),
             cast("list[DotSet]", started.drawn),
             cast("list[list[DotSet]]", started.holes_tile),

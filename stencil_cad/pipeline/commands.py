@@ -145,7 +145,7 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
         "paper": paper,
         "passes": card.passes,
     }
-    return finish(run, "card")
+    return finish(run, run.cfg, "card")
 
 
 def write_default_config(path: Path, *, force: bool = False) -> None:

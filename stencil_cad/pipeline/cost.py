@@ -15,12 +15,13 @@ from ..figures import CostFigures
 from ..model import DotSet
 from ..mural.cost import hours_text
 from ..plan.picture import load_picture
+from ..plan.plan import Plan
 from ..record import Run
 
 
-def record_cost(run: Run, grid: mural.TileGrid, dotsets: Sequence[DotSet]) -> CostFigures:
-    """The cost of making the job's plates and walls from the placed holes, as figure ``cost``."""
-    made = mural.making_cost(grid, run.cfg, len(dotsets), dotsets)
+def record_cost(run: Run, plan: Plan, dotsets: Sequence[DotSet]) -> CostFigures:
+    """The cost of making ``plan``'s plates and walls from the placed holes, as figure ``cost``."""
+    made = mural.making_cost(plan.grid, plan.cfg, len(dotsets), dotsets)
     run.figures.cost = made
     return made
 

@@ -27,25 +27,29 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 
-def stage_decompose(run: Run, picture: Picture) -> Layers:
-    """Decompose the picture into a primer and paint layers, and save them (``layers.npz`` and its previews)."""
-    return decomposed(run, picture, save=True)
+def stage_decompose(run: Run, cfg: JobConfig, picture: Picture, primed: str | None = None) -> Layers:
+    """Decompose the picture into a primer and paint layers, and save them (``layers.npz`` and its previews).
+
+    Takes the keyword arguments of :func:`decomposed`.
+    """
+    return decomposed(run, cfg, picture, save=True, primed=primed)
 
 
-def decomposed(run: Run, picture: Picture, save: bool = False) -> Layers:
+def decomposed(
+    run: Run, cfg: JobConfig, picture: Picture, save: bool = False, primed: str | None = None
+) -> Layers:
     """The picture's primer and paint layers as the decompose stage makes them; saved only when ``save``.
 
-    A mostly dark picture is primed with its dark colour (:mod:`stencil_cad.plan.primer`), named in
-    ``run.cfg``. The layers come back as ``layers.npz`` holds them (float32 opacities), saved or not,
-    so a preview or a stage command run later on the saved file goes on from the same numbers as the job.
+    ``cfg`` is the job's planned config: a mostly dark picture's primer is in it already
+    (:func:`stencil_cad.plan.plan.primed`), and ``primed`` names that primer for figure
+    ``decompose`` (None: the config's own). The layers come back as ``layers.npz`` holds them
+    (float32 opacities), saved or not, so a preview or a stage command run later on the saved file
+    goes on from the same numbers as the job.
     """
     from dataclasses import replace
 
     from .. import decompose as dec
     from ..exchange.layers_npz import layers_from_npz, layers_to_npz
-    from ..plan.primer import prime_dark
-
-    primed = prime_dark(run, picture)
 
     with run.stage("decompose"):
         # Iterations run per pyramid level, so the total is not known in advance.
@@ -55,10 +59,10 @@ def decomposed(run: Run, picture: Picture, save: bool = False) -> Layers:
                 bar.update(1)
                 bar.set_postfix(energy=f"{energy:.4g}", refresh=False)
 
-            dcfg = with_can_list(run, run.cfg.decompose, "decompose.palette")
-            reach = plate_reach(run.cfg)
+            dcfg = with_can_list(run, cfg.decompose, "decompose.palette")
+            reach = plate_reach(cfg)
             try:
-                tiles = _decompose_tiles(run, picture)
+                tiles = _decompose_tiles(cfg, picture)
 
                 def solve(section: DecomposeConfig) -> Layers:
                     if tiles is None:
@@ -68,8 +72,8 @@ def decomposed(run: Run, picture: Picture, save: bool = False) -> Layers:
                     return _decompose_tiled(run, picture, tiles, progress, section, reach)
 
                 layers = solve(dcfg)
-                if dcfg.palette == "auto" and run.cfg.paints.catalogue is not None:
-                    layers = _snap_to_catalogue(run, dcfg, layers, solve)
+                if dcfg.palette == "auto" and cfg.paints.catalogue is not None:
+                    layers = _snap_to_catalogue(run, cfg.paints.catalogue, dcfg, layers, solve)
             except ValueError as exc:
                 # A config that does not suit this image (e.g. opacity_source: alpha on RGB).
                 raise UserError(str(exc)) from exc
@@ -95,7 +99,7 @@ def decomposed(run: Run, picture: Picture, save: bool = False) -> Layers:
     return layers
 
 
-def plates_of(run: Run, layers: Layers, grid: TileGrid | bool) -> Layers:
+def plates_of(run: Run, cfg: JobConfig, layers: Layers, grid: TileGrid | bool) -> Layers:
     """The plates the job stipples from its paint layers: two per paint with light plates, else the layers.
 
     With ``stipple.light_plates`` (:func:`stencil_cad.mural.light_plates_on`, which the tiling
@@ -106,7 +110,7 @@ def plates_of(run: Run, layers: Layers, grid: TileGrid | bool) -> Layers:
     from ..decompose.light import light_plates
     from ..mural import light_plates_on
 
-    plates = light_plates(layers) if light_plates_on(run.cfg, grid) else layers
+    plates = light_plates(layers) if light_plates_on(cfg, grid) else layers
     if run.figures.decompose is not None:
         run.figures.decompose = replace(run.figures.decompose, plates=plates.count)
     return plates
@@ -128,12 +132,11 @@ def _save(run: Run, layers: Layers, saved: dict[str, Any]) -> None:
     out.write_text(ENERGY_CSV, trace)
 
 
-def _decompose_tiles(run: Run, picture: Picture) -> TilePlan | None:
+def _decompose_tiles(cfg: JobConfig, picture: Picture) -> TilePlan | None:
     """The decomposition's tiles for a big picture (None: solved whole), checked against the memory per task."""
     from .. import compute
     from ..decompose import tiled
 
-    cfg = run.cfg
     if not tiled.applies(picture, cfg.decompose):
         return None
     n = cfg.decompose.layers
@@ -182,18 +185,17 @@ def _decompose_tiled(
     picture: Picture,
     tiles: TilePlan,
     progress: Callable[[int, float], None],
-    cfg: DecomposeConfig | None = None,
+    cfg: DecomposeConfig,
     reach: PlateReach | None = None,
 ) -> Layers:
     """Colours on a small copy of the picture, then the opacities tile by tile as tasks.
 
-    ``cfg`` is the decompose section to solve with (defaults to the job's; a can list or the
-    catalogue's cans replace its palette).
+    ``cfg`` is the decompose section to solve with (the job's; a can list or the catalogue's cans
+    replace its palette).
     """
     from .. import decompose as dec
     from ..decompose import tiled
 
-    cfg = run.cfg.decompose if cfg is None else cfg
     coarse = dec.decompose(
         tiled.coarse_picture(picture, tiles), cfg, run.rng_for("decompose"), progress=progress, reach=reach
     )
@@ -203,11 +205,9 @@ def _decompose_tiled(
     return tiled.assemble(coarse, tiles, results, picture.mm_per_px)
 
 
-def _catalogue(run: Run) -> list[Can]:
+def _catalogue(run: Run, catalogue: Any) -> list[Can]:
     from ..decompose import paints
 
-    catalogue = run.cfg.paints.catalogue
-    assert catalogue is not None, "snapping to a catalogue needs paints.catalogue"
     try:
         cans = paints.load_cans(catalogue)
     except (ValueError, ConfigError) as exc:
@@ -217,15 +217,19 @@ def _catalogue(run: Run) -> list[Can]:
 
 
 def _snap_to_catalogue(
-    run: Run, dcfg: DecomposeConfig, layers: Layers, solve: Callable[[DecomposeConfig], Layers]
+    run: Run,
+    catalogue: Any,
+    dcfg: DecomposeConfig,
+    layers: Layers,
+    solve: Callable[[DecomposeConfig], Layers],
 ) -> Layers:
-    """Snap the solved paints (and an 'auto' primer) to their nearest cans and solve the opacities again.
+    """Snap the solved paints (and an 'auto' primer) to the nearest cans of ``catalogue`` and solve the opacities again.
 
     ``solve(section)`` decomposes the picture with a decompose section (whole or in tiles).
     """
     from ..decompose import paints
 
-    cans = _catalogue(run)
+    cans = _catalogue(run, catalogue)
     paint_snap = paints.snap_report(layers.colours, cans)
     update: dict[str, object] = {"order": "given"}
     primer_snap = None

@@ -19,6 +19,7 @@ from ..model import Layers, Picture
 from ..names import SEGMENTATION_PNG
 from ..output import plain as _plain
 from ..plan.cans import with_can_list
+from ..plan.plan import Plan
 from ..plan.profiles import layer_sprays
 from ..record import Run
 
@@ -46,8 +47,8 @@ def hard_config(cfg: JobConfig) -> JobConfig:
     return cfg.model_copy(update={"spray": spray})
 
 
-def stage_segment(run: Run, picture: Picture) -> Segmented:
-    """Segment the picture into cut layers with bridges; write ``segmentation.png``; figure ``hard``.
+def stage_segment(run: Run, plan: Plan, picture: Picture) -> Segmented:
+    """Segment the picture into cut layers with bridges under ``plan``; write ``segmentation.png``; figure ``hard``.
 
     Runs inside the ``segment`` stage, which the run opens (the paints' previews follow in it).
 
@@ -56,7 +57,7 @@ def stage_segment(run: Run, picture: Picture) -> Segmented:
     """
     from .. import hardstencil
 
-    cfg = run.cfg
+    cfg = plan.cfg
     rules = process_rules(cfg)
     hcfg = with_can_list(run, cfg.hard, "hard.palette")
     try:
@@ -72,7 +73,7 @@ def stage_segment(run: Run, picture: Picture) -> Segmented:
         )
     run.out.write_png(SEGMENTATION_PNG, hard.palette[hard.labels])
     colours = np.array([cl.colour for cl in hard.cut_layers]).reshape(-1, 3)
-    sprays = _hard_sprays(run, colours)
+    sprays = _hard_sprays(run, cfg, colours)
     run.figures.hard = HardFigures.from_json(
         {
             **_plain(hard.report),
@@ -89,13 +90,13 @@ def stage_segment(run: Run, picture: Picture) -> Segmented:
     return Segmented(hard, layers, sprays, [float(sp.amount) for sp in sprays])
 
 
-def _hard_sprays(run: Run, colours: np.ndarray) -> list[Any]:
+def _hard_sprays(run: Run, cfg: JobConfig, colours: np.ndarray) -> list[Any]:
     """Each cut layer's spray settings: its paint's profile, with whole passes enough for its own cover."""
     from ..simulate.models import sprayer
 
     out = []
-    for sp in layer_sprays(run, colours):
-        if sp is not run.cfg.spray:
+    for sp in layer_sprays(run, cfg, colours):
+        if sp is not cfg.spray:
             sp = sprayer(sp).for_cutouts(sp)
         out.append(sp)
     return out

@@ -12,6 +12,7 @@ import yaml
 
 from .. import __version__
 from ..command_table import command as command_named
+from ..config import JobConfig
 from ..output import MANIFEST, OutputDir, manifest_header
 from ..plan.names import CONFIG_COPY, INSTRUCTIONS, LATER_STAGES, STAGE_FILES
 from ..record import Run
@@ -19,19 +20,19 @@ from ..record import Run
 log = logging.getLogger(__name__)
 
 
-def save_config(run: Run) -> None:
-    """Write the resolved config beside the results, so stage commands can re-read it."""
-    data = run.cfg.model_dump(mode="json")
+def save_config(run: Run, cfg: JobConfig) -> None:
+    """Write the resolved config ``cfg`` (the plan's) beside the results, so stage commands can re-read it."""
+    data = cfg.model_dump(mode="json")
     # Absolute paths, so the copy runs from anywhere.
-    if run.cfg.image is not None:
-        data["image"] = str(Path(run.cfg.image).resolve())
-    if run.cfg.plate.template is not None:
-        data["plate"]["template"] = str(Path(run.cfg.plate.template).resolve())
+    if cfg.image is not None:
+        data["image"] = str(Path(cfg.image).resolve())
+    if cfg.plate.template is not None:
+        data["plate"]["template"] = str(Path(cfg.plate.template).resolve())
     run.out.write_text(CONFIG_COPY, yaml.safe_dump(data, sort_keys=False))
 
 
-def finish(run: Run, command: str) -> list[Path]:
-    """Write the manifest and move every file into place."""
+def finish(run: Run, cfg: JobConfig, command: str) -> list[Path]:
+    """Write the manifest (its config: ``cfg``, the plan's) and move every file into place."""
     if run.executor is not None and run.figures.compute is not None:
         run.figures.compute = replace(run.figures.compute, tasks=run.executor.tasks)
     manifest = {
@@ -39,7 +40,7 @@ def finish(run: Run, command: str) -> list[Path]:
         "command": command,
         "stencil_cad": __version__,
         "versions": _versions(),
-        "config": run.cfg.model_dump(mode="json"),
+        "config": cfg.model_dump(mode="json"),
         "seconds": run.times,
         **run.figures.to_json(),
         "files": run.out.file_table(),
@@ -51,20 +52,23 @@ def finish(run: Run, command: str) -> list[Path]:
     if not whole and old_path.exists():
         manifest = _merge_manifest(old_path, manifest, run.out)
         run.stale = manifest.get("stale", {}).get("files", [])
-    if whole and run.cfg.export.instructions:
+    if whole and cfg.export.instructions:
         with run.stage("instructions"):
-            write_instructions(run, manifest)
+            write_instructions(run, cfg, manifest)
         manifest["seconds"] = run.times
         manifest["files"] = run.out.file_table()
     run.out.write_json(MANIFEST, manifest)
     return run.out.commit()
 
 
-def write_instructions(run: Run, manifest: dict[str, Any], tiles: list[Any] | None = None) -> None:
+def write_instructions(
+    run: Run, cfg: JobConfig, manifest: dict[str, Any], tiles: list[Any] | None = None
+) -> None:
     """Write the instruction sheet (HTML and PDF) from the run's figures and the job's preview images.
 
     Args:
         run: The command's state; its staged PNGs and ``sheet_images`` are the pictures.
+        cfg: The job's planned config (the settings the sheet reads).
         manifest: The manifest as it will be written (its file list so far).
         tiles: A mural's tiles for the map (see :func:`stencil_cad.instructions.sheet_from_manifest`);
             None takes the mural's.
@@ -72,7 +76,7 @@ def write_instructions(run: Run, manifest: dict[str, Any], tiles: list[Any] | No
     from .. import instructions
 
     names = {str(row["name"]) for row in manifest.get("files", [])} | set(INSTRUCTIONS)
-    settings = instructions.JobSettings.from_config(run.cfg)
+    settings = instructions.JobSettings.from_config(cfg)
     data = instructions.sheet(run.figures, settings, names, tiles=tiles)
     images = dict(run.sheet_images)
     for name in run.out.files:

@@ -39,12 +39,17 @@ def _order_note(cfg: JobConfig) -> str:
     }[cfg.decompose.order.value]
 
 
-def write_spray_order(run: Run, primer: np.ndarray, colours: np.ndarray, spray_times: list[float]) -> None:
-    """Write ``spray.json`` (spray order, paints, spray times) and the swatch card ``swatch.png``."""
+def write_spray_order(
+    run: Run, cfg: JobConfig, primer: np.ndarray, colours: np.ndarray, spray_times: list[float]
+) -> None:
+    """Write ``spray.json`` (spray order, paints, spray times) and the swatch card ``swatch.png``.
+
+    ``cfg`` is the job's planned config (how it sprays: hard mode's from the cut-outs' height).
+    """
     from ..simulate import labelled
 
     names = can_names(run.figures)
-    if run.cfg.paints.can_names:
+    if cfg.paints.can_names:
         from ..decompose import paints
 
         hexes = [to_hex(c) for c in (primer, *colours)]
@@ -59,7 +64,7 @@ def write_spray_order(run: Run, primer: np.ndarray, colours: np.ndarray, spray_t
         }
         for i, (c, t) in enumerate(zip(colours, spray_times, strict=True))
     ]
-    sp = run.cfg.spray
+    sp = cfg.spray
     how: dict[str, Any] = {"unit": sp.amount_unit}
     if sp.has_cans:
         for o, t in zip(order, spray_times, strict=True):
@@ -79,8 +84,8 @@ def write_spray_order(run: Run, primer: np.ndarray, colours: np.ndarray, spray_t
     )
     run.figures.spray_order = SprayOrderFigures(
         primer=PrimerRow.from_json({"hex": to_hex(primer), "name": names.get(to_hex(primer), "")}),
-        note=_order_note(run.cfg),
-        unit=run.cfg.spray.amount_unit,
+        note=_order_note(cfg),
+        unit=cfg.spray.amount_unit,
         steps=tuple(OrderStep.from_json(o) for o in order),
     )
     run.out.write_png(
@@ -88,21 +93,20 @@ def write_spray_order(run: Run, primer: np.ndarray, colours: np.ndarray, spray_t
         labelled.swatch_card(
             to_hex(primer),
             [{**o, "note": f"plate {o['plate']}"} for o in order],
-            order_note=_order_note(run.cfg),
-            unit=run.cfg.spray.amount_unit,
+            order_note=_order_note(cfg),
+            unit=cfg.spray.amount_unit,
             primer_name=names.get(to_hex(primer), ""),
         ),
     )
 
 
 def plate_cards(
-    run: Run, colours: np.ndarray, picture_mm: tuple[float, float], holes: list[Any]
+    run: Run, cfg: JobConfig, colours: np.ndarray, picture_mm: tuple[float, float], holes: list[Any]
 ) -> list[np.ndarray]:
-    """The plate previews: outline with key tabs and label area, holes or cut-outs, header and scale."""
+    """The plate previews of ``cfg``'s plates: outline with key tabs and label area, holes or cut-outs, header and scale."""
     from .. import outline
     from ..simulate import labelled
 
-    cfg = run.cfg
     ring = outline.plate_outline(*picture_mm, cfg.plate.outline)
     box = outline.label_region(*picture_mm, cfg.plate.outline)
     names = can_names(run.figures)
@@ -124,11 +128,12 @@ def plate_cards(
 
 def write_plate_previews(
     run: Run,
+    cfg: JobConfig,
     colours: np.ndarray,
     picture_mm: tuple[float, float],
     holes: list[Any],
     name: Callable[[str], str],
 ) -> None:
     """Write each plate's preview (:func:`plate_cards`) as ``name(layer stem)``: ``dots_png`` or ``cut_png``."""
-    for i, card in enumerate(plate_cards(run, colours, picture_mm, holes)):
+    for i, card in enumerate(plate_cards(run, cfg, colours, picture_mm, holes)):
         run.out.write_png(name(layer_stem(i)), card)

@@ -49,7 +49,7 @@ import json
 import time
 from collections import OrderedDict
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, cast
 
 import numpy as np
@@ -59,6 +59,7 @@ from ..errors import UserError
 from ..figures import CostFigures
 from ..interrupts import CancelToken
 from ..model import DotSet, Layers, Picture
+from ..plan.plan import Plan, capped, designed, planned, primed
 from ..record import Run
 from .decompose import plates_of
 
@@ -257,10 +258,8 @@ def previews(
         UserError: The image cannot be read, the config asks for hard mode, or a part does not fit the bed.
     """
     from .. import mural
-    from ..plan import tiles
     from ..plan.picture import load_picture
-    from ..plan.tiles import fit_thickness
-    from .standoff import with_design
+    from ..plan.refinement import refine_holes
 
     if cfg.mode == Mode.hard:
         raise UserError("the preview shows soft (stippled) jobs; hard mode has no preview yet (use `run`)")
@@ -270,47 +269,52 @@ def previews(
     # No output folder: every step a preview takes computes without writing (a write would fail).
     run = Run(cfg=pcfg, out=cast("Any", None), quiet=True, cancel=cancel)
     picture = load_picture(pcfg)
-    size = (picture.width_mm, picture.height_mm)
-    grid, _ = tiles.plan(pcfg, *size, picture.shape[0] * picture.shape[1])
-    run.cfg = fit_thickness(run, grid)
-    designing = mural.chooses_design(grid) and leaves_design(run.cfg)
+    # The preview's plan, as the job's (:mod:`stencil_cad.plan.plan`): each step returns the next.
+    plan = planned(pcfg, (picture.width_mm, picture.height_mm), picture.shape[0] * picture.shape[1])[0]
+    designing = mural.chooses_design(plan.grid) and leaves_design(plan.cfg)
     start = start_design(cfg, cache) if designing else None
-    decomposed = cache.get(cache.layers, decomposition_key(run.cfg)) is not None
+    decomposed = cache.get(cache.layers, decomposition_key(plan.cfg)) is not None
     if not decomposed:
         # Not decomposed yet: the first preview comes from a decomposition at half the resolution.
-        yield _quick(run, picture, cache, grid, size, t0, start)
+        yield _quick(run, plan, picture, cache, t0, start)
         run.check()
-    layers = plates_of(run, _layers(run, picture, cache), grid)
+    plan, layers = _layers(run, plan, picture, cache)
+    layers = plates_of(run, plan.cfg, layers, plan.grid)
     # Decomposed as the job decomposes (at the config's stand-off); the holes start at ``start``.
-    own, job_cfg, known = run.cfg, run.cfg, None
+    own, job, known = plan, plan, None
     if designing:
-        job_cfg = _job_config(run, cfg, grid)
-        known = cast("tuple[str, float] | None", cache.get(cache.designs, design_key(job_cfg)))
-        run.cfg = with_design(own, *(known or cast("tuple[str, float]", start)))
-    made = _Made(run, picture, layers, grid, size, t0, designed=known is not None)
+        job = _job_plan(cfg, plan)
+        known = cast("tuple[str, float] | None", cache.get(cache.designs, design_key(job.cfg)))
+        plan = designed(own, *(known or cast("tuple[str, float]", start)))
+    made = _Made(run, picture, layers, t0, designed=known is not None)
     if decomposed:
-        yield made.coarse()
+        yield made.coarse(plan)
         run.check()
-    holes = _holes(run, layers, size, picture, cache)
-    refining = run.cfg.refine.enabled
-    yield made.sprayed("stippled", holes, final=not (refining or designing))
+    holes = _holes(run, plan, layers, picture, cache)
+    refining = plan.cfg.refine.enabled
+    yield made.sprayed("stippled", plan, holes, final=not (refining or designing))
     if refining:
-        from ..plan.refinement import refine_holes
-
         run.check()
-        refined = refine_holes(run, layers, holes, size, picture)
-        yield made.sprayed("refined", refined, final=not designing)
+        refined = refine_holes(run, _whole(plan), layers, holes, picture)
+        yield made.sprayed("refined", plan, refined, final=not designing)
     if designing:
         run.check()
-        windows, standoff = known or _design(run, job_cfg, layers, size, picture, cache, family_key(cfg))
+        windows, standoff = known or _design(run, job, layers, picture, cache, family_key(cfg))
         made.designed = True
-        if (windows, standoff) != (run.cfg.stipple.windows.value, run.cfg.standoff.design_mm):
-            run.cfg = with_design(own, windows, standoff)
-            holes = _holes(run, layers, size, picture, cache)
+        if (windows, standoff) != (plan.cfg.stipple.windows.value, plan.cfg.standoff.design_mm):
+            plan = designed(own, windows, standoff)
+            holes = _holes(run, plan, layers, picture, cache)
             if refining:
                 run.check()
-                refined = refine_holes(run, layers, holes, size, picture)
-        yield made.sprayed("designed", refined if refining else holes, final=True)
+                refined = refine_holes(run, _whole(plan), layers, holes, picture)
+        yield made.sprayed("designed", plan, refined if refining else holes, final=True)
+
+
+def _whole(plan: Plan) -> Plan:
+    """``plan`` on one tile: the preview stipples and refines a mural whole."""
+    from ..mural import TileGrid
+
+    return replace(plan, grid=TileGrid.whole(*plan.picture_mm))
 
 
 def leaves_design(cfg: JobConfig) -> bool:
@@ -352,49 +356,41 @@ def start_design(cfg: JobConfig, cache: PreviewCache) -> tuple[str, float]:
     return max([prior, *votes], key=lambda d: (votes.get(d, 0), d == prior))
 
 
-def _job_config(run: Run, cfg: JobConfig, grid: Any) -> JobConfig:
-    """The job's config as its plate-design trials read it: its own grid, the plate thickness its tiling asks, the primer chosen."""
-    from ..plan.tiles import fit_thickness
+def _job_plan(cfg: JobConfig, plan: Plan) -> Plan:
+    """The job's plan as its plate-design trials read it: its own grid, the thickness its tiling asks, the primer chosen, the holes capped."""
+    from ..mural.posts import sag_side_mm
 
-    job = Run(cfg=cfg, out=run.out, quiet=True, cancel=run.cancel)
-    return fit_thickness(job, grid).model_copy(update={"decompose": run.cfg.decompose})
+    fitted = cfg.fit_plate_thickness(sag_side_mm(plan.grid, cfg))
+    return capped(replace(plan, cfg=fitted.model_copy(update={"decompose": plan.cfg.decompose})))
 
 
 def _design(
-    run: Run,
-    job_cfg: JobConfig,
-    layers: Layers,
-    size: tuple[float, float],
-    picture: Picture,
-    cache: PreviewCache,
-    family: str,
+    run: Run, job: Plan, layers: Layers, picture: Picture, cache: PreviewCache, family: str
 ) -> tuple[str, float]:
     """The plate design the job chooses, ``(windows, stand-off in mm)``: its own trials, on its own grid.
 
-    The trials run on the job's config ``job_cfg`` (:func:`_job_config`: not the preview's grid or
+    The trials run on the job's plan ``job`` (:func:`_job_plan`: not the preview's grid or
     iterations), so the design is the one the job makes; it is kept in ``cache`` under
     :func:`design_key`, and counted among its ``family``'s choices (:func:`family_key`, :func:`start_design`).
     """
     from .standoff import choose_plates
 
-    job = Run(cfg=job_cfg, out=run.out, quiet=True, cancel=run.cancel)
-    chosen = choose_plates(job, layers, size, picture)
+    trials = Run(cfg=job.cfg, out=run.out, quiet=True, cancel=run.cancel)
+    chosen = choose_plates(trials, job, layers, picture).cfg
     design = (chosen.stipple.windows.value, chosen.standoff.design_mm)
-    cache.put(cache.designs, design_key(job_cfg), design)
+    cache.put(cache.designs, design_key(job.cfg), design)
     votes = dict(cache.get(cache.families, family) or {})
     votes[design] = votes.get(design, 0) + 1
     cache.put(cache.families, family, votes)
     return design
 
 
-def _holes(
-    run: Run, layers: Layers, size: tuple[float, float], picture: Picture, cache: PreviewCache
-) -> list[DotSet]:
-    """The unrefined holes of ``run.cfg``'s plates (from the cache when nothing they read changed)."""
-    key = holes_key(run.cfg, decomposition_key(run.cfg))
+def _holes(run: Run, plan: Plan, layers: Layers, picture: Picture, cache: PreviewCache) -> list[DotSet]:
+    """The unrefined holes of ``plan``'s plates (from the cache when nothing they read changed)."""
+    key = holes_key(plan.cfg, decomposition_key(plan.cfg))
     holes = cache.get(cache.holes, key)
     if holes is None:
-        holes = _stipple(run, layers, size, picture, refined=False)
+        holes = _stipple(run, plan, layers, picture, refined=False)
         cache.put(cache.holes, key, holes)
     return cast("list[DotSet]", holes)
 
@@ -412,104 +408,104 @@ def _half_key(cfg: JobConfig) -> str:
 
 
 def _quick(
-    run: Run,
-    picture: Picture,
-    cache: PreviewCache,
-    grid: Any,
-    size: tuple[float, float],
-    t0: float,
-    start: tuple[str, float] | None,
+    run: Run, plan: Plan, picture: Picture, cache: PreviewCache, t0: float, start: tuple[str, float] | None
 ) -> Preview:
     """The coarse level from a decomposition at half the resolution (about half the time of the job's).
 
     Decomposed at the config's stand-off, as the job decomposes; blurred at the ``start`` design's.
     """
     from ..plan.picture import load_picture
-    from .standoff import with_design
 
-    half = Run(cfg=half_config(run.cfg), out=run.out, quiet=True, cancel=run.cancel)
-    key = _half_key(run.cfg)
+    half = replace(plan, cfg=half_config(plan.cfg))
+    key = _half_key(plan.cfg)
     hit = cache.get(cache.layers, key)
     if hit is None:
-        layers = _decomposed_cached(half, load_picture(half.cfg), cache, key)
+        small = load_picture(half.cfg)
+        half = primed(half, small)
+        layers = _decomposed_cached(run, half, small, cache, key)
     else:
         layers = hit[0]
-        half.cfg = half.cfg.model_copy(update={"decompose": hit[1].decompose})
+        half = replace(half, cfg=half.cfg.model_copy(update={"decompose": hit[1].decompose}))
     if start is not None:
-        half.cfg = with_design(half.cfg, *start)
-    return _Made(half, picture, plates_of(half, layers, grid), grid, size, t0).coarse()
+        half = designed(half, *start)
+    return _Made(run, picture, plates_of(run, half.cfg, layers, half.grid), t0).coarse(half)
 
 
-def _decomposed_cached(run: Run, picture: Picture, cache: PreviewCache, key: str) -> Layers:
-    """The decompose stage's layers (not saved), kept in ``cache`` under ``key``."""
+def _decomposed_cached(run: Run, plan: Plan, picture: Picture, cache: PreviewCache, key: str) -> Layers:
+    """The decompose stage's layers under ``plan`` (not saved), kept in ``cache`` under ``key``."""
     from .decompose import decomposed
 
-    layers = decomposed(run, picture)
-    cache.put(cache.layers, key, (layers, run.cfg))
+    layers = decomposed(run, plan.cfg, picture, primed=plan.primer)
+    cache.put(cache.layers, key, (layers, plan.cfg))
     return layers
 
 
-def _layers(run: Run, picture: Picture, cache: PreviewCache) -> Layers:
-    """The decomposition (from the cache when nothing it reads changed); sets the primer the job would."""
-    key = decomposition_key(run.cfg)
+def _layers(run: Run, plan: Plan, picture: Picture, cache: PreviewCache) -> tuple[Plan, Layers]:
+    """The decomposition (from the cache when nothing it reads changed), with the plan naming the primer the job would."""
+    key = decomposition_key(plan.cfg)
     hit = cache.get(cache.layers, key)
     if hit is not None:
-        run.cfg = run.cfg.model_copy(update={"decompose": hit[1].decompose})
-        return cast("Layers", hit[0])
-    return _decomposed_cached(run, picture, cache, key)
+        return replace(plan, cfg=plan.cfg.model_copy(update={"decompose": hit[1].decompose})), hit[0]
+    plan = primed(plan, picture)
+    return plan, _decomposed_cached(run, plan, picture, cache, key)
 
 
-def _stipple(
-    run: Run, layers: Layers, size: tuple[float, float], picture: Picture, refined: bool
-) -> list[DotSet]:
+def _stipple(run: Run, plan: Plan, layers: Layers, picture: Picture, refined: bool) -> list[DotSet]:
     from ..plan import holes
 
-    cfg = run.cfg
+    cfg = plan.cfg
     plain = cfg.model_copy(update={"refine": cfg.refine.model_copy(update={"enabled": refined})})
-    trial = Run(cfg=plain, out=run.out, quiet=True, executor=run.executor, cancel=run.cancel)
-    return holes.refined(trial, layers, holes.stippled(trial, layers, size)[0], size, picture)[0].sets
+    trial = Run(cfg=run.cfg, out=run.out, quiet=True, executor=run.executor, cancel=run.cancel)
+    tried = capped(_whole(replace(plan, cfg=plain)))
+    return holes.refined(trial, tried, layers, holes.stippled(trial, tried, layers)[0], picture)[0].sets
 
 
 @dataclass
 class _Made:
-    """What every level shares: the run, the picture, its layers and plan, and when the preview was asked for."""
+    """What every level shares: the run, the picture, its layers, and when the preview was asked for.
+
+    Each level is shown under the plan it is given (the design it shows).
+    """
 
     run: Run
     picture: Picture
     layers: Layers
-    grid: Any
-    size: tuple[float, float]
     t0: float
     designed: bool = False
 
-    def coarse(self) -> Preview:
+    def coarse(self, plan: Plan) -> Preview:
         """The decomposition's opacities blurred as the can blurs a hole at the stand-off, composited."""
-        from .. import simulate
+        from .. import mural, simulate
 
-        sprayed = simulate.blurred_composite(self.layers, _blur_mm(self.run.cfg), PREVIEW_MM_PER_PX)
-        return self._preview("coarse", sprayed, None, None, self._cost(None), final=False)
+        sprayed = simulate.blurred_composite(self.layers, _blur_mm(plan.cfg), PREVIEW_MM_PER_PX)
+        cost = mural.making_cost(plan.grid, plan.cfg, self.layers.count, None)
+        return self._preview(plan, "coarse", sprayed, None, None, cost, final=False)
 
-    def sprayed(self, level: str, holes: list[DotSet], final: bool) -> Preview:
+    def sprayed(self, level: str, plan: Plan, holes: list[DotSet], final: bool) -> Preview:
         """The holes sprayed as the process makes them, on the preview grid."""
         from .. import mural, simulate
         from ..plan.profiles import layer_sprays
         from ..simulate.physical import SprayGeometry
         from ..stipple.made import made_dots
 
-        cfg = self.run.cfg
+        cfg = plan.cfg
         self.run.check()
-        made = [made_dots(d, cfg.stipple, self.size) for d in holes]
+        made = [made_dots(d, cfg.stipple, plan.picture_mm) for d in holes]
         geometry = SprayGeometry.for_job(cfg)
-        sprays = layer_sprays(self.run, self.layers.colours)
+        sprays = layer_sprays(self.run, cfg, self.layers.colours)
         sim = simulate.simulate(
             self.layers, made, cfg.spray, PREVIEW_MM_PER_PX, geometry=geometry, layer_sprays=sprays
         )
         passes = tuple(float(d.amount(cfg.spray.amount)) for d in holes)
-        cost = mural.making_cost(self.grid, cfg, len(holes), holes)
-        others = self._other_cans(made, geometry, sprays) if final else {}
-        return self._preview(level, sim.composite, passes, tuple(len(d) for d in holes), cost, final, others)
+        cost = mural.making_cost(plan.grid, cfg, len(holes), holes)
+        others = self._other_cans(cfg, made, geometry, sprays) if final else {}
+        return self._preview(
+            plan, level, sim.composite, passes, tuple(len(d) for d in holes), cost, final, others
+        )
 
-    def _other_cans(self, made: list[Any], geometry: Any, sprays: list[Any]) -> dict[str, np.ndarray]:
+    def _other_cans(
+        self, cfg: JobConfig, made: list[Any], geometry: Any, sprays: list[Any]
+    ) -> dict[str, np.ndarray]:
         """The holes sprayed by every other can of the prior (as the job's ``scielab_by_can``), by name.
 
         Each can of the prior changes the layers without a measured profile; empty when the prior is
@@ -526,7 +522,7 @@ class _Made:
             other = simulate.simulate(
                 self.layers,
                 made,
-                self.run.cfg.spray,
+                cfg.spray,
                 PREVIEW_MM_PER_PX,
                 geometry=geometry,
                 layer_sprays=per_layer,
@@ -534,13 +530,9 @@ class _Made:
             out[name] = other.composite
         return out
 
-    def _cost(self, holes: list[DotSet] | None) -> CostFigures:
-        from .. import mural
-
-        return mural.making_cost(self.grid, self.run.cfg, self.layers.count, holes)
-
     def _preview(
         self,
+        plan: Plan,
         level: str,
         sprayed: np.ndarray,
         passes: tuple[float, ...] | None,
@@ -553,7 +545,7 @@ class _Made:
         from ..plan.picture import source_reference
         from ..simulate.scielab import scielab
 
-        cfg = self.run.cfg
+        cfg = plan.cfg
         ref = source_reference(cfg, self.picture, self.layers, sprayed.shape[:2], PREVIEW_MM_PER_PX)
         d = float(cfg.view.distance_m)
         score = float(scielab(ref, sprayed, PREVIEW_MM_PER_PX, d))
@@ -574,16 +566,22 @@ class _Made:
             holes=holes,
             plates=sum(1 for p in cost.parts if p.kind == "plate"),
             walls=walls,
-            tiles=len(self.grid.tiles),
+            tiles=len(plan.grid.tiles),
             cost=cost,
             standoff_mm=cfg.standoff.design_mm,
             seconds=time.perf_counter() - self.t0,
             windows=cfg.stipple.windows.value,
             designed=self.designed,
             scielab_by_can={"nominal": score, **by_can} if by_can else None,
-            size_mm=(float(self.size[0]), float(self.size[1])),
-            tile_cores=tuple((t.name, *(float(v) for v in t.core)) for t in self.grid.tiles),
+            size_mm=(float(plan.picture_mm[0]), float(plan.picture_mm[1])),
+            tile_cores=tuple(_core(t) for t in plan.grid.tiles),
         )
+
+
+def _core(tile: Any) -> tuple[str, float, float, float, float]:
+    """A tile's name and core ``(x0, y0, x1, y1)`` in mm."""
+    x0, y0, x1, y1 = (float(v) for v in tile.core)
+    return (tile.name, x0, y0, x1, y1)
 
 
 def _blur_mm(cfg: JobConfig) -> float:

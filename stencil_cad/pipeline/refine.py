@@ -3,25 +3,17 @@
 from __future__ import annotations
 
 import logging
-from typing import TYPE_CHECKING
 
 from ..model import DotSet, Layers, Picture
 from ..plan.holes import Stippled, refined
+from ..plan.plan import Plan
 from ..record import Run
-
-if TYPE_CHECKING:
-    from .. import mural
 
 log = logging.getLogger(__name__)
 
 
 def stage_refine(
-    run: Run,
-    layers: Layers,
-    made: Stippled,
-    picture_mm: tuple[float, float],
-    picture: Picture | None = None,
-    grid: mural.TileGrid | None = None,
+    run: Run, plan: Plan, layers: Layers, made: Stippled, picture: Picture | None = None
 ) -> list[DotSet]:
     """The stipple stage's holes ``made`` refined towards ``picture`` and clear of a mural's posts; figure ``refine``.
 
@@ -30,7 +22,7 @@ def stage_refine(
     decomposition's composite without one); the holes the plate-design trials refined for this
     design are reused.
     """
-    done, reused = refined(run, layers, made, picture_mm, picture, grid)
+    done, reused = refined(run, plan, layers, made, picture)
     if reused and done.report is not None:
         log.info("refine: the holes the plate-design trials refined for this design, reused")
         with run.stage("refine"):

@@ -20,6 +20,7 @@ from ..plan.profiles import layer_sprays
 from ..plan.tiles import _planned
 
 if TYPE_CHECKING:
+    from ..config.job import JobConfig
     from ..config.spray import SprayConfig
     from ..record import Run
     from ..simulate import SimResult
@@ -84,6 +85,7 @@ def registration_case(case: tuple[str, float], job: RegistrationJob) -> dict[str
 
 def start_registration(
     run: Run,
+    cfg: JobConfig,
     sim: SimResult,
     reference: np.ndarray,
     layers: Layers,
@@ -97,6 +99,7 @@ def start_registration(
 
     Args:
         run: The run.
+        cfg: The job's planned config.
         sim: The global :class:`~stencil_cad.simulate.SimResult`.
         reference: ``(H, W, 3)`` picture on the simulation grid.
         layers: The decomposition.
@@ -112,7 +115,7 @@ def start_registration(
     t0 = time.perf_counter()
     shape = sim.alphas.shape[1:]
     g = sim.mm_per_px
-    sprays = layer_sprays(run, layers.colours)
+    sprays = layer_sprays(run, cfg, layers.colours)
     tols = [
         simulate.tail_tolerance(d.xy_mm, d.r_mm, shape, g, sp) if len(d) else 0.0
         for d, sp in zip(dotsets, sprays, strict=True)
@@ -122,15 +125,15 @@ def start_registration(
         g,
         per_tile,
         grid,
-        run.cfg.spray,
+        cfg.spray,
         [float(t) for t in sim.info["spray_time"]],
         tols,
-        SprayGeometry.for_job(run.cfg),
+        SprayGeometry.for_job(cfg),
         sprays,
         layers.primer,
         layers.colours,
         reference,
-        run.cfg.view.distance_m,
+        cfg.view.distance_m,
     )
     return run.tasks.start(registration_case, list(REGISTRATION_CASES), "registration cases", job), t0
 

@@ -6,6 +6,7 @@ import contextlib
 import logging
 import time
 from collections.abc import Callable, Iterator
+from dataclasses import replace
 from pathlib import Path
 from typing import cast
 
@@ -19,14 +20,13 @@ from ..exchange.png import png_bytes
 from ..figures import ComputeFigures, MuralFigures, PictureFigures
 from ..interrupts import CancelToken
 from ..model import DotSet, Layers, Picture
-from ..mural import TileGrid
 from ..names import INPUT_PNG, cut_png, dots_png
 from ..output import OutputDir
 from ..plan import tiles
-from ..plan.holes import bound_dots
 from ..plan.names import run_outputs, stage_outputs
 from ..plan.picture import load_picture
-from ..plan.tiles import fit_thickness, record_plate
+from ..plan.plan import Plan, capped, planned, primed
+from ..plan.primer import dark_primed
 from ..record import Run
 from . import registration
 from .build import BuildStarted, check_template, collect_parts, record_build, start_build
@@ -71,16 +71,15 @@ def computing(
             run.executor = None
 
 
-def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
-    """The whole job: every stage in order."""
+def run_all(run: Run, picture: Picture | None = None) -> tuple[JobConfig, list[Path]]:
+    """The whole job: the plan, then every stage in order; ``(the config as the job resolved it, files)``."""
     if picture is None:
         with run.stage("load"):
             picture = load_picture(run.cfg)
     if run.template is None:
         check_template(run)
     size = (picture.width_mm, picture.height_mm)
-    grid = plan_mural(run, size, picture.shape)
-    cfg = fit_thickness(run, grid)
+    plan = plan_job(run, size, picture.shape)
     run.sheet_images[INPUT_PNG] = png_bytes(np.asarray(picture.rgb, dtype=np.float64))
     run.figures.picture = PictureFigures(
         source=picture.source,
@@ -89,68 +88,71 @@ def run_all(run: Run, picture: Picture | None = None) -> list[Path]:
         pixels=picture.shape,
         mm_per_px=picture.mm_per_px,
     )
-    if cfg.mode == Mode.hard:
-        mural.check_mode(grid, cfg)
-        save_config(run)
-        return run_hard(run, picture, grid)
-    layers, dotsets = soft_plates(run, picture, size, grid)
-    record_cost(run, grid, dotsets)
-    build_any(run, layers, dotsets, grid, picture)
-    return finish(run, "run")
+    if plan.cfg.mode == Mode.hard:
+        mural.check_mode(plan.grid, plan.cfg)
+        save_config(run, plan.cfg)
+        return run_hard(run, plan, picture)
+    plan, layers, dotsets = soft_plates(run, plan, picture)
+    record_cost(run, plan, dotsets)
+    build_any(run, plan, layers, dotsets, picture)
+    return plan.cfg, finish(run, plan.cfg, "run")
 
 
-def soft_plates(
-    run: Run, picture: Picture, size: tuple[float, float], grid: TileGrid
-) -> tuple[Layers, list[DotSet]]:
-    """A soft job up to its holes: decomposed, its plate design chosen, stippled and refined.
+def plan_job(run: Run, picture_mm: tuple[float, float], shape_px: tuple[int, ...]) -> Plan:
+    """The plan before any work (:func:`stencil_cad.plan.plan.planned`): the tiling, checked against the bed, and the thickness.
 
-    What :func:`run_all` builds and simulates; a benchmark that scores what the job makes calls it
-    (and :func:`stencil_cad.pipeline.simulate.stage_simulate`) rather than repeating the steps.
+    Records figures ``mural`` (the tiling and its cost) and ``plate`` (the thickness and why).
     """
-    bound_dots(run, size)
-    layers = plates_of(run, stage_decompose(run, picture), grid)
+    plan, fig = planned(run.cfg, picture_mm, int(shape_px[0]) * int(shape_px[1]))
+    run.figures.mural = fig
+    run.figures.plate = plan.plate
+    return plan
+
+
+def soft_plates(run: Run, plan: Plan, picture: Picture) -> tuple[Plan, Layers, list[DotSet]]:
+    """A soft job up to its holes: ``(the plan with its design, the plates' layers, their holes)``.
+
+    In order: the holes capped and a dark picture's primer (the plan before the decomposition), the
+    decomposition, the plate design the trials choose (the plan the later stages take), then the
+    holes stippled and refined. What :func:`run_all` builds and simulates; a benchmark that scores
+    what the job makes calls it (and :func:`stencil_cad.pipeline.simulate.stage_simulate`) rather
+    than repeating the steps.
+    """
+    plan = primed(capped(plan), picture)
+    layers = plates_of(run, plan.cfg, stage_decompose(run, plan.cfg, picture, plan.primer), plan.grid)
+    plan = design_plates(run, plan, layers, picture)
     # The saved config records the plate design the job chose.
-    design_plates(run, layers, size, picture, grid)
-    save_config(run)
-    return layers, plate_holes(run, layers, size, picture, grid)
+    save_config(run, plan.cfg)
+    return plan, layers, plate_holes(run, plan, layers, picture)
 
 
-def plate_holes(
-    run: Run, layers: Layers, size: tuple[float, float], picture: Picture | None, grid: TileGrid
-) -> list[DotSet]:
+def plate_holes(run: Run, plan: Plan, layers: Layers, picture: Picture | None) -> list[DotSet]:
     """Every plate's holes: stippled, refined, saved (``dots_N.csv``), previewed, and the spray order."""
-    made = stage_stipple(run, layers, size, grid=grid)
-    sets = stage_refine(run, layers, made, size, picture, grid)
+    cfg = plan.cfg
+    made = stage_stipple(run, plan, layers)
+    sets = stage_refine(run, plan, layers, made, picture)
     with run.stage("stipple"):
         save_dots(run, made, sets)
-        write_plate_previews(run, layers.colours, size, sets, dots_png)
+        write_plate_previews(run, cfg, layers.colours, plan.picture_mm, sets, dots_png)
         write_spray_order(
-            run, layers.primer, layers.colours, [ds.amount(run.cfg.spray.amount) for ds in sets]
+            run, cfg, layers.primer, layers.colours, [ds.amount(cfg.spray.amount) for ds in sets]
         )
     return sets
 
 
-def plan_mural(run: Run, picture_mm: tuple[float, float], shape_px: tuple[int, ...]) -> TileGrid:
-    """Tile the picture for the bed (one tile when it fits) and check every part fits, before any work."""
-    grid, fig = tiles.plan(run.cfg, *picture_mm, int(shape_px[0]) * int(shape_px[1]))
-    run.figures.mural = fig
-    return grid
-
-
-def design_plates(
-    run: Run, layers: Layers, size: tuple[float, float], picture: Picture | None, grid: TileGrid
-) -> None:
-    """The plate design left to the job (:func:`choose_plates`), and the plate thickness its wall asks for.
+def design_plates(run: Run, plan: Plan, layers: Layers, picture: Picture | None) -> Plan:
+    """``plan`` with the plate design left to the job (:func:`choose_plates`) and the thickness its wall asks for.
 
     Chosen for the picture when the tiling says so (:func:`stencil_cad.mural.chooses_design`: a
-    one-plate job; a mural keeps the config's).
+    one-plate job; a mural keeps the config's). Figure ``plate`` is recorded again when the wall
+    changed the thickness.
     """
-    if not mural.chooses_design(grid):
-        return
-    choose_plates(run, layers, size, picture)
-    plate = run.figures.plate
-    if plate is not None and plate.thickness_mm != run.cfg.plate.thickness_mm:
-        record_plate(run, plate.side_mm)
+    if not mural.chooses_design(plan.grid):
+        return plan
+    chosen = choose_plates(run, plan, layers, picture)
+    if chosen.plate != plan.plate:
+        run.figures.plate = chosen.plate
+    return chosen
 
 
 def run_command(
@@ -165,7 +167,7 @@ def run_command(
     announce: Callable[[str], None] | None = None,
     progress: Callable[[str, str], None] | None = None,
     cancel: CancelToken | None = None,
-) -> tuple[Run, list[Path]]:
+) -> tuple[Run, JobConfig, list[Path]]:
     """Run one command of the command line: ``run``, ``hard``, ``decompose`` or a stage command.
 
     The template is loaded and checked, then the output folder is opened (created, locked,
@@ -187,7 +189,9 @@ def run_command(
         cancel: Stops the run at its next stage edge or progress step (nothing is kept), or None.
 
     Returns:
-        ``(run, files)``: the run's state (figures, timings) and the files written.
+        ``(run, config, files)``: the run's state (figures, timings; ``run.cfg`` is ``cfg`` as given),
+        the config as the job resolved it (its plan's: thickness, primer, plate design) and the files
+        written.
     """
     cmd = command_named(command)
     stage_cmd = cmd.saved
@@ -219,19 +223,25 @@ def run_command(
         if cmd.from_picture:
             assert picture is not None  # load_picture raised otherwise
             with computing(run, picture.shape[0] * picture.shape[1], where, None if cmd.hard else planned):
-                if not cmd.whole:
-                    save_config(run)
-                    stage_decompose(run, picture)
-                    files = finish(run, "decompose")
-                else:
-                    files = run_all(run, picture)
+                resolved, files = run_all(run, picture) if cmd.whole else run_decompose(run, picture)
         else:
-            files = _run_stage_command(run, command, src or out_path, picture, where)
+            resolved, files = _run_stage_command(run, command, src or out_path, picture, where)
     except BaseException:
         out.abort()
         raise
     run.times["total"] = round(time.perf_counter() - t0, 3)
-    return run, files
+    return run, resolved, files
+
+
+def run_decompose(run: Run, picture: Picture) -> tuple[JobConfig, list[Path]]:
+    """The ``decompose`` command: the layers saved beside the config; ``(the config as resolved, files)``.
+
+    Its plan is the primer alone: a mostly dark picture is decomposed primed with its dark colour.
+    """
+    save_config(run, run.cfg)
+    resolved, primer = dark_primed(run.cfg, picture)
+    stage_decompose(run, resolved, picture, primer)
+    return resolved, finish(run, resolved, "decompose")
 
 
 def _planned(cfg: JobConfig, picture: Picture) -> MuralFigures:
@@ -242,13 +252,13 @@ def _planned(cfg: JobConfig, picture: Picture) -> MuralFigures:
 
 def _run_stage_command(
     run: Run, command: str, src: Path, picture: Picture | None, where: ComputeConfig | None
-) -> list[Path]:
+) -> tuple[JobConfig, list[Path]]:
     layers = read_layers(src)
     size = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
-    grid = plan_mural(run, size, layers.alphas.shape[1:])
-    cfg = fit_thickness(run, grid)
-    layers = plates_of(run, layers, grid)
-    run.out.check_free(stage_outputs(cfg, command, layers.count, grid))
+    plan = plan_job(run, size, layers.alphas.shape[1:])
+    cfg = plan.cfg
+    layers = plates_of(run, cfg, layers, plan.grid)
+    run.out.check_free(stage_outputs(cfg, command, layers.count, plan.grid))
     if abs(size[0] - cfg.size.width_mm) > 0.01 * cfg.size.width_mm:
         log.warning(
             "the saved layers are %.4g mm wide but the config says size.width_mm %.4g; the saved "
@@ -264,42 +274,46 @@ def _run_stage_command(
         check_rows(cfg, dotsets, size)
         if cmd.builds:
             check_dots(cfg, dotsets, size)
+    else:
+        # The saved config names the primer the run chose; the holes are capped as the run capped them.
+        plan = capped(plan)
     # Every refusal above comes before any worker starts; the tasks then run where the whole
     # job's would (--workers, --scheduler).
     with computing(run, layers.alphas.shape[1] * layers.alphas.shape[2], where, run.figures.mural):
         # The plate design left to the job is chosen as the whole run chose it (the same
         # trials on the same layers and seed), so a stage command gives the run's files.
-        design_plates(run, layers, size, picture, grid)
+        plan = design_plates(run, plan, layers, picture)
         if dotsets is None:
-            record_cost(run, grid, plate_holes(run, layers, size, picture, grid))
+            record_cost(run, plan, plate_holes(run, plan, layers, picture))
         elif cmd.builds:
-            record_cost(run, grid, dotsets)
-            build_any(run, layers, dotsets, grid, picture, simulate=False)
+            record_cost(run, plan, dotsets)
+            build_any(run, plan, layers, dotsets, picture, simulate=False)
         else:
-            stage_simulate(run, picture, layers, dotsets)
-        return finish(run, command)
+            stage_simulate(run, plan, picture, layers, dotsets)
+        return plan.cfg, finish(run, plan.cfg, command)
 
 
 def build_any(
     run: Run,
+    plan: Plan,
     layers: Layers,
     dotsets: list[DotSet],
-    grid: TileGrid,
     picture: Picture | None = None,
     simulate: bool = True,
 ) -> None:
-    """Build (and simulate): every tile's plates and walls, one tile for a one-plate job.
+    """Build (and simulate) ``plan``'s parts: every tile's plates and walls, one tile for a one-plate job.
 
     The plates and walls are tasks that need nothing the simulation computes: they start first,
     and this process simulates while they run. The plates are sprayed as made; a mural's
     registration cases start as tasks once the global simulation is there.
     """
-    built = start_build(run, layers, dotsets, grid, picture)
+    built = start_build(run, plan, layers, dotsets, picture)
     cases = None
     if simulate:
         try:
             _, _, cases = stage_simulate(
                 run,
+                plan,
                 picture,
                 layers,
                 dotsets,
@@ -308,11 +322,12 @@ def build_any(
                 # A soft job's holes are round.
                 also=lambda sim, ref: registration.start_registration(
                     run,
+                    plan.cfg,
                     sim,
                     ref,
                     layers,
                     cast("list[DotSet]", built.made),
-                    grid,
+                    plan.grid,
                     cast("list[list[DotSet]]", built.per_tile),
                 ),
             )
@@ -321,8 +336,8 @@ def build_any(
             raise
     build_parts(run, built)
     # PrusaSlicer's estimate slices a one-plate job's plates (a mural's parts are estimated by its plan).
-    if run.cfg.export.print_estimate and not mural.has_seams(grid):
-        stage_print_estimate(run)
+    if plan.cfg.export.print_estimate and not mural.has_seams(plan.grid):
+        stage_print_estimate(run, plan.cfg)
     registration.stage_mural_simulate(run, cases)
 
 
@@ -330,22 +345,22 @@ def build_parts(run: Run, built: BuildStarted) -> None:
     """Collect the plates and walls :func:`start_build` started, write a mural's stand, record the build."""
     with run.stage("build"):
         plates, walls = collect_parts(run, built)
-        post_row, stand_rows = stage_stand(run, built.grid, built.laser, built.posts)
+        post_row, stand_rows = stage_stand(run, built.cfg, built.grid, built.laser, built.posts)
     record_build(run, built, plates, walls, post_row, stand_rows)
 
 
-def run_hard(run: Run, picture: Picture, grid: TileGrid) -> list[Path]:
+def run_hard(run: Run, plan: Plan, picture: Picture) -> tuple[JobConfig, list[Path]]:
     """Hard-stencil mode: segmentation, bridges, plates with polygon cut-outs, simulation.
 
-    ``grid`` is the job's tiling: one tile (hard mode makes one plate per layer).
+    ``plan``'s tiling is one tile (hard mode makes one plate per layer).
     """
     # Cut-outs are sprayed from their own nozzle height, with whole passes for full cover.
-    run.cfg = hard_config(run.cfg)
-    size = (picture.width_mm, picture.height_mm)
+    plan = replace(plan, cfg=hard_config(plan.cfg))
+    cfg = plan.cfg
     with run.stage("segment"):
-        cut = stage_segment(run, picture)
-        write_plate_previews(run, cut.layers.colours, size, cut.hard.cut_layers, cut_png)
-        write_spray_order(run, cut.hard.primer, cut.layers.colours, cut.amounts)
-    build_parts(run, start_build(run, cut.layers, cut.hard.cut_layers, grid))
-    stage_simulate_hard(run, picture, cut.hard, cut.layers, cut.sprays, cut.amounts)
-    return finish(run, "hard")
+        cut = stage_segment(run, plan, picture)
+        write_plate_previews(run, cfg, cut.layers.colours, plan.picture_mm, cut.hard.cut_layers, cut_png)
+        write_spray_order(run, cfg, cut.hard.primer, cut.layers.colours, cut.amounts)
+    build_parts(run, start_build(run, plan, cut.layers, cut.hard.cut_layers))
+    stage_simulate_hard(run, plan, picture, cut.hard, cut.layers, cut.sprays, cut.amounts)
+    return cfg, finish(run, cfg, "hard")

@@ -18,6 +18,7 @@ from ..names import PREVIEW_PNG, SIMULATED_PNG, SWEEP_PNG
 from ..output import plain as _plain
 from ..plan.names import simulated_stems, step_name
 from ..plan.picture import _resample, source_reference
+from ..plan.plan import Plan
 from ..plan.profiles import layer_sprays
 from ..record import Run
 from ..stipple.made import made_dots
@@ -31,6 +32,7 @@ log = logging.getLogger(__name__)
 
 def stage_simulate(
     run: Run,
+    plan: Plan,
     picture: Picture | None,
     layers: Layers,
     dotsets: list[DotSet],
@@ -56,6 +58,7 @@ def stage_simulate(
 
     Args:
         run: The run.
+        plan: The job's plan (its config says how the plates spray and are seen).
         picture: The picture (the reference is its source), or None: the decomposition.
         layers: The decomposition.
         dotsets: The holes per layer.
@@ -70,9 +73,9 @@ def stage_simulate(
     from .. import resolution, simulate
     from ..simulate.physical import SprayGeometry
 
-    cfg = run.cfg
+    cfg = plan.cfg
     design = SprayGeometry.for_job(cfg)
-    sprays = layer_sprays(run, layers.colours)
+    sprays = layer_sprays(run, cfg, layers.colours)
     # Spray the holes as the process makes them (stipple.hole_offset_mm), not as asked.
     size_mm = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
     dotsets = [made_dots(d, cfg.stipple, size_mm) if isinstance(d, DotSet) else d for d in dotsets]
@@ -81,15 +84,15 @@ def stage_simulate(
         sim = simulate.simulate(layers, dotsets, cfg.spray, grid_mm, geometry=design, layer_sprays=sprays)
         ref = source_reference(cfg, picture, layers, sim.composite.shape[:2], sim.mm_per_px)
         started = also(sim, ref) if also is not None else None
-        cans = _start_cans(run, layers, dotsets, ref, grid_mm, design, sprays, here=workers_busy)
-        visible = _start_visibility(run, layers, dotsets, sim)
-        scores = _scores(run, ref, sim.composite, sim.mm_per_px, here=workers_busy)
+        cans = _start_cans(run, cfg, layers, dotsets, ref, grid_mm, design, sprays, here=workers_busy)
+        visible = _start_visibility(run, cfg, layers, dotsets, sim)
+        scores = _scores(run, cfg, ref, sim.composite, sim.mm_per_px, here=workers_busy)
         run.out.write_png(SIMULATED_PNG, sim.composite)
         ideal = _resample(layers.composite(), sim.composite.shape[:2])
         write_previews(run, ref, ideal, sim.composite, sim.mm_per_px, scores)
-        write_sweep(run, layers, dotsets, sim, grid_mm, design, sprays)
-        write_steps(run, layers.primer, layers.colours, sim.alphas, sim.mm_per_px)
-        per_wall = _walls(run, layers, dotsets, (sim, scores, ref), grid_mm, design, sprays)
+        write_sweep(run, cfg, layers, dotsets, sim, grid_mm, design, sprays)
+        write_steps(run, cfg, layers.primer, layers.colours, sim.alphas, sim.mm_per_px)
+        per_wall = _walls(run, cfg, layers, dotsets, (sim, scores, ref), grid_mm, design, sprays)
         by_can = _scores_by_can(cans, scores)
         dots_seen = visible.results()[0] if visible is not None else {}
     seen = {
@@ -107,6 +110,7 @@ def stage_simulate(
 
 def write_sweep(
     run: Run,
+    cfg: JobConfig,
     layers: Layers,
     dotsets: list[DotSet],
     sim: Any,
@@ -118,7 +122,6 @@ def write_sweep(
     from .. import simulate
     from ..simulate import labelled
 
-    cfg = run.cfg
     factors = tuple(cfg.spray.sweep_factors)
     panels = simulate.sweep_panels(
         layers,
@@ -137,6 +140,7 @@ def write_sweep(
 
 def _walls(
     run: Run,
+    cfg: JobConfig,
     layers: Layers,
     dotsets: list[DotSet],
     done: tuple[Any, dict[str, Any], np.ndarray],
@@ -151,7 +155,6 @@ def _walls(
     from .. import simulate
     from ..simulate.physical import SprayGeometry
 
-    cfg = run.cfg
     sim, scores, ref = done
     per_wall = []
     stems = simulated_stems(cfg)
@@ -231,6 +234,7 @@ def can_score(per_layer: list[SprayConfig], job: CanJob) -> float:
 
 def _start_cans(
     run: Run,
+    cfg: JobConfig,
     layers: Layers,
     dotsets: list[DotSet],
     ref: np.ndarray,
@@ -252,7 +256,7 @@ def _start_cans(
         return None
     # The job's own can ("nominal") is already simulated and scored.
     others = [(name, per_layer) for name, per_layer in cans if name != "nominal"]
-    job = CanJob(layers, dotsets, run.cfg.spray, grid_mm, design, ref, run.cfg.view.distance_m)
+    job = CanJob(layers, dotsets, cfg.spray, grid_mm, design, ref, cfg.view.distance_m)
     per_can = [p for _, p in others]
     if here:
         from ..compute import Started
@@ -325,7 +329,7 @@ def spraying_steps(cfg: JobConfig, layers: Layers, amounts: Sequence[float]) -> 
 
 
 def _scores(
-    run: Run, reference: np.ndarray, sprayed: np.ndarray, mm_per_px: float, here: bool = False
+    run: Run, cfg: JobConfig, reference: np.ndarray, sprayed: np.ndarray, mm_per_px: float, here: bool = False
 ) -> dict[str, Any]:
     """Pixel scores and S-CIELAB at the viewing distance and twice it, on one grid (its blocks as tasks unless ``here``)."""
     from .. import simulate
@@ -333,7 +337,7 @@ def _scores(
 
     scores = simulate.score(reference, sprayed)
     where = None if here else run.tasks.map
-    scores.update(scielab.view_scores(reference, sprayed, mm_per_px, run.cfg.view.distance_m, where))
+    scores.update(scielab.view_scores(reference, sprayed, mm_per_px, cfg.view.distance_m, where))
     return scores
 
 
@@ -350,7 +354,7 @@ class SeenJob:
     hole_floor_mm: float
 
 
-def _start_visibility(run: Run, layers: Layers, dotsets: list[DotSet], sim: Any) -> Any:
+def _start_visibility(run: Run, cfg: JobConfig, layers: Layers, dotsets: list[DotSet], sim: Any) -> Any:
     """Start :func:`dots_seen` on the job's simulation as a task, or None when no layer has holes."""
     if layers.count == 0 or not any(len(d) for d in dotsets):
         return None
@@ -361,7 +365,7 @@ def _start_visibility(run: Run, layers: Layers, dotsets: list[DotSet], sim: Any)
         sim.alphas,
         sim.mm_per_px,
         list(sim.info["blur_sigma_mm"]),
-        run.cfg.stipple.hole_floor_mm,
+        cfg.stipple.hole_floor_mm,
     )
     return run.tasks.start(dots_seen, [None], "dots seen", job)
 
@@ -442,14 +446,14 @@ def write_previews(
 
 
 def write_steps(
-    run: Run, primer: np.ndarray, colours: np.ndarray, alphas: np.ndarray, mm_per_px: float
+    run: Run, job: JobConfig, primer: np.ndarray, colours: np.ndarray, alphas: np.ndarray, mm_per_px: float
 ) -> None:
     """Per layer, the simulated picture after it is sprayed, and its paint estimate."""
     from ..decompose import paints
     from ..decompose.light import paint_of_plates
     from ..model import composite
 
-    cfg = run.cfg.paints
+    cfg = job.paints
     area = float(alphas.shape[1] * alphas.shape[2]) * mm_per_px**2
     rows = []
     for i in range(alphas.shape[0]):
@@ -476,7 +480,7 @@ def write_steps(
 
 
 def stage_simulate_hard(
-    run: Run, picture: Picture, hard: Any, layers: Layers, sprays: list[Any], amounts: list[float]
+    run: Run, plan: Plan, picture: Picture, hard: Any, layers: Layers, sprays: list[Any], amounts: list[float]
 ) -> None:
     """Spray hard mode's cut-outs ``hard`` (each layer with its settings ``sprays``), score and preview them.
 
@@ -485,13 +489,13 @@ def stage_simulate_hard(
     from .. import hardstencil
     from ..simulate.physical import SprayGeometry
 
-    cfg = run.cfg
+    cfg = plan.cfg
     with run.stage("simulate"):
         geometry = SprayGeometry.for_job(cfg)
         alphas, comp = hardstencil.simulate_hard(hard, cfg.spray, geometry=geometry, layer_sprays=sprays)
-        scores = _scores(run, picture.rgb, comp, picture.mm_per_px)
+        scores = _scores(run, cfg, picture.rgb, comp, picture.mm_per_px)
         run.out.write_png(SIMULATED_PNG, comp)
         write_previews(run, picture.rgb, hardstencil.render_ideal(hard), comp, picture.mm_per_px, scores)
-        write_steps(run, hard.primer, hard.colours, alphas, picture.mm_per_px)
+        write_steps(run, cfg, hard.primer, hard.colours, alphas, picture.mm_per_px)
     run.figures.simulate = SimulateFigures(_plain(scores))
     run.figures.spraying = spraying_steps(cfg, layers, amounts)

@@ -14,6 +14,7 @@ from ..record import Run
 
 if TYPE_CHECKING:
     from ..config.bed import Bed
+    from ..config.job import JobConfig
     from ..slicing.profiles import Profile
 
     BedArg = str | tuple[float, float] | Bed | None
@@ -200,8 +201,10 @@ def _slice_jobs(
     return jobs
 
 
-def stage_print_estimate(run: Run) -> None:
+def stage_print_estimate(run: Run, cfg: JobConfig) -> None:
     """Slice every plate and wall the build staged and record the slicer's estimates (``export.print_estimate``).
+
+    ``cfg`` is the job's planned config (its bed and exports).
 
     Each part is sliced as ``stencil-cad slice`` would (walls sparse, on the job's bed); its
     ``print_hours`` and ``filament_m`` go into its build row and the sums into ``build.print``.
@@ -213,7 +216,6 @@ def stage_print_estimate(run: Run) -> None:
 
     from .. import slicing
 
-    cfg = run.cfg
     prof = slicing.get_profile("prusa_fdm")
     if not cfg.export.stl:
         raise UserError("export.print_estimate slices the STL files: set export.stl: true")

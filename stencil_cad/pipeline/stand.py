@@ -15,11 +15,13 @@ LASER_FORMATS = (".dxf", ".svg")
 
 if TYPE_CHECKING:
     from ..config.bed import Bed
+    from ..config.job import JobConfig
     from ..mural.laser import CutPart
 
 
 def stage_stand(
     run: Run,
+    cfg: JobConfig,
     grid: mural.TileGrid,
     laser: list[CutPart] | None,
     posts: dict[tuple[str, int], list[list[float]]],
@@ -28,6 +30,7 @@ def stage_stand(
 
     Args:
         run: The run.
+        cfg: The job's planned config.
         grid: The job's tiling (its bed, and the posts it plans: :func:`stencil_cad.mural.post_plan`).
         laser: The laser-cut stand's parts (:func:`stencil_cad.mural.laser_stand`), or None.
         posts: The posts' sites per (tile, layer) from the build.
@@ -35,28 +38,26 @@ def stage_stand(
     Returns:
         ``(post_row, stand_rows)``: the post's figures, or the laser-cut parts' rows (None when absent).
     """
-    plan = mural.post_plan(run.cfg, grid)
+    plan = mural.post_plan(cfg, grid)
     if laser is not None:
-        return None, write_laser_stand(run, laser, grid.bed)
+        return None, write_laser_stand(run, cfg, laser, grid.bed)
     if plan is not None and any(posts.values()):
-        return write_post(run, plan, posts), None
+        return write_post(run, cfg, plan, posts), None
     return None, None
 
 
 def write_post(
-    run: Run, plan: mural.PostPlan, posts: dict[tuple[str, int], list[list[float]]]
+    run: Run, cfg: JobConfig, plan: mural.PostPlan, posts: dict[tuple[str, int], list[list[float]]]
 ) -> dict[str, Any]:
     """Build, check and write the job's post (every post is the same); its figures."""
     from ..cad import post as post_mod
 
-    model = post_mod.build_post(
-        plan.radius_mm, plan.height_mm, plan.pin_radius_mm, run.cfg.plate.thickness_mm
-    )
+    model = post_mod.build_post(plan.radius_mm, plan.height_mm, plan.pin_radius_mm, cfg.plate.thickness_mm)
     stem = POST_STEM
     with run.out.open_path(part_file(stem, ".step")) as p:
         post_mod.post_step(model, p)
     with run.out.open_path(part_file(stem, ".stl")) as p:
-        post_mod.post_stl(model, p, run.cfg.export.stl_tolerance_mm)
+        post_mod.post_stl(model, p, cfg.export.stl_tolerance_mm)
     dropped = sum(int(s.get("removed_post", 0)) for s in (st.report for st in run.figures.stipple or ()))
     return {
         "file": part_file(stem, ".step"),
@@ -73,7 +74,9 @@ def write_post(
     }
 
 
-def write_laser_stand(run: Run, parts: list[CutPart], bed: Bed | None) -> list[dict[str, Any]]:
+def write_laser_stand(
+    run: Run, cfg: JobConfig, parts: list[CutPart], bed: Bed | None
+) -> list[dict[str, Any]]:
     """Write each laser-cut part of the stand (``frame_base``, ``frame_top``, ``spacer``) as DXF and SVG.
 
     Each part is checked like a plate (a closed outline, its cuts inside it, the bed) before it is
@@ -87,7 +90,7 @@ def write_laser_stand(run: Run, parts: list[CutPart], bed: Bed | None) -> list[d
     from ..exchange.writers import PartFiles, write_part
     from ..mural.cost import cut_seconds
 
-    exp = run.cfg.export
+    exp = cfg.export
     size = None if bed is None else (bed.x_mm, bed.y_mm)
     rows = []
     for part in parts:
@@ -101,7 +104,7 @@ def write_laser_stand(run: Run, parts: list[CutPart], bed: Bed | None) -> list[d
             layer_name=part.name.upper(),
             label=part.name,
         )
-        files = PartFiles(name=part.name, drawing=drawing, title=f"{run.cfg.name} {part.name}")
+        files = PartFiles(name=part.name, drawing=drawing, title=f"{cfg.name} {part.name}")
         write_part(run.out, part.name, files, LASER_FORMATS, exp)
         rows.append(
             {

@@ -40,6 +40,7 @@ from ..config import JobConfig
 from ..config.stipple import Windows
 from ..figures import PlateTrial, StandoffFigures
 from ..model import Layers, Picture
+from ..plan.plan import Plan, designed, whole, with_design
 from ..record import Run
 
 log = logging.getLogger(__name__)
@@ -172,21 +173,6 @@ def matched_standoff(cfg: JobConfig) -> float | None:
     return None if g == cfg.standoff.design_mm else g
 
 
-def with_design(cfg: JobConfig, windows: str, standoff_mm: float) -> JobConfig:
-    """``cfg`` with its plates' windows and its wall's stand-off set (the stand-off still marked as the job's).
-
-    A filled-in plate thickness is chosen again for a wall lower than the process's: the plate may
-    sag only a share of its stand-off (:mod:`stencil_cad.config.thickness`).
-    """
-    if windows != cfg.stipple.windows.value:
-        cfg = cfg.model_copy(update={"stipple": cfg.stipple.model_copy(update={"windows": Windows(windows)})})
-    if standoff_mm == cfg.standoff.design_mm:
-        return cfg
-    cfg = cfg.with_standoff(standoff_mm)
-    fill = cfg.thickness_fill
-    return cfg.fit_plate_thickness(fill.side_mm, standoff_mm) if fill.filled else cfg
-
-
 def _trial_score(
     run: Run,
     cfg: JobConfig,
@@ -215,12 +201,11 @@ def _trial_score(
         else cfg.model_copy(update={"refine": cfg.refine.model_copy(update={"enabled": False})})
     )
     # The trial's own figures; its holes are kept for the job (``run.kept``), and it writes nothing.
-    trial = Run(
-        cfg=trial_cfg, out=run.out, quiet=True, executor=run.executor, cancel=run.cancel, kept=run.kept
-    )
+    trial = Run(cfg=run.cfg, out=run.out, quiet=True, executor=run.executor, cancel=run.cancel, kept=run.kept)
+    plan = whole(trial_cfg, picture_mm)
     # Stippled, then refined (when the trial's config refines), as the job's stages run them.
-    unrefined = holes.stippled(trial, layers, picture_mm)[0]
-    dotsets = holes.refined(trial, layers, unrefined, picture_mm, picture)[0].sets
+    unrefined = holes.stippled(trial, plan, layers)[0]
+    dotsets = holes.refined(trial, plan, layers, unrefined, picture)[0].sets
     made = [made_dots(d, cfg.stipple, picture_mm) for d in dotsets]
     sim = simulate.simulate(
         layers,
@@ -228,29 +213,27 @@ def _trial_score(
         cfg.spray,
         resolution.sim_mm_per_px(cfg) if grid_mm_per_px is None else grid_mm_per_px,
         geometry=SprayGeometry.for_job(cfg),
-        layer_sprays=layer_sprays(trial, layers.colours),
+        layer_sprays=layer_sprays(trial, trial_cfg, layers.colours),
     )
     ref = source_reference(cfg, picture, layers, sim.composite.shape[:2], sim.mm_per_px)
     return float(scielab(ref, sim.composite, sim.mm_per_px, cfg.view.distance_m))
 
 
-def choose_plates(
-    run: Run, layers: Layers, picture_mm: tuple[float, float], picture: Picture | None
-) -> JobConfig:
-    """The job's config with the plate design (windows, stand-off) this picture's plates spray best with.
+def choose_plates(run: Run, plan: Plan, layers: Layers, picture: Picture | None) -> Plan:
+    """``plan`` with the plate design (windows, stand-off) this picture's plates spray best with.
 
     The designs of :func:`candidates` are tried (:func:`_screen`, :func:`_trial_score`, on the coarse
     grid of :func:`trial_mm_per_px`) and the best kept, or with light plates the two walls of
-    :func:`direct_pair` refined outright; with one candidate the config comes back as it is.
+    :func:`direct_pair` refined outright; with one candidate the plan comes back as it is.
     The run calls it for one-plate jobs only (a mural keeps its config: trials over every tile would
-    cost more than the job). Records figure ``standoff``: the share, the trials and the choice. Sets
-    ``run.cfg``.
+    cost more than the job). Records figure ``standoff``: the share, the trials and the choice.
+    Returns the plan with the design (:func:`stencil_cad.plan.plan.designed`).
     """
     from ..mural import TileGrid
 
-    cfg = run.cfg
+    cfg, picture_mm = plan.cfg, plan.picture_mm
     if cfg.stipple.windows == Windows.off and not cfg.chooses_standoff:
-        return cfg
+        return plan
     t0 = time.perf_counter()
     with run.stage("standoff"):
         share = window_share(cfg, layers, TileGrid.whole(*picture_mm), picture_mm)
@@ -277,7 +260,7 @@ def choose_plates(
             refined = _refined_pair(run, cfg, layers, picture_mm, picture, grid, trials)
             if refined:
                 best = next(t for t in trials if t.label == min(refined, key=lambda t: t.scielab).label)
-        run.cfg = with_design(cfg, best.windows, best.standoff_mm)
+        chosen = designed(plan, best.windows, best.standoff_mm)
     fig = StandoffFigures(
         window_share=round(share, 3),
         standoff_mm=best.standoff_mm,
@@ -291,7 +274,7 @@ def choose_plates(
     run.figures.standoff = fig
     if trials or direct:
         log.info("plates: %s", fig.reason)
-    return run.cfg
+    return chosen
 
 
 def _screen(

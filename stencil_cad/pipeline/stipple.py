@@ -9,32 +9,27 @@ records the stipple figures. The plate previews and the spray order are the pain
 from __future__ import annotations
 
 import logging
-from typing import TYPE_CHECKING
 
 from ..figures import LayerStipple, LayerWindows
 from ..model import DotSet, Layers
 from ..output import plain as _plain
 from ..plan.holes import Stippled, stippled
 from ..plan.names import dots_name, layer_stem, windows_name
+from ..plan.plan import Plan
 from ..record import Run
-
-if TYPE_CHECKING:
-    from .. import mural
 
 log = logging.getLogger(__name__)
 
 
-def stage_stipple(
-    run: Run, layers: Layers, picture_mm: tuple[float, float], *, grid: mural.TileGrid | None = None
-) -> Stippled:
+def stage_stipple(run: Run, plan: Plan, layers: Layers) -> Stippled:
     """Stipple every layer's opacity into holes under the design rules (not refined yet); figures ``dark_end``, ``windows``.
 
     With ``stipple.tone: response`` the density comes from the spray response
-    (:mod:`stencil_cad.simulate.tone`), and with ``spray.calibrate: spray_time`` each layer also
+    (:mod:`stencil_cad.simulate.tone`); every setting is ``plan``'s. With ``spray.calibrate: spray_time`` each layer also
     gets its own spray time, saved in ``spray.json`` and in the dots' report. The refine stage
     (:func:`stencil_cad.pipeline.refine.stage_refine`) takes the holes on; :func:`save_dots` writes them.
     """
-    made, reused = stippled(run, layers, picture_mm, grid=grid)
+    made, reused = stippled(run, plan, layers)
     if reused:
         log.info("stipple: the holes the plate-design trials made for this design, reused")
     run.figures.dark_end = made.dark_end

@@ -3,8 +3,8 @@
 What the stipple and refine stages compute before they record or write anything. The job's stages
 (:mod:`stencil_cad.pipeline.stipple`, :mod:`stencil_cad.pipeline.refine`), the plate-design trials
 (:mod:`stencil_cad.pipeline.standoff`) and the fast preview (:mod:`stencil_cad.pipeline.preview`) each
-call :func:`stippled`, then :func:`refined`. Both keep their result in ``run.kept`` by what it reads:
-the same config, layers, picture and tiling give the same holes, so the job's stages reuse the holes
+call :func:`stippled`, then :func:`refined`, with the plan they stipple under (its config and tiling).
+Both keep their result in ``run.kept`` by what it reads: the same config, layers, picture and tiling give the same holes, so the job's stages reuse the holes
 the trials made for the design the job keeps.
 """
 
@@ -13,7 +13,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, cast
+from typing import Any, cast
 
 import numpy as np
 
@@ -25,13 +25,11 @@ from ..mural.stipple import StippleTask, stipple_layers
 from ..record import Run
 from ..stipple.windows import with_windows
 from .names import layer_stem
+from .plan import Plan
 from .profiles import layer_sprays
 from .refinement import refine_holes
 
-if TYPE_CHECKING:
-    from .. import mural
-
-__all__ = ["Refined", "Stippled", "bound_dots", "layer_jobs", "layer_windows", "refined", "stippled"]
+__all__ = ["Refined", "Stippled", "layer_jobs", "layer_windows", "refined", "stippled"]
 
 log = logging.getLogger(__name__)
 
@@ -57,60 +55,49 @@ class Refined:
     report: Any
 
 
-def stippled(
-    run: Run,
-    layers: Layers,
-    picture_mm: tuple[float, float],
-    *,
-    grid: mural.TileGrid | None = None,
-) -> tuple[Stippled, bool]:
+def stippled(run: Run, plan: Plan, layers: Layers) -> tuple[Stippled, bool]:
     """Every layer's holes as the stipple stage makes them, not refined: ``(the holes and figures, whether kept)``.
 
-    ``stipple.dots`` is capped first (:func:`bound_dots`, which may set ``run.cfg``). Kept in
-    ``run.kept`` by the config, layers and tiling (the second value says they were).
+    Under ``plan``'s config (``stipple.dots`` capped already: :func:`stencil_cad.plan.plan.capped`) and
+    tiling. Kept in ``run.kept`` by the config, layers and tiling (the second value says they were).
     """
-    bound_dots(run, picture_mm)
-    tiling = grid or TileGrid.whole(*picture_mm)
-    key = ("stipple", run.cfg.model_dump_json(), id(layers), picture_mm, repr(tiling))
-    made, kept = run.keep(key, lambda: _stippled(run, layers, picture_mm, tiling))
+    picture_mm, tiling = plan.picture_mm, plan.grid
+    key = ("stipple", plan.cfg.model_dump_json(), id(layers), picture_mm, repr(tiling))
+    made, kept = run.keep(key, lambda: _stippled(run, plan.cfg, layers, picture_mm, tiling))
     return cast("Stippled", made), kept
 
 
 def refined(
-    run: Run,
-    layers: Layers,
-    made: Stippled,
-    picture_mm: tuple[float, float],
-    picture: Picture | None = None,
-    grid: mural.TileGrid | None = None,
+    run: Run, plan: Plan, layers: Layers, made: Stippled, picture: Picture | None = None
 ) -> tuple[Refined, bool]:
     """``made``'s holes refined towards ``picture`` (when ``refine.enabled``) and clear of the posts: ``(holes, whether kept)``.
 
-    ``made`` is :func:`stippled`'s for the same run, layers and tiling. Kept in ``run.kept`` by the
+    ``made`` is :func:`stippled`'s for the same run, plan and layers. Kept in ``run.kept`` by the
     config, layers, picture and tiling (the second value says they were).
     """
-    tiling = grid or TileGrid.whole(*picture_mm)
-    key = ("refine", run.cfg.model_dump_json(), id(layers), id(picture), picture_mm, repr(tiling))
+    cfg, picture_mm, tiling = plan.cfg, plan.picture_mm, plan.grid
+    key = ("refine", cfg.model_dump_json(), id(layers), id(picture), picture_mm, repr(tiling))
 
     def make() -> Refined:
         sets, report = made.sets, None
-        if run.cfg.refine.enabled:
-            sets = refine_holes(run, layers, sets, picture_mm, picture, tiling)
+        if cfg.refine.enabled:
+            sets = refine_holes(run, plan, layers, sets, picture)
             report = run.figures.refine
         # A mural's plates stand on posts: the few holes a post would shade go before anything scores them.
-        sets, _ = clear_post_sites(sets, tiling, post_plan(run.cfg, tiling))
+        sets, _ = clear_post_sites(sets, tiling, post_plan(cfg, tiling))
         return Refined(sets, report)
 
     done, kept = run.keep(key, make)
     return cast("Refined", done), kept
 
 
-def _stippled(run: Run, layers: Layers, picture_mm: tuple[float, float], tiling: TileGrid) -> Stippled:
+def _stippled(
+    run: Run, cfg: JobConfig, layers: Layers, picture_mm: tuple[float, float], tiling: TileGrid
+) -> Stippled:
     """Every layer's holes: stippled under its own can, with its windows (not refined)."""
-    cfg = run.cfg
     # Each layer's tone is chosen under its own paint's can (spray.profile).
-    jobs = layer_jobs(cfg, layer_sprays(run, layers.colours))
-    sets, tones, windows = _holes(run, layers, picture_mm, tiling, jobs)
+    jobs = layer_jobs(cfg, layer_sprays(run, cfg, layers.colours))
+    sets, tones, windows = _holes(run, cfg, layers, picture_mm, tiling, jobs)
     dark_end = tuple(
         _dark_end(job, alpha, ds.amount(job.spray.amount), w.mask)
         for job, alpha, ds, w in zip(jobs, layers.alphas, sets, windows, strict=True)
@@ -122,7 +109,12 @@ def _stippled(run: Run, layers: Layers, picture_mm: tuple[float, float], tiling:
 
 
 def _holes(
-    run: Run, layers: Layers, picture_mm: tuple[float, float], tiling: TileGrid, jobs: list[JobConfig]
+    run: Run,
+    cfg: JobConfig,
+    layers: Layers,
+    picture_mm: tuple[float, float],
+    tiling: TileGrid,
+    jobs: list[JobConfig],
 ) -> tuple[list[DotSet], Any, list[Any]]:
     """Every layer's holes as stippled, before the refinement: ``(sets, tones, windows)``.
 
@@ -134,13 +126,13 @@ def _holes(
 
     def make() -> tuple[list[DotSet], Any, list[Any]]:
         with run.stage("stipple"):
-            tasks, windows, hole_alphas = _tasks(run, layers, tiling, picture_mm, jobs)
+            tasks, windows, hole_alphas = _tasks(run, cfg, layers, tiling, picture_mm, jobs)
             sets, tones = stipple_layers(
                 tasks, hole_alphas, tiling, lambda i, k: run.seed_for("stipple", i, k), run.tasks.map
             )
         return sets, tones, windows
 
-    key = ("holes", run.cfg.model_dump_json(exclude={"refine"}), id(layers), picture_mm, repr(tiling))
+    key = ("holes", cfg.model_dump_json(exclude={"refine"}), id(layers), picture_mm, repr(tiling))
     return cast("tuple[list[DotSet], Any, list[Any]]", run.keep(key, make)[0])
 
 
@@ -150,10 +142,14 @@ def layer_jobs(cfg: JobConfig, sprays: Sequence[SprayConfig]) -> list[JobConfig]
 
 
 def _tasks(
-    run: Run, layers: Layers, tiling: TileGrid, picture_mm: tuple[float, float], jobs: list[JobConfig]
+    run: Run,
+    cfg: JobConfig,
+    layers: Layers,
+    tiling: TileGrid,
+    picture_mm: tuple[float, float],
+    jobs: list[JobConfig],
 ) -> tuple[list[StippleTask], list[Any], np.ndarray]:
     """One stipple task per layer (under its own can: ``jobs``), its windows and the opacities left to the holes."""
-    cfg = run.cfg
     # One task per layer (on a cluster the layers stipple side by side); each layer's
     # generator comes from the seed, so any number of workers gives the same holes.
     # The colour weights only steer the choice of each layer's spray time.
@@ -253,32 +249,3 @@ def _dark_end(
         unreachable_share=round(float(over.mean()), 4),
         unreachable_by=round(float((a[over] - top).mean()), 4) if over.any() else 0.0,
     )
-
-
-def bound_dots(run: Run, picture_mm: tuple[float, float]) -> None:
-    """Cap ``stipple.dots`` at the most holes that fit the picture under the design rules.
-
-    Too many dots cost memory and time in the relaxation and are then removed by the
-    rules anyway; the cap is named in a warning.
-    """
-    from ..bounds import max_dots
-
-    cfg = run.cfg
-    if cfg.stipple.dots is None:
-        return
-    most = max_dots(cfg.stipple, *picture_mm)
-    if cfg.stipple.dots > most:
-        log.warning(
-            "stipple.dots %d cannot fit: at most %d holes of radius %g mm with %g mm webs fit in %.4g × %.4g mm; "
-            "using %d (set stipple.dots ≤ %d, or null to derive it from the picture)",
-            cfg.stipple.dots,
-            most,
-            cfg.stipple.hole_floor_mm,
-            cfg.stipple.resolved_web_mm,
-            picture_mm[0],
-            picture_mm[1],
-            most,
-            most,
-        )
-        stipple = cfg.stipple.model_copy(update={"dots": most})
-        run.cfg = cfg.model_copy(update={"stipple": stipple})

@@ -36,12 +36,15 @@ costs it 0.3 on the job's own grid.
 from __future__ import annotations
 
 import logging
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..colour import to_hex
 from ..model import Picture
-from ..record import Run
+
+if TYPE_CHECKING:
+    from ..config.job import JobConfig
 
 log = logging.getLogger(__name__)
 
@@ -76,21 +79,22 @@ def dark_primer(picture: Picture) -> str | None:
     return to_hex(np.median(rgb[dark], axis=0))
 
 
-def prime_dark(run: Run, picture: Picture) -> str | None:
-    """Name a mostly dark picture's dark colour as the primer in ``run.cfg``; the primer named, or None.
+def dark_primed(cfg: JobConfig, picture: Picture) -> tuple[JobConfig, str | None]:
+    """``cfg`` with a mostly dark picture's dark colour as its primer: ``(config, the primer named or None)``.
 
     Only where the config leaves the primer and the paints to the job (``decompose.primer: auto``,
-    ``decompose.palette: auto``): a chosen primer or can list is kept. With the primer,
-    ``decompose.min_delta_e`` becomes at least :data:`DARK_MIN_DELTA_E` unless the config sets it.
+    ``decompose.palette: auto``): a chosen primer or can list is kept (``cfg`` comes back as it is).
+    With the primer, ``decompose.min_delta_e`` becomes at least :data:`DARK_MIN_DELTA_E` unless the
+    config sets it.
     """
-    dcfg = run.cfg.decompose
+    dcfg = cfg.decompose
     if dcfg.primer_rgb() is not None or dcfg.palette != "auto":
-        return None
+        return cfg, None
     hex_code = dark_primer(picture)
-    if hex_code is not None:
-        log.info("primer: %s, the dark colour of a picture at least %.0f %% dark", hex_code, 100 * DARK_SHARE)
-        update: dict[str, object] = {"primer": hex_code}
-        if "min_delta_e" not in dcfg.model_fields_set:
-            update["min_delta_e"] = max(dcfg.min_delta_e, DARK_MIN_DELTA_E)
-        run.cfg = run.cfg.model_copy(update={"decompose": dcfg.model_copy(update=update)})
-    return hex_code
+    if hex_code is None:
+        return cfg, None
+    log.info("primer: %s, the dark colour of a picture at least %.0f %% dark", hex_code, 100 * DARK_SHARE)
+    update: dict[str, object] = {"primer": hex_code}
+    if "min_delta_e" not in dcfg.model_fields_set:
+        update["min_delta_e"] = max(dcfg.min_delta_e, DARK_MIN_DELTA_E)
+    return cfg.model_copy(update={"decompose": dcfg.model_copy(update=update)}), hex_code

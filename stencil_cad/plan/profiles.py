@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..colour import to_hex
-from ..config import SprayConfig
+from ..config import JobConfig, SprayConfig
 from ..figures import LayerProfile
 from ..record import Run
 from .cans import can_names
@@ -24,14 +24,15 @@ from .cans import can_names
 __all__ = ["layer_sprays", "profile_rows"]
 
 
-def layer_sprays(run: Run, colours: np.ndarray | Sequence[Any]) -> list[SprayConfig]:
+def layer_sprays(run: Run, cfg: JobConfig, colours: np.ndarray | Sequence[Any]) -> list[SprayConfig]:
     """The spray settings of every layer, in spray order, and the manifest's ``spray_profiles``.
 
     A layer whose can is unmeasured takes the deposit prior of its paint (light paints hide in more
     passes than dark ones: :func:`stencil_cad.simulate.cans.deposit_prior`).
 
     Args:
-        run: The run (its config, and the can names the decompose stage recorded).
+        run: The run (the can names the decompose stage recorded; the figures it records).
+        cfg: The job's planned config (:attr:`stencil_cad.plan.plan.Plan.cfg`).
         colours: ``(L, 3)`` the layers' paints in [0, 1], in spray order.
 
     Returns:
@@ -41,7 +42,6 @@ def layer_sprays(run: Run, colours: np.ndarray | Sequence[Any]) -> list[SprayCon
     Raises:
         ConfigError: A key of ``spray.profile`` names no layer, or two keys name one.
     """
-    cfg = run.cfg
     hexes = [to_hex(c) for c in colours]
     names = can_names(run.figures)
     # A key's layer number is its paint's: a paint's light and dark plates spray from one can.

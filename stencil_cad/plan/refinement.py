@@ -12,14 +12,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..model import DotSet, Layers, Picture
-from ..mural import TileGrid
 from ..output import plain as _plain
 from ..record import Run
 from .picture import source_reference
+from .plan import Plan
 from .profiles import layer_sprays
 
 if TYPE_CHECKING:
-    from .. import mural
     from ..config import JobConfig
     from ..config.spray import SprayConfig
     from ..simulate.physical import SprayGeometry
@@ -28,18 +27,13 @@ log = logging.getLogger(__name__)
 
 
 def refine_holes(
-    run: Run,
-    layers: Layers,
-    dotsets: list[DotSet],
-    picture_mm: tuple[float, float],
-    picture: Picture | None = None,
-    grid: mural.TileGrid | None = None,
+    run: Run, plan: Plan, layers: Layers, dotsets: list[DotSet], picture: Picture | None = None
 ) -> list[DotSet]:
     """Refine every layer's holes against the spray model so the composite matches the picture.
 
     The objective lives on the simulation grid, its eye filter is the viewer's at
     ``view.distance_m``, and the holes keep the stipple rules (the largest radius is
-    ``refine.max_radius_factor`` times the hole floor). A mural (``grid`` of several tiles)
+    ``refine.max_radius_factor`` times the hole floor), all read from ``plan``'s config. A mural (a tiling of several tiles)
     is refined tile by tile (:mod:`stencil_cad.mural.refine`), each tile a task. A hybrid
     plate's windows (each DotSet's ``windows``) spray with the holes and stay fixed; the holes
     refined too close to one are left out. Records figure ``refine``.
@@ -48,7 +42,7 @@ def refine_holes(
     from ..simulate import spray
     from ..simulate.physical import SprayGeometry
 
-    cfg = run.cfg
+    cfg, picture_mm = plan.cfg, plan.picture_mm
     # The simulation's grid: with ``size.px_per_mm: auto`` it follows the dots' spray sigma
     # (8x fewer pixels than 4 px/mm for FDM holes, which keeps a mural's refinement in memory).
     grid_mm = resolution.sim_mm_per_px(cfg) or 1.0 / cfg.spray.px_per_mm
@@ -66,7 +60,7 @@ def refine_holes(
     geometry = SprayGeometry.for_job(cfg)
     # refine.cans: prior refines for the expected error over the prior's caps (without a measured
     # can); each layer sprays with its own paint's profile, and a measured layer keeps its can.
-    sprays = layer_sprays(run, layers.colours)
+    sprays = layer_sprays(run, cfg, layers.colours)
     cans = layer_can_prior(sprays, CAP_PRIOR) if rc.cans == "prior" else [("nominal", sprays)]
     kernels = [tuple(mural_refine.HoleKernels(sp, geometry) for sp in per_layer) for _, per_layer in cans]
 
@@ -85,7 +79,7 @@ def refine_holes(
         settings=settings,
         fixed_trans=fixed,
     )
-    tiling = grid or TileGrid.whole(*picture_mm)
+    tiling = plan.grid
     with run.stage("refine"), run.bar(rc.iterations, "refine") as bar:
         out, report = mural_refine.refine_layers(
             problem, tiling, dotsets, cfg, run.tasks.map, progress=lambda it, total: bar.update(1)

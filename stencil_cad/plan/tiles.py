@@ -1,4 +1,6 @@
-"""The tiling planned before any work, the plate thickness it asks for, and what a mural's build records beyond its parts.
+"""The tiling planned before any work, and what a mural's build records beyond its parts.
+
+The plate thickness the tiling asks for is the plan's (:func:`stencil_cad.plan.plan.planned`).
 
 The parts themselves (every tile's plates and walls, one tile for a one-plate job) are built by
 :mod:`stencil_cad.pipeline.build`.
@@ -10,7 +12,7 @@ from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 from .. import mural
-from ..figures import MuralBed, MuralBuildFigures, MuralFigures, PlateFigures, TileRow
+from ..figures import MuralBed, MuralBuildFigures, MuralFigures, TileRow
 from ..model import DotSet, Layers, Picture
 from ..names import MURAL_MAP_PNG
 
@@ -26,32 +28,6 @@ def light_plates_on(cfg: JobConfig, tiled: bool) -> bool:
     tiling at hand (the plate-design trials of a one-plate job).
     """
     return mural.light_plates_on(cfg, tiled)
-
-
-def fit_thickness(run: Run, grid: mural.TileGrid) -> JobConfig:
-    """Fill the plate thickness in for the plates the tiling plans (when the config leaves it to the process).
-
-    The config chose it for the plate size it knew (:meth:`JobConfig.fit_plate_thickness`); the picture's
-    height and the mural's tiles are known now. Records the thickness and why as figure ``plate``.
-    """
-    from ..mural.posts import sag_side_mm
-
-    side = sag_side_mm(grid, run.cfg)
-    run.cfg = run.cfg.fit_plate_thickness(side)
-    record_plate(run, side)
-    return run.cfg
-
-
-def record_plate(run: Run, side_mm: float) -> None:
-    """Figure ``plate``: the thickness of ``run.cfg`` and why, for plates of longest side ``side_mm``."""
-    fill = run.cfg.thickness_fill
-    run.figures.plate = PlateFigures(
-        thickness_mm=run.cfg.plate.thickness_mm,
-        filled=fill.filled,
-        side_mm=round(side_mm, 1),
-        sag_mm=round(fill.sag_mm, 3) if fill.filled else None,
-        thickness_reason=fill.reason,
-    )
 
 
 def plan(
@@ -89,6 +65,7 @@ def plan(
 
 def record_tiles(
     run: Run,
+    cfg: JobConfig,
     asked: list[DotSet],
     drawn: list[DotSet],
     holes_tile: list[list[DotSet]],
@@ -102,6 +79,7 @@ def record_tiles(
 
     Args:
         run: The run.
+        cfg: The job's planned config.
         asked: Every layer's holes over the whole mural, as the stippler placed them.
         drawn: The same as the plates draw them.
         holes_tile: Per tile, per layer, the tile's drawn holes.
@@ -111,7 +89,6 @@ def record_tiles(
         layers: The decomposition (the map's picture when ``picture`` is None).
         picture: The picture, or None.
     """
-    cfg = run.cfg
     built = MuralBuildFigures(
         tiles=tuple(TileRow.from_json(t) for t in mural.manifest_rows(grid)),
         holes_per_tile={

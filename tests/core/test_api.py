@@ -93,13 +93,13 @@ def test_a_second_preview_reuses_the_decomposition_and_holes():
 
 def test_the_last_preview_is_of_the_plate_design_the_job_chooses(monkeypatch):
     from stencil_cad.pipeline import standoff
+    from stencil_cad.plan.plan import designed
 
     seen = []
 
-    def choose(run, layers, size, picture):
-        seen.append(run.cfg)
-        run.cfg = standoff.with_design(run.cfg, "off", 14.0)
-        return run.cfg
+    def choose(run, plan, layers, picture):
+        seen.append(plan.cfg)
+        return designed(plan, "off", 14.0)
 
     monkeypatch.setattr(standoff, "choose_plates", choose)
     cfg = small_example()

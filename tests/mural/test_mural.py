@@ -352,7 +352,7 @@ def test_small_mural_end_to_end(tmp_path):
     )
     lines = []
     out = tmp_path / "out"
-    run, files = run_command("run", cfg, out, announce=lines.append)
+    run, _, files = run_command("run", cfg, out, announce=lines.append)
     assert lines and "2 tile(s)" in lines[0] and "4 plates" in lines[0]
     m = json.loads((out / "manifest.json").read_text())
     mu = m["mural"]

@@ -12,9 +12,15 @@ from stencil_cad.model import Layers, Picture
 from stencil_cad.mural import TileGrid
 from stencil_cad.pipeline import standoff
 from stencil_cad.pipeline.standoff import WINDOW_SHARE, candidates, choose_plates, window_share, with_design
+from stencil_cad.plan.plan import whole
 from stencil_cad.record import Run
 
 _SLA = {"stipple": {"process": "sla", "tone": "calibrated"}, "spray": {"calibrate": "spray_time"}}
+
+
+def _choose(run, layers, pic):
+    """The config with the design the trials chose for a 60 x 60 mm one-plate job."""
+    return choose_plates(run, whole(run.cfg, (60.0, 60.0)), layers, pic).cfg
 
 
 def _cfg(**extra):
@@ -108,7 +114,7 @@ def test_a_photo_without_windows_tries_the_stand_offs_only():
     # One plate per paint: the unrefined screen ranks the walls (light plates refine two outright).
     run = Run(cfg=_cfg(stipple={**_SLA["stipple"], "light_plates": "off"}), out=None)  # type: ignore[arg-type]
     assert window_share(run.cfg, layers, TileGrid.whole(60.0, 60.0), (60.0, 60.0)) < WINDOW_SHARE
-    cfg = choose_plates(run, layers, (60.0, 60.0), pic)
+    cfg = _choose(run, layers, pic)
     fig = run.figures.standoff
     tried = [(t.windows, t.standoff_mm) for t in fig.trials] if fig is not None else []
     # The process's stand-off and the two near it, then each coarse step its near one points to.
@@ -127,7 +133,7 @@ def test_flat_colour_art_sprays_from_lower_down():
     pic, layers = _flat_layers()
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
     assert window_share(run.cfg, layers, TileGrid.whole(60.0, 60.0), (60.0, 60.0)) > 0.8
-    cfg = choose_plates(run, layers, (60.0, 60.0), pic)
+    cfg = _choose(run, layers, pic)
     fig = run.figures.standoff
     assert fig is not None and len(fig.trials) == 10
     scores = {(t.windows, t.standoff_mm): t.scielab for t in fig.trials}
@@ -137,7 +143,7 @@ def test_flat_colour_art_sprays_from_lower_down():
     assert scores[("off", 10.0)] > scores[("auto", 10.0)]
     assert cfg.standoff.listed_mm == (fig.standoff_mm,) and fig.standoff_mm < 10.0
     assert fig.windows == "auto" and cfg.stipple.windows.value == "auto"
-    assert run.cfg is cfg and cfg.chooses_standoff
+    assert run.cfg is not cfg and cfg.chooses_standoff  # the maker's config is kept as given
 
 
 def _scripted(monkeypatch, scores: dict[tuple[str, float], float], refined=None) -> None:
@@ -159,7 +165,7 @@ def test_a_coarse_step_is_tried_only_where_the_near_one_points(monkeypatch):
     _scripted(monkeypatch, down)
     monkeypatch.setattr(standoff, "window_share", lambda *a: 0.3)  # a photo with some windows
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
-    cfg = choose_plates(run, layers, (60.0, 60.0), pic)
+    cfg = _choose(run, layers, pic)
     fig = run.figures.standoff
     assert fig is not None and ("auto", 15.0) not in [(t.windows, t.standoff_mm) for t in fig.trials]
     # Holes alone have no near steps: all theirs are tried.
@@ -168,14 +174,14 @@ def test_a_coarse_step_is_tried_only_where_the_near_one_points(monkeypatch):
     # Neither near step beats the process's stand-off: no coarse step of the config's windows.
     _scripted(monkeypatch, down | {("auto", 8.0): 3.1})
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
-    choose_plates(run, layers, (60.0, 60.0), pic)
+    _choose(run, layers, pic)
     fig = run.figures.standoff
     assert fig is not None and len(fig.trials) == 6
     assert not {("auto", 5.0), ("auto", 15.0)} & {(t.windows, t.standoff_mm) for t in fig.trials}
     # Worse within the trials' noise says nothing: the coarse step is tried (the dark sky's case).
     _scripted(monkeypatch, down | {("auto", 8.0): 3.0 * (1.0 + standoff.SCREEN_NOISE / 2)})
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
-    choose_plates(run, layers, (60.0, 60.0), pic)
+    _choose(run, layers, pic)
     fig = run.figures.standoff
     assert fig is not None and ("auto", 5.0) in {(t.windows, t.standoff_mm) for t in fig.trials}
 
@@ -188,7 +194,7 @@ def test_light_plates_refine_two_walls_outright(monkeypatch):
     monkeypatch.setattr(standoff, "window_share", lambda *a: MIN_WINDOW_SHARE / 2)
     _scripted(monkeypatch, {}, {("auto", 5.0): 2.58, ("auto", 8.0): 2.74})
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
-    cfg = choose_plates(run, layers, (60.0, 60.0), pic)
+    cfg = _choose(run, layers, pic)
     fig = run.figures.standoff
     assert fig is not None and fig.trials == () and cfg.standoff.listed_mm == (5.0,)
     assert [(t.standoff_mm, t.scielab) for t in fig.refined] == [(5.0, 2.58), (8.0, 2.74)]
@@ -197,10 +203,10 @@ def test_light_plates_refine_two_walls_outright(monkeypatch):
     # The other wall wins where it sprays better; a tie keeps the lower one (the likelier).
     _scripted(monkeypatch, {}, {("auto", 5.0): 2.9, ("auto", 8.0): 2.7})
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
-    assert choose_plates(run, layers, (60.0, 60.0), pic).standoff.listed_mm == (8.0,)
+    assert _choose(run, layers, pic).standoff.listed_mm == (8.0,)
     _scripted(monkeypatch, {}, {("auto", 5.0): 2.7, ("auto", 8.0): 2.7})
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
-    assert choose_plates(run, layers, (60.0, 60.0), pic).standoff.listed_mm == (5.0,)
+    assert _choose(run, layers, pic).standoff.listed_mm == (5.0,)
     # The screen still runs where windows are in question, the wall is given, or plates are not light.
     cfg = _cfg()
     assert direct_pair(cfg, MIN_WINDOW_SHARE / 2) == [("auto", 5.0), ("auto", 8.0)]
@@ -232,7 +238,7 @@ def test_holes_alone_are_chosen_where_windows_spray_worse(monkeypatch):
         | {("auto", 8.0): 3.0, ("auto", 12.0): 2.95},
     )
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
-    cfg = choose_plates(run, layers, (60.0, 60.0), pic)
+    cfg = _choose(run, layers, pic)
     assert cfg.stipple.windows.value == "off" and cfg.standoff.listed_mm == (15.0,)
     fig = run.figures.standoff
     assert fig is not None and fig.windows == "off" and fig.standoff_mm == 15.0
@@ -248,7 +254,7 @@ def test_the_two_best_of_different_stand_offs_are_told_apart_refined(monkeypatch
     refined = {("auto", 4.0): 3.9, ("auto", 1.0): 4.4}
     _scripted(monkeypatch, unrefined, refined)
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
-    cfg = choose_plates(run, layers, (60.0, 60.0), pic)
+    cfg = _choose(run, layers, pic)
     assert cfg.standoff.listed_mm == (4.0,)
     fig = run.figures.standoff
     assert fig is not None and [t.standoff_mm for t in fig.refined] == [1.0, 4.0]
@@ -256,7 +262,7 @@ def test_the_two_best_of_different_stand_offs_are_told_apart_refined(monkeypatch
     # The two best share a stand-off: the best is refined beside the best of another stand-off.
     _scripted(monkeypatch, unrefined | {("off", 10.0): 5.0, ("auto", 10.0): 5.1}, {})
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
-    cfg = choose_plates(run, layers, (60.0, 60.0), pic)
+    cfg = _choose(run, layers, pic)
     fig = run.figures.standoff
     assert fig is not None and [(t.windows, t.standoff_mm) for t in fig.refined] == [
         ("off", 10.0),
@@ -269,14 +275,14 @@ def test_a_tie_keeps_the_config_own_design(monkeypatch):
     pic, layers = _flat_layers()
     _scripted(monkeypatch, dict.fromkeys(candidates(_cfg(), 0.9), 1.0))
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
-    cfg = choose_plates(run, layers, (60.0, 60.0), pic)
+    cfg = _choose(run, layers, pic)
     assert cfg.stipple.windows.value == "auto" and cfg.standoff.listed_mm == (10.0,)
 
 
 def test_a_given_stand_off_is_kept():
     pic, layers = _flat_layers()
     run = Run(cfg=_cfg(wall={"standoff_mm": [10.0]}), out=None)  # type: ignore[arg-type]
-    cfg = choose_plates(run, layers, (60.0, 60.0), pic)
+    cfg = _choose(run, layers, pic)
     # Holes alone cannot spray the logo's solids: the windows stay, and so does the given stand-off.
     assert cfg.stipple.windows.value == "auto" and cfg.standoff.listed_mm == (10.0,)
     assert run.figures.standoff is not None and len(run.figures.standoff.trials) == 2
@@ -285,7 +291,7 @@ def test_a_given_stand_off_is_kept():
 def test_windows_off_are_kept_and_never_go_low():
     pic, layers = _flat_layers()
     run = Run(cfg=_cfg(stipple={**_SLA["stipple"], "windows": "off"}), out=None)  # type: ignore[arg-type]
-    cfg = choose_plates(run, layers, (60.0, 60.0), pic)
+    cfg = _choose(run, layers, pic)
     assert cfg.stipple.windows.value == "off" and cfg.standoff.design_mm in (5.0, 10.0, 15.0)
 
 
@@ -293,7 +299,8 @@ def test_nothing_left_to_the_job_tries_nothing(monkeypatch):
     pic, layers = _flat_layers()
     _scripted(monkeypatch, {})  # any trial would fail
     run = Run(cfg=_cfg(wall={"standoff_mm": [10.0]}, stipple={**_SLA["stipple"], "windows": "off"}), out=None)  # type: ignore[arg-type]
-    assert choose_plates(run, layers, (60.0, 60.0), pic) is run.cfg and run.figures.standoff is None
+    plan = whole(run.cfg, (60.0, 60.0))
+    assert choose_plates(run, plan, layers, pic) is plan and run.figures.standoff is None
 
 
 def test_standoff_figures_json_is_exact():
@@ -336,14 +343,14 @@ def test_the_summary_says_what_was_chosen_and_why(monkeypatch, tmp_path):
     pic, layers = _flat_layers()
     _scripted(monkeypatch, dict.fromkeys(candidates(_cfg(), 0.9), 2.0) | {("off", 15.0): 1.5})
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
-    choose_plates(run, layers, (60.0, 60.0), pic)
+    _choose(run, layers, pic)
     lines = [line for line in summary(run, [], tmp_path).splitlines() if line.startswith("  design")]
     assert len(lines) == 1 and "holes only, 15 mm (chosen)" in lines[0] and "1.50" in lines[0]
     # Two walls refined outright (light plates, no screen) are told too.
     monkeypatch.setattr(standoff, "window_share", lambda *a: 0.0)
     _scripted(monkeypatch, {}, {("auto", 5.0): 2.6, ("auto", 8.0): 2.7})
     run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
-    choose_plates(run, layers, (60.0, 60.0), pic)
+    _choose(run, layers, pic)
     lines = [line for line in summary(run, [], tmp_path).splitlines() if line.startswith("  design")]
     assert len(lines) == 1 and "windows, 5 mm (chosen): refined" in lines[0]
 

@@ -4,8 +4,7 @@ import numpy as np
 
 from stencil_cad.config.io import parse_config
 from stencil_cad.model import Picture
-from stencil_cad.plan.primer import DARK_MIN_DELTA_E, DARK_SHARE, dark_primer, prime_dark
-from stencil_cad.record import Run
+from stencil_cad.plan.primer import DARK_MIN_DELTA_E, DARK_SHARE, dark_primed, dark_primer
 
 
 def _picture(dark_share: float) -> Picture:
@@ -21,25 +20,20 @@ def test_only_a_mostly_dark_picture_gets_its_dark_colour_as_primer():
     assert dark_primer(_picture(0.7)) == "#05080d"
 
 
-def test_the_run_names_the_primer_unless_the_config_chose_one():
-    run = Run(cfg=parse_config({}, source="test"), out=None, quiet=True)  # type: ignore[arg-type]
-    assert prime_dark(run, _picture(0.7)) == "#05080d"
-    assert run.cfg.decompose.primer_rgb() is not None
+def test_the_job_names_the_primer_unless_the_config_chose_one():
+    cfg = parse_config({}, source="test")
+    primed, hex_code = dark_primed(cfg, _picture(0.7))
+    assert hex_code == "#05080d"
+    assert primed.decompose.primer_rgb() is not None and cfg.decompose.primer_rgb() is None
     for given in ({"primer": "#ffffff"}, {"palette": ["#ff0000", "#00ff00", "#0000ff", "#ffffff"]}):
         cfg = parse_config({"decompose": given}, source="test")
-        run = Run(cfg=cfg, out=None, quiet=True)  # type: ignore[arg-type]
-        assert prime_dark(run, _picture(0.7)) is None
-        assert run.cfg is cfg
+        assert dark_primed(cfg, _picture(0.7)) == (cfg, None)
 
 
 def test_a_dark_primer_keeps_paints_further_from_it_unless_the_config_says():
-    run = Run(cfg=parse_config({}, source="test"), out=None, quiet=True)  # type: ignore[arg-type]
-    prime_dark(run, _picture(0.7))
-    assert run.cfg.decompose.min_delta_e == DARK_MIN_DELTA_E
+    primed, _ = dark_primed(parse_config({}, source="test"), _picture(0.7))
+    assert primed.decompose.min_delta_e == DARK_MIN_DELTA_E
     cfg = parse_config({"decompose": {"min_delta_e": 1.0}}, source="test")
-    run = Run(cfg=cfg, out=None, quiet=True)  # type: ignore[arg-type]
-    prime_dark(run, _picture(0.7))
-    assert run.cfg.decompose.min_delta_e == 1.0
-    run = Run(cfg=parse_config({}, source="test"), out=None, quiet=True)  # type: ignore[arg-type]
-    prime_dark(run, _picture(DARK_SHARE - 0.1))
-    assert run.cfg.decompose.min_delta_e == 2.0
+    assert dark_primed(cfg, _picture(0.7))[0].decompose.min_delta_e == 1.0
+    cfg = parse_config({}, source="test")
+    assert dark_primed(cfg, _picture(DARK_SHARE - 0.1))[0].decompose.min_delta_e == 2.0

@@ -1,0 +1,168 @@
+"""The job's plan: every decision the job makes for itself, made once, frozen, passed to the stages.
+
+The maker's config (:attr:`stencil_cad.record.Run.cfg`) is kept as given. What the job decides
+beyond it is made by the functions here, each returning a new :class:`Plan` and changing nothing,
+in the order the orchestrator (:mod:`stencil_cad.pipeline.run`) calls them:
+
+1. before any work, from the picture's size: the tiling and the plate thickness it asks for
+   (:func:`planned`), and the most holes that fit (:func:`capped`);
+2. before the decomposition, from the picture: a mostly dark picture's primer (:func:`primed`);
+3. after the decomposition, from the layers: the plate design the trials choose, windows and the
+   wall's stand-off, with the thickness that wall asks for (:func:`designed`, called with
+   :func:`stencil_cad.pipeline.standoff.choose_plates`'s choice).
+
+The stages after the design (stipple, refine, build, simulate, cost, the manifest) take the last
+plan as an argument and read its :attr:`Plan.cfg`: the config with every decision filled in. The
+figures that say why (``plate``, ``standoff``, ``decompose.solver.primer_rule``) stay in the run's
+figures; the plan holds the plate figures so the orchestrator records the ones it keeps.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+from .. import mural
+from ..figures import MuralFigures, PlateFigures
+from ..model import Picture
+
+if TYPE_CHECKING:
+    from ..config.job import JobConfig
+
+__all__ = ["Plan", "capped", "designed", "plate_figures", "planned", "primed", "whole", "with_design"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What the job decided before the stages that read it, frozen.
+
+    Attributes:
+        cfg: The config with every decision made so far filled in (thickness, the holes' cap, the
+            primer, the plate design); the stages read their settings here, never the maker's.
+        grid: The tiling every stage takes (a one-plate job is a 1 × 1 tiling).
+        picture_mm: The picture's ``(width, height)`` in mm.
+        plate: The plate thickness and why (figure ``plate``), or None where the job does not
+            record one (the plate-design trials, tests).
+        primer: The primer the job chose for a mostly dark picture (``#rrggbb``), or None: the config's.
+    """
+
+    cfg: JobConfig
+    grid: mural.TileGrid
+    picture_mm: tuple[float, float]
+    plate: PlateFigures | None = None
+    primer: str | None = None
+
+
+def whole(cfg: JobConfig, picture_mm: tuple[float, float]) -> Plan:
+    """A one-plate plan of ``cfg`` as it is (nothing decided): the plate-design trials' and a test's."""
+    return Plan(cfg, mural.TileGrid.whole(*picture_mm), picture_mm)
+
+
+def planned(cfg: JobConfig, picture_mm: tuple[float, float], work_px: int) -> tuple[Plan, MuralFigures]:
+    """The plan before any work: the tiling for the bed and the plate thickness it asks for.
+
+    The config chose a thickness for the plate size it knew (:meth:`JobConfig.fit_plate_thickness`);
+    the picture's height and the mural's tiles are known now.
+
+    Args:
+        cfg: The maker's config.
+        picture_mm: The picture's ``(width, height)`` in mm.
+        work_px: Pixels of the working picture (the plan's cost estimate).
+
+    Returns:
+        ``(plan, figures)``: the plan and the tiling's figures for the manifest (``mural``).
+
+    Raises:
+        UserError: A part cannot fit the bed.
+    """
+    from ..mural.posts import sag_side_mm
+    from .tiles import plan as plan_tiles
+
+    grid, fig = plan_tiles(cfg, *picture_mm, work_px)
+    side = sag_side_mm(grid, cfg)
+    fitted = cfg.fit_plate_thickness(side)
+    return Plan(fitted, grid, picture_mm, plate_figures(fitted, side)), fig
+
+
+def plate_figures(cfg: JobConfig, side_mm: float) -> PlateFigures:
+    """Figure ``plate``: ``cfg``'s plate thickness and why, for plates of longest side ``side_mm``."""
+    fill = cfg.thickness_fill
+    return PlateFigures(
+        thickness_mm=cfg.plate.thickness_mm,
+        filled=fill.filled,
+        side_mm=round(side_mm, 1),
+        sag_mm=round(fill.sag_mm, 3) if fill.filled else None,
+        thickness_reason=fill.reason,
+    )
+
+
+def capped(plan: Plan) -> Plan:
+    """``plan`` with ``stipple.dots`` capped at the most holes that fit the picture under the design rules.
+
+    Too many dots cost memory and time in the relaxation and are then removed by the rules anyway;
+    the cap is named in a warning. The same plan when the config's count fits (or it has none).
+    """
+    from ..bounds import max_dots
+
+    cfg = plan.cfg
+    if cfg.stipple.dots is None:
+        return plan
+    most = max_dots(cfg.stipple, *plan.picture_mm)
+    if cfg.stipple.dots <= most:
+        return plan
+    log.warning(
+        "stipple.dots %d cannot fit: at most %d holes of radius %g mm with %g mm webs fit in %.4g × %.4g mm; "
+        "using %d (set stipple.dots ≤ %d, or null to derive it from the picture)",
+        cfg.stipple.dots,
+        most,
+        cfg.stipple.hole_floor_mm,
+        cfg.stipple.resolved_web_mm,
+        plan.picture_mm[0],
+        plan.picture_mm[1],
+        most,
+        most,
+    )
+    stipple = cfg.stipple.model_copy(update={"dots": most})
+    return replace(plan, cfg=cfg.model_copy(update={"stipple": stipple}))
+
+
+def primed(plan: Plan, picture: Picture) -> Plan:
+    """``plan`` with a mostly dark picture's dark colour as its primer (:func:`stencil_cad.plan.primer.dark_primed`)."""
+    from .primer import dark_primed
+
+    cfg, primer = dark_primed(plan.cfg, picture)
+    return plan if primer is None else replace(plan, cfg=cfg, primer=primer)
+
+
+def designed(plan: Plan, windows: str, standoff_mm: float) -> Plan:
+    """``plan`` with its plates' windows and its wall's stand-off (:func:`with_design`).
+
+    A filled-in thickness chosen again for a lower wall gives figure ``plate`` anew (same side).
+    """
+    cfg = with_design(plan.cfg, windows, standoff_mm)
+    if cfg is plan.cfg:
+        return plan
+    plate = plan.plate
+    if plate is not None and plate.thickness_mm != cfg.plate.thickness_mm:
+        plate = plate_figures(cfg, plate.side_mm)
+    return replace(plan, cfg=cfg, plate=plate)
+
+
+def with_design(cfg: JobConfig, windows: str, standoff_mm: float) -> JobConfig:
+    """``cfg`` with its plates' windows and its wall's stand-off set (the stand-off still marked as the job's).
+
+    A filled-in plate thickness is chosen again for a wall lower than the process's: the plate may
+    sag only a share of its stand-off (:mod:`stencil_cad.config.thickness`).
+    """
+    from ..config.stipple import Windows
+
+    if windows != cfg.stipple.windows.value:
+        cfg = cfg.model_copy(update={"stipple": cfg.stipple.model_copy(update={"windows": Windows(windows)})})
+    if standoff_mm == cfg.standoff.design_mm:
+        return cfg
+    cfg = cfg.with_standoff(standoff_mm)
+    fill = cfg.thickness_fill
+    return cfg.fit_plate_thickness(fill.side_mm, standoff_mm) if fill.filled else cfg

@@ -1,0 +1,47 @@
+"""The job's plan: each planning step returns a new frozen plan and leaves the one it was given alone."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from stencil_cad.config.io import parse_config
+from stencil_cad.model import Picture
+from stencil_cad.plan.plan import capped, designed, planned, primed, whole
+from stencil_cad.record import Run
+
+
+def test_a_plan_is_frozen_and_each_step_returns_a_new_one():
+    given = parse_config({"stipple": {"dots": 2_000_000}}, source="test")
+    plan, _ = planned(given, (60.0, 60.0), 120 * 120)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        plan.cfg = given  # type: ignore[misc]
+    fewer = capped(plan)
+    assert fewer is not plan and fewer.cfg.stipple.dots < 2_000_000
+    assert plan.cfg.stipple.dots == 2_000_000 and given.stipple.dots == 2_000_000
+    assert capped(fewer) is fewer
+
+
+def test_a_dark_picture_is_primed_in_the_plan_not_in_the_config():
+    rgb = np.full((100, 100, 3), 0.8)
+    rgb[:70] = (0.02, 0.03, 0.05)
+    plan = whole(parse_config({}, source="test"), (50.0, 50.0))
+    dark = primed(plan, Picture(rgb=rgb, mm_per_px=0.5))
+    assert dark.primer == "#05080d" and dark.cfg.decompose.primer_rgb() is not None
+    assert plan.primer is None and plan.cfg.decompose.primer_rgb() is None
+
+
+def test_the_design_chosen_is_a_new_plan():
+    plan, _ = planned(parse_config({}, source="test"), (170.0, 120.0), 340 * 240)
+    low = designed(plan, "off", 5.0)
+    assert low.cfg.standoff.design_mm == 5.0 and low.cfg.stipple.windows.value == "off"
+    assert plan.cfg.standoff.design_mm == 10.0
+    assert designed(plan, plan.cfg.stipple.windows.value, plan.cfg.standoff.design_mm) is plan
+
+
+def test_a_run_keeps_the_config_it_was_given():
+    cfg = parse_config({}, source="test")
+    run = Run(cfg=cfg, out=None)  # type: ignore[arg-type]
+    with pytest.raises(AttributeError):
+        run.cfg = cfg.model_copy()  # the house rule's runtime half: a job's decisions go in its Plan
+    assert run.cfg is cfg
