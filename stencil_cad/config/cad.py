@@ -379,14 +379,3 @@ class ExportConfig(StrictModel):
     def kerf_mm(self) -> float:
         """The laser kerf in mm (0 when not resolved from the process)."""
         return float(self.dxf_kerf_mm or 0.0)
-
-    def plate_extensions(self) -> list[str]:
-        """The file extensions written per plate, e.g. ``[".step", ".stl", ".dxf"]``."""
-        on = (
-            (".step", self.step),
-            (".stl", self.stl),
-            (".dxf", self.dxf),
-            (".svg", self.svg),
-            (".3mf", self.three_mf),
-        )
-        return [e for e, wanted in on if wanted]

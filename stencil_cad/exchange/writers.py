@@ -1,7 +1,8 @@
 """The writers of a part's files by extension: one registry every plate, card and stand part goes through.
 
-A new file format is one entry of :data:`WRITERS` (and its flag in the ``export`` config, which
-:meth:`~stencil_cad.config.ExportConfig.plate_extensions` reads); the callers name extensions,
+A new file format is one entry of :data:`WRITERS`: its writer, its manifest figures and the
+``export`` setting that turns it on (a field of :class:`~stencil_cad.config.ExportConfig`, the
+maker's key). The orders parts are written in follow the registry; the callers name extensions,
 never writers.
 """
 
@@ -64,10 +65,13 @@ class Writer:
     Attributes:
         write: Writes a part to a path with the ``export`` settings; returns what it wrote, or None.
         figures: The manifest's keys for what it wrote (empty for most formats).
+        flag: The ``export`` setting that turns the format on.
     """
 
     write: Callable[[PartFiles, Path, ExportConfig], Any]
     figures: Callable[[Any], dict[str, Any]]
+    #: The ``export`` setting (a boolean field of :class:`~stencil_cad.config.ExportConfig`) that turns it on.
+    flag: str
 
 
 def _none(_: Any) -> dict[str, Any]:
@@ -111,25 +115,33 @@ def _svg_figures(info: SvgInfo) -> dict[str, Any]:
     return {"svg_offset_mm": [round(float(v), 4) for v in info.offset_mm], "svg_circles": info.circles}
 
 
-#: Every format a part is written in, by extension.
+#: Every format a part is written in, by extension, in the order a one-plate job writes them.
 WRITERS: dict[str, Writer] = {
-    ".step": Writer(_step, _none),
-    ".stl": Writer(_stl, _none),
-    ".3mf": Writer(_3mf, _none),
-    ".dxf": Writer(_dxf, _dxf_figures),
-    ".svg": Writer(_svg, _svg_figures),
+    ".step": Writer(_step, _none, "step"),
+    ".stl": Writer(_stl, _none, "stl"),
+    ".3mf": Writer(_3mf, _none, "three_mf"),
+    ".dxf": Writer(_dxf, _dxf_figures, "dxf"),
+    ".svg": Writer(_svg, _svg_figures, "svg"),
 }
 
+
+def _tile_order(order: tuple[str, ...]) -> tuple[str, ...]:
+    """A mural tile's order: the one-plate order with its SVG before its DXF, as a tile always wrote them."""
+    out = list(order)
+    i, j = out.index(".dxf"), out.index(".svg")
+    out[i], out[j] = out[j], out[i]
+    return tuple(out)
+
+
 #: The order a one-plate job writes a plate's files in (the manifest's file table keeps it).
-ONE_PLATE_ORDER = (".step", ".stl", ".3mf", ".dxf", ".svg")
+ONE_PLATE_ORDER = tuple(WRITERS)
 #: The order a mural's tile plate writes its files in: its SVG before its DXF, as it always has.
-TILE_ORDER = (".step", ".stl", ".3mf", ".svg", ".dxf")
+TILE_ORDER = _tile_order(ONE_PLATE_ORDER)
 
 
-def wanted(export: ExportConfig, order: Iterable[str]) -> list[str]:
-    """The extensions the ``export`` config asks for, in ``order``."""
-    on = set(export.plate_extensions())
-    return [e for e in order if e in on]
+def wanted(export: ExportConfig, order: Iterable[str] = ONE_PLATE_ORDER) -> list[str]:
+    """The extensions the ``export`` config turns on, in ``order``."""
+    return [e for e in order if bool(getattr(export, WRITERS[e].flag))]
 
 
 def write_part(

@@ -128,7 +128,9 @@ def part_wall_stems(tile: str | None, heights: list[float]) -> list[str]:
 
 def build_outputs(cfg: JobConfig, grid: mural.TileGrid, count: int) -> list[str]:
     """Names the build writes for a tiling (so a stage command can refuse before the work)."""
-    exts = cfg.export.plate_extensions()
+    from ..exchange.writers import wanted
+
+    exts = wanted(cfg.export)
     names = []
     from ..mural import has_seams, laser_stand, part_name, post_plan, wall_tiles
 

@@ -41,7 +41,22 @@ def _square() -> DxfStencil:
 
 def test_every_format_the_config_turns_on_has_a_writer():
     every = ExportConfig(step=True, stl=True, dxf=True, svg=True, three_mf=True)
-    assert set(every.plate_extensions()) == set(WRITERS) == set(ONE_PLATE_ORDER) == set(TILE_ORDER)
+    assert wanted(every) == list(WRITERS) and set(WRITERS) == set(ONE_PLATE_ORDER) == set(TILE_ORDER)
+    # Each writer's flag is a yes/no setting of the export config: the maker's key for the format.
+    for ext, writer in WRITERS.items():
+        assert ExportConfig.model_fields[writer.flag].annotation is bool, ext
+    assert wanted(ExportConfig(step=False, stl=False, dxf=False, svg=False, three_mf=False)) == []
+
+
+def test_a_new_format_is_one_entry_of_the_registry(monkeypatch):
+    from stencil_cad.exchange import writers
+
+    # A toy format turned on by an existing setting: one entry, and every order and choice has it.
+    toy = writers.Writer(lambda part, path, export: path.write_text(part.name), writers._none, "stl")
+    monkeypatch.setitem(writers.WRITERS, ".toy", toy)
+    exp = ExportConfig(step=False, stl=True, dxf=False, svg=False, three_mf=False)
+    assert writers.wanted(exp, tuple(writers.WRITERS)) == [".stl", ".toy"]
+    assert writers._tile_order(tuple(writers.WRITERS))[-3:] == (".svg", ".dxf", ".toy")
 
 
 def test_wanted_keeps_the_callers_order():
