@@ -134,7 +134,8 @@ def config_overrides(cfg: PlateConfig) -> dict:
     out = {}
     for field, name in fields.items():
         value = getattr(cfg, field)
-        out[name] = getattr(value, "value", value)
+        if value is not None:  # null: the job's to fill in (a plate alone: the template's own default)
+            out[name] = getattr(value, "value", value)
     out.update(cfg.template_params)
     return out
 

@@ -87,8 +87,8 @@ class PlateConfig(StrictModel):
             "instruction sheet say which and why."
         ),
     )
-    label: LabelMode = Field(
-        LabelMode.engrave,
+    label: LabelMode | None = Field(
+        None,
         json_schema_extra=_nullable_label,
         description=(
             "Label on the top face's bottom border: layer number, spray order, paint colour, job name and "
@@ -98,7 +98,6 @@ class PlateConfig(StrictModel):
             "layer (an engraving needs a floor under it), engrave otherwise."
         ),
     )
-    _label_default = null_reads_as("label", LabelMode.engrave)
     label_depth_mm: float = Field(
         0.2,
         gt=0.0,
@@ -186,20 +185,26 @@ class PlateConfig(StrictModel):
 
     @model_validator(mode="after")
     def _check(self) -> PlateConfig:
-        if (
-            self.label is LabelMode.engrave
-            and self.label_depth_mm > self.thickness_mm - LABEL_FLOOR_MM + 1e-9
-        ):
-            raise ValueError(
-                f"label_depth_mm must be ≤ thickness_mm - {LABEL_FLOOR_MM:g} "
-                f"({self.thickness_mm - LABEL_FLOOR_MM:g} mm) for an engraved label, got {self.label_depth_mm}"
-            )
+        if self.label is not None:
+            self.check_label(self.label)
         if self.label_min_height_mm > self.label_height_mm:
             raise ValueError(
                 f"label_min_height_mm must be ≤ label_height_mm ({self.label_height_mm} mm), "
                 f"got {self.label_min_height_mm}"
             )
         return self
+
+    def check_label(self, label: LabelMode) -> None:
+        """Refuse an engraved ``label`` (the plate's, or the one its job fills in for null) deeper than the plate allows.
+
+        Raises:
+            ValueError: ``label_depth_mm`` leaves less than :data:`LABEL_FLOOR_MM` of plate under an engraving.
+        """
+        if label is LabelMode.engrave and self.label_depth_mm > self.thickness_mm - LABEL_FLOOR_MM + 1e-9:
+            raise ValueError(
+                f"label_depth_mm must be ≤ thickness_mm - {LABEL_FLOOR_MM:g} "
+                f"({self.thickness_mm - LABEL_FLOOR_MM:g} mm) for an engraved label, got {self.label_depth_mm}"
+            )
 
 
 class WallConfig(StrictModel):

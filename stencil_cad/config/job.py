@@ -148,7 +148,6 @@ class JobConfig(StrictModel):
     #: The filled-in plate thickness and why, or None when plate.thickness_mm was given.
     _thickness_fill: Thickness | None = PrivateAttr(None)
     _margin_filled: bool = PrivateAttr(False)
-    _label_filled: bool = PrivateAttr(False)
     #: Whether ``stipple.web_mm`` was left null and filled in for plates of one layer (:func:`_one_layer_web`).
     _web_filled: bool = PrivateAttr(False)
     #: The stand-off in mm the job chose for its picture (:meth:`with_standoff`), or None.
@@ -205,9 +204,8 @@ class JobConfig(StrictModel):
             size = SizeConfig.model_validate(data.get("size") or {})
             outline = OutlineConfig.model_validate(plate.get("outline") or {})
             bed = resolve_bed(parse_bed(data.get("bed")))
-            probe = PlateConfig.model_validate(
-                {**plate, "thickness_mm": 20.0}
-            )  # its label, whatever the thickness
+            # The label the job will use (a null one is the plan's to fill in), whatever the thickness.
+            probe = PlateConfig.model_validate({**_mural_label(data)["plate"], "thickness_mm": 20.0})
         except (ValidationError, ValueError, TypeError):
             return handler(data)  # the sections' own validation names what is wrong
         side = max(size.width_mm, size.height_mm or size.width_mm) + 2.0 * outline.margin_mm
@@ -237,25 +235,13 @@ class JobConfig(StrictModel):
         cfg._margin_filled = left
         return cfg
 
-    @model_validator(mode="wrap")
-    @classmethod
-    def _fill_label(cls, data, handler):
-        """``plate.label`` left out (or null): raised on a soft FDM mural's plates (:func:`_mural_label`), else engraved.
-
-        Runs before the margin and thickness fills (a wrap validator declared later runs first): the
-        thickness read from the plate's label whether it may be one layer.
-        """
-        left = isinstance(data, dict) and _label_left(data)
-        cfg = handler(_mural_label(data) if left else data)
-        cfg._label_filled = left
-        return cfg
-
     def unfilled_data(self) -> dict[str, Any]:
         """The config's data with every value it filled in (not the maker's) null again.
 
         What a changed config is parsed from (``--image``, ``--bed``, ``hard``, the API's overrides),
         so that it fills them in again for the change: the stand-off the job chooses, the plate's
-        thickness, the tiles' margin, the mural's raised label, the one-layer web.
+        thickness, the tiles' margin, the one-layer web. (``plate.label`` stays as the maker wrote it:
+        the plan fills it in, :func:`stencil_cad.plan.plan.labelled`.)
         """
         data = self.model_dump(mode="json")
         if self.wall.standoff_mm is None:
@@ -264,8 +250,6 @@ class JobConfig(StrictModel):
             data["plate"]["thickness_mm"] = None
         if self._margin_filled:
             data["plate"]["outline"]["margin_mm"] = None
-        if self._label_filled:
-            data["plate"]["label"] = None
         if self._web_filled:
             data["stipple"]["web_mm"] = None
         return data
@@ -333,7 +317,7 @@ class JobConfig(StrictModel):
         """
         if self._thickness_fill is None:
             return self
-        fill = _thickness_for(self.stipple.process, side_mm, self.plate, standoff_mm)
+        fill = _thickness_for(self.stipple.process, side_mm, self.plate, standoff_mm, job_label(self))
         data = {**self.plate.model_dump(), "thickness_mm": fill.thickness_mm}
         plate = PlateConfig.model_validate(data)
         self.wall.check_plate(plate.outline, plate.thickness_mm)
@@ -408,6 +392,11 @@ class JobConfig(StrictModel):
     @model_validator(mode="after")
     def _cross_checks(self) -> JobConfig:
         self.wall.check_plate(self.plate.outline, self.plate.thickness_mm)
+        if self.plate.label is None:
+            try:
+                self.plate.check_label(job_label(self))
+            except ValueError as exc:
+                raise ValueError(f"plate: {exc}") from None
         numbers = [int(k) for k in self.spray.profile_keys if k.isdigit()]
         if self.mode == Mode.soft and numbers and max(numbers) > self.decompose.layers:
             raise ValueError(
@@ -432,43 +421,55 @@ def _margin_left(data: dict) -> bool:
 
 
 def _soft_mural(data: dict) -> bool:
-    """Whether a raw config is a soft job whose picture is wider or taller than the bed's longer side (tiled whatever its margins)."""
-    if (data.get("mode") or Mode.soft) not in (Mode.soft, Mode.soft.value):
-        return False
+    """Whether a raw config is a soft job whose picture is wider or taller than the bed's longer side (:func:`soft_mural`)."""
     try:
+        mode = Mode(data.get("mode") or Mode.soft)
         size = SizeConfig.model_validate(data.get("size") or {})
-        bed = resolve_bed(parse_bed(data.get("bed")))
+        bed = parse_bed(data.get("bed"))
     except (ValidationError, ValueError, TypeError):
         return False
-    return bed is not None and max(size.width_mm, size.height_mm or 0.0) > max(bed.x_mm, bed.y_mm)
+    return soft_mural(mode, size, bed)
 
 
-def _label_left(data: dict) -> bool:
-    """Whether a raw config leaves ``plate.label`` out (or null)."""
-    plate = data.get("plate") or {}
-    return isinstance(plate, dict) and plate.get("label") is None
+def soft_mural(mode: Mode, size: SizeConfig, bed: str | tuple[float, float] | None) -> bool:
+    """Whether a job is soft and its picture wider or taller than the bed's longer side (tiled whatever its margins)."""
+    found = resolve_bed(bed)
+    if mode != Mode.soft or found is None:
+        return False
+    return max(size.width_mm, size.height_mm or 0.0) > max(found.x_mm, found.y_mm)
+
+
+def job_label(cfg: JobConfig) -> LabelMode:
+    """The label ``cfg``'s plates carry: ``plate.label`` as given, or for null the one its job fills in.
+
+    Raised on a soft FDM mural's plates (an extruding process), engraved otherwise. An engraving
+    needs a floor under it, so an engraved plate prints in two layers at least; a raised label lets a
+    mural's plates on posts be one 0.3 mm layer (:mod:`.thickness`). On the 600 x 400 mm coffee mural
+    (3 layers, 3 m, ``--bed prusa_mk4``) that took the plates from 113.0 to 72.4 printer-hours and from
+    1.97 to 1.52 kg of PLA per m² by PrusaSlicer's estimate, at S-CIELAB 1.86 against 1.69 at 3 m
+    (``STENCIL_BENCH_COST_EVERY=3 python -m benchmarks printed --case mural600``). The plan fills it in
+    (:func:`stencil_cad.plan.plan.labelled`); the config keeps null.
+    """
+    if cfg.plate.label is not None:
+        return cfg.plate.label
+    extrudes = cfg.stipple.process.record.method is Method.extrude
+    return LabelMode.emboss if extrudes and soft_mural(cfg.mode, cfg.size, cfg.bed) else LabelMode.engrave
 
 
 def _mural_label(data: dict) -> dict:
-    """The raw config with ``plate.label`` (left null: :func:`_label_left`) raised for a soft FDM mural (an extruding process).
-
-    An engraving needs a floor under it, so an engraved plate prints in two layers at least; a raised
-    label lets a mural's plates on posts be one 0.3 mm layer (:mod:`.thickness`). On the 600 x 400 mm
-    coffee mural (3 layers, 3 m, ``--bed prusa_mk4``) that took the plates from 113.0 to 72.4
-    printer-hours and from 1.97 to 1.52 kg of PLA per m² by PrusaSlicer's estimate, at S-CIELAB 1.86
-    against 1.69 at 3 m (``STENCIL_BENCH_COST_EVERY=3 python -m benchmarks printed --case mural600``).
-    Anything else keeps the engraving.
-    """
+    """The raw config with a null ``plate.label`` as its job fills it in (:func:`job_label`), for the thickness fill's probe."""
     plate = data.get("plate") or {}
     stipple = data.get("stipple") or {}
+    if not isinstance(plate, dict) or plate.get("label") is not None:
+        return data
     process = stipple.get("process", Process.fdm.value) if isinstance(stipple, dict) else None
     try:
-        method = Process(process).record.method
+        extrudes = Process(process).record.method is Method.extrude
     except (ValueError, TypeError):
-        return data  # the stipple section's own validation names what is wrong
-    if method is not Method.extrude or not _soft_mural(data):
-        return data
-    return {**data, "plate": {**plate, "label": LabelMode.emboss.value}}
+        extrudes = False  # the stipple section's own validation names what is wrong
+    emboss = extrudes and _soft_mural(data)
+    label = LabelMode.emboss if emboss else LabelMode.engrave
+    return {**data, "plate": {**plate, "label": label.value}}
 
 
 def _tile_margin(data: dict) -> dict:
@@ -513,10 +514,15 @@ def _one_layer_web(cfg: JobConfig) -> JobConfig:
 
 
 def _thickness_for(
-    process: Process, side_mm: float, plate: PlateConfig, standoff_mm: float | None = None
+    process: Process,
+    side_mm: float,
+    plate: PlateConfig,
+    standoff_mm: float | None = None,
+    label: LabelMode | None = None,
 ) -> Thickness:
-    """The filled-in thickness of ``plate`` (its label's floor) for its process, longest side and stand-off."""
-    floor = plate.label_depth_mm + LABEL_FLOOR_MM if plate.label is LabelMode.engrave else 0.0
+    """The filled-in thickness of ``plate`` (the floor of its label, or of ``label`` its job fills in) for its process, longest side and stand-off."""
+    label = plate.label if label is None else label
+    floor = plate.label_depth_mm + LABEL_FLOOR_MM if label is LabelMode.engrave else 0.0
     g = process.record.standoff_mm
     if standoff_mm is not None:
         # Under SAG_STANDOFF_FLOOR_MM the blur is mostly the paint's bleed, and a window sprayed from a

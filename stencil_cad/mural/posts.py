@@ -44,6 +44,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..config.cad import LabelMode
+from ..config.job import job_label
 from ..config.process import Method
 from .tiling import TileGrid, spray_halo_mm
 
@@ -150,7 +152,7 @@ def post_pitch_mm(cfg: JobConfig) -> float:
     """
     single = (
         cfg.stipple.process.record.method is Method.extrude
-        and cfg.plate.label.value != "engrave"
+        and job_label(cfg) is not LabelMode.engrave
         and cfg.thickness_fill.filled
     )
     return SINGLE_LAYER_POST_PITCH_MM if single else POST_PITCH_MM

@@ -26,7 +26,7 @@ from ..names import part_file
 from ..output import plain as _plain
 from ..plan import tiles
 from ..plan.names import part_stem, part_wall_stems
-from ..plan.plan import Plan
+from ..plan.plan import Plan, labelled
 from ..record import Run
 
 if TYPE_CHECKING:
@@ -450,7 +450,7 @@ def check_template(run: Run) -> None:
     from .. import cad
 
     try:
-        run.template = cad.check_plate_template(run.cfg.plate)
+        run.template = cad.check_plate_template(labelled(run.cfg).plate)
     except ValueError as exc:
         raise UserError(f"plate.template: {exc}") from None
     if run.template["builtin"]:
@@ -472,7 +472,7 @@ def try_template(run: Run) -> None:
     from .. import cad
     from ..model import DotSet
 
-    cfg = run.cfg
+    cfg = labelled(run.cfg)
     w = cfg.size.width_mm
     h = cfg.size.height_mm or w
     r = cfg.stipple.hole_floor_mm

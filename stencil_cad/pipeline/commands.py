@@ -17,11 +17,13 @@ from ..names import (
     part_file,
 )
 from ..plan.names import CARD_JSON, card_stems
+from ..plan.plan import labelled
 from ..record import Run
 from .build import PartTask, build_part
 from .manifest import finish
 
 if TYPE_CHECKING:
+    from ..config import JobConfig
     from ..testcard.layout import CardLayout
 
 log = logging.getLogger(__name__)
@@ -30,8 +32,12 @@ log = logging.getLogger(__name__)
 CARD_FORMATS = (".step", ".stl", ".dxf")
 
 
-def _card_parts(run: Run, card: CardLayout, ring: np.ndarray) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+def _card_parts(
+    run: Run, cfg: JobConfig, card: CardLayout, ring: np.ndarray
+) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """Build, check and export the card's plate and its walls (one per stand-off) as a job's parts are built.
+
+    ``cfg`` is the job's config with its label filled in (:func:`stencil_cad.plan.plan.labelled`).
 
     Returns:
         ``(check, walls)``: the plate's solid check and the walls' manifest rows.
@@ -40,7 +46,6 @@ def _card_parts(run: Run, card: CardLayout, ring: np.ndarray) -> tuple[dict[str,
 
     from .. import cad
 
-    cfg = run.cfg
     w, h = card.width_mm, card.height_mm
     common: dict[str, Any] = {"cfg": cfg, "size_mm": (w, h), "lines": ([], []), "bed": None, "tile": None}
     plate = PartTask(
@@ -114,7 +119,7 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
     from .. import outline
     from ..testcard import layout as card_mod
 
-    cfg = run.cfg
+    cfg = labelled(run.cfg)
     try:
         card = card_mod.card_layout(cfg, standoffs_mm)
     except ValueError as exc:
@@ -122,7 +127,7 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
     w, h = card.width_mm, card.height_mm
     with run.stage("card"):
         ring = outline.plate_outline(w, h, cfg.plate.outline)
-        check, walls = _card_parts(run, card, ring)
+        check, walls = _card_parts(run, cfg, card, ring)
         heights = [fp.standoff_mm for fp in card.footprints]
         _card_sheet(run, card, paper)
     size = ring.max(axis=0) - ring.min(axis=0)
@@ -145,7 +150,7 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
         "paper": paper,
         "passes": card.passes,
     }
-    return finish(run, run.cfg, "card")
+    return finish(run, cfg, "card")
 
 
 def write_default_config(path: Path, *, force: bool = False) -> None:

@@ -63,7 +63,9 @@ def dry_run(cfg: JobConfig) -> list[str]:
         UserError: The image cannot be read, or a part does not fit the bed.
     """
     from ..plan import tiles
+    from ..plan.plan import labelled
 
+    cfg = labelled(cfg)  # the label the job fills in: a mural's posts and plates follow it
     picture = load_picture(cfg)
     shape = picture.shape
     grid, plan = tiles.plan(cfg, picture.width_mm, picture.height_mm, shape[0] * shape[1])

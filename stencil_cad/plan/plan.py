@@ -30,7 +30,17 @@ from ..model import Picture
 if TYPE_CHECKING:
     from ..config.job import JobConfig
 
-__all__ = ["Plan", "capped", "designed", "plate_figures", "planned", "primed", "whole", "with_design"]
+__all__ = [
+    "Plan",
+    "capped",
+    "designed",
+    "labelled",
+    "plate_figures",
+    "planned",
+    "primed",
+    "whole",
+    "with_design",
+]
 
 log = logging.getLogger(__name__)
 
@@ -81,10 +91,25 @@ def planned(cfg: JobConfig, picture_mm: tuple[float, float], work_px: int) -> tu
     from ..mural.posts import sag_side_mm
     from .tiles import plan as plan_tiles
 
+    cfg = labelled(cfg)
     grid, fig = plan_tiles(cfg, *picture_mm, work_px)
     side = sag_side_mm(grid, cfg)
     fitted = cfg.fit_plate_thickness(side)
     return Plan(fitted, grid, picture_mm, plate_figures(fitted, side)), fig
+
+
+def labelled(cfg: JobConfig) -> JobConfig:
+    """``cfg`` with ``plate.label`` left null filled in as its job makes it (:func:`stencil_cad.config.job.job_label`).
+
+    Raised on a soft FDM mural's plates, engraved otherwise; a label the maker gave is kept (the same
+    config comes back). Every command that builds a plate or writes the resolved config calls it (through
+    :func:`planned`, or itself where it plans no tiling: the card, a plate template's check).
+    """
+    from ..config.job import job_label
+
+    if cfg.plate.label is not None:
+        return cfg
+    return cfg.model_copy(update={"plate": cfg.plate.model_copy(update={"label": job_label(cfg)})})
 
 
 def plate_figures(cfg: JobConfig, side_mm: float) -> PlateFigures:

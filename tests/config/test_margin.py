@@ -61,16 +61,31 @@ def test_the_label_rises_into_the_solid_band_below_the_holes():
 
 def test_a_soft_fdm_mural_raises_its_label_so_its_plates_may_be_one_layer():
     from stencil_cad.config.cad import LabelMode
+    from stencil_cad.plan.plan import labelled
+
+    def label(cfg):
+        return labelled(cfg).plate.label
 
     mural_cfg = job(size={"width_mm": 600}, bed="prusa_mk4")
-    assert mural_cfg.plate.label is LabelMode.emboss
-    assert job(size={"width_mm": 150}).plate.label is LabelMode.engrave  # one plate
-    assert job(size={"width_mm": 600}).plate.label is LabelMode.engrave  # no bed: one plate
-    assert job(size={"width_mm": 600}, bed="prusa_mk4", mode="hard").plate.label is LabelMode.engrave
+    assert mural_cfg.plate.label is None  # the config keeps null: the plan fills it in
+    assert label(mural_cfg) is LabelMode.emboss
+    assert label(job(size={"width_mm": 150})) is LabelMode.engrave  # one plate
+    assert label(job(size={"width_mm": 600})) is LabelMode.engrave  # no bed: one plate
+    assert label(job(size={"width_mm": 600}, bed="prusa_mk4", mode="hard")) is LabelMode.engrave
     sla = job(size={"width_mm": 600}, bed="prusa_mk4", stipple={"process": "sla"})
-    assert sla.plate.label is LabelMode.engrave
+    assert label(sla) is LabelMode.engrave
     given = job(size={"width_mm": 600}, bed="prusa_mk4", plate={"label": "engrave"})
-    assert given.plate.label is LabelMode.engrave
-    # The bed given on the command line fills it in again; a label the config gives stays.
-    assert parse_overrides(job(size={"width_mm": 600}), bed="prusa_mk4").plate.label is LabelMode.emboss
-    assert parse_overrides(given, bed="prusa_mk4").plate.label is LabelMode.engrave
+    assert labelled(given) is given
+    # The bed given on the command line changes what the plan fills in; a label the config gives stays.
+    assert parse_overrides(job(size={"width_mm": 600}), bed="prusa_mk4").plate.label is None
+    assert label(parse_overrides(job(size={"width_mm": 600}), bed="prusa_mk4")) is LabelMode.emboss
+    assert label(parse_overrides(given, bed="prusa_mk4")) is LabelMode.engrave
+
+
+def test_a_null_label_on_a_plate_engraved_by_its_job_is_checked_against_the_thickness():
+    from stencil_cad.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="label_depth_mm"):
+        job(plate={"thickness_mm": 0.6, "label_depth_mm": 0.5})
+    # A soft FDM mural's plates are embossed: the depth is a height, with no floor to leave.
+    job(size={"width_mm": 600}, bed="prusa_mk4", plate={"thickness_mm": 0.6, "label_depth_mm": 0.5})
