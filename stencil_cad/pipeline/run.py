@@ -23,16 +23,17 @@ from ..model import DotSet, Layers, Picture
 from ..names import INPUT_PNG, cut_png, dots_png
 from ..output import OutputDir
 from ..plan import tiles
+from ..plan.cans import can_names
 from ..plan.names import run_outputs, stage_outputs
 from ..plan.picture import load_picture
-from ..plan.plan import Plan, capped, planned, primed
+from ..plan.plan import Plan, capped, painted, planned, primed
 from ..plan.primer import dark_primed
 from ..record import Run
 from . import registration
 from .build import BuildStarted, check_template, collect_parts, record_build, start_build
 from .cost import record_cost
 from .decompose import plates_of, stage_decompose
-from .hard import hard_config, stage_segment
+from .hard import cutout_spray, hard_config, record_segment, stage_segment
 from .manifest import finish, save_config
 from .paints import write_plate_previews, write_spray_order
 from .refine import stage_refine
@@ -41,7 +42,7 @@ from .simulate import stage_simulate, stage_simulate_hard
 from .slicing import stage_print_estimate
 from .stand import stage_stand
 from .standoff import choose_plates
-from .stipple import save_dots, stage_stipple
+from .stipple import record_stipple, save_dots, stage_stipple
 
 log = logging.getLogger(__name__)
 
@@ -120,7 +121,7 @@ def soft_plates(run: Run, plan: Plan, picture: Picture) -> tuple[Plan, Layers, l
     """
     plan = primed(capped(plan), picture)
     layers = plates_of(run, plan.cfg, stage_decompose(run, plan.cfg, picture, plan.primer), plan.grid)
-    plan = design_plates(run, plan, layers, picture)
+    plan = design_plates(run, painted(plan, layers.colours, can_names(run.figures)), layers, picture)
     # The saved config records the plate design the job chose.
     save_config(run, plan.cfg)
     return plan, layers, plate_holes(run, plan, layers, picture)
@@ -129,7 +130,12 @@ def soft_plates(run: Run, plan: Plan, picture: Picture) -> tuple[Plan, Layers, l
 def plate_holes(run: Run, plan: Plan, layers: Layers, picture: Picture | None) -> list[DotSet]:
     """Every plate's holes: stippled, refined, saved (``dots_N.csv``), previewed, and the spray order."""
     cfg = plan.cfg
-    made = stage_stipple(run, plan, layers)
+    made, reused = stage_stipple(run, plan, layers)
+    if not reused:
+        # Figure ``spray_profiles`` stands where the job first sprays a layer: stippling it here,
+        # else (the trials' holes reused) simulating it.
+        record_sprays(run, plan)
+    record_stipple(run, made)
     sets = stage_refine(run, plan, layers, made, picture)
     with run.stage("stipple"):
         save_dots(run, made, sets)
@@ -138,6 +144,12 @@ def plate_holes(run: Run, plan: Plan, layers: Layers, picture: Picture | None) -
             run, cfg, layers.primer, layers.colours, [ds.amount(cfg.spray.amount) for ds in sets]
         )
     return sets
+
+
+def record_sprays(run: Run, plan: Plan) -> None:
+    """Figure ``spray_profiles``: each layer's spray settings as the plan resolved them, once per run."""
+    if run.figures.spray_profiles is None and plan.paints is not None:
+        run.figures.spray_profiles = plan.paints.rows
 
 
 def design_plates(run: Run, plan: Plan, layers: Layers, picture: Picture | None) -> Plan:
@@ -258,6 +270,7 @@ def _run_stage_command(
     plan = plan_job(run, size, layers.alphas.shape[1:])
     cfg = plan.cfg
     layers = plates_of(run, cfg, layers, plan.grid)
+    plan = painted(plan, layers.colours, can_names(run.figures))
     run.out.check_free(stage_outputs(cfg, command, layers.count, plan.grid))
     if abs(size[0] - cfg.size.width_mm) > 0.01 * cfg.size.width_mm:
         log.warning(
@@ -289,6 +302,7 @@ def _run_stage_command(
             record_cost(run, plan, dotsets)
             build_any(run, plan, layers, dotsets, picture, simulate=False)
         else:
+            record_sprays(run, plan)
             stage_simulate(run, plan, picture, layers, dotsets)
         return plan.cfg, finish(run, plan.cfg, command)
 
@@ -310,6 +324,7 @@ def build_any(
     built = start_build(run, plan, layers, dotsets, picture)
     cases = None
     if simulate:
+        record_sprays(run, plan)
         try:
             _, _, cases = stage_simulate(
                 run,
@@ -323,6 +338,7 @@ def build_any(
                 also=lambda sim, ref: registration.start_registration(
                     run,
                     plan.cfg,
+                    plan.sprays,
                     sim,
                     ref,
                     layers,
@@ -359,8 +375,13 @@ def run_hard(run: Run, plan: Plan, picture: Picture) -> tuple[JobConfig, list[Pa
     cfg = plan.cfg
     with run.stage("segment"):
         cut = stage_segment(run, plan, picture)
+        # The plan learns the cut layers' paints: each sprays its own can, in whole passes.
+        plan = painted(plan, cut.layers.colours, can_names(run.figures), each=cutout_spray)
+        record_sprays(run, plan)
+        record_segment(run, cut)
+        amounts = [float(sp.amount) for sp in plan.sprays]
         write_plate_previews(run, cfg, cut.layers.colours, plan.picture_mm, cut.hard.cut_layers, cut_png)
-        write_spray_order(run, cfg, cut.hard.primer, cut.layers.colours, cut.amounts)
+        write_spray_order(run, cfg, cut.hard.primer, cut.layers.colours, amounts)
     build_parts(run, start_build(run, plan, cut.layers, cut.hard.cut_layers))
-    stage_simulate_hard(run, plan, picture, cut.hard, cut.layers, cut.sprays, cut.amounts)
+    stage_simulate_hard(run, plan, picture, cut.hard, cut.layers, amounts)
     return cfg, finish(run, cfg, "hard")
