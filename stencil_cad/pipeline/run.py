@@ -21,13 +21,14 @@ from ..figures import ComputeFigures, MuralFigures, PictureFigures
 from ..interrupts import CancelToken
 from ..model import DotSet, Layers, Picture
 from ..names import INPUT_PNG, cut_png, dots_png
-from ..output import OutputDir
+from ..output import OutputDir, sha256_file
 from ..plan import tiles
 from ..plan.cans import can_names
-from ..plan.names import run_outputs, stage_outputs
+from ..plan.names import LAYERS_NPZ, PLAN_JSON, run_outputs, stage_outputs
 from ..plan.picture import load_picture
 from ..plan.plan import Plan, capped, painted, planned, primed
 from ..plan.primer import dark_primed
+from ..plan.saved import SavedPlan, apply_saved, plan_json
 from ..record import Run
 from . import registration
 from .build import BuildStarted, check_template, collect_parts, record_build, start_build
@@ -37,7 +38,7 @@ from .hard import cutout_spray, hard_config, record_segment, stage_segment
 from .manifest import finish, save_config
 from .paints import write_plate_previews, write_spray_order
 from .refine import stage_refine
-from .saved import check_dots, check_fresh, check_rows, read_dots, read_layers
+from .saved import check_dots, check_fresh, check_rows, read_dots, read_layers, read_plan
 from .simulate import stage_simulate, stage_simulate_hard
 from .slicing import stage_print_estimate
 from .stand import stage_stand
@@ -96,7 +97,14 @@ def run_all(run: Run, picture: Picture | None = None) -> tuple[JobConfig, list[P
     plan, layers, dotsets = soft_plates(run, plan, picture)
     record_cost(run, plan, dotsets)
     build_any(run, plan, layers, dotsets, picture)
-    return plan.cfg, finish(run, plan.cfg, "run")
+    return plan.cfg, finish(run, plan.cfg, "run", saved_plan(run, plan, plan.cfg))
+
+
+def saved_plan(run: Run, plan: Plan | None, cfg: JobConfig, primer: str | None = None) -> str:
+    """``plan.json`` of ``plan`` (designed), or of ``decompose``'s primer alone; ``cfg`` is the config copy's."""
+    layers_sha = sha256_file(run.out.stage / LAYERS_NPZ)
+    names = can_names(run.figures)
+    return plan_json(plan, cfg, layers_sha, designed=plan is not None, primer=primer, can_names=names)
 
 
 def plan_job(run: Run, picture_mm: tuple[float, float], shape_px: tuple[int, ...]) -> Plan:
@@ -253,7 +261,7 @@ def run_decompose(run: Run, picture: Picture) -> tuple[JobConfig, list[Path]]:
     save_config(run, run.cfg)
     resolved, primer = dark_primed(run.cfg, picture)
     stage_decompose(run, resolved, picture, primer)
-    return resolved, finish(run, resolved, "decompose")
+    return resolved, finish(run, resolved, "decompose", saved_plan(run, None, run.cfg, primer))
 
 
 def _planned(cfg: JobConfig, picture: Picture) -> MuralFigures:
@@ -266,12 +274,20 @@ def _run_stage_command(
     run: Run, command: str, src: Path, picture: Picture | None, where: ComputeConfig | None
 ) -> tuple[JobConfig, list[Path]]:
     layers = read_layers(src)
+    saved = read_plan(src, run.cfg)
     size = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
+    # The tiling and thickness from the same config by the same functions; every decision the
+    # run made (the design, the cans' names) from its saved plan.
     plan = plan_job(run, size, layers.alphas.shape[1:])
     cfg = plan.cfg
     layers = plates_of(run, cfg, layers, plan.grid)
-    plan = painted(plan, layers.colours, can_names(run.figures))
-    run.out.check_free(stage_outputs(cfg, command, layers.count, plan.grid))
+    plan = painted(plan, layers.colours, saved.can_names)
+    cmd = command_named(command)
+    # The saved plan is the run's record, as the manifest is: `stipple` brings it up to date.
+    run.out.replaceable.add(PLAN_JSON)
+    run.out.check_free(
+        [*stage_outputs(cfg, command, layers.count, plan.grid), *([PLAN_JSON] if cmd.stipples else [])]
+    )
     if abs(size[0] - cfg.size.width_mm) > 0.01 * cfg.size.width_mm:
         log.warning(
             "the saved layers are %.4g mm wide but the config says size.width_mm %.4g; the saved "
@@ -280,7 +296,6 @@ def _run_stage_command(
             cfg.size.width_mm,
         )
     dotsets = None
-    cmd = command_named(command)
     if cmd.reads_dots:
         check_fresh(src, command)
         dotsets = read_dots(src, layers.count, max_time=8.0 * cfg.spray.amount_cap)
@@ -293,18 +308,31 @@ def _run_stage_command(
     # Every refusal above comes before any worker starts; the tasks then run where the whole
     # job's would (--workers, --scheduler).
     with computing(run, layers.alphas.shape[1] * layers.alphas.shape[2], where, run.figures.mural):
-        # The plate design left to the job is chosen as the whole run chose it (the same
-        # trials on the same layers and seed), so a stage command gives the run's files.
-        plan = design_plates(run, plan, layers, picture)
+        plan = _saved_design(run, plan, saved, layers, picture)
+        text = None
         if dotsets is None:
             record_cost(run, plan, plate_holes(run, plan, layers, picture))
+            text = plan_json(plan, run.cfg, saved.layers_sha256, designed=True, can_names=saved.can_names)
         elif cmd.builds:
             record_cost(run, plan, dotsets)
             build_any(run, plan, layers, dotsets, picture, simulate=False)
         else:
             record_sprays(run, plan)
             stage_simulate(run, plan, picture, layers, dotsets)
-        return plan.cfg, finish(run, plan.cfg, command)
+        return plan.cfg, finish(run, plan.cfg, command, text)
+
+
+def _saved_design(run: Run, plan: Plan, saved: SavedPlan, layers: Layers, picture: Picture | None) -> Plan:
+    """``plan`` with the plate design the saved plan chose, and its figure ``plate``.
+
+    A plan ``decompose`` saved has no design yet: it is chosen as the whole run chooses it (the
+    same trials on the same layers and seed), so a stage command gives the run's files.
+    """
+    if saved.design is None:
+        return design_plates(run, plan, layers, picture)
+    chosen = apply_saved(plan, saved)
+    run.figures.plate = chosen.plate
+    return chosen
 
 
 def build_any(
