@@ -28,7 +28,7 @@ from ..plan.names import LAYERS_NPZ, PLAN_JSON, run_outputs, stage_outputs
 from ..plan.picture import load_picture
 from ..plan.plan import Plan, capped, painted, planned, primed
 from ..plan.primer import dark_primed
-from ..plan.saved import SavedPlan, apply_saved, plan_json
+from ..plan.saved import SavedPlan, apply_saved, config_digest, plan_json
 from ..record import Run
 from . import registration
 from .build import BuildStarted, check_template, collect_parts, record_build, start_build
@@ -100,11 +100,12 @@ def run_all(run: Run, picture: Picture | None = None) -> tuple[JobConfig, list[P
     return plan.cfg, finish(run, plan.cfg, "run", saved_plan(run, plan, plan.cfg))
 
 
-def saved_plan(run: Run, plan: Plan | None, cfg: JobConfig, primer: str | None = None) -> str:
-    """``plan.json`` of ``plan`` (designed), or of ``decompose``'s primer alone; ``cfg`` is the config copy's."""
+def saved_plan(run: Run, plan: Plan | None, copy: JobConfig, primer: str | None = None) -> str:
+    """``plan.json`` of ``plan`` (designed), or of ``decompose``'s primer alone; ``copy``: the folder's config copy."""
     layers_sha = sha256_file(run.out.stage / LAYERS_NPZ)
+    configs = [config_digest(run.cfg), config_digest(copy)]
     names = can_names(run.figures)
-    return plan_json(plan, cfg, layers_sha, designed=plan is not None, primer=primer, can_names=names)
+    return plan_json(plan, configs, layers_sha, designed=plan is not None, primer=primer, can_names=names)
 
 
 def plan_job(run: Run, picture_mm: tuple[float, float], shape_px: tuple[int, ...]) -> Plan:
@@ -312,7 +313,9 @@ def _run_stage_command(
         text = None
         if dotsets is None:
             record_cost(run, plan, plate_holes(run, plan, layers, picture))
-            text = plan_json(plan, run.cfg, saved.layers_sha256, designed=True, can_names=saved.can_names)
+            text = plan_json(
+                plan, saved.configs_sha256, saved.layers_sha256, designed=True, can_names=saved.can_names
+            )
         elif cmd.builds:
             record_cost(run, plan, dotsets)
             build_any(run, plan, layers, dotsets, picture, simulate=False)

@@ -64,7 +64,7 @@ def read_plan(folder: Path, cfg: JobConfig) -> SavedPlan:
         raise UserError(
             f"{path}: not a readable plan ({str(exc).removeprefix(f'{path}: ')}); {again}"
         ) from None
-    if saved.config_sha256 != config_digest(cfg):
+    if config_digest(cfg) not in saved.configs_sha256:
         raise UserError(
             f"{path}: stale: planned for another config than this command's (the folder's config.yaml "
             f"changed since, or --seed, --bed or another config was given); {again}"

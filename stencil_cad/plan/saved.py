@@ -5,15 +5,18 @@ decided that the config does not say: the plate design the trials chose, the pri
 picture, the names of the cans that key the spray profiles, the plate figure and each layer's spray.
 A stage command (``stipple``, ``build``, ``simulate`` on the folder) plans the tiling and thickness
 from the same config by the same functions and takes every decision from this file, so the
-plate-design trials do not run again. The file names what it was planned for: the config
-(:func:`config_digest`: its sections that plan) and the decomposition (the layers file's SHA-256);
-:func:`stencil_cad.pipeline.saved.read_plan` refuses a plan planned for others.
+plate-design trials do not run again. The file names what it was planned for: the configs
+(:func:`config_digest` of their sections that plan: the config the job was given and the folder's
+copy of it with the decisions filled in, either of which a stage command may be given) and the
+decomposition (the layers file's SHA-256); :func:`stencil_cad.pipeline.saved.read_plan` refuses a
+plan planned for others.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -44,7 +47,8 @@ class SavedPlan:
     """A saved plan as read back.
 
     Attributes:
-        config_sha256: :func:`config_digest` of the config it was planned for.
+        configs_sha256: :func:`config_digest` of each config it was planned for (the job's as given,
+            the folder's copy).
         layers_sha256: SHA-256 of the layers file it was planned on.
         design: ``(windows, stand-off in mm)`` the plate design step chose, or None: not chosen yet
             (``decompose`` plans no design).
@@ -54,7 +58,7 @@ class SavedPlan:
         spray_profiles: Each layer's spray settings as the plan resolved them (figure ``spray_profiles``).
     """
 
-    config_sha256: str
+    configs_sha256: tuple[str, ...]
     layers_sha256: str
     design: tuple[str, float] | None
     primer: str | None
@@ -81,7 +85,7 @@ def config_digest(cfg: JobConfig) -> str:
 
 def plan_json(
     plan: Plan | None,
-    cfg: JobConfig,
+    configs_sha256: Sequence[str],
     layers_sha256: str,
     *,
     designed: bool,
@@ -93,7 +97,8 @@ def plan_json(
     Args:
         plan: The plan (its design, plate figure, primer and sprays), or None: ``decompose``'s,
             which plans the primer alone.
-        cfg: The config the stage commands will read (the folder's config copy, as written).
+        configs_sha256: :func:`config_digest` of the configs a stage command may be given: the job's
+            as given and the folder's copy.
         layers_sha256: SHA-256 of the layers file.
         designed: Whether the plan's plate design is chosen (its windows and stand-off are saved).
         primer: The primer, when ``plan`` is None.
@@ -105,7 +110,7 @@ def plan_json(
     paints = plan.paints if plan is not None else None
     data = {
         "format": FORMAT,
-        "config_sha256": config_digest(cfg),
+        "configs_sha256": list(dict.fromkeys(configs_sha256)),
         "layers_sha256": layers_sha256,
         "design": design,
         "primer": plan.primer if plan is not None else primer,
@@ -126,9 +131,11 @@ def read_plan_json(data: Any) -> SavedPlan:
         raise ValueError("not a JSON object")
     if data.get("format") != FORMAT:
         raise ValueError(f"format {data.get('format')!r}, this version reads format {FORMAT}")
-    for key in ("config_sha256", "layers_sha256"):
-        if not isinstance(data.get(key), str):
-            raise ValueError(f"{key} must be a string")
+    configs = data.get("configs_sha256")
+    if not isinstance(configs, list) or not configs or not all(isinstance(c, str) for c in configs):
+        raise ValueError("configs_sha256 must be a list of strings")
+    if not isinstance(data.get("layers_sha256"), str):
+        raise ValueError("layers_sha256 must be a string")
     design = data.get("design")
     if design is not None and not (
         isinstance(design, dict)
@@ -149,7 +156,7 @@ def read_plan_json(data: Any) -> SavedPlan:
         raise ValueError("spray_profiles must be a list of objects")
     try:
         return SavedPlan(
-            config_sha256=data["config_sha256"],
+            configs_sha256=tuple(configs),
             layers_sha256=data["layers_sha256"],
             design=None if design is None else (design["windows"], float(design["standoff_mm"])),
             primer=primer,
