@@ -275,7 +275,7 @@ def _run_stage_command(
     run: Run, command: str, src: Path, picture: Picture | None, where: ComputeConfig | None
 ) -> tuple[JobConfig, list[Path]]:
     layers = read_layers(src)
-    saved = read_plan(src, run.cfg)
+    saved = read_plan(src)
     size = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
     # The tiling and thickness from the same config by the same functions; every decision the
     # run made (the design, the cans' names) from its saved plan.
@@ -313,9 +313,8 @@ def _run_stage_command(
         text = None
         if dotsets is None:
             record_cost(run, plan, plate_holes(run, plan, layers, picture))
-            text = plan_json(
-                plan, saved.configs_sha256, saved.layers_sha256, designed=True, can_names=saved.can_names
-            )
+            configs = saved.configs_sha256 if saved.planned_for(run.cfg) else [config_digest(run.cfg)]
+            text = plan_json(plan, configs, saved.layers_sha256, designed=True, can_names=saved.can_names)
         elif cmd.builds:
             record_cost(run, plan, dotsets)
             build_any(run, plan, layers, dotsets, picture, simulate=False)
@@ -328,10 +327,15 @@ def _run_stage_command(
 def _saved_design(run: Run, plan: Plan, saved: SavedPlan, layers: Layers, picture: Picture | None) -> Plan:
     """``plan`` with the plate design the saved plan chose, and its figure ``plate``.
 
-    A plan ``decompose`` saved has no design yet: it is chosen as the whole run chooses it (the
-    same trials on the same layers and seed), so a stage command gives the run's files.
+    A plan ``decompose`` saved has no design yet, and one planned for another config (a stage
+    command given an edited one) does not fit this one: the design is chosen as the whole run
+    chooses it (the same trials on the same layers and seed), so a stage command gives the run's files.
     """
-    if saved.design is None:
+    if saved.design is None or not saved.planned_for(run.cfg):
+        if saved.design is not None:
+            log.info(
+                "%s was planned for another config: the plate design is chosen again for this one", PLAN_JSON
+            )
         return design_plates(run, plan, layers, picture)
     chosen = apply_saved(plan, saved)
     run.figures.plate = chosen.plate

@@ -36,20 +36,19 @@ def read_layers(folder: Path) -> Layers:
         ) from None
 
 
-def read_plan(folder: Path, cfg: JobConfig) -> SavedPlan:
-    """The plan a previous `decompose`, `run` or `stipple` saved beside the layers, checked against both.
+def read_plan(folder: Path) -> SavedPlan:
+    """The plan a previous `decompose`, `run` or `stipple` saved beside the layers, checked against them.
 
-    Args:
-        folder: The run folder.
-        cfg: The stage command's config: the plan must have been planned for it.
+    Whether it was planned for the stage command's config is :meth:`SavedPlan.planned_for`'s to say:
+    a stage command given another config plans the job anew.
 
     Raises:
-        UserError: The file is missing, unreadable or of another format, or was planned for another
-            config or decomposition (stale); naming the file and the fix.
+        UserError: The file is missing, unreadable or of another format, or was planned on another
+            decomposition (stale); naming the file and the fix.
     """
     from ..files import read_text as read_checked
     from ..output import sha256_file
-    from ..plan.saved import config_digest, read_plan_json
+    from ..plan.saved import read_plan_json
 
     path = folder / PLAN_JSON
     again = "re-run `stencil-cad decompose` on the folder to plan the job again, or `stencil-cad run`"
@@ -64,11 +63,6 @@ def read_plan(folder: Path, cfg: JobConfig) -> SavedPlan:
         raise UserError(
             f"{path}: not a readable plan ({str(exc).removeprefix(f'{path}: ')}); {again}"
         ) from None
-    if config_digest(cfg) not in saved.configs_sha256:
-        raise UserError(
-            f"{path}: stale: planned for another config than this command's (the folder's config.yaml "
-            f"changed since, or --seed, --bed or another config was given); {again}"
-        )
     layers = folder / LAYERS_NPZ
     if not layers.is_file() or saved.layers_sha256 != sha256_file(layers):
         raise UserError(f"{path}: stale: planned on another decomposition than {layers.name}; {again}")

@@ -66,6 +66,10 @@ class SavedPlan:
     plate: PlateFigures | None
     spray_profiles: tuple[LayerProfile, ...]
 
+    def planned_for(self, cfg: JobConfig) -> bool:
+        """Whether this plan was planned for ``cfg`` (its sections that plan: :func:`config_digest`)."""
+        return config_digest(cfg) in self.configs_sha256
+
 
 def saved_config(cfg: JobConfig) -> dict[str, Any]:
     """``cfg`` as the folder's config copy holds it: every key, the input paths absolute (it runs from anywhere)."""

@@ -88,28 +88,39 @@ def test_a_missing_plan_is_refused_naming_the_file_and_the_fix(run_copy, capsys,
 
 
 @pytest.mark.slow
-def test_a_plan_made_for_another_config_or_decomposition_is_refused(run_copy, capsys):
+def test_a_plan_made_on_another_decomposition_or_in_another_format_is_refused(run_copy, capsys):
+    out = run_copy
+    plan = json.loads((out / "plan.json").read_text())
+    (out / "plan.json").write_text(json.dumps({**plan, "layers_sha256": "0" * 64}))
+    before = _snapshot(out)
+    code, _, err = _run(["simulate", "--out", out, "--force", "-q"], capsys)
+    _one_line_error(code, err, "plan.json", "stale", "layers.npz", "stencil-cad decompose")
+    assert _snapshot(out) == before
+    (out / "plan.json").write_text(json.dumps({**plan, "format": 99}))
+    code, _, err = _run(["build", "--out", out, "--force", "-q"], capsys)
+    _one_line_error(code, err, "plan.json", "not a readable plan", "format 99")
+    _no_leftovers(out)
+
+
+@pytest.mark.slow
+def test_a_stage_command_given_another_config_plans_anew(run_copy, capsys, caplog):
+    import logging
+
     import yaml
 
     out = run_copy
     config = out / "config.yaml"
-    given = config.read_text()
-    config.write_text(yaml.safe_dump({**yaml.safe_load(given), "seed": 12345}, sort_keys=False))
-    before = _snapshot(out)
-    code, _, err = _run(["build", "--out", out, "--force", "-q"], capsys)
-    _one_line_error(code, err, "plan.json", "stale", "another config", "stencil-cad decompose")
-    assert _snapshot(out) == before
-    config.write_text(given)
-    code, _, err = _run(["build", "--out", out, "--force", "-q", "--seed", "12345"], capsys)
-    _one_line_error(code, err, "plan.json", "stale", "--seed")
-    plan = json.loads((out / "plan.json").read_text())
-    (out / "plan.json").write_text(json.dumps({**plan, "layers_sha256": "0" * 64}))
-    code, _, err = _run(["simulate", "--out", out, "--force", "-q"], capsys)
-    _one_line_error(code, err, "plan.json", "stale", "layers.npz", "stencil-cad decompose")
-    (out / "plan.json").write_text(json.dumps({**plan, "format": 99}))
-    code, _, err = _run(["simulate", "--out", out, "--force", "-q"], capsys)
-    _one_line_error(code, err, "plan.json", "not a readable plan", "format 99")
-    _no_leftovers(out)
+    config.write_text(yaml.safe_dump({**yaml.safe_load(config.read_text()), "seed": 12345}, sort_keys=False))
+    with caplog.at_level(logging.INFO):
+        code, _, err = _run(["stipple", "--out", out, "--force", "-q"], capsys)
+    assert code == 0, err
+    assert "plan.json was planned for another config: the plate design is chosen again" in caplog.text
+    # The plan now names the config it was planned for: the next stage takes it as it is.
+    caplog.clear()
+    with caplog.at_level(logging.INFO):
+        code, _, err = _run(["simulate", "--out", out, "--force", "-q"], capsys)
+    assert code == 0, err
+    assert "planned for another config" not in caplog.text
 
 
 @pytest.mark.slow
