@@ -82,9 +82,24 @@ def saved_config(cfg: JobConfig) -> dict[str, Any]:
 
 
 def config_digest(cfg: JobConfig) -> str:
-    """SHA-256 of ``cfg``'s sections that plan the job (all but ``compute``, ``export`` and ``name``)."""
-    data = {k: v for k, v in saved_config(cfg).items() if k not in _NOT_PLANNED}
-    return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
+    """SHA-256 of ``cfg``'s sections that plan the job (all but ``compute``, ``export`` and ``name``).
+
+    Input files count by name: the same job run from another folder (the studio's job, its zip
+    unpacked elsewhere) has the same plan.
+    """
+    data = {k: _names(v) for k, v in cfg.model_dump().items() if k not in _NOT_PLANNED}
+    return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def _names(value: Any) -> Any:
+    """``value`` (a config dump) with every path cut to its file name."""
+    if isinstance(value, Path):
+        return value.name
+    if isinstance(value, dict):
+        return {str(k): _names(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_names(v) for v in value]
+    return value
 
 
 def plan_json(
