@@ -30,9 +30,9 @@ def save_config(run: Run, cfg: JobConfig) -> None:
 def finish(run: Run, cfg: JobConfig, command: str, plan_text: str | None = None) -> list[Path]:
     """Write the manifest (its config: ``cfg``, the plan's) and move every file into place.
 
-    ``plan_text``: the job's saved plan (:func:`stencil_cad.plan.saved.plan_json`), or None. It is
-    written after the instruction sheet, which lists the maker's files (as the manifest, it is the
-    job's record).
+    ``plan_text``: the job's saved plan (:func:`stencil_cad.plan.saved.plan_json`), or None. Like the
+    manifest it is the folder's record, not a file the maker uses: it is written after the
+    instruction sheet, whose file list it stays out of.
     """
     whole = command_named(command).whole
     sheet = whole and cfg.export.instructions

@@ -284,11 +284,7 @@ def _run_stage_command(
     layers = plates_of(run, cfg, layers, plan.grid)
     plan = painted(plan, layers.colours, saved.can_names)
     cmd = command_named(command)
-    # The saved plan is the run's record, as the manifest is: `stipple` brings it up to date.
-    run.out.replaceable.add(PLAN_JSON)
-    run.out.check_free(
-        [*stage_outputs(cfg, command, layers.count, plan.grid), *([PLAN_JSON] if cmd.stipples else [])]
-    )
+    run.out.check_free(stage_outputs(cfg, command, layers.count, plan.grid))
     if abs(size[0] - cfg.size.width_mm) > 0.01 * cfg.size.width_mm:
         log.warning(
             "the saved layers are %.4g mm wide but the config says size.width_mm %.4g; the saved "

@@ -103,9 +103,11 @@ def stage_outputs(cfg: JobConfig, command: str, count: int, grid: mural.TileGrid
     if cmd.builds:
         return build_outputs(cfg, grid, count)
     if cmd.stipples:
+        # `stipple` brings the saved plan up to date with the design it chose.
         return [n for i in range(count) for n in (dots_name(i), dots_png(layer_stem(i)))] + [
             SPRAY_JSON,
             SWATCH_PNG,
+            PLAN_JSON,
         ]
     if cmd.simulates:
         return [SIMULATED_PNG, PREVIEW_PNG, SWEEP_PNG, *simulated_stems(cfg)] + [
