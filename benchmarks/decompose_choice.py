@@ -71,8 +71,7 @@ def _score(cfg, pic, layers) -> float:
     from benchmarks.quality import _NullOut
     from stencil_cad import pipeline
     from stencil_cad.plan import holes
-    from stencil_cad.plan.plan import capped, whole
-    from stencil_cad.plan.profiles import layer_sprays
+    from stencil_cad.plan.plan import capped, painted, whole
     from stencil_cad.simulate import simulate
     from stencil_cad.simulate.physical import SprayGeometry
     from stencil_cad.simulate.scielab import scielab
@@ -80,10 +79,10 @@ def _score(cfg, pic, layers) -> float:
     size = (pic.width_mm, pic.height_mm)
     run_ = pipeline.Run(cfg=cfg, out=_NullOut(), quiet=True)
     # Stippled and refined as the job makes them, nothing written.
-    plan = capped(whole(cfg, size))
+    # Each paint's deposit, as the job sprays it.
+    plan = painted(capped(whole(cfg, size)), layers.colours)
     sets = holes.refined(run_, plan, layers, holes.stippled(run_, plan, layers)[0], pic)[0].sets
-    sprays = layer_sprays(run_, cfg, layers.colours)  # each paint's deposit, as the job sprays it
-    sim = simulate(layers, sets, cfg.spray, geometry=SprayGeometry.for_job(cfg), layer_sprays=sprays)
+    sim = simulate(layers, sets, cfg.spray, geometry=SprayGeometry.for_job(cfg), layer_sprays=plan.sprays)
     ref = np.clip(_reference(cfg, pic, sim.composite.shape[:2]), 0.0, 1.0)
     return float(scielab(ref, sim.composite, sim.mm_per_px, 1.0))
 

@@ -207,7 +207,7 @@ def _sprays(pipeline, cfg, colours) -> list:
     """Each layer's spray settings as the job's stages take them (its paint's profile and deposit prior)."""
     from stencil_cad.plan.profiles import layer_sprays
 
-    return layer_sprays(pipeline.Run(cfg=cfg, out=_NullOut(), quiet=True), cfg, colours)
+    return layer_sprays(cfg, colours)[0]
 
 
 def _by_can(f, cfg, layers, dotsets, ref, sprays) -> dict:
@@ -407,10 +407,11 @@ def _job_choice(pipeline, cfg0, layers, pic):
     ``wall.standoff_mm: null``), under the paper's the nozzle height the settings give.
     """
     from stencil_cad.pipeline.standoff import choose_plates
-    from stencil_cad.plan.plan import capped, whole
+    from stencil_cad.plan.plan import capped, painted, whole
 
     run_ = pipeline.Run(cfg=cfg0, out=_NullOut(), quiet=True)
-    cfg = choose_plates(run_, capped(whole(cfg0, (pic.width_mm, pic.height_mm))), layers, pic).cfg
+    plan = painted(capped(whole(cfg0, (pic.width_mm, pic.height_mm))), layers.colours)
+    cfg = choose_plates(run_, plan, layers, pic).cfg
     h = cfg.standoff.design_mm if cfg.spray.is_physical else float(cfg.spray.nozzle_height)
     return cfg.stipple.windows.value, h, run_.figures.standoff
 
@@ -418,7 +419,7 @@ def _job_choice(pipeline, cfg0, layers, pic):
 def _soft(f, pipeline, cfg0, layers, pic, image: str, windows: str, by_can: bool = True, heights=None):
     """The soft stencil at each stand-off: ``(refined, stippled, timing, last simulation, reference, run)``."""
     from stencil_cad.plan import holes
-    from stencil_cad.plan.plan import capped, whole
+    from stencil_cad.plan.plan import capped, painted, whole
     from stencil_cad.plan.refinement import refine_holes
 
     size = (pic.width_mm, pic.height_mm)
@@ -427,14 +428,14 @@ def _soft(f, pipeline, cfg0, layers, pic, image: str, windows: str, by_can: bool
         cfg = _at_height(cfg0, h, refine=False, windows=windows)
         run_ = pipeline.Run(cfg=cfg, out=_NullOut(), quiet=True)
         t0 = time.perf_counter()
-        plan = capped(whole(cfg, size))
+        plan = painted(capped(whole(cfg, size)), layers.colours)
         stippled = holes.refined(run_, plan, layers, holes.stippled(run_, plan, layers)[0], pic)[0].sets
         t_stipple = time.perf_counter() - t0
         run_r = pipeline.Run(
             cfg=_at_height(cfg0, h, refine=True, windows=windows), out=_NullOut(), quiet=True
         )
         t0 = time.perf_counter()
-        refined = refine_holes(run_r, whole(run_r.cfg, size), layers, stippled, pic)
+        refined = refine_holes(run_r, painted(whole(run_r.cfg, size), layers.colours), layers, stippled, pic)
         t_refine = time.perf_counter() - t0
         # Every layer sprays as the job sprays it: its paint's deposit prior (or measured profile).
         sprays = _sprays(pipeline, cfg, layers.colours)

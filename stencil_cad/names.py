@@ -18,6 +18,8 @@ SPRAY_PROFILE_YAML = "spray_profile.yaml"
 
 # What the stages write besides the per-layer files.
 LAYERS_NPZ = "layers.npz"
+#: The job's plan, saved beside the layers: what a stage command repeats the run from.
+PLAN_JSON = "plan.json"
 SPRAY_JSON = "spray.json"
 SWATCH_PNG = "swatch.png"
 COMPOSITE_PNG = "composite.png"
@@ -137,6 +139,7 @@ STAGE_FILES = {
 RUN_FILES = (
     CONFIG_COPY,
     LAYERS_NPZ,
+    PLAN_JSON,
     SPRAY_JSON,
     MANIFEST,
     SWATCH_PNG,
@@ -153,6 +156,7 @@ RUN_PATTERNS = ("layer_*", "wall*", "tile_*", MURAL_MAP_PNG)
 DECOMPOSE_FILES = (
     CONFIG_COPY,
     LAYERS_NPZ,
+    PLAN_JSON,
     MANIFEST,
     SWATCH_PNG,
     COMPOSITE_PNG,

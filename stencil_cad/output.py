@@ -40,7 +40,7 @@ from . import interrupts
 from .errors import OutputError, UserError
 from .exchange.png import png_bytes
 from .files import kind, read_bytes
-from .names import MANIFEST
+from .names import MANIFEST, PLAN_JSON
 
 log = logging.getLogger(__name__)
 
@@ -155,8 +155,8 @@ class OutputDir:
         self.kept: list[str] = []
         #: Files of an earlier run this run removed (with --force), for the summary.
         self.removed: list[str] = []
-        # The tool's own record of the folder; stage commands update it in place.
-        self.replaceable = {MANIFEST}
+        # The tool's own records of the folder (the manifest, the job's plan); stage commands update them in place.
+        self.replaceable = {MANIFEST, PLAN_JSON}
         self._stage: Path | None = None
         self._lock_fd: int | None = None
         self._created = False

@@ -20,18 +20,15 @@ from ..names import SEGMENTATION_PNG
 from ..output import plain as _plain
 from ..plan.cans import with_can_list
 from ..plan.plan import Plan
-from ..plan.profiles import layer_sprays
 from ..record import Run
 
 
 @dataclass(frozen=True)
 class Segmented:
-    """What the segment stage made: the cut stencils, their layers, each layer's spray settings and amount."""
+    """What the segment stage made: the cut stencils and their layers (each layer's spray is the plan's)."""
 
     hard: Any
     layers: Layers
-    sprays: list[SprayConfig]
-    amounts: list[float]
 
 
 def hard_config(cfg: JobConfig) -> JobConfig:
@@ -48,9 +45,10 @@ def hard_config(cfg: JobConfig) -> JobConfig:
 
 
 def stage_segment(run: Run, plan: Plan, picture: Picture) -> Segmented:
-    """Segment the picture into cut layers with bridges under ``plan``; write ``segmentation.png``; figure ``hard``.
+    """Segment the picture into cut layers with bridges under ``plan``; write ``segmentation.png``.
 
-    Runs inside the ``segment`` stage, which the run opens (the paints' previews follow in it).
+    Runs inside the ``segment`` stage, which the run opens (the plan learns the paints, then
+    :func:`record_segment` records figure ``hard``, and the paints' previews follow in it).
 
     Raises:
         UserError: The segmentation fails, or the image has a single flat colour.
@@ -73,33 +71,32 @@ def stage_segment(run: Run, plan: Plan, picture: Picture) -> Segmented:
         )
     run.out.write_png(SEGMENTATION_PNG, hard.palette[hard.labels])
     colours = np.array([cl.colour for cl in hard.cut_layers]).reshape(-1, 3)
-    sprays = _hard_sprays(run, cfg, colours)
-    run.figures.hard = HardFigures.from_json(
-        {
-            **_plain(hard.report),
-            "warnings": [str(w) for w in hard.report.get("warnings", [])],
-            "per_layer": [_plain(r) for r in hard.report.get("per_layer", [])],
-        }
-    )
     layers = Layers(
         primer=hard.primer,
         colours=colours,
         alphas=hard.cut_masks.astype(np.float64),
         mm_per_px=picture.mm_per_px,
     )
-    return Segmented(hard, layers, sprays, [float(sp.amount) for sp in sprays])
+    return Segmented(hard, layers)
 
 
-def _hard_sprays(run: Run, cfg: JobConfig, colours: np.ndarray) -> list[Any]:
-    """Each cut layer's spray settings: its paint's profile, with whole passes enough for its own cover."""
+def record_segment(run: Run, cut: Segmented) -> None:
+    """Figure ``hard``: the segmentation's report, its warnings and each cut layer's."""
+    report = cut.hard.report
+    run.figures.hard = HardFigures.from_json(
+        {
+            **_plain(report),
+            "warnings": [str(w) for w in report.get("warnings", [])],
+            "per_layer": [_plain(r) for r in report.get("per_layer", [])],
+        }
+    )
+
+
+def cutout_spray(spray: SprayConfig) -> SprayConfig:
+    """A cut layer's spray settings from its paint's profile: whole passes enough for its own cover."""
     from ..simulate.models import sprayer
 
-    out = []
-    for sp in layer_sprays(run, cfg, colours):
-        if sp is not cfg.spray:
-            sp = sprayer(sp).for_cutouts(sp)
-        out.append(sp)
-    return out
+    return sprayer(spray).for_cutouts(spray)
 
 
 def process_rules(cfg: JobConfig) -> dict[str, Any]:

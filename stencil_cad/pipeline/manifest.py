@@ -14,7 +14,8 @@ from .. import __version__
 from ..command_table import command as command_named
 from ..config import JobConfig
 from ..output import MANIFEST, OutputDir, manifest_header
-from ..plan.names import CONFIG_COPY, INSTRUCTIONS, LATER_STAGES, STAGE_FILES
+from ..plan.names import CONFIG_COPY, INSTRUCTIONS, LATER_STAGES, PLAN_JSON, STAGE_FILES
+from ..plan.saved import saved_config
 from ..record import Run
 
 log = logging.getLogger(__name__)
@@ -22,17 +23,21 @@ log = logging.getLogger(__name__)
 
 def save_config(run: Run, cfg: JobConfig) -> None:
     """Write the resolved config ``cfg`` (the plan's) beside the results, so stage commands can re-read it."""
-    data = cfg.model_dump(mode="json")
     # Absolute paths, so the copy runs from anywhere.
-    if cfg.image is not None:
-        data["image"] = str(Path(cfg.image).resolve())
-    if cfg.plate.template is not None:
-        data["plate"]["template"] = str(Path(cfg.plate.template).resolve())
-    run.out.write_text(CONFIG_COPY, yaml.safe_dump(data, sort_keys=False))
+    run.out.write_text(CONFIG_COPY, yaml.safe_dump(saved_config(cfg), sort_keys=False))
 
 
-def finish(run: Run, cfg: JobConfig, command: str) -> list[Path]:
-    """Write the manifest (its config: ``cfg``, the plan's) and move every file into place."""
+def finish(run: Run, cfg: JobConfig, command: str, plan_text: str | None = None) -> list[Path]:
+    """Write the manifest (its config: ``cfg``, the plan's) and move every file into place.
+
+    ``plan_text``: the job's saved plan (:func:`stencil_cad.plan.saved.plan_json`), or None. Like the
+    manifest it is the folder's record, not a file the maker uses: it is written after the
+    instruction sheet, whose file list it stays out of.
+    """
+    whole = command_named(command).whole
+    sheet = whole and cfg.export.instructions
+    if plan_text is not None and not sheet:
+        run.out.write_text(PLAN_JSON, plan_text)
     if run.executor is not None and run.figures.compute is not None:
         run.figures.compute = replace(run.figures.compute, tasks=run.executor.tasks)
     manifest = {
@@ -48,13 +53,14 @@ def finish(run: Run, cfg: JobConfig, command: str) -> list[Path]:
     if run.template is not None:
         manifest["template"] = run.template
     old_path = run.out.path / MANIFEST
-    whole = command_named(command).whole
     if not whole and old_path.exists():
         manifest = _merge_manifest(old_path, manifest, run.out)
         run.stale = manifest.get("stale", {}).get("files", [])
-    if whole and cfg.export.instructions:
+    if sheet:
         with run.stage("instructions"):
             write_instructions(run, cfg, manifest)
+        if plan_text is not None:
+            run.out.write_text(PLAN_JSON, plan_text)
         manifest["seconds"] = run.times
         manifest["files"] = run.out.file_table()
     run.out.write_json(MANIFEST, manifest)

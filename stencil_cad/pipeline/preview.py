@@ -59,7 +59,8 @@ from ..errors import UserError
 from ..figures import CostFigures
 from ..interrupts import CancelToken
 from ..model import DotSet, Layers, Picture
-from ..plan.plan import Plan, capped, designed, planned, primed
+from ..plan.cans import can_names
+from ..plan.plan import Plan, capped, designed, painted, planned, primed, repainted
 from ..record import Run
 from .decompose import plates_of
 
@@ -280,6 +281,7 @@ def previews(
         run.check()
     plan, layers = _layers(run, plan, picture, cache)
     layers = plates_of(run, plan.cfg, layers, plan.grid)
+    plan = painted(plan, layers.colours, can_names(run.figures))
     # Decomposed as the job decomposes (at the config's stand-off); the holes start at ``start``.
     own, job, known = plan, plan, None
     if designing:
@@ -361,7 +363,7 @@ def _job_plan(cfg: JobConfig, plan: Plan) -> Plan:
     from ..mural.posts import sag_side_mm
 
     fitted = cfg.fit_plate_thickness(sag_side_mm(plan.grid, cfg))
-    return capped(replace(plan, cfg=fitted.model_copy(update={"decompose": plan.cfg.decompose})))
+    return capped(repainted(replace(plan, cfg=fitted.model_copy(update={"decompose": plan.cfg.decompose}))))
 
 
 def _design(
@@ -484,7 +486,6 @@ class _Made:
     def sprayed(self, level: str, plan: Plan, holes: list[DotSet], final: bool) -> Preview:
         """The holes sprayed as the process makes them, on the preview grid."""
         from .. import mural, simulate
-        from ..plan.profiles import layer_sprays
         from ..simulate.physical import SprayGeometry
         from ..stipple.made import made_dots
 
@@ -492,7 +493,7 @@ class _Made:
         self.run.check()
         made = [made_dots(d, cfg.stipple, plan.picture_mm) for d in holes]
         geometry = SprayGeometry.for_job(cfg)
-        sprays = layer_sprays(self.run, cfg, self.layers.colours)
+        sprays = plan.sprays
         sim = simulate.simulate(
             self.layers, made, cfg.spray, PREVIEW_MM_PER_PX, geometry=geometry, layer_sprays=sprays
         )

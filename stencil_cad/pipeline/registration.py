@@ -16,7 +16,6 @@ import numpy as np
 from .. import mural
 from ..figures import MuralSimulation
 from ..model import DotSet, Layers
-from ..plan.profiles import layer_sprays
 from ..plan.tiles import _planned
 
 if TYPE_CHECKING:
@@ -86,6 +85,7 @@ def registration_case(case: tuple[str, float], job: RegistrationJob) -> dict[str
 def start_registration(
     run: Run,
     cfg: JobConfig,
+    sprays: list[SprayConfig],
     sim: SimResult,
     reference: np.ndarray,
     layers: Layers,
@@ -100,6 +100,7 @@ def start_registration(
     Args:
         run: The run.
         cfg: The job's planned config.
+        sprays: Each layer's spray settings (the plan's).
         sim: The global :class:`~stencil_cad.simulate.SimResult`.
         reference: ``(H, W, 3)`` picture on the simulation grid.
         layers: The decomposition.
@@ -115,7 +116,6 @@ def start_registration(
     t0 = time.perf_counter()
     shape = sim.alphas.shape[1:]
     g = sim.mm_per_px
-    sprays = layer_sprays(run, cfg, layers.colours)
     tols = [
         simulate.tail_tolerance(d.xy_mm, d.r_mm, shape, g, sp) if len(d) else 0.0
         for d, sp in zip(dotsets, sprays, strict=True)

@@ -21,27 +21,29 @@ from ..figures import ComputeFigures, MuralFigures, PictureFigures
 from ..interrupts import CancelToken
 from ..model import DotSet, Layers, Picture
 from ..names import INPUT_PNG, cut_png, dots_png
-from ..output import OutputDir
+from ..output import OutputDir, sha256_file
 from ..plan import tiles
-from ..plan.names import run_outputs, stage_outputs
+from ..plan.cans import can_names
+from ..plan.names import LAYERS_NPZ, PLAN_JSON, run_outputs, stage_outputs
 from ..plan.picture import load_picture
-from ..plan.plan import Plan, capped, planned, primed
+from ..plan.plan import Plan, capped, painted, planned, primed
 from ..plan.primer import dark_primed
+from ..plan.saved import SavedPlan, apply_saved, config_digest, plan_json
 from ..record import Run
 from . import registration
 from .build import BuildStarted, check_template, collect_parts, record_build, start_build
 from .cost import record_cost
 from .decompose import plates_of, stage_decompose
-from .hard import hard_config, stage_segment
+from .hard import cutout_spray, hard_config, record_segment, stage_segment
 from .manifest import finish, save_config
 from .paints import write_plate_previews, write_spray_order
 from .refine import stage_refine
-from .saved import check_dots, check_fresh, check_rows, read_dots, read_layers
+from .saved import check_dots, check_fresh, check_rows, read_dots, read_layers, read_plan
 from .simulate import stage_simulate, stage_simulate_hard
 from .slicing import stage_print_estimate
 from .stand import stage_stand
 from .standoff import choose_plates
-from .stipple import save_dots, stage_stipple
+from .stipple import record_stipple, save_dots, stage_stipple
 
 log = logging.getLogger(__name__)
 
@@ -95,7 +97,15 @@ def run_all(run: Run, picture: Picture | None = None) -> tuple[JobConfig, list[P
     plan, layers, dotsets = soft_plates(run, plan, picture)
     record_cost(run, plan, dotsets)
     build_any(run, plan, layers, dotsets, picture)
-    return plan.cfg, finish(run, plan.cfg, "run")
+    return plan.cfg, finish(run, plan.cfg, "run", saved_plan(run, plan, plan.cfg))
+
+
+def saved_plan(run: Run, plan: Plan | None, copy: JobConfig, primer: str | None = None) -> str:
+    """``plan.json`` of ``plan`` (designed), or of ``decompose``'s primer alone; ``copy``: the folder's config copy."""
+    layers_sha = sha256_file(run.out.stage / LAYERS_NPZ)
+    configs = [config_digest(run.cfg), config_digest(copy)]
+    names = can_names(run.figures)
+    return plan_json(plan, configs, layers_sha, designed=plan is not None, primer=primer, can_names=names)
 
 
 def plan_job(run: Run, picture_mm: tuple[float, float], shape_px: tuple[int, ...]) -> Plan:
@@ -120,7 +130,7 @@ def soft_plates(run: Run, plan: Plan, picture: Picture) -> tuple[Plan, Layers, l
     """
     plan = primed(capped(plan), picture)
     layers = plates_of(run, plan.cfg, stage_decompose(run, plan.cfg, picture, plan.primer), plan.grid)
-    plan = design_plates(run, plan, layers, picture)
+    plan = design_plates(run, painted(plan, layers.colours, can_names(run.figures)), layers, picture)
     # The saved config records the plate design the job chose.
     save_config(run, plan.cfg)
     return plan, layers, plate_holes(run, plan, layers, picture)
@@ -129,7 +139,12 @@ def soft_plates(run: Run, plan: Plan, picture: Picture) -> tuple[Plan, Layers, l
 def plate_holes(run: Run, plan: Plan, layers: Layers, picture: Picture | None) -> list[DotSet]:
     """Every plate's holes: stippled, refined, saved (``dots_N.csv``), previewed, and the spray order."""
     cfg = plan.cfg
-    made = stage_stipple(run, plan, layers)
+    made, reused = stage_stipple(run, plan, layers)
+    if not reused:
+        # Figure ``spray_profiles`` stands where the job first sprays a layer: stippling it here,
+        # else (the trials' holes reused) simulating it.
+        record_sprays(run, plan)
+    record_stipple(run, made)
     sets = stage_refine(run, plan, layers, made, picture)
     with run.stage("stipple"):
         save_dots(run, made, sets)
@@ -138,6 +153,12 @@ def plate_holes(run: Run, plan: Plan, layers: Layers, picture: Picture | None) -
             run, cfg, layers.primer, layers.colours, [ds.amount(cfg.spray.amount) for ds in sets]
         )
     return sets
+
+
+def record_sprays(run: Run, plan: Plan) -> None:
+    """Figure ``spray_profiles``: each layer's spray settings as the plan resolved them, once per run."""
+    if run.figures.spray_profiles is None and plan.paints is not None:
+        run.figures.spray_profiles = plan.paints.rows
 
 
 def design_plates(run: Run, plan: Plan, layers: Layers, picture: Picture | None) -> Plan:
@@ -241,7 +262,7 @@ def run_decompose(run: Run, picture: Picture) -> tuple[JobConfig, list[Path]]:
     save_config(run, run.cfg)
     resolved, primer = dark_primed(run.cfg, picture)
     stage_decompose(run, resolved, picture, primer)
-    return resolved, finish(run, resolved, "decompose")
+    return resolved, finish(run, resolved, "decompose", saved_plan(run, None, run.cfg, primer))
 
 
 def _planned(cfg: JobConfig, picture: Picture) -> MuralFigures:
@@ -254,10 +275,15 @@ def _run_stage_command(
     run: Run, command: str, src: Path, picture: Picture | None, where: ComputeConfig | None
 ) -> tuple[JobConfig, list[Path]]:
     layers = read_layers(src)
+    saved = read_plan(src)
     size = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
+    # The tiling and thickness from the same config by the same functions; every decision the
+    # run made (the design, the cans' names) from its saved plan.
     plan = plan_job(run, size, layers.alphas.shape[1:])
     cfg = plan.cfg
     layers = plates_of(run, cfg, layers, plan.grid)
+    plan = painted(plan, layers.colours, saved.can_names)
+    cmd = command_named(command)
     run.out.check_free(stage_outputs(cfg, command, layers.count, plan.grid))
     if abs(size[0] - cfg.size.width_mm) > 0.01 * cfg.size.width_mm:
         log.warning(
@@ -267,7 +293,6 @@ def _run_stage_command(
             cfg.size.width_mm,
         )
     dotsets = None
-    cmd = command_named(command)
     if cmd.reads_dots:
         check_fresh(src, command)
         dotsets = read_dots(src, layers.count, max_time=8.0 * cfg.spray.amount_cap)
@@ -280,17 +305,37 @@ def _run_stage_command(
     # Every refusal above comes before any worker starts; the tasks then run where the whole
     # job's would (--workers, --scheduler).
     with computing(run, layers.alphas.shape[1] * layers.alphas.shape[2], where, run.figures.mural):
-        # The plate design left to the job is chosen as the whole run chose it (the same
-        # trials on the same layers and seed), so a stage command gives the run's files.
-        plan = design_plates(run, plan, layers, picture)
+        plan = _saved_design(run, plan, saved, layers, picture)
+        text = None
         if dotsets is None:
             record_cost(run, plan, plate_holes(run, plan, layers, picture))
+            configs = saved.configs_sha256 if saved.planned_for(run.cfg) else [config_digest(run.cfg)]
+            text = plan_json(plan, configs, saved.layers_sha256, designed=True, can_names=saved.can_names)
         elif cmd.builds:
             record_cost(run, plan, dotsets)
             build_any(run, plan, layers, dotsets, picture, simulate=False)
         else:
+            record_sprays(run, plan)
             stage_simulate(run, plan, picture, layers, dotsets)
-        return plan.cfg, finish(run, plan.cfg, command)
+        return plan.cfg, finish(run, plan.cfg, command, text)
+
+
+def _saved_design(run: Run, plan: Plan, saved: SavedPlan, layers: Layers, picture: Picture | None) -> Plan:
+    """``plan`` with the plate design the saved plan chose, and its figure ``plate``.
+
+    A plan ``decompose`` saved has no design yet, and one planned for another config (a stage
+    command given an edited one) does not fit this one: the design is chosen as the whole run
+    chooses it (the same trials on the same layers and seed), so a stage command gives the run's files.
+    """
+    if saved.design is None or not saved.planned_for(run.cfg):
+        if saved.design is not None:
+            log.info(
+                "%s was planned for another config: the plate design is chosen again for this one", PLAN_JSON
+            )
+        return design_plates(run, plan, layers, picture)
+    chosen = apply_saved(plan, saved)
+    run.figures.plate = chosen.plate
+    return chosen
 
 
 def build_any(
@@ -310,6 +355,7 @@ def build_any(
     built = start_build(run, plan, layers, dotsets, picture)
     cases = None
     if simulate:
+        record_sprays(run, plan)
         try:
             _, _, cases = stage_simulate(
                 run,
@@ -323,6 +369,7 @@ def build_any(
                 also=lambda sim, ref: registration.start_registration(
                     run,
                     plan.cfg,
+                    plan.sprays,
                     sim,
                     ref,
                     layers,
@@ -359,8 +406,13 @@ def run_hard(run: Run, plan: Plan, picture: Picture) -> tuple[JobConfig, list[Pa
     cfg = plan.cfg
     with run.stage("segment"):
         cut = stage_segment(run, plan, picture)
+        # The plan learns the cut layers' paints: each sprays its own can, in whole passes.
+        plan = painted(plan, cut.layers.colours, can_names(run.figures), each=cutout_spray)
+        record_sprays(run, plan)
+        record_segment(run, cut)
+        amounts = [float(sp.amount) for sp in plan.sprays]
         write_plate_previews(run, cfg, cut.layers.colours, plan.picture_mm, cut.hard.cut_layers, cut_png)
-        write_spray_order(run, cfg, cut.hard.primer, cut.layers.colours, cut.amounts)
+        write_spray_order(run, cfg, cut.hard.primer, cut.layers.colours, amounts)
     build_parts(run, start_build(run, plan, cut.layers, cut.hard.cut_layers))
-    stage_simulate_hard(run, plan, picture, cut.hard, cut.layers, cut.sprays, cut.amounts)
+    stage_simulate_hard(run, plan, picture, cut.hard, cut.layers, amounts)
     return cfg, finish(run, cfg, "hard")

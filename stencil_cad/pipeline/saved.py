@@ -1,4 +1,4 @@
-"""Reading back what an earlier command saved (layers, dots, spray times), checked, for the stage commands."""
+"""Reading back what an earlier command saved (layers, the plan, dots, spray times), checked, for the stage commands."""
 
 from __future__ import annotations
 
@@ -8,10 +8,12 @@ from pathlib import Path
 import numpy as np
 
 from ..config import JobConfig
+from ..config.io import parse_json
 from ..errors import ConfigError, UserError
 from ..model import DotSet, Layers
 from ..names import DOTS_PATTERN, windows_beside
-from ..plan.names import LAYERS_NPZ, SPRAY_JSON, STAGE_FILES, dots_name
+from ..plan.names import LAYERS_NPZ, PLAN_JSON, SPRAY_JSON, STAGE_FILES, dots_name
+from ..plan.saved import SavedPlan
 
 log = logging.getLogger(__name__)
 
@@ -32,6 +34,39 @@ def read_layers(folder: Path) -> Layers:
         raise UserError(
             f"{path}: not a readable decomposition ({exc}); re-run `stencil-cad decompose`"
         ) from None
+
+
+def read_plan(folder: Path) -> SavedPlan:
+    """The plan a previous `decompose`, `run` or `stipple` saved beside the layers, checked against them.
+
+    Whether it was planned for the stage command's config is :meth:`SavedPlan.planned_for`'s to say:
+    a stage command given another config plans the job anew.
+
+    Raises:
+        UserError: The file is missing, unreadable or of another format, or was planned on another
+            decomposition (stale); naming the file and the fix.
+    """
+    from ..files import read_text as read_checked
+    from ..output import sha256_file
+    from ..plan.saved import read_plan_json
+
+    path = folder / PLAN_JSON
+    again = "re-run `stencil-cad decompose` on the folder to plan the job again, or `stencil-cad run`"
+    if not (path.exists() or path.is_symlink()):
+        raise UserError(
+            f"{path}: missing: the job's plan (the plate design, the primer, each layer's spray), which a "
+            f"stage command repeats the run from; {again}"
+        )
+    try:
+        saved = read_plan_json(parse_json(read_checked(path, "plan file", fix=again), str(path)))
+    except (ConfigError, ValueError) as exc:
+        raise UserError(
+            f"{path}: not a readable plan ({str(exc).removeprefix(f'{path}: ')}); {again}"
+        ) from None
+    layers = folder / LAYERS_NPZ
+    if not layers.is_file() or saved.layers_sha256 != sha256_file(layers):
+        raise UserError(f"{path}: stale: planned on another decomposition than {layers.name}; {again}")
+    return saved
 
 
 def read_dots(folder: Path, count: int | None = None, max_time: float = 800.0) -> list[DotSet]:
@@ -165,7 +200,6 @@ def read_spray_times(path: Path, layers: int, max_time: float) -> list[float]:
     """
     import math
 
-    from ..config.io import parse_json
     from ..files import read_text as read_checked
 
     fix = "fix it, or delete it to use spray.spray_time"

@@ -19,7 +19,6 @@ from ..output import plain as _plain
 from ..plan.names import simulated_stems, step_name
 from ..plan.picture import _resample, source_reference
 from ..plan.plan import Plan
-from ..plan.profiles import layer_sprays
 from ..record import Run
 from ..stipple.made import made_dots
 
@@ -75,7 +74,7 @@ def stage_simulate(
 
     cfg = plan.cfg
     design = SprayGeometry.for_job(cfg)
-    sprays = layer_sprays(run, cfg, layers.colours)
+    sprays = plan.sprays
     # Spray the holes as the process makes them (stipple.hole_offset_mm), not as asked.
     size_mm = (layers.alphas.shape[2] * layers.mm_per_px, layers.alphas.shape[1] * layers.mm_per_px)
     dotsets = [made_dots(d, cfg.stipple, size_mm) if isinstance(d, DotSet) else d for d in dotsets]
@@ -480,16 +479,16 @@ def write_steps(
 
 
 def stage_simulate_hard(
-    run: Run, plan: Plan, picture: Picture, hard: Any, layers: Layers, sprays: list[Any], amounts: list[float]
+    run: Run, plan: Plan, picture: Picture, hard: Any, layers: Layers, amounts: list[float]
 ) -> None:
-    """Spray hard mode's cut-outs ``hard`` (each layer with its settings ``sprays``), score and preview them.
+    """Spray hard mode's cut-outs ``hard`` (each layer with its settings, the plan's), score and preview them.
 
     Writes ``simulated.png``, the previews and the spraying steps; figures ``simulate`` and ``spraying``.
     """
     from .. import hardstencil
     from ..simulate.physical import SprayGeometry
 
-    cfg = plan.cfg
+    cfg, sprays = plan.cfg, plan.sprays
     with run.stage("simulate"):
         geometry = SprayGeometry.for_job(cfg)
         alphas, comp = hardstencil.simulate_hard(hard, cfg.spray, geometry=geometry, layer_sprays=sprays)

@@ -41,6 +41,7 @@ from ..config.stipple import Windows
 from ..figures import PlateTrial, StandoffFigures
 from ..model import Layers, Picture
 from ..plan.plan import Plan, designed, whole, with_design
+from ..plan.profiles import Paints
 from ..record import Run
 
 log = logging.getLogger(__name__)
@@ -181,16 +182,17 @@ def _trial_score(
     picture: Picture | None,
     grid_mm_per_px: float | None = None,
     refined: bool = False,
+    paints: Paints | None = None,
 ) -> float:
     """S-CIELAB at the viewing distance of ``cfg``'s plates stippled (not refined) and sprayed.
 
     Sprayed on a grid of ``grid_mm_per_px`` (the job's simulation grid by default); with
-    ``refined``, refined as the job refines them.
+    ``refined``, refined as the job refines them. Each layer sprays as ``paints`` (the job's plan's)
+    resolve for ``cfg``: the sprays of the design tried.
     """
     from .. import resolution, simulate
     from ..plan import holes
     from ..plan.picture import source_reference
-    from ..plan.profiles import layer_sprays
     from ..simulate.physical import SprayGeometry
     from ..simulate.scielab import scielab
     from ..stipple.made import made_dots
@@ -202,7 +204,7 @@ def _trial_score(
     )
     # The trial's own figures; its holes are kept for the job (``run.kept``), and it writes nothing.
     trial = Run(cfg=run.cfg, out=run.out, quiet=True, executor=run.executor, cancel=run.cancel, kept=run.kept)
-    plan = whole(trial_cfg, picture_mm)
+    plan = whole(trial_cfg, picture_mm, paints)
     # Stippled, then refined (when the trial's config refines), as the job's stages run them.
     unrefined = holes.stippled(trial, plan, layers)[0]
     dotsets = holes.refined(trial, plan, layers, unrefined, picture)[0].sets
@@ -213,7 +215,7 @@ def _trial_score(
         cfg.spray,
         resolution.sim_mm_per_px(cfg) if grid_mm_per_px is None else grid_mm_per_px,
         geometry=SprayGeometry.for_job(cfg),
-        layer_sprays=layer_sprays(trial, trial_cfg, layers.colours),
+        layer_sprays=plan.sprays,
     )
     ref = source_reference(cfg, picture, layers, sim.composite.shape[:2], sim.mm_per_px)
     return float(scielab(ref, sim.composite, sim.mm_per_px, cfg.view.distance_m))
@@ -243,7 +245,10 @@ def choose_plates(run: Run, plan: Plan, layers: Layers, picture: Picture | None)
         trials: list[PlateTrial] = []
         if direct:
             # Light plates: the unrefined screen ranks walls badly, so two walls are refined outright.
-            refined = [_refined_trial(run, cfg, layers, picture_mm, picture, grid, w, g) for w, g in direct]
+            refined = [
+                _refined_trial(run, cfg, layers, picture_mm, picture, grid, w, g, plan.paints)
+                for w, g in direct
+            ]
             best = min(refined, key=lambda t: t.scielab)
         else:
             if len(designs) > 1:
@@ -252,12 +257,15 @@ def choose_plates(run: Run, plan: Plan, layers: Layers, picture: Picture | None)
                     cfg,
                     share,
                     lambda w, g: round(
-                        _trial_score(run, with_design(cfg, w, g), layers, picture_mm, picture, grid), 3
+                        _trial_score(
+                            run, with_design(cfg, w, g), layers, picture_mm, picture, grid, paints=plan.paints
+                        ),
+                        3,
                     ),
                 )
             # The first best wins a tie: the config's own design is tried first.
             best = min(trials, key=lambda t: t.scielab) if trials else PlateTrial(*designs[0], float("nan"))
-            refined = _refined_pair(run, cfg, layers, picture_mm, picture, grid, trials)
+            refined = _refined_pair(run, cfg, layers, picture_mm, picture, grid, trials, plan.paints)
             if refined:
                 best = next(t for t in trials if t.label == min(refined, key=lambda t: t.scielab).label)
         chosen = designed(plan, best.windows, best.standoff_mm)
@@ -317,6 +325,7 @@ def _refined_pair(
     picture: Picture | None,
     grid: float,
     trials: list[PlateTrial],
+    paints: Paints | None = None,
 ) -> list[PlateTrial]:
     """The best trial and the best of another stand-off refined and sprayed; nothing when all share one.
 
@@ -334,7 +343,7 @@ def _refined_pair(
     if second is None:
         return []
     return [
-        _refined_trial(run, cfg, layers, picture_mm, picture, grid, t.windows, t.standoff_mm)
+        _refined_trial(run, cfg, layers, picture_mm, picture, grid, t.windows, t.standoff_mm, paints)
         for t in (first, second)
     ]
 
@@ -348,10 +357,11 @@ def _refined_trial(
     grid: float,
     windows: str,
     standoff_mm: float,
+    paints: Paints | None = None,
 ) -> PlateTrial:
-    """The design's plates stippled, refined as the job refines them and sprayed on the trials' grid."""
+    """The design's plates stippled, refined as the job refines them and sprayed on the trials' grid (as ``paints`` resolve)."""
     design = with_design(cfg, windows, standoff_mm)
-    score = _trial_score(run, design, layers, picture_mm, picture, grid, refined=True)
+    score = _trial_score(run, design, layers, picture_mm, picture, grid, refined=True, paints=paints)
     return PlateTrial(windows, standoff_mm, round(score, 3))
 
 

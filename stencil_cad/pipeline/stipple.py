@@ -1,6 +1,6 @@
 """The stipple stage's glue: the holes of every plate (:mod:`stencil_cad.plan.holes`), their figures and saved dots.
 
-:func:`stage_stipple` stipples (not refined) and records the dark-end and windows figures; once the
+:func:`stage_stipple` stipples (not refined), :func:`record_stipple` records the dark-end and windows figures; once the
 refine stage has moved the holes, :func:`save_dots` writes them (``dots_N.csv``, the windows) and
 records the stipple figures. The plate previews and the spray order are the paints stage's
 (:mod:`stencil_cad.pipeline.paints`).
@@ -21,8 +21,8 @@ from ..record import Run
 log = logging.getLogger(__name__)
 
 
-def stage_stipple(run: Run, plan: Plan, layers: Layers) -> Stippled:
-    """Stipple every layer's opacity into holes under the design rules (not refined yet); figures ``dark_end``, ``windows``.
+def stage_stipple(run: Run, plan: Plan, layers: Layers) -> tuple[Stippled, bool]:
+    """Stipple every layer's opacity into holes under the design rules (not refined yet): ``(holes, whether reused)``.
 
     With ``stipple.tone: response`` the density comes from the spray response
     (:mod:`stencil_cad.simulate.tone`); every setting is ``plan``'s. With ``spray.calibrate: spray_time`` each layer also
@@ -32,9 +32,13 @@ def stage_stipple(run: Run, plan: Plan, layers: Layers) -> Stippled:
     made, reused = stippled(run, plan, layers)
     if reused:
         log.info("stipple: the holes the plate-design trials made for this design, reused")
+    return made, reused
+
+
+def record_stipple(run: Run, made: Stippled) -> None:
+    """Figures ``dark_end`` and ``windows`` of the stipple stage's holes ``made``."""
     run.figures.dark_end = made.dark_end
     run.figures.windows = tuple(LayerWindows(i + 1, _plain(w.report)) for i, w in enumerate(made.windows))
-    return made
 
 
 def save_dots(run: Run, made: Stippled, sets: list[DotSet]) -> None:

@@ -26,7 +26,6 @@ from ..record import Run
 from ..stipple.windows import with_windows
 from .names import layer_stem
 from .plan import Plan
-from .profiles import layer_sprays
 from .refinement import refine_holes
 
 __all__ = ["Refined", "Stippled", "layer_jobs", "layer_windows", "refined", "stippled"]
@@ -63,7 +62,7 @@ def stippled(run: Run, plan: Plan, layers: Layers) -> tuple[Stippled, bool]:
     """
     picture_mm, tiling = plan.picture_mm, plan.grid
     key = ("stipple", plan.cfg.model_dump_json(), id(layers), picture_mm, repr(tiling))
-    made, kept = run.keep(key, lambda: _stippled(run, plan.cfg, layers, picture_mm, tiling))
+    made, kept = run.keep(key, lambda: _stippled(run, plan.cfg, layers, picture_mm, tiling, plan.sprays))
     return cast("Stippled", made), kept
 
 
@@ -92,11 +91,16 @@ def refined(
 
 
 def _stippled(
-    run: Run, cfg: JobConfig, layers: Layers, picture_mm: tuple[float, float], tiling: TileGrid
+    run: Run,
+    cfg: JobConfig,
+    layers: Layers,
+    picture_mm: tuple[float, float],
+    tiling: TileGrid,
+    sprays: Sequence[SprayConfig],
 ) -> Stippled:
-    """Every layer's holes: stippled under its own can, with its windows (not refined)."""
+    """Every layer's holes: stippled under its own can (``sprays``, the plan's), with its windows (not refined)."""
     # Each layer's tone is chosen under its own paint's can (spray.profile).
-    jobs = layer_jobs(cfg, layer_sprays(run, cfg, layers.colours))
+    jobs = layer_jobs(cfg, sprays)
     sets, tones, windows = _holes(run, cfg, layers, picture_mm, tiling, jobs)
     dark_end = tuple(
         _dark_end(job, alpha, ds.amount(job.spray.amount), w.mask)

@@ -19,6 +19,7 @@ from ..names import (
     INSTRUCTIONS,
     LAYERS_NPZ,
     MURAL_MAP_PNG,
+    PLAN_JSON,
     POST_STEM,
     PREVIEW_PNG,
     RUN_FILES,
@@ -47,6 +48,7 @@ __all__ = [
     "INSTRUCTIONS",
     "LATER_STAGES",
     "LAYERS_NPZ",
+    "PLAN_JSON",
     "POST_STEM",
     "RUN_FILES",
     "SPRAY_JSON",
@@ -101,9 +103,11 @@ def stage_outputs(cfg: JobConfig, command: str, count: int, grid: mural.TileGrid
     if cmd.builds:
         return build_outputs(cfg, grid, count)
     if cmd.stipples:
+        # `stipple` brings the saved plan up to date with the design it chose.
         return [n for i in range(count) for n in (dots_name(i), dots_png(layer_stem(i)))] + [
             SPRAY_JSON,
             SWATCH_PNG,
+            PLAN_JSON,
         ]
     if cmd.simulates:
         return [SIMULATED_PNG, PREVIEW_PNG, SWEEP_PNG, *simulated_stems(cfg)] + [

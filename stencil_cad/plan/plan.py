@@ -7,9 +7,10 @@ in the order the orchestrator (:mod:`stencil_cad.pipeline.run`) calls them:
 1. before any work, from the picture's size: the tiling and the plate thickness it asks for
    (:func:`planned`), and the most holes that fit (:func:`capped`);
 2. before the decomposition, from the picture: a mostly dark picture's primer (:func:`primed`);
-3. after the decomposition, from the layers: the plate design the trials choose, windows and the
-   wall's stand-off, with the thickness that wall asks for (:func:`designed`, called with
-   :func:`stencil_cad.pipeline.standoff.choose_plates`'s choice).
+3. after the decomposition, from the layers: each layer's spray settings (:func:`painted`; hard
+   mode after the segmentation), then the plate design the trials choose, windows and the wall's
+   stand-off, with the thickness that wall asks for (:func:`designed`, called with
+   :func:`stencil_cad.pipeline.standoff.choose_plates`'s choice; its sprays fit its design).
 
 The stages after the design (stipple, refine, build, simulate, cost, the manifest) take the last
 plan as an argument and read its :attr:`Plan.cfg`: the config with every decision filled in. The
@@ -21,23 +22,31 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from .. import mural
 from ..figures import MuralFigures, PlateFigures
 from ..model import Picture
+from .profiles import Paints
 
 if TYPE_CHECKING:
+    from collections.abc import Callable, Mapping, Sequence
+
     from ..config.job import JobConfig
+    from ..config.spray import SprayConfig
 
 __all__ = [
     "Plan",
     "capped",
     "designed",
     "labelled",
+    "painted",
     "plate_figures",
     "planned",
     "primed",
+    "repainted",
     "whole",
     "with_design",
 ]
@@ -57,6 +66,8 @@ class Plan:
         plate: The plate thickness and why (figure ``plate``), or None where the job does not
             record one (the plate-design trials, tests).
         primer: The primer the job chose for a mostly dark picture (``#rrggbb``), or None: the config's.
+        paints: The layers' paints and each layer's spray settings (:func:`painted`), or None
+            before the plan knows them.
     """
 
     cfg: JobConfig
@@ -64,11 +75,32 @@ class Plan:
     picture_mm: tuple[float, float]
     plate: PlateFigures | None = None
     primer: str | None = None
+    paints: Paints | None = None
+
+    @property
+    def sprays(self) -> list[SprayConfig]:
+        """Each layer's spray settings, in spray order (:func:`painted`).
+
+        Raises:
+            ValueError: The plan does not know its paints yet, or its config sprays otherwise than
+                the settings were resolved for (a plan changed without :func:`repainted`).
+        """
+        if self.paints is None:
+            raise ValueError("the plan does not know its layers' paints yet: plan them with painted()")
+        if self.paints.spray != self.cfg.spray:
+            raise ValueError(
+                "the plan's spray settings were resolved for another spray section: use repainted()"
+            )
+        return list(self.paints.sprays)
 
 
-def whole(cfg: JobConfig, picture_mm: tuple[float, float]) -> Plan:
-    """A one-plate plan of ``cfg`` as it is (nothing decided): the plate-design trials' and a test's."""
-    return Plan(cfg, mural.TileGrid.whole(*picture_mm), picture_mm)
+def whole(cfg: JobConfig, picture_mm: tuple[float, float], paints: Paints | None = None) -> Plan:
+    """A one-plate plan of ``cfg`` as it is (nothing decided): the plate-design trials' and a test's.
+
+    ``paints``: the layers' paints a job's plan knows (resolved again for ``cfg``), or None.
+    """
+    plan = Plan(cfg, mural.TileGrid.whole(*picture_mm), picture_mm, paints=paints)
+    return repainted(plan)
 
 
 def planned(cfg: JobConfig, picture_mm: tuple[float, float], work_px: int) -> tuple[Plan, MuralFigures]:
@@ -173,7 +205,8 @@ def designed(plan: Plan, windows: str, standoff_mm: float) -> Plan:
     plate = plan.plate
     if plate is not None and plate.thickness_mm != cfg.plate.thickness_mm:
         plate = plate_figures(cfg, plate.side_mm)
-    return replace(plan, cfg=cfg, plate=plate)
+    # The design's sprays: resolved again should the design spray otherwise.
+    return repainted(replace(plan, cfg=cfg, plate=plate))
 
 
 def with_design(cfg: JobConfig, windows: str, standoff_mm: float) -> JobConfig:
@@ -191,3 +224,35 @@ def with_design(cfg: JobConfig, windows: str, standoff_mm: float) -> JobConfig:
     cfg = cfg.with_standoff(standoff_mm)
     fill = cfg.thickness_fill
     return cfg.fit_plate_thickness(fill.side_mm, standoff_mm) if fill.filled else cfg
+
+
+def painted(
+    plan: Plan,
+    colours: np.ndarray | Sequence[Any],
+    names: Mapping[str, str] | None = None,
+    each: Callable[[SprayConfig], SprayConfig] | None = None,
+) -> Plan:
+    """``plan`` with its layers' paints and each layer's spray settings (:func:`stencil_cad.plan.profiles.paints_of`).
+
+    Called once the paints are known: after the decomposition (hard mode: the segmentation).
+
+    Args:
+        plan: The plan.
+        colours: ``(L, 3)`` the layers' paints in [0, 1], in spray order.
+        names: ``{hex: can label}`` of the cans the job knows (:func:`stencil_cad.plan.cans.can_names`).
+        each: Applied to every layer's settings but the config's own (hard mode's cut-outs), or None.
+
+    Raises:
+        ConfigError: A key of ``spray.profile`` names no layer, or two keys name one.
+    """
+    from .profiles import paints_of
+
+    return replace(plan, paints=paints_of(plan.cfg, colours, names, each))
+
+
+def repainted(plan: Plan) -> Plan:
+    """``plan`` with its paints' spray settings resolved again for its config: the same plan when they fit (or it has none)."""
+    paints = plan.paints
+    if paints is None or paints.spray == plan.cfg.spray:
+        return plan
+    return painted(plan, np.asarray(paints.colours, dtype=np.float64), paints.names)

@@ -16,7 +16,6 @@ from ..output import plain as _plain
 from ..record import Run
 from .picture import source_reference
 from .plan import Plan
-from .profiles import layer_sprays
 
 if TYPE_CHECKING:
     from ..config import JobConfig
@@ -60,7 +59,7 @@ def refine_holes(
     geometry = SprayGeometry.for_job(cfg)
     # refine.cans: prior refines for the expected error over the prior's caps (without a measured
     # can); each layer sprays with its own paint's profile, and a measured layer keeps its can.
-    sprays = layer_sprays(run, cfg, layers.colours)
+    sprays = plan.sprays
     cans = layer_can_prior(sprays, CAP_PRIOR) if rc.cans == "prior" else [("nominal", sprays)]
     kernels = [tuple(mural_refine.HoleKernels(sp, geometry) for sp in per_layer) for _, per_layer in cans]
 

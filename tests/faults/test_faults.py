@@ -72,9 +72,16 @@ def test_stage_command_with_force_keeps_the_other_stages_files(run_copy, capsys,
     after = _snapshot(out)
     assert set(after) == set(before)
     own = {
-        "decompose": ("layers.npz", "_opacity.png", "composite.png", "energy.csv", "config.yaml"),
+        "decompose": (
+            "layers.npz",
+            "plan.json",
+            "_opacity.png",
+            "composite.png",
+            "energy.csv",
+            "config.yaml",
+        ),
         "build": (".step", ".stl", ".dxf", ".svg", ".3mf"),
-        "stipple": ("_dots.csv", "_dots.png", "spray.json"),
+        "stipple": ("_dots.csv", "_dots.png", "spray.json", "plan.json"),
         "simulate": ("simulated.png", "preview.png", "sweep.png", "_after.png"),
     }[command]
     for name, sha in before.items():

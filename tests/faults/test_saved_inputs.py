@@ -72,6 +72,85 @@ def test_build_and_simulate_refuse_dots_made_before_a_new_decomposition(run_copy
     assert set(json.loads((out / "manifest.json").read_text())["stale"]["files"]) == marked
 
 
+# --------------------------------------------------------------------------- the saved plan
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("command", ["stipple", "build", "simulate"])
+def test_a_missing_plan_is_refused_naming_the_file_and_the_fix(run_copy, capsys, command):
+    out = run_copy
+    (out / "plan.json").unlink()
+    before = _snapshot(out)
+    code, _, err = _run([command, "--out", out, "--force", "-q"], capsys)
+    _one_line_error(code, err, "plan.json", "missing", "stencil-cad decompose")
+    assert _snapshot(out) == before
+    _no_leftovers(out)
+
+
+@pytest.mark.slow
+def test_a_plan_made_on_another_decomposition_or_in_another_format_is_refused(run_copy, capsys):
+    out = run_copy
+    plan = json.loads((out / "plan.json").read_text())
+    (out / "plan.json").write_text(json.dumps({**plan, "layers_sha256": "0" * 64}))
+    before = _snapshot(out)
+    code, _, err = _run(["simulate", "--out", out, "--force", "-q"], capsys)
+    _one_line_error(code, err, "plan.json", "stale", "layers.npz", "stencil-cad decompose")
+    assert _snapshot(out) == before
+    (out / "plan.json").write_text(json.dumps({**plan, "format": 99}))
+    code, _, err = _run(["build", "--out", out, "--force", "-q"], capsys)
+    _one_line_error(code, err, "plan.json", "not a readable plan", "format 99")
+    _no_leftovers(out)
+
+
+@pytest.mark.slow
+def test_a_stage_command_given_another_config_plans_anew(run_copy, capsys, monkeypatch):
+    import yaml
+
+    from stencil_cad.pipeline import run as pipeline_run
+
+    out = run_copy
+    config = out / "config.yaml"
+    config.write_text(yaml.safe_dump({**yaml.safe_load(config.read_text()), "seed": 12345}, sort_keys=False))
+    planned = json.loads((out / "plan.json").read_text())["configs_sha256"]
+    chosen = []
+    choose = pipeline_run.choose_plates
+    monkeypatch.setattr(pipeline_run, "choose_plates", lambda *a: chosen.append(1) or choose(*a))
+    code, _, err = _run(["stipple", "--out", out, "--force", "-q"], capsys)
+    assert code == 0, err
+    assert chosen, "the design was not chosen again for the edited config"
+    # The plan now names the config it was planned for: the next stage takes it as it is.
+    again = json.loads((out / "plan.json").read_text())["configs_sha256"]
+    assert len(again) == 1 and again[0] not in planned
+    chosen.clear()
+    code, _, err = _run(["simulate", "--out", out, "--force", "-q"], capsys)
+    assert code == 0, err
+    assert not chosen
+
+
+@pytest.mark.slow
+def test_stage_commands_repeat_the_run_from_its_plan_without_the_trials(job, tmp_path, monkeypatch, capsys):
+    from stencil_cad.pipeline import run as pipeline_run
+
+    def no_trials(*a, **k):
+        raise AssertionError("the plate-design trials ran again")
+
+    monkeypatch.setattr(pipeline_run, "choose_plates", no_trials)
+    out = tmp_path / "again"
+    shutil.copytree(job, out)
+    for command in ("stipple", "build", "simulate"):
+        code, _, err = _run([command, "--out", out, "--force", "-q"], capsys)
+        assert code == 0, err
+    # The stipple stage's files and the plan come back byte for byte. (The plates and the
+    # simulation do not: the run builds its holes as computed, `build` reads them from the dots
+    # files, which hold 4 decimals.)
+    stippled = [
+        n for n in _snapshot(job) if n.endswith(("_dots.csv", "_dots.png", "spray.json", "swatch.png"))
+    ]
+    assert len(stippled) >= 5
+    for name in [*stippled, "plan.json", "layers.npz", "config.yaml"]:
+        assert (out / name).read_bytes() == (job / name).read_bytes(), name
+
+
 # --------------------------------------------------------------------------- bounds
 
 

@@ -139,7 +139,12 @@ def test_build_rejects_overlapping_dots_and_writes_nothing(small_run, tmp_path, 
     _, _, out = small_run
     d = tmp_path / "bad"
     d.mkdir()
-    for name in ("layers.npz", "config.yaml", *(f"layer_{i:02d}_dots.csv" for i in (1, 2, 3, 4))):
+    for name in (
+        "layers.npz",
+        "plan.json",
+        "config.yaml",
+        *(f"layer_{i:02d}_dots.csv" for i in (1, 2, 3, 4)),
+    ):
         (d / name).write_bytes((out / name).read_bytes())
     rows = (d / "layer_01_dots.csv").read_text().splitlines()
     x, y, r = rows[1].split(",")

@@ -12,7 +12,7 @@ from stencil_cad.model import Layers, Picture
 from stencil_cad.mural import TileGrid
 from stencil_cad.pipeline import standoff
 from stencil_cad.pipeline.standoff import WINDOW_SHARE, candidates, choose_plates, window_share, with_design
-from stencil_cad.plan.plan import whole
+from stencil_cad.plan.plan import painted, whole
 from stencil_cad.record import Run
 
 _SLA = {"stipple": {"process": "sla", "tone": "calibrated"}, "spray": {"calibrate": "spray_time"}}
@@ -20,7 +20,7 @@ _SLA = {"stipple": {"process": "sla", "tone": "calibrated"}, "spray": {"calibrat
 
 def _choose(run, layers, pic):
     """The config with the design the trials chose for a 60 x 60 mm one-plate job."""
-    return choose_plates(run, whole(run.cfg, (60.0, 60.0)), layers, pic).cfg
+    return choose_plates(run, painted(whole(run.cfg, (60.0, 60.0)), layers.colours), layers, pic).cfg
 
 
 def _cfg(**extra):

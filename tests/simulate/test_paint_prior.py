@@ -5,7 +5,6 @@ import pytest
 
 from stencil_cad.config.io import parse_config
 from stencil_cad.plan.profiles import layer_sprays
-from stencil_cad.record import Run
 from stencil_cad.simulate.cans import DARK_DEPOSIT, LIGHT_DEPOSIT, deposit_prior
 
 
@@ -23,14 +22,11 @@ def test_dark_paints_hide_in_two_coats_light_ones_need_more():
 
 def test_each_unmeasured_layer_takes_its_paints_prior_and_a_given_deposit_stands():
     colours = np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]])
-    run = Run(cfg=parse_config({}, source="test"), out=None, quiet=True)  # type: ignore[arg-type]
-    dark, white = layer_sprays(run, run.cfg, colours)
+    dark, white = layer_sprays(parse_config({}, source="test"), colours)[0]
     assert dark.can.deposit_per_pass == DARK_DEPOSIT
     assert white.can.deposit_per_pass == LIGHT_DEPOSIT
     assert white.can.spread_k == dark.can.spread_k  # only the deposit follows the paint
     given = parse_config({"spray": {"can": {"deposit_per_pass": 2.0}}}, source="test")
-    run = Run(cfg=given, out=None, quiet=True)  # type: ignore[arg-type]
-    assert [s.can.deposit_per_pass for s in layer_sprays(run, run.cfg, colours)] == [2.0, 2.0]
+    assert [s.can.deposit_per_pass for s in layer_sprays(given, colours)[0]] == [2.0, 2.0]
     paper = parse_config({"spray": {"model": "paper"}}, source="test")
-    run = Run(cfg=paper, out=None, quiet=True)  # type: ignore[arg-type]
-    assert all(s is paper.spray for s in layer_sprays(run, run.cfg, colours))
+    assert all(s is paper.spray for s in layer_sprays(paper, colours)[0])
