@@ -273,11 +273,18 @@ def test_mesh_detects_overlapping_holes():
 
 
 def test_builtin_template_defaults_match_the_config():
+    from stencil_cad.config.job import JobConfig
+    from stencil_cad.plan.plan import labelled
+
     params = template_parameters(load_template(builtin_template()))
     c = PlateConfig()
+    # The config leaves the label to the job (null); a one-plate job's plan engraves it.
+    assert c.label is None
+    label = labelled(JobConfig()).plate.label
+    assert label is not None
     assert params == {
         "THICKNESS_MM": c.thickness_mm,
-        "LABEL": c.label.value,
+        "LABEL": label.value,
         "LABEL_DEPTH_MM": c.label_depth_mm,
         "LABEL_HEIGHT_MM": c.label_height_mm,
         "LABEL_MIN_HEIGHT_MM": c.label_min_height_mm,
