@@ -242,30 +242,27 @@ def choose_plates(run: Run, plan: Plan, layers: Layers, picture: Picture | None)
         designs = candidates(cfg, share)
         grid = trial_mm_per_px(cfg)
         direct = direct_pair(cfg, share)
+
+        def score(w: str, g: float, refined: bool) -> float:
+            design = with_design(cfg, w, g)
+            return round(
+                _trial_score(
+                    run, design, layers, picture_mm, picture, grid, refined=refined, paints=plan.paints
+                ),
+                3,
+            )
+
         trials: list[PlateTrial] = []
+        if not direct and len(designs) > 1:
+            trials = _screen(designs, cfg, share, lambda w, g: score(w, g, False))
+        # Light plates: the unrefined screen ranks walls badly, so two walls are refined outright.
+        pair = direct or _refined_pair(cfg, trials)
+        refined = [PlateTrial(w, g, score(w, g, True)) for w, g in pair]
         if direct:
-            # Light plates: the unrefined screen ranks walls badly, so two walls are refined outright.
-            refined = [
-                _refined_trial(run, cfg, layers, picture_mm, picture, grid, w, g, plan.paints)
-                for w, g in direct
-            ]
             best = min(refined, key=lambda t: t.scielab)
         else:
-            if len(designs) > 1:
-                trials = _screen(
-                    designs,
-                    cfg,
-                    share,
-                    lambda w, g: round(
-                        _trial_score(
-                            run, with_design(cfg, w, g), layers, picture_mm, picture, grid, paints=plan.paints
-                        ),
-                        3,
-                    ),
-                )
             # The first best wins a tie: the config's own design is tried first.
             best = min(trials, key=lambda t: t.scielab) if trials else PlateTrial(*designs[0], float("nan"))
-            refined = _refined_pair(run, cfg, layers, picture_mm, picture, grid, trials, plan.paints)
             if refined:
                 best = next(t for t in trials if t.label == min(refined, key=lambda t: t.scielab).label)
         chosen = designed(plan, best.windows, best.standoff_mm)
@@ -317,17 +314,8 @@ def _screen(
     return trials
 
 
-def _refined_pair(
-    run: Run,
-    cfg: JobConfig,
-    layers: Layers,
-    picture_mm: tuple[float, float],
-    picture: Picture | None,
-    grid: float,
-    trials: list[PlateTrial],
-    paints: Paints | None = None,
-) -> list[PlateTrial]:
-    """The best trial and the best of another stand-off refined and sprayed; nothing when all share one.
+def _refined_pair(cfg: JobConfig, trials: list[PlateTrial]) -> list[tuple[str, float]]:
+    """The best trial's design and the best of another stand-off's, to refine; none when all share one.
 
     The unrefined trials rank designs of one stand-off well, but the refinement sharpens more where
     the blur is larger: on a mostly dark photo (the quality benchmark's hubble_deep_field, primed
@@ -342,27 +330,7 @@ def _refined_pair(
     second = next((t for t in ranked if t.standoff_mm != first.standoff_mm), None)
     if second is None:
         return []
-    return [
-        _refined_trial(run, cfg, layers, picture_mm, picture, grid, t.windows, t.standoff_mm, paints)
-        for t in (first, second)
-    ]
-
-
-def _refined_trial(
-    run: Run,
-    cfg: JobConfig,
-    layers: Layers,
-    picture_mm: tuple[float, float],
-    picture: Picture | None,
-    grid: float,
-    windows: str,
-    standoff_mm: float,
-    paints: Paints | None = None,
-) -> PlateTrial:
-    """The design's plates stippled, refined as the job refines them and sprayed on the trials' grid (as ``paints`` resolve)."""
-    design = with_design(cfg, windows, standoff_mm)
-    score = _trial_score(run, design, layers, picture_mm, picture, grid, refined=True, paints=paints)
-    return PlateTrial(windows, standoff_mm, round(score, 3))
+    return [(t.windows, t.standoff_mm) for t in (first, second)]
 
 
 def direct_pair(cfg: JobConfig, share: float) -> list[tuple[str, float]]:
