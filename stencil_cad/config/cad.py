@@ -232,7 +232,10 @@ class WallConfig(StrictModel):
             "better: rocket), a measured can's blur-matched height, and where windows carry at least "
             "half the paint (a logo, flat-colour art) 1 and 4 mm for the windows too (the generated logo: 2.00 / "
             "0.92 / 0.88 at 10 / 4 / 1 mm), by stippling and spraying its unrefined plates, and takes the best "
-            "(the best refined beside the best of another height); a lower wall gets a plate filled thicker "
+            "(the best refined beside the best of another height). With light plates (a one-plate job's "
+            "default), windows carrying almost none of the paint and no measured can, it refines its "
+            "plates for 5 and 2 mm below that height outright and keeps the better (unrefined plates rank "
+            "light plates' walls badly). A lower wall gets a plate filled thicker "
             "for its sag. The chosen height is saved in the run's config."
         ),
     )
