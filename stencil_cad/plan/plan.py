@@ -255,4 +255,4 @@ def repainted(plan: Plan) -> Plan:
     paints = plan.paints
     if paints is None or paints.spray == plan.cfg.spray:
         return plan
-    return painted(plan, np.asarray(paints.colours, dtype=np.float64), paints.names)
+    return painted(plan, np.asarray(paints.colours, dtype=np.float64), paints.names, paints.each)

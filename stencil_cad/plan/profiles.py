@@ -36,6 +36,8 @@ class Paints:
             otherwise has to resolve them again).
         sprays: Each layer's settings, in spray order.
         rows: The figure ``spray_profiles``: per layer its paint, key, file and constants.
+        each: What was applied to every layer's settings but the config's own (hard mode's
+            cut-outs), kept so the settings resolve again alike; or None.
     """
 
     colours: tuple[tuple[float, ...], ...]
@@ -43,6 +45,7 @@ class Paints:
     spray: SprayConfig
     sprays: tuple[SprayConfig, ...]
     rows: tuple[LayerProfile, ...]
+    each: Callable[[SprayConfig], SprayConfig] | None = None
 
 
 def paints_of(
@@ -65,7 +68,7 @@ def paints_of(
     if each is not None:
         sprays = [sp if sp is cfg.spray else each(sp) for sp in sprays]
     kept = tuple(tuple(float(x) for x in c) for c in np.asarray(colours, dtype=np.float64).reshape(-1, 3))
-    return Paints(kept, names, cfg.spray, tuple(sprays), rows)
+    return Paints(kept, names, cfg.spray, tuple(sprays), rows, each)
 
 
 def layer_sprays(

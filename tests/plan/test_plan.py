@@ -39,6 +39,20 @@ def test_the_design_chosen_is_a_new_plan():
     assert designed(plan, plan.cfg.stipple.windows.value, plan.cfg.standoff.design_mm) is plan
 
 
+def test_paints_resolved_again_keep_what_was_applied_to_each_layer():
+    # Hard mode's cut-outs spray whole passes (``each``); a plan resolved again for another spray
+    # section must apply it again, not fall back to the profiles' settings.
+    from stencil_cad.plan.plan import painted, repainted
+
+    plan = whole(parse_config({}, source="test"), (50.0, 50.0))
+    colours = np.array([[0.9, 0.1, 0.1], [0.1, 0.1, 0.9]])
+    twice = painted(plan, colours, each=lambda sp: sp.model_copy(update={"passes": 7.0}))
+    assert all(sp.passes == 7.0 for sp in twice.sprays if sp is not twice.cfg.spray)
+    spray = twice.cfg.spray.model_copy(update={"can_distance_mm": twice.cfg.spray.can_distance_mm + 10.0})
+    again = repainted(dataclasses.replace(twice, cfg=twice.cfg.model_copy(update={"spray": spray})))
+    assert again is not twice and all(sp.passes == 7.0 for sp in again.sprays if sp is not again.cfg.spray)
+
+
 def test_a_run_keeps_the_config_it_was_given():
     cfg = parse_config({}, source="test")
     run = Run(cfg=cfg, out=None)  # type: ignore[arg-type]
