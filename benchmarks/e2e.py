@@ -18,6 +18,7 @@ afterwards) and its own ``stencil-cad run`` makes its own bundled example there.
 then gives ``baseline_cpu_seconds``, ``baseline_seconds``, ``cpu_ratio_vs_baseline`` (this tree's CPU
 seconds over the commit's) and ``baseline_commit``; ``baseline`` holds the commit's whole row. The
 commit's example job is the one it shipped (its size, layers and process), as a maker would have run it.
+Both examples run :data:`PAIRED_RUNS` times, in turn, and each side's row is its median run.
 """
 
 from __future__ import annotations
@@ -31,6 +32,8 @@ import time
 from pathlib import Path
 
 CASES = ("example-norefine", "example-nominal", "example", "example-paper")
+#: Runs of the example on each side with ``--baseline``, alternated; each side gives its median run.
+PAIRED_RUNS = 3
 #: The keys the readers of these rows use (checked on the smoke rows).
 SMOKE_KEYS = ("seconds", "cpu_seconds", "peak_mb", "stage_seconds", "dots", "scielab", "scielab_2x", "passes")
 #: The smoke case's job: the bundled example at 40 mm in two layers.
@@ -171,16 +174,19 @@ def run(cases=None, baseline: str | None = None):
         wanted = [c for c in CASES if not cases or c in cases or "example" in cases]
     rows = {}
     with tempfile.TemporaryDirectory() as tmp:
-        base_row = None
+        paired = None
         if baseline is not None:
             root = Path(tmp) / "baseline"
             full = export_tree(baseline, root)
-            base_row = {**_one("example", Path(tmp), root=root), "commit": full}
+            paired = _paired(Path(tmp), root)
         for case in wanted:
-            rows[case] = _one(case, Path(tmp))
+            if case == "example" and paired is not None:
+                rows[case] = paired[0]
+            else:
+                rows[case] = _one(case, Path(tmp))
             _ratios(rows, case)
-            if case == "example" and base_row is not None:
-                row = rows[case]
+            if case == "example" and paired is not None:
+                row, base_row = rows[case], {**paired[1], "commit": full}
                 row["baseline_commit"] = base_row["commit"]
                 row["baseline_seconds"] = base_row["seconds"]
                 row["baseline_cpu_seconds"] = base_row["cpu_seconds"]
@@ -188,6 +194,28 @@ def run(cases=None, baseline: str | None = None):
                     row["cpu_ratio_vs_baseline"] = round(row["cpu_seconds"] / base_row["cpu_seconds"], 3)
                 row["baseline"] = base_row
             yield rows[case]
+
+
+def _paired(tmp: Path, root: Path) -> tuple[dict, dict]:
+    """The example made :data:`PAIRED_RUNS` times by this tree and by the baseline's, in turn: each side's median run.
+
+    One run of each on a shared machine moved the ratio by a tenth between two calls (the baseline's
+    CPU seconds 74.5 and 79.5); alternating the two and taking each side's median run keeps both under
+    the same load. Each row gives every run's CPU seconds (``cpu_seconds_runs``).
+    """
+    ours: list[dict] = []
+    theirs: list[dict] = []
+    for i in range(PAIRED_RUNS):
+        for side, where in ((theirs, root), (ours, REPO)):
+            folder = tmp / f"paired-{i}"
+            folder.mkdir(exist_ok=True)
+            side.append(_one("example", folder, root=where))
+
+    def median(runs: list[dict]) -> dict:
+        done = sorted((r for r in runs if "error" not in r), key=lambda r: r["cpu_seconds"]) or runs
+        return {**done[len(done) // 2], "cpu_seconds_runs": [r["cpu_seconds"] for r in runs]}
+
+    return median(ours), median(theirs)
 
 
 def smoke():
