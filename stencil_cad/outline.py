@@ -128,7 +128,7 @@ def outline_path(
     """
     if offset_mm < 0:
         raise ValueError(f"offset_mm must be ≥ 0, got {offset_mm}")
-    m, d = cfg.margin_mm, offset_mm
+    m, d = cfg.border_mm, offset_mm
     x0, y0, x1, y1 = -m - d, -m - d, width_mm + m + d, height_mm + m + d
     rc = cfg.corner_radius_mm + d
     rk = cfg.key_corner_radius_mm + d
@@ -330,7 +330,7 @@ def label_region(
     Returns:
         ``(x0, y0, x1, y1)`` in mm, picture frame; ``y1 < 0`` unless ``solid_mm`` lets it rise.
     """
-    g, m = cfg.label_gap_mm, cfg.margin_mm
+    g, m = cfg.label_gap_mm, cfg.border_mm
     return (g, -m + g, width_mm - g, max(float(solid_mm), 0.0) - g)
 
 

@@ -153,7 +153,7 @@ class Wall(bd.BasePartObject):
         fw = wall.finger_slot_mm
         if fw <= 0:
             return None
-        m, c, t = outline.margin_mm, wall.clearance_mm, wall.wall_thickness_mm
+        m, c, t = outline.border_mm, wall.clearance_mm, wall.wall_thickness_mm
         if fw > 0.5 * width_mm:
             # On pictures under about 13 mm wide the slot's analytic volume stopped matching the
             # B-rep (measured); a slot wider than half the picture is no use anyway, so leave it out.

@@ -36,18 +36,6 @@ def resolved_palette(palette: str | Sequence[str] | Path | None, field: str) -> 
     return tuple(palette)
 
 
-def null_reads_as(field: str, default: object) -> classmethod:
-    """A before-validator of ``field``: null (left for the job to fill in) reads as ``default`` in a section alone.
-
-    The job config fills such a field in for its process, size or bed before its section sees it.
-    """
-
-    def read(cls, value):
-        return default if value is None else value
-
-    return field_validator(field, mode="before")(classmethod(read))
-
-
 class StrictModel(BaseModel):
     """A config section.
 

@@ -9,12 +9,13 @@ from typing import Annotated
 
 from pydantic import Field, field_validator, model_validator
 
-from .base import StrictModel, null_reads_as
+from .base import StrictModel
 from .outline import OutlineConfig
 from .thickness import LABEL_FLOOR_MM
 
-#: The plate's thickness outside a job, where no process or size is known, mm: the thinnest FDM plate
-#: (three 0.3 mm layers), which a job of the default size and process fills in too.
+#: The plate's thickness a job with a plate template and no ``plate.thickness_mm`` records, mm (the
+#: bundled templates' ``THICKNESS_MM``): the thinnest FDM plate of three 0.3 mm layers, which a job of
+#: the default size and process fills in too.
 DEFAULT_THICKNESS_MM = 0.9
 
 
@@ -68,11 +69,10 @@ class PlateConfig(StrictModel):
     outline: OutlineConfig = Field(
         default_factory=OutlineConfig, description="Plate outline, margin and key."
     )
-    thickness_mm: float = Field(
-        DEFAULT_THICKNESS_MM,
+    thickness_mm: float | None = Field(
+        None,
         ge=0.3,
         le=20.0,
-        json_schema_extra={"anyOf": [{"type": "number"}, {"type": "null"}], "default": None},
         description=(
             "Plate thickness in mm. Range [0.3, 20]. Plates are exported flat, z from 0 to the thickness. "
             "Thinner prints faster and shades the spray less; too thin sags on the wall's ledge. null: the "
@@ -180,13 +180,22 @@ class PlateConfig(StrictModel):
         ),
     )
 
-    # A job fills null in for its process and plate size (JobConfig); alone, the default.
-    _thickness_default = null_reads_as("thickness_mm", DEFAULT_THICKNESS_MM)
+    @property
+    def planned_thickness_mm(self) -> float:
+        """The plate's thickness in mm, as given or as the job's plan filled it in.
+
+        Raises:
+            ValueError: ``thickness_mm`` is null: the plate is not planned yet (the job's plan fills it
+                in, :func:`stencil_cad.plan.plan.planned`).
+        """
+        if self.thickness_mm is None:
+            raise ValueError("plate.thickness_mm is null: the job's plan fills it in (stencil_cad.plan.plan)")
+        return self.thickness_mm
 
     @model_validator(mode="after")
     def _check(self) -> PlateConfig:
-        if self.label is not None:
-            self.check_label(self.label)
+        if self.label is not None and self.thickness_mm is not None:
+            self.check_label(self.label, self.thickness_mm)
         if self.label_min_height_mm > self.label_height_mm:
             raise ValueError(
                 f"label_min_height_mm must be ≤ label_height_mm ({self.label_height_mm} mm), "
@@ -194,16 +203,18 @@ class PlateConfig(StrictModel):
             )
         return self
 
-    def check_label(self, label: LabelMode) -> None:
+    def check_label(self, label: LabelMode, thickness_mm: float) -> None:
         """Refuse an engraved ``label`` (the plate's, or the one its job fills in for null) deeper than the plate allows.
+
+        ``thickness_mm``: the plate's thickness, or for null the one its job fills in (the job config checks it).
 
         Raises:
             ValueError: ``label_depth_mm`` leaves less than :data:`LABEL_FLOOR_MM` of plate under an engraving.
         """
-        if label is LabelMode.engrave and self.label_depth_mm > self.thickness_mm - LABEL_FLOOR_MM + 1e-9:
+        if label is LabelMode.engrave and self.label_depth_mm > thickness_mm - LABEL_FLOOR_MM + 1e-9:
             raise ValueError(
                 f"label_depth_mm must be ≤ thickness_mm - {LABEL_FLOOR_MM:g} "
-                f"({self.thickness_mm - LABEL_FLOOR_MM:g} mm) for an engraved label, got {self.label_depth_mm}"
+                f"({thickness_mm - LABEL_FLOOR_MM:g} mm) for an engraved label, got {self.label_depth_mm}"
             )
 
 
@@ -308,11 +319,11 @@ class WallConfig(StrictModel):
             raise ValueError(
                 f"wall.pocket_depth_mm must be ≤ plate thickness ({plate_thickness_mm} mm), got {self.pocket_depth_mm}"
             )
-        ledge = outline.margin_mm + self.clearance_mm - self.opening_margin_mm
+        ledge = outline.border_mm + self.clearance_mm - self.opening_margin_mm
         if ledge < 1.0:
             raise ValueError(
                 f"wall.opening_margin_mm must leave a ledge ≥ 1 mm under the plate: plate.outline.margin_mm "
-                f"({outline.margin_mm}) + clearance_mm ({self.clearance_mm}) - opening_margin_mm "
+                f"({outline.border_mm}) + clearance_mm ({self.clearance_mm}) - opening_margin_mm "
                 f"({self.opening_margin_mm}) = {ledge:g} mm"
             )
         for i, k in enumerate(outline.keys):

@@ -21,7 +21,7 @@ from ..errors import ConfigError
 from . import profiles
 from .base import StrictModel
 from .bed import BED_DESCRIPTION, parse_bed, resolve_bed
-from .cad import ExportConfig, LabelMode, PlateConfig, Standoff, WallConfig
+from .cad import DEFAULT_THICKNESS_MM, ExportConfig, LabelMode, PlateConfig, Standoff, WallConfig
 from .compute import ComputeConfig
 from .decompose import DecomposeConfig
 from .hard import HardConfig
@@ -145,11 +145,6 @@ class JobConfig(StrictModel):
 
     bed: str | tuple[float, float] | None = Field(None, description=BED_DESCRIPTION)
 
-    #: The filled-in plate thickness and why, or None when plate.thickness_mm was given.
-    _thickness_fill: Thickness | None = PrivateAttr(None)
-    _margin_filled: bool = PrivateAttr(False)
-    #: Whether ``stipple.web_mm`` was left null and filled in for plates of one layer (:func:`_one_layer_web`).
-    _web_filled: bool = PrivateAttr(False)
     #: The stand-off in mm the job chose for its picture (:meth:`with_standoff`), or None.
     _standoff_chosen: float | None = PrivateAttr(None)
 
@@ -182,76 +177,17 @@ class JobConfig(StrictModel):
                 data = {**data, section: {**raw, key: value}}
         return data
 
-    @model_validator(mode="wrap")
-    @classmethod
-    def _fill_thickness(cls, data, handler):
-        """``plate.thickness_mm`` left out (or null): the process's thinnest flat plate (:mod:`.thickness`).
-
-        Chosen for the plate's longest side as far as the config knows it: the picture's sides
-        (its width for both when ``size.height_mm`` follows the image, which is read later) plus
-        the margins, at most the bed's longer side (a mural's tiles fit the bed). The pipeline
-        re-fits it to the plates it plans (:meth:`fit_plate_thickness`).
-        """
-        if not isinstance(data, dict):
-            return handler(data)
-        plate = data.get("plate") or {}
-        process = _process_of(data.get("stipple"))
-        if not isinstance(plate, dict) or plate.get("thickness_mm") is not None or process is None:
-            return handler(data)
-        if plate.get("template") is not None:
-            return handler(data)  # a plate template keeps its own THICKNESS_MM unless the config gives one
-        try:
-            size = SizeConfig.model_validate(data.get("size") or {})
-            outline = OutlineConfig.model_validate(plate.get("outline") or {})
-            bed = resolve_bed(parse_bed(data.get("bed")))
-            # The label the job will use (a null one is the plan's to fill in), whatever the thickness.
-            probe = PlateConfig.model_validate({**_mural_label(data)["plate"], "thickness_mm": 20.0})
-        except (ValidationError, ValueError, TypeError):
-            return handler(data)  # the sections' own validation names what is wrong
-        side = max(size.width_mm, size.height_mm or size.width_mm) + 2.0 * outline.margin_mm
-        if bed is not None:
-            side = min(side, max(bed.x_mm, bed.y_mm))
-        fill = _thickness_for(process, side, probe)
-        cfg = handler({**data, "plate": {**plate, "thickness_mm": fill.thickness_mm}})
-        cfg._thickness_fill = fill
-        return cfg
-
-    @model_validator(mode="wrap")
-    @classmethod
-    def _fill_web(cls, data, handler):
-        """``stipple.web_mm`` left out (or null) on a plate of one layer: the web such a plate prints (:func:`_one_layer_web`).
-
-        Runs after the thickness fill (a wrap validator declared later runs first, and this one
-        works on what its handler returns).
-        """
-        return _one_layer_web(handler(data))
-
-    @model_validator(mode="wrap")
-    @classmethod
-    def _fill_margin(cls, data, handler):
-        """``plate.outline.margin_mm`` left out (or null): the tiles' margin for a soft mural (:func:`_tile_margin`)."""
-        left = isinstance(data, dict) and _margin_left(data)
-        cfg = handler(_tile_margin(data) if left else data)
-        cfg._margin_filled = left
-        return cfg
-
     def unfilled_data(self) -> dict[str, Any]:
-        """The config's data with every value it filled in (not the maker's) null again.
+        """The config's data as the maker gave it, the stand-off a dump lists (:meth:`_listed_standoff`) null again.
 
         What a changed config is parsed from (``--image``, ``--bed``, ``hard``, the API's overrides),
-        so that it fills them in again for the change: the stand-off the job chooses, the plate's
-        thickness, the tiles' margin, the one-layer web. (``plate.label`` stays as the maker wrote it:
-        the plan fills it in, :func:`stencil_cad.plan.plan.labelled`.)
+        so that the job decides again for the change what the maker left null: the stand-off, and
+        the label, the tiles' margin, the plate's thickness and the one-layer web, which stay null in
+        a parsed config and which the plan fills in (:func:`stencil_cad.plan.plan.planned`).
         """
         data = self.model_dump(mode="json")
         if self.wall.standoff_mm is None:
             data["wall"]["standoff_mm"] = None
-        if self._thickness_fill is not None:
-            data["plate"]["thickness_mm"] = None
-        if self._margin_filled:
-            data["plate"]["outline"]["margin_mm"] = None
-        if self._web_filled:
-            data["stipple"]["web_mm"] = None
         return data
 
     @model_serializer(mode="wrap")
@@ -300,30 +236,12 @@ class JobConfig(StrictModel):
         return cfg
 
     @property
-    def thickness_fill(self) -> Thickness:
-        """The plate's thickness and why: filled in for the process and size, or as given."""
-        if self._thickness_fill is not None:
-            return self._thickness_fill
-        if self.plate.template is not None and "thickness_mm" not in self.plate.model_fields_set:
-            return Thickness(self.plate.thickness_mm, 0.0, 0.0, "the plate template's THICKNESS_MM")
-        return given_thickness(self.plate.thickness_mm)
+    def fills_thickness(self) -> bool:
+        """Whether the job fills the plate's thickness in: ``plate.thickness_mm`` null, no plate template.
 
-    def fit_plate_thickness(self, side_mm: float, standoff_mm: float | None = None) -> JobConfig:
-        """This config with a filled-in plate thickness chosen again for plates of longest side ``side_mm``.
-
-        ``standoff_mm``: the wall the plates sit in when the job chose one lower than the process's
-        (the sag limit is a share of it); None: the process's stand-off. A thickness the config gives
-        is kept: the same config comes back.
+        A plate template keeps its own ``THICKNESS_MM`` unless the config gives one.
         """
-        if self._thickness_fill is None:
-            return self
-        fill = _thickness_for(self.stipple.process, side_mm, self.plate, standoff_mm, job_label(self))
-        data = {**self.plate.model_dump(), "thickness_mm": fill.thickness_mm}
-        plate = PlateConfig.model_validate(data)
-        self.wall.check_plate(plate.outline, plate.thickness_mm)
-        cfg = self.model_copy(update={"plate": plate})
-        cfg._thickness_fill = fill
-        return _one_layer_web(cfg)
+        return self.plate.thickness_mm is None and self.plate.template is None
 
     def design_rules(self, width_mm: float, height_mm: float, keepouts: Sequence = ()) -> DesignRules:
         """The job's hole design rules over a picture area (see :meth:`StippleConfig.design_rules`)."""
@@ -391,10 +309,13 @@ class JobConfig(StrictModel):
 
     @model_validator(mode="after")
     def _cross_checks(self) -> JobConfig:
-        self.wall.check_plate(self.plate.outline, self.plate.thickness_mm)
-        if self.plate.label is None:
+        # What the job will fill in for null, as the config alone can tell (the plan fits the
+        # thickness again to the plates it tiles, and checks the wall again then).
+        thickness = job_thickness(self).thickness_mm
+        self.wall.check_plate(with_margin(self).plate.outline, thickness)
+        if self.plate.label is None or self.plate.thickness_mm is None:
             try:
-                self.plate.check_label(job_label(self))
+                self.plate.check_label(job_label(self), thickness)
             except ValueError as exc:
                 raise ValueError(f"plate: {exc}") from None
         numbers = [int(k) for k in self.spray.profile_keys if k.isdigit()]
@@ -405,30 +326,6 @@ class JobConfig(StrictModel):
                 f"{self.decompose.layers}, or raise decompose.layers"
             )
         return self
-
-
-def _plate_outline(data: dict) -> tuple[dict, dict] | None:
-    """A raw config's ``plate`` and ``plate.outline`` mappings (empty when left out), None when malformed."""
-    plate = data.get("plate") or {}
-    outline = (plate.get("outline") if isinstance(plate, dict) else None) or {}
-    return (plate, outline) if isinstance(plate, dict) and isinstance(outline, dict) else None
-
-
-def _margin_left(data: dict) -> bool:
-    """Whether a raw config leaves ``plate.outline.margin_mm`` out (or null)."""
-    found = _plate_outline(data)
-    return found is not None and found[1].get("margin_mm") is None
-
-
-def _soft_mural(data: dict) -> bool:
-    """Whether a raw config is a soft job whose picture is wider or taller than the bed's longer side (:func:`soft_mural`)."""
-    try:
-        mode = Mode(data.get("mode") or Mode.soft)
-        size = SizeConfig.model_validate(data.get("size") or {})
-        bed = parse_bed(data.get("bed"))
-    except (ValidationError, ValueError, TypeError):
-        return False
-    return soft_mural(mode, size, bed)
 
 
 def soft_mural(mode: Mode, size: SizeConfig, bed: str | tuple[float, float] | None) -> bool:
@@ -456,61 +353,119 @@ def job_label(cfg: JobConfig) -> LabelMode:
     return LabelMode.emboss if extrudes and soft_mural(cfg.mode, cfg.size, cfg.bed) else LabelMode.engrave
 
 
-def _mural_label(data: dict) -> dict:
-    """The raw config with a null ``plate.label`` as its job fills it in (:func:`job_label`), for the thickness fill's probe."""
-    plate = data.get("plate") or {}
-    stipple = data.get("stipple") or {}
-    if not isinstance(plate, dict) or plate.get("label") is not None:
-        return data
-    process = stipple.get("process", Process.fdm.value) if isinstance(stipple, dict) else None
-    try:
-        extrudes = Process(process).record.method is Method.extrude
-    except (ValueError, TypeError):
-        extrudes = False  # the stipple section's own validation names what is wrong
-    emboss = extrudes and _soft_mural(data)
-    label = LabelMode.emboss if emboss else LabelMode.engrave
-    return {**data, "plate": {**plate, "label": label.value}}
+def job_margin(cfg: JobConfig) -> float:
+    """The solid border ``cfg``'s plates take, mm: ``plate.outline.margin_mm`` as given, or the one its job fills in for null.
 
-
-def _tile_margin(data: dict) -> dict:
-    """The raw config with ``plate.outline.margin_mm`` (left null: :func:`_margin_left`) filled in for a soft mural's tiles.
-
-    A picture wider or taller than the bed's longer side is tiled whatever its margins; its plates take
-    :data:`~stencil_cad.config.outline.TILE_MARGIN_MM`. Anything else, or a margin the rest of the
-    outline or the wall cannot take (a larger corner radius, label gap or wall opening), keeps the
-    plate's default.
+    A picture wider or taller than the bed's longer side is tiled whatever its margins (:func:`soft_mural`);
+    its plates take :data:`~stencil_cad.config.outline.TILE_MARGIN_MM`. Anything else, or a margin the
+    rest of the outline or the wall cannot take (a larger corner radius, label gap or wall opening),
+    takes a plate's (:attr:`OutlineConfig.border_mm`).
     """
-    plate, outline = _plate_outline(data) or ({}, {})
-    if not _soft_mural(data):
-        return data
+    outline = cfg.plate.outline
+    if outline.margin_mm is not None or not soft_mural(cfg.mode, cfg.size, cfg.bed):
+        return outline.border_mm
     try:
-        tile = OutlineConfig.model_validate({**outline, "margin_mm": TILE_MARGIN_MM})
-        WallConfig.model_validate(data.get("wall") or {}).check_plate(tile, float("inf"))
-    except (ValidationError, ValueError, TypeError):
-        return data
-    return {**data, "plate": {**plate, "outline": {**outline, "margin_mm": TILE_MARGIN_MM}}}
+        tile = OutlineConfig.model_validate({**outline.model_dump(), "margin_mm": TILE_MARGIN_MM})
+        cfg.wall.check_plate(tile, float("inf"))
+    except (ValidationError, ValueError):
+        return outline.border_mm
+    return TILE_MARGIN_MM
 
 
-def _one_layer_web(cfg: JobConfig) -> JobConfig:
-    """``cfg`` with the web of a one-layer plate filled in, or the preset's again.
-
-    A plate printed in one layer (``plate.thickness_mm`` at most one FDM layer) is all first layer,
-    which needs a wider web than the process's preset (its record's ``one_layer_web_mm``).
-    A ``stipple.web_mm`` the config gives is kept; one this function filled in follows the thickness
-    when it is chosen again (:meth:`JobConfig.fit_plate_thickness`).
-    """
-    st = cfg.stipple
-    if st.web_mm is not None and not cfg._web_filled:
+def with_margin(cfg: JobConfig) -> JobConfig:
+    """``cfg`` with ``plate.outline.margin_mm`` left null filled in (:func:`job_margin`); the same config when given."""
+    outline = cfg.plate.outline
+    if outline.margin_mm is not None:
         return cfg
-    one_layer = cfg.plate.thickness_mm <= FDM_SINGLE_LAYER_MM + 1e-9
+    filled = outline.model_copy(update={"margin_mm": job_margin(cfg)})
+    return cfg.model_copy(update={"plate": cfg.plate.model_copy(update={"outline": filled})})
+
+
+def guessed_side_mm(cfg: JobConfig) -> float:
+    """The plate's longest side as the config alone knows it, mm: what it checks a filled-in thickness at.
+
+    The picture's sides (its width for both when ``size.height_mm`` follows the image, which is read
+    later) plus the margins (:func:`job_margin`), at most the bed's longer side (a mural's tiles fit
+    the bed). The plan fills the thickness in for the plates it tiles (:func:`job_thickness`).
+    """
+    size = cfg.size
+    side = max(size.width_mm, size.height_mm or size.width_mm) + 2.0 * job_margin(cfg)
+    bed = resolve_bed(cfg.bed)
+    return side if bed is None else min(side, max(bed.x_mm, bed.y_mm))
+
+
+def job_thickness(
+    cfg: JobConfig, side_mm: float | None = None, standoff_mm: float | None = None
+) -> Thickness:
+    """The plate's thickness and why: ``plate.thickness_mm`` as given, or the one its job fills in for null.
+
+    For null (:attr:`JobConfig.fills_thickness`) the process's thinnest flat plate (:mod:`.thickness`)
+    for plates of longest side ``side_mm`` (None: :func:`guessed_side_mm`), thick enough for the label
+    its job uses (:func:`job_label`). A plate template's thickness is its own ``THICKNESS_MM``.
+
+    Args:
+        cfg: The config.
+        side_mm: The longest side of the plates the job tiles, mm, or None.
+        standoff_mm: The wall the plates sit in when the job chose one lower than the process's (the
+            sag limit is a share of it); None: the process's stand-off.
+    """
+    plate = cfg.plate
+    if plate.thickness_mm is not None:
+        return given_thickness(plate.thickness_mm)
+    if plate.template is not None:
+        return Thickness(DEFAULT_THICKNESS_MM, 0.0, 0.0, "the plate template's THICKNESS_MM")
+    side = guessed_side_mm(cfg) if side_mm is None else side_mm
+    return _thickness_for(cfg.stipple.process, side, plate, standoff_mm, job_label(cfg))
+
+
+def job_web(st: StippleConfig, thickness_mm: float) -> float | None:
+    """``stipple.web_mm`` as given, or for null the web of a plate ``thickness_mm`` thick (None: the process's).
+
+    A plate printed in one layer (at most one FDM layer thick) is all first layer, which needs a wider
+    web than the process's preset (its record's ``one_layer_web_mm``).
+    """
+    if st.web_mm is not None:
+        return st.web_mm
+    one_layer = thickness_mm <= FDM_SINGLE_LAYER_MM + 1e-9
     web = st.process.record.one_layer_web_mm if one_layer else None
-    if web is not None and web <= st.process.record.web_mm:
-        web = None
-    if web == st.web_mm:
+    return None if web is None or web <= st.process.record.web_mm else web
+
+
+def with_thickness(cfg: JobConfig, thickness: Thickness, web_left: bool | None = None) -> JobConfig:
+    """``cfg`` with its plate ``thickness`` (:func:`job_thickness`) and the web that follows it (:func:`job_web`).
+
+    ``web_left``: whether the maker left ``stipple.web_mm`` null (None: whether ``cfg`` does), so a web
+    filled in for a thickness follows it when it is chosen again. A plate template's fields the
+    maker did not set stay unset (the template keeps its own, :func:`stencil_cad.cad.template.config_overrides`).
+
+    Raises:
+        ValueError: The wall cannot take the plate (``wall.pocket_depth_mm``).
+    """
+    plate = cfg.plate
+    if plate.thickness_mm != thickness.thickness_mm:
+        values = {**dict(plate), "thickness_mm": thickness.thickness_mm}
+        plate = PlateConfig.model_construct(_fields_set=set(plate.model_fields_set), **values)
+        cfg.wall.check_plate(plate.outline, thickness.thickness_mm)
+    st = cfg.stipple
+    left = st.web_mm is None if web_left is None else web_left
+    web = job_web(st.model_copy(update={"web_mm": None}) if left else st, thickness.thickness_mm)
+    if web != st.web_mm:
+        st = st.model_copy(update={"web_mm": web})
+    if plate is cfg.plate and st is cfg.stipple:
         return cfg
-    out = cfg.model_copy(update={"stipple": st.model_copy(update={"web_mm": web})})
-    out._web_filled = web is not None
-    return out
+    return cfg.model_copy(update={"plate": plate, "stipple": st})
+
+
+def filled(cfg: JobConfig, side_mm: float | None = None) -> tuple[JobConfig, Thickness]:
+    """``cfg`` with the tiles' margin, the plate's thickness and the web left null filled in, and the thickness's why.
+
+    The thickness for plates of longest side ``side_mm`` (None: as the config alone knows it,
+    :func:`guessed_side_mm`). ``plate.label`` stays as it is (the plan fills it in). The plan calls it
+    (:func:`stencil_cad.plan.plan.planned`), and a mural's cost for the plates it tiles.
+    """
+    cfg = with_margin(cfg)
+    thickness = job_thickness(cfg, side_mm)
+    return with_thickness(cfg, thickness), thickness
 
 
 def _thickness_for(

@@ -6,7 +6,7 @@ import enum
 
 from pydantic import Field, model_validator
 
-from .base import StrictModel, null_reads_as
+from .base import StrictModel
 
 
 class Side(str, enum.Enum):
@@ -69,11 +69,10 @@ TILE_MARGIN_MM = 4.0
 class OutlineConfig(StrictModel):
     """Plate outline, margin around the picture and the asymmetric key."""
 
-    margin_mm: float = Field(
-        PLATE_MARGIN_MM,
+    margin_mm: float | None = Field(
+        None,
         ge=3.0,
         le=100.0,
-        json_schema_extra={"anyOf": [{"type": "number"}, {"type": "null"}], "default": None},
         description=(
             "Solid border of the plate around the picture area on every side, in mm. Range [3, 100]. "
             "The plate rests on the wall's ledge with it, and the bottom border carries the label. "
@@ -81,9 +80,6 @@ class OutlineConfig(StrictModel):
             "plates are solid a spray halo past their tile already and carry the label in that band."
         ),
     )
-
-    # A job fills null in for its tiles (JobConfig); alone, a plate's border.
-    _margin_default = null_reads_as("margin_mm", PLATE_MARGIN_MM)
 
     corner_radius_mm: float = Field(
         4.0,
@@ -127,17 +123,28 @@ class OutlineConfig(StrictModel):
         ),
     )
 
+    @property
+    def border_mm(self) -> float:
+        """The plate's solid border in mm: ``margin_mm``, or for null a plate's (:data:`PLATE_MARGIN_MM`).
+
+        A job's plan fills null in for its tiles (:func:`stencil_cad.plan.plan.planned`, with
+        :func:`stencil_cad.config.job.job_margin`), so a planned outline reads the job's border here;
+        an outline alone (a test, the card's own) reads a plate's.
+        """
+        return PLATE_MARGIN_MM if self.margin_mm is None else self.margin_mm
+
     @model_validator(mode="after")
     def _check(self) -> OutlineConfig:
-        if self.corner_radius_mm > self.margin_mm:
+        m = self.border_mm
+        if self.corner_radius_mm > m:
             raise ValueError(
-                f"corner_radius_mm must be ≤ margin_mm ({self.margin_mm} mm) so the corner never cuts the "
+                f"corner_radius_mm must be ≤ margin_mm ({m} mm) so the corner never cuts the "
                 f"picture, got {self.corner_radius_mm}"
             )
-        if self.margin_mm - 2.0 * self.label_gap_mm < 1.0:
+        if m - 2.0 * self.label_gap_mm < 1.0:
             raise ValueError(
                 f"label_gap_mm must leave a label area ≥ 1 mm high in the margin: margin_mm - 2 * label_gap_mm "
-                f"= {self.margin_mm - 2.0 * self.label_gap_mm:g} mm (margin_mm {self.margin_mm}, "
+                f"= {m - 2.0 * self.label_gap_mm:g} mm (margin_mm {m}, "
                 f"label_gap_mm {self.label_gap_mm})"
             )
         for i, k in enumerate(self.keys):

@@ -383,7 +383,9 @@ def plate_specs(
                 n = int(round(EXPECTED_FILL * full_per_mm2 * core))
                 open_mm2 = EXPECTED_OPEN * core
                 edge = 2.0 * math.sqrt(math.pi * open_mm2 * n)
-            out.append(PlateSpec(name, k + 1, area, perimeter, cfg.plate.thickness_mm, n, open_mm2, edge))
+            out.append(
+                PlateSpec(name, k + 1, area, perimeter, cfg.plate.planned_thickness_mm, n, open_mm2, edge)
+            )
     return out
 
 
@@ -392,7 +394,7 @@ def wall_specs(grid: TileGrid, cfg: JobConfig) -> list[WallSpec]:
     from ..outline import offset_outline
 
     oc, wc = cfg.plate.outline, cfg.wall
-    depth = float(wc.pocket_depth(cfg.plate.thickness_mm))
+    depth = float(wc.pocket_depth(cfg.plate.planned_thickness_mm))
     out = []
     walls = wall_tiles(grid)
     for t in grid.tiles:
@@ -436,7 +438,7 @@ def posts_print(cfg: JobConfig, grid: TileGrid, n: int, rates: Rates = GENERIC_R
     plan = post_plan(cfg, grid)
     if plan is None:
         return 0.0, 0.0
-    t = cfg.plate.thickness_mm
+    t = cfg.plate.planned_thickness_mm
     one = math.pi * (plan.radius_mm**2 * plan.height_mm + plan.pin_radius_mm**2 * t)
     layers = math.ceil((plan.height_mm + t) / LAYER_MM - 1e-6)
     lines = n * one / (LAYER_MM * SHEET_LINE_MM * rates.sheet_speed(rates.solid_mm_s)) * rates.plate_slowdown
@@ -474,9 +476,10 @@ def making_cost(
     Returns:
         The figures for the manifest's ``cost`` section.
     """
+    from ..config.job import filled
     from .posts import sag_side_mm
 
-    cfg = cfg.fit_plate_thickness(sag_side_mm(grid, cfg))
+    cfg = filled(cfg, sag_side_mm(grid, cfg))[0]
     laser = cfg.stipple.process.record.method is Method.cut
     rates = rates_for(cfg.bed)
     plates = plate_specs(grid, cfg, layers, dotsets)

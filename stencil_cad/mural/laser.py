@@ -122,7 +122,7 @@ def laser_stand(cfg: JobConfig, grid: TileGrid) -> list[CutPart] | None:
     pocket = offset_outline(w, h, oc, wc.clearance_mm)
     parts = [
         CutPart("frame_base", n, stock, outer, (opening,)),
-        CutPart("frame_top", 1, float(cfg.plate.thickness_mm), outer, (pocket,)),
+        CutPart("frame_top", 1, cfg.plate.planned_thickness_mm, outer, (pocket,)),
     ]
     plan = post_plan(cfg, grid)
     if plan is not None:

@@ -141,19 +141,22 @@ def post_plan(cfg: JobConfig, grid: TileGrid) -> PostPlan | None:
     if not grid.tiled or cfg.mode.value != "soft":
         return None
     height = min(cfg.standoff.walls_mm)
-    return PostPlan(post_pitch_mm(cfg), POST_RADIUS_MM + shade_reach_mm(cfg), height)
+    pitch = post_pitch_mm(cfg) if grid.post_pitch_mm is None else grid.post_pitch_mm
+    return PostPlan(pitch, POST_RADIUS_MM + shade_reach_mm(cfg), height)
 
 
 def post_pitch_mm(cfg: JobConfig) -> float:
     """The targets' spacing: :data:`SINGLE_LAYER_POST_PITCH_MM` where the plate may be one FDM layer, else :data:`POST_PITCH_MM`.
 
-    One layer where the process fills the thickness in and the label needs no floor (an engraving
-    needs two layers).
+    One layer where the job fills the thickness in (``cfg`` is the maker's: its
+    :attr:`~stencil_cad.config.job.JobConfig.fills_thickness`) and the label needs no floor (an
+    engraving needs two layers). The tiling asks it once and keeps it
+    (:attr:`~stencil_cad.mural.tiling.TileGrid.post_pitch_mm`): the plan's config has the thickness filled in.
     """
     single = (
         cfg.stipple.process.record.method is Method.extrude
         and job_label(cfg) is not LabelMode.engrave
-        and cfg.thickness_fill.filled
+        and cfg.fills_thickness
     )
     return SINGLE_LAYER_POST_PITCH_MM if single else POST_PITCH_MM
 

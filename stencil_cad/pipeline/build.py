@@ -26,7 +26,7 @@ from ..names import part_file
 from ..output import plain as _plain
 from ..plan import tiles
 from ..plan.names import part_stem, part_wall_stems
-from ..plan.plan import Plan, labelled
+from ..plan.plan import Plan, unplanned
 from ..record import Run
 
 if TYPE_CHECKING:
@@ -421,7 +421,9 @@ def _build_wall(task: PartTask) -> PartResult:
     w, h = task.size_mm
     if task.standoff_mm is None:
         raise ValueError(f"{stem}: a wall task needs its stand-off height")
-    wm = wall_mod.build_wall(w, h, cfg.plate.outline, cfg.wall, cfg.plate.thickness_mm, task.standoff_mm)
+    wm = wall_mod.build_wall(
+        w, h, cfg.plate.outline, cfg.wall, cfg.plate.planned_thickness_mm, task.standoff_mm
+    )
     wm, wall_notches = registration.notch_wall(wm, task.lines, w, cfg.wall.finger_slot_mm)
     wcheck = wall_mod.check_wall(wm)
     bb = wcheck["bbox"]
@@ -450,7 +452,7 @@ def check_template(run: Run) -> None:
     from .. import cad
 
     try:
-        run.template = cad.check_plate_template(labelled(run.cfg).plate)
+        run.template = cad.check_plate_template(unplanned(run.cfg).plate)
     except ValueError as exc:
         raise UserError(f"plate.template: {exc}") from None
     if run.template["builtin"]:
@@ -472,7 +474,7 @@ def try_template(run: Run) -> None:
     from .. import cad
     from ..model import DotSet
 
-    cfg = labelled(run.cfg)
+    cfg = unplanned(run.cfg)
     w = cfg.size.width_mm
     h = cfg.size.height_mm or w
     r = cfg.stipple.hole_floor_mm

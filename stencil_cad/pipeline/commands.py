@@ -17,7 +17,7 @@ from ..names import (
     part_file,
 )
 from ..plan.names import CARD_JSON, card_stems
-from ..plan.plan import labelled
+from ..plan.plan import unplanned
 from ..record import Run
 from .build import PartTask, build_part
 from .manifest import finish
@@ -37,7 +37,7 @@ def _card_parts(
 ) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """Build, check and export the card's plate and its walls (one per stand-off) as a job's parts are built.
 
-    ``cfg`` is the job's config with its label filled in (:func:`stencil_cad.plan.plan.labelled`).
+    ``cfg`` is the job's config with its plate values filled in (:func:`stencil_cad.plan.plan.unplanned`).
 
     Returns:
         ``(check, walls)``: the plate's solid check and the walls' manifest rows.
@@ -119,7 +119,7 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
     from .. import outline
     from ..testcard import layout as card_mod
 
-    cfg = labelled(run.cfg)
+    cfg = unplanned(run.cfg)
     try:
         card = card_mod.card_layout(cfg, standoffs_mm)
     except ValueError as exc:

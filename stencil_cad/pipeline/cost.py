@@ -62,10 +62,12 @@ def dry_run(cfg: JobConfig) -> list[str]:
     Raises:
         UserError: The image cannot be read, or a part does not fit the bed.
     """
+    from ..config.job import with_margin
     from ..plan import tiles
     from ..plan.plan import labelled
 
-    cfg = labelled(cfg)  # the label the job fills in: a mural's posts and plates follow it
+    # The label and the tiles' margin the job fills in: a mural's tiles, posts and plates follow them.
+    cfg = with_margin(labelled(cfg))
     picture = load_picture(cfg)
     shape = picture.shape
     grid, plan = tiles.plan(cfg, picture.width_mm, picture.height_mm, shape[0] * shape[1])

@@ -60,7 +60,7 @@ from ..figures import CostFigures
 from ..interrupts import CancelToken
 from ..model import DotSet, Layers, Picture
 from ..plan.cans import can_names
-from ..plan.plan import Plan, capped, designed, painted, planned, primed, repainted
+from ..plan.plan import Plan, capped, designed, painted, planned, primed, refilled, repainted
 from ..record import Run
 from .decompose import plates_of
 
@@ -360,10 +360,8 @@ def start_design(cfg: JobConfig, cache: PreviewCache) -> tuple[str, float]:
 
 def _job_plan(cfg: JobConfig, plan: Plan) -> Plan:
     """The job's plan as its plate-design trials read it: its own grid, the thickness its tiling asks, the primer chosen, the holes capped."""
-    from ..mural.posts import sag_side_mm
-
-    fitted = cfg.fit_plate_thickness(sag_side_mm(plan.grid, cfg))
-    return capped(repainted(replace(plan, cfg=fitted.model_copy(update={"decompose": plan.cfg.decompose}))))
+    job = refilled(plan, cfg)
+    return capped(repainted(replace(job, cfg=job.cfg.model_copy(update={"decompose": plan.cfg.decompose}))))
 
 
 def _design(

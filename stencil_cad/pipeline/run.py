@@ -15,6 +15,7 @@ import numpy as np
 from .. import mural
 from ..command_table import command as command_named
 from ..config import ComputeConfig, JobConfig, Mode
+from ..config.job import filled, with_margin
 from ..errors import UserError
 from ..exchange.png import png_bytes
 from ..figures import ComputeFigures, MuralFigures, PictureFigures
@@ -259,8 +260,10 @@ def run_decompose(run: Run, picture: Picture) -> tuple[JobConfig, list[Path]]:
 
     Its plan is the primer alone: a mostly dark picture is decomposed primed with its dark colour.
     """
-    save_config(run, run.cfg)
-    resolved, primer = dark_primed(run.cfg, picture)
+    # The plate values left null as the config alone fills them in: no tiling is planned.
+    cfg = filled(run.cfg)[0]
+    save_config(run, cfg)
+    resolved, primer = dark_primed(cfg, picture)
     stage_decompose(run, resolved, picture, primer)
     return resolved, finish(run, resolved, "decompose", saved_plan(run, None, run.cfg, primer))
 
@@ -268,6 +271,7 @@ def run_decompose(run: Run, picture: Picture) -> tuple[JobConfig, list[Path]]:
 def _planned(cfg: JobConfig, picture: Picture) -> MuralFigures:
     """The job's tiling as planned before any work: what :func:`tiles.plan_line` prints and where it runs."""
     shape = picture.shape
+    cfg = with_margin(cfg)  # the tiles' margin the job fills in: the tiling follows it
     return tiles.plan(cfg, picture.width_mm, picture.height_mm, shape[0] * shape[1])[1]
 
 

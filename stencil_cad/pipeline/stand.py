@@ -52,7 +52,9 @@ def write_post(
     """Build, check and write the job's post (every post is the same); its figures."""
     from ..cad import post as post_mod
 
-    model = post_mod.build_post(plan.radius_mm, plan.height_mm, plan.pin_radius_mm, cfg.plate.thickness_mm)
+    model = post_mod.build_post(
+        plan.radius_mm, plan.height_mm, plan.pin_radius_mm, cfg.plate.planned_thickness_mm
+    )
     stem = POST_STEM
     with run.out.open_path(part_file(stem, ".step")) as p:
         post_mod.post_step(model, p)

@@ -244,7 +244,7 @@ def choose_plates(run: Run, plan: Plan, layers: Layers, picture: Picture | None)
         direct = direct_pair(cfg, share)
 
         def score(w: str, g: float, refined: bool) -> float:
-            design = with_design(cfg, w, g)
+            design = with_design(plan, w, g)
             return round(
                 _trial_score(
                     run, design, layers, picture_mm, picture, grid, refined=refined, paints=plan.paints

@@ -36,8 +36,10 @@ if TYPE_CHECKING:
 
     from ..config.job import JobConfig
     from ..config.spray import SprayConfig
+    from ..config.thickness import Thickness
 
 __all__ = [
+    "Fills",
     "Plan",
     "capped",
     "designed",
@@ -46,12 +48,34 @@ __all__ = [
     "plate_figures",
     "planned",
     "primed",
+    "refilled",
     "repainted",
+    "unplanned",
     "whole",
     "with_design",
 ]
 
 log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Fills:
+    """What the plan filled in of the plate values the maker's config left null, and why.
+
+    The config keeps them null (:mod:`stencil_cad.config.job`: :func:`~stencil_cad.config.job.job_margin`,
+    :func:`~stencil_cad.config.job.job_thickness`, :func:`~stencil_cad.config.job.job_web` say what a job
+    fills in); the plan's config has them filled, and this record says how, so a decision taken later
+    (a lower wall, :func:`designed`) fits them again.
+
+    Attributes:
+        thickness: The plate's thickness and why: filled in for the plates the tiling plans (its side
+            and sag), or as the maker gave it.
+        web_left: Whether the maker left ``stipple.web_mm`` null: the web follows the thickness (a
+            plate of one layer takes a wider one, :func:`stencil_cad.config.job.job_web`).
+    """
+
+    thickness: Thickness
+    web_left: bool
 
 
 @dataclass(frozen=True)
@@ -68,6 +92,8 @@ class Plan:
         primer: The primer the job chose for a mostly dark picture (``#rrggbb``), or None: the config's.
         paints: The layers' paints and each layer's spray settings (:func:`painted`), or None
             before the plan knows them.
+        fills: The plate values the plan filled in and why (:func:`planned`), or None where the
+            config is taken as it is (:func:`whole`: the plate-design trials, tests).
     """
 
     cfg: JobConfig
@@ -76,6 +102,7 @@ class Plan:
     plate: PlateFigures | None = None
     primer: str | None = None
     paints: Paints | None = None
+    fills: Fills | None = None
 
     @property
     def sprays(self) -> list[SprayConfig]:
@@ -104,10 +131,12 @@ def whole(cfg: JobConfig, picture_mm: tuple[float, float], paints: Paints | None
 
 
 def planned(cfg: JobConfig, picture_mm: tuple[float, float], work_px: int) -> tuple[Plan, MuralFigures]:
-    """The plan before any work: the tiling for the bed and the plate thickness it asks for.
+    """The plan before any work: the tiling for the bed and the plate values it asks for.
 
-    The config chose a thickness for the plate size it knew (:meth:`JobConfig.fit_plate_thickness`);
-    the picture's height and the mural's tiles are known now.
+    What the maker left null for the job is filled in here, in order: the label
+    (:func:`labelled`), the tiles' margin (:func:`stencil_cad.config.job.job_margin`: the tiling
+    follows it), then, for the plates the tiling plans, the plate's thickness and the one-layer web
+    (:func:`stencil_cad.config.job.filled`; :attr:`Plan.fills` says how, figure ``plate`` why).
 
     Args:
         cfg: The maker's config.
@@ -120,14 +149,43 @@ def planned(cfg: JobConfig, picture_mm: tuple[float, float], work_px: int) -> tu
     Raises:
         UserError: A part cannot fit the bed.
     """
+    from ..config.job import filled, with_margin
     from ..mural.posts import sag_side_mm
     from .tiles import plan as plan_tiles
 
-    cfg = labelled(cfg)
+    cfg = with_margin(labelled(cfg))
     grid, fig = plan_tiles(cfg, *picture_mm, work_px)
     side = sag_side_mm(grid, cfg)
-    fitted = cfg.fit_plate_thickness(side)
-    return Plan(fitted, grid, picture_mm, plate_figures(fitted, side)), fig
+    fitted, thickness = filled(cfg, side)
+    fills = Fills(thickness, cfg.stipple.web_mm is None)
+    return Plan(fitted, grid, picture_mm, plate_figures(thickness, side), fills=fills), fig
+
+
+def refilled(plan: Plan, cfg: JobConfig) -> Plan:
+    """``plan`` with a maker's config ``cfg``, its plate values filled in for the plan's tiling as :func:`planned` fills them.
+
+    The label stays as ``cfg`` has it. The preview's plate-design trials run the job's own config on
+    the preview's tiling with it.
+    """
+    from ..config.job import filled, with_margin
+    from ..mural.posts import sag_side_mm
+
+    cfg = with_margin(cfg)
+    fitted, thickness = filled(cfg, sag_side_mm(plan.grid, cfg))
+    return replace(plan, cfg=fitted, fills=Fills(thickness, cfg.stipple.web_mm is None))
+
+
+def unplanned(cfg: JobConfig) -> JobConfig:
+    """``cfg`` with every plate value its maker left null filled in as the config alone can tell, no tiling planned.
+
+    The label (:func:`labelled`), the tiles' margin, and the thickness for the plate's longest side
+    as the config knows it (:func:`stencil_cad.config.job.guessed_side_mm`) with the web that follows
+    it. For the commands that plan no tiling: the calibration card, a plate template's check, the
+    ``decompose`` command's saved config; a job plans its plates (:func:`planned`).
+    """
+    from ..config.job import filled
+
+    return filled(labelled(cfg))[0]
 
 
 def labelled(cfg: JobConfig) -> JobConfig:
@@ -144,11 +202,10 @@ def labelled(cfg: JobConfig) -> JobConfig:
     return cfg.model_copy(update={"plate": cfg.plate.model_copy(update={"label": job_label(cfg)})})
 
 
-def plate_figures(cfg: JobConfig, side_mm: float) -> PlateFigures:
-    """Figure ``plate``: ``cfg``'s plate thickness and why, for plates of longest side ``side_mm``."""
-    fill = cfg.thickness_fill
+def plate_figures(fill: Thickness, side_mm: float) -> PlateFigures:
+    """Figure ``plate``: the plate's thickness and why (:attr:`Fills.thickness`), for plates of longest side ``side_mm``."""
     return PlateFigures(
-        thickness_mm=cfg.plate.thickness_mm,
+        thickness_mm=fill.thickness_mm,
         filled=fill.filled,
         side_mm=round(side_mm, 1),
         sag_mm=round(fill.sag_mm, 3) if fill.filled else None,
@@ -199,31 +256,41 @@ def designed(plan: Plan, windows: str, standoff_mm: float) -> Plan:
 
     A filled-in thickness chosen again for a lower wall gives figure ``plate`` anew (same side).
     """
-    cfg = with_design(plan.cfg, windows, standoff_mm)
+    cfg, fills = _design(plan, windows, standoff_mm)
     if cfg is plan.cfg:
         return plan
     plate = plan.plate
-    if plate is not None and plate.thickness_mm != cfg.plate.thickness_mm:
-        plate = plate_figures(cfg, plate.side_mm)
+    if plate is not None and fills is not None and plate.thickness_mm != cfg.plate.thickness_mm:
+        plate = plate_figures(fills.thickness, plate.side_mm)
     # The design's sprays: resolved again should the design spray otherwise.
-    return repainted(replace(plan, cfg=cfg, plate=plate))
+    return repainted(replace(plan, cfg=cfg, plate=plate, fills=fills))
 
 
-def with_design(cfg: JobConfig, windows: str, standoff_mm: float) -> JobConfig:
-    """``cfg`` with its plates' windows and its wall's stand-off set (the stand-off still marked as the job's).
+def with_design(plan: Plan, windows: str, standoff_mm: float) -> JobConfig:
+    """``plan``'s config with its plates' windows and its wall's stand-off set (the stand-off still marked as the job's).
 
-    A filled-in plate thickness is chosen again for a wall lower than the process's: the plate may
-    sag only a share of its stand-off (:mod:`stencil_cad.config.thickness`).
+    A plate thickness the plan filled in (:attr:`Plan.fills`) is chosen again for a wall lower than
+    the process's: the plate may sag only a share of its stand-off (:mod:`stencil_cad.config.thickness`).
     """
+    return _design(plan, windows, standoff_mm)[0]
+
+
+def _design(plan: Plan, windows: str, standoff_mm: float) -> tuple[JobConfig, Fills | None]:
+    """``(config, fills)`` of :func:`with_design`: the config and how its plate values were filled in."""
+    from ..config.job import job_thickness, with_thickness
     from ..config.stipple import Windows
 
+    cfg, fills = plan.cfg, plan.fills
     if windows != cfg.stipple.windows.value:
         cfg = cfg.model_copy(update={"stipple": cfg.stipple.model_copy(update={"windows": Windows(windows)})})
     if standoff_mm == cfg.standoff.design_mm:
-        return cfg
+        return cfg, fills
     cfg = cfg.with_standoff(standoff_mm)
-    fill = cfg.thickness_fill
-    return cfg.fit_plate_thickness(fill.side_mm, standoff_mm) if fill.filled else cfg
+    if fills is None or not fills.thickness.filled:
+        return cfg, fills
+    left = cfg.model_copy(update={"plate": cfg.plate.model_copy(update={"thickness_mm": None})})
+    thickness = job_thickness(left, fills.thickness.side_mm, standoff_mm)
+    return with_thickness(cfg, thickness, fills.web_left), replace(fills, thickness=thickness)
 
 
 def painted(

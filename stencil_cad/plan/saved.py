@@ -85,9 +85,14 @@ def config_digest(cfg: JobConfig) -> str:
     """SHA-256 of ``cfg``'s sections that plan the job (all but ``compute``, ``export`` and ``name``).
 
     Input files count by name: the same job run from another folder (the studio's job, its zip
-    unpacked elsewhere) has the same plan.
+    unpacked elsewhere) has the same plan. The plate values left null count as the config alone
+    fills them in (:func:`stencil_cad.config.job.filled`, a function of the config): so the digest of a
+    config as given is the one earlier versions, which filled them in when parsing, wrote in the
+    plans they saved.
     """
-    data = {k: _names(v) for k, v in cfg.model_dump().items() if k not in _NOT_PLANNED}
+    from ..config.job import filled
+
+    data = {k: _names(v) for k, v in filled(cfg)[0].model_dump().items() if k not in _NOT_PLANNED}
     return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()
 
 

@@ -83,15 +83,19 @@ class SprayGeometry:
         """The geometry of a job: its first (design) stand-off unless another is given.
 
         Args:
-            job_cfg: The :class:`~stencil_cad.config.JobConfig`.
+            job_cfg: The :class:`~stencil_cad.config.JobConfig`: the plan's, its plate thickness filled in
+                (a config not planned: the thickness it fills in for the plate size it knows).
             standoff_mm: A stand-off in mm. Defaults to the job's design stand-off
                 (``JobConfig.standoff.design_mm``), the one the tone calibration designs the dots for.
 
         Returns:
             The geometry.
         """
+        from ..config.job import job_thickness
+
         g = float(job_cfg.standoff.design_mm if standoff_mm is None else standoff_mm)
-        return cls(standoff_mm=g, plate_thickness_mm=float(job_cfg.plate.thickness_mm))
+        # The plan's thickness; a config not planned (a calibration alone, a test): the one it fills in.
+        return cls(standoff_mm=g, plate_thickness_mm=job_thickness(job_cfg).thickness_mm)
 
     @classmethod
     def for_job(cls, job_cfg, standoff_mm: float | None = None) -> SprayGeometry | None:

@@ -264,7 +264,7 @@ def _wall_band(job_cfg: JobConfig) -> tuple[np.ndarray, float, float]:
             )
     # The band under the wall: from the opening (picture area + opening margin) to the outline.
     inner = wc.opening_margin_mm
-    band_outer = oc.margin_mm + wc.clearance_mm + wc.wall_thickness_mm
+    band_outer = oc.border_mm + wc.clearance_mm + wc.wall_thickness_mm
     if band_outer - inner < MARKER_MM + 2.0:
         raise ValueError(
             f"the wall's band ({band_outer - inner:.1f} mm) is too narrow for the card's {MARKER_MM:g} mm markers "
@@ -345,7 +345,7 @@ def card_layout(job_cfg: JobConfig, standoffs_mm: list[float] | None = None) -> 
         dots=dots,
         features=tuple(features),
         footprints=tuple(foots),
-        plate_thickness_mm=float(job_cfg.plate.thickness_mm),
+        plate_thickness_mm=job_cfg.plate.planned_thickness_mm,
         sheet_mm=sheet,
         band_mm=(inner, band_outer),
     )

@@ -38,5 +38,5 @@ def test_the_benchmarks_fdm_config_is_the_one_an_image_job_runs_with(tmp_path):
     job = api.load_config({}, image=tmp_path / "logo.png")
 
     assert cfg.chooses_standoff and job.chooses_standoff
-    assert cfg.thickness_fill == job.thickness_fill
+    assert cfg.plate.thickness_mm is None and job.plate.thickness_mm is None
     assert cfg.model_dump(exclude={"name"}) == job.model_dump(exclude={"name"})

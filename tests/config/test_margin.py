@@ -6,7 +6,7 @@ import pytest
 
 from stencil_cad import mural
 from stencil_cad.config.io import parse_config
-from stencil_cad.config.job import parse_overrides
+from stencil_cad.config.job import job_margin, parse_overrides, with_margin
 from stencil_cad.config.outline import PLATE_MARGIN_MM, TILE_MARGIN_MM
 from stencil_cad.outline import label_region
 
@@ -15,32 +15,37 @@ def job(**data):
     return parse_config(data, source="test")
 
 
+def margin(cfg):
+    """The margin the plan fills in for ``cfg`` (the config keeps null)."""
+    return with_margin(cfg).plate.outline.margin_mm
+
+
 def test_a_mural_wider_than_the_bed_takes_the_tiles_margin():
     cfg = job(size={"width_mm": 600}, bed="prusa_mk4")
-    assert cfg.plate.outline.margin_mm == TILE_MARGIN_MM
-    assert job(size={"width_mm": 150}).plate.outline.margin_mm == PLATE_MARGIN_MM
-    assert job(size={"width_mm": 600}).plate.outline.margin_mm == PLATE_MARGIN_MM  # no bed: one plate
+    assert cfg.plate.outline.margin_mm is None  # the config keeps null: the plan fills it in
+    assert margin(cfg) == job_margin(cfg) == TILE_MARGIN_MM
+    assert margin(job(size={"width_mm": 150})) == PLATE_MARGIN_MM
+    assert margin(job(size={"width_mm": 600})) == PLATE_MARGIN_MM  # no bed: one plate
     # Given, or a hard stencil's (its cut-outs leave no solid band for the label), it stays.
     given = job(size={"width_mm": 600}, bed="prusa_mk4", plate={"outline": {"margin_mm": 8}})
-    assert given.plate.outline.margin_mm == 8
-    assert (
-        job(size={"width_mm": 600}, bed="prusa_mk4", mode="hard").plate.outline.margin_mm == PLATE_MARGIN_MM
-    )
+    assert margin(given) == 8
+    assert with_margin(given) is given
+    assert margin(job(size={"width_mm": 600}, bed="prusa_mk4", mode="hard")) == PLATE_MARGIN_MM
     # An outline the tiles' margin cannot take keeps the plate's.
     round_corners = job(size={"width_mm": 600}, bed="prusa_mk4", plate={"outline": {"corner_radius_mm": 6}})
-    assert round_corners.plate.outline.margin_mm == PLATE_MARGIN_MM
+    assert margin(round_corners) == PLATE_MARGIN_MM
 
 
 def test_the_bed_given_later_fills_the_margin_again():
     cfg = job(size={"width_mm": 600})
-    assert cfg.plate.outline.margin_mm == PLATE_MARGIN_MM
-    assert parse_overrides(cfg, bed="prusa_mk4").plate.outline.margin_mm == TILE_MARGIN_MM
+    assert margin(cfg) == PLATE_MARGIN_MM
+    assert margin(parse_overrides(cfg, bed="prusa_mk4")) == TILE_MARGIN_MM
     kept = job(size={"width_mm": 600}, plate={"outline": {"margin_mm": 10}})
-    assert parse_overrides(kept, bed="prusa_mk4").plate.outline.margin_mm == 10
+    assert margin(parse_overrides(kept, bed="prusa_mk4")) == 10
 
 
 def test_tiles_plates_shrink_by_the_margin_they_no_longer_need():
-    tiles = job(size={"width_mm": 600}, bed="prusa_mk4")
+    tiles = with_margin(job(size={"width_mm": 600}, bed="prusa_mk4"))
     wide = job(size={"width_mm": 600}, bed="prusa_mk4", plate={"outline": {"margin_mm": PLATE_MARGIN_MM}})
     a, b = mural.plan_tiles(600, 400, tiles), mural.plan_tiles(600, 400, wide)
     assert a.tiles[0].part_size == b.tiles[0].part_size  # the same tiles, halo and wall opening
@@ -51,7 +56,7 @@ def test_tiles_plates_shrink_by_the_margin_they_no_longer_need():
 
 
 def test_the_label_rises_into_the_solid_band_below_the_holes():
-    outline = job(size={"width_mm": 600}, bed="prusa_mk4").plate.outline
+    outline = with_margin(job(size={"width_mm": 600}, bed="prusa_mk4")).plate.outline
     g = outline.label_gap_mm
     x0, y0, x1, y1 = label_region(160.0, 210.0, outline)
     assert (y0, y1) == pytest.approx((-TILE_MARGIN_MM + g, -g))

@@ -4,7 +4,7 @@ import pytest
 
 from stencil_cad.config import JobConfig
 from stencil_cad.config.io import default_yaml, parse_config
-from stencil_cad.config.job import parse_overrides
+from stencil_cad.config.job import filled, job_thickness, parse_overrides, with_thickness
 from stencil_cad.config.stipple import Process
 from stencil_cad.config.thickness import (
     LABEL_FLOOR_MM,
@@ -86,8 +86,8 @@ def test_too_large_for_any_sheet_says_so():
 @pytest.mark.parametrize("width", [20.0, 150.0, 240.0, 400.0, 1000.0])
 def test_every_filled_thickness_holds_the_default_label(process, width):
     cfg = parse_config({"stipple": {"process": process.value}, "size": {"width_mm": width}}, source="test")
-    assert cfg.thickness_fill.filled
-    assert cfg.plate.label_depth_mm <= cfg.plate.thickness_mm - LABEL_FLOOR_MM
+    assert cfg.plate.thickness_mm is None and job_thickness(cfg).filled
+    assert cfg.plate.label_depth_mm <= job_thickness(cfg).thickness_mm - LABEL_FLOOR_MM
 
 
 def test_an_engraved_label_keeps_the_fdm_plate_at_two_layers():
@@ -97,21 +97,22 @@ def test_an_engraved_label_keeps_the_fdm_plate_at_two_layers():
 
 
 def test_a_deeper_label_raises_the_filled_thickness():
-    cfg = parse_config({"plate": {"label_depth_mm": 1.0}}, source="test")
+    cfg = filled(parse_config({"plate": {"label_depth_mm": 1.0}}, source="test"))[0]
     assert cfg.plate.thickness_mm == pytest.approx(1.2)  # 1.0 + the 0.2 mm floor in whole 0.3 mm layers
-    assert "label" in cfg.thickness_fill.reason
+    assert "label" in job_thickness(parse_config({"plate": {"label_depth_mm": 1.0}}, source="test")).reason
 
 
 def test_default_job_fills_in_by_the_picture_and_margins():
     cfg = JobConfig()
-    assert cfg.plate.thickness_mm == 0.9
-    assert cfg.thickness_fill.side_mm == pytest.approx(150.0 + 2 * cfg.plate.outline.margin_mm)
+    assert cfg.plate.thickness_mm is None  # the config keeps null: the plan fills it in
+    assert filled(cfg)[0].plate.thickness_mm == 0.9
+    assert job_thickness(cfg).side_mm == pytest.approx(150.0 + 2 * filled(cfg)[0].plate.outline.margin_mm)
     tall = parse_config({"size": {"width_mm": 150.0, "height_mm": 300.0}}, source="test")
-    assert tall.plate.thickness_mm == pytest.approx(2.7)  # 320 mm side
+    assert filled(tall)[0].plate.thickness_mm == pytest.approx(2.7)  # 320 mm side
     # A mural's plates are tiles that fit the bed: the bed's side bounds the plate's.
     mural = parse_config({"size": {"width_mm": 1000.0}, "bed": "prusa_mini"}, source="test")
-    assert mural.thickness_fill.side_mm == pytest.approx(180.0)
-    assert mural.plate.thickness_mm == 0.9
+    assert job_thickness(mural).side_mm == pytest.approx(180.0)
+    assert filled(mural)[0].plate.thickness_mm == 0.9
 
 
 def test_explicit_thickness_is_kept():
@@ -119,21 +120,22 @@ def test_explicit_thickness_is_kept():
         data = {"plate": {"thickness_mm": t, "label": "none"}, "size": {"width_mm": 1000.0}}
         cfg = parse_config(data, source="test")
         assert cfg.plate.thickness_mm == t
-        assert not cfg.thickness_fill.filled
-        assert cfg.fit_plate_thickness(400.0) is cfg
+        assert not job_thickness(cfg).filled
+        assert filled(cfg, 400.0)[0].plate.thickness_mm == t
         assert parse_overrides(cfg, bed="prusa_xl").plate.thickness_mm == t
 
 
 def test_fit_to_the_planned_plates_and_overrides_fill_again():
     cfg = JobConfig()
-    big = cfg.fit_plate_thickness(310.0)
+    big, fill = filled(cfg, 310.0)
     assert big.plate.thickness_mm == pytest.approx(2.4)
-    assert big.thickness_fill.side_mm == 310.0
-    assert big.fit_plate_thickness(170.0).plate.thickness_mm == 0.9
-    # A filled value is filled again for the new bed, not kept as if given.
+    assert fill.side_mm == 310.0
+    assert filled(cfg, 170.0)[0].plate.thickness_mm == 0.9
+    # A filled value stays null in the config: a new bed fills it in again, not kept as if given.
     wide = parse_config({"size": {"width_mm": 1000.0}}, source="test")
-    assert wide.plate.thickness_mm > 3.0
-    assert parse_overrides(wide, bed="prusa_mini").plate.thickness_mm == 0.9
+    assert filled(wide)[0].plate.thickness_mm > 3.0
+    assert parse_overrides(wide, bed="prusa_mini").plate.thickness_mm is None
+    assert filled(parse_overrides(wide, bed="prusa_mini"))[0].plate.thickness_mm == 0.9
 
 
 def test_template_leaves_the_thickness_to_the_process():
@@ -145,9 +147,12 @@ def test_a_plate_template_keeps_its_own_thickness(tmp_path):
     template = tmp_path / "my_plate.py"
     template.write_text("THICKNESS_MM = 2.0\n")
     cfg = JobConfig.model_validate({"plate": {"template": str(template)}})
-    assert "thickness_mm" not in cfg.plate.model_fields_set  # the template's THICKNESS_MM stands
-    assert not cfg.thickness_fill.filled
-    assert "template" in cfg.thickness_fill.reason
+    assert not cfg.fills_thickness and not job_thickness(cfg).filled
+    assert "template" in job_thickness(cfg).reason
+    # Filled in for the plan's readers, but not set: the template's THICKNESS_MM stands.
+    planned = filled(cfg)[0]
+    assert planned.plate.thickness_mm is not None
+    assert "thickness_mm" not in planned.plate.model_fields_set
 
 
 def test_a_plate_of_one_layer_keeps_the_wider_web_its_first_layer_prints():
@@ -156,25 +161,25 @@ def test_a_plate_of_one_layer_keeps_the_wider_web_its_first_layer_prints():
     preset = Process.fdm.record.web_mm
     assert one > preset
     mural = parse_overrides(parse_config({"size": {"width_mm": 600.0}}, source="test"), bed="prusa_mk4")
-    assert mural.stipple.resolved_web_mm == preset  # its plates are not one layer until fitted to the posts
-    thin = mural.fit_plate_thickness(90.0)
+    assert mural.stipple.web_mm is None and mural.stipple.resolved_web_mm == preset
+    thin = filled(mural, 90.0)[0]
     assert thin.plate.thickness_mm == pytest.approx(0.3)
     assert thin.stipple.resolved_web_mm == one
     assert thin.design_rules(100.0, 100.0).web_mm == one
-    # Fitted again to a thicker plate, the filled web follows; a new bed fills both in again.
-    assert thin.fit_plate_thickness(400.0).stipple.resolved_web_mm == preset
-    assert parse_overrides(thin, seed=2).stipple.resolved_web_mm == preset
+    # Filled again for a thicker plate (the maker's web left null), the web follows.
+    assert with_thickness(thin, job_thickness(mural, 400.0), web_left=True).stipple.resolved_web_mm == preset
+    assert with_thickness(thin, job_thickness(mural, 400.0), web_left=False).stipple.resolved_web_mm == one
     # Given, on a plate of one layer too: kept; a given 0.3 mm plate gets the one-layer web.
     given = parse_config(
         {"stipple": {"web_mm": 0.6}, "plate": {"thickness_mm": 0.3, "label": "none"}}, source="test"
     )
-    assert given.stipple.resolved_web_mm == 0.6
-    assert (
-        parse_config({"plate": {"thickness_mm": 0.3, "label": "none"}}, source="test").stipple.web_mm == one
-    )
+    assert filled(given)[0].stipple.resolved_web_mm == 0.6
+    one_layer = parse_config({"plate": {"thickness_mm": 0.3, "label": "none"}}, source="test")
+    assert one_layer.stipple.web_mm is None  # the config keeps null: the plan fills it in
+    assert filled(one_layer)[0].stipple.web_mm == one
     # SLA and thicker FDM plates keep their presets.
     sla = parse_config(
         {"stipple": {"process": "sla"}, "plate": {"thickness_mm": 0.3, "label": "none"}}, source="test"
     )
-    assert sla.stipple.resolved_web_mm == Process.sla.record.web_mm
+    assert filled(sla)[0].stipple.resolved_web_mm == Process.sla.record.web_mm
     assert JobConfig().stipple.resolved_web_mm == preset

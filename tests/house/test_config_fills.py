@@ -1,8 +1,9 @@
 """The config is schema: no wrap validator of ``config/job.py`` fills a value the job decides.
 
-A value left null for the job (``plate.label``) is filled in by a planning function
-(:mod:`stencil_cad.plan.plan`), not by the config's validators. The fills still in the config are
-listed here, by name, until they move; a new one fails.
+A value left null for the job (``plate.label``, ``plate.thickness_mm``, ``stipple.web_mm``,
+``plate.outline.margin_mm``) stays null in the parsed config and is filled in by a planning function
+(:mod:`stencil_cad.plan.plan`), not by the config's validators: ``config/job.py`` has no wrap
+validator, and its models no private attribute recording a fill.
 """
 
 from __future__ import annotations
@@ -14,14 +15,8 @@ import stencil_cad
 
 JOB = Path(stencil_cad.__file__).parent / "config" / "job.py"
 
-#: Wrap validators that still fill a value in (issue 47: to move into the plan), and why each stays.
-STILL_FILLING = {
-    # The thickness, with the one-layer web and the margin it reads: refitted for the tiling and the
-    # wall, and read as "filled in" by a mural's posts, so the plan needs its provenance first.
-    "_fill_thickness",
-    "_fill_web",
-    "_fill_margin",
-}
+#: Wrap validators that still fill a value in: none (the plan fills every value the job decides).
+STILL_FILLING: set[str] = set()
 
 
 def wrap_validators(source: str) -> list[str]:
@@ -57,3 +52,27 @@ def test_the_label_is_the_plans_to_fill():
     assert cfg.plate.label is None
     assert not any("label" in name for name in type(cfg).__private_attributes__)
     assert labelled(cfg).plate.label is not None
+
+
+def test_the_plate_values_are_the_plans_to_fill():
+    """Thickness, one-layer web and a soft mural's margin stay null when parsed; the plan fills them in."""
+    from stencil_cad.config.io import parse_config
+    from stencil_cad.config.outline import TILE_MARGIN_MM
+    from stencil_cad.plan.plan import planned
+
+    data = {"size": {"width_mm": 600}, "bed": "prusa_mk4", "plate": {"label": "emboss"}}
+    cfg = parse_config(data, source="test")
+    assert cfg.plate.thickness_mm is None
+    assert cfg.stipple.web_mm is None
+    assert cfg.plate.outline.margin_mm is None
+    assert set(type(cfg).__private_attributes__) == {"_standoff_chosen"}
+    plan, _ = planned(cfg, (600.0, 400.0), 1200 * 800)
+    assert plan.cfg.plate.outline.margin_mm == TILE_MARGIN_MM
+    assert plan.cfg.plate.thickness_mm == 0.3  # one layer between the posts
+    assert plan.cfg.stipple.web_mm == cfg.stipple.process.record.one_layer_web_mm
+    assert plan.fills is not None and plan.fills.thickness.filled and plan.fills.web_left
+    assert plan.plate is not None and plan.plate.filled
+    # The maker's values are kept as given.
+    given = parse_config({**data, "plate": {"label": "emboss", "thickness_mm": 0.6}}, source="test")
+    kept, _ = planned(given, (600.0, 400.0), 1200 * 800)
+    assert kept.cfg.plate.thickness_mm == 0.6 and kept.fills is not None and not kept.fills.thickness.filled

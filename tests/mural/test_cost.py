@@ -9,6 +9,7 @@ import pytest
 
 from stencil_cad import mural
 from stencil_cad.config import io as cfg_io
+from stencil_cad.config.job import filled, with_margin
 from stencil_cad.figures import CostFigures, Figures
 from stencil_cad.instructions import make
 from stencil_cad.model import DotSet
@@ -17,7 +18,8 @@ from stencil_cad.outline import plate_outline, polygon_area
 
 
 def job(**data):
-    return cfg_io.parse_config(data, source="test")
+    """A config with its plate values filled in as the config alone can tell (the plan fits them to the tiles)."""
+    return filled(cfg_io.parse_config(data, source="test"))[0]
 
 
 def _dots(rng, w, h, n, r=0.8):
@@ -117,12 +119,14 @@ def test_plan_estimate_needs_no_holes_and_is_within_reach_of_the_placed_ones():
 
 def test_filled_thickness_follows_the_tiles():
     """A thickness left to the process is chosen for the tiles' plates (thicker for bigger plates)."""
-    small = job(size={"width_mm": 100, "height_mm": 80}, stipple={"process": "fdm"})
-    big = job(size={"width_mm": 600, "height_mm": 400}, bed="prusa_mk4", stipple={"process": "fdm"})
-    a = cost.plate_specs(mural.plan_tiles(100, 80, small), small.fit_plate_thickness(100), 1)[0]
-    grid = mural.plan_tiles(600, 400, big)
-    side = max(max(mural.part_sizes(*t.size, big)["plate"]) for t in grid.tiles)
-    b = cost.plate_specs(grid, big.fit_plate_thickness(side), 1)[0]
+    small = cfg_io.parse_config({"size": {"width_mm": 100, "height_mm": 80}}, source="test")
+    big = cfg_io.parse_config(
+        {"size": {"width_mm": 600, "height_mm": 400}, "bed": "prusa_mk4"}, source="test"
+    )
+    a = cost.plate_specs(mural.plan_tiles(100, 80, small), filled(small, 100)[0], 1)[0]
+    grid = mural.plan_tiles(600, 400, with_margin(big))
+    side = max(max(mural.part_sizes(*t.size, with_margin(big))["plate"]) for t in grid.tiles)
+    b = cost.plate_specs(grid, filled(big, side)[0], 1)[0]
     assert b.thickness_mm >= a.thickness_mm
 
 

@@ -7,13 +7,18 @@ import pytest
 
 from stencil_cad import mural
 from stencil_cad.config import io as cfg_io
+from stencil_cad.config.job import filled
 from stencil_cad.mural import laser
 
 
 def job(**data):
-    return cfg_io.parse_config(
-        {"stipple": {"process": "laser"}, "view": {"distance_m": 3}, "bed": "xtool_s1", **data}, source="test"
-    )
+    """A laser mural's config with its plate values filled in as the config alone can tell."""
+    return filled(
+        cfg_io.parse_config(
+            {"stipple": {"process": "laser"}, "view": {"distance_m": 3}, "bed": "xtool_s1", **data},
+            source="test",
+        )
+    )[0]
 
 
 @pytest.mark.parametrize(

@@ -7,6 +7,7 @@ import pytest
 
 from stencil_cad import mural
 from stencil_cad.config import io as cfg_io
+from stencil_cad.config.job import filled
 from stencil_cad.config.thickness import column_side_mm, sag_mm
 from stencil_cad.model import DotSet
 from stencil_cad.mural import posts
@@ -98,20 +99,18 @@ def test_pin_holes_follow_the_holes():
 
 
 def test_posts_let_a_mural_plate_be_two_thin_layers():
-    cfg = job(size={"width_mm": 600})
-    grid = mural.plan_tiles(
-        600, 400, cfg.model_copy(update={"bed": cfg_io.parse_config({"bed": "prusa_mk4"}).bed})
-    )
+    cfg = job(size={"width_mm": 600}, bed="prusa_mk4", plate={"label": "engrave"})
+    grid = mural.plan_tiles(600, 400, cfg)
     assert grid.tiled
     side = mural.sag_side_mm(grid, cfg)
     assert side == pytest.approx(column_side_mm(posts.post_span_mm()))
-    fitted = cfg.fit_plate_thickness(side)
+    fitted = filled(cfg, side)[0]
     assert fitted.plate.thickness_mm == pytest.approx(0.4)  # two 0.2 mm layers
     # The panel between posts stays within the sag limit (5 % of the 10 mm stand-off).
     assert sag_mm(side, 0.4, cfg.stipple.process.record.sheet) <= 0.05 * 10.0
     # Without posts the same tiles' plates would have to be much thicker.
     whole = max(max(mural.part_sizes(*t.size, cfg)["plate"]) for t in grid.tiles)
-    assert cfg.fit_plate_thickness(whole).plate.thickness_mm >= 1.5
+    assert filled(cfg, whole)[0].plate.thickness_mm >= 1.5
 
 
 def test_a_site_keeps_clear_of_a_windows_edges_not_only_its_corners():
@@ -156,11 +155,12 @@ def test_posts_closer_together_let_a_plate_without_engraving_be_one_layer():
     grid = mural.plan_tiles(600, 400, embossed.model_copy(update={"bed": bed}))
     side = mural.sag_side_mm(grid, embossed)
     assert side == pytest.approx(column_side_mm(posts.post_span_mm(posts.SINGLE_LAYER_POST_PITCH_MM)))
-    assert embossed.fit_plate_thickness(side).plate.thickness_mm == pytest.approx(0.3)
+    assert filled(embossed, side)[0].plate.thickness_mm == pytest.approx(0.3)
     assert sag_mm(side, 0.3, embossed.stipple.process.record.sheet) <= 0.05 * 10.0
     # At the engraved plates' 90 mm the single layer would sag past the limit.
     wide = column_side_mm(posts.post_span_mm(posts.POST_PITCH_MM))
     assert sag_mm(wide, 0.3, embossed.stipple.process.record.sheet) > 0.05 * 10.0
-    assert engraved.fit_plate_thickness(
-        mural.sag_side_mm(grid, engraved)
-    ).plate.thickness_mm == pytest.approx(0.4)
+    engraved_grid = mural.plan_tiles(600, 400, engraved.model_copy(update={"bed": bed}))
+    assert filled(engraved, mural.sag_side_mm(engraved_grid, engraved))[
+        0
+    ].plate.thickness_mm == pytest.approx(0.4)

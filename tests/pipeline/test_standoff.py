@@ -12,7 +12,7 @@ from stencil_cad.model import Layers, Picture
 from stencil_cad.mural import TileGrid
 from stencil_cad.pipeline import standoff
 from stencil_cad.pipeline.standoff import WINDOW_SHARE, candidates, choose_plates, window_share, with_design
-from stencil_cad.plan.plan import painted, whole
+from stencil_cad.plan.plan import painted, planned, whole
 from stencil_cad.record import Run
 
 _SLA = {"stipple": {"process": "sla", "tone": "calibrated"}, "spray": {"calibrate": "spray_time"}}
@@ -82,10 +82,10 @@ def test_candidates_follow_what_the_config_leaves_to_the_job():
 
 
 def test_with_design_sets_windows_and_stand_off():
-    cfg = _cfg()
-    off = with_design(cfg, "off", 15.0)
+    plan = whole(_cfg(), (60.0, 60.0))
+    off = with_design(plan, "off", 15.0)
     assert off.stipple.windows.value == "off" and off.standoff.listed_mm == (15.0,) and off.chooses_standoff
-    assert with_design(cfg, "auto", 10.0) is cfg
+    assert with_design(plan, "auto", 10.0) is plan.cfg
 
 
 def _flat_layers(w_px: int = 120) -> tuple[Picture, Layers]:
@@ -381,11 +381,13 @@ def test_a_measured_cap_is_tried_at_the_stand_off_that_keeps_the_priors_blur(tmp
 
 
 def test_a_lower_wall_gets_a_plate_that_sags_within_its_share():
-    cfg = parse_config({"size": {"width_mm": 200.0}}, source="test")
-    assert cfg.thickness_fill.filled
-    low = with_design(cfg, "auto", 5.0)
+    plan, _ = planned(parse_config({"size": {"width_mm": 200.0}}, source="test"), (200.0, 200.0), 400 * 400)
+    cfg = plan.cfg
+    assert plan.fills is not None and plan.fills.thickness.filled
+    low = with_design(plan, "auto", 5.0)
     assert low.plate.thickness_mm > cfg.plate.thickness_mm  # 5 % of 5 mm, not of 10
-    assert with_design(cfg, "auto", 1.0).plate.thickness_mm == low.plate.thickness_mm  # the 5 mm floor
-    assert with_design(cfg, "auto", 15.0).plate.thickness_mm == cfg.plate.thickness_mm
+    assert with_design(plan, "auto", 1.0).plate.thickness_mm == low.plate.thickness_mm  # the 5 mm floor
+    assert with_design(plan, "auto", 15.0).plate.thickness_mm == cfg.plate.thickness_mm
     given = parse_config({"size": {"width_mm": 200.0}, "plate": {"thickness_mm": 1.2}}, source="test")
-    assert with_design(given, "auto", 5.0).plate.thickness_mm == 1.2
+    kept, _ = planned(given, (200.0, 200.0), 400 * 400)
+    assert with_design(kept, "auto", 5.0).plate.thickness_mm == 1.2
