@@ -94,7 +94,7 @@ def _default(cfg):
         "by_can": {k: round(float(v), 3) for k, v in (seen.scielab_by_can or {}).items()},
         "windows": cfg.stipple.windows.value,
         "standoff_mm": cfg.standoff.design_mm,
-        "thickness_mm": float(cfg.plate.thickness_mm),
+        "thickness_mm": cfg.plate.planned_thickness_mm,
     }
     return scores, (run_, cfg, pic, layers, sim, ref)
 

@@ -15,6 +15,7 @@ from .map import mural_map
 from .posts import (
     PostPlan,
     clear_post_sites,
+    post_pitch_mm,
     post_plan,
     post_sites,
     sag_side_mm,
@@ -67,6 +68,7 @@ __all__ = [
     "laser_stand",
     "PostPlan",
     "clear_post_sites",
+    "post_pitch_mm",
     "post_plan",
     "post_sites",
     "sag_side_mm",

@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable, Iterator
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
@@ -154,9 +154,10 @@ class TileGrid:
         y_edges: ``rows + 1`` grid-line y positions in mm, bottom to top.
         bed: The bed, or None.
         tiles: Row-major from the top-left (A1, A2, …, B1, …).
-        post_pitch_mm: The spacing the posts under a mural's plates aim at, mm, as the tiling chose it
-            from the maker's config (:func:`stencil_cad.mural.posts.post_pitch_mm`), or None for a
-            grid cut without a config (the posts then ask the config they are given).
+        post_pitch_mm: The spacing the posts under a mural's plates aim at, mm, as the job's plan chose
+            it from the maker's config (:func:`stencil_cad.plan.tiles.plan`, with
+            :func:`stencil_cad.mural.posts.post_pitch_mm`), or None for a grid cut alone (the posts
+            then ask the config they are given).
     """
 
     width_mm: float
@@ -313,14 +314,10 @@ def plan_tiles(width_mm: float, height_mm: float, cfg: JobConfig) -> TileGrid:
     Raises:
         UserError: No tiling fits the bed (naming the bed and the smallest part).
     """
-    from .posts import post_pitch_mm
-
     bed = resolve_bed(cfg.bed)
-    # Decided here, from the maker's config: whether the plan fills the thickness in for the posts.
-    pitch = post_pitch_mm(cfg)
 
     def grid(cols: int, rows: int, halo: float) -> TileGrid:
-        return replace(TileGrid.cut(width_mm, height_mm, cols, rows, halo, bed), post_pitch_mm=pitch)
+        return TileGrid.cut(width_mm, height_mm, cols, rows, halo, bed)
 
     if bed is None or bed.fits(*part_sizes(width_mm, height_mm, cfg)["wall"]):
         return grid(1, 1, 0.0)

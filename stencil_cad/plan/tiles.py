@@ -35,13 +35,17 @@ def plan(
 ) -> tuple[mural.TileGrid, MuralFigures]:
     """Tile the picture for the bed and check every part fits, before any work.
 
+    ``cfg`` is the maker's config with its label and margin filled in (:func:`stencil_cad.plan.plan.planned`).
+
     Returns:
         ``(grid, figures)``: the tiles and the plan for the manifest (bed, halo, part sizes, cost).
 
     Raises:
         UserError: A part cannot fit the bed.
     """
-    grid = mural.plan_tiles(width_mm, height_mm, cfg)
+    # The posts' spacing is decided here, from the maker's config: whether the plan fills the plate's
+    # thickness in (its config has it filled in, :func:`stencil_cad.plan.plan.planned`).
+    grid = replace(mural.plan_tiles(width_mm, height_mm, cfg), post_pitch_mm=mural.post_pitch_mm(cfg))
     layers = mural.plate_layers(cfg, grid)
     sizes = mural.check_fits_bed(grid, cfg)
     made = mural.making_cost(grid, cfg, layers)

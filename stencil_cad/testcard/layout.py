@@ -335,6 +335,11 @@ def card_layout(job_cfg: JobConfig, standoffs_mm: list[float] | None = None) -> 
     Raises:
         ValueError: More than three stand-offs, or hole radii/web that do not fit the card.
     """
+    from ..config.job import filled
+
+    # The card plans no tiling: its plate values as the config alone fills them in (the same config
+    # when they are filled in already, :func:`stencil_cad.plan.plan.unplanned`).
+    job_cfg = filled(job_cfg)[0]
     heights = _standoffs(job_cfg, standoffs_mm)
     dots, features = _card_holes(job_cfg.stipple)
     outer, inner, band_outer = _wall_band(job_cfg)

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from stencil_cad.config import JobConfig
+from stencil_cad.config.job import filled
 from stencil_cad.model import DotSet
 
 pytestmark = pytest.mark.slow
@@ -21,7 +22,7 @@ def test_stencil_plate_in_buildpart_sits_in_the_wall_without_overlap():
 
     from stencil_cad.cad.parts import StencilPlate, Wall
 
-    cfg = JobConfig()
+    cfg = filled(JobConfig())[0]  # the plate's thickness as a job of this config fills it in
     w, h = 60.0, 50.0
     dots = _dots(w, h)
     plate = StencilPlate(dots, w, h, cfg.plate)

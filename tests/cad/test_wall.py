@@ -48,7 +48,7 @@ def test_one_valid_solid_of_analytic_volume(default_wall):
     assert m.part.volume == pytest.approx(m.volume_mm3, rel=1e-6)
     # An independent oracle: frame of straight walls from the config's numbers.
     outline, wall = OutlineConfig(), WallConfig()
-    c, t, mg = wall.clearance_mm, wall.wall_thickness_mm, outline.margin_mm
+    c, t, mg = wall.clearance_mm, wall.wall_thickness_mm, outline.border_mm
     side = W + 2 * (mg + c + t)
     outer = side * side - (4 - math.pi) * (outline.corner_radius_mm + c + t) ** 2
     pocket = (W + 2 * (mg + c)) ** 2 - (4 - math.pi) * (outline.corner_radius_mm + c) ** 2

@@ -31,7 +31,7 @@ SIZES = [(150.0, 150.0), (150.0, 100.0), (80.0, 200.0)]
 def analytic_area(w, h, cfg, d=0.0):
     """Rounded rectangle plus tabs with two rounded corners each, offset by d."""
     r, rk = cfg.corner_radius_mm + d, cfg.key_corner_radius_mm + d
-    area = (w + 2 * (cfg.margin_mm + d)) * (h + 2 * (cfg.margin_mm + d)) - (4 - math.pi) * r * r
+    area = (w + 2 * (cfg.border_mm + d)) * (h + 2 * (cfg.border_mm + d)) - (4 - math.pi) * r * r
     for k in cfg.keys:
         cutout = (1 - math.pi / 4) * rk * rk
         below = rk - k.depth_mm  # part of the corner's square inside the plate's body
@@ -100,7 +100,7 @@ def test_ring_is_ccw_simple_and_continuous(w, h, d):
 def test_bbox_includes_margin_and_tabs(w, h):
     cfg = OutlineConfig()
     ring = plate_outline(w, h, cfg)
-    m = cfg.margin_mm
+    m = cfg.border_mm
     depth = {k.side: k.depth_mm for k in cfg.keys}
     lo, hi = ring.min(axis=0), ring.max(axis=0)
     assert lo[0] == pytest.approx(-m - depth.get(Side.left, 0.0))
@@ -113,7 +113,7 @@ def test_bbox_includes_margin_and_tabs(w, h):
 def test_picture_inside_outline_with_margin(w, h):
     cfg = OutlineConfig()
     ring = plate_outline(w, h, cfg)
-    assert min_clearance(rect(0, 0, w, h), ring) == pytest.approx(cfg.margin_mm, abs=1e-9)
+    assert min_clearance(rect(0, 0, w, h), ring) == pytest.approx(cfg.border_mm, abs=1e-9)
 
 
 @pytest.mark.parametrize("w,h", SIZES)
