@@ -87,7 +87,7 @@ def check(out: Path, bed: tuple[float, float] | None = None) -> dict:
     width, height = m["picture"]["width_mm"], m["picture"]["height_mm"]
     design = cfg.stipple.design_rules(width, height)
     rules = replace(design, hole_min_r_mm=min(design.hole_min_r_mm, HOLE_FLOOR_MM))
-    offset = cfg.stipple.resolved_hole_offset_mm
+    offset = cfg.stipple.sizes.hole_offset_mm
     same, union_rules, n_dxf, n_csv = True, "passed", 0, 0
     for i in range(layers):
         xy_all, r_all = [], []

@@ -380,7 +380,7 @@ def _settings_fields(cfg) -> dict:
         "spray_model": sp.model.value,
         "spray_time": sp.spray_time,
         "hole_min_r_mm": st.hole_floor_mm,
-        "web_mm": st.resolved_web_mm,
+        "web_mm": st.sizes.web_mm,
         "refine_iterations": cfg.refine.iterations,
     }
 

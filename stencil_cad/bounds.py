@@ -22,8 +22,9 @@ def max_dots(stipple_cfg, width_mm: float, height_mm: float) -> int:
         The bound (0 when no hole fits).
     """
     r = stipple_cfg.hole_floor_mm
-    d = 2.0 * r + stipple_cfg.resolved_web_mm
-    inset = stipple_cfg.resolved_edge_margin_mm + r
+    sizes = stipple_cfg.sizes
+    d = 2.0 * r + sizes.web_mm
+    inset = sizes.edge_margin_mm + r
     w, h = width_mm - 2.0 * inset, height_mm - 2.0 * inset
     if w < 0 or h < 0:
         return 0

@@ -37,8 +37,7 @@ def is_auto(cfg) -> bool:
 
 def hole_pitch_mm(cfg) -> float:
     """Centre spacing of the densest hole pattern in mm."""
-    st = cfg.stipple
-    return st.auto_spacing_factor * (2.0 * st.resolved_max_radius_mm + st.resolved_web_mm)
+    return cfg.stipple.densest_pitch_mm
 
 
 def working_mm_per_px(cfg) -> float:
@@ -62,4 +61,4 @@ def sim_mm_per_px(cfg) -> float | None:
         return None
     from .simulate import dot_sigma_mm
 
-    return float(dot_sigma_mm(cfg.stipple.resolved_radius_mm, cfg.spray.nozzle_height)) / PX_PER_SIGMA
+    return float(dot_sigma_mm(cfg.stipple.sizes.radius_mm, cfg.spray.nozzle_height)) / PX_PER_SIGMA

@@ -243,6 +243,16 @@ class JobConfig(StrictModel):
         """
         return self.plate.thickness_mm is None and self.plate.template is None
 
+    @property
+    def refined_max_radius_mm(self) -> float:
+        """The largest radius a refined hole may grow to, mm: ``refine.max_radius_factor`` times the hole floor, or the stippler's largest when larger.
+
+        The one place it is computed: the refinement's settings, a mural tile's refinement halo and
+        the plates' tone response read it.
+        """
+        st = self.stipple
+        return max(self.refine.max_radius_factor * st.hole_floor_mm, st.sizes.max_radius_mm)
+
     def design_rules(self, width_mm: float, height_mm: float, keepouts: Sequence = ()) -> DesignRules:
         """The job's hole design rules over a picture area (see :meth:`StippleConfig.design_rules`)."""
         return self.stipple.design_rules(width_mm, height_mm, keepouts)

@@ -21,6 +21,37 @@ def as_rect(k: Sequence[float]) -> tuple[float, float, float, float]:
 
 
 @dataclass(frozen=True)
+class HoleSizes:
+    """The sizes and spacings of a job's holes, all in mm: each ``stipple`` value as given, or its process's preset.
+
+    Made in one place, :attr:`stencil_cad.config.StippleConfig.sizes` (a null value read from the
+    process's record, :mod:`stencil_cad.config.process`); every reader outside the config reads it
+    there. The hole floor is :attr:`stencil_cad.config.StippleConfig.hole_floor_mm`, its one route.
+
+    Attributes:
+        radius_mm: The hole radius (the smallest with ``variable_radius``): ``radius_mm`` or the floor.
+        max_radius_mm: The largest radius the stippler draws: ``radius_mm`` unless ``variable_radius``,
+            then ``max_radius_mm`` or twice the radius.
+        web_mm: The least material between two holes: ``web_mm`` (as the plan filled it in for a plate
+            of one layer, :func:`stencil_cad.config.job.job_web`) or the process's.
+        edge_margin_mm: The least material between a hole and the picture's edge or a keep-out.
+        hole_offset_mm: The radius the process takes off each drawn hole (a plate draws it this much
+            larger when it compensates).
+    """
+
+    radius_mm: float
+    max_radius_mm: float
+    web_mm: float
+    edge_margin_mm: float
+    hole_offset_mm: float
+
+    @property
+    def window_web_mm(self) -> float:
+        """The web kept between a hole and a window: :attr:`web_mm` with the drawn holes' growth on top, so it holds as drawn."""
+        return self.web_mm + max(self.hole_offset_mm, 0.0)
+
+
+@dataclass(frozen=True)
 class DesignRules:
     """Design rules of one hole set, all in mm.
 

@@ -18,7 +18,7 @@ from pydantic import Field, field_validator, model_validator
 
 from .base import StrictModel
 from .process import PROCESSES, Process
-from .rules import HOLE_FLOOR_MM, DesignRules, as_rect
+from .rules import HOLE_FLOOR_MM, DesignRules, HoleSizes, as_rect
 
 log = logging.getLogger(__name__)
 
@@ -291,59 +291,44 @@ class StippleConfig(StrictModel):
             keepouts: Extra keep-out rectangles ``(x0, y0, x1, y1)`` in picture mm (for example
                 the label area the CAD stage chose), added to ``keepouts_mm``.
         """
+        sizes = self.sizes
         return DesignRules(
             hole_min_r_mm=self.hole_floor_mm,
-            web_mm=self.resolved_web_mm,
-            edge_margin_mm=self.resolved_edge_margin_mm,
+            web_mm=sizes.web_mm,
+            edge_margin_mm=sizes.edge_margin_mm,
             width_mm=float(width_mm),
             height_mm=float(height_mm),
             keepouts=tuple(as_rect(k) for k in self.keepouts_mm) + tuple(as_rect(k) for k in keepouts),
         )
 
     @property
-    def resolved_web_mm(self) -> float:
-        """Minimum web between holes in mm (given value or the process preset)."""
-        if self.web_mm is not None:
-            return float(self.web_mm)
-        return self.process.record.web_mm
-
-    def window_web_mm(self) -> float:
-        """The web kept between a hole and a window, in mm.
-
-        The plate draws each hole larger by the process's offset, so the web is kept with that
-        offset on top and holds as drawn.
-        """
-        return self.resolved_web_mm + max(self.resolved_hole_offset_mm, 0.0)
-
-    @property
-    def resolved_hole_offset_mm(self) -> float:
-        """Radius in mm the process takes off each drawn hole (given value or the process preset)."""
-        if self.hole_offset_mm is not None:
-            return float(self.hole_offset_mm)
-        return self.process.record.hole_offset_mm
-
-    @property
-    def resolved_edge_margin_mm(self) -> float:
-        """Margin to the picture border and keep-outs in mm (given value or the preset)."""
-        if self.edge_margin_mm is not None:
-            return float(self.edge_margin_mm)
-        return self.process.record.edge_margin_mm
-
-    @property
-    def resolved_radius_mm(self) -> float:
-        """Hole radius in mm (smallest radius with variable_radius)."""
-        if self.radius_mm is not None:
-            return float(self.radius_mm)
-        return self.hole_floor_mm
-
-    @property
-    def resolved_max_radius_mm(self) -> float:
-        """Largest hole radius in mm (equals the radius unless variable_radius is on)."""
+    def sizes(self) -> HoleSizes:
+        """The holes' sizes and spacings, each as given or its process's preset: the one place they are resolved."""
+        record = self.process.record
+        radius = float(self.radius_mm) if self.radius_mm is not None else self.hole_floor_mm
         if not self.variable_radius:
-            return self.resolved_radius_mm
-        if self.max_radius_mm is not None:
-            return float(self.max_radius_mm)
-        return 2.0 * self.resolved_radius_mm
+            largest = radius
+        elif self.max_radius_mm is not None:
+            largest = float(self.max_radius_mm)
+        else:
+            largest = 2.0 * radius
+        return HoleSizes(
+            radius_mm=radius,
+            max_radius_mm=largest,
+            web_mm=float(self.web_mm) if self.web_mm is not None else record.web_mm,
+            edge_margin_mm=float(self.edge_margin_mm)
+            if self.edge_margin_mm is not None
+            else record.edge_margin_mm,
+            hole_offset_mm=float(self.hole_offset_mm)
+            if self.hole_offset_mm is not None
+            else record.hole_offset_mm,
+        )
+
+    @property
+    def densest_pitch_mm(self) -> float:
+        """Centre spacing of the densest hole pattern, mm: ``auto_spacing_factor * (2 r_max + web)`` (:attr:`sizes`)."""
+        sizes = self.sizes
+        return self.auto_spacing_factor * (2.0 * sizes.max_radius_mm + sizes.web_mm)
 
     @model_validator(mode="after")
     def _cross_checks(self) -> StippleConfig:
@@ -354,8 +339,7 @@ class StippleConfig(StrictModel):
                 f"got {self.radius_mm}"
             )
         if self.variable_radius and self.max_radius_mm is not None:
-            if self.max_radius_mm < self.resolved_radius_mm:
-                raise ValueError(
-                    f"max_radius_mm must be ≥ radius_mm ({self.resolved_radius_mm} mm), got {self.max_radius_mm}"
-                )
+            radius = self.sizes.radius_mm
+            if self.max_radius_mm < radius:
+                raise ValueError(f"max_radius_mm must be ≥ radius_mm ({radius} mm), got {self.max_radius_mm}")
         return self

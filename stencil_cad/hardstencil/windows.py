@@ -56,7 +56,7 @@ def window_sizes(cfg: StippleConfig) -> tuple[float, float, float]:
     process (twice the hole floor; the web, at least 1 mm).
     """
     floor = cfg.hole_floor_mm
-    web = cfg.resolved_web_mm
+    web = cfg.sizes.web_mm
     return max(cfg.min_window_mm, 4.0 * (2.0 * floor + web)), 2.0 * floor, max(web, 1.0)
 
 

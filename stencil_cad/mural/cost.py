@@ -339,7 +339,7 @@ def _holes(cfg: JobConfig, r: np.ndarray) -> tuple[float, float]:
     st = cfg.stipple
     drawn = np.asarray(r, dtype=np.float64)
     if st.compensate and st.process.record.method is Method.extrude:
-        drawn = drawn + max(st.resolved_hole_offset_mm, 0.0)
+        drawn = drawn + max(st.sizes.hole_offset_mm, 0.0)
     return float(np.sum(np.pi * drawn**2)), float(np.sum(2.0 * np.pi * drawn))
 
 
@@ -361,7 +361,7 @@ def plate_specs(
     from ..outline import offset_outline
 
     st = cfg.stipple
-    d = st.auto_spacing_factor * (2.0 * st.resolved_max_radius_mm + st.resolved_web_mm)
+    d = st.densest_pitch_mm
     full_per_mm2 = 2.0 / (math.sqrt(3.0) * d * d)
     owners = [grid.owner(ds.xy_mm) for ds in dotsets] if dotsets is not None else None
     out = []

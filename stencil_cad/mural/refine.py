@@ -148,11 +148,10 @@ def refine_halo_mm(cfg: JobConfig, eye_sigma_mm: float) -> float:
     whose gradients read them), plus the edge margin and the largest hole (holes closer
     than that to the region's border are left out), plus three sigma of the eye filter.
     """
-    st = cfg.stipple
     return (
         2.0 * tiling.spray_halo_mm(cfg)
-        + st.resolved_edge_margin_mm
-        + 2.0 * max(st.resolved_max_radius_mm, cfg.refine.max_radius_factor * st.hole_floor_mm)
+        + cfg.stipple.sizes.edge_margin_mm
+        + 2.0 * cfg.refined_max_radius_mm
         + 3.0 * eye_sigma_mm
     )
 

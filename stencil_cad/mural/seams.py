@@ -82,7 +82,7 @@ def check_unions(cfg: JobConfig, grid: TileGrid, sets: dict[str, list[DotSet]]) 
     if not grid.tiled:
         return
     design = cfg.stipple.design_rules(grid.width_mm, grid.height_mm)
-    made_less = max(cfg.stipple.resolved_hole_offset_mm, 0.0)
+    made_less = max(cfg.stipple.sizes.hole_offset_mm, 0.0)
     offset = made_less if cfg.stipple.compensate else 0.0
     floor = design.with_any_floor()
     rules = {"asked": design, "made": floor, "drawn": replace(floor, web_mm=design.web_mm - 2.0 * offset)}

@@ -64,8 +64,8 @@ def stipple_halo_mm(cfg: JobConfig) -> float:
     """
     from ..resolution import hole_pitch_mm
 
-    st = cfg.stipple
-    return HALO_SPACINGS * hole_pitch_mm(cfg) + st.resolved_edge_margin_mm + 2.0 * st.resolved_max_radius_mm
+    sizes = cfg.stipple.sizes
+    return HALO_SPACINGS * hole_pitch_mm(cfg) + sizes.edge_margin_mm + 2.0 * sizes.max_radius_mm
 
 
 @dataclass(frozen=True)

@@ -405,8 +405,7 @@ def plan_cost(grid: TileGrid, cfg: JobConfig, layers: int, work_px: int) -> dict
     The hole count is the upper bound at full ink (every layer packed at the densest tone),
     the time an estimate from measured per-hole and per-pixel rates.
     """
-    st = cfg.stipple
-    d = st.auto_spacing_factor * (2.0 * st.resolved_max_radius_mm + st.resolved_web_mm)
+    d = cfg.stipple.densest_pitch_mm
     per_mm2 = 2.0 / (math.sqrt(3.0) * d * d)
     holes_max = int(per_mm2 * grid.width_mm * grid.height_mm * layers)
     # A laser-cut mural stands in a laser-cut frame (:mod:`.laser`): no printed wall.

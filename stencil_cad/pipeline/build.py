@@ -161,7 +161,7 @@ def _with_posts(
     """
     plan = mural.post_plan(cfg, grid)
     st = cfg.stipple
-    grow = max(st.resolved_hole_offset_mm, 0.0) if st.compensate else 0.0
+    grow = max(st.sizes.hole_offset_mm, 0.0) if st.compensate else 0.0
     out, counts = [], {}
     for k, t in enumerate(grid.tiles):
         shift = np.array(t.origin) - np.array(t.part_origin)

@@ -102,4 +102,4 @@ def cutout_spray(spray: SprayConfig) -> SprayConfig:
 def process_rules(cfg: JobConfig) -> dict[str, Any]:
     """The process's smallest cut feature and bridge, in mm, that hard mode segments with."""
     st = cfg.stipple
-    return {"min_feature_mm": 2 * st.hole_floor_mm, "bridge_min_mm": max(st.resolved_web_mm, 1.0)}
+    return {"min_feature_mm": 2 * st.hole_floor_mm, "bridge_min_mm": max(st.sizes.web_mm, 1.0)}

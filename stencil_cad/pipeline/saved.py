@@ -272,7 +272,7 @@ def check_rows(cfg: JobConfig, dotsets: list[DotSet], picture_mm: tuple[float, f
         if len(ds) > most:
             raise UserError(
                 f"{dots_name(i)}: {len(ds)} holes, but at most {most} holes of radius "
-                f"{cfg.stipple.hole_floor_mm:g} mm with {cfg.stipple.resolved_web_mm:g} mm webs fit "
+                f"{cfg.stipple.hole_floor_mm:g} mm with {cfg.stipple.sizes.web_mm:g} mm webs fit "
                 f"in {picture_mm[0]:.4g} × {picture_mm[1]:.4g} mm: the file is not this job's dots; re-run "
                 "`stencil-cad stipple` (or give the folder the file belongs to with --from)"
             )

@@ -107,7 +107,8 @@ def _stippled(
         for job, alpha, ds, w in zip(jobs, layers.alphas, sets, windows, strict=True)
     )
     sets = [
-        with_windows(ds, w.polygons, cfg.stipple.window_web_mm()) for ds, w in zip(sets, windows, strict=True)
+        with_windows(ds, w.polygons, cfg.stipple.sizes.window_web_mm)
+        for ds, w in zip(sets, windows, strict=True)
     ]
     return Stippled(sets, tones, windows, dark_end)
 
@@ -202,7 +203,7 @@ def layer_windows(
     s = layers.mm_per_px
     keepouts = cfg.stipple.design_rules(*picture_mm).keepouts
     cores = [t.core for t in tiling.tiles]
-    clear = cfg.stipple.hole_floor_mm + cfg.stipple.resolved_web_mm
+    clear = cfg.stipple.hole_floor_mm + cfg.stipple.sizes.web_mm
     # Each window's edge is pulled in by its own paint's blur (spray.profile).
     jobs = jobs or [cfg] * layers.count
     windows = [

@@ -233,7 +233,7 @@ def capped(plan: Plan) -> Plan:
         cfg.stipple.dots,
         most,
         cfg.stipple.hole_floor_mm,
-        cfg.stipple.resolved_web_mm,
+        cfg.stipple.sizes.web_mm,
         plan.picture_mm[0],
         plan.picture_mm[1],
         most,

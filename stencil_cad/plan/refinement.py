@@ -86,7 +86,7 @@ def refine_holes(
     run.figures.refine = _plain(report)
     from ..stipple.windows import with_windows
 
-    return [with_windows(ds, w, cfg.stipple.window_web_mm()) for ds, w in zip(out, windows, strict=True)]
+    return [with_windows(ds, w, cfg.stipple.sizes.window_web_mm) for ds, w in zip(out, windows, strict=True)]
 
 
 def refine_settings(cfg: JobConfig) -> Any:
@@ -94,12 +94,12 @@ def refine_settings(cfg: JobConfig) -> Any:
     from ..simulate import scielab
     from ..stipple import refine
 
-    rc, st = cfg.refine, cfg.stipple
+    rc = cfg.refine
     return refine.RefineSettings(
         iterations=rc.iterations,
         step_mm=rc.step_mm,
         radius_step_mm=rc.radius_step_mm,
-        max_radius_mm=max(rc.max_radius_factor * st.hole_floor_mm, st.resolved_max_radius_mm),
+        max_radius_mm=cfg.refined_max_radius_mm,
         add_remove_every=rc.add_remove_every,
         eye_sigma_mm=scielab.smallest_sigma_mm(cfg.view.distance_m),
         layer_weight=rc.layer_weight,

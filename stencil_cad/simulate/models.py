@@ -227,7 +227,7 @@ class PaperSprayer(Sprayer):
 
     def rough_blur_mm(self, job_cfg) -> float:
         """The dot of the stippler's smallest hole."""
-        return float(paper.dot_sigma_mm(job_cfg.stipple.resolved_radius_mm, job_cfg.spray.nozzle_height))
+        return float(paper.dot_sigma_mm(job_cfg.stipple.sizes.radius_mm, job_cfg.spray.nozzle_height))
 
     def halo_mm(self, job_cfg, tail) -> float:
         """Where the largest hole's Gaussian at the largest spray time the calibration may choose falls to ``tail``."""
@@ -235,7 +235,7 @@ class PaperSprayer(Sprayer):
         a = sp.spray_time
         if job_cfg.chooses_spray_time:
             a = min(100.0, a * max(paper.A_FACTORS))
-        sigma = float(paper.dot_sigma_mm(job_cfg.stipple.resolved_max_radius_mm, sp.nozzle_height))
+        sigma = float(paper.dot_sigma_mm(job_cfg.stipple.sizes.max_radius_mm, sp.nozzle_height))
         return sigma * math.sqrt(2.0 * math.log(max(a, 1.0) / tail))
 
 
@@ -334,7 +334,7 @@ class PhysicalSprayer(Sprayer):
 
     def halo_mm(self, job_cfg, tail) -> float:
         """Five sigmas of the widest blur past the largest hole's edge, and a millimetre (``tail`` unused)."""
-        return float(5.0 * self.widest_blur_mm(job_cfg) + job_cfg.stipple.resolved_max_radius_mm + 1.0)
+        return float(5.0 * self.widest_blur_mm(job_cfg) + job_cfg.stipple.sizes.max_radius_mm + 1.0)
 
 
 #: The one map from ``spray.model`` to the code that sprays. A new model is a class above and its entry here

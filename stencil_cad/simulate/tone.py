@@ -503,17 +503,15 @@ def plate_response(job_cfg: JobConfig, amount: float) -> ToneCurve:
     """
     from .physical import SprayGeometry
 
-    st = job_cfg.stipple
-    r1 = st.resolved_max_radius_mm
-    if job_cfg.refine.enabled:
-        r1 = max(r1, job_cfg.refine.max_radius_factor * st.hole_floor_mm)
+    sizes = job_cfg.stipple.sizes
+    r1 = job_cfg.refined_max_radius_mm if job_cfg.refine.enabled else sizes.max_radius_mm
     return tone_response(
-        st.resolved_radius_mm,
-        st.resolved_web_mm,
+        sizes.radius_mm,
+        sizes.web_mm,
         job_cfg.spray,
         spray_time=amount,
         max_radius_mm=r1,
-        spacing_factor=st.auto_spacing_factor,
+        spacing_factor=job_cfg.stipple.auto_spacing_factor,
         geometry=SprayGeometry.for_job(job_cfg),
     )
 
@@ -536,13 +534,14 @@ def response_tone_for(
     from .physical import SprayGeometry
 
     st = job_cfg.stipple
+    sizes = st.sizes
     return choose_tone(
         alpha,
         mm_per_px,
-        st.resolved_radius_mm,
-        st.resolved_web_mm,
+        sizes.radius_mm,
+        sizes.web_mm,
         job_cfg.spray,
-        max_radius_mm=st.resolved_max_radius_mm,
+        max_radius_mm=sizes.max_radius_mm,
         spacing_factor=st.auto_spacing_factor,
         opacity_threshold=st.opacity_threshold,
         geometry=SprayGeometry.of_job(job_cfg),

@@ -23,7 +23,7 @@ __all__ = ["drawn_dots", "drawn_radii", "made_dots"]
 
 def _room(xy: np.ndarray, r: np.ndarray, size_mm: tuple[float, float], cfg: StippleConfig) -> np.ndarray:
     """How far each hole may grow before it breaks the edge margin or a keep-out, mm (≥ 0)."""
-    margin = cfg.resolved_edge_margin_mm
+    margin = cfg.sizes.edge_margin_mm
     w, h = size_mm
     x, y = xy[:, 0], xy[:, 1]
     room = np.minimum.reduce([x, w - x, y, h - y]) - r - margin
@@ -82,10 +82,11 @@ def drawn_dots(dots: DotSet, cfg: StippleConfig, size_mm: tuple[float, float]) -
         return dots
     xy = np.asarray(dots.xy_mm, dtype=np.float64).reshape(-1, 2)
     asked = np.asarray(dots.r_mm, dtype=np.float64)
-    offset = cfg.resolved_hole_offset_mm
+    sizes = cfg.sizes
+    offset = sizes.hole_offset_mm
     # The web rule holds for the plate as made: the process makes each web wider by twice the
     # offset, so the drawn web may be that much under web_mm (every hole then grows by the offset).
-    r = drawn_radii(xy, asked, offset, cfg.resolved_web_mm - 2.0 * max(offset, 0.0))
+    r = drawn_radii(xy, asked, offset, sizes.web_mm - 2.0 * max(offset, 0.0))
     grown = r > asked
     r[grown] = np.minimum(r[grown], asked[grown] + _room(xy, asked, size_mm, cfg)[grown])
     return replace(dots, r_mm=r)
@@ -94,7 +95,7 @@ def drawn_dots(dots: DotSet, cfg: StippleConfig, size_mm: tuple[float, float]) -
 def made_dots(dots: DotSet, cfg: StippleConfig, size_mm: tuple[float, float]) -> DotSet:
     """The holes the process makes from the asked ``dots``: drawn (compensated or not) less the offset."""
     drawn = drawn_dots(dots, cfg, size_mm)
-    offset = cfg.resolved_hole_offset_mm
+    offset = cfg.sizes.hole_offset_mm
     if offset == 0:
         return drawn
     return replace(drawn, r_mm=np.maximum(drawn.r_mm - offset, 0.0))

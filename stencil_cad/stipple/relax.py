@@ -261,7 +261,7 @@ def auto_dot_count(t: np.ndarray, r_of_t: np.ndarray, mm_per_px: float, cfg: Sti
     Returns:
         The number of dots (0 when the layer has no ink).
     """
-    r_max = cfg.resolved_max_radius_mm
+    r_max = cfg.sizes.max_radius_mm
     d = _densest_spacing_mm(cfg)
     per_mm2 = 2.0 / (math.sqrt(3.0) * d * d)
     ink = float((t * (r_max / r_of_t) ** 2).sum()) * mm_per_px * mm_per_px
@@ -270,13 +270,13 @@ def auto_dot_count(t: np.ndarray, r_of_t: np.ndarray, mm_per_px: float, cfg: Sti
 
 def _densest_spacing_mm(cfg: StippleConfig) -> float:
     """Centre spacing of the densest pattern, ``auto_spacing_factor * (2 r_max + web)``."""
-    return cfg.auto_spacing_factor * (2.0 * cfg.resolved_max_radius_mm + cfg.resolved_web_mm)
+    return cfg.densest_pitch_mm
 
 
 def _spacing_mm(t: np.ndarray, r_of_t: np.ndarray, cfg: StippleConfig) -> np.ndarray:
     """The hexagonal hole spacing of :func:`auto_dot_count`'s density at each pixel (inf without ink)."""
     with np.errstate(divide="ignore"):
-        return _densest_spacing_mm(cfg) / np.sqrt(t * (cfg.resolved_max_radius_mm / r_of_t) ** 2)
+        return _densest_spacing_mm(cfg) / np.sqrt(t * (cfg.sizes.max_radius_mm / r_of_t) ** 2)
 
 
 def tone_map(
@@ -467,7 +467,7 @@ def place_holes(
         figures.
     """
     h, w = alpha.shape
-    r1 = cfg.resolved_max_radius_mm
+    r1 = cfg.sizes.max_radius_mm
     fixed_xy_mm = np.zeros((0, 2)) if fixed_xy_mm is None else np.asarray(fixed_xy_mm, dtype=np.float64)
 
     t, mask, r_of_t = _tone_and_radius(alpha, density, mm_per_px, cfg, rules, origin_mm)
@@ -520,8 +520,8 @@ def _upsample_inputs(alpha, density, free, k: int):
 
 def _tone_and_radius(alpha, density, mm_per_px, cfg: StippleConfig, rules: DesignRules, origin_mm):
     """The open-area tone (0 where the rules cannot fit a hole), the ink mask and the radius per pixel."""
-    r0 = cfg.resolved_radius_mm
-    r1 = cfg.resolved_max_radius_mm
+    sizes = cfg.sizes
+    r0, r1 = sizes.radius_mm, sizes.max_radius_mm
     t, mask = tone_map(alpha, cfg, density)
     # sqrt keeps the packing feasible at every tone: spacing scales as r / sqrt(t) >= r_max.
     r_of_t = r0 + (r1 - r0) * np.sqrt(t) if r1 > r0 else np.full(t.shape, r0)

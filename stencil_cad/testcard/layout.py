@@ -196,11 +196,12 @@ def _card_holes(st: StippleConfig) -> tuple[DotSet, list[Feature]]:
     Raises:
         ValueError: The job's largest hole does not fit the single-hole rows.
     """
-    r0, r1 = st.resolved_radius_mm, st.resolved_max_radius_mm
+    sizes = st.sizes
+    r0, r1 = sizes.radius_mm, sizes.max_radius_mm
     radii = sorted({round(r0, 3), round((r0 + r1) / 2.0, 3), round(r1, 3)})
     if r1 > 2.5:
         raise ValueError(f"the card's single-hole rows take radii up to 2.5 mm, the job uses {r1:g} mm")
-    web = st.resolved_web_mm
+    web = sizes.web_mm
     xy: list[np.ndarray] = [np.array([WINDOW_C])]
     rr: list[np.ndarray] = [np.array([WINDOW_R])]
     features = [

@@ -161,19 +161,19 @@ def test_a_plate_of_one_layer_keeps_the_wider_web_its_first_layer_prints():
     preset = Process.fdm.record.web_mm
     assert one > preset
     mural = parse_overrides(parse_config({"size": {"width_mm": 600.0}}, source="test"), bed="prusa_mk4")
-    assert mural.stipple.web_mm is None and mural.stipple.resolved_web_mm == preset
+    assert mural.stipple.web_mm is None and mural.stipple.sizes.web_mm == preset
     thin = filled(mural, 90.0)[0]
     assert thin.plate.thickness_mm == pytest.approx(0.3)
-    assert thin.stipple.resolved_web_mm == one
+    assert thin.stipple.sizes.web_mm == one
     assert thin.design_rules(100.0, 100.0).web_mm == one
     # Filled again for a thicker plate (the maker's web left null), the web follows.
-    assert with_thickness(thin, job_thickness(mural, 400.0), web_left=True).stipple.resolved_web_mm == preset
-    assert with_thickness(thin, job_thickness(mural, 400.0), web_left=False).stipple.resolved_web_mm == one
+    assert with_thickness(thin, job_thickness(mural, 400.0), web_left=True).stipple.sizes.web_mm == preset
+    assert with_thickness(thin, job_thickness(mural, 400.0), web_left=False).stipple.sizes.web_mm == one
     # Given, on a plate of one layer too: kept; a given 0.3 mm plate gets the one-layer web.
     given = parse_config(
         {"stipple": {"web_mm": 0.6}, "plate": {"thickness_mm": 0.3, "label": "none"}}, source="test"
     )
-    assert filled(given)[0].stipple.resolved_web_mm == 0.6
+    assert filled(given)[0].stipple.sizes.web_mm == 0.6
     one_layer = parse_config({"plate": {"thickness_mm": 0.3, "label": "none"}}, source="test")
     assert one_layer.stipple.web_mm is None  # the config keeps null: the plan fills it in
     assert filled(one_layer)[0].stipple.web_mm == one
@@ -181,5 +181,5 @@ def test_a_plate_of_one_layer_keeps_the_wider_web_its_first_layer_prints():
     sla = parse_config(
         {"stipple": {"process": "sla"}, "plate": {"thickness_mm": 0.3, "label": "none"}}, source="test"
     )
-    assert filled(sla)[0].stipple.resolved_web_mm == Process.sla.record.web_mm
-    assert JobConfig().stipple.resolved_web_mm == preset
+    assert filled(sla)[0].stipple.sizes.web_mm == Process.sla.record.web_mm
+    assert JobConfig().stipple.sizes.web_mm == preset

@@ -137,22 +137,22 @@ def hybrid_layer():
     cfg = sla().model_copy(update={"tone": "linear"})
     alpha = ramp_with_island()
     win = find_windows(alpha, S, cfg)
-    left = hole_alpha(alpha, win.mask, S, cfg.hole_floor_mm + cfg.resolved_web_mm)
+    left = hole_alpha(alpha, win.mask, S, cfg.hole_floor_mm + cfg.sizes.web_mm)
     ds = stipple_layer(left, S, cfg, np.random.default_rng(3))
-    return with_windows(ds, win.polygons, cfg.resolved_web_mm), cfg, win
+    return with_windows(ds, win.polygons, cfg.sizes.web_mm), cfg, win
 
 
 def test_holes_keep_the_web_from_the_window_and_the_rules_hold():
     ds, cfg, win = hybrid_layer()
     assert len(ds) > 50 and len(ds.windows) == 1 and ds.hole_count == len(ds) + 1
-    assert window_clearance(ds.xy_mm, ds.r_mm, ds.windows, cfg.resolved_web_mm).all()
+    assert window_clearance(ds.xy_mm, ds.r_mm, ds.windows, cfg.sizes.web_mm).all()
     check_rules(ds.xy_mm, ds.r_mm, cfg.design_rules(W * S, H * S))
     assert ds.r_mm.min() >= 0.5
     # A hole moved onto the window's edge is caught.
     (outer, _) = ds.windows[0]
     xy = np.vstack([ds.xy_mm, outer[:1]])
     r = np.append(ds.r_mm, 0.5)
-    assert not window_clearance(xy, r, ds.windows, cfg.resolved_web_mm)[-1]
+    assert not window_clearance(xy, r, ds.windows, cfg.sizes.web_mm)[-1]
 
 
 @pytest.fixture(scope="module")

@@ -257,13 +257,13 @@ def test_halo_covers_the_spray():
     from stencil_cad.simulate.physical import spread_sigma_mm
 
     cfg = job(spray={"model": "paper"})
-    sigma = float(dot_sigma_mm(cfg.stipple.resolved_max_radius_mm, cfg.spray.nozzle_height))
+    sigma = float(dot_sigma_mm(cfg.stipple.sizes.max_radius_mm, cfg.spray.nozzle_height))
     halo = mural.spray_halo_mm(cfg)
     assert np.exp(-(halo**2) / (2 * sigma**2)) <= mural.HALO_TAIL * 1.0001
     # The physical model (the default): 5 sigma of the tallest wall's blur past the largest hole.
     cfg = job(wall={"standoff_mm": [6.0, 15.0]})
     sigma = spread_sigma_mm(cfg.spray, 15.0)
-    assert mural.spray_halo_mm(cfg) >= 5.0 * sigma + cfg.stipple.resolved_max_radius_mm
+    assert mural.spray_halo_mm(cfg) >= 5.0 * sigma + cfg.stipple.sizes.max_radius_mm
 
 
 def test_seam_density_of_a_global_stipple():
@@ -313,7 +313,7 @@ def test_auto_resolution_follows_the_holes(tmp_path):
     assert resolution.working_mm_per_px(cfg) == pytest.approx(pitch / 3)
     from stencil_cad.simulate import dot_sigma_mm
 
-    sigma = float(dot_sigma_mm(cfg.stipple.resolved_radius_mm, cfg.spray.nozzle_height))
+    sigma = float(dot_sigma_mm(cfg.stipple.sizes.radius_mm, cfg.spray.nozzle_height))
     assert resolution.sim_mm_per_px(cfg) == pytest.approx(sigma / 2)
     far = job(size={"width_mm": 1200, "px_per_mm": "auto"}, stipple=COARSE, view={"distance_m": 10})
     assert resolution.working_mm_per_px(far) == pytest.approx(10_000 * np.radians(1 / 60))
@@ -361,7 +361,7 @@ def test_small_mural_end_to_end(tmp_path):
     assert mu["union_check_rules"] == "passed"
     # The tiles' plates are compensated like a one-plate job's, and the simulation sprays them as made.
     assert mu["compensated"]
-    offset = cfg.stipple.resolved_hole_offset_mm
+    offset = cfg.stipple.sizes.hole_offset_mm
     assert all(0 < p["drawn_minus_asked_mm"] <= offset + 1e-4 for p in m["build"]["plates"])
     sim = mu["simulation"]
     # In register, the tiled mural is the global simulation (tested above): its scores are the job's.

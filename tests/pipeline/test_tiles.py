@@ -42,7 +42,7 @@ def _seam_pairs(cfg, grid):
 def test_holes_at_a_seam_grow_and_keep_the_web_on_the_plates_as_made():
     cfg, grid = _grid()
     asked, rules = _seam_pairs(cfg, grid)
-    offset = cfg.stipple.resolved_hole_offset_mm
+    offset = cfg.stipple.sizes.hole_offset_mm
     assert offset > 0
     (drawn,), (made,) = build.drawn_and_made(cfg, [asked], grid)
     # Each hole grows by the offset, the pairs across the seam too (their made web is the minimum).
@@ -61,7 +61,7 @@ def test_without_compensation_the_plates_are_drawn_as_asked():
     asked, _ = _seam_pairs(cfg, grid)
     (drawn,), (made,) = build.drawn_and_made(cfg, [asked], grid)
     assert drawn is asked
-    np.testing.assert_allclose(made.r_mm, asked.r_mm - cfg.stipple.resolved_hole_offset_mm)
+    np.testing.assert_allclose(made.r_mm, asked.r_mm - cfg.stipple.sizes.hole_offset_mm)
 
 
 def test_a_web_broken_across_a_seam_is_refused():

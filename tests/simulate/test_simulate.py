@@ -403,7 +403,7 @@ def test_calibrated_stipple_sprays_closer_than_linear():
     stc = StippleConfig(process="sla", edge_margin_mm=0.0, tone="linear")
     lin = stipple_layer(alpha, s, stc, np.random.default_rng(0))
     choice = cal.choose_tone(
-        alpha, s, stc.resolved_radius_mm, stc.resolved_web_mm, spray, spacing_factor=stc.auto_spacing_factor
+        alpha, s, stc.sizes.radius_mm, stc.sizes.web_mm, spray, spacing_factor=stc.auto_spacing_factor
     )
     calibrated = stipple_layer(
         alpha,

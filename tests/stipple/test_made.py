@@ -44,7 +44,7 @@ def test_drawn_dots_keep_every_rule_and_made_dots_are_as_asked():
     fxy, fr, _ = rules.enforce_rules(xy, r, design)
     fixed = DotSet(fxy, fr)
     drawn = drawn_dots(fixed, cfg, size)
-    offset = cfg.resolved_hole_offset_mm
+    offset = cfg.sizes.hole_offset_mm
     assert offset > 0
     # the plate as made keeps every rule (web, edge margin, floor)
     made = made_dots(fixed, cfg, size)
@@ -64,12 +64,12 @@ def test_without_compensation_the_made_holes_are_smaller():
     cfg = StippleConfig(process="fdm", compensate=False)
     dots = DotSet(np.array([[5.0, 5.0]]), np.array([1.0]))
     assert drawn_dots(dots, cfg, (10.0, 10.0)) is dots
-    assert made_dots(dots, cfg, (10.0, 10.0)).r_mm[0] == pytest.approx(1.0 - cfg.resolved_hole_offset_mm)
+    assert made_dots(dots, cfg, (10.0, 10.0)).r_mm[0] == pytest.approx(1.0 - cfg.sizes.hole_offset_mm)
 
 
 def test_laser_offset_is_zero_and_configurable():
-    assert StippleConfig(process="laser").resolved_hole_offset_mm == 0.0
-    assert StippleConfig(process="laser", hole_offset_mm=-0.1).resolved_hole_offset_mm == -0.1
+    assert StippleConfig(process="laser").sizes.hole_offset_mm == 0.0
+    assert StippleConfig(process="laser", hole_offset_mm=-0.1).sizes.hole_offset_mm == -0.1
 
 
 def test_laser_kerf_comes_from_the_process_unless_given():

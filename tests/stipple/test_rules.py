@@ -39,11 +39,11 @@ def test_presets_resolve_and_override(process):
     cfg = StippleConfig(process=process)
     rec = process.record
     r, web, margin = rec.hole_min_r_mm, rec.web_mm, rec.edge_margin_mm
-    assert (cfg.hole_floor_mm, cfg.resolved_web_mm, cfg.resolved_edge_margin_mm) == (r, web, margin)
-    assert cfg.resolved_radius_mm == r
-    assert cfg.resolved_max_radius_mm == r
+    assert (cfg.hole_floor_mm, cfg.sizes.web_mm, cfg.sizes.edge_margin_mm) == (r, web, margin)
+    assert cfg.sizes.radius_mm == r
+    assert cfg.sizes.max_radius_mm == r
     over = StippleConfig(process=process, hole_min_r_mm=1.5, web_mm=1.1, edge_margin_mm=0.0)
-    assert (over.hole_floor_mm, over.resolved_web_mm, over.resolved_edge_margin_mm) == (
+    assert (over.hole_floor_mm, over.sizes.web_mm, over.sizes.edge_margin_mm) == (
         1.5,
         1.1,
         0.0,
@@ -56,9 +56,9 @@ def test_presets_follow_guidance():
     # FDM from the shipped profile's G-code (python -m benchmarks printed --case web): r 0.5 mm holes
     # open within 5 % and a 0.6 mm web prints whole, a 0.5 mm one breaks; resin holds about 0.5 mm.
     assert StippleConfig(process="fdm").hole_floor_mm == 0.5
-    assert StippleConfig(process="fdm").resolved_web_mm == 0.6
+    assert StippleConfig(process="fdm").sizes.web_mm == 0.6
     assert StippleConfig(process="sla").hole_floor_mm == 0.5
-    assert 0.5 <= StippleConfig(process="laser").resolved_web_mm
+    assert 0.5 <= StippleConfig(process="laser").sizes.web_mm
 
 
 @pytest.mark.parametrize(
@@ -85,7 +85,7 @@ def test_config_rejects(kwargs, needle):
 
 def test_variable_radius_default_max_is_twice_radius():
     cfg = StippleConfig(process="sla", variable_radius=True, radius_mm=0.7)
-    assert cfg.resolved_max_radius_mm == pytest.approx(1.4)
+    assert cfg.sizes.max_radius_mm == pytest.approx(1.4)
 
 
 def test_every_field_documents_itself():

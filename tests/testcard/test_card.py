@@ -33,8 +33,8 @@ def test_layout_holds_the_jobs_holes_and_fits_every_bed(layout):
     kinds = [f.kind for f in layout.features]
     assert kinds.count("window") == 1 and kinds.count("patch") == 5
     singles = sorted(f.r_mm for f in layout.features if f.kind == "single")
-    assert singles[0] == pytest.approx(st.resolved_radius_mm) and singles[-1] == pytest.approx(
-        st.resolved_max_radius_mm
+    assert singles[0] == pytest.approx(st.sizes.radius_mm) and singles[-1] == pytest.approx(
+        st.sizes.max_radius_mm
     )
     fractions = [f.open_fraction for f in layout.features if f.kind == "patch"]
     assert all(np.diff(fractions) > 0) and fractions[0] > 0.02
