@@ -74,8 +74,9 @@ def test_the_route_is_one_property_and_is_taken():
             elif isinstance(node, ast.Attribute) and node.attr == ROUTE:
                 readers.add(rel)
     assert defined == ["config/stipple.py"]
-    # Not a vacuous rule: the modules that need the floor take the route.
-    assert {"bounds.py", "plan/holes.py", "plan/refinement.py", "simulate/tone.py"} <= readers
+    # Not a vacuous rule: the modules that need the floor take the route (the refinement's largest
+    # radius, which the refinement and the tone response read, is the config's: refined_max_radius_mm).
+    assert {"bounds.py", "plan/holes.py", "plan/plan.py", "config/job.py"} <= readers
 
 
 def test_the_rule_sees_each_other_way():
