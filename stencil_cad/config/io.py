@@ -498,12 +498,10 @@ def default_yaml() -> str:
     from . import JobConfig
 
     values = JobConfig().model_dump(mode="json")
-    # Filled in from stipple.process when left out: the template leaves it to the process.
+    # Filled in from stipple.process when left out: the template leaves it to the process. (The
+    # plate's label, thickness and margin stay null in a config: the plan fills them in.)
     values["spray"]["nozzle_height"] = None
     values["wall"]["standoff_mm"] = None
-    values["plate"]["thickness_mm"] = None
-    values["plate"]["outline"]["margin_mm"] = None
-    values["plate"]["label"] = None
     head = [
         "# stencil_cad job config. Every key is optional; the values below are the defaults.",
         "# Run it with:  stencil-cad run this.yaml   (editors: `stencil-cad schema` prints a JSON Schema)",

@@ -15,13 +15,13 @@ from ..figures import CostFigures
 from ..model import DotSet
 from ..mural.cost import hours_text
 from ..plan.picture import load_picture
-from ..plan.plan import Plan
+from ..plan.plan import Plan, costed
 from ..record import Run
 
 
 def record_cost(run: Run, plan: Plan, dotsets: Sequence[DotSet]) -> CostFigures:
     """The cost of making ``plan``'s plates and walls from the placed holes, as figure ``cost``."""
-    made = mural.making_cost(plan.grid, plan.cfg, len(dotsets), dotsets)
+    made = mural.making_cost(plan.grid, costed(plan), len(dotsets), dotsets)
     run.figures.cost = made
     return made
 
