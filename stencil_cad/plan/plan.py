@@ -4,8 +4,10 @@ The maker's config (:attr:`stencil_cad.record.Run.cfg`) is kept as given. What t
 beyond it is made by the functions here, each returning a new :class:`Plan` and changing nothing,
 in the order the orchestrator (:mod:`stencil_cad.pipeline.run`) calls them:
 
-1. before any work, from the picture's size: the tiling and the plate thickness it asks for
-   (:func:`planned`), and the most holes that fit (:func:`capped`);
+1. before any work, from the picture's size: the plate values the maker left null (the label, the
+   tiles' margin, then for the plates the tiling plans the thickness and a one-layer plate's web;
+   the config keeps them null, :mod:`stencil_cad.config.job` says what a job fills in) and the tiling
+   (:func:`planned`, recording how in :attr:`Plan.fills`), and the most holes that fit (:func:`capped`);
 2. before the decomposition, from the picture: a mostly dark picture's primer (:func:`primed`);
 3. after the decomposition, from the layers: each layer's spray settings (:func:`painted`; hard
    mode after the segmentation), then the plate design the trials choose, windows and the wall's

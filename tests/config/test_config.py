@@ -183,3 +183,30 @@ def test_the_old_tone_name_is_read_with_a_message_for_one_release(caplog):
     assert StippleConfig().tone == Tone.response
     with pytest.raises(ValueError, match="tone"):
         StippleConfig.model_validate({"tone": "measured"})
+
+
+def test_hole_sizes_are_resolved_in_one_place():
+    from stencil_cad.config.io import parse_config
+    from stencil_cad.config.stipple import Process
+
+    st = parse_config({"stipple": {"process": "sla"}}, source="test").stipple
+    sizes = st.sizes
+    record = Process.sla.record
+    assert sizes.radius_mm == st.hole_floor_mm and sizes.max_radius_mm == sizes.radius_mm  # one size
+    assert (sizes.web_mm, sizes.edge_margin_mm, sizes.hole_offset_mm) == (
+        record.web_mm,
+        record.edge_margin_mm,
+        record.hole_offset_mm,
+    )
+    assert sizes.window_web_mm == sizes.web_mm + max(sizes.hole_offset_mm, 0.0)
+    assert st.densest_pitch_mm == st.auto_spacing_factor * (2.0 * sizes.max_radius_mm + sizes.web_mm)
+    given = parse_config(
+        {"stipple": {"radius_mm": 0.8, "max_radius_mm": 1.1, "web_mm": 0.9, "variable_radius": True}},
+        source="test",
+    )
+    assert (given.stipple.sizes.radius_mm, given.stipple.sizes.max_radius_mm) == (0.8, 1.1)
+    assert given.stipple.sizes.web_mm == 0.9
+    # The refinement's largest radius: the factor times the floor, or the stippler's largest when larger.
+    assert given.refined_max_radius_mm == max(
+        given.refine.max_radius_factor * given.stipple.hole_floor_mm, 1.1
+    )

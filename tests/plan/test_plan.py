@@ -59,3 +59,35 @@ def test_a_run_keeps_the_config_it_was_given():
     with pytest.raises(AttributeError):
         run.cfg = cfg.model_copy()  # the house rule's runtime half: a job's decisions go in its Plan
     assert run.cfg is cfg
+
+
+def test_a_lower_wall_fits_the_filled_thickness_again_and_the_cost_reads_the_process_wall():
+    from stencil_cad.plan.plan import costed
+
+    plan, _ = planned(parse_config({"size": {"width_mm": 150}}, source="test"), (150.0, 150.0), 300 * 300)
+    assert plan.fills is not None and plan.fills.thickness.filled
+    low = designed(plan, "auto", 5.0)
+    assert low.cfg.plate.thickness_mm > plan.cfg.plate.thickness_mm  # sags within 5 % of 5 mm
+    assert low.fills is not None and low.fills.thickness.thickness_mm == low.cfg.plate.thickness_mm
+    assert low.plate is not None and low.plate.thickness_mm == low.cfg.plate.thickness_mm
+    # The making cost estimates the plates of the process's wall, as it always has.
+    assert costed(low).plate.thickness_mm == plan.cfg.plate.thickness_mm
+    assert costed(plan) is plan.cfg
+    # A thickness the maker gave is kept whatever the wall.
+    given, _ = planned(parse_config({"plate": {"thickness_mm": 1.2}}, source="test"), (150.0, 150.0), 90000)
+    assert designed(given, "auto", 5.0).cfg.plate.thickness_mm == 1.2
+
+
+def test_what_plans_no_tiling_fills_the_plate_values_as_the_config_alone_can():
+    from stencil_cad.config.job import filled
+    from stencil_cad.plan.plan import refilled, unplanned
+
+    cfg = parse_config({"size": {"width_mm": 600}, "bed": "prusa_mk4"}, source="test")
+    alone = unplanned(cfg)
+    assert alone.plate.label is not None and alone.plate.outline.margin_mm == 4.0
+    assert alone.plate.thickness_mm == filled(cfg)[0].plate.thickness_mm
+    assert unplanned(alone) == alone
+    plan, _ = planned(cfg, (600.0, 400.0), 1200 * 800)
+    again = refilled(plan, cfg)
+    assert again.cfg.plate.thickness_mm == plan.cfg.plate.thickness_mm and again.fills == plan.fills
+    assert again.cfg.plate.label is None  # refilled keeps the label as the config has it
