@@ -126,8 +126,8 @@ def load_config(
     else:
         cfg = cfg_io.load_config(example_config_path() if source is None else Path(source))
     if overrides:
-        # The values the config filled in are filled in again for the changed config (a wall left to
-        # the job stays the job's to choose, a filled-in thickness is fitted to the new size).
+        # What the maker left null stays null for the changed config (a wall left to the job stays the
+        # job's to choose; the plan fills the label, margin, thickness and web in for the new size).
         data = _merged(cfg.unfilled_data(), overrides)
         cfg = cfg_io.resolve_files(cfg_io.parse_config(data, source="config"), data, Path.cwd())
     if image is not None or seed is not None or bed is not None or hard:

@@ -273,18 +273,20 @@ def test_mesh_detects_overlapping_holes():
 
 
 def test_builtin_template_defaults_match_the_config():
+    from stencil_cad.config.cad import DEFAULT_THICKNESS_MM
     from stencil_cad.config.job import JobConfig
-    from stencil_cad.plan.plan import labelled
+    from stencil_cad.plan.plan import unplanned
 
     params = template_parameters(load_template(builtin_template()))
     c = PlateConfig()
-    # The config leaves the label to the job (null); a one-plate job's plan engraves it.
-    assert c.label is None
-    label = labelled(JobConfig()).plate.label
-    assert label is not None
+    # The config leaves the label and the thickness to the job (null); a default one-plate job's
+    # plan engraves the label and fills in the template's thickness.
+    assert c.label is None and c.thickness_mm is None
+    job = unplanned(JobConfig()).plate
+    assert job.label is not None and job.thickness_mm == DEFAULT_THICKNESS_MM
     assert params == {
-        "THICKNESS_MM": c.thickness_mm,
-        "LABEL": label.value,
+        "THICKNESS_MM": job.thickness_mm,
+        "LABEL": job.label.value,
         "LABEL_DEPTH_MM": c.label_depth_mm,
         "LABEL_HEIGHT_MM": c.label_height_mm,
         "LABEL_MIN_HEIGHT_MM": c.label_min_height_mm,
