@@ -201,7 +201,6 @@ def _card_holes(st: StippleConfig) -> tuple[DotSet, list[Feature]]:
     radii = sorted({round(r0, 3), round((r0 + r1) / 2.0, 3), round(r1, 3)})
     if r1 > 2.5:
         raise ValueError(f"the card's single-hole rows take radii up to 2.5 mm, the job uses {r1:g} mm")
-    web = sizes.web_mm
     xy: list[np.ndarray] = [np.array([WINDOW_C])]
     rr: list[np.ndarray] = [np.array([WINDOW_R])]
     features = [
@@ -225,7 +224,7 @@ def _card_holes(st: StippleConfig) -> tuple[DotSet, list[Feature]]:
         )
         n += len(pts)
     # The densest pattern the process allows, as the stippler packs it.
-    min_pitch = st.auto_spacing_factor * (2.0 * r1 + web)
+    min_pitch = st.densest_pitch_mm
     for cx, f in zip(PATCH_X, PATCH_FRACTIONS, strict=True):
         pts, real = _patch_holes(cx, PATCH_Y, r1, f, min_pitch)
         xy.append(pts)
