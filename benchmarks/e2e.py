@@ -30,6 +30,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 CASES = ("example-norefine", "example-nominal", "example", "example-paper")
@@ -202,25 +203,44 @@ def _paired(tmp: Path, root: Path) -> tuple[dict, dict]:
 
     Each side first makes one job unrecorded: the exported baseline's first job compiled its kernels
     (64 CPU-s against 42 and 46 warm), and one such run counted made the ratio look like 0.91-1.01
-    where the warm jobs give 1.5. Alternating the two and taking each side's median run keeps both
-    under the same load. Each row gives every counted run's CPU seconds (``cpu_seconds_runs``).
+    where the warm jobs give 1.5.
+    """
+
+    def make(where: Path, folder: Path) -> dict:
+        return _one("example", folder, root=where)
+
+    return paired(tmp, root, make, make)
+
+
+def paired(
+    tmp: Path,
+    root: Path,
+    make: Callable[[Path, Path], dict],
+    warm: Callable[[Path, Path], object],
+    runs: int = PAIRED_RUNS,
+) -> tuple[dict, dict]:
+    """This tree's and the baseline tree's (at ``root``) median runs of ``make``: ``(ours, theirs)``.
+
+    ``warm(tree, folder)`` first runs once unrecorded in each tree: a tree's first job compiles its
+    kernels into its own cache (the exported baseline's always). Then ``make(tree, folder)`` runs
+    ``runs`` times on each side, in turn, so both are measured under the same load; each side's row
+    is its median run by CPU seconds, with every counted run's CPU seconds (``cpu_seconds_runs``).
     """
     ours: list[dict] = []
     theirs: list[dict] = []
-    # Warm: a tree's first job compiles its kernels into its own cache (the exported baseline's always).
-    warm = tmp / "warm"
-    warm.mkdir()
+    warm_dir = tmp / "warm"
+    warm_dir.mkdir(exist_ok=True)
     for where in (root, REPO):
-        _one("example", warm, root=where)
-    for i in range(PAIRED_RUNS):
+        warm(where, warm_dir)
+    for i in range(runs):
         for side, where in ((theirs, root), (ours, REPO)):
             folder = tmp / f"paired-{i}"
             folder.mkdir(exist_ok=True)
-            side.append(_one("example", folder, root=where))
+            side.append(make(where, folder))
 
-    def median(runs: list[dict]) -> dict:
-        done = sorted((r for r in runs if "error" not in r), key=lambda r: r["cpu_seconds"]) or runs
-        return {**done[len(done) // 2], "cpu_seconds_runs": [r["cpu_seconds"] for r in runs]}
+    def median(rows: list[dict]) -> dict:
+        done = sorted((r for r in rows if "error" not in r), key=lambda r: r["cpu_seconds"]) or rows
+        return {**done[len(done) // 2], "cpu_seconds_runs": [r["cpu_seconds"] for r in rows]}
 
     return median(ours), median(theirs)
 

@@ -26,13 +26,13 @@ Case ``mural600`` is the mural of issue 44 as a maker runs it: scikit-image's ``
 
 ``--baseline COMMIT`` (``python -m benchmarks mural --case mural600 --baseline 1e9aeab``; only
 ``mural600`` when no case is named) also runs the same job with another commit's code in the
-same call, before this tree's: the commit's tree is exported from git into a scratch folder
-(removed afterwards, as ``python -m benchmarks e2e --baseline`` does) and its own ``stencil-cad
-run`` runs there. Each row then gives ``baseline_seconds``, ``baseline_cpu_seconds``,
+same call: the commit's tree is exported from git into a scratch folder (removed afterwards, as
+``python -m benchmarks e2e --baseline`` does) and its own ``stencil-cad run`` runs there. Each tree
+first makes the smoke mural once, unrecorded (the exported tree has no compiled kernels: counted,
+their compilation flattered the ratio), then the case three times on each side in turn; each side
+gives its median run by CPU seconds, with every run's CPU seconds in ``cpu_seconds_runs``. Each row then gives ``baseline_seconds``, ``baseline_cpu_seconds``,
 ``baseline_scielab``, ``ratio_vs_baseline`` (this tree's wall clock over the commit's),
-``cpu_ratio_vs_baseline`` and ``baseline_commit``; ``baseline`` holds the commit's whole row. The
-exported tree starts with no compiled-kernel cache, so its run compiles the kernels that this
-tree may have cached (about 20 s of the mural on two cores).
+``cpu_ratio_vs_baseline`` and ``baseline_commit``; ``baseline`` holds the commit's whole row.
 """
 
 from __future__ import annotations
@@ -49,7 +49,7 @@ from pathlib import Path
 
 import yaml
 
-from .e2e import REPO, export_tree
+from .e2e import REPO, export_tree, paired
 
 #: Case name: (width mm, height mm, workers; 0 = one process, None = the job's own choice).
 CASES: dict[str, tuple[float, float, int | None]] = {
@@ -232,6 +232,43 @@ def _with_baseline(row: dict, base: dict) -> None:
     row["baseline"] = base
 
 
+def _paired_case(
+    name: str, case: tuple[float, float, int | None], tmp: Path, root: Path, warmed: set[Path]
+) -> tuple[dict, Path, dict]:
+    """``name`` made by this tree and by the baseline's at ``root`` in turn: ``(our median row, its folder, theirs)``.
+
+    Before the first case each tree makes the smoke mural once, unrecorded: the exported baseline
+    has no compiled kernels, and its first job would count their compilation (the e2e benchmark's
+    baseline took 64 CPU-s in its first job against 42-46 warm). Then each side makes the case
+    :data:`benchmarks.e2e.PAIRED_RUNS` times, alternated, and gives its median run
+    (:func:`benchmarks.e2e.paired`). The baseline's folders are removed as they are made, ours but
+    the median run's at the end.
+    """
+    folders: list[Path] = []
+
+    def make(where: Path, folder: Path) -> dict:
+        row, out = _run_case(name, case, folder, root=where)
+        if where == REPO:
+            folders.append(out)
+            return {**row, "folder": str(out)}
+        shutil.rmtree(out, ignore_errors=True)
+        return row
+
+    def warm(where: Path, folder: Path) -> None:
+        if where not in warmed:
+            warmed.add(where)
+            _, out = _run_case("smoke", SMOKE["smoke"], folder, SMOKE_JOB, root=where)
+            shutil.rmtree(out, ignore_errors=True)
+
+    (tmp / name).mkdir(exist_ok=True)
+    ours, theirs = paired(tmp / name, root, make, warm)
+    chosen = Path(ours.pop("folder"))
+    for out in folders:
+        if out != chosen:
+            shutil.rmtree(out, ignore_errors=True)
+    return ours, chosen, theirs
+
+
 def run(cases=None, baseline: str | None = None):
     """The rows of ``cases`` (the default set; only ``mural600`` with a ``baseline`` commit unless cases are named).
 
@@ -246,22 +283,20 @@ def run(cases=None, baseline: str | None = None):
     names = [c for c in every if (c in cases if cases else c in CASES)]
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
-        bases: dict[str, dict] = {}
+        root = None
         if baseline is not None:
             root = tmp / "baseline"
             full = export_tree(baseline, root)
-            for name in names:
-                row, out = _run_case(name, every[name], tmp, root=root)
-                bases[name] = {**row, "commit": full}
-                shutil.rmtree(out, ignore_errors=True)
-            shutil.rmtree(root, ignore_errors=True)
+        warmed: set[Path] = set()
         first = None
         one_process: dict[float, tuple[dict, Path]] = {}
         for name in names:
-            row, out = _run_case(name, every[name], tmp)
+            if root is None:
+                row, out = _run_case(name, every[name], tmp)
+            else:
+                row, out, theirs = _paired_case(name, every[name], tmp, root, warmed)
+                _with_baseline(row, {**theirs, "commit": full})
             ok = "error" not in row
-            if name in bases:
-                _with_baseline(row, bases[name])
             if name == "mural600" or not ok:
                 # Not one of the square photo's murals whose rows are compared with each other.
                 yield row

@@ -12,17 +12,25 @@ from benchmarks.__main__ import main
 
 def test_the_baseline_row_gives_the_commits_seconds_and_the_ratio(monkeypatch, tmp_path):
     calls = []
+    # CPU seconds of the counted runs, in the order they are made: the baseline's then ours, three times.
+    theirs_cpu = iter([700.0, 600.0, 650.0])
+    ours_cpu = iter([150.0, 140.0, 160.0])
 
     def fake_run_case(name, case, tmp, job=None, root=mural.REPO):
-        calls.append((name, root == mural.REPO))
-        seconds = 100.0 if root == mural.REPO else 400.0
-        out = Path(tmp) / f"{name}{'' if root == mural.REPO else '-baseline'}"
+        ours = root == mural.REPO
+        calls.append((name, ours))
+        out = Path(tmp) / f"{name}{'' if ours else '-baseline'}"
         out.mkdir()
+        (out / "manifest.json").write_text("{}")
+        if name == "smoke":
+            # The warm-up: it compiles the kernels and is not counted.
+            return {"bench": "mural", "case": name, "seconds": 1.0, "cpu_seconds": 9999.0}, out
+        cpu = next(ours_cpu) if ours else next(theirs_cpu)
         return {
             "bench": "mural",
             "case": name,
-            "seconds": seconds,
-            "cpu_seconds": seconds * 1.5,
+            "seconds": cpu / 1.5,
+            "cpu_seconds": cpu,
             "scielab": 1.7,
         }, out
 
@@ -33,12 +41,17 @@ def test_the_baseline_row_gives_the_commits_seconds_and_the_ratio(monkeypatch, t
     monkeypatch.setattr(mural, "_run_case", fake_run_case)
     monkeypatch.setattr(mural, "export_tree", fake_export)
     rows = list(mural.run(baseline="1e9aeab"))
-    # Only the issue's mural by default, the commit's run first.
-    assert calls == [("mural600", False), ("mural600", True)]
+    # Only the issue's mural by default: each tree warms up once, then the commit's run and ours in turn.
+    assert calls == [("smoke", False), ("smoke", True)] + [("mural600", False), ("mural600", True)] * 3
     (row,) = rows
-    assert row["baseline_seconds"] == 400.0 and row["baseline_cpu_seconds"] == 600.0
-    assert row["ratio_vs_baseline"] == 0.25 and row["cpu_ratio_vs_baseline"] == 0.25
+    # Each side's median run by CPU seconds.
+    assert row["cpu_seconds"] == 150.0 and row["baseline_cpu_seconds"] == 650.0
+    assert row["cpu_seconds_runs"] == [150.0, 140.0, 160.0]
+    assert row["baseline"]["cpu_seconds_runs"] == [700.0, 600.0, 650.0]
+    assert row["cpu_ratio_vs_baseline"] == round(150.0 / 650.0, 3)
+    assert row["ratio_vs_baseline"] == round(100.0 / (650.0 / 1.5), 3)
     assert row["baseline_commit"] == "f" * 40 and row["baseline"]["case"] == "mural600"
+    assert "folder" not in row
 
 
 def test_the_mural600_job_is_the_issues(tmp_path):
