@@ -99,19 +99,11 @@ def stage_simulate(
         "layer_rmse": [float(x) for x in sim.layer_rmse],
         **{k: v for k, v in _plain(sim.info).items() if k not in scores},
     }
+    figures = SimulateFigures.from_rows(seen, by_can or None, per_wall or None)
+    spraying = spraying_steps(cfg, layers, [ds.amount(cfg.spray.amount) for ds in dotsets])
+    kept = (sim, ref) if keep else (None, None)
     return Simulated(
-        composite=sim.composite,
-        preview=preview,
-        sweep=sweep,
-        steps=steps,
-        walls=walls,
-        paint=paint,
-        figures=SimulateFigures.from_rows(seen, by_can or None, per_wall or None),
-        spraying=spraying_steps(cfg, layers, [ds.amount(cfg.spray.amount) for ds in dotsets]),
-        scores=scores,
-        sim=sim if keep else None,
-        reference=ref if keep else None,
-        started=started,
+        sim.composite, preview, sweep, steps, walls, paint, figures, spraying, scores, *kept, started
     )
 
 
