@@ -105,12 +105,12 @@ def run_all(run: Run, picture: Picture | None = None) -> tuple[JobConfig, list[P
     )
     if plan.cfg.mode == Mode.hard:
         mural.check_mode(plan.grid, plan.cfg)
-        save_config(run, plan.cfg)
+        save_config(run, plan)
         return run_hard(run, plan, picture)
     plan, layers, dotsets = soft_plates(run, plan, picture)
     record_cost(run, stage_cost(plan, dotsets))
     build_any(run, plan, layers, dotsets, picture)
-    return plan.cfg, finish(run, plan.cfg, "run", saved_plan(run, plan, plan.cfg))
+    return plan.cfg, finish(run, plan, "run", saved_plan(run, plan, plan.cfg))
 
 
 def saved_plan(run: Run, plan: Plan | None, copy: JobConfig, primer: str | None = None) -> str:
@@ -146,7 +146,7 @@ def soft_plates(run: Run, plan: Plan, picture: Picture) -> tuple[Plan, Layers, l
     layers = record_plates(run, plates_of(plan, decomposed))
     plan = design_plates(run, painted(plan, layers.colours, can_names(run.figures)), layers, picture)
     # The saved config records the plate design the job chose.
-    save_config(run, plan.cfg)
+    save_config(run, plan)
     return plan, layers, plate_holes(run, plan, layers, picture)
 
 
@@ -272,10 +272,11 @@ def run_decompose(run: Run, picture: Picture) -> tuple[JobConfig, list[Path]]:
     Its plan is the primer alone (:func:`stencil_cad.plan.plan.primed` on the config as given, one
     tile): a mostly dark picture is decomposed primed with its dark colour.
     """
-    save_config(run, run.cfg)
-    plan = primed(whole(run.cfg, (picture.width_mm, picture.height_mm)), picture)
+    given = whole(run.cfg, (picture.width_mm, picture.height_mm))
+    save_config(run, given)
+    plan = primed(given, picture)
     record_decompose(run, stage_decompose(run, plan, picture))
-    return plan.cfg, finish(run, plan.cfg, "decompose", saved_plan(run, None, run.cfg, plan.primer))
+    return plan.cfg, finish(run, plan, "decompose", saved_plan(run, None, run.cfg, plan.primer))
 
 
 def _planned(cfg: JobConfig, picture: Picture) -> MuralFigures:
@@ -330,7 +331,7 @@ def _run_stage_command(
         else:
             record_sprays(run, plan)
             record_simulate(run, stage_simulate(run, plan, picture, layers, dotsets))
-        return plan.cfg, finish(run, plan.cfg, command, text)
+        return plan.cfg, finish(run, plan, command, text)
 
 
 def _saved_design(run: Run, plan: Plan, saved: SavedPlan, layers: Layers, picture: Picture | None) -> Plan:
@@ -429,4 +430,4 @@ def run_hard(run: Run, plan: Plan, picture: Picture) -> tuple[JobConfig, list[Pa
         )
     build_parts(run, plan, start_build(run, plan, cut.layers, cut.hard.cut_layers))
     record_simulate(run, stage_simulate_hard(run, plan, picture, cut.hard, cut.layers, amounts))
-    return cfg, finish(run, cfg, "hard")
+    return cfg, finish(run, plan, "hard")

@@ -101,9 +101,20 @@ def stage_simulate(
     }
     figures = SimulateFigures.from_rows(seen, by_can or None, per_wall or None)
     spraying = spraying_steps(cfg, layers, [ds.amount(cfg.spray.amount) for ds in dotsets])
-    kept = (sim, ref) if keep else (None, None)
+    sim_kept, ref_kept = (sim, ref) if keep else (None, None)
     return Simulated(
-        sim.composite, preview, sweep, steps, walls, paint, figures, spraying, scores, *kept, started
+        sim.composite,
+        preview,
+        sweep,
+        steps,
+        walls,
+        paint,
+        figures,
+        spraying,
+        scores,
+        sim_kept,
+        ref_kept,
+        started,
     )
 
 
