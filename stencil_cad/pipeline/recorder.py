@@ -5,14 +5,16 @@ figures); :mod:`stencil_cad.pipeline.run` calls the matching ``record_*`` here r
 the order the job writes its files, so the file table and the manifest's sections keep their order.
 Nothing here computes what a maker receives: it stages files through the output folder
 (:mod:`stencil_cad.output`) and sets ``run.figures``. The manifest, the config copy and the
-instruction sheet are :mod:`stencil_cad.pipeline.manifest`'s; a build's part files, which arrive as
-its tasks finish, :mod:`stencil_cad.pipeline.build`'s.
+instruction sheet are :mod:`stencil_cad.pipeline.manifest`'s. A build's part files are staged here
+as its tasks finish (:func:`record_parts`), so the simulation still runs while they build.
 """
 
 from __future__ import annotations
 
 import logging
+from collections.abc import Iterable
 from dataclasses import replace
+from typing import Any
 
 from ..colour import to_hex
 from ..figures import BuildFigures, CansFigures, CostFigures, LayerStipple, LayerWindows, MuralSimulation
@@ -29,7 +31,7 @@ from ..names import (
 from ..output import plain as _plain
 from ..plan.holes import Refined, Stippled
 from ..plan.names import LAYERS_NPZ, SPRAY_JSON, dots_name, layer_stem, step_name, windows_name
-from ..plan.results import Decomposed, PaintOrder, Segmented, Simulated, Stand
+from ..plan.results import Built, Decomposed, PaintOrder, PartResult, Segmented, Simulated, Stand
 from ..plan.tiles import _planned
 from ..record import Run
 
@@ -166,6 +168,28 @@ def record_simulate(run: Run, done: Simulated) -> None:
         run.out.write_png(name, picture)
     run.figures.simulate = done.figures
     run.figures.spraying = done.spraying
+
+
+def record_parts(run: Run, parts: Iterable[PartResult]) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """Stage each built part's files as it comes (in task order): ``(plates' rows, walls' rows)``."""
+    plates: list[dict[str, Any]] = []
+    walls: list[dict[str, Any]] = []
+    for res in parts:
+        for name, data in res.files:
+            run.out.write_bytes(name, data)
+        (plates if res.kind == "plate" else walls).append(res.row)
+    return plates, walls
+
+
+def record_build(run: Run, done: Built) -> None:
+    """Figure ``build``; a mural's ``mural.built`` and ``mural_map.png``."""
+    from ..names import MURAL_MAP_PNG
+
+    run.figures.build = done.build
+    if done.mural is not None:
+        run.figures.mural = replace(_planned(run), built=done.mural)
+    if done.mural_map is not None:
+        run.out.write_png(MURAL_MAP_PNG, done.mural_map)
 
 
 def record_stand(run: Run, stand: Stand) -> Stand:

@@ -30,17 +30,19 @@ from ..plan.plan import Plan, capped, painted, planned, primed, whole
 from ..plan.saved import SavedPlan, apply_saved, config_digest, plan_json
 from ..record import Run
 from . import registration
-from .build import BuildStarted, check_template, collect_parts, record_build, start_build
+from .build import BuildStarted, check_template, collect_parts, stage_build, start_build
 from .cost import stage_cost
 from .decompose import plates_of, stage_decompose
 from .hard import cutout_spray, hard_config, stage_segment
 from .manifest import finish, save_config
 from .paints import stage_paints
 from .recorder import (
+    record_build,
     record_cost,
     record_decompose,
     record_dots,
     record_paints,
+    record_parts,
     record_plates,
     record_print_estimate,
     record_refine,
@@ -404,9 +406,9 @@ def build_any(
 def build_parts(run: Run, plan: Plan, built: BuildStarted) -> None:
     """Collect the plates and walls :func:`start_build` started under ``plan``, write a mural's stand, record the build."""
     with run.stage("build"):
-        plates, walls = collect_parts(run, built)
+        plates, walls = record_parts(run, collect_parts(built))
         stand = record_stand(run, stage_stand(plan, built.laser, built.posts, run.figures.stipple or ()))
-    record_build(run, built, plates, walls, stand.post_row, stand.stand_rows)
+    record_build(run, stage_build(built, plates, walls, stand))
 
 
 def run_hard(run: Run, plan: Plan, picture: Picture) -> tuple[JobConfig, list[Path]]:

@@ -14,8 +14,10 @@ from typing import Any
 import numpy as np
 
 from ..figures import (
+    BuildFigures,
     CansFigures,
     DecomposeFigures,
+    MuralBuildFigures,
     PaintFigures,
     SimulateFigures,
     SprayOrderFigures,
@@ -119,3 +121,28 @@ class Stand:
     files: tuple[tuple[str, bytes], ...] = ()
     post_row: dict[str, Any] | None = None
     stand_rows: list[dict[str, Any]] | None = None
+
+
+@dataclass(frozen=True)
+class PartResult:
+    """What one plate's or wall's task made: its files (name, bytes) in writing order, its manifest row and its solid's check."""
+
+    kind: str
+    files: tuple[Any, ...]
+    row: dict[str, Any]
+    check: dict[str, Any]
+
+
+@dataclass(frozen=True, eq=False)
+class Built:
+    """The build's figures once its parts are collected: figure ``build``, and a mural's tiles and map.
+
+    Attributes:
+        build: Figure ``build``: every plate's and wall's row.
+        mural: Figure ``mural.built`` (a mural's tiles, holes per tile, order of work, stand), or None.
+        mural_map: ``mural_map.png``, or None (one tile).
+    """
+
+    build: BuildFigures
+    mural: MuralBuildFigures | None = None
+    mural_map: np.ndarray | None = None
