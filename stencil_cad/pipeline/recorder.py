@@ -16,9 +16,21 @@ from collections.abc import Iterable
 from dataclasses import replace
 from typing import Any
 
+import numpy as np
+
 from ..colour import to_hex
-from ..figures import BuildFigures, CansFigures, CostFigures, LayerStipple, LayerWindows, MuralSimulation
-from ..model import DotSet, Layers
+from ..figures import (
+    BuildFigures,
+    CansFigures,
+    ComputeFigures,
+    CostFigures,
+    LayerStipple,
+    LayerWindows,
+    MuralFigures,
+    MuralSimulation,
+    PictureFigures,
+)
+from ..model import DotSet, Layers, Picture
 from ..names import (
     COMPOSITE_PNG,
     ENERGY_CSV,
@@ -31,11 +43,49 @@ from ..names import (
 from ..output import plain as _plain
 from ..plan.holes import Refined, Stippled
 from ..plan.names import LAYERS_NPZ, SPRAY_JSON, dots_name, layer_stem, step_name, windows_name
+from ..plan.plan import Plan
 from ..plan.results import Built, Decomposed, PaintOrder, PartResult, Segmented, Simulated, Stand
 from ..plan.tiles import _planned
 from ..record import Run
 
 log = logging.getLogger(__name__)
+
+
+def record_compute(run: Run, where: ComputeFigures) -> None:
+    """Figure ``compute``: where the job's tasks run (its executor's plan)."""
+    run.figures.compute = where
+
+
+def record_plan(run: Run, plan: Plan, tiling: MuralFigures) -> None:
+    """The plan before any work: figures ``mural`` (the tiling and its cost) and ``plate`` (the thickness and why)."""
+    run.figures.mural = tiling
+    run.figures.plate = plan.plate
+
+
+def record_picture(run: Run, picture: Picture) -> None:
+    """Figure ``picture`` (its source, size and pixels) and the picture as the instruction sheet shows it."""
+    from ..exchange.png import png_bytes
+    from ..names import INPUT_PNG
+
+    run.sheet_images[INPUT_PNG] = png_bytes(np.asarray(picture.rgb, dtype=np.float64))
+    run.figures.picture = PictureFigures(
+        source=picture.source,
+        width_mm=round(picture.width_mm, 3),
+        height_mm=round(picture.height_mm, 3),
+        pixels=picture.shape,
+        mm_per_px=picture.mm_per_px,
+    )
+
+
+def record_plate(run: Run, plan: Plan) -> None:
+    """Figure ``plate`` again: the thickness ``plan``'s design asks for, and why."""
+    run.figures.plate = plan.plate
+
+
+def record_sprays(run: Run, plan: Plan) -> None:
+    """Figure ``spray_profiles``: each layer's spray settings as the plan resolved them, once per run."""
+    if run.figures.spray_profiles is None and plan.paints is not None:
+        run.figures.spray_profiles = plan.paints.rows
 
 
 def record_decompose(run: Run, done: Decomposed, save: bool = True) -> Layers:

@@ -10,17 +10,14 @@ from dataclasses import replace
 from pathlib import Path
 from typing import cast
 
-import numpy as np
-
 from .. import mural
 from ..command_table import command as command_named
 from ..config import ComputeConfig, JobConfig, Mode
 from ..errors import UserError
-from ..exchange.png import png_bytes
-from ..figures import ComputeFigures, MuralFigures, PictureFigures
+from ..figures import ComputeFigures, MuralFigures
 from ..interrupts import CancelToken
 from ..model import DotSet, Layers, Picture
-from ..names import INPUT_PNG, cut_png, dots_png
+from ..names import cut_png, dots_png
 from ..output import OutputDir, sha256_file
 from ..plan import tiles
 from ..plan.cans import can_names
@@ -38,17 +35,22 @@ from .manifest import finish, save_config
 from .paints import stage_paints
 from .recorder import (
     record_build,
+    record_compute,
     record_cost,
     record_decompose,
     record_dots,
     record_paints,
     record_parts,
+    record_picture,
+    record_plan,
+    record_plate,
     record_plates,
     record_print_estimate,
     record_refine,
     record_registration,
     record_segment,
     record_simulate,
+    record_sprays,
     record_stand,
     record_stipple,
 )
@@ -81,7 +83,7 @@ def computing(
     seconds = planned.mural_seconds if planned is not None else None
     with compute.executor(where or run.cfg.compute, picture_px, run.quiet, seconds) as ex:
         run.executor = ex
-        run.figures.compute = ComputeFigures(**ex.plan.summary())
+        record_compute(run, ComputeFigures(**ex.plan.summary()))
         try:
             yield
         finally:
@@ -97,14 +99,7 @@ def run_all(run: Run, picture: Picture | None = None) -> tuple[JobConfig, list[P
         check_template(run)
     size = (picture.width_mm, picture.height_mm)
     plan = plan_job(run, size, picture.shape)
-    run.sheet_images[INPUT_PNG] = png_bytes(np.asarray(picture.rgb, dtype=np.float64))
-    run.figures.picture = PictureFigures(
-        source=picture.source,
-        width_mm=round(size[0], 3),
-        height_mm=round(size[1], 3),
-        pixels=picture.shape,
-        mm_per_px=picture.mm_per_px,
-    )
+    record_picture(run, picture)
     if plan.cfg.mode == Mode.hard:
         mural.check_mode(plan.grid, plan.cfg)
         save_config(run, plan)
@@ -129,8 +124,7 @@ def plan_job(run: Run, picture_mm: tuple[float, float], shape_px: tuple[int, ...
     Records figures ``mural`` (the tiling and its cost) and ``plate`` (the thickness and why).
     """
     plan, fig = planned(run.cfg, picture_mm, int(shape_px[0]) * int(shape_px[1]))
-    run.figures.mural = fig
-    run.figures.plate = plan.plate
+    record_plan(run, plan, fig)
     return plan
 
 
@@ -169,12 +163,6 @@ def plate_holes(run: Run, plan: Plan, layers: Layers, picture: Picture | None) -
     return sets
 
 
-def record_sprays(run: Run, plan: Plan) -> None:
-    """Figure ``spray_profiles``: each layer's spray settings as the plan resolved them, once per run."""
-    if run.figures.spray_profiles is None and plan.paints is not None:
-        run.figures.spray_profiles = plan.paints.rows
-
-
 def design_plates(run: Run, plan: Plan, layers: Layers, picture: Picture | None) -> Plan:
     """``plan`` with the plate design left to the job (:func:`choose_plates`) and the thickness its wall asks for.
 
@@ -186,7 +174,7 @@ def design_plates(run: Run, plan: Plan, layers: Layers, picture: Picture | None)
         return plan
     chosen = choose_plates(run, plan, layers, picture)
     if chosen.plate != plan.plate:
-        run.figures.plate = chosen.plate
+        record_plate(run, chosen)
     return chosen
 
 
@@ -350,7 +338,7 @@ def _saved_design(run: Run, plan: Plan, saved: SavedPlan, layers: Layers, pictur
             )
         return design_plates(run, plan, layers, picture)
     chosen = apply_saved(plan, saved)
-    run.figures.plate = chosen.plate
+    record_plate(run, chosen)
     return chosen
 
 

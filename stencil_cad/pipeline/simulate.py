@@ -101,20 +101,9 @@ def stage_simulate(
     }
     figures = SimulateFigures.from_rows(seen, by_can or None, per_wall or None)
     spraying = spraying_steps(cfg, layers, [ds.amount(cfg.spray.amount) for ds in dotsets])
-    sim_kept, ref_kept = (sim, ref) if keep else (None, None)
+    kept: dict[str, Any] = {"sim": sim, "reference": ref} if keep else {}
     return Simulated(
-        sim.composite,
-        preview,
-        sweep,
-        steps,
-        walls,
-        paint,
-        figures,
-        spraying,
-        scores,
-        sim_kept,
-        ref_kept,
-        started,
+        sim.composite, preview, sweep, steps, walls, paint, figures, spraying, scores, started=started, **kept
     )
 
 
