@@ -435,7 +435,9 @@ def _soft(f, pipeline, cfg0, layers, pic, image: str, windows: str, by_can: bool
             cfg=_at_height(cfg0, h, refine=True, windows=windows), out=_NullOut(), quiet=True
         )
         t0 = time.perf_counter()
-        refined = refine_holes(run_r, painted(whole(run_r.cfg, size), layers.colours), layers, stippled, pic)
+        refined = refine_holes(run_r, painted(whole(run_r.cfg, size), layers.colours), layers, stippled, pic)[
+            0
+        ]
         t_refine = time.perf_counter() - t0
         # Every layer sprays as the job sprays it: its paint's deposit prior (or measured profile).
         sprays = _sprays(pipeline, cfg, layers.colours)

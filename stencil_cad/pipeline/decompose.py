@@ -26,27 +26,21 @@ log = logging.getLogger(__name__)
 
 
 def stage_decompose(run: Run, plan: Plan, picture: Picture) -> Decomposed:
-    """Decompose the picture into a primer and paint layers under ``plan`` (its config and primer).
+    """Decompose the picture into a primer and paint layers under ``plan``, written nowhere.
 
-    The recorder saves them (``layers.npz`` and its previews) and records figure ``decompose``.
-    """
-    return decomposed(run, plan.cfg, picture, primed=plan.primer)
-
-
-def decomposed(run: Run, cfg: JobConfig, picture: Picture, primed: str | None = None) -> Decomposed:
-    """The picture's primer and paint layers as the decompose stage makes them, written nowhere.
-
-    ``cfg`` is the job's planned config: a mostly dark picture's primer is in it already
-    (:func:`stencil_cad.plan.plan.primed`), and ``primed`` names that primer for figure
+    ``plan``'s config is the job's planned config: a mostly dark picture's primer is in it already
+    (:func:`stencil_cad.plan.plan.primed`), and ``plan.primer`` names that primer for figure
     ``decompose`` (None: the config's own). The layers come back as ``layers.npz`` holds them
-    (float32 opacities), saved or not, so a preview or a stage command run later on the saved file
-    goes on from the same numbers as the job.
+    (float32 opacities), so a preview or a stage command run later on the saved file goes on from
+    the same numbers as the job. The recorder saves them (``layers.npz`` and its previews) and
+    records figures ``cans`` and ``decompose``; the preview records them without saving.
     """
     from dataclasses import replace
 
     from .. import decompose as dec
     from ..exchange.layers_npz import layers_from_npz, layers_to_npz
 
+    cfg, primed = plan.cfg, plan.primer
     with run.stage("decompose"):
         # Iterations run per pyramid level, so the total is not known in advance.
         with run.bar(None, "decompose") as bar:
@@ -55,7 +49,7 @@ def decomposed(run: Run, cfg: JobConfig, picture: Picture, primed: str | None = 
                 bar.update(1)
                 bar.set_postfix(energy=f"{energy:.4g}", refresh=False)
 
-            dcfg = with_can_list(run, cfg.decompose, "decompose.palette")
+            dcfg, listed = with_can_list(cfg.decompose, "decompose.palette")
             reach = plate_reach(cfg)
             try:
                 tiles = _decompose_tiles(cfg, picture)
@@ -90,7 +84,8 @@ def decomposed(run: Run, cfg: JobConfig, picture: Picture, primed: str | None = 
         },
         tiled=_plain(info["tiled"]) if "tiled" in info else None,
     )
-    return Decomposed(layers, saved, figures, cans)
+    known = replace(listed or CansFigures(), catalogue=cans.catalogue, snap=cans.snap) if cans else listed
+    return Decomposed(layers, saved, figures, known)
 
 
 def plates_of(plan: Plan, layers: Layers) -> Layers:

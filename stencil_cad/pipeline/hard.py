@@ -36,9 +36,9 @@ def hard_config(cfg: JobConfig) -> JobConfig:
 def stage_segment(run: Run, plan: Plan, picture: Picture) -> Segmented:
     """Segment the picture into cut layers with bridges under ``plan``, with ``segmentation.png`` to write.
 
-    Runs inside the ``segment`` stage, which the run opens (the plan learns the paints, then the
-    recorder writes ``segmentation.png`` and records figure ``hard``, and the paints' previews
-    follow in it).
+    Runs inside the ``segment`` stage, which the run opens (the recorder records the can list, the
+    plan learns the paints, then the recorder writes ``segmentation.png`` and records figure
+    ``hard``, and the paints' previews follow in it).
 
     Raises:
         UserError: The segmentation fails, or the image has a single flat colour.
@@ -47,7 +47,7 @@ def stage_segment(run: Run, plan: Plan, picture: Picture) -> Segmented:
 
     cfg = plan.cfg
     rules = process_rules(cfg)
-    hcfg = with_can_list(run, cfg.hard, "hard.palette")
+    hcfg, listed = with_can_list(cfg.hard, "hard.palette")
     try:
         hard = hardstencil.make_hard_stencils(
             picture, hcfg, rules["min_feature_mm"], rules["bridge_min_mm"], run.rng_for("hard")
@@ -66,7 +66,7 @@ def stage_segment(run: Run, plan: Plan, picture: Picture) -> Segmented:
         alphas=hard.cut_masks.astype(np.float64),
         mm_per_px=picture.mm_per_px,
     )
-    return Segmented(hard, layers, hard.palette[hard.labels])
+    return Segmented(hard, layers, hard.palette[hard.labels], listed)
 
 
 def cutout_spray(spray: SprayConfig) -> SprayConfig:

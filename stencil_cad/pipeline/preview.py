@@ -298,7 +298,7 @@ def previews(
     yield made.sprayed("stippled", plan, holes, final=not (refining or designing))
     if refining:
         run.check()
-        refined = refine_holes(run, _whole(plan), layers, holes, picture)
+        refined = refine_holes(run, _whole(plan), layers, holes, picture)[0]
         yield made.sprayed("refined", plan, refined, final=not designing)
     if designing:
         run.check()
@@ -309,7 +309,7 @@ def previews(
             holes = _holes(run, plan, layers, picture, cache)
             if refining:
                 run.check()
-                refined = refine_holes(run, _whole(plan), layers, holes, picture)
+                refined = refine_holes(run, _whole(plan), layers, holes, picture)[0]
         yield made.sprayed("designed", plan, refined if refining else holes, final=True)
 
 
@@ -436,9 +436,9 @@ def _quick(
 
 def _decomposed_cached(run: Run, plan: Plan, picture: Picture, cache: PreviewCache, key: str) -> Layers:
     """The decompose stage's layers under ``plan`` (not saved), kept in ``cache`` under ``key``."""
-    from .decompose import decomposed
+    from .decompose import stage_decompose
 
-    layers = record_decompose(run, decomposed(run, plan.cfg, picture, primed=plan.primer), save=False)
+    layers = record_decompose(run, stage_decompose(run, plan, picture), save=False)
     cache.put(cache.layers, key, (layers, plan.cfg))
     return layers
 

@@ -96,12 +96,17 @@ def record_decompose(run: Run, done: Decomposed, save: bool = True) -> Layers:
     """
     if save:
         _save_layers(run, done)
-    if done.cans is not None:
-        run.figures.cans = replace(
-            run.figures.cans or CansFigures(), catalogue=done.cans.catalogue, snap=done.cans.snap
-        )
+    record_cans(run, done.cans)
     run.figures.decompose = done.figures
     return done.layers
+
+
+def record_cans(run: Run, cans: CansFigures | None) -> None:
+    """Figure ``cans``: what ``cans`` knows (a can list, a catalogue, the snap to it) added to what the run knew."""
+    if cans is None:
+        return
+    known = {k: v for k, v in vars(cans).items() if v is not None}
+    run.figures.cans = replace(run.figures.cans or CansFigures(), **known)
 
 
 def _save_layers(run: Run, done: Decomposed) -> None:
@@ -149,14 +154,18 @@ def record_stipple(run: Run, made: Stippled) -> None:
 
 
 def record_refine(run: Run, done: Refined, reused: bool) -> list[DotSet]:
-    """Figure ``refine`` of the holes the plate-design trials refined, when the refine stage reused them.
+    """Figure ``refine`` of the refine stage's holes ``done`` (none when ``refine.enabled`` is off). Returns the holes.
 
-    Holes refined by the job itself recorded the figure as they were refined
-    (:func:`stencil_cad.plan.refinement.refine_holes`). Returns the holes.
+    Holes the plate-design trials refined and the stage ``reused`` are recorded in a ``refine``
+    stage of their own, so the manifest times the refinement either way.
     """
-    if reused and done.report is not None:
+    if done.report is None:
+        return done.sets
+    if reused:
         with run.stage("refine"):
             run.figures.refine = done.report
+    else:
+        run.figures.refine = done.report
     return done.sets
 
 

@@ -35,6 +35,7 @@ from .manifest import finish, save_config
 from .paints import stage_paints
 from .recorder import (
     record_build,
+    record_cans,
     record_compute,
     record_cost,
     record_decompose,
@@ -409,6 +410,7 @@ def run_hard(run: Run, plan: Plan, picture: Picture) -> tuple[JobConfig, list[Pa
     cfg = plan.cfg
     with run.stage("segment"):
         cut = stage_segment(run, plan, picture)
+        record_cans(run, cut.cans)
         # The plan learns the cut layers' paints: each sprays its own can, in whole passes.
         plan = painted(plan, cut.layers.colours, can_names(run.figures), each=cutout_spray)
         record_sprays(run, plan)

@@ -34,7 +34,7 @@ class Decomposed:
         layers: The primer and paint layers (float32 opacities, as saved).
         saved: ``layers.npz``'s arrays.
         figures: Figure ``decompose``.
-        cans: Figure ``cans``'s catalogue and the paints' snap to it, or None (no catalogue).
+        cans: Figure ``cans``: the can list, or the catalogue and the paints' snap to it; None: neither.
     """
 
     layers: Layers
@@ -51,11 +51,13 @@ class Segmented:
         hard: The cut stencils (:func:`stencil_cad.hardstencil.make_hard_stencils`).
         layers: Their layers: each cut layer's colour and mask.
         segmentation: ``segmentation.png``: each pixel in its cut layer's colour.
+        cans: Figure ``cans``: the can list ``hard.palette`` names, or None.
     """
 
     hard: Any
     layers: Layers
     segmentation: np.ndarray
+    cans: CansFigures | None = None
 
 
 @dataclass(frozen=True, eq=False)
