@@ -216,15 +216,15 @@ def record_simulate(run: Run, done: Simulated) -> None:
 
     Figures ``paint`` (with the steps), ``simulate`` and ``spraying``.
     """
-    run.out.write_png(SIMULATED_PNG, done.composite)
-    run.out.write_png(PREVIEW_PNG, done.preview)
+    run.out.write_bytes(SIMULATED_PNG, done.composite)
+    run.out.write_bytes(PREVIEW_PNG, done.preview)
     if done.sweep is not None:
-        run.out.write_png(SWEEP_PNG, done.sweep)
+        run.out.write_bytes(SWEEP_PNG, done.sweep)
     for i, step in enumerate(done.steps):
-        run.out.write_png(step_name(i), step)
+        run.out.write_bytes(step_name(i), step)
     run.figures.paint = done.paint
     for name, picture in done.walls:
-        run.out.write_png(name, picture)
+        run.out.write_bytes(name, picture)
     run.figures.simulate = done.figures
     run.figures.spraying = done.spraying
 

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..colour import to_hex
 from ..config import JobConfig
+from ..exchange.png import png_bytes
 from ..figures import PaintFigures, PaintLayer, SimulateFigures, SprayStep
 from ..model import DotSet, Layers, Picture
 from ..output import plain as _plain
@@ -87,24 +88,28 @@ def stage_simulate(
         visible = _start_visibility(run, cfg, layers, dotsets, sim)
         scores = _scores(run, cfg, ref, sim.composite, sim.mm_per_px, here=workers_busy)
         ideal = _resample(layers.composite(), sim.composite.shape[:2])
-        preview = preview_card(ref, ideal, sim.composite, sim.mm_per_px, scores)
-        sweep = sweep_card(cfg, layers, dotsets, sim, grid_mm, design, sprays)
+        # Each picture is kept as its PNG's bytes, as small as the file, until the recorder writes it.
+        preview = png_bytes(preview_card(ref, ideal, sim.composite, sim.mm_per_px, scores))
+        sweep = png_bytes(sweep_card(cfg, layers, dotsets, sim, grid_mm, design, sprays))
         steps, paint = paint_steps(cfg, layers.primer, layers.colours, sim.alphas, sim.mm_per_px)
         walls, per_wall = _walls(cfg, layers, dotsets, (sim, scores, ref), grid_mm, design, sprays)
         by_can = _scores_by_can(cans, scores)
         dots_seen = visible.results()[0] if visible is not None else {}
-    seen = {
+    figures = SimulateFigures.from_rows(_seen(scores, dots_seen, sim), by_can or None, per_wall or None)
+    spraying = spraying_steps(cfg, layers, [ds.amount(cfg.spray.amount) for ds in dotsets])
+    kept: dict[str, Any] = {"sim": sim, "reference": ref} if keep else {}
+    pictures = (png_bytes(sim.composite), preview, sweep, steps, walls)
+    return Simulated(*pictures, paint, figures, spraying, scores, started=started, **kept)
+
+
+def _seen(scores: dict[str, Any], dots_seen: dict[str, Any], sim: Any) -> dict[str, Any]:
+    """Figure ``simulate``'s scores: the design stand-off's, where the holes show most, each layer's error."""
+    return {
         **_plain(scores),
         **dots_seen,
         "layer_rmse": [float(x) for x in sim.layer_rmse],
         **{k: v for k, v in _plain(sim.info).items() if k not in scores},
     }
-    figures = SimulateFigures.from_rows(seen, by_can or None, per_wall or None)
-    spraying = spraying_steps(cfg, layers, [ds.amount(cfg.spray.amount) for ds in dotsets])
-    kept: dict[str, Any] = {"sim": sim, "reference": ref} if keep else {}
-    return Simulated(
-        sim.composite, preview, sweep, steps, walls, paint, figures, spraying, scores, started=started, **kept
-    )
 
 
 def sweep_card(
@@ -142,13 +147,13 @@ def _walls(
     grid_mm: float | None,
     design: SprayGeometry | None,
     sprays: list[SprayConfig],
-) -> tuple[tuple[tuple[str, np.ndarray], ...], list[dict[str, Any]]]:
+) -> tuple[tuple[tuple[str, bytes], ...], list[dict[str, Any]]]:
     """Every wall height's simulation and scores (``simulated_wall_10mm.png`` …), the design one reused.
 
     ``done`` is the design stand-off's ``(simulation, scores, reference)``.
 
     Returns:
-        ``(pictures, rows)``: each wall's ``(file name, simulated spray)``, and its figures.
+        ``(pictures, rows)``: each wall's ``(file name, simulated spray as PNG bytes)``, and its figures.
     """
     from .. import simulate
     from ..simulate.physical import SprayGeometry
@@ -168,7 +173,7 @@ def _walls(
                 layers, dotsets, cfg.spray, grid_mm, geometry=geometry, layer_sprays=sprays
             )
             other_scores = simulate.score(ref, other.composite)
-        pictures.append((name, other.composite))
+        pictures.append((name, png_bytes(other.composite)))
         per_wall.append(
             {
                 "standoff_mm": h,
@@ -442,8 +447,8 @@ def preview_card(
 
 def paint_steps(
     job: JobConfig, primer: np.ndarray, colours: np.ndarray, alphas: np.ndarray, mm_per_px: float
-) -> tuple[tuple[np.ndarray, ...], PaintFigures]:
-    """Per layer, the simulated picture after it is sprayed (``step_N.png``), and its paint estimate (figure ``paint``)."""
+) -> tuple[tuple[bytes, ...], PaintFigures]:
+    """Per layer, the simulated picture after it is sprayed (``step_N.png``, its bytes), and its paint estimate (figure ``paint``)."""
     from ..decompose import paints
     from ..decompose.light import paint_of_plates
     from ..model import composite
@@ -453,7 +458,7 @@ def paint_steps(
     rows = []
     steps = []
     for i in range(alphas.shape[0]):
-        steps.append(np.clip(composite(primer, colours[: i + 1], alphas[: i + 1]), 0.0, 1.0))
+        steps.append(png_bytes(np.clip(composite(primer, colours[: i + 1], alphas[: i + 1]), 0.0, 1.0)))
         mean = float(np.mean(alphas[i]))
         est = paints.paint_estimate(area, mean, cfg.coverage_m2_per_can, cfg.can_ml)
         rows.append({"layer": i + 1, "hex": to_hex(colours[i]), "mean_opacity": mean, **est})
@@ -489,10 +494,12 @@ def stage_simulate_hard(
         geometry = SprayGeometry.for_job(cfg)
         alphas, comp = hardstencil.simulate_hard(hard, cfg.spray, geometry=geometry, layer_sprays=sprays)
         scores = _scores(run, cfg, picture.rgb, comp, picture.mm_per_px)
-        preview = preview_card(picture.rgb, hardstencil.render_ideal(hard), comp, picture.mm_per_px, scores)
+        preview = png_bytes(
+            preview_card(picture.rgb, hardstencil.render_ideal(hard), comp, picture.mm_per_px, scores)
+        )
         steps, paint = paint_steps(cfg, hard.primer, hard.colours, alphas, picture.mm_per_px)
     return Simulated(
-        composite=comp,
+        composite=png_bytes(comp),
         preview=preview,
         sweep=None,
         steps=steps,

@@ -81,6 +81,9 @@ class PaintOrder:
 class Simulated:
     """The simulate stage's pictures and figures (a soft job's or hard mode's).
 
+    The pictures are their PNG files' bytes: a simulation's pictures are as large as the picture,
+    and a mural's several would stay in memory until recorded.
+
     Attributes:
         composite: ``simulated.png``: the design stand-off's simulated spray.
         preview: ``preview.png``: input, ideal layers, simulated spray, error map.
@@ -96,11 +99,11 @@ class Simulated:
         started: What the stage's ``also`` started (a mural's registration cases), or None.
     """
 
-    composite: np.ndarray
-    preview: np.ndarray
-    sweep: np.ndarray | None
-    steps: tuple[np.ndarray, ...]
-    walls: tuple[tuple[str, np.ndarray], ...]
+    composite: bytes
+    preview: bytes
+    sweep: bytes | None
+    steps: tuple[bytes, ...]
+    walls: tuple[tuple[str, bytes], ...]
     paint: PaintFigures
     figures: SimulateFigures
     spraying: tuple[SprayStep, ...]
