@@ -66,7 +66,9 @@ def job_default(cfg):
     with computing(run_, pic.shape[0] * pic.shape[1]):
         plan = plan_job(run_, size, pic.shape)
         plan, layers, dotsets = soft_plates(run_, plan, pic)
-        sim, ref = pipeline.stage_simulate(run_, plan, pic, layers, dotsets, keep=True)
+        done = pipeline.stage_simulate(run_, plan, pic, layers, dotsets, keep=True)
+        pipeline.record_simulate(run_, done)
+        sim, ref = done.sim, done.reference
     return run_, plan, pic, layers, dotsets, sim, ref
 
 

@@ -435,7 +435,9 @@ def _soft(f, pipeline, cfg0, layers, pic, image: str, windows: str, by_can: bool
             cfg=_at_height(cfg0, h, refine=True, windows=windows), out=_NullOut(), quiet=True
         )
         t0 = time.perf_counter()
-        refined = refine_holes(run_r, painted(whole(run_r.cfg, size), layers.colours), layers, stippled, pic)
+        refined = refine_holes(run_r, painted(whole(run_r.cfg, size), layers.colours), layers, stippled, pic)[
+            0
+        ]
         t_refine = time.perf_counter() - t0
         # Every layer sprays as the job sprays it: its paint's deposit prior (or measured profile).
         sprays = _sprays(pipeline, cfg, layers.colours)
@@ -533,10 +535,10 @@ def run(cases=None, size: dict | None = None):
 
             run0 = pipeline.Run(cfg=cfg0, out=_NullOut(), quiet=True)
             # The plates a one-plate job stipples (two per paint with light plates).
-            from stencil_cad.plan.primer import dark_primed
+            from stencil_cad.plan.plan import primed, whole
 
-            primed, primer = dark_primed(cfg0, pic)
-            layers = plates_of(run0, primed, pipeline.stage_decompose(run0, primed, pic, primer), False)
+            plan0 = primed(whole(cfg0, (pic.width_mm, pic.height_mm)), pic)
+            layers = plates_of(plan0, pipeline.stage_decompose(run0, plan0, pic).layers)
             t_decompose = time.perf_counter() - t0
             soft, plain, timing, sim1, ref, run_ = _soft(f, pipeline, cfg0, layers, pic, image, "off")
             # What the job does by default: the plate design it chooses for the picture (windows on

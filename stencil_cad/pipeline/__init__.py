@@ -4,7 +4,9 @@ Stages are pure functions; this package is the only one that knows their order. 
 each stage's glue, and no stage's glue imports another's: :mod:`.run` (the job and the stage
 commands), :mod:`.commands` (the card, the default config) and :mod:`.preview` order them, and
 what the stages share lives below, in :mod:`stencil_cad.plan` (the names a job writes, the picture,
-the tiling, each layer's spray, the holes a design gets). This package re-exports stage glue only:
+the tiling, each layer's spray, the holes a design gets, what each stage returns). Each stage returns
+its result and :mod:`.recorder` writes its files and records its figures. This package re-exports
+stage glue only:
 the command line and the public API import the three orchestrating modules themselves.
 """
 
@@ -14,6 +16,7 @@ from ..record import Run
 from .cost import dry_run
 from .decompose import stage_decompose
 from .manifest import finish
+from .recorder import record_decompose, record_simulate
 from .refine import stage_refine
 from .saved import read_dots, read_layers, read_spray_times
 from .simulate import stage_simulate
@@ -31,6 +34,8 @@ __all__ = [
     "read_dots",
     "read_layers",
     "read_spray_times",
+    "record_decompose",
+    "record_simulate",
     "slice_plates",
     "source_reference",
     "stage_decompose",

@@ -27,6 +27,7 @@ from ..output import plain as _plain
 from ..plan import tiles
 from ..plan.names import part_stem, part_wall_stems
 from ..plan.plan import Plan, unplanned
+from ..plan.results import Built, PartResult, Stand
 from ..record import Run
 
 if TYPE_CHECKING:
@@ -88,35 +89,21 @@ def start_build(
     )
 
 
-def collect_parts(run: Run, started: BuildStarted) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
-    """Collect the parts :func:`start_build` started and stage their files, in task order.
-
-    Returns:
-        ``(plates, walls)``: the plates' and walls' rows, for :func:`record_build`.
-    """
-    plates: list[dict[str, Any]] = []
-    walls: list[dict[str, Any]] = []
-    for res in started.tasks.results():
-        for name, data in res.files:
-            run.out.write_bytes(name, data)
-        (plates if res.kind == "plate" else walls).append(res.row)
-    return plates, walls
+def collect_parts(started: BuildStarted) -> Iterator[PartResult]:
+    """The parts :func:`start_build` started, each as its task finishes, in task order (the recorder stages their files)."""
+    yield from started.tasks.results()
 
 
-def record_build(
-    run: Run,
+def stage_build(
     started: BuildStarted,
     plates: list[dict[str, Any]],
     walls: list[dict[str, Any]],
-    post_row: dict[str, Any] | None = None,
-    stand_rows: list[dict[str, Any]] | None = None,
-) -> list[list[Holes]]:
-    """Figure ``build`` from the parts' rows (:func:`collect_parts`), and a mural's tiles with its stand's rows.
+    stand: Stand,
+) -> Built:
+    """Figure ``build`` from the parts' rows (collected), and a mural's tiles with its ``stand``'s rows and map.
 
-    ``post_row`` and ``stand_rows`` are the stand's (:func:`stencil_cad.pipeline.stand.stage_stand`).
-
-    Returns:
-        Per tile, per layer, the tile's holes as the process makes them, in the tile frame.
+    The rows are completed here (the tiles a wall serves, a plate's posts, how much larger the
+    holes are drawn than asked); the recorder records the figures and writes ``mural_map.png``.
     """
     grid = started.grid
     served = mural.wall_tiles(grid)
@@ -130,22 +117,20 @@ def record_build(
         asked, drawn = started.asked[i], started.drawn[i]
         if isinstance(asked, DotSet) and len(asked):
             row["drawn_minus_asked_mm"] = round(float(np.mean(drawn.r_mm - asked.r_mm)), 4)
-    run.figures.build = BuildFigures.from_rows(plates, walls)
-    if mural.has_seams(grid):
-        # A mural's holes are round (hard mode makes one plate per layer).
-        tiles.record_tiles(
-            run,
-            started.cfg,
-            cast("list[DotSet]", started.asked),
-            cast("list[DotSet]", started.drawn),
-            cast("list[list[DotSet]]", started.holes_tile),
-            grid,
-            post_row,
-            stand_rows,
-            started.layers,
-            started.picture,
-        )
-    return started.per_tile
+    build = BuildFigures.from_rows(plates, walls)
+    if not mural.has_seams(grid):
+        return Built(build)
+    # A mural's holes are round (hard mode makes one plate per layer).
+    built = tiles.tile_figures(
+        started.cfg,
+        cast("list[DotSet]", started.asked),
+        cast("list[DotSet]", started.drawn),
+        cast("list[list[DotSet]]", started.holes_tile),
+        grid,
+        stand.post_row,
+        stand.stand_rows,
+    )
+    return Built(build, built, tiles.map_picture(grid, started.layers, started.picture))
 
 
 def _with_posts(
@@ -245,16 +230,6 @@ class PartTask:
     rules: DesignRules | None = None
     cut_name: str | None = None
     what: str | None = None
-
-
-@dataclass(frozen=True)
-class PartResult:
-    """What a :class:`PartTask` made: its files (name, bytes) in writing order, its manifest row and its solid's check."""
-
-    kind: str
-    files: tuple[Any, ...]
-    row: dict[str, Any]
-    check: dict[str, Any]
 
 
 def _part_tasks(

@@ -17,7 +17,7 @@ from ..names import (
     part_file,
 )
 from ..plan.names import CARD_JSON, card_stems
-from ..plan.plan import unplanned
+from ..plan.plan import unplanned, whole
 from ..record import Run
 from .build import PartTask, build_part
 from .manifest import finish
@@ -150,7 +150,8 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
         "paper": paper,
         "passes": card.passes,
     }
-    return finish(run, cfg, "card")
+    # The card plans one plate of its own size (no tiling, no picture).
+    return finish(run, whole(cfg, (w, h)), "card")
 
 
 def write_default_config(path: Path, *, force: bool = False) -> None:

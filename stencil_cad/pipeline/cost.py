@@ -1,7 +1,7 @@
 """What making the job costs: recorded once the holes are placed (before any CAD), and the dry run.
 
-The estimate itself is :func:`stencil_cad.mural.making_cost`; this glue records it as the
-manifest's ``cost`` section and prints the plan with it for ``stencil-cad run --dry-run``,
+The estimate itself is :func:`stencil_cad.mural.making_cost`; this glue returns it for the
+manifest's ``cost`` section (the recorder records it) and prints the plan with it for ``stencil-cad run --dry-run``,
 which reads the image and writes nothing.
 """
 
@@ -16,14 +16,11 @@ from ..model import DotSet
 from ..mural.cost import hours_text
 from ..plan.picture import load_picture
 from ..plan.plan import Plan, costed
-from ..record import Run
 
 
-def record_cost(run: Run, plan: Plan, dotsets: Sequence[DotSet]) -> CostFigures:
-    """The cost of making ``plan``'s plates and walls from the placed holes, as figure ``cost``."""
-    made = mural.making_cost(plan.grid, costed(plan), len(dotsets), dotsets)
-    run.figures.cost = made
-    return made
+def stage_cost(plan: Plan, dotsets: Sequence[DotSet]) -> CostFigures:
+    """The cost of making ``plan``'s plates and walls from the placed holes: figure ``cost``, which the recorder records."""
+    return mural.making_cost(plan.grid, costed(plan), len(dotsets), dotsets)
 
 
 def cost_lines(made: CostFigures) -> list[str]:

@@ -1,10 +1,9 @@
-"""The decompose stage's glue: solve whole or in tiles, a can list or catalogue as the palette, save ``layers.npz`` and its previews."""
+"""The decompose stage's glue: solve whole or in tiles, a can list or catalogue as the palette; the layers to save (``layers.npz``)."""
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 from ..colour import to_hex
@@ -12,45 +11,36 @@ from ..config import DecomposeConfig, JobConfig
 from ..errors import ConfigError, UserError
 from ..figures import CansFigures, CanSnap, DecomposeFigures
 from ..model import Layers, Picture
-from ..names import COMPOSITE_PNG, ENERGY_CSV, opacity_png
 from ..output import plain as _plain
 from ..plan.cans import with_can_list
-from ..plan.names import LAYERS_NPZ, layer_stem
+from ..plan.plan import Plan
+from ..plan.results import Decomposed
 from ..record import Run
 
 if TYPE_CHECKING:
     from ..decompose.paints import Can
     from ..decompose.sprayed import PlateReach
     from ..decompose.tiled import TilePlan
-    from ..mural import TileGrid
 
 log = logging.getLogger(__name__)
 
 
-def stage_decompose(run: Run, cfg: JobConfig, picture: Picture, primed: str | None = None) -> Layers:
-    """Decompose the picture into a primer and paint layers, and save them (``layers.npz`` and its previews).
+def stage_decompose(run: Run, plan: Plan, picture: Picture) -> Decomposed:
+    """Decompose the picture into a primer and paint layers under ``plan``, written nowhere.
 
-    Takes the keyword arguments of :func:`decomposed`.
-    """
-    return decomposed(run, cfg, picture, save=True, primed=primed)
-
-
-def decomposed(
-    run: Run, cfg: JobConfig, picture: Picture, save: bool = False, primed: str | None = None
-) -> Layers:
-    """The picture's primer and paint layers as the decompose stage makes them; saved only when ``save``.
-
-    ``cfg`` is the job's planned config: a mostly dark picture's primer is in it already
-    (:func:`stencil_cad.plan.plan.primed`), and ``primed`` names that primer for figure
+    ``plan``'s config is the job's planned config: a mostly dark picture's primer is in it already
+    (:func:`stencil_cad.plan.plan.primed`), and ``plan.primer`` names that primer for figure
     ``decompose`` (None: the config's own). The layers come back as ``layers.npz`` holds them
-    (float32 opacities), saved or not, so a preview or a stage command run later on the saved file
-    goes on from the same numbers as the job.
+    (float32 opacities), so a preview or a stage command run later on the saved file goes on from
+    the same numbers as the job. The recorder saves them (``layers.npz`` and its previews) and
+    records figures ``cans`` and ``decompose``; the preview records them without saving.
     """
     from dataclasses import replace
 
     from .. import decompose as dec
     from ..exchange.layers_npz import layers_from_npz, layers_to_npz
 
+    cfg, primed = plan.cfg, plan.primer
     with run.stage("decompose"):
         # Iterations run per pyramid level, so the total is not known in advance.
         with run.bar(None, "decompose") as bar:
@@ -59,7 +49,7 @@ def decomposed(
                 bar.update(1)
                 bar.set_postfix(energy=f"{energy:.4g}", refresh=False)
 
-            dcfg = with_can_list(run, cfg.decompose, "decompose.palette")
+            dcfg, listed = with_can_list(cfg.decompose, "decompose.palette")
             reach = plate_reach(cfg)
             try:
                 tiles = _decompose_tiles(cfg, picture)
@@ -71,9 +61,9 @@ def decomposed(
                         )
                     return _decompose_tiled(run, picture, tiles, progress, section, reach)
 
-                layers = solve(dcfg)
+                layers, cans = solve(dcfg), None
                 if dcfg.palette == "auto" and cfg.paints.catalogue is not None:
-                    layers = _snap_to_catalogue(run, cfg.paints.catalogue, dcfg, layers, solve)
+                    layers, cans = _snap_to_catalogue(cfg.paints.catalogue, dcfg, layers, solve)
             except ValueError as exc:
                 # A config that does not suit this image (e.g. opacity_source: alpha on RGB).
                 raise UserError(str(exc)) from exc
@@ -82,10 +72,8 @@ def decomposed(
         # Go on with exactly what is saved (float32 opacities), so a stage command run later
         # on layers.npz gives the same dots as this run.
         layers = layers_from_npz(saved)
-        if save:
-            _save(run, layers, saved)
     info = dict(layers.info)
-    run.figures.decompose = DecomposeFigures(
+    figures = DecomposeFigures(
         layers=layers.count,
         primer=to_hex(layers.primer),
         colours=[to_hex(c) for c in layers.colours],
@@ -96,40 +84,23 @@ def decomposed(
         },
         tiled=_plain(info["tiled"]) if "tiled" in info else None,
     )
-    return layers
+    known = replace(listed or CansFigures(), catalogue=cans.catalogue, snap=cans.snap) if cans else listed
+    return Decomposed(layers, saved, figures, known)
 
 
-def plates_of(run: Run, cfg: JobConfig, layers: Layers, grid: TileGrid | bool) -> Layers:
-    """The plates the job stipples from its paint layers: two per paint with light plates, else the layers.
+def plates_of(plan: Plan, layers: Layers) -> Layers:
+    """The plates ``plan``'s job stipples from its paint layers: two per paint with light plates, else the layers.
 
-    With ``stipple.light_plates`` (:func:`stencil_cad.mural.light_plates_on`, which the tiling
-    ``grid`` decides, or a bool: whether the job is a mural) each paint gets
-    a light and a dark plate (:func:`stencil_cad.decompose.light.light_plates`). Split from the layers as ``layers.npz`` holds them, so a stage command on the saved file makes
-    the same plates. Figure ``decompose.plates`` says how many.
+    With ``stipple.light_plates`` (:func:`stencil_cad.mural.light_plates_on`, which the plan's tiling
+    decides) each paint gets a light and a dark plate (:func:`stencil_cad.decompose.light.light_plates`).
+    Split from the layers as ``layers.npz`` holds them, so a stage command on the saved file makes
+    the same plates. The recorder's :func:`stencil_cad.pipeline.recorder.record_plates` says how many
+    (figure ``decompose.plates``).
     """
     from ..decompose.light import light_plates
     from ..mural import light_plates_on
 
-    plates = light_plates(layers) if light_plates_on(cfg, grid) else layers
-    if run.figures.decompose is not None:
-        run.figures.decompose = replace(run.figures.decompose, plates=plates.count)
-    return plates
-
-
-def _save(run: Run, layers: Layers, saved: dict[str, Any]) -> None:
-    """Write ``layers.npz`` (``saved``), each layer's opacity card, the composite and the energy trace."""
-    from ..simulate import labelled
-
-    out = run.out
-    out.write_npz(LAYERS_NPZ, saved)
-    for i, a in enumerate(layers.alphas):
-        out.write_png(
-            opacity_png(layer_stem(i)),
-            labelled.opacity_card(a, layers.mm_per_px, i + 1, layers.count, to_hex(layers.colours[i])),
-        )
-    out.write_png(COMPOSITE_PNG, layers.composite())
-    trace = "iteration,energy\n" + "".join(f"{k},{e:.10g}\n" for k, e in enumerate(layers.energy_trace))
-    out.write_text(ENERGY_CSV, trace)
+    return light_plates(layers) if light_plates_on(plan.cfg, plan.grid) else layers
 
 
 def _decompose_tiles(cfg: JobConfig, picture: Picture) -> TilePlan | None:
@@ -205,31 +176,32 @@ def _decompose_tiled(
     return tiled.assemble(coarse, tiles, results, picture.mm_per_px)
 
 
-def _catalogue(run: Run, catalogue: Any) -> list[Can]:
+def _catalogue(catalogue: Any) -> list[Can]:
     from ..decompose import paints
 
     try:
         cans = paints.load_cans(catalogue)
     except (ValueError, ConfigError) as exc:
         raise ConfigError(f"paints.catalogue: {exc}") from None
-    run.figures.cans = replace(run.figures.cans or CansFigures(), catalogue=[c.__dict__ for c in cans])
     return cans
 
 
 def _snap_to_catalogue(
-    run: Run,
     catalogue: Any,
     dcfg: DecomposeConfig,
     layers: Layers,
     solve: Callable[[DecomposeConfig], Layers],
-) -> Layers:
+) -> tuple[Layers, CansFigures]:
     """Snap the solved paints (and an 'auto' primer) to the nearest cans of ``catalogue`` and solve the opacities again.
 
     ``solve(section)`` decomposes the picture with a decompose section (whole or in tiles).
+
+    Returns:
+        ``(layers, cans)``: the layers solved again, and figure ``cans``'s catalogue and snap.
     """
     from ..decompose import paints
 
-    cans = _catalogue(run, catalogue)
+    cans = _catalogue(catalogue)
     paint_snap = paints.snap_report(layers.colours, cans)
     update: dict[str, object] = {"order": "given"}
     primer_snap = None
@@ -257,6 +229,5 @@ def _snap_to_catalogue(
         "rmse_cost": after - before,
         "de2000_mean_shift": float(sum(r["delta_e2000"] for r in paint_snap) / len(paint_snap)),
     }
-    run.figures.cans = replace(run.figures.cans or CansFigures(), snap=CanSnap.from_json(snap))
     log.info("paints: snapped to the catalogue, composite RMSE %.2f → %.2f (0-255 units)", before, after)
-    return snapped
+    return snapped, CansFigures(catalogue=[c.__dict__ for c in cans], snap=CanSnap.from_json(snap))

@@ -7,28 +7,17 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from ..config import JobConfig, SprayConfig
 from ..errors import UserError
-from ..figures import HardFigures
 from ..model import Layers, Picture
-from ..names import SEGMENTATION_PNG
-from ..output import plain as _plain
 from ..plan.cans import with_can_list
 from ..plan.plan import Plan
+from ..plan.results import Segmented
 from ..record import Run
-
-
-@dataclass(frozen=True)
-class Segmented:
-    """What the segment stage made: the cut stencils and their layers (each layer's spray is the plan's)."""
-
-    hard: Any
-    layers: Layers
 
 
 def hard_config(cfg: JobConfig) -> JobConfig:
@@ -45,10 +34,11 @@ def hard_config(cfg: JobConfig) -> JobConfig:
 
 
 def stage_segment(run: Run, plan: Plan, picture: Picture) -> Segmented:
-    """Segment the picture into cut layers with bridges under ``plan``; write ``segmentation.png``.
+    """Segment the picture into cut layers with bridges under ``plan``, with ``segmentation.png`` to write.
 
-    Runs inside the ``segment`` stage, which the run opens (the plan learns the paints, then
-    :func:`record_segment` records figure ``hard``, and the paints' previews follow in it).
+    Runs inside the ``segment`` stage, which the run opens (the recorder records the can list, the
+    plan learns the paints, then the recorder writes ``segmentation.png`` and records figure
+    ``hard``, and the paints' previews follow in it).
 
     Raises:
         UserError: The segmentation fails, or the image has a single flat colour.
@@ -57,7 +47,7 @@ def stage_segment(run: Run, plan: Plan, picture: Picture) -> Segmented:
 
     cfg = plan.cfg
     rules = process_rules(cfg)
-    hcfg = with_can_list(run, cfg.hard, "hard.palette")
+    hcfg, listed = with_can_list(cfg.hard, "hard.palette")
     try:
         hard = hardstencil.make_hard_stencils(
             picture, hcfg, rules["min_feature_mm"], rules["bridge_min_mm"], run.rng_for("hard")
@@ -69,7 +59,6 @@ def stage_segment(run: Run, plan: Plan, picture: Picture) -> Segmented:
             "hard mode: the image has a single flat colour, so there is nothing to cut "
             "(prime the surface with it, or use an image with more colours)"
         )
-    run.out.write_png(SEGMENTATION_PNG, hard.palette[hard.labels])
     colours = np.array([cl.colour for cl in hard.cut_layers]).reshape(-1, 3)
     layers = Layers(
         primer=hard.primer,
@@ -77,19 +66,7 @@ def stage_segment(run: Run, plan: Plan, picture: Picture) -> Segmented:
         alphas=hard.cut_masks.astype(np.float64),
         mm_per_px=picture.mm_per_px,
     )
-    return Segmented(hard, layers)
-
-
-def record_segment(run: Run, cut: Segmented) -> None:
-    """Figure ``hard``: the segmentation's report, its warnings and each cut layer's."""
-    report = cut.hard.report
-    run.figures.hard = HardFigures.from_json(
-        {
-            **_plain(report),
-            "warnings": [str(w) for w in report.get("warnings", [])],
-            "per_layer": [_plain(r) for r in report.get("per_layer", [])],
-        }
-    )
+    return Segmented(hard, layers, hard.palette[hard.labels], listed)
 
 
 def cutout_spray(spray: SprayConfig) -> SprayConfig:

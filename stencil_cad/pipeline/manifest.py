@@ -15,25 +15,27 @@ from ..command_table import command as command_named
 from ..config import JobConfig
 from ..output import MANIFEST, OutputDir, manifest_header
 from ..plan.names import CONFIG_COPY, INSTRUCTIONS, LATER_STAGES, PLAN_JSON, STAGE_FILES
+from ..plan.plan import Plan
 from ..plan.saved import saved_config
 from ..record import Run
 
 log = logging.getLogger(__name__)
 
 
-def save_config(run: Run, cfg: JobConfig) -> None:
-    """Write the resolved config ``cfg`` (the plan's) beside the results, so stage commands can re-read it."""
+def save_config(run: Run, plan: Plan) -> None:
+    """Write ``plan``'s config (the config as the job resolved it) beside the results, so stage commands can re-read it."""
     # Absolute paths, so the copy runs from anywhere.
-    run.out.write_text(CONFIG_COPY, yaml.safe_dump(saved_config(cfg), sort_keys=False))
+    run.out.write_text(CONFIG_COPY, yaml.safe_dump(saved_config(plan.cfg), sort_keys=False))
 
 
-def finish(run: Run, cfg: JobConfig, command: str, plan_text: str | None = None) -> list[Path]:
-    """Write the manifest (its config: ``cfg``, the plan's) and move every file into place.
+def finish(run: Run, plan: Plan, command: str, plan_text: str | None = None) -> list[Path]:
+    """Write the manifest (its config: ``plan``'s) and move every file into place.
 
     ``plan_text``: the job's saved plan (:func:`stencil_cad.plan.saved.plan_json`), or None. Like the
     manifest it is the folder's record, not a file the maker uses: it is written after the
     instruction sheet, whose file list it stays out of.
     """
+    cfg = plan.cfg
     whole = command_named(command).whole
     sheet = whole and cfg.export.instructions
     if plan_text is not None and not sheet:

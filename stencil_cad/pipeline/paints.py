@@ -1,13 +1,13 @@
 """The paints stage: ``spray.json``, the swatch card and the plate previews with their can names.
 
-Run once a job's holes (or hard mode's cut-outs) are placed: :func:`write_plate_previews`, then
-:func:`write_spray_order`.
+Run once a job's holes (or hard mode's cut-outs) are placed: :func:`stage_paints` makes the plate
+previews, then the spray order and the swatch; the recorder writes them.
 """
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -16,9 +16,10 @@ from ..colour import to_hex
 from ..config import JobConfig, Mode
 from ..figures import OrderStep, PrimerRow, SprayOrderFigures
 from ..model import DotSet
-from ..names import SWATCH_PNG
 from ..plan.cans import can_names
-from ..plan.names import SPRAY_JSON, layer_stem
+from ..plan.names import layer_stem
+from ..plan.plan import Plan
+from ..plan.results import PaintOrder
 from ..record import Run
 
 log = logging.getLogger(__name__)
@@ -39,15 +40,40 @@ def _order_note(cfg: JobConfig) -> str:
     }[cfg.decompose.order.value]
 
 
-def write_spray_order(
-    run: Run, cfg: JobConfig, primer: np.ndarray, colours: np.ndarray, spray_times: list[float]
-) -> None:
-    """Write ``spray.json`` (spray order, paints, spray times) and the swatch card ``swatch.png``.
+def stage_paints(
+    run: Run,
+    plan: Plan,
+    primer: np.ndarray,
+    colours: np.ndarray,
+    holes: list[Any],
+    amounts: Sequence[float],
+    name: Callable[[str], str],
+) -> PaintOrder:
+    """Each plate's preview (:func:`plate_cards`, named ``name(layer stem)``: ``dots_png`` or ``cut_png``) and the spray order.
 
-    ``cfg`` is the job's planned config (how it sprays: hard mode's from the cut-outs' height).
+    Args:
+        run: The run (the cans' names it knows).
+        plan: The job's plan (how it sprays: hard mode's from the cut-outs' height).
+        primer: The primer's colour.
+        colours: Each plate's paint.
+        holes: Each plate's holes (a ``DotSet``) or cut-outs.
+        amounts: Each plate's amount of paint: passes or spray time.
+        name: A plate preview's file name from its layer's stem.
     """
+    cards = tuple(
+        (name(layer_stem(i)), card) for i, card in enumerate(plate_cards(run, plan, colours, holes))
+    )
+    spray, figures, swatch = spray_order(run, plan, primer, colours, amounts)
+    return PaintOrder(cards, spray, figures, swatch)
+
+
+def spray_order(
+    run: Run, plan: Plan, primer: np.ndarray, colours: np.ndarray, spray_times: Sequence[float]
+) -> tuple[dict[str, Any], SprayOrderFigures, np.ndarray]:
+    """``spray.json`` (spray order, paints, spray times), its figure ``spray_order`` and the swatch card ``swatch.png``."""
     from ..simulate import labelled
 
+    cfg = plan.cfg
     names = can_names(run.figures)
     if cfg.paints.can_names:
         from ..decompose import paints
@@ -73,40 +99,34 @@ def write_spray_order(
         how.update(can_distance_cm=sp.can_distance_mm / 10.0, pass_speed_m_s=sp.pass_speed_m_s)
     else:
         how["nozzle_height"] = sp.nozzle_height
-    run.out.write_json(
-        SPRAY_JSON,
-        {
-            "primer": {"hex": to_hex(primer), "name": names.get(to_hex(primer), "")},
-            "order": order,
-            "spray_times": [float(t) for t in spray_times],
-            **how,
-        },
-    )
-    run.figures.spray_order = SprayOrderFigures(
+    spray = {
+        "primer": {"hex": to_hex(primer), "name": names.get(to_hex(primer), "")},
+        "order": order,
+        "spray_times": [float(t) for t in spray_times],
+        **how,
+    }
+    figures = SprayOrderFigures(
         primer=PrimerRow.from_json({"hex": to_hex(primer), "name": names.get(to_hex(primer), "")}),
         note=_order_note(cfg),
         unit=cfg.spray.amount_unit,
         steps=tuple(OrderStep.from_json(o) for o in order),
     )
-    run.out.write_png(
-        SWATCH_PNG,
-        labelled.swatch_card(
-            to_hex(primer),
-            [{**o, "note": f"plate {o['plate']}"} for o in order],
-            order_note=_order_note(cfg),
-            unit=cfg.spray.amount_unit,
-            primer_name=names.get(to_hex(primer), ""),
-        ),
+    swatch = labelled.swatch_card(
+        to_hex(primer),
+        [{**o, "note": f"plate {o['plate']}"} for o in order],
+        order_note=_order_note(cfg),
+        unit=cfg.spray.amount_unit,
+        primer_name=names.get(to_hex(primer), ""),
     )
+    return spray, figures, swatch
 
 
-def plate_cards(
-    run: Run, cfg: JobConfig, colours: np.ndarray, picture_mm: tuple[float, float], holes: list[Any]
-) -> list[np.ndarray]:
-    """The plate previews of ``cfg``'s plates: outline with key tabs and label area, holes or cut-outs, header and scale."""
+def plate_cards(run: Run, plan: Plan, colours: np.ndarray, holes: list[Any]) -> list[np.ndarray]:
+    """The plate previews of ``plan``'s plates: outline with key tabs and label area, holes or cut-outs, header and scale."""
     from .. import outline
     from ..simulate import labelled
 
+    cfg, picture_mm = plan.cfg, plan.picture_mm
     ring = outline.plate_outline(*picture_mm, cfg.plate.outline)
     box = outline.label_region(*picture_mm, cfg.plate.outline)
     names = can_names(run.figures)
@@ -124,16 +144,3 @@ def plate_cards(
             )
         )
     return cards
-
-
-def write_plate_previews(
-    run: Run,
-    cfg: JobConfig,
-    colours: np.ndarray,
-    picture_mm: tuple[float, float],
-    holes: list[Any],
-    name: Callable[[str], str],
-) -> None:
-    """Write each plate's preview (:func:`plate_cards`) as ``name(layer stem)``: ``dots_png`` or ``cut_png``."""
-    for i, card in enumerate(plate_cards(run, cfg, colours, picture_mm, holes)):
-        run.out.write_png(name(layer_stem(i)), card)

@@ -63,6 +63,7 @@ from ..plan.cans import can_names
 from ..plan.plan import Plan, capped, costed, designed, painted, planned, primed, refilled, repainted
 from ..record import Run
 from .decompose import plates_of
+from .recorder import record_decompose, record_plates
 
 #: Refinement iterations of the last preview (the job's default is 90): on the bundled example 30
 #: iterations on the preview grid scored 3.98 at 1 m against the full job's 3.99.
@@ -280,7 +281,7 @@ def previews(
         yield _quick(run, plan, picture, cache, t0, start)
         run.check()
     plan, layers = _layers(run, plan, picture, cache)
-    layers = plates_of(run, plan.cfg, layers, plan.grid)
+    layers = record_plates(run, plates_of(plan, layers))
     plan = painted(plan, layers.colours, can_names(run.figures))
     # Decomposed as the job decomposes (at the config's stand-off); the holes start at ``start``.
     own, job, known = plan, plan, None
@@ -297,7 +298,7 @@ def previews(
     yield made.sprayed("stippled", plan, holes, final=not (refining or designing))
     if refining:
         run.check()
-        refined = refine_holes(run, _whole(plan), layers, holes, picture)
+        refined = refine_holes(run, _whole(plan), layers, holes, picture)[0]
         yield made.sprayed("refined", plan, refined, final=not designing)
     if designing:
         run.check()
@@ -308,7 +309,7 @@ def previews(
             holes = _holes(run, plan, layers, picture, cache)
             if refining:
                 run.check()
-                refined = refine_holes(run, _whole(plan), layers, holes, picture)
+                refined = refine_holes(run, _whole(plan), layers, holes, picture)[0]
         yield made.sprayed("designed", plan, refined if refining else holes, final=True)
 
 
@@ -428,14 +429,14 @@ def _quick(
         half = replace(half, cfg=half.cfg.model_copy(update={"decompose": hit[1].decompose}))
     if start is not None:
         half = designed(half, *start)
-    return _Made(run, picture, plates_of(run, half.cfg, layers, half.grid), t0).coarse(half)
+    return _Made(run, picture, record_plates(run, plates_of(half, layers)), t0).coarse(half)
 
 
 def _decomposed_cached(run: Run, plan: Plan, picture: Picture, cache: PreviewCache, key: str) -> Layers:
     """The decompose stage's layers under ``plan`` (not saved), kept in ``cache`` under ``key``."""
-    from .decompose import decomposed
+    from .decompose import stage_decompose
 
-    layers = decomposed(run, plan.cfg, picture, primed=plan.primer)
+    layers = record_decompose(run, stage_decompose(run, plan, picture), save=False)
     cache.put(cache.layers, key, (layers, plan.cfg))
     return layers
 

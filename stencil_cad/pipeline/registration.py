@@ -8,18 +8,17 @@ global simulation is there (:func:`start_registration`) and collected after the 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .. import mural
-from ..figures import MuralSimulation
+from ..figures import MuralSimulation, SimulateFigures
 from ..model import DotSet, Layers
-from ..plan.tiles import _planned
+from ..plan.plan import Plan
 
 if TYPE_CHECKING:
-    from ..config.job import JobConfig
     from ..config.spray import SprayConfig
     from ..record import Run
     from ..simulate import SimResult
@@ -84,13 +83,11 @@ def registration_case(case: tuple[str, float], job: RegistrationJob) -> dict[str
 
 def start_registration(
     run: Run,
-    cfg: JobConfig,
-    sprays: list[SprayConfig],
+    plan: Plan,
     sim: SimResult,
     reference: np.ndarray,
     layers: Layers,
     dotsets: list[DotSet],
-    grid: mural.TileGrid,
     per_tile: list[list[DotSet]],
 ) -> tuple[Any, float] | None:
     """Start the registration cases (:data:`REGISTRATION_CASES`) as the job's tasks: ``(started, start time)``.
@@ -99,18 +96,17 @@ def start_registration(
 
     Args:
         run: The run.
-        cfg: The job's planned config.
-        sprays: Each layer's spray settings (the plan's).
+        plan: The job's plan: its config, each layer's spray settings and its tiles.
         sim: The global :class:`~stencil_cad.simulate.SimResult`.
         reference: ``(H, W, 3)`` picture on the simulation grid.
         layers: The decomposition.
         dotsets: The global holes per layer.
-        grid: The tiles.
         per_tile: Per tile, per layer, holes in the tile frame.
     """
     from .. import simulate
     from ..simulate.physical import SprayGeometry
 
+    cfg, sprays, grid = plan.cfg, plan.sprays, plan.grid
     if not mural.has_seams(grid):
         return None
     t0 = time.perf_counter()
@@ -138,22 +134,27 @@ def start_registration(
     return run.tasks.start(registration_case, list(REGISTRATION_CASES), "registration cases", job), t0
 
 
-def stage_mural_simulate(run: Run, started: tuple[Any, float] | None) -> None:
+def stage_mural_simulate(
+    run: Run, started: tuple[Any, float] | None, seen: SimulateFigures | None
+) -> MuralSimulation | None:
     """The cost of misregistration: the tiles (or the layers) sprayed shifted apart, scored against the mural in register.
 
     In register the tiled simulation equals the global one (tested to 1e-6 in the tests of
     :func:`stencil_cad.mural.simulate_tiles`), so the scores in register are the global
-    simulation's (``run.figures.simulate``, as :func:`stencil_cad.pipeline.simulate.stage_simulate`
-    scored it). The cases' simulations and scores are tasks :func:`start_registration` started
-    while the global simulation went on; this collects them.
+    simulation's (``seen``, as :func:`stencil_cad.pipeline.simulate.stage_simulate` scored it). The
+    cases' simulations and scores are tasks :func:`start_registration` started while the global
+    simulation went on; this collects them.
 
     Args:
         run: The run.
         started: What :func:`start_registration` returned (None: no case, nothing to record).
+        seen: Figure ``simulate``: the global simulation's scores.
+
+    Returns:
+        Figure ``mural.simulation`` (the recorder records it), or None without a case.
     """
     if started is None:
-        return
-    seen = run.figures.simulate
+        return None
     if seen is None:
         raise AssertionError("the mural's registration costs need the global simulation's scores")
     base = {k: float(seen.scores[k]) for k in _SCORES}
@@ -173,4 +174,4 @@ def stage_mural_simulate(run: Run, started: tuple[Any, float] | None) -> None:
         out["zero_error_scores"] = {k: round(v, 5) for k, v in base.items()}
         out["registration_cost"] = costs
         out["seconds"] = round(time.perf_counter() - t0, 2)
-    run.figures.mural = replace(_planned(run), simulation=MuralSimulation.from_json(out))
+    return MuralSimulation.from_json(out)

@@ -10,41 +10,59 @@ from dataclasses import replace
 from pathlib import Path
 from typing import cast
 
-import numpy as np
-
 from .. import mural
 from ..command_table import command as command_named
 from ..config import ComputeConfig, JobConfig, Mode
 from ..config.job import filled, with_margin
 from ..errors import UserError
-from ..exchange.png import png_bytes
-from ..figures import ComputeFigures, MuralFigures, PictureFigures
+from ..figures import ComputeFigures, MuralFigures
 from ..interrupts import CancelToken
 from ..model import DotSet, Layers, Picture
-from ..names import INPUT_PNG, cut_png, dots_png
+from ..names import cut_png, dots_png
 from ..output import OutputDir, sha256_file
 from ..plan import tiles
 from ..plan.cans import can_names
 from ..plan.names import LAYERS_NPZ, PLAN_JSON, run_outputs, stage_outputs
 from ..plan.picture import load_picture
-from ..plan.plan import Plan, capped, painted, planned, primed
-from ..plan.primer import dark_primed
+from ..plan.plan import Plan, capped, painted, planned, primed, whole
 from ..plan.saved import SavedPlan, apply_saved, config_digest, plan_json
 from ..record import Run
 from . import registration
-from .build import BuildStarted, check_template, collect_parts, record_build, start_build
-from .cost import record_cost
+from .build import BuildStarted, check_template, collect_parts, stage_build, start_build
+from .cost import stage_cost
 from .decompose import plates_of, stage_decompose
-from .hard import cutout_spray, hard_config, record_segment, stage_segment
+from .hard import cutout_spray, hard_config, stage_segment
 from .manifest import finish, save_config
-from .paints import write_plate_previews, write_spray_order
+from .paints import stage_paints
+from .recorder import (
+    record_build,
+    record_cans,
+    record_compute,
+    record_cost,
+    record_decompose,
+    record_dots,
+    record_paints,
+    record_parts,
+    record_picture,
+    record_plan,
+    record_plate,
+    record_plates,
+    record_print_estimate,
+    record_refine,
+    record_registration,
+    record_segment,
+    record_simulate,
+    record_sprays,
+    record_stand,
+    record_stipple,
+)
 from .refine import stage_refine
 from .saved import check_dots, check_fresh, check_rows, read_dots, read_layers, read_plan
 from .simulate import stage_simulate, stage_simulate_hard
 from .slicing import stage_print_estimate
 from .stand import stage_stand
 from .standoff import choose_plates
-from .stipple import record_stipple, save_dots, stage_stipple
+from .stipple import stage_stipple
 
 log = logging.getLogger(__name__)
 
@@ -67,7 +85,7 @@ def computing(
     seconds = planned.mural_seconds if planned is not None else None
     with compute.executor(where or run.cfg.compute, picture_px, run.quiet, seconds) as ex:
         run.executor = ex
-        run.figures.compute = ComputeFigures(**ex.plan.summary())
+        record_compute(run, ComputeFigures(**ex.plan.summary()))
         try:
             yield
         finally:
@@ -83,22 +101,15 @@ def run_all(run: Run, picture: Picture | None = None) -> tuple[JobConfig, list[P
         check_template(run)
     size = (picture.width_mm, picture.height_mm)
     plan = plan_job(run, size, picture.shape)
-    run.sheet_images[INPUT_PNG] = png_bytes(np.asarray(picture.rgb, dtype=np.float64))
-    run.figures.picture = PictureFigures(
-        source=picture.source,
-        width_mm=round(size[0], 3),
-        height_mm=round(size[1], 3),
-        pixels=picture.shape,
-        mm_per_px=picture.mm_per_px,
-    )
+    record_picture(run, picture)
     if plan.cfg.mode == Mode.hard:
         mural.check_mode(plan.grid, plan.cfg)
-        save_config(run, plan.cfg)
+        save_config(run, plan)
         return run_hard(run, plan, picture)
     plan, layers, dotsets = soft_plates(run, plan, picture)
-    record_cost(run, plan, dotsets)
+    record_cost(run, stage_cost(plan, dotsets))
     build_any(run, plan, layers, dotsets, picture)
-    return plan.cfg, finish(run, plan.cfg, "run", saved_plan(run, plan, plan.cfg))
+    return plan.cfg, finish(run, plan, "run", saved_plan(run, plan, plan.cfg))
 
 
 def saved_plan(run: Run, plan: Plan | None, copy: JobConfig, primer: str | None = None) -> str:
@@ -115,8 +126,7 @@ def plan_job(run: Run, picture_mm: tuple[float, float], shape_px: tuple[int, ...
     Records figures ``mural`` (the tiling and its cost) and ``plate`` (the thickness and why).
     """
     plan, fig = planned(run.cfg, picture_mm, int(shape_px[0]) * int(shape_px[1]))
-    run.figures.mural = fig
-    run.figures.plate = plan.plate
+    record_plan(run, plan, fig)
     return plan
 
 
@@ -130,10 +140,11 @@ def soft_plates(run: Run, plan: Plan, picture: Picture) -> tuple[Plan, Layers, l
     than repeating the steps.
     """
     plan = primed(capped(plan), picture)
-    layers = plates_of(run, plan.cfg, stage_decompose(run, plan.cfg, picture, plan.primer), plan.grid)
+    decomposed = record_decompose(run, stage_decompose(run, plan, picture))
+    layers = record_plates(run, plates_of(plan, decomposed))
     plan = design_plates(run, painted(plan, layers.colours, can_names(run.figures)), layers, picture)
     # The saved config records the plate design the job chose.
-    save_config(run, plan.cfg)
+    save_config(run, plan)
     return plan, layers, plate_holes(run, plan, layers, picture)
 
 
@@ -146,20 +157,12 @@ def plate_holes(run: Run, plan: Plan, layers: Layers, picture: Picture | None) -
         # else (the trials' holes reused) simulating it.
         record_sprays(run, plan)
     record_stipple(run, made)
-    sets = stage_refine(run, plan, layers, made, picture)
+    sets = record_refine(run, *stage_refine(run, plan, layers, made, picture))
     with run.stage("stipple"):
-        save_dots(run, made, sets)
-        write_plate_previews(run, cfg, layers.colours, plan.picture_mm, sets, dots_png)
-        write_spray_order(
-            run, cfg, layers.primer, layers.colours, [ds.amount(cfg.spray.amount) for ds in sets]
-        )
+        record_dots(run, made, sets)
+        amounts = [ds.amount(cfg.spray.amount) for ds in sets]
+        record_paints(run, stage_paints(run, plan, layers.primer, layers.colours, sets, amounts, dots_png))
     return sets
-
-
-def record_sprays(run: Run, plan: Plan) -> None:
-    """Figure ``spray_profiles``: each layer's spray settings as the plan resolved them, once per run."""
-    if run.figures.spray_profiles is None and plan.paints is not None:
-        run.figures.spray_profiles = plan.paints.rows
 
 
 def design_plates(run: Run, plan: Plan, layers: Layers, picture: Picture | None) -> Plan:
@@ -173,7 +176,7 @@ def design_plates(run: Run, plan: Plan, layers: Layers, picture: Picture | None)
         return plan
     chosen = choose_plates(run, plan, layers, picture)
     if chosen.plate != plan.plate:
-        run.figures.plate = chosen.plate
+        record_plate(run, chosen)
     return chosen
 
 
@@ -258,14 +261,15 @@ def run_command(
 def run_decompose(run: Run, picture: Picture) -> tuple[JobConfig, list[Path]]:
     """The ``decompose`` command: the layers saved beside the config; ``(the config as resolved, files)``.
 
-    Its plan is the primer alone: a mostly dark picture is decomposed primed with its dark colour.
+    Its plan is the primer alone (:func:`stencil_cad.plan.plan.primed` on the config as given, one
+    tile): a mostly dark picture is decomposed primed with its dark colour.
     """
     # The plate values left null as the config alone fills them in: no tiling is planned.
-    cfg = filled(run.cfg)[0]
-    save_config(run, cfg)
-    resolved, primer = dark_primed(cfg, picture)
-    stage_decompose(run, resolved, picture, primer)
-    return resolved, finish(run, resolved, "decompose", saved_plan(run, None, run.cfg, primer))
+    given = whole(filled(run.cfg)[0], (picture.width_mm, picture.height_mm))
+    save_config(run, given)
+    plan = primed(given, picture)
+    record_decompose(run, stage_decompose(run, plan, picture))
+    return plan.cfg, finish(run, plan, "decompose", saved_plan(run, None, run.cfg, plan.primer))
 
 
 def _planned(cfg: JobConfig, picture: Picture) -> MuralFigures:
@@ -285,7 +289,7 @@ def _run_stage_command(
     # run made (the design, the cans' names) from its saved plan.
     plan = plan_job(run, size, layers.alphas.shape[1:])
     cfg = plan.cfg
-    layers = plates_of(run, cfg, layers, plan.grid)
+    layers = record_plates(run, plates_of(plan, layers))
     plan = painted(plan, layers.colours, saved.can_names)
     cmd = command_named(command)
     run.out.check_free(stage_outputs(cfg, command, layers.count, plan.grid))
@@ -312,16 +316,16 @@ def _run_stage_command(
         plan = _saved_design(run, plan, saved, layers, picture)
         text = None
         if dotsets is None:
-            record_cost(run, plan, plate_holes(run, plan, layers, picture))
+            record_cost(run, stage_cost(plan, plate_holes(run, plan, layers, picture)))
             configs = saved.configs_sha256 if saved.planned_for(run.cfg) else [config_digest(run.cfg)]
             text = plan_json(plan, configs, saved.layers_sha256, designed=True, can_names=saved.can_names)
         elif cmd.builds:
-            record_cost(run, plan, dotsets)
+            record_cost(run, stage_cost(plan, dotsets))
             build_any(run, plan, layers, dotsets, picture, simulate=False)
         else:
             record_sprays(run, plan)
-            stage_simulate(run, plan, picture, layers, dotsets)
-        return plan.cfg, finish(run, plan.cfg, command, text)
+            record_simulate(run, stage_simulate(run, plan, picture, layers, dotsets))
+        return plan.cfg, finish(run, plan, command, text)
 
 
 def _saved_design(run: Run, plan: Plan, saved: SavedPlan, layers: Layers, picture: Picture | None) -> Plan:
@@ -338,7 +342,7 @@ def _saved_design(run: Run, plan: Plan, saved: SavedPlan, layers: Layers, pictur
             )
         return design_plates(run, plan, layers, picture)
     chosen = apply_saved(plan, saved)
-    run.figures.plate = chosen.plate
+    record_plate(run, chosen)
     return chosen
 
 
@@ -357,47 +361,46 @@ def build_any(
     registration cases start as tasks once the global simulation is there.
     """
     built = start_build(run, plan, layers, dotsets, picture)
-    cases = None
+    cases = seen = None
     if simulate:
         record_sprays(run, plan)
         try:
-            _, _, cases = stage_simulate(
+            done = stage_simulate(
                 run,
                 plan,
                 picture,
                 layers,
                 dotsets,
-                keep=True,
                 workers_busy=True,
                 # A soft job's holes are round.
                 also=lambda sim, ref: registration.start_registration(
                     run,
-                    plan.cfg,
-                    plan.sprays,
+                    plan,
                     sim,
                     ref,
                     layers,
                     cast("list[DotSet]", built.made),
-                    plan.grid,
                     cast("list[list[DotSet]]", built.per_tile),
                 ),
             )
+            record_simulate(run, done)
         except BaseException:
             built.tasks.cancel()
             raise
-    build_parts(run, built)
+        cases, seen = done.started, done.figures
+    build_parts(run, plan, built)
     # PrusaSlicer's estimate slices a one-plate job's plates (a mural's parts are estimated by its plan).
     if plan.cfg.export.print_estimate and not mural.has_seams(plan.grid):
-        stage_print_estimate(run, plan.cfg)
-    registration.stage_mural_simulate(run, cases)
+        record_print_estimate(run, stage_print_estimate(run, plan, run.figures.build))
+    record_registration(run, registration.stage_mural_simulate(run, cases, seen))
 
 
-def build_parts(run: Run, built: BuildStarted) -> None:
-    """Collect the plates and walls :func:`start_build` started, write a mural's stand, record the build."""
+def build_parts(run: Run, plan: Plan, built: BuildStarted) -> None:
+    """Collect the plates and walls :func:`start_build` started under ``plan``, write a mural's stand, record the build."""
     with run.stage("build"):
-        plates, walls = collect_parts(run, built)
-        post_row, stand_rows = stage_stand(run, built.cfg, built.grid, built.laser, built.posts)
-    record_build(run, built, plates, walls, post_row, stand_rows)
+        plates, walls = record_parts(run, collect_parts(built))
+        stand = record_stand(run, stage_stand(plan, built.laser, built.posts, run.figures.stipple or ()))
+    record_build(run, stage_build(built, plates, walls, stand))
 
 
 def run_hard(run: Run, plan: Plan, picture: Picture) -> tuple[JobConfig, list[Path]]:
@@ -410,13 +413,16 @@ def run_hard(run: Run, plan: Plan, picture: Picture) -> tuple[JobConfig, list[Pa
     cfg = plan.cfg
     with run.stage("segment"):
         cut = stage_segment(run, plan, picture)
+        record_cans(run, cut.cans)
         # The plan learns the cut layers' paints: each sprays its own can, in whole passes.
         plan = painted(plan, cut.layers.colours, can_names(run.figures), each=cutout_spray)
         record_sprays(run, plan)
         record_segment(run, cut)
         amounts = [float(sp.amount) for sp in plan.sprays]
-        write_plate_previews(run, cfg, cut.layers.colours, plan.picture_mm, cut.hard.cut_layers, cut_png)
-        write_spray_order(run, cfg, cut.hard.primer, cut.layers.colours, amounts)
-    build_parts(run, start_build(run, plan, cut.layers, cut.hard.cut_layers))
-    stage_simulate_hard(run, plan, picture, cut.hard, cut.layers, amounts)
-    return cfg, finish(run, cfg, "hard")
+        holes = cut.hard.cut_layers
+        record_paints(
+            run, stage_paints(run, plan, cut.hard.primer, cut.layers.colours, holes, amounts, cut_png)
+        )
+    build_parts(run, plan, start_build(run, plan, cut.layers, cut.hard.cut_layers))
+    record_simulate(run, stage_simulate_hard(run, plan, picture, cut.hard, cut.layers, amounts))
+    return cfg, finish(run, plan, "hard")

@@ -1,4 +1,4 @@
-"""The simulate stage's glue: spray every plate in simulation, score as a viewer sees it, previews and spraying steps."""
+"""The simulate stage's glue: spray every plate in simulation, score as a viewer sees it, the previews and spraying steps to write."""
 
 from __future__ import annotations
 
@@ -12,13 +12,14 @@ import numpy as np
 
 from ..colour import to_hex
 from ..config import JobConfig
+from ..exchange.png import png_bytes
 from ..figures import PaintFigures, PaintLayer, SimulateFigures, SprayStep
 from ..model import DotSet, Layers, Picture
-from ..names import PREVIEW_PNG, SIMULATED_PNG, SWEEP_PNG
 from ..output import plain as _plain
-from ..plan.names import simulated_stems, step_name
+from ..plan.names import simulated_stems
 from ..plan.picture import _resample, source_reference
 from ..plan.plan import Plan
+from ..plan.results import Simulated
 from ..record import Run
 from ..stipple.made import made_dots
 
@@ -38,11 +39,11 @@ def stage_simulate(
     keep: bool = False,
     also: Callable[[Any, np.ndarray], Any] | None = None,
     workers_busy: bool = False,
-) -> Any:
-    """Spray every plate in simulation, composite, score against the input, save previews.
+) -> Simulated:
+    """Spray every plate in simulation, composite, score against the input, make the previews.
 
-    Returns the scores, or with ``keep`` the simulation and the reference on its grid (and what
-    ``also`` returned, when given). The holes are sprayed as the process makes them
+    Returns the pictures and figures the recorder writes, and with ``keep`` the simulation and the
+    reference on its grid too (and what ``also`` returned, when given). The holes are sprayed as the process makes them
     (:func:`stencil_cad.stipple.made.made_dots`), a mural's as a one-plate job's.
 
     Under the physical model every wall height gets its own simulation and score
@@ -61,7 +62,7 @@ def stage_simulate(
         picture: The picture (the reference is its source), or None: the decomposition.
         layers: The decomposition.
         dotsets: The holes per layer.
-        keep: Return the simulation and the reference rather than the scores.
+        keep: Keep the simulation and the reference in the result.
         also: ``also(sim, reference)``, called once the design stand-off is simulated (a
             mural's registration cases start their tasks there), or None.
         workers_busy: The job's workers are busy with tasks started before (a mural's plates):
@@ -86,29 +87,32 @@ def stage_simulate(
         cans = _start_cans(run, cfg, layers, dotsets, ref, grid_mm, design, sprays, here=workers_busy)
         visible = _start_visibility(run, cfg, layers, dotsets, sim)
         scores = _scores(run, cfg, ref, sim.composite, sim.mm_per_px, here=workers_busy)
-        run.out.write_png(SIMULATED_PNG, sim.composite)
         ideal = _resample(layers.composite(), sim.composite.shape[:2])
-        write_previews(run, ref, ideal, sim.composite, sim.mm_per_px, scores)
-        write_sweep(run, cfg, layers, dotsets, sim, grid_mm, design, sprays)
-        write_steps(run, cfg, layers.primer, layers.colours, sim.alphas, sim.mm_per_px)
-        per_wall = _walls(run, cfg, layers, dotsets, (sim, scores, ref), grid_mm, design, sprays)
+        # Each picture is kept as its PNG's bytes, as small as the file, until the recorder writes it.
+        preview = png_bytes(preview_card(ref, ideal, sim.composite, sim.mm_per_px, scores))
+        sweep = png_bytes(sweep_card(cfg, layers, dotsets, sim, grid_mm, design, sprays))
+        steps, paint = paint_steps(cfg, layers.primer, layers.colours, sim.alphas, sim.mm_per_px)
+        walls, per_wall = _walls(cfg, layers, dotsets, (sim, scores, ref), grid_mm, design, sprays)
         by_can = _scores_by_can(cans, scores)
         dots_seen = visible.results()[0] if visible is not None else {}
-    seen = {
+    figures = SimulateFigures.from_rows(_seen(scores, dots_seen, sim), by_can or None, per_wall or None)
+    spraying = spraying_steps(cfg, layers, [ds.amount(cfg.spray.amount) for ds in dotsets])
+    kept: dict[str, Any] = {"sim": sim, "reference": ref} if keep else {}
+    pictures = (png_bytes(sim.composite), preview, sweep, steps, walls)
+    return Simulated(*pictures, paint, figures, spraying, scores, started=started, **kept)
+
+
+def _seen(scores: dict[str, Any], dots_seen: dict[str, Any], sim: Any) -> dict[str, Any]:
+    """Figure ``simulate``'s scores: the design stand-off's, where the holes show most, each layer's error."""
+    return {
         **_plain(scores),
         **dots_seen,
         "layer_rmse": [float(x) for x in sim.layer_rmse],
         **{k: v for k, v in _plain(sim.info).items() if k not in scores},
     }
-    run.figures.simulate = SimulateFigures.from_rows(seen, by_can or None, per_wall or None)
-    run.figures.spraying = spraying_steps(cfg, layers, [ds.amount(cfg.spray.amount) for ds in dotsets])
-    if not keep:
-        return scores
-    return (sim, ref) if also is None else (sim, ref, started)
 
 
-def write_sweep(
-    run: Run,
+def sweep_card(
     cfg: JobConfig,
     layers: Layers,
     dotsets: list[DotSet],
@@ -116,7 +120,7 @@ def write_sweep(
     grid_mm: float | None,
     design: SprayGeometry | None,
     sprays: list[SprayConfig],
-) -> None:
+) -> np.ndarray:
     """``sweep.png``: the layers sprayed with less and more paint than the job's (the factor-1 panel is ``sim``)."""
     from .. import simulate
     from ..simulate import labelled
@@ -132,13 +136,10 @@ def write_sweep(
         layer_sprays=sprays,
         as_sprayed=sim,
     )
-    run.out.write_png(
-        SWEEP_PNG, labelled.sweep_card(panels, factors, sim.mm_per_px, unit=cfg.spray.amount_unit)
-    )
+    return labelled.sweep_card(panels, factors, sim.mm_per_px, unit=cfg.spray.amount_unit)
 
 
 def _walls(
-    run: Run,
     cfg: JobConfig,
     layers: Layers,
     dotsets: list[DotSet],
@@ -146,16 +147,20 @@ def _walls(
     grid_mm: float | None,
     design: SprayGeometry | None,
     sprays: list[SprayConfig],
-) -> list[dict[str, Any]]:
+) -> tuple[tuple[tuple[str, bytes], ...], list[dict[str, Any]]]:
     """Every wall height's simulation and scores (``simulated_wall_10mm.png`` …), the design one reused.
 
     ``done`` is the design stand-off's ``(simulation, scores, reference)``.
+
+    Returns:
+        ``(pictures, rows)``: each wall's ``(file name, simulated spray as PNG bytes)``, and its figures.
     """
     from .. import simulate
     from ..simulate.physical import SprayGeometry
 
     sim, scores, ref = done
     per_wall = []
+    pictures = []
     stems = simulated_stems(cfg)
     for h, name in zip(cfg.standoff.walls_mm if stems else [], stems, strict=True):
         # Extra walls exist only under the physical model, where design is set.
@@ -168,7 +173,7 @@ def _walls(
                 layers, dotsets, cfg.spray, grid_mm, geometry=geometry, layer_sprays=sprays
             )
             other_scores = simulate.score(ref, other.composite)
-        run.out.write_png(name, other.composite)
+        pictures.append((name, png_bytes(other.composite)))
         per_wall.append(
             {
                 "standoff_mm": h,
@@ -177,7 +182,7 @@ def _walls(
                 **_plain(other_scores),
             }
         )
-    return per_wall
+    return tuple(pictures), per_wall
 
 
 #: Overshoot of a sweep past each edge of the picture, mm: a pass starts and ends off the plate.
@@ -411,14 +416,13 @@ def _score_line(scores: dict[str, Any]) -> str:
     )
 
 
-def write_previews(
-    run: Run,
+def preview_card(
     reference: np.ndarray,
     ideal: np.ndarray,
     sprayed: np.ndarray,
     mm_per_px: float,
     scores: dict[str, Any],
-) -> None:
+) -> np.ndarray:
     """The labelled four-panel ``preview.png``: input, ideal layers, simulated spray, error map."""
     from .. import simulate
     from ..simulate import labelled
@@ -429,25 +433,22 @@ def write_previews(
         f"PSNR {scores['psnr']:.1f} dB, SSIM {scores['ssim']:.2f}  ·  "
         f"picture {sprayed.shape[1] * mm_per_px:g} × {sprayed.shape[0] * mm_per_px:g} mm",
     ]
-    run.out.write_png(
-        PREVIEW_PNG,
-        labelled.job_preview(
-            reference,
-            ideal,
-            sprayed,
-            simulate.delta_e_map(reference, sprayed),
-            simulate.colour_map,
-            de_max,
-            mm_per_px,
-            notes=notes,
-        ),
+    return labelled.job_preview(
+        reference,
+        ideal,
+        sprayed,
+        simulate.delta_e_map(reference, sprayed),
+        simulate.colour_map,
+        de_max,
+        mm_per_px,
+        notes=notes,
     )
 
 
-def write_steps(
-    run: Run, job: JobConfig, primer: np.ndarray, colours: np.ndarray, alphas: np.ndarray, mm_per_px: float
-) -> None:
-    """Per layer, the simulated picture after it is sprayed, and its paint estimate."""
+def paint_steps(
+    job: JobConfig, primer: np.ndarray, colours: np.ndarray, alphas: np.ndarray, mm_per_px: float
+) -> tuple[tuple[bytes, ...], PaintFigures]:
+    """Per layer, the simulated picture after it is sprayed (``step_N.png``, its bytes), and its paint estimate (figure ``paint``)."""
     from ..decompose import paints
     from ..decompose.light import paint_of_plates
     from ..model import composite
@@ -455,10 +456,9 @@ def write_steps(
     cfg = job.paints
     area = float(alphas.shape[1] * alphas.shape[2]) * mm_per_px**2
     rows = []
+    steps = []
     for i in range(alphas.shape[0]):
-        run.out.write_png(
-            step_name(i), np.clip(composite(primer, colours[: i + 1], alphas[: i + 1]), 0.0, 1.0)
-        )
+        steps.append(png_bytes(np.clip(composite(primer, colours[: i + 1], alphas[: i + 1]), 0.0, 1.0)))
         mean = float(np.mean(alphas[i]))
         est = paints.paint_estimate(area, mean, cfg.coverage_m2_per_can, cfg.can_ml)
         rows.append({"layer": i + 1, "hex": to_hex(colours[i]), "mean_opacity": mean, **est})
@@ -470,7 +470,7 @@ def write_steps(
         cans = sum(r["cans"] for r in mine)
         for j, r in enumerate(mine):
             r["cans_to_buy"] = max(1, math.ceil(cans - 1e-9)) if j == 0 else 0
-    run.figures.paint = PaintFigures(
+    return tuple(steps), PaintFigures(
         sprayed_area_m2=area * 1e-6,
         coverage_m2_per_can=cfg.coverage_m2_per_can,
         can_ml=cfg.can_ml,
@@ -480,10 +480,11 @@ def write_steps(
 
 def stage_simulate_hard(
     run: Run, plan: Plan, picture: Picture, hard: Any, layers: Layers, amounts: list[float]
-) -> None:
+) -> Simulated:
     """Spray hard mode's cut-outs ``hard`` (each layer with its settings, the plan's), score and preview them.
 
-    Writes ``simulated.png``, the previews and the spraying steps; figures ``simulate`` and ``spraying``.
+    Returns ``simulated.png``, the previews and the spraying steps, with figures ``simulate``,
+    ``paint`` and ``spraying`` (no sweep, one wall).
     """
     from .. import hardstencil
     from ..simulate.physical import SprayGeometry
@@ -493,8 +494,18 @@ def stage_simulate_hard(
         geometry = SprayGeometry.for_job(cfg)
         alphas, comp = hardstencil.simulate_hard(hard, cfg.spray, geometry=geometry, layer_sprays=sprays)
         scores = _scores(run, cfg, picture.rgb, comp, picture.mm_per_px)
-        run.out.write_png(SIMULATED_PNG, comp)
-        write_previews(run, picture.rgb, hardstencil.render_ideal(hard), comp, picture.mm_per_px, scores)
-        write_steps(run, cfg, hard.primer, hard.colours, alphas, picture.mm_per_px)
-    run.figures.simulate = SimulateFigures(_plain(scores))
-    run.figures.spraying = spraying_steps(cfg, layers, amounts)
+        preview = png_bytes(
+            preview_card(picture.rgb, hardstencil.render_ideal(hard), comp, picture.mm_per_px, scores)
+        )
+        steps, paint = paint_steps(cfg, hard.primer, hard.colours, alphas, picture.mm_per_px)
+    return Simulated(
+        composite=png_bytes(comp),
+        preview=preview,
+        sweep=None,
+        steps=steps,
+        walls=(),
+        paint=paint,
+        figures=SimulateFigures(_plain(scores)),
+        spraying=spraying_steps(cfg, layers, amounts),
+        scores=scores,
+    )

@@ -14,7 +14,7 @@ from ..record import Run
 
 if TYPE_CHECKING:
     from ..config.bed import Bed
-    from ..config.job import JobConfig
+    from ..plan.plan import Plan
     from ..slicing.profiles import Profile
 
     BedArg = str | tuple[float, float] | Bed | None
@@ -201,10 +201,11 @@ def _slice_jobs(
     return jobs
 
 
-def stage_print_estimate(run: Run, cfg: JobConfig) -> None:
-    """Slice every plate and wall the build staged and record the slicer's estimates (``export.print_estimate``).
+def stage_print_estimate(run: Run, plan: Plan, build: BuildFigures | None) -> BuildFigures:
+    """Slice every plate and wall the build staged: figure ``build`` with the slicer's estimates (``export.print_estimate``).
 
-    ``cfg`` is the job's planned config (its bed and exports).
+    ``plan``'s config gives the bed and exports; ``build`` is the build's figure ``build``, which the
+    recorder then replaces with the one returned.
 
     Each part is sliced as ``stencil-cad slice`` would (walls sparse, on the job's bed); its
     ``print_hours`` and ``filament_m`` go into its build row and the sums into ``build.print``.
@@ -216,12 +217,12 @@ def stage_print_estimate(run: Run, cfg: JobConfig) -> None:
 
     from .. import slicing
 
+    cfg = plan.cfg
     prof = slicing.get_profile("prusa_fdm")
     if not cfg.export.stl:
         raise UserError("export.print_estimate slices the STL files: set export.stl: true")
     if slicing.find_slicer(prof.slicer) is None:
         raise UserError("export.print_estimate needs PrusaSlicer (Debian/Ubuntu: apt install prusa-slicer)")
-    build = run.figures.build
     if build is None:
         raise AssertionError("the print estimate slices the plates the build stage made")
     # Copies of the rows, which the estimate adds to; the build's figures are then replaced.
@@ -253,7 +254,7 @@ def stage_print_estimate(run: Run, cfg: JobConfig) -> None:
             total_m += est.filament_m or 0.0
             out.unlink()
     total = PrintEstimate(prof.name, round(total_h, 3), round(total_m, 2))
-    run.figures.build = BuildFigures.from_rows(plates, walls, total)
+    return BuildFigures.from_rows(plates, walls, total)
 
 
 def print_estimate(path: Path) -> GcodeEstimate:

@@ -1,14 +1,16 @@
-"""The stand of a mural's plates beyond the wall's tasks: the printed post, or a laser-cut frame and spacers."""
+"""The stand of a mural's plates beyond the wall's tasks: the printed post, or a laser-cut frame and spacers, as files to write."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 from .. import mural
 from ..names import part_file
 from ..output import plain as _plain
 from ..plan.names import POST_STEM
-from ..record import Run
+from ..plan.plan import Plan
+from ..plan.results import Stand
 
 #: A laser-cut stand part's files.
 LASER_FORMATS = (".dxf", ".svg")
@@ -16,53 +18,62 @@ LASER_FORMATS = (".dxf", ".svg")
 if TYPE_CHECKING:
     from ..config.bed import Bed
     from ..config.job import JobConfig
+    from ..figures import LayerStipple
     from ..mural.laser import CutPart
 
 
 def stage_stand(
-    run: Run,
-    cfg: JobConfig,
-    grid: mural.TileGrid,
+    plan: Plan,
     laser: list[CutPart] | None,
     posts: dict[tuple[str, int], list[list[float]]],
-) -> tuple[dict[str, Any] | None, list[dict[str, Any]] | None]:
+    stipple: Sequence[LayerStipple] = (),
+) -> Stand:
     """A mural's stand beyond its walls: the laser-cut frame and spacers ``laser``, or the post its plates stand on.
 
+    The parts are built, checked and exported as bytes here; the recorder writes them.
+
     Args:
-        run: The run.
-        cfg: The job's planned config.
-        grid: The job's tiling (its bed, and the posts it plans: :func:`stencil_cad.mural.post_plan`).
+        plan: The job's plan (its config, and its tiling: the bed, and the posts it plans:
+            :func:`stencil_cad.mural.post_plan`).
         laser: The laser-cut stand's parts (:func:`stencil_cad.mural.laser_stand`), or None.
         posts: The posts' sites per (tile, layer) from the build.
+        stipple: Figure ``stipple`` (the holes each plate's posts dropped).
 
     Returns:
-        ``(post_row, stand_rows)``: the post's figures, or the laser-cut parts' rows (None when absent).
+        The stand's files, and the post's figures or the laser-cut parts' rows (empty when absent).
     """
-    plan = mural.post_plan(cfg, grid)
+    cfg, grid = plan.cfg, plan.grid
+    post_plan = mural.post_plan(cfg, grid)
     if laser is not None:
-        return None, write_laser_stand(run, cfg, laser, grid.bed)
-    if plan is not None and any(posts.values()):
-        return write_post(run, cfg, plan, posts), None
-    return None, None
+        return laser_stand(cfg, laser, grid.bed)
+    if post_plan is not None and any(posts.values()):
+        return post_stand(cfg, post_plan, posts, stipple)
+    return Stand()
 
 
-def write_post(
-    run: Run, cfg: JobConfig, plan: mural.PostPlan, posts: dict[tuple[str, int], list[list[float]]]
-) -> dict[str, Any]:
-    """Build, check and write the job's post (every post is the same); its figures."""
+def post_stand(
+    cfg: JobConfig,
+    plan: mural.PostPlan,
+    posts: dict[tuple[str, int], list[list[float]]],
+    stipple: Sequence[LayerStipple],
+) -> Stand:
+    """Build, check and export the job's post (every post is the same): its files and figures."""
     from ..cad import post as post_mod
+    from ..exchange.writers import path_bytes
 
     model = post_mod.build_post(
         plan.radius_mm, plan.height_mm, plan.pin_radius_mm, cfg.plate.planned_thickness_mm
     )
     stem = POST_STEM
-    with run.out.open_path(part_file(stem, ".step")) as p:
-        post_mod.post_step(model, p)
-    with run.out.open_path(part_file(stem, ".stl")) as p:
-        post_mod.post_stl(model, p, cfg.export.stl_tolerance_mm)
-    dropped = sum(int(s.get("removed_post", 0)) for s in (st.report for st in run.figures.stipple or ()))
-    return {
-        "file": part_file(stem, ".step"),
+    step = part_file(stem, ".step")
+    stl = part_file(stem, ".stl")
+    files = (
+        (step, path_bytes(step, lambda p: post_mod.post_step(model, p))[0]),
+        (stl, path_bytes(stl, lambda p: post_mod.post_stl(model, p, cfg.export.stl_tolerance_mm))[0]),
+    )
+    dropped = sum(int(s.get("removed_post", 0)) for s in (st.report for st in stipple))
+    row = {
+        "file": step,
         "height_mm": plan.height_mm,
         "radius_mm": plan.radius_mm,
         "pin_radius_mm": plan.pin_radius_mm,
@@ -74,26 +85,26 @@ def write_post(
         "dropped_holes": dropped,
         **_plain(post_mod.check_post(model)),
     }
+    return Stand(files, post_row=row)
 
 
-def write_laser_stand(
-    run: Run, cfg: JobConfig, parts: list[CutPart], bed: Bed | None
-) -> list[dict[str, Any]]:
-    """Write each laser-cut part of the stand (``frame_base``, ``frame_top``, ``spacer``) as DXF and SVG.
+def laser_stand(cfg: JobConfig, parts: list[CutPart], bed: Bed | None) -> Stand:
+    """Each laser-cut part of the stand (``frame_base``, ``frame_top``, ``spacer``) as DXF and SVG, and its row.
 
     Each part is checked like a plate (a closed outline, its cuts inside it, the bed) before it is
-    written; its row gives the count to cut, the sheet, the cut length and the estimated cut time.
+    exported; its row gives the count to cut, the sheet, the cut length and the estimated cut time.
 
     Raises:
         UserError: A part fails its checks.
     """
     from ..errors import UserError
     from ..exchange import dxf
-    from ..exchange.writers import PartFiles, write_part
+    from ..exchange.writers import PartFiles, part_bytes
     from ..mural.cost import cut_seconds
 
     exp = cfg.export
     size = None if bed is None else (bed.x_mm, bed.y_mm)
+    files: list[tuple[str, bytes]] = []
     rows = []
     for part in parts:
         check = mural.laser.check_cut_part(part, size)
@@ -106,8 +117,8 @@ def write_laser_stand(
             layer_name=part.name.upper(),
             label=part.name,
         )
-        files = PartFiles(name=part.name, drawing=drawing, title=f"{cfg.name} {part.name}")
-        write_part(run.out, part.name, files, LASER_FORMATS, exp)
+        made = PartFiles(name=part.name, drawing=drawing, title=f"{cfg.name} {part.name}")
+        files += part_bytes(part.name, made, LASER_FORMATS, exp)[0]
         rows.append(
             {
                 "name": part.name,
@@ -119,4 +130,4 @@ def write_laser_stand(
                 **_plain(check),
             }
         )
-    return rows
+    return Stand(tuple(files), stand_rows=rows)

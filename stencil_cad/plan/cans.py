@@ -6,14 +6,12 @@ previews, the spray order and each layer's spray profile name a paint by its can
 
 from __future__ import annotations
 
-from dataclasses import replace
 from pathlib import Path
 from typing import TypeVar
 
 from ..config import DecomposeConfig, HardConfig
 from ..errors import ConfigError
 from ..figures import CansFigures, Figures
-from ..record import Run
 
 __all__ = ["Section", "can_names", "with_can_list"]
 
@@ -21,19 +19,19 @@ __all__ = ["Section", "can_names", "with_can_list"]
 Section = TypeVar("Section", DecomposeConfig, HardConfig)
 
 
-def with_can_list(run: Run, section: Section, where: str) -> Section:
-    """A config section whose palette CSV (a can list) is replaced by its colours; the cans are noted."""
+def with_can_list(section: Section, where: str) -> tuple[Section, CansFigures | None]:
+    """A config section whose palette CSV (a can list) is replaced by its colours, and figure ``cans`` (None: no list)."""
     from ..decompose import paints
 
     if not isinstance(section.palette, Path):
-        return section
+        return section, None
     try:
         cans = paints.load_cans(section.palette)
     except (ValueError, ConfigError) as exc:
         raise ConfigError(f"{where}: {exc}") from None
-    run.figures.cans = replace(run.figures.cans or CansFigures(), can_list=[c.__dict__ for c in cans])
     hexes = paints.to_hex_list(cans)
-    return section.model_copy(update={"palette": hexes if where.startswith("decompose") else list(hexes)})
+    listed = section.model_copy(update={"palette": hexes if where.startswith("decompose") else list(hexes)})
+    return listed, CansFigures(can_list=[c.__dict__ for c in cans])
 
 
 def can_names(figures: Figures) -> dict[str, str]:

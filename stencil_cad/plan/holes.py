@@ -80,8 +80,7 @@ def refined(
     def make() -> Refined:
         sets, report = made.sets, None
         if cfg.refine.enabled:
-            sets = refine_holes(run, plan, layers, sets, picture)
-            report = run.figures.refine
+            sets, report = refine_holes(run, plan, layers, sets, picture)
         # A mural's plates stand on posts: the few holes a post would shade go before anything scores them.
         sets, _ = clear_post_sites(sets, tiling, post_plan(cfg, tiling))
         return Refined(sets, report)

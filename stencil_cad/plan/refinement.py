@@ -27,7 +27,7 @@ log = logging.getLogger(__name__)
 
 def refine_holes(
     run: Run, plan: Plan, layers: Layers, dotsets: list[DotSet], picture: Picture | None = None
-) -> list[DotSet]:
+) -> tuple[list[DotSet], dict[str, Any]]:
     """Refine every layer's holes against the spray model so the composite matches the picture.
 
     The objective lives on the simulation grid, its eye filter is the viewer's at
@@ -35,7 +35,11 @@ def refine_holes(
     ``refine.max_radius_factor`` times the hole floor), all read from ``plan``'s config. A mural (a tiling of several tiles)
     is refined tile by tile (:mod:`stencil_cad.mural.refine`), each tile a task. A hybrid
     plate's windows (each DotSet's ``windows``) spray with the holes and stay fixed; the holes
-    refined too close to one are left out. Records figure ``refine``.
+    refined too close to one are left out.
+
+    Returns:
+        ``(holes, report)``: every layer's refined holes, and the refinement's figure ``refine``
+        (which the recorder records: :func:`stencil_cad.pipeline.recorder.record_refine`).
     """
     from .. import resolution
     from ..simulate import spray
@@ -83,10 +87,10 @@ def refine_holes(
         out, report = mural_refine.refine_layers(
             problem, tiling, dotsets, cfg, run.tasks.map, progress=lambda it, total: bar.update(1)
         )
-    run.figures.refine = _plain(report)
     from ..stipple.windows import with_windows
 
-    return [with_windows(ds, w, cfg.stipple.sizes.window_web_mm) for ds, w in zip(out, windows, strict=True)]
+    web = cfg.stipple.sizes.window_web_mm
+    return [with_windows(ds, w, web) for ds, w in zip(out, windows, strict=True)], _plain(report)
 
 
 def refine_settings(cfg: JobConfig) -> Any:

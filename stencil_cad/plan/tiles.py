@@ -1,4 +1,4 @@
-"""The tiling planned before any work, and what a mural's build records beyond its parts.
+"""The tiling planned before any work, and what a mural's build records beyond its parts (for the recorder).
 
 The plate thickness the tiling asks for is the plan's (:func:`stencil_cad.plan.plan.planned`).
 
@@ -11,10 +11,11 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from .. import mural
 from ..figures import MuralBed, MuralBuildFigures, MuralFigures, TileRow
 from ..model import DotSet, Layers, Picture
-from ..names import MURAL_MAP_PNG
 
 if TYPE_CHECKING:
     from ..config.job import JobConfig
@@ -67,8 +68,7 @@ def plan(
     return grid, fig
 
 
-def record_tiles(
-    run: Run,
+def tile_figures(
     cfg: JobConfig,
     asked: list[DotSet],
     drawn: list[DotSet],
@@ -76,13 +76,12 @@ def record_tiles(
     grid: mural.TileGrid,
     post_row: dict[str, Any] | None,
     stand_rows: list[dict[str, Any]] | None,
-    layers: Layers,
-    picture: Picture | None,
-) -> None:
-    """A mural's build beyond its parts' rows: the tiles, holes per tile, seams, order of work, the stand; and ``mural_map.png``.
+) -> MuralBuildFigures:
+    """A mural's build beyond its parts' rows: the tiles, holes per tile, seams, order of work, the stand.
+
+    Figure ``mural.built``, which the recorder records with ``mural_map.png`` (:func:`map_picture`).
 
     Args:
-        run: The run.
         cfg: The job's planned config.
         asked: Every layer's holes over the whole mural, as the stippler placed them.
         drawn: The same as the plates draw them.
@@ -90,10 +89,8 @@ def record_tiles(
         grid: The tiles.
         post_row: The post's figures, or None.
         stand_rows: The laser-cut stand's rows, or None.
-        layers: The decomposition (the map's picture when ``picture`` is None).
-        picture: The picture, or None.
     """
-    built = MuralBuildFigures(
+    return MuralBuildFigures(
         tiles=tuple(TileRow.from_json(t) for t in mural.manifest_rows(grid)),
         holes_per_tile={
             t.name: [len(holes_tile[k][i]) for i in range(len(asked))] for k, t in enumerate(grid.tiles)
@@ -107,14 +104,12 @@ def record_tiles(
         posts=post_row,
         laser_stand=stand_rows,
     )
-    run.figures.mural = replace(_planned(run), built=built)
-    write_map(run, grid, layers, picture)
 
 
-def write_map(run: Run, grid: mural.TileGrid, layers: Layers, picture: Picture | None) -> None:
-    """Write ``mural_map.png``: the grid over the picture, names, positions, order of work."""
+def map_picture(grid: mural.TileGrid, layers: Layers, picture: Picture | None) -> np.ndarray:
+    """``mural_map.png``: the grid over the picture (the decomposition's composite without one), names, positions, order of work."""
     preview = picture.rgb if picture is not None else layers.composite()
-    run.out.write_png(MURAL_MAP_PNG, mural.mural_map(grid, layers.count, preview))
+    return mural.mural_map(grid, layers.count, preview)
 
 
 def _planned(run: Run) -> MuralFigures:
