@@ -468,8 +468,8 @@ def making_cost(
     Args:
         grid: The tiling.
         cfg: The job config: the maker's while the tiling is planned (a plate thickness it leaves null
-            is filled in here for the tiles, :func:`stencil_cad.config.job.filled`), or the plan's
-            (:func:`stencil_cad.plan.plan.costed`), kept.
+            is filled in here for the tiles, :func:`stencil_cad.config.job.filled`), or the plan's, kept:
+            the plates the job builds, at the thickness their wall asks for.
         layers: Plates per tile.
         dotsets: Each layer's holes and windows (mural mm) and its passes (``spray_time``, the
             physical model's whole passes), or None for the plan's expected holes and

@@ -15,12 +15,12 @@ from ..figures import CostFigures
 from ..model import DotSet
 from ..mural.cost import hours_text
 from ..plan.picture import load_picture
-from ..plan.plan import Plan, costed
+from ..plan.plan import Plan
 
 
 def stage_cost(plan: Plan, dotsets: Sequence[DotSet]) -> CostFigures:
     """The cost of making ``plan``'s plates and walls from the placed holes: figure ``cost``, which the recorder records."""
-    return mural.making_cost(plan.grid, costed(plan), len(dotsets), dotsets)
+    return mural.making_cost(plan.grid, plan.cfg, len(dotsets), dotsets)
 
 
 def cost_lines(made: CostFigures) -> list[str]:

@@ -60,7 +60,7 @@ from ..figures import CostFigures
 from ..interrupts import CancelToken
 from ..model import DotSet, Layers, Picture
 from ..plan.cans import can_names
-from ..plan.plan import Plan, capped, costed, designed, painted, planned, primed, refilled, repainted
+from ..plan.plan import Plan, capped, designed, painted, planned, primed, refilled, repainted
 from ..record import Run
 from .decompose import plates_of
 from .recorder import record_decompose, record_plates
@@ -479,7 +479,7 @@ class _Made:
         from .. import mural, simulate
 
         sprayed = simulate.blurred_composite(self.layers, _blur_mm(plan.cfg), PREVIEW_MM_PER_PX)
-        cost = mural.making_cost(plan.grid, costed(plan), self.layers.count, None)
+        cost = mural.making_cost(plan.grid, plan.cfg, self.layers.count, None)
         return self._preview(plan, "coarse", sprayed, None, None, cost, final=False)
 
     def sprayed(self, level: str, plan: Plan, holes: list[DotSet], final: bool) -> Preview:
@@ -497,7 +497,7 @@ class _Made:
             self.layers, made, cfg.spray, PREVIEW_MM_PER_PX, geometry=geometry, layer_sprays=sprays
         )
         passes = tuple(float(d.amount(cfg.spray.amount)) for d in holes)
-        cost = mural.making_cost(plan.grid, costed(plan), len(holes), holes)
+        cost = mural.making_cost(plan.grid, plan.cfg, len(holes), holes)
         others = self._other_cans(cfg, made, geometry, sprays) if final else {}
         return self._preview(
             plan, level, sim.composite, passes, tuple(len(d) for d in holes), cost, final, others

@@ -44,7 +44,6 @@ __all__ = [
     "Fills",
     "Plan",
     "capped",
-    "costed",
     "designed",
     "labelled",
     "painted",
@@ -294,22 +293,6 @@ def _design(plan: Plan, windows: str, standoff_mm: float) -> tuple[JobConfig, Fi
     left = cfg.model_copy(update={"plate": cfg.plate.model_copy(update={"thickness_mm": None})})
     thickness = job_thickness(left, fills.thickness.side_mm, standoff_mm)
     return with_thickness(cfg, thickness, fills.web_left), replace(fills, thickness=thickness)
-
-
-def costed(plan: Plan) -> JobConfig:
-    """The config the making cost reads (:func:`stencil_cad.mural.making_cost`): ``plan.cfg``, a thickness the plan filled in chosen for the process's wall.
-
-    The plates a design with a lower wall makes are thicker (:func:`designed`); the cost has always
-    estimated the plates the process's own wall would take, and still does, so its figures stay
-    what they were. The same config when the plan did not fill the thickness in or kept the wall.
-    """
-    from ..config.job import job_thickness, with_thickness
-
-    cfg, fills = plan.cfg, plan.fills
-    if fills is None or not fills.thickness.filled:
-        return cfg
-    left = cfg.model_copy(update={"plate": cfg.plate.model_copy(update={"thickness_mm": None})})
-    return with_thickness(cfg, job_thickness(left, fills.thickness.side_mm), fills.web_left)
 
 
 def painted(

@@ -61,18 +61,24 @@ def test_a_run_keeps_the_config_it_was_given():
     assert run.cfg is cfg
 
 
-def test_a_lower_wall_fits_the_filled_thickness_again_and_the_cost_reads_the_process_wall():
-    from stencil_cad.plan.plan import costed
-
+def test_a_lower_wall_fits_the_filled_thickness_again_and_the_cost_reads_it():
     plan, _ = planned(parse_config({"size": {"width_mm": 150}}, source="test"), (150.0, 150.0), 300 * 300)
     assert plan.fills is not None and plan.fills.thickness.filled
     low = designed(plan, "auto", 5.0)
     assert low.cfg.plate.thickness_mm > plan.cfg.plate.thickness_mm  # sags within 5 % of 5 mm
     assert low.fills is not None and low.fills.thickness.thickness_mm == low.cfg.plate.thickness_mm
     assert low.plate is not None and low.plate.thickness_mm == low.cfg.plate.thickness_mm
-    # The making cost estimates the plates of the process's wall, as it always has.
-    assert costed(low).plate.thickness_mm == plan.cfg.plate.thickness_mm
-    assert costed(plan) is plan.cfg
+
+    # The job's cost estimates the plates it builds: thicker plates under the lower wall weigh more.
+    from stencil_cad.model import DotSet
+    from stencil_cad.pipeline.cost import stage_cost
+
+    holes = [DotSet(xy_mm=np.array([[20.0 + 5 * k, 30.0]]), r_mm=np.array([0.6])) for k in range(4)]
+
+    def plate_grams(p):
+        return [part.filament_g for part in stage_cost(p, holes).parts if part.kind == "plate"]
+
+    assert all(t > n for t, n in zip(plate_grams(low), plate_grams(plan), strict=True))
     # A thickness the maker gave is kept whatever the wall.
     given, _ = planned(parse_config({"plate": {"thickness_mm": 1.2}}, source="test"), (150.0, 150.0), 90000)
     assert designed(given, "auto", 5.0).cfg.plate.thickness_mm == 1.2
