@@ -406,14 +406,15 @@ def _job_choice(pipeline, cfg0, layers, pic):
     Under the physical model the height is the wall's stand-off (left to the job,
     ``wall.standoff_mm: null``), under the paper's the nozzle height the settings give.
     """
-    from stencil_cad.pipeline.standoff import choose_plates
+    from stencil_cad.pipeline.standoff import stage_standoff
     from stencil_cad.plan.plan import capped, painted, whole
 
     run_ = pipeline.Run(cfg=cfg0, out=_NullOut(), quiet=True)
     plan = painted(capped(whole(cfg0, (pic.width_mm, pic.height_mm))), layers.colours)
-    cfg = choose_plates(run_, plan, layers, pic).cfg
+    done = stage_standoff(run_, plan, layers, pic)
+    cfg = done.plan.cfg
     h = cfg.standoff.design_mm if cfg.spray.is_physical else float(cfg.spray.nozzle_height)
-    return cfg.stipple.windows.value, h, run_.figures.standoff
+    return cfg.stipple.windows.value, h, done.figures
 
 
 def _soft(f, pipeline, cfg0, layers, pic, image: str, windows: str, by_can: bool = True, heights=None):

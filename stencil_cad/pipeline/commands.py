@@ -9,18 +9,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import OutputError, UserError
-from ..names import (
-    CARD_PLATE_STEM,
-    CARD_SHEET_PDF,
-    CARD_SHEET_PNG,
-    INIT_CONFIG,
-    part_file,
-)
-from ..plan.names import CARD_JSON, card_stems
+from ..names import CARD_PLATE_STEM, CARD_SHEET_PDF, INIT_CONFIG, part_file
+from ..plan.names import card_stems
 from ..plan.plan import unplanned, whole
+from ..plan.results import CardMade
 from ..record import Run
 from .build import PartTask, build_part
 from .manifest import finish
+from .recorder import record_card
 
 if TYPE_CHECKING:
     from ..config import JobConfig
@@ -33,14 +29,15 @@ CARD_FORMATS = (".step", ".stl", ".dxf")
 
 
 def _card_parts(
-    run: Run, cfg: JobConfig, card: CardLayout, ring: np.ndarray
-) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    cfg: JobConfig, card: CardLayout, ring: np.ndarray
+) -> tuple[list[tuple[str, bytes]], dict[str, Any], list[dict[str, Any]]]:
     """Build, check and export the card's plate and its walls (one per stand-off) as a job's parts are built.
 
     ``cfg`` is the job's config with its plate values filled in (:func:`stencil_cad.plan.plan.unplanned`).
 
     Returns:
-        ``(check, walls)``: the plate's solid check and the walls' manifest rows.
+        ``(files, check, walls)``: the plate's files then each wall's, in order; the plate's solid
+        check; the walls' manifest rows.
     """
     from dataclasses import replace
 
@@ -68,53 +65,50 @@ def _card_parts(
         for g, stem in zip(heights, card_stems(heights), strict=True)
     ]
     results = [build_part(task) for task in (plate, *walls)]
-    for res in results:
-        for name, data in res.files:
-            run.out.write_bytes(name, data)
-    return results[0].check, [res.row for res in results[1:]]
+    files = [(name, data) for res in results for name, data in res.files]
+    return files, results[0].check, [res.row for res in results[1:]]
 
 
-def _card_sheet(run: Run, card: CardLayout, paper: str) -> None:
-    """Write the card's sheet (PNG and the PDF with its steps) and ``card.json``."""
+def _card_sheet(cfg: JobConfig, card: CardLayout, paper: str) -> tuple[np.ndarray, bytes, dict[str, Any]]:
+    """The card's sheet: ``(its picture, the PDF with its steps, card.json's content)``; ``cfg``: the job's as given."""
     from ..testcard import layout as card_mod
     from ..testcard import printout
 
-    cfg = run.cfg
     heights = [fp.standoff_mm for fp in card.footprints]
-    run.out.write_png(CARD_SHEET_PNG, printout.printout_png(card))
+    picture = printout.printout_png(card)
     sp = cfg.spray
     steps = printout.card_steps(card, sp.can_distance_mm, sp.pass_speed_m_s)
     try:
         pdf = printout.printout_pdf(card, paper=paper, steps=steps)
     except ValueError as exc:
         raise UserError(f"card sheet: {exc}") from exc
-    run.out.write_bytes(CARD_SHEET_PDF, pdf)
-    run.out.write_json(
-        CARD_JSON,
-        card_mod.card_description(
-            card,
-            {
-                "job": cfg.name,
-                "spray": {
-                    "can_distance_mm": sp.can_distance_mm,
-                    "pass_speed_m_s": sp.pass_speed_m_s,
-                    "passes": card.passes,
-                },
-                "files": {
-                    "plate": part_file(CARD_PLATE_STEM, ".step"),
-                    "walls": [part_file(s, ".step") for s in card_stems(heights)],
-                    "sheet": CARD_SHEET_PDF,
-                },
+    description = card_mod.card_description(
+        card,
+        {
+            "job": cfg.name,
+            "spray": {
+                "can_distance_mm": sp.can_distance_mm,
+                "pass_speed_m_s": sp.pass_speed_m_s,
+                "passes": card.passes,
             },
-        ),
+            "files": {
+                "plate": part_file(CARD_PLATE_STEM, ".step"),
+                "walls": [part_file(s, ".step") for s in card_stems(heights)],
+                "sheet": CARD_SHEET_PDF,
+            },
+        },
     )
+    return picture, pdf, description
 
 
-def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4") -> list[Path]:
-    """`stencil-cad card`: the calibration plate, a wall per stand-off, the sheet and ``card.json``.
+def stage_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4") -> CardMade:
+    """The calibration card, computed: the plate, a wall per stand-off, the sheet, ``card.json`` and figure ``card``.
 
     The plate takes the job's hole radii, web, plate and key; it is built, checked and exported
-    exactly like a layer's plate, and its walls like the job's.
+    exactly like a layer's plate, and its walls like the job's. The card has no plan until it is
+    laid out, so it reads the config as given (``run.cfg``, its plate values filled in by
+    :func:`stencil_cad.plan.plan.unplanned`) and returns the plan it makes. Nothing is written:
+    :func:`stencil_cad.pipeline.recorder.record_card` writes what it returns.
     """
     from .. import outline
     from ..testcard import layout as card_mod
@@ -127,11 +121,11 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
     w, h = card.width_mm, card.height_mm
     with run.stage("card"):
         ring = outline.plate_outline(w, h, cfg.plate.outline)
-        check, walls = _card_parts(run, cfg, card, ring)
+        files, check, walls = _card_parts(cfg, card, ring)
         heights = [fp.standoff_mm for fp in card.footprints]
-        _card_sheet(run, card, paper)
+        sheet_png, sheet_pdf, description = _card_sheet(run.cfg, card, paper)
     size = ring.max(axis=0) - ring.min(axis=0)
-    run.figures.card = {
+    figures = {
         "holes": len(card.dots),
         "plate_mm": [round(float(v), 2) for v in size],
         "standoffs_mm": heights,
@@ -151,7 +145,18 @@ def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4
         "passes": card.passes,
     }
     # The card plans one plate of its own size (no tiling, no picture).
-    return finish(run, whole(cfg, (w, h)), "card")
+    return CardMade(whole(cfg, (w, h)), tuple(files), sheet_png, sheet_pdf, description, figures)
+
+
+def run_card(run: Run, standoffs_mm: list[float] | None = None, paper: str = "a4") -> list[Path]:
+    """`stencil-cad card`: the calibration plate, a wall per stand-off, the sheet and ``card.json``.
+
+    The card computed (:func:`stage_card`), recorded (:func:`stencil_cad.pipeline.recorder.record_card`:
+    the files, figure ``card``), then the manifest written; returns the files written.
+    """
+    made = stage_card(run, standoffs_mm, paper)
+    record_card(run, made)
+    return finish(run, made.plan, "card")
 
 
 def write_default_config(path: Path, *, force: bool = False) -> None:

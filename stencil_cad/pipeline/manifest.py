@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import logging
 import platform
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +30,9 @@ def save_config(run: Run, plan: Plan) -> None:
 def finish(run: Run, plan: Plan, command: str, plan_text: str | None = None) -> list[Path]:
     """Write the manifest (its config: ``plan``'s) and move every file into place.
 
+    The run's figures are written as they stand: the orchestrator records figure ``compute``'s
+    task count first (:func:`stencil_cad.pipeline.recorder.record_tasks`).
+
     ``plan_text``: the job's saved plan (:func:`stencil_cad.plan.saved.plan_json`), or None. Like the
     manifest it is the folder's record, not a file the maker uses: it is written after the
     instruction sheet, whose file list it stays out of.
@@ -40,8 +42,6 @@ def finish(run: Run, plan: Plan, command: str, plan_text: str | None = None) -> 
     sheet = whole and cfg.export.instructions
     if plan_text is not None and not sheet:
         run.out.write_text(PLAN_JSON, plan_text)
-    if run.executor is not None and run.figures.compute is not None:
-        run.figures.compute = replace(run.figures.compute, tasks=run.executor.tasks)
     manifest = {
         **manifest_header(),
         "command": command,

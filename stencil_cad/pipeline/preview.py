@@ -30,7 +30,7 @@ The plate design is the job's: when the config leaves the windows or the stand-o
 (the job's own when these settings' trials ran before; else :func:`start_design`, the one the trials
 chose most often for the same picture, process, spray and distance, or the prior of
 :func:`stencil_cad.pipeline.standoff.prior_design`), and then the job's own plate-design trials
-(:func:`stencil_cad.pipeline.standoff.choose_plates`, on the job's config and grid) choose the design
+(:func:`stencil_cad.pipeline.standoff.stage_standoff`, on the job's config and grid) choose the design
 the last level, ``designed``, shows. The decomposition is the job's, at the config's stand-off. A
 mural keeps the config's design, as the job does.
 
@@ -374,10 +374,10 @@ def _design(
     iterations), so the design is the one the job makes; it is kept in ``cache`` under
     :func:`design_key`, and counted among its ``family``'s choices (:func:`family_key`, :func:`start_design`).
     """
-    from .standoff import choose_plates
+    from .standoff import stage_standoff
 
     trials = Run(cfg=job.cfg, out=run.out, quiet=True, cancel=run.cancel)
-    chosen = choose_plates(trials, job, layers, picture).cfg
+    chosen = stage_standoff(trials, job, layers, picture).plan.cfg
     design = (chosen.stipple.windows.value, chosen.standoff.design_mm)
     cache.put(cache.designs, design_key(job.cfg), design)
     votes = dict(cache.get(cache.families, family) or {})

@@ -44,7 +44,17 @@ from ..output import plain as _plain
 from ..plan.holes import Refined, Stippled
 from ..plan.names import LAYERS_NPZ, SPRAY_JSON, dots_name, layer_stem, step_name, windows_name
 from ..plan.plan import Plan
-from ..plan.results import Built, Decomposed, PaintOrder, PartResult, Segmented, Simulated, Stand
+from ..plan.results import (
+    Built,
+    CardMade,
+    Decomposed,
+    Designed,
+    PaintOrder,
+    PartResult,
+    Segmented,
+    Simulated,
+    Stand,
+)
 from ..plan.tiles import _planned
 from ..record import Run
 
@@ -54,6 +64,12 @@ log = logging.getLogger(__name__)
 def record_compute(run: Run, where: ComputeFigures) -> None:
     """Figure ``compute``: where the job's tasks run (its executor's plan)."""
     run.figures.compute = where
+
+
+def record_tasks(run: Run) -> None:
+    """Figure ``compute`` again, with the executor's task count: known only once every stage has run."""
+    if run.executor is not None and run.figures.compute is not None:
+        run.figures.compute = replace(run.figures.compute, tasks=run.executor.tasks)
 
 
 def record_plan(run: Run, plan: Plan, tiling: MuralFigures) -> None:
@@ -80,6 +96,13 @@ def record_picture(run: Run, picture: Picture) -> None:
 def record_plate(run: Run, plan: Plan) -> None:
     """Figure ``plate`` again: the thickness ``plan``'s design asks for, and why."""
     run.figures.plate = plan.plate
+
+
+def record_standoff(run: Run, done: Designed) -> Plan:
+    """Figure ``standoff`` of the plate-design trials ``done`` (none when nothing was tried). Returns the plan designed."""
+    if done.figures is not None:
+        run.figures.standoff = done.figures
+    return done.plan
 
 
 def record_sprays(run: Run, plan: Plan) -> None:
@@ -267,3 +290,16 @@ def record_registration(run: Run, simulation: MuralSimulation | None) -> None:
     """Figure ``mural.simulation``: a mural's registration cases (None: no case, nothing recorded)."""
     if simulation is not None:
         run.figures.mural = replace(_planned(run), simulation=simulation)
+
+
+def record_card(run: Run, made: CardMade) -> None:
+    """The calibration card ``made``: the plate's and walls' files, the sheet (PNG, PDF), ``card.json``, figure ``card``."""
+    from ..names import CARD_SHEET_PDF, CARD_SHEET_PNG
+    from ..plan.names import CARD_JSON
+
+    for name, data in made.parts:
+        run.out.write_bytes(name, data)
+    run.out.write_png(CARD_SHEET_PNG, made.sheet_png)
+    run.out.write_bytes(CARD_SHEET_PDF, made.sheet_pdf)
+    run.out.write_json(CARD_JSON, made.description)
+    run.figures.card = made.figures

@@ -54,14 +54,16 @@ from .recorder import (
     record_simulate,
     record_sprays,
     record_stand,
+    record_standoff,
     record_stipple,
+    record_tasks,
 )
 from .refine import stage_refine
 from .saved import check_dots, check_fresh, check_rows, read_dots, read_layers, read_plan
 from .simulate import stage_simulate, stage_simulate_hard
 from .slicing import stage_print_estimate
 from .stand import stage_stand
-from .standoff import choose_plates
+from .standoff import stage_standoff
 from .stipple import stage_stipple
 
 log = logging.getLogger(__name__)
@@ -109,7 +111,13 @@ def run_all(run: Run, picture: Picture | None = None) -> tuple[JobConfig, list[P
     plan, layers, dotsets = soft_plates(run, plan, picture)
     record_cost(run, stage_cost(plan, dotsets))
     build_any(run, plan, layers, dotsets, picture)
-    return plan.cfg, finish(run, plan, "run", saved_plan(run, plan, plan.cfg))
+    return plan.cfg, finished(run, plan, "run", saved_plan(run, plan, plan.cfg))
+
+
+def finished(run: Run, plan: Plan, command: str, plan_text: str | None = None) -> list[Path]:
+    """The job done: figure ``compute`` with the executor's task count (every stage has run), then the manifest (:func:`finish`)."""
+    record_tasks(run)
+    return finish(run, plan, command, plan_text)
 
 
 def saved_plan(run: Run, plan: Plan | None, copy: JobConfig, primer: str | None = None) -> str:
@@ -166,15 +174,15 @@ def plate_holes(run: Run, plan: Plan, layers: Layers, picture: Picture | None) -
 
 
 def design_plates(run: Run, plan: Plan, layers: Layers, picture: Picture | None) -> Plan:
-    """``plan`` with the plate design left to the job (:func:`choose_plates`) and the thickness its wall asks for.
+    """``plan`` with the plate design left to the job (:func:`stage_standoff`) and the thickness its wall asks for.
 
     Chosen for the picture when the tiling says so (:func:`stencil_cad.mural.chooses_design`: a
-    one-plate job; a mural keeps the config's). Figure ``plate`` is recorded again when the wall
-    changed the thickness.
+    one-plate job; a mural keeps the config's). Figure ``standoff`` records the trials; figure
+    ``plate`` is recorded again when the wall changed the thickness.
     """
     if not mural.chooses_design(plan.grid):
         return plan
-    chosen = choose_plates(run, plan, layers, picture)
+    chosen = record_standoff(run, stage_standoff(run, plan, layers, picture))
     if chosen.plate != plan.plate:
         record_plate(run, chosen)
     return chosen
@@ -269,7 +277,7 @@ def run_decompose(run: Run, picture: Picture) -> tuple[JobConfig, list[Path]]:
     save_config(run, given)
     plan = primed(given, picture)
     record_decompose(run, stage_decompose(run, plan, picture))
-    return plan.cfg, finish(run, plan, "decompose", saved_plan(run, None, run.cfg, plan.primer))
+    return plan.cfg, finished(run, plan, "decompose", saved_plan(run, None, run.cfg, plan.primer))
 
 
 def _planned(cfg: JobConfig, picture: Picture) -> MuralFigures:
@@ -325,7 +333,7 @@ def _run_stage_command(
         else:
             record_sprays(run, plan)
             record_simulate(run, stage_simulate(run, plan, picture, layers, dotsets))
-        return plan.cfg, finish(run, plan, command, text)
+        return plan.cfg, finished(run, plan, command, text)
 
 
 def _saved_design(run: Run, plan: Plan, saved: SavedPlan, layers: Layers, picture: Picture | None) -> Plan:
@@ -425,4 +433,4 @@ def run_hard(run: Run, plan: Plan, picture: Picture) -> tuple[JobConfig, list[Pa
         )
     build_parts(run, plan, start_build(run, plan, cut.layers, cut.hard.cut_layers))
     record_simulate(run, stage_simulate_hard(run, plan, picture, cut.hard, cut.layers, amounts))
-    return cfg, finish(run, plan, "hard")
+    return cfg, finished(run, plan, "hard")

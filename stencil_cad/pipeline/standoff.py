@@ -42,6 +42,7 @@ from ..figures import PlateTrial, StandoffFigures
 from ..model import Layers, Picture
 from ..plan.plan import Plan, designed, whole, with_design
 from ..plan.profiles import Paints
+from ..plan.results import Designed
 from ..record import Run
 
 log = logging.getLogger(__name__)
@@ -221,21 +222,25 @@ def _trial_score(
     return float(scielab(ref, sim.composite, sim.mm_per_px, cfg.view.distance_m))
 
 
-def choose_plates(run: Run, plan: Plan, layers: Layers, picture: Picture | None) -> Plan:
+def stage_standoff(run: Run, plan: Plan, layers: Layers, picture: Picture | None) -> Designed:
     """``plan`` with the plate design (windows, stand-off) this picture's plates spray best with.
 
     The designs of :func:`candidates` are tried (:func:`_screen`, :func:`_trial_score`, on the coarse
     grid of :func:`trial_mm_per_px`) and the best kept, or with light plates the two walls of
     :func:`direct_pair` refined outright; with one candidate the plan comes back as it is.
     The run calls it for one-plate jobs only (a mural keeps its config: trials over every tile would
-    cost more than the job). Records figure ``standoff``: the share, the trials and the choice.
-    Returns the plan with the design (:func:`stencil_cad.plan.plan.designed`).
+    cost more than the job).
+
+    Returns:
+        The plan with the design (:func:`stencil_cad.plan.plan.designed`) and figure ``standoff``
+        (the share, the trials and the choice; None when the config leaves nothing to the job),
+        which :func:`stencil_cad.pipeline.recorder.record_standoff` records.
     """
     from ..mural import TileGrid
 
     cfg, picture_mm = plan.cfg, plan.picture_mm
     if cfg.stipple.windows == Windows.off and not cfg.chooses_standoff:
-        return plan
+        return Designed(plan)
     t0 = time.perf_counter()
     with run.stage("standoff"):
         share = window_share(cfg, layers, TileGrid.whole(*picture_mm), picture_mm)
@@ -276,10 +281,9 @@ def choose_plates(run: Run, plan: Plan, layers: Layers, picture: Picture | None)
         seconds=round(time.perf_counter() - t0, 2),
         refined=tuple(refined),
     )
-    run.figures.standoff = fig
     if trials or direct:
         log.info("plates: %s", fig.reason)
-    return chosen
+    return Designed(chosen, fig)
 
 
 def _screen(

@@ -12,7 +12,7 @@ in the order the orchestrator (:mod:`stencil_cad.pipeline.run`) calls them:
 3. after the decomposition, from the layers: each layer's spray settings (:func:`painted`; hard
    mode after the segmentation), then the plate design the trials choose, windows and the wall's
    stand-off, with the thickness that wall asks for (:func:`designed`, called with
-   :func:`stencil_cad.pipeline.standoff.choose_plates`'s choice; its sprays fit its design).
+   :func:`stencil_cad.pipeline.standoff.stage_standoff`'s choice; its sprays fit its design).
 
 The stages after the design (stipple, refine, build, simulate, cost, the manifest) take the last
 plan as an argument and read its :attr:`Plan.cfg`: the config with every decision filled in. The

@@ -2,8 +2,9 @@
 
 A stage of :mod:`stencil_cad.pipeline` computes and returns one of these frozen values; the
 recorder (:mod:`stencil_cad.pipeline.recorder`) writes its files and records its figures, called
-by :mod:`stencil_cad.pipeline.run` after the stage, in order. They sit below the pipeline so that
-the stages and the recorder both read them and neither imports the other.
+by :mod:`stencil_cad.pipeline.run` (the card's by :mod:`stencil_cad.pipeline.commands`) after the
+stage, in order. They sit below the pipeline so that the stages and the recorder both read them
+and neither imports the other.
 """
 
 from __future__ import annotations
@@ -22,8 +23,10 @@ from ..figures import (
     SimulateFigures,
     SprayOrderFigures,
     SprayStep,
+    StandoffFigures,
 )
 from ..model import Layers
+from .plan import Plan
 
 
 @dataclass(frozen=True, eq=False)
@@ -151,3 +154,39 @@ class Built:
     build: BuildFigures
     mural: MuralBuildFigures | None = None
     mural_map: np.ndarray | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class Designed:
+    """The plate-design trials' choice (:func:`stencil_cad.pipeline.standoff.stage_standoff`).
+
+    Attributes:
+        plan: The plan with the design chosen (windows, stand-off), or the plan as given when the
+            config leaves nothing to the job.
+        figures: Figure ``standoff``: the share through windows, the trials and the choice; None
+            when nothing was tried.
+    """
+
+    plan: Plan
+    figures: StandoffFigures | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class CardMade:
+    """The calibration card (:func:`stencil_cad.pipeline.commands.stage_card`): its files and figure ``card``.
+
+    Attributes:
+        plan: The card's plan: one plate of its own size (no tiling, no picture).
+        parts: The plate's files, then each wall's, ``(name, bytes)`` in the order they are written.
+        sheet_png: The printed sheet's picture (``card_sheet.png``).
+        sheet_pdf: The sheet with its steps (``card_sheet.pdf``).
+        description: ``card.json``'s content.
+        figures: Figure ``card``.
+    """
+
+    plan: Plan
+    parts: tuple[tuple[str, bytes], ...]
+    sheet_png: np.ndarray
+    sheet_pdf: bytes
+    description: dict[str, Any]
+    figures: dict[str, Any]

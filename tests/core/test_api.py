@@ -94,14 +94,15 @@ def test_a_second_preview_reuses_the_decomposition_and_holes():
 def test_the_last_preview_is_of_the_plate_design_the_job_chooses(monkeypatch):
     from stencil_cad.pipeline import standoff
     from stencil_cad.plan.plan import designed
+    from stencil_cad.plan.results import Designed
 
     seen = []
 
     def choose(run, plan, layers, picture):
         seen.append(plan.cfg)
-        return designed(plan, "off", 14.0)
+        return Designed(designed(plan, "off", 14.0))
 
-    monkeypatch.setattr(standoff, "choose_plates", choose)
+    monkeypatch.setattr(standoff, "stage_standoff", choose)
     cfg = small_example()
     cache = api.preview_cache()
     shown = list(api.previews(cfg, cache))

@@ -113,8 +113,8 @@ def test_a_stage_command_given_another_config_plans_anew(run_copy, capsys, monke
     config.write_text(yaml.safe_dump({**yaml.safe_load(config.read_text()), "seed": 12345}, sort_keys=False))
     planned = json.loads((out / "plan.json").read_text())["configs_sha256"]
     chosen = []
-    choose = pipeline_run.choose_plates
-    monkeypatch.setattr(pipeline_run, "choose_plates", lambda *a: chosen.append(1) or choose(*a))
+    choose = pipeline_run.stage_standoff
+    monkeypatch.setattr(pipeline_run, "stage_standoff", lambda *a: chosen.append(1) or choose(*a))
     code, _, err = _run(["stipple", "--out", out, "--force", "-q"], capsys)
     assert code == 0, err
     assert chosen, "the design was not chosen again for the edited config"
@@ -134,7 +134,7 @@ def test_stage_commands_repeat_the_run_from_its_plan_without_the_trials(job, tmp
     def no_trials(*a, **k):
         raise AssertionError("the plate-design trials ran again")
 
-    monkeypatch.setattr(pipeline_run, "choose_plates", no_trials)
+    monkeypatch.setattr(pipeline_run, "stage_standoff", no_trials)
     out = tmp_path / "again"
     shutil.copytree(job, out)
     for command in ("stipple", "build", "simulate"):

@@ -7,8 +7,10 @@ calls, however deep) that stages a file (``write_png``, ``write_text``, ``write_
 ``write_bytes``, ``write_npz``, ``open_path``, ``write_part``) or assigns ``<run>.figures.<name>``
 fails here, and so does one that takes a ``JobConfig``: a stage takes the job's ``Plan``
 (``stencil_cad/plan/plan.py``) or its fields. The check reads the source (the AST), so it sees what
-the code does, not what its names say. No other module sets a figure either, but those listed in
-:data:`STILL_RECORDING`.
+the code does, not what its names say. No other module of the package sets a figure either
+(:data:`STILL_RECORDING` is empty): the plate-design trials return figure ``standoff``
+(``record_standoff``), the card command its files and figure ``card`` (``record_card``), and the
+manifest asks the recorder for the task count of figure ``compute`` (``record_tasks``).
 """
 
 from __future__ import annotations
@@ -26,16 +28,8 @@ RECORDER = "recorder.py"
 WRITES = {"write_png", "write_text", "write_json", "write_bytes", "write_npz", "open_path", "write_part"}
 #: Stage functions that still write or record, by ``module:function``, and why (none is left).
 STILL_WRITING: dict[str, str] = {}
-#: Modules beside the recorder that still set a figure, by path under ``stencil_cad/``, and why.
-STILL_RECORDING = {
-    # The plate-design trials' figure ``standoff``, set as choose_plates returns the designed plan
-    # (which the preview, the tests and a benchmark call for the plan alone).
-    "pipeline/standoff.py": "choose_plates records figure standoff",
-    # The card is its own command: its parts, printout and figure ``card`` in one orchestrating function.
-    "pipeline/commands.py": "run_card records figure card",
-    # The executor's task count, known only once every stage has run, added as the manifest is written.
-    "pipeline/manifest.py": "finish adds the task count to figure compute",
-}
+#: Modules beside the recorder that still set a figure, by path under ``stencil_cad/``, and why (none is left).
+STILL_RECORDING: dict[str, str] = {}
 
 
 def _called(node: ast.AST) -> str | None:

@@ -11,7 +11,8 @@ from stencil_cad.figures import PlateTrial, StandoffFigures
 from stencil_cad.model import Layers, Picture
 from stencil_cad.mural import TileGrid
 from stencil_cad.pipeline import standoff
-from stencil_cad.pipeline.standoff import WINDOW_SHARE, candidates, choose_plates, window_share, with_design
+from stencil_cad.pipeline.recorder import record_standoff
+from stencil_cad.pipeline.standoff import WINDOW_SHARE, candidates, stage_standoff, window_share, with_design
 from stencil_cad.plan.plan import painted, planned, whole
 from stencil_cad.record import Run
 
@@ -19,8 +20,9 @@ _SLA = {"stipple": {"process": "sla", "tone": "calibrated"}, "spray": {"calibrat
 
 
 def _choose(run, layers, pic):
-    """The config with the design the trials chose for a 60 x 60 mm one-plate job."""
-    return choose_plates(run, painted(whole(run.cfg, (60.0, 60.0)), layers.colours), layers, pic).cfg
+    """The config with the design the trials chose for a 60 x 60 mm one-plate job (figure ``standoff`` recorded)."""
+    plan = painted(whole(run.cfg, (60.0, 60.0)), layers.colours)
+    return record_standoff(run, stage_standoff(run, plan, layers, pic)).cfg
 
 
 def _cfg(**extra):
@@ -300,7 +302,8 @@ def test_nothing_left_to_the_job_tries_nothing(monkeypatch):
     _scripted(monkeypatch, {})  # any trial would fail
     run = Run(cfg=_cfg(wall={"standoff_mm": [10.0]}, stipple={**_SLA["stipple"], "windows": "off"}), out=None)  # type: ignore[arg-type]
     plan = whole(run.cfg, (60.0, 60.0))
-    assert choose_plates(run, plan, layers, pic) is plan and run.figures.standoff is None
+    done = stage_standoff(run, plan, layers, pic)
+    assert done.plan is plan and done.figures is None and run.figures.standoff is None
 
 
 def test_standoff_figures_json_is_exact():
