@@ -45,8 +45,12 @@ def plan(
         UserError: A part cannot fit the bed.
     """
     # The posts' spacing is decided here, from the maker's config: whether the plan fills the plate's
-    # thickness in (its config has it filled in, :func:`stencil_cad.plan.plan.planned`).
-    grid = replace(mural.plan_tiles(width_mm, height_mm, cfg), post_pitch_mm=mural.post_pitch_mm(cfg))
+    # thickness in (its config has it filled in, :func:`stencil_cad.plan.plan.planned`). Only a
+    # mural's plates stand on posts: a one-plate job's grid stays the plain one tile, equal to the
+    # plate-design trials' (:meth:`TileGrid.whole`), so the job reuses the holes they made.
+    grid = mural.plan_tiles(width_mm, height_mm, cfg)
+    if grid.tiled:
+        grid = replace(grid, post_pitch_mm=mural.post_pitch_mm(cfg))
     layers = mural.plate_layers(cfg, grid)
     sizes = mural.check_fits_bed(grid, cfg)
     made = mural.making_cost(grid, cfg, layers)

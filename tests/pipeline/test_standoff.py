@@ -394,3 +394,19 @@ def test_a_lower_wall_gets_a_plate_that_sags_within_its_share():
     given = parse_config({"size": {"width_mm": 200.0}, "plate": {"thickness_mm": 1.2}}, source="test")
     kept, _ = planned(given, (200.0, 200.0), 400 * 400)
     assert with_design(kept, "auto", 5.0).plate.thickness_mm == 1.2
+
+
+def test_the_job_reuses_the_holes_its_trials_made():
+    """The job's stipple and refine stages take the holes the trials made for the design kept, not made again."""
+    from stencil_cad.plan import holes
+    from stencil_cad.plan.plan import capped
+
+    pic, layers = _photo_layers()
+    run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
+    # The plan as the job makes it: its own tiling (one tile), the holes capped, the paints known.
+    plan = painted(capped(planned(run.cfg, (60.0, 60.0), 120 * 120)[0]), layers.colours)
+    assert plan.grid == TileGrid.whole(60.0, 60.0)
+    chosen = stage_standoff(run, plan, layers, pic).plan
+    made, stippled_kept = holes.stippled(run, chosen, layers)
+    assert stippled_kept
+    assert holes.refined(run, chosen, layers, made, pic)[1]
