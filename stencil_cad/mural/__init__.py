@@ -20,6 +20,7 @@ from .posts import (
     post_sites,
     sag_side_mm,
     with_pin_holes,
+    with_post_pitch,
 )
 from .seams import (
     check_unions,
@@ -69,6 +70,7 @@ __all__ = [
     "PostPlan",
     "clear_post_sites",
     "post_pitch_mm",
+    "with_post_pitch",
     "post_plan",
     "post_sites",
     "sag_side_mm",

@@ -62,6 +62,7 @@ __all__ = [
     "clear_post_sites",
     "post_pitch_mm",
     "post_plan",
+    "with_post_pitch",
     "post_sites",
     "post_span_mm",
     "sag_side_mm",
@@ -143,6 +144,16 @@ def post_plan(cfg: JobConfig, grid: TileGrid) -> PostPlan | None:
     height = min(cfg.standoff.walls_mm)
     pitch = post_pitch_mm(cfg) if grid.post_pitch_mm is None else grid.post_pitch_mm
     return PostPlan(pitch, POST_RADIUS_MM + shade_reach_mm(cfg), height)
+
+
+def with_post_pitch(grid: TileGrid, cfg: JobConfig) -> TileGrid:
+    """``grid`` with the spacing its posts aim at (:func:`post_pitch_mm`) when it is a mural's; a one-plate job's as it is.
+
+    A one-plate job's plate stands in its wall, on no posts: its grid stays the plain one tile
+    (:meth:`TileGrid.whole`), the same as the plate-design trials', so the job finds the holes they
+    made (kept by the tiling).
+    """
+    return replace(grid, post_pitch_mm=post_pitch_mm(cfg)) if grid.tiled else grid
 
 
 def post_pitch_mm(cfg: JobConfig) -> float:

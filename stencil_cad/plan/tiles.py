@@ -8,7 +8,6 @@ The parts themselves (every tile's plates and walls, one tile for a one-plate jo
 
 from __future__ import annotations
 
-from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -45,12 +44,8 @@ def plan(
         UserError: A part cannot fit the bed.
     """
     # The posts' spacing is decided here, from the maker's config: whether the plan fills the plate's
-    # thickness in (its config has it filled in, :func:`stencil_cad.plan.plan.planned`). Only a
-    # mural's plates stand on posts: a one-plate job's grid stays the plain one tile, equal to the
-    # plate-design trials' (:meth:`TileGrid.whole`), so the job reuses the holes they made.
-    grid = mural.plan_tiles(width_mm, height_mm, cfg)
-    if grid.tiled:
-        grid = replace(grid, post_pitch_mm=mural.post_pitch_mm(cfg))
+    # thickness in (its config has it filled in, :func:`stencil_cad.plan.plan.planned`); a mural's only.
+    grid = mural.with_post_pitch(mural.plan_tiles(width_mm, height_mm, cfg), cfg)
     layers = mural.plate_layers(cfg, grid)
     sizes = mural.check_fits_bed(grid, cfg)
     made = mural.making_cost(grid, cfg, layers)
