@@ -69,4 +69,4 @@ def dry_run(cfg: JobConfig) -> list[str]:
     shape = picture.shape
     grid, plan = tiles.plan(cfg, picture.width_mm, picture.height_mm, shape[0] * shape[1])
     made = mural.making_cost(grid, cfg, mural.plate_layers(cfg, grid))
-    return [tiles.plan_line(plan), *cost_lines(made)]
+    return [tiles.plan_line(plan, cfg), *cost_lines(made)]

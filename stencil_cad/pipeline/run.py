@@ -252,7 +252,7 @@ def run_command(
                     raise
         planned = _planned(cfg, picture) if picture is not None and cmd.whole else None
         if planned is not None and announce is not None:
-            announce(tiles.plan_line(planned))
+            announce(tiles.plan_line(planned, cfg))
         if cmd.from_picture:
             assert picture is not None  # load_picture raised otherwise
             with computing(run, picture.shape[0] * picture.shape[1], where, None if cmd.hard else planned):

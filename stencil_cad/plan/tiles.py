@@ -119,8 +119,13 @@ def _planned(run: Run) -> MuralFigures:
     return fig
 
 
-def plan_line(plan: MuralFigures) -> str:
-    """One line, printed before the work starts: what this size costs."""
+def plan_line(plan: MuralFigures, cfg: JobConfig | None = None) -> str:
+    """One line, printed before the work starts: what this size costs.
+
+    With the job's ``cfg``: a one-plate job whose wall and plate thickness are left to it says its
+    printer-hours are for the process's wall (the trials may choose a lower one, whose plates are
+    thicker: the summary's cost after the trials counts those).
+    """
     c = plan.cost
     bed = plan.bed
     where = f"bed {bed.name} ({bed.x_mm:g} × {bed.y_mm:g} mm)" if bed else "no bed given"
@@ -135,6 +140,8 @@ def plan_line(plan: MuralFigures) -> str:
             f"; to make: about {c['printer_hours']:.1f} printer-hours, {c['filament_m']:.0f} m of filament "
             f"({c['filament_g']:.0f} g PLA)"
         )
+        if cfg is not None and c["tiles"] == 1 and cfg.chooses_standoff and cfg.fills_thickness:
+            line += " for the process's wall (a lower wall the job may choose takes thicker plates)"
     if c.get("sheets") is not None:
         line += f", {c['sheets']} laser sheet(s), {c['cut_m']:.1f} m of cut in about {c['cut_hours']:.1f} h"
     return line

@@ -193,6 +193,14 @@ def test_plan_line_says_the_printer_hours_and_filament():
     assert "24 plates, 1 wall(s)" in line
     assert f"about {plan.cost['printer_hours']:.1f} printer-hours" in line and "g PLA" in line
     assert plan.cost["filament_g"] > 0
+    # A mural keeps its wall; a one-plate job whose wall and thickness are left to it is told the
+    # hours are for the process's wall (its trials may choose a lower wall and thicker plates).
+    assert "process's wall" not in tiles.plan_line(plan, cfg)
+    one = cfg_io.parse_config({"size": {"width_mm": 150}, "stipple": {"process": "fdm"}}, source="test")
+    _, small = tiles.plan(job(size={"width_mm": 150}, stipple={"process": "fdm"}), 150, 150, 90_000)
+    assert "for the process's wall" in tiles.plan_line(small, one)
+    given = job(size={"width_mm": 150}, stipple={"process": "fdm"}, plate={"thickness_mm": 0.9})
+    assert "process's wall" not in tiles.plan_line(tiles.plan(given, 150, 150, 90_000)[1], given)
 
 
 def test_summary_says_the_cost_per_kind_and_the_slicers_total():
