@@ -151,16 +151,23 @@ def planned(cfg: JobConfig, picture_mm: tuple[float, float], work_px: int) -> tu
     Raises:
         UserError: A part cannot fit the bed.
     """
-    from ..config.job import filled, with_margin
+    from ..config.job import with_margin
     from ..mural.posts import sag_side_mm
     from .tiles import plan as plan_tiles
 
     cfg = with_margin(labelled(cfg))
     grid, fig = plan_tiles(cfg, *picture_mm, work_px)
     side = sag_side_mm(grid, cfg)
-    fitted, thickness = filled(cfg, side)
-    fills = Fills(thickness, cfg.stipple.web_mm is None)
-    return Plan(fitted, grid, picture_mm, plate_figures(thickness, side), fills=fills), fig
+    fitted, fills = _filled(cfg, side)
+    return Plan(fitted, grid, picture_mm, plate_figures(fills.thickness, side), fills=fills), fig
+
+
+def _filled(cfg: JobConfig, side_mm: float) -> tuple[JobConfig, Fills]:
+    """``cfg`` (its margin filled in) with the thickness and web filled for plates of sag side ``side_mm``, and how."""
+    from ..config.job import filled
+
+    fitted, thickness = filled(cfg, side_mm)
+    return fitted, Fills(thickness, cfg.stipple.web_mm is None)
 
 
 def refilled(plan: Plan, cfg: JobConfig) -> Plan:
@@ -169,12 +176,12 @@ def refilled(plan: Plan, cfg: JobConfig) -> Plan:
     The label stays as ``cfg`` has it. The preview's plate-design trials run the job's own config on
     the preview's tiling with it.
     """
-    from ..config.job import filled, with_margin
+    from ..config.job import with_margin
     from ..mural.posts import sag_side_mm
 
     cfg = with_margin(cfg)
-    fitted, thickness = filled(cfg, sag_side_mm(plan.grid, cfg))
-    return replace(plan, cfg=fitted, fills=Fills(thickness, cfg.stipple.web_mm is None))
+    fitted, fills = _filled(cfg, sag_side_mm(plan.grid, cfg))
+    return replace(plan, cfg=fitted, fills=fills)
 
 
 def unplanned(cfg: JobConfig) -> JobConfig:
