@@ -55,7 +55,6 @@ from ..plan.results import (
     Simulated,
     Stand,
 )
-from ..plan.tiles import _planned
 from ..record import Run
 
 log = logging.getLogger(__name__)
@@ -269,7 +268,7 @@ def record_build(run: Run, done: Built) -> None:
 
     run.figures.build = done.build
     if done.mural is not None:
-        run.figures.mural = replace(_planned(run), built=done.mural)
+        run.figures.mural = replace(_recorded_tiling(run), built=done.mural)
     if done.mural_map is not None:
         run.out.write_png(MURAL_MAP_PNG, done.mural_map)
 
@@ -289,7 +288,15 @@ def record_print_estimate(run: Run, build: BuildFigures) -> None:
 def record_registration(run: Run, simulation: MuralSimulation | None) -> None:
     """Figure ``mural.simulation``: a mural's registration cases (None: no case, nothing recorded)."""
     if simulation is not None:
-        run.figures.mural = replace(_planned(run), simulation=simulation)
+        run.figures.mural = replace(_recorded_tiling(run), simulation=simulation)
+
+
+def _recorded_tiling(run: Run) -> MuralFigures:
+    """The mural's plan as the run recorded it (every tiled job is planned before its stages)."""
+    fig = run.figures.mural
+    if fig is None:
+        raise AssertionError("a tiled stage ran before the mural was planned")
+    return fig
 
 
 def record_card(run: Run, made: CardMade) -> None:

@@ -18,7 +18,6 @@ from ..model import DotSet, Layers, Picture
 
 if TYPE_CHECKING:
     from ..config.job import JobConfig
-    from ..record import Run
 
 
 def light_plates_on(cfg: JobConfig, tiled: bool) -> bool:
@@ -109,14 +108,6 @@ def map_picture(grid: mural.TileGrid, layers: Layers, picture: Picture | None) -
     """``mural_map.png``: the grid over the picture (the decomposition's composite without one), names, positions, order of work."""
     preview = picture.rgb if picture is not None else layers.composite()
     return mural.mural_map(grid, layers.count, preview)
-
-
-def _planned(run: Run) -> MuralFigures:
-    """The mural's plan as the run recorded it (every tiled job is planned before its stages)."""
-    fig = run.figures.mural
-    if fig is None:
-        raise AssertionError("a tiled stage ran before the mural was planned")
-    return fig
 
 
 def plan_line(plan: MuralFigures, cfg: JobConfig | None = None) -> str:
