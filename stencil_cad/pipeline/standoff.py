@@ -82,10 +82,11 @@ SCREEN_NOISE = 0.01
 #: grid, 5 and 8 mm ranked as refined in full on the bundled example and on all 9 FDM pictures of
 #: the fidelity benchmark that refine two walls (8 mm won on coffee, chelsea, rocket and
 #: low_contrast); the closest were the example, 2.87 from 5 mm against 3.03 from 8 (5.5 %; 2.58
-#: and 2.74 in full), and astronaut, 2.80 against 3.03. After 20 steps those two stood 1.0 % and
-#: 2.7 % apart, after 10 astronaut and immunohistochemistry ranked wrongly; a short refinement of
-#: its own (its step sizes decaying over fewer steps) ranked them less clearly (after 15,
-#: immunohistochemistry wrongly). Measured by stopping each wall's refinement at each step count
+#: and 2.74 in full), and coffee, 2.50 against 2.31 (7.7 %). After 20 steps the example's walls and
+#: astronaut's stood 1.0 % and 2.7 % apart, after 10 astronaut and immunohistochemistry ranked
+#: wrongly. A short refinement of its own (its step sizes decaying over fewer steps) ranked them
+#: less clearly: of 15 steps, immunohistochemistry wrongly; of 30, the example's walls 1.8 % apart.
+#: Measured by stopping each wall's refinement at each step count
 #: and scoring it as ``_trial_score`` does, on ``benchmarks.fidelity.job_config(image, "fdm", folder)``
 #: and the bundled example's config.
 RANK_AFTER = 30
