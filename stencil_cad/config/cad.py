@@ -246,7 +246,8 @@ class WallConfig(StrictModel):
             "(the best refined beside the best of another height). With light plates (a one-plate job's "
             "default), windows carrying almost none of the paint and no measured can, it refines its "
             "plates for 5 and 2 mm below that height outright and keeps the better (unrefined plates rank "
-            "light plates' walls badly). A lower wall gets a plate filled thicker "
+            "light plates' walls badly), ranked after 30 of their refinement's steps where those tell them "
+            "apart, the winner alone refined in full. A lower wall gets a plate filled thicker "
             "for its sag. The chosen height is saved in the run's config."
         ),
     )

@@ -56,6 +56,9 @@ class StandoffFigures:
     #: The two best designs' plates refined and sprayed, where their stand-offs differ (the
     #: refinement gains more under more blur): empty otherwise.
     refined: Sequence[PlateTrial] = ()
+    #: The refinement steps after which the refined designs were scored (they ranked two walls part
+    #: way through their refinement), or None: scored refined in full.
+    ranked_after: int | None = None
 
     @property
     def chosen(self) -> PlateTrial | None:
@@ -77,6 +80,7 @@ class StandoffFigures:
             trial_mm_per_px=section.get("trial_mm_per_px"),
             seconds=section.get("seconds", 0.0),
             refined=tuple(PlateTrial.from_json(t) for t in section.get("refined") or ()),
+            ranked_after=section.get("ranked_after"),
         )
 
     def to_json(self) -> dict[str, Any]:
@@ -89,5 +93,6 @@ class StandoffFigures:
             "trial_mm_per_px": self.trial_mm_per_px,
             "seconds": self.seconds,
             **({"refined": [t.to_json() for t in self.refined]} if self.refined else {}),
+            **({"ranked_after": self.ranked_after} if self.ranked_after is not None else {}),
             "reason": self.reason,
         }

@@ -24,7 +24,10 @@ A coarse step past a near one that already scored worse is not tried (:func:`_sc
 
 With light plates the unrefined screen ranks walls badly (the light plates' close holes are what
 the refinement sharpens), so where the windows are not in question and no can is measured, two
-walls are refined outright instead (:func:`direct_pair`).
+walls are refined outright instead (:func:`direct_pair`), and ranked a third of the way through
+their refinement, where the scores already tell them apart: only the winner is refined in full
+(:func:`_ranked_pair`; on the bundled example the walls' refinement takes 150 steps rather than
+180, 30 each to rank them and 90 for the winner, with the same choice and the same holes).
 """
 
 from __future__ import annotations
@@ -73,6 +76,25 @@ NEAR_BY_MM = 2.0
 #: on the bundled example windows and holes only (plates that differ in one small window) scored
 #: 6.087 and 6.138 from 10 mm, 0.8 % apart.
 SCREEN_NOISE = 0.01
+#: With light plates the two walls are ranked after this many steps of their refinement (of the
+#: job's ``refine.iterations``, 90 by default; the whole refinement's first steps, its step sizes
+#: decaying over all of them), and only the winner is refined in full. Scored so on the trials'
+#: grid, 5 and 8 mm ranked as refined in full on the bundled example and on all 9 FDM pictures of
+#: the fidelity benchmark that refine two walls (8 mm won on coffee, chelsea, rocket and
+#: low_contrast); the closest were the example, 2.87 from 5 mm against 3.03 from 8 (5.5 %; 2.58
+#: and 2.74 in full), and coffee, 2.50 against 2.31 (7.7 %). After 20 steps the example's walls and
+#: astronaut's stood 1.0 % and 2.7 % apart, after 10 astronaut and immunohistochemistry ranked
+#: wrongly. A short refinement of its own (its step sizes decaying over fewer steps) ranked them
+#: less clearly: of 15 steps, immunohistochemistry wrongly; of 30, the example's walls 1.8 % apart.
+#: Measured by stopping each wall's refinement at each step count
+#: and scoring it as ``_trial_score`` does, on ``benchmarks.fidelity.job_config(image, "fdm", folder)``
+#: and the bundled example's config.
+RANK_AFTER = 30
+#: Relative difference of the two walls' scores after :data:`RANK_AFTER` steps within which both are
+#: refined in full and scored again: the scores part way through do not tell them apart. The
+#: smallest gap after 30 steps was 5.5 % (the bundled example); after 20 steps the example's walls
+#: stood 1.0 % apart and after 25 0.4 %, yet 6 % apart refined in full.
+RANK_NOISE = 0.02
 #: The trials simulate on a grid this many times coarser than the job's (at least ...).
 TRIAL_COARSENING = 2.0
 
@@ -184,12 +206,14 @@ def _trial_score(
     grid_mm_per_px: float | None = None,
     refined: bool = False,
     paints: Paints | None = None,
+    stop_after: int | None = None,
 ) -> float:
     """S-CIELAB at the viewing distance of ``cfg``'s plates stippled (not refined) and sprayed.
 
     Sprayed on a grid of ``grid_mm_per_px`` (the job's simulation grid by default); with
-    ``refined``, refined as the job refines them. Each layer sprays as ``paints`` (the job's plan's)
-    resolve for ``cfg``: the sprays of the design tried.
+    ``refined``, refined as the job refines them (stopped after ``stop_after`` of the refinement's
+    steps, where given). Each layer sprays as ``paints`` (the job's plan's) resolve for ``cfg``:
+    the sprays of the design tried.
     """
     from .. import resolution, simulate
     from ..plan import holes
@@ -208,7 +232,7 @@ def _trial_score(
     plan = whole(trial_cfg, picture_mm, paints)
     # Stippled, then refined (when the trial's config refines), as the job's stages run them.
     unrefined = holes.stippled(trial, plan, layers)[0]
-    dotsets = holes.refined(trial, plan, layers, unrefined, picture)[0].sets
+    dotsets = holes.refined(trial, plan, layers, unrefined, picture, stop_after)[0].sets
     made = [made_dots(d, cfg.stipple, picture_mm) for d in dotsets]
     sim = simulate.simulate(
         layers,
@@ -227,7 +251,8 @@ def stage_standoff(run: Run, plan: Plan, layers: Layers, picture: Picture | None
 
     The designs of :func:`candidates` are tried (:func:`_screen`, :func:`_trial_score`, on the coarse
     grid of :func:`trial_mm_per_px`) and the best kept, or with light plates the two walls of
-    :func:`direct_pair` refined outright; with one candidate the plan comes back as it is.
+    :func:`direct_pair` refined outright (ranked part way through: :func:`_ranked_pair`); with one
+    candidate the plan comes back as it is.
     The run calls it for one-plate jobs only (a mural keeps its config: trials over every tile would
     cost more than the job).
 
@@ -248,11 +273,19 @@ def stage_standoff(run: Run, plan: Plan, layers: Layers, picture: Picture | None
         grid = trial_mm_per_px(cfg)
         direct = direct_pair(cfg, share)
 
-        def score(w: str, g: float, refined: bool) -> float:
+        def score(w: str, g: float, refined: bool, stop_after: int | None = None) -> float:
             design = with_design(plan, w, g)
             return round(
                 _trial_score(
-                    run, design, layers, picture_mm, picture, grid, refined=refined, paints=plan.paints
+                    run,
+                    design,
+                    layers,
+                    picture_mm,
+                    picture,
+                    grid,
+                    refined=refined,
+                    paints=plan.paints,
+                    stop_after=stop_after,
                 ),
                 3,
             )
@@ -260,9 +293,13 @@ def stage_standoff(run: Run, plan: Plan, layers: Layers, picture: Picture | None
         trials: list[PlateTrial] = []
         if not direct and len(designs) > 1:
             trials = _screen(designs, cfg, share, lambda w, g: score(w, g, False))
-        # Light plates: the unrefined screen ranks walls badly, so two walls are refined outright.
-        pair = direct or _refined_pair(cfg, trials)
-        refined = [PlateTrial(w, g, score(w, g, True)) for w, g in pair]
+        # Light plates: the unrefined screen ranks walls badly, so two walls are refined outright,
+        # ranked part way through their refinement where that tells them apart.
+        ranked_after = None
+        if direct:
+            refined, ranked_after = _ranked_pair(direct, cfg.refine.iterations, score)
+        else:
+            refined = [PlateTrial(w, g, score(w, g, True)) for w, g in _refined_pair(cfg, trials)]
         if direct:
             best = min(refined, key=lambda t: t.scielab)
         else:
@@ -275,11 +312,12 @@ def stage_standoff(run: Run, plan: Plan, layers: Layers, picture: Picture | None
         window_share=round(share, 3),
         standoff_mm=best.standoff_mm,
         trials=tuple(trials),
-        reason=_reason(designs[0], best, trials, cfg.view.distance_m, refined),
+        reason=_reason(designs[0], best, trials, cfg.view.distance_m, refined, ranked_after),
         windows=best.windows,
         trial_mm_per_px=round(grid, 4) if trials or direct else None,
         seconds=round(time.perf_counter() - t0, 2),
         refined=tuple(refined),
+        ranked_after=ranked_after,
     )
     if trials or direct:
         log.info("plates: %s", fig.reason)
@@ -346,8 +384,9 @@ def direct_pair(cfg: JobConfig, share: float) -> list[tuple[str, float]]:
     (2.58 against 2.74), and 9 of the fidelity benchmark's 12 FDM pictures kept 5 or 8 mm. So where
     the config leaves the stand-off to the job, the windows are not in question (they carry under
     :data:`MIN_WINDOW_SHARE` of the paint) and no can is measured, the walls
-    :data:`LOWER_BY_MM` and :data:`NEAR_BY_MM` below the process's are refined and the better kept:
-    the four unrefined screens (a quarter of the job's CPU on the example) are not made.
+    :data:`LOWER_BY_MM` and :data:`NEAR_BY_MM` below the process's are refined and the better kept
+    (ranked part way through their refinement: :func:`_ranked_pair`): the four unrefined screens (a
+    quarter of the job's CPU on the example) are not made.
     """
     from ..plan.tiles import light_plates_on
 
@@ -362,18 +401,42 @@ def direct_pair(cfg: JobConfig, share: float) -> list[tuple[str, float]]:
     return [(own_w, low), (own_w, near)]
 
 
+def _ranked_pair(
+    pair: list[tuple[str, float]], steps: int, score: Callable[[str, float, bool, int | None], float]
+) -> tuple[list[PlateTrial], int | None]:
+    """The walls of ``pair`` scored part way through their refinement, or refined in full where that ties them.
+
+    Each wall's refinement is stopped after :data:`RANK_AFTER` of its ``steps`` (the whole
+    refinement's first steps, its step sizes decaying over all of them) and sprayed; where one
+    scores better than the other by more than :data:`RANK_NOISE`, those scores rank the walls and
+    only the winner is refined in full, by the job's refine stage. Otherwise, or where the
+    refinement takes no more than :data:`RANK_AFTER` steps, both are refined in full and scored.
+
+    Returns:
+        ``(the trials in the order of pair, the steps they were scored after or None for all)``.
+    """
+    if RANK_AFTER < steps:
+        early = [PlateTrial(w, g, score(w, g, True, RANK_AFTER)) for w, g in pair]
+        low, high = sorted(t.scielab for t in early)
+        if high > low * (1.0 + RANK_NOISE):
+            return early, RANK_AFTER
+    return [PlateTrial(w, g, score(w, g, True, None)) for w, g in pair], None
+
+
 def _reason(
     own: tuple[str, float],
     best: PlateTrial,
     trials: list[PlateTrial],
     distance_m: float,
     refined: list[PlateTrial] | None = None,
+    ranked_after: int | None = None,
 ) -> str:
     """Why the design was chosen, in one line."""
     if not trials and refined:
         lost = max(refined, key=lambda t: t.scielab)
+        how = "refined" if ranked_after is None else f"refined for {ranked_after} steps"
         return (
-            f"{best.label} (chosen): refined, it scored {best.scielab:.2f} (S-CIELAB at {distance_m:g} m) "
+            f"{best.label} (chosen): {how}, it scored {best.scielab:.2f} (S-CIELAB at {distance_m:g} m) "
             f"against {lost.label} {lost.scielab:.2f}"
         )
     if not trials:

@@ -67,20 +67,36 @@ def stippled(run: Run, plan: Plan, layers: Layers) -> tuple[Stippled, bool]:
 
 
 def refined(
-    run: Run, plan: Plan, layers: Layers, made: Stippled, picture: Picture | None = None
+    run: Run,
+    plan: Plan,
+    layers: Layers,
+    made: Stippled,
+    picture: Picture | None = None,
+    stop_after: int | None = None,
 ) -> tuple[Refined, bool]:
     """``made``'s holes refined towards ``picture`` (when ``refine.enabled``) and clear of the posts: ``(holes, whether kept)``.
 
     ``made`` is :func:`stippled`'s for the same run, plan and layers. Kept in ``run.kept`` by the
-    config, layers, picture and tiling (the second value says they were).
+    config, layers, picture and tiling (the second value says they were), and ``stop_after``: the
+    refinement stopped after that many of its steps, as the plate-design trials rank walls (None:
+    the whole refinement, the job's).
     """
     cfg, picture_mm, tiling = plan.cfg, plan.picture_mm, plan.grid
-    key = ("refine", cfg.model_dump_json(), id(layers), id(picture), picture_mm, repr(tiling))
+    key: tuple[Any, ...] = (
+        "refine",
+        cfg.model_dump_json(),
+        id(layers),
+        id(picture),
+        picture_mm,
+        repr(tiling),
+    )
+    if stop_after is not None:
+        key += (("stop_after", stop_after),)
 
     def make() -> Refined:
         sets, report = made.sets, None
         if cfg.refine.enabled:
-            sets, report = refine_holes(run, plan, layers, sets, picture)
+            sets, report = refine_holes(run, plan, layers, sets, picture, stop_after)
         # A mural's plates stand on posts: the few holes a post would shade go before anything scores them.
         sets, _ = clear_post_sites(sets, tiling, post_plan(cfg, tiling))
         return Refined(sets, report)

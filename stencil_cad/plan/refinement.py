@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -38,7 +39,12 @@ GRID_SLACK_PX = 0.02
 
 
 def refine_holes(
-    run: Run, plan: Plan, layers: Layers, dotsets: list[DotSet], picture: Picture | None = None
+    run: Run,
+    plan: Plan,
+    layers: Layers,
+    dotsets: list[DotSet],
+    picture: Picture | None = None,
+    stop_after: int | None = None,
 ) -> tuple[list[DotSet], dict[str, Any]]:
     """Refine every layer's holes against the spray model so the composite matches the picture.
 
@@ -47,7 +53,8 @@ def refine_holes(
     ``refine.max_radius_factor`` times the hole floor), all read from ``plan``'s config. A mural (a tiling of several tiles)
     is refined tile by tile (:mod:`stencil_cad.mural.refine`), each tile a task. A hybrid
     plate's windows (each DotSet's ``windows``) spray with the holes and stay fixed; the holes
-    refined too close to one are left out.
+    refined too close to one are left out. With ``stop_after``, the refinement stops after that
+    many of its steps (:class:`stencil_cad.stipple.refine.RefineSettings`).
 
     Returns:
         ``(holes, report)``: every layer's refined holes, and the refinement's figure ``refine``
@@ -62,7 +69,7 @@ def refine_holes(
     target = source_reference(cfg, picture, layers, shape, grid_mm)
     rules = cfg.stipple.design_rules(*picture_mm)
     rc = cfg.refine
-    settings = refine_settings(cfg)
+    settings = replace(refine_settings(cfg), stop_after=stop_after)
     alpha_targets = np.stack([spray.resample(a, shape) for a in layers.alphas]) if layers.count else None
 
     from ..mural import refine as mural_refine

@@ -98,6 +98,10 @@ class RefineSettings:
         layer_weight: Weight of each layer's own opacity error beside the composite's.
         view: The viewer's filters: with them the composite's error is the viewer's colour
             error (:class:`_Viewer`); without, the sRGB error filtered by ``eye_sigma_mm``.
+        stop_after: Stop after this many of the ``iterations`` steps (None: run them all). The
+            steps taken are those of the whole refinement (its step sizes decay over
+            ``iterations``), so the holes are the whole refinement's after that step: the
+            plate-design trials rank two walls on them (:mod:`stencil_cad.pipeline.standoff`).
     """
 
     iterations: int = 60
@@ -108,6 +112,7 @@ class RefineSettings:
     eye_sigma_mm: float = 0.0
     layer_weight: float = 1.0
     view: ViewFilters | None = None
+    stop_after: int | None = None
 
 
 # --------------------------------------------------------------------------- moves
@@ -346,7 +351,8 @@ def _iterate(p: _Problem, cans: list[CanKernels], ev: _Eval, settings: RefineSet
     shape = p.target.shape[:2]
     iters = settings.iterations
     every = settings.add_remove_every
-    for it in range(1, iters + 1):
+    last = iters if settings.stop_after is None else min(iters, settings.stop_after)
+    for it in range(1, last + 1):
         grads = _hole_grads(p.state, p.kernels, p.mm_per_px, shape[0], ev.gt)
         # Linear decay of the step size to a fifth: large moves first, then polish.
         frac = 1.0 - 0.8 * (it - 1) / max(iters - 1, 1)
@@ -366,7 +372,7 @@ def _iterate(p: _Problem, cans: list[CanKernels], ev: _Eval, settings: RefineSet
                 p.kernels = cans[it % len(cans)]
                 ev = p.evaluate()
         if progress is not None:
-            progress(it, iters)
+            progress(it, last)
     if p.kernels is not cans[0]:
         p.kernels = cans[0]
         ev = p.evaluate()
@@ -446,7 +452,7 @@ def refine_dots(
     ev = _iterate(problem, cans, ev, settings, progress)
     out = [_refined(ds, layer) for ds, layer in zip(dotsets, problem.state, strict=True)]
     report = {
-        "iterations": settings.iterations,
+        "iterations": min(settings.iterations, settings.stop_after or settings.iterations),
         "objective_start": math.sqrt(e_start / npx),
         "objective_end": math.sqrt(ev.e / npx),
         "seconds": round(time.perf_counter() - t_start, 3),

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 
@@ -200,7 +202,8 @@ def test_light_plates_refine_two_walls_outright(monkeypatch):
     fig = run.figures.standoff
     assert fig is not None and fig.trials == () and cfg.standoff.listed_mm == (5.0,)
     assert [(t.standoff_mm, t.scielab) for t in fig.refined] == [(5.0, 2.58), (8.0, 2.74)]
-    assert "windows, 5 mm (chosen): refined, it scored 2.58" in fig.reason and "8 mm 2.74" in fig.reason
+    steps = f"refined for {standoff.RANK_AFTER} steps"
+    assert f"windows, 5 mm (chosen): {steps}, it scored 2.58" in fig.reason and "8 mm 2.74" in fig.reason
     assert fig.trial_mm_per_px is not None
     # The other wall wins where it sprays better; a tie keeps the lower one (the likelier).
     _scripted(monkeypatch, {}, {("auto", 5.0): 2.9, ("auto", 8.0): 2.7})
@@ -220,6 +223,47 @@ def test_light_plates_refine_two_walls_outright(monkeypatch):
     assert direct_pair(_cfg(wall={"standoff_mm": [10.0]}), 0.0) == []
     assert direct_pair(_cfg(stipple={**_SLA["stipple"], "light_plates": "off"}), 0.0) == []
     assert direct_pair(_cfg(refine={"enabled": False}), 0.0) == []
+
+
+def test_light_plates_rank_two_walls_part_way_through_their_refinement(monkeypatch):
+    # Only the winner's refinement runs in full (the job's refine stage runs it): the pair is scored
+    # after RANK_AFTER steps, and refined in full only where those scores are within the noise.
+    from stencil_cad.pipeline.standoff import MIN_WINDOW_SHARE, RANK_AFTER, RANK_NOISE
+
+    pic, layers = _photo_layers()
+    monkeypatch.setattr(standoff, "window_share", lambda *a: MIN_WINDOW_SHARE / 2)
+
+    def scripted(early: dict[float, float], full: dict[float, float], **cfg_kw) -> tuple[Any, list]:
+        asked: list[tuple[float, int | None]] = []
+
+        def trial(
+            run, cfg, layers, picture_mm, picture, grid=None, refined=False, paints=None, stop_after=None
+        ):
+            assert refined
+            asked.append((cfg.standoff.design_mm, stop_after))
+            return (full if stop_after is None else early)[cfg.standoff.design_mm]
+
+        monkeypatch.setattr(standoff, "_trial_score", trial)
+        run = Run(cfg=_cfg(**cfg_kw), out=None)  # type: ignore[arg-type]
+        cfg = _choose(run, layers, pic)
+        return (cfg.standoff.listed_mm, run.figures.standoff), asked
+
+    # The bundled example's scores after 30 steps (2.87 and 3.03) rank the walls: nothing is refined in full.
+    (chosen, fig), asked = scripted({5.0: 2.87, 8.0: 3.03}, {5.0: 2.58, 8.0: 2.74})
+    assert chosen == (5.0,) and asked == [(5.0, RANK_AFTER), (8.0, RANK_AFTER)]
+    assert fig.ranked_after == RANK_AFTER and [t.scielab for t in fig.refined] == [2.87, 3.03]
+    assert StandoffFigures.from_json(fig.to_json()) == fig
+    (chosen, fig), asked = scripted({5.0: 2.46, 8.0: 1.97}, {5.0: 2.05, 8.0: 1.69})  # rocket's
+    assert chosen == (8.0,) and asked == [(5.0, RANK_AFTER), (8.0, RANK_AFTER)]
+    # Within the noise the part-way scores say nothing: both walls are refined in full, and those rank.
+    close = {5.0: 3.0, 8.0: 3.0 * (1.0 + RANK_NOISE / 2)}
+    (chosen, fig), asked = scripted(close, {5.0: 2.7, 8.0: 2.6})
+    assert chosen == (8.0,) and asked == [(5.0, RANK_AFTER), (8.0, RANK_AFTER), (5.0, None), (8.0, None)]
+    assert fig.ranked_after is None and [t.scielab for t in fig.refined] == [2.7, 2.6]
+    assert "windows, 8 mm (chosen): refined, it scored 2.60" in fig.reason
+    # A refinement of no more steps than the ranking's is run in full at once.
+    (chosen, fig), asked = scripted({}, {5.0: 2.7, 8.0: 2.8}, refine={"iterations": RANK_AFTER})
+    assert chosen == (5.0,) and asked == [(5.0, None), (8.0, None)] and fig.ranked_after is None
 
 
 def test_windows_carrying_almost_no_paint_are_not_tried_off():
@@ -406,7 +450,11 @@ def test_the_job_reuses_the_holes_its_trials_made():
     # The plan as the job makes it: its own tiling (one tile), the holes capped, the paints known.
     plan = painted(capped(planned(run.cfg, (60.0, 60.0), 120 * 120)[0]), layers.colours)
     assert plan.grid == TileGrid.whole(60.0, 60.0)
-    chosen = stage_standoff(run, plan, layers, pic).plan
+    designed = stage_standoff(run, plan, layers, pic)
+    chosen = designed.plan
     made, stippled_kept = holes.stippled(run, chosen, layers)
     assert stippled_kept
-    assert holes.refined(run, chosen, layers, made, pic)[1]
+    # Where the trials ranked two walls part way through their refinement, the job refines the
+    # winner in full itself; otherwise it takes the trials' refined holes.
+    assert designed.figures is not None
+    assert holes.refined(run, chosen, layers, made, pic)[1] == (designed.figures.ranked_after is None)

@@ -155,6 +155,31 @@ def test_refinement_lowers_the_composite_error_on_a_ramp():
     assert out[0].report["refine_added"] + out[0].report["refine_removed"] > 0
 
 
+def test_a_refinement_stopped_part_way_takes_the_whole_refinements_first_steps():
+    # The plate-design trials rank walls on a refinement stopped part way: its steps must be the
+    # whole refinement's (step sizes decaying over all of them), and a stop at the end changes nothing.
+    from dataclasses import replace
+
+    rules, ramp, xy, r = _ramp_case(1)
+    ds = DotSet(xy_mm=xy, r_mm=r, report={})
+    whole = RefineSettings(iterations=12, max_radius_mm=1.0, add_remove_every=4, eye_sigma_mm=0.3)
+
+    def refined(s, seen=None):
+        out, rep = refine_dots(ramp, 0.25, PRIMER, INK, [ds], [rules], _kernels(), [0.8], s, progress=seen)
+        return out[0], rep
+
+    full, _ = refined(whole)
+    same, _ = refined(replace(whole, stop_after=12))
+    assert np.array_equal(same.xy_mm, full.xy_mm) and np.array_equal(same.r_mm, full.r_mm)
+    steps: list[tuple[int, int]] = []
+    part, rep = refined(replace(whole, stop_after=5), lambda it, total: steps.append((it, total)))
+    assert rep["iterations"] == 5 and steps == [(i, 5) for i in range(1, 6)]
+    check_rules(part.xy_mm, part.r_mm, rules)
+    # Not a refinement of 5 steps of its own: those take larger steps at the end.
+    short, _ = refined(replace(whole, iterations=5))
+    assert not np.array_equal(part.xy_mm, short.xy_mm) and not np.array_equal(part.xy_mm, full.xy_mm)
+
+
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     seed=st.integers(0, 2**31 - 1),
