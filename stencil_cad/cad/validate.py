@@ -121,6 +121,11 @@ def _face_terms(face) -> tuple[int, int, float | None, bool]:
     pos = surf.Plane().Position()
     nz = pos.Direction().Z() * (1.0 if pos.Direct() else -1.0)
     if abs(abs(nz) - 1.0) <= 1e-12:
+        if pos.Location().Z() == 0.0:
+            # On the plane z = 0 (a plate's bottom) z n_z area is 0 whatever the area, and the
+            # area of a face with every hole is the slow part: topology_checks on the example's
+            # eight plates took 1.27 CPU-s, 0.88 without the bottoms' areas (time.process_time).
+            return 0, wm.Extent(), 0.0, True
         props = GProp_GProps()
         BRepGProp.SurfaceProperties_s(face, props)
         sign = -1.0 if face.Orientation() == TopAbs_REVERSED else 1.0
