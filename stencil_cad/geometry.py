@@ -22,6 +22,7 @@ __all__ = [
     "points_in_ring",
     "polygon_area",
     "rings_cross",
+    "sorted_distinct",
 ]
 
 
@@ -155,7 +156,16 @@ def index_triangles(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return ordered[new], inverse.reshape(-1, 3)
 
 
-def genus(faces: np.ndarray, n_vertices: int) -> tuple[int, int, int]:
+def sorted_distinct(keys: np.ndarray) -> int:
+    """How many distinct values a sorted array holds.
+
+    ``np.unique(keys).size`` sorts too, but numpy 2.4's ``np.unique`` took 0.47 CPU-s on 600,000
+    int64 keys where ``np.sort`` took 0.03 (``python3 -c`` timing both with ``time.process_time``).
+    """
+    return int(len(keys) > 0) + int(np.count_nonzero(keys[1:] != keys[:-1]))
+
+
+def genus(faces: np.ndarray, n_vertices: int, n_edges: int | None = None) -> tuple[int, int, int]:
     """Euler characteristic, shells and genus of an indexed triangle mesh.
 
     For each closed shell V - E + F = 2 - 2g, so the genus summed over the shells is
@@ -164,6 +174,8 @@ def genus(faces: np.ndarray, n_vertices: int) -> tuple[int, int, int]:
     Args:
         faces: ``(F, 3)`` vertex indices.
         n_vertices: Number of vertices V (unused vertices are not counted).
+        n_edges: Number of distinct edges E, when the caller has counted them; None:
+            counted here.
 
     Returns:
         ``(chi, shells, genus)``. The genus is meaningless for an open mesh.
@@ -173,7 +185,8 @@ def genus(faces: np.ndarray, n_vertices: int) -> tuple[int, int, int]:
     used[faces.ravel()] = True
     e0 = faces.reshape(-1)
     e1 = faces[:, [1, 2, 0]].reshape(-1)
-    n_edges = int(np.unique(np.minimum(e0, e1) * n_vertices + np.maximum(e0, e1)).size)
+    if n_edges is None:
+        n_edges = sorted_distinct(np.sort(np.minimum(e0, e1) * n_vertices + np.maximum(e0, e1)))
     chi = int(np.count_nonzero(used)) - n_edges + len(faces)
     graph = coo_matrix((np.ones(len(e0), dtype=np.int8), (e0, e1)), shape=(n_vertices, n_vertices))
     _, labels = connected_components(graph, directed=False)

@@ -88,6 +88,7 @@ def _with_label(geom: PlateGeometry, prism, solid, t: float) -> TopoDS_Solid:
     from OCP.TopAbs import TopAbs_FACE
     from OCP.TopExp import TopExp_Explorer
     from OCP.TopoDS import TopoDS, TopoDS_Compound, TopoDS_Shell, TopoDS_Solid
+    from OCP.TopTools import TopTools_MapOfShape
 
     # Label surgery. Glyph faces at z = t; their prism gives the relief's walls and far faces.
     pln_top = gp_Pln(gp_Pnt(0, 0, t), gp_Dir(0, 0, 1))
@@ -128,10 +129,16 @@ def _with_label(geom: PlateGeometry, prism, solid, t: float) -> TopoDS_Solid:
     for w in inner_wires:
         builder.Add(shell, BRepBuilderAPI_MakeFace(pln_top, TopoDS.Wire_s(w.Reversed()), True).Face())
     engrave = geom.relief_mm < 0
+    # A map finds a glyph face in one look-up (IsSame's sense) where comparing every face of
+    # the relief with every glyph face was quadratic: make_solid of the example's eight plates
+    # and seven label tiles took 1.09 CPU-s that way, 0.96 so (best of three, time.process_time).
+    glyph_faces = TopTools_MapOfShape()
+    for g in gfaces:
+        glyph_faces.Add(g)
     exp = TopExp_Explorer(rshape, TopAbs_FACE)
     while exp.More():
         f = exp.Current()
-        if not any(f.IsSame(g) for g in gfaces):
+        if not glyph_faces.Contains(f):
             builder.Add(shell, f.Reversed() if engrave else f)
         exp.Next()
     shell.Closed(True)

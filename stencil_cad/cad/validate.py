@@ -34,7 +34,7 @@ from .plate import PlateModel
 
 log = logging.getLogger(__name__)
 
-__all__ = ["PlateCheckError", "brep_valid", "check_plate", "topology_checks"]
+__all__ = ["PlateCheckError", "brep_valid", "check_plate", "store_plane_pcurves", "topology_checks"]
 
 #: Relative tolerances of the volume oracles.
 BREP_RTOL = 1e-6
@@ -48,11 +48,52 @@ class PlateCheckError(RuntimeError):
     """A built plate failed a check; the message lists every failed check."""
 
 
-def brep_valid(shape) -> bool:
-    """OCCT's full B-rep check (quadratic in the holes of one face: small shapes only)."""
+def brep_valid(shape, plane_pcurves: bool = False) -> bool:
+    """OCCT's full B-rep check (quadratic in the holes of one face: small shapes only).
+
+    Args:
+        shape: The OCCT shape.
+        plane_pcurves: First store on every planar face the curves of its edges in the face's
+            parameters (:func:`store_plane_pcurves`; this changes the shape): the same check,
+            2-3 times faster on a face with many holes.
+    """
     from OCP.BRepCheck import BRepCheck_Analyzer
 
+    if plane_pcurves:
+        store_plane_pcurves(shape)
     return bool(BRepCheck_Analyzer(shape).IsValid())
+
+
+def store_plane_pcurves(shape) -> None:
+    """Store on each planar face of ``shape`` its edges' curves in the face's (u, v) parameters.
+
+    A plate's planar faces carry no such curves: OCCT projects an edge onto a plane whenever it
+    asks for the curve (``BRep_Tool::CurveOnSurface``), and ``BRepCheck_Face`` asks again for every
+    pair of wires of a face when it classifies them, so most of a perforated face's check is
+    that projection. ``BRepLib::BuildPCurveForEdgeOnPlane`` stores the very curve that call
+    computes, with the edge's tolerance unchanged, so the check sees the same geometry and
+    comes to the same verdict (``tests/cad/test_plate.py``), only sooner. Measured on the
+    example's plates (OCP 7.9, ``time.process_time`` around ``BRepCheck_Analyzer(s).IsValid()``,
+    two runs): a tile of 299 holes 1.06 -> 0.28-0.36 CPU-s, the whole plate of 274 holes and a
+    label 1.6-2.2 -> 0.57-0.76 CPU-s, a label's tile 0.23-0.28 -> 0.19-0.22 CPU-s; the build
+    stage of ``stencil-cad build`` on the example's saved dots 16.1 -> 13.2 CPU-s.
+    """
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.BRepLib import BRepLib
+    from OCP.GeomAbs import GeomAbs_Plane
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    fexp = TopExp_Explorer(shape, TopAbs_FACE)
+    while fexp.More():
+        face = TopoDS.Face_s(fexp.Current())
+        if BRepAdaptor_Surface(face, False).GetType() == GeomAbs_Plane:
+            eexp = TopExp_Explorer(face, TopAbs_EDGE)
+            while eexp.More():
+                BRepLib.BuildPCurveForEdgeOnPlane_s(TopoDS.Edge_s(eexp.Current()), face)
+                eexp.Next()
+        fexp.Next()
 
 
 def _face_terms(face) -> tuple[int, int, float | None, bool]:
@@ -80,6 +121,11 @@ def _face_terms(face) -> tuple[int, int, float | None, bool]:
     pos = surf.Plane().Position()
     nz = pos.Direction().Z() * (1.0 if pos.Direct() else -1.0)
     if abs(abs(nz) - 1.0) <= 1e-12:
+        if pos.Location().Z() == 0.0:
+            # On the plane z = 0 (a plate's bottom) z n_z area is 0 whatever the area, and the
+            # area of a face with every hole is the slow part: topology_checks on the example's
+            # eight plates took 1.27 CPU-s, 0.88 without the bottoms' areas (time.process_time).
+            return 0, wm.Extent(), 0.0, True
         props = GProp_GProps()
         BRepGProp.SurfaceProperties_s(face, props)
         sign = -1.0 if face.Orientation() == TopAbs_REVERSED else 1.0
@@ -329,7 +375,7 @@ def _check_tiles(geom: PlateGeometry, tile_holes: int) -> tuple[list[dict], list
 
     tiles_info, fails = [], []
     for name, tg in _tiles(geom, tile_holes):
-        ok = brep_valid(make_solid(tg))
+        ok = brep_valid(make_solid(tg), plane_pcurves=True)
         tiles_info.append({"tile": name, "holes": tg.hole_count, "valid": ok})
         if not ok:
             fails.append(f"BRepCheck_Analyzer: tile {name!r} ({tg.hole_count} holes) is not valid")
@@ -406,7 +452,9 @@ def _full_check(shape, geom, n: int, full_check_max_holes: int, tile_holes: int,
     Appends what fails to ``fails``.
     """
     if n <= full_check_max_holes or geom is None:
-        valid = brep_valid(shape)
+        # A plate with a description is written from it, not from its solid, so storing the
+        # plane curves on the solid changes no file; a template's own solid is left as it is.
+        valid = brep_valid(shape, plane_pcurves=geom is not None)
         method = "BRepCheck_Analyzer (whole plate)"
         if not valid:
             fails.append("BRepCheck_Analyzer: the B-rep is not valid")

@@ -195,6 +195,48 @@ def test_tile_check_path_is_used_above_the_limit():
     assert all(t["valid"] and t["holes"] > 0 for t in rep["tiles"] if t["tile"] != "label")
 
 
+def _faulty(xy, r, polygons=()):
+    """A plate description as given, checked by no rule (the B-rep check must catch what is wrong)."""
+    from stencil_cad.model import PlateGeometry
+
+    ring = np.array([[0.0, 0.0], [20.0, 0.0], [20.0, 20.0], [0.0, 20.0]])
+    return PlateGeometry(
+        width_mm=20.0,
+        height_mm=20.0,
+        thickness_mm=1.2,
+        outline=ring,
+        circles_xy=np.array(xy, dtype=np.float64).reshape(-1, 2),
+        circles_r=np.array(r, dtype=np.float64),
+        polygons=tuple(np.array(p, dtype=np.float64) for p in polygons),
+        glyphs=(),
+        relief_mm=0.0,
+        label_box=None,
+    )
+
+
+@pytest.mark.parametrize(
+    "xy, r, polygons, valid",
+    [
+        ([[5, 5], [10, 10]], [1, 1], (), True),
+        ([[5, 5], [6, 5]], [1, 1], (), False),  # overlapping holes
+        ([[5, 5], [7, 5]], [1, 1], (), False),  # tangent holes
+        ([[0.5, 5]], [1], (), False),  # a hole across the edge
+        ([[25, 5]], [1], (), False),  # a hole outside the plate
+        ([[5, 5], [5, 5.1]], [2, 0.5], (), False),  # a hole inside a hole
+        ([[5, 5], [5, 5]], [1, 1], (), False),  # the same hole twice
+        ([[5, 5]], [1], ([[4, 14], [8, 14], [8, 18], [4, 18]],), True),
+        ([[5, 5]], [1], ([[4, 4], [8, 4], [8, 8], [4, 8]],), False),  # a cut-out across a hole
+        ([], [], ([[4, 4], [8, 8], [8, 4], [4, 8]],), False),  # a self-crossing cut-out
+    ],
+)
+def test_stored_plane_curves_keep_the_brep_verdict(xy, r, polygons, valid):
+    from stencil_cad.cad.solid import make_solid
+
+    geom = _faulty(xy, r, polygons)
+    assert brep_valid(make_solid(geom)) is valid
+    assert brep_valid(make_solid(geom), plane_pcurves=True) is valid
+
+
 @pytest.fixture(scope="module")
 def few():
     """A plain plate with few holes: what the checks must catch does not depend on how many."""
