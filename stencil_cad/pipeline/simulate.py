@@ -86,19 +86,20 @@ def stage_simulate(
         started = also(sim, ref) if also is not None else None
         cans = _start_cans(run, cfg, layers, dotsets, ref, grid_mm, design, sprays, here=workers_busy)
         visible = _start_visibility(run, cfg, layers, dotsets, sim)
-        scores = _scores(run, cfg, ref, sim.composite, sim.mm_per_px, here=workers_busy)
+        scores, de = _scores(run, cfg, ref, sim.composite, sim.mm_per_px, here=workers_busy)
         ideal = _resample(layers.composite(), sim.composite.shape[:2])
         # Each picture is kept as its PNG's bytes, as small as the file, until the recorder writes it.
-        preview = png_bytes(preview_card(ref, ideal, sim.composite, sim.mm_per_px, scores))
+        preview = png_bytes(preview_card(ref, ideal, sim.composite, sim.mm_per_px, scores, de))
         sweep = png_bytes(sweep_card(cfg, layers, dotsets, sim, grid_mm, design, sprays))
-        steps, paint = paint_steps(cfg, layers.primer, layers.colours, sim.alphas, sim.mm_per_px)
+        sprayed = png_bytes(sim.composite)
+        steps, paint = paint_steps(cfg, layers.primer, layers.colours, sim.alphas, sim.mm_per_px, sprayed)
         walls, per_wall = _walls(cfg, layers, dotsets, (sim, scores, ref), grid_mm, design, sprays)
         by_can = _scores_by_can(cans, scores)
         dots_seen = visible.results()[0] if visible is not None else {}
     figures = SimulateFigures.from_rows(_seen(scores, dots_seen, sim), by_can or None, per_wall or None)
     spraying = spraying_steps(cfg, layers, [ds.amount(cfg.spray.amount) for ds in dotsets])
     kept: dict[str, Any] = {"sim": sim, "reference": ref} if keep else {}
-    pictures = (png_bytes(sim.composite), preview, sweep, steps, walls)
+    pictures = (sprayed, preview, sweep, steps, walls)
     return Simulated(*pictures, paint, figures, spraying, scores, started=started, **kept)
 
 
@@ -334,15 +335,19 @@ def spraying_steps(cfg: JobConfig, layers: Layers, amounts: Sequence[float]) -> 
 
 def _scores(
     run: Run, cfg: JobConfig, reference: np.ndarray, sprayed: np.ndarray, mm_per_px: float, here: bool = False
-) -> dict[str, Any]:
-    """Pixel scores and S-CIELAB at the viewing distance and twice it, on one grid (its blocks as tasks unless ``here``)."""
-    from .. import simulate
-    from ..simulate import scielab
+) -> tuple[dict[str, Any], np.ndarray]:
+    """Pixel scores and S-CIELAB at the viewing distance and twice it, on one grid (its blocks as tasks unless ``here``).
 
-    scores = simulate.score(reference, sprayed)
+    Returns:
+        ``(scores, map)``: the scores and the CIEDE2000 per pixel (the preview's error map).
+    """
+    from ..simulate import scielab
+    from ..simulate.scores import score_and_map
+
+    scores, de = score_and_map(reference, sprayed)
     where = None if here else run.tasks.map
     scores.update(scielab.view_scores(reference, sprayed, mm_per_px, cfg.view.distance_m, where))
-    return scores
+    return scores, de
 
 
 @dataclass(frozen=True)
@@ -422,8 +427,13 @@ def preview_card(
     sprayed: np.ndarray,
     mm_per_px: float,
     scores: dict[str, Any],
+    de: np.ndarray | None = None,
 ) -> np.ndarray:
-    """The labelled four-panel ``preview.png``: input, ideal layers, simulated spray, error map."""
+    """The labelled four-panel ``preview.png``: input, ideal layers, simulated spray, error map.
+
+    ``de`` is the error map (:func:`stencil_cad.simulate.scores.score_and_map`'s) when already
+    computed, else None: computed here.
+    """
     from .. import simulate
     from ..simulate import labelled
 
@@ -437,7 +447,7 @@ def preview_card(
         reference,
         ideal,
         sprayed,
-        simulate.delta_e_map(reference, sprayed),
+        simulate.delta_e_map(reference, sprayed) if de is None else de,
         simulate.colour_map,
         de_max,
         mm_per_px,
@@ -446,19 +456,32 @@ def preview_card(
 
 
 def paint_steps(
-    job: JobConfig, primer: np.ndarray, colours: np.ndarray, alphas: np.ndarray, mm_per_px: float
+    job: JobConfig,
+    primer: np.ndarray,
+    colours: np.ndarray,
+    alphas: np.ndarray,
+    mm_per_px: float,
+    whole: bytes | None = None,
 ) -> tuple[tuple[bytes, ...], PaintFigures]:
-    """Per layer, the simulated picture after it is sprayed (``step_N.png``, its bytes), and its paint estimate (figure ``paint``)."""
+    """Per layer, the simulated picture after it is sprayed (``step_N.png``, its bytes), and its paint estimate (figure ``paint``).
+
+    ``whole`` is the PNG of every layer's composite when already encoded (``simulated.png``'s
+    bytes), the last step's picture, or None: encoded here (a 600 x 600 px PNG: 0.12 CPU-s).
+    """
     from ..decompose import paints
     from ..decompose.light import paint_of_plates
-    from ..model import composite
+    from ..model import composites
 
     cfg = job.paints
     area = float(alphas.shape[1] * alphas.shape[2]) * mm_per_px**2
     rows = []
-    steps = []
+    # Each step composites one more layer over the last (8 steps: 0.25 CPU-s as 8 composites, 0.03 so).
+    count = alphas.shape[0]
+    steps = [
+        whole if i == count - 1 and whole is not None else png_bytes(np.clip(c, 0.0, 1.0))
+        for i, c in enumerate(composites(primer, colours, alphas))
+    ]
     for i in range(alphas.shape[0]):
-        steps.append(png_bytes(np.clip(composite(primer, colours[: i + 1], alphas[: i + 1]), 0.0, 1.0)))
         mean = float(np.mean(alphas[i]))
         est = paints.paint_estimate(area, mean, cfg.coverage_m2_per_can, cfg.can_ml)
         rows.append({"layer": i + 1, "hex": to_hex(colours[i]), "mean_opacity": mean, **est})
@@ -493,9 +516,9 @@ def stage_simulate_hard(
     with run.stage("simulate"):
         geometry = SprayGeometry.for_job(cfg)
         alphas, comp = hardstencil.simulate_hard(hard, cfg.spray, geometry=geometry, layer_sprays=sprays)
-        scores = _scores(run, cfg, picture.rgb, comp, picture.mm_per_px)
+        scores, de = _scores(run, cfg, picture.rgb, comp, picture.mm_per_px)
         preview = png_bytes(
-            preview_card(picture.rgb, hardstencil.render_ideal(hard), comp, picture.mm_per_px, scores)
+            preview_card(picture.rgb, hardstencil.render_ideal(hard), comp, picture.mm_per_px, scores, de)
         )
         steps, paint = paint_steps(cfg, hard.primer, hard.colours, alphas, picture.mm_per_px)
     return Simulated(

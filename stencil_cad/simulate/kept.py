@@ -32,10 +32,13 @@ class Kept:
 
     Args:
         size: How many results to keep.
+        max_bytes: At most this many bytes of results (arrays' ``nbytes``) kept, the most recent
+            result always, or None: no bound but ``size``.
     """
 
-    def __init__(self, size: int):
+    def __init__(self, size: int, max_bytes: int | None = None):
         self.size = size
+        self.max_bytes = max_bytes
         self._items: dict[Any, Any] = {}
         self._lock = threading.Lock()
 
@@ -55,6 +58,11 @@ class Kept:
             value = make()
         with self._lock:
             self._items[key] = value  # the most recent last
-            while len(self._items) > self.size:
+            while len(self._items) > self.size or (len(self._items) > 1 and self._over_bytes()):
                 del self._items[next(iter(self._items))]
         return value
+
+    def _over_bytes(self) -> bool:
+        if self.max_bytes is None:
+            return False
+        return sum(int(getattr(v, "nbytes", 0)) for v in self._items.values()) > self.max_bytes

@@ -50,3 +50,21 @@ def test_an_early_stage_keeps_later_files_and_marks_them_stale(tmp_path, capsys)
     stale = set(man["stale"]["files"])
     assert "layer_01_dots.csv" not in stale and "spray.json" not in stale
     assert {"layer_01.stl", "simulated.png", "instructions.html"} <= stale
+
+
+def test_the_last_paint_step_is_the_simulated_picture():
+    # The stage passes simulated.png's bytes for the last step instead of encoding it again.
+    import numpy as np
+
+    from stencil_cad.config import JobConfig
+    from stencil_cad.exchange.png import png_bytes
+    from stencil_cad.model import composite
+    from stencil_cad.pipeline.simulate import paint_steps
+
+    rng = np.random.default_rng(2)
+    primer, colours, alphas = rng.random(3), rng.random((3, 3)), rng.random((3, 20, 30))
+    whole = png_bytes(np.clip(composite(primer, colours, alphas), 0.0, 1.0))
+    steps, paint = paint_steps(JobConfig(), primer, colours, alphas, 0.5)
+    again, same = paint_steps(JobConfig(), primer, colours, alphas, 0.5, whole)
+    assert steps == again and paint == same and steps[-1] == whole
+    assert steps[0] == png_bytes(np.clip(composite(primer, colours[:1], alphas[:1]), 0.0, 1.0))

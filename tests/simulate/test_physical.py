@@ -270,6 +270,20 @@ def test_a_layer_with_its_own_can_changes_only_its_own_simulation():
     assert layer_can_prior([measured]) == [("nominal", [measured])]
 
 
+def test_kept_results_stay_within_their_count_and_bytes():
+    kept = Kept(4, max_bytes=3 * 800)
+    for i in range(4):
+        kept.get(i, lambda: np.zeros(100))  # 800 bytes each
+    assert len(kept) == 3  # the bytes bound first
+    assert kept.get(3, lambda: None) is not None  # the most recent kept
+    kept.get("big", lambda: np.zeros(1000))
+    assert len(kept) == 1  # the newest stays, however large
+    plain = Kept(2)
+    for i in range(3):
+        plain.get(i, lambda: np.zeros(1000))
+    assert len(plain) == 2
+
+
 def test_a_dose_is_computed_once_for_the_same_holes_at_any_passes(monkeypatch):
     doses = []
     real = phys.physical_dose

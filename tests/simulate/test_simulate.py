@@ -526,3 +526,14 @@ def test_a_simulation_without_its_tone_errors_sprays_the_same():
     bare = sim.simulate(layers, dots, cfg, 0.25, errors=False)
     assert np.array_equal(full.alphas, bare.alphas) and np.array_equal(full.composite, bare.composite)
     assert len(full.layer_rmse) == 2 and bare.layer_rmse == () and bare.info["layer_tone_rmse"] == []
+
+
+def test_the_scores_map_is_the_error_map_and_its_scores_the_scores():
+    from stencil_cad.simulate import scores
+
+    rng = np.random.default_rng(1)
+    ref = rng.random((30, 40, 3))
+    sim = np.clip(ref + rng.normal(0, 0.1, ref.shape), 0, 1)
+    got, de = scores.score_and_map(ref, sim)
+    assert got == scores.score(ref, sim)
+    np.testing.assert_array_equal(de, scores.delta_e_map(ref, sim))
