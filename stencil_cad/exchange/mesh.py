@@ -44,7 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..geometry import as_ccw, as_cw, genus, index_triangles, sorted_distinct
+from ..geometry import as_ccw, as_cw, genus, index_triangles
 from ..model import PlateGeometry, TriMesh
 from .triangulation import MeshError, _gabriel, _ring_edges, _triangulate
 
@@ -306,8 +306,8 @@ def mesh_checks(mesh: TriMesh) -> dict:
     dup_directed = bool((directed[1:] == directed[:-1]).any())
     watertight = bool((ucount == 2).all())
     consistent = watertight and not dup_directed
-    # The edges are counted already: genus need not sort them again.
-    _, ncomp, g = genus(f, nv, n_edges=sorted_distinct(undirected))
+    # The edges are counted already (one start per distinct edge): genus need not sort them again.
+    _, ncomp, g = genus(f, nv, n_edges=len(starts))
     a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
     volume = float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
     v32 = v.astype(np.float32).astype(np.float64)

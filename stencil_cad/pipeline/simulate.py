@@ -520,9 +520,10 @@ def stage_simulate_hard(
         preview = png_bytes(
             preview_card(picture.rgb, hardstencil.render_ideal(hard), comp, picture.mm_per_px, scores, de)
         )
-        steps, paint = paint_steps(cfg, hard.primer, hard.colours, alphas, picture.mm_per_px)
+        sprayed = png_bytes(comp)
+        steps, paint = paint_steps(cfg, hard.primer, hard.colours, alphas, picture.mm_per_px, sprayed)
     return Simulated(
-        composite=png_bytes(comp),
+        composite=sprayed,
         preview=preview,
         sweep=None,
         steps=steps,

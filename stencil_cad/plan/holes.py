@@ -82,16 +82,7 @@ def refined(
     the whole refinement, the job's).
     """
     cfg, picture_mm, tiling = plan.cfg, plan.picture_mm, plan.grid
-    key: tuple[Any, ...] = (
-        "refine",
-        cfg.model_dump_json(),
-        id(layers),
-        id(picture),
-        picture_mm,
-        repr(tiling),
-    )
-    if stop_after is not None:
-        key += (("stop_after", stop_after),)
+    key = ("refine", cfg.model_dump_json(), id(layers), id(picture), picture_mm, repr(tiling), stop_after)
 
     def make() -> Refined:
         sets, report = made.sets, None

@@ -142,15 +142,17 @@ def exact_grid(
 
     Pixels across the width go up from the fewest that ``want_mm`` allows until the height is a
     whole number of them too, to within :data:`GRID_SLACK_PX` of a pixel; past the count of
-    ``finest_mm``'s pixels, that one (the simulation's own grid, rounded as it rounds).
+    ``finest_mm``'s pixels, that one (the simulation's own grid: :func:`stencil_cad.simulate.spray.sim_shape`).
     """
+    from ..simulate.spray import sim_shape
+
     height, width = size_mm
-    most = max(1, int(round(width / finest_mm)))
-    for n in range(max(1, math.ceil(width / want_mm - 1e-9)), most):
+    fine = sim_shape(size_mm, 1.0, finest_mm)  # the simulation's own grid, rounded as it rounds
+    for n in range(max(1, math.ceil(width / want_mm - 1e-9)), fine[1]):
         rows = height * n / width
         if abs(rows - round(rows)) <= GRID_SLACK_PX:
             return (max(1, int(round(rows))), n), width / n
-    return (max(1, int(round(height / finest_mm))), most), finest_mm
+    return fine, finest_mm
 
 
 def refine_settings(cfg: JobConfig) -> Any:

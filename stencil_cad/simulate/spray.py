@@ -89,12 +89,13 @@ class SimResult:
 
 
 def sim_shape(
-    layers_shape: tuple[int, int], layers_mm_per_px: float, grid_mm_per_px: float
+    layers_shape: tuple[float, float], layers_mm_per_px: float, grid_mm_per_px: float
 ) -> tuple[int, int]:
     """Shape of the simulation raster covering the same picture area.
 
     Args:
-        layers_shape: ``(H, W)`` of the layers' grid.
+        layers_shape: ``(H, W)`` of the layers' grid (or the picture's size in mm, with
+            ``layers_mm_per_px`` 1).
         layers_mm_per_px: Pixel size of that grid in mm.
         grid_mm_per_px: Pixel size of the simulation grid in mm.
 
