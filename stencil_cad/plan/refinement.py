@@ -105,8 +105,7 @@ def refine_holes(
     )
     tiling = plan.grid
     with run.stage("refine"), run.bar(rc.iterations, "refine") as bar:
-        if resume is not None:
-            bar.update(resume.step)
+        bar.update(0 if resume is None else resume.step)
         out, report = mural_refine.refine_layers(
             problem,
             tiling,

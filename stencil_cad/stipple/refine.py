@@ -483,14 +483,9 @@ def refine_dots(
     if resume is None:
         problem.state = _start_layers(dotsets, rules, spray_times, settings, mm_per_px)
         e_start = (ev := problem.evaluate()).e
-        first = 1
     else:
-        if resume.iterations != settings.iterations or len(resume.state) != len(dotsets):
-            raise ValueError("resume is of another refinement (its steps or layers differ)")
-        problem.state = copy.deepcopy(resume.state)
-        problem.kernels = cans[resume.can]
-        ev, e_start, first = copy.deepcopy(resume.ev), resume.e_start, resume.step + 1
-    ev = _iterate(problem, cans, ev, settings, progress, first)
+        ev, e_start = _resumed(problem, cans, resume, settings, len(dotsets))
+    ev = _iterate(problem, cans, ev, settings, progress, 1 if resume is None else resume.step + 1)
     last = min(settings.iterations, settings.stop_after or settings.iterations)
     if on_pause is not None and last < settings.iterations:
         on_pause(_paused(problem, cans, ev, last, settings.iterations, e_start))
@@ -504,6 +499,15 @@ def refine_dots(
     }
     log.debug("refined: %s", report)
     return out, report
+
+
+def _resumed(p: _Problem, cans: list[CanKernels], resume: Paused, settings: RefineSettings, n: int):
+    """``p`` set to a copy of ``resume``'s state: ``(the evaluation there, the starting objective)``."""
+    if resume.iterations != settings.iterations or len(resume.state) != n:
+        raise ValueError("resume is of another refinement (its steps or layers differ)")
+    p.state = copy.deepcopy(resume.state)
+    p.kernels = cans[resume.can]
+    return copy.deepcopy(resume.ev), resume.e_start
 
 
 def _problem(
