@@ -43,7 +43,7 @@ from . import tiling
 if TYPE_CHECKING:
     from ..config import JobConfig
     from ..config.spray import SprayConfig
-    from ..stipple.refine import RefineSettings
+    from ..stipple.refine import Paused, RefineSettings
     from ..stipple.rules import DesignRules
 
 log = logging.getLogger(__name__)
@@ -361,6 +361,8 @@ def refine_layers(
     cfg: JobConfig,
     tasks_map: tiling.TaskMap,
     progress: Callable[[int, int], None] | None = None,
+    resume: Paused | None = None,
+    on_pause: Callable[[Paused], None] | None = None,
 ) -> tuple[list[DotSet], dict[str, Any]]:
     """Refine every layer's holes over a tiling: a 1 × 1 tiling in one piece, a mural tile by tile.
 
@@ -371,11 +373,20 @@ def refine_layers(
         cfg: The job config (a mural's halo follows its spray and holes).
         tasks_map: ``tasks_map(fn, items, desc, count=)`` running a mural's tile tasks.
         progress: ``progress(iteration, total)`` after each iteration of a one-piece refinement.
+        resume: A one-piece refinement stopped part way, to carry on
+            (:class:`stencil_cad.stipple.refine.Paused`), or None.
+        on_pause: Called with a one-piece refinement's state where ``settings.stop_after`` stops it
+            short (a mural's tiles are not paused).
 
     Returns:
         ``(refined holes per layer, report)``.
+
+    Raises:
+        ValueError: ``resume`` given for a mural.
     """
     if len(grid.tiles) > 1:
+        if resume is not None:
+            raise ValueError("a mural's refinement is not carried on from a pause")
         halo = refine_halo_mm(cfg, problem.settings.eye_sigma_mm)
         return refine_mural(problem, grid, dotsets, halo, tasks_map)
     from ..stipple.refine import refine_dots
@@ -393,4 +404,6 @@ def refine_layers(
         progress=progress,
         alpha_targets=problem.alpha_targets,
         fixed_trans=problem.fixed_trans,
+        resume=resume,
+        on_pause=on_pause,
     )

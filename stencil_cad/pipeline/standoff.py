@@ -26,8 +26,10 @@ With light plates the unrefined screen ranks walls badly (the light plates' clos
 the refinement sharpens), so where the windows are not in question and no can is measured, two
 walls are refined outright instead (:func:`direct_pair`), and ranked a third of the way through
 their refinement, where the scores already tell them apart: only the winner is refined in full
-(:func:`_ranked_pair`; on the bundled example the walls' refinement takes 150 steps rather than
-180, 30 each to rank them and 90 for the winner, with the same choice and the same holes).
+(:func:`_ranked_pair`), and the job's refinement of the winner carries on from its trial's 30th step
+(:func:`stencil_cad.plan.holes.refined`): on the bundled example the walls' refinement takes 120
+steps rather than 180, 30 each to rank them and 60 more for the winner, with the same choice and the
+same holes.
 """
 
 from __future__ import annotations

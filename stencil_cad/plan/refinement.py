@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
@@ -23,6 +24,7 @@ if TYPE_CHECKING:
     from ..config import JobConfig
     from ..config.spray import SprayConfig
     from ..simulate.physical import SprayGeometry
+    from ..stipple.refine import Paused
 
 log = logging.getLogger(__name__)
 
@@ -45,6 +47,8 @@ def refine_holes(
     dotsets: list[DotSet],
     picture: Picture | None = None,
     stop_after: int | None = None,
+    resume: Paused | None = None,
+    on_pause: Callable[[Paused], None] | None = None,
 ) -> tuple[list[DotSet], dict[str, Any]]:
     """Refine every layer's holes against the spray model so the composite matches the picture.
 
@@ -54,7 +58,9 @@ def refine_holes(
     is refined tile by tile (:mod:`stencil_cad.mural.refine`), each tile a task. A hybrid
     plate's windows (each DotSet's ``windows``) spray with the holes and stay fixed; the holes
     refined too close to one are left out. With ``stop_after``, the refinement stops after that
-    many of its steps (:class:`stencil_cad.stipple.refine.RefineSettings`).
+    many of its steps (:class:`stencil_cad.stipple.refine.RefineSettings`), and ``on_pause`` is
+    called with its state there; ``resume`` carries on such a refinement of a 1 × 1 tiling to its end
+    (:class:`stencil_cad.stipple.refine.Paused`).
 
     Returns:
         ``(holes, report)``: every layer's refined holes, and the refinement's figure ``refine``
@@ -99,8 +105,16 @@ def refine_holes(
     )
     tiling = plan.grid
     with run.stage("refine"), run.bar(rc.iterations, "refine") as bar:
+        bar.update(0 if resume is None else resume.step)
         out, report = mural_refine.refine_layers(
-            problem, tiling, dotsets, cfg, run.tasks.map, progress=lambda it, total: bar.update(1)
+            problem,
+            tiling,
+            dotsets,
+            cfg,
+            run.tasks.map,
+            progress=lambda it, total: bar.update(1),
+            resume=resume,
+            on_pause=on_pause,
         )
     from ..stipple.windows import with_windows
 

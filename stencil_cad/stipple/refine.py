@@ -51,6 +51,7 @@ Gaussian filters of ``G T`` and ``Q T^2``.
 
 from __future__ import annotations
 
+import copy
 import logging
 import math
 import time
@@ -77,7 +78,7 @@ from .rules import NUDGE_SLACK_MM, DesignRules, _keepout_clearance, check_rules
 
 log = logging.getLogger(__name__)
 
-__all__ = ["Kernels", "RefineSettings", "ViewFilters", "refine_dots"]
+__all__ = ["Kernels", "Paused", "RefineSettings", "ViewFilters", "refine_dots"]
 
 
 #: Adam's moment decay rates and epsilon.
@@ -346,13 +347,48 @@ class _Problem:
         return _evaluate(*self._common(), want_q=want_q, viewer=self.viewer, fixed_trans=self.fixed_trans)
 
 
-def _iterate(p: _Problem, cans: list[CanKernels], ev: _Eval, settings: RefineSettings, progress) -> _Eval:
-    """Run the Adam steps and the add/remove rounds from ``ev``; the final evaluation under the nominal can."""
+@dataclass(frozen=True)
+class Paused:
+    """A refinement stopped part way (``stop_after``), to be carried on to its end (``resume``).
+
+    The holes' state after step ``step`` of ``iterations`` (positions, Adam moments, neighbour lists,
+    add/remove counts), the index of the can whose kernels the next step takes, the evaluation the
+    next step's gradient reads and the objective before the first step, all copied when it stopped.
+    Carried on, the refinement takes the very steps it takes unstopped: the plate-design trials
+    refine the winning wall's first :data:`stencil_cad.pipeline.standoff.RANK_AFTER` steps, and the
+    job's refinement of that wall goes on from there instead of taking them again.
+    """
+
+    step: int
+    iterations: int
+    state: list[_Layer]
+    can: int
+    ev: _Eval
+    e_start: float
+
+
+def _paused(
+    p: _Problem, cans: list[CanKernels], ev: _Eval, step: int, iterations: int, e_start: float
+) -> Paused:
+    """A copy of the refinement's state after ``step`` (the kernels' memo left out: it is a cache)."""
+    state = [copy.deepcopy(replace(layer, kernel_memo=None)) for layer in p.state]
+    can = next(i for i, c in enumerate(cans) if c is p.kernels)
+    return Paused(step, iterations, state, can, copy.deepcopy(ev), e_start)
+
+
+def _iterate(
+    p: _Problem, cans: list[CanKernels], ev: _Eval, settings: RefineSettings, progress, first: int = 1
+) -> _Eval:
+    """Run the Adam steps and the add/remove rounds from step ``first`` on, from ``ev``.
+
+    The last step's evaluation is under the can the next step would take; :func:`_nominal` turns it
+    to the nominal can's.
+    """
     shape = p.target.shape[:2]
     iters = settings.iterations
     every = settings.add_remove_every
     last = iters if settings.stop_after is None else min(iters, settings.stop_after)
-    for it in range(1, last + 1):
+    for it in range(first, last + 1):
         grads = _hole_grads(p.state, p.kernels, p.mm_per_px, shape[0], ev.gt)
         # Linear decay of the step size to a fifth: large moves first, then polish.
         frac = 1.0 - 0.8 * (it - 1) / max(iters - 1, 1)
@@ -373,6 +409,11 @@ def _iterate(p: _Problem, cans: list[CanKernels], ev: _Eval, settings: RefineSet
                 ev = p.evaluate()
         if progress is not None:
             progress(it, last)
+    return ev
+
+
+def _nominal(p: _Problem, cans: list[CanKernels], ev: _Eval) -> _Eval:
+    """``ev``, or the evaluation at the same holes under the nominal can where another's kernels apply."""
     if p.kernels is not cans[0]:
         p.kernels = cans[0]
         ev = p.evaluate()
@@ -392,6 +433,8 @@ def refine_dots(
     progress: Callable[[int, int], None] | None = None,
     alpha_targets: np.ndarray | None = None,
     fixed_trans: np.ndarray | None = None,
+    resume: Paused | None = None,
+    on_pause: Callable[[Paused], None] | None = None,
 ) -> tuple[list[DotSet], dict]:
     """Move and resize every layer's holes so the sprayed composite matches the target.
 
@@ -418,6 +461,9 @@ def refine_dots(
             it, each layer's own filtered opacity error is added to the objective, weighted
             by ``settings.layer_weight``.
         fixed_trans: ``(L, H, W)`` transmittance of each layer's windows (fixed open area), or None.
+        resume: The same refinement (the same arguments but ``settings.stop_after``) stopped part
+            way, carried on from there (:class:`Paused`; it is copied, not changed), or None.
+        on_pause: With ``settings.stop_after`` short of the steps, called with the state there.
 
     Returns:
         ``(dotsets, report)``: the refined DotSets (each passes :func:`check_rules` of its
@@ -426,17 +472,54 @@ def refine_dots(
         as RMS composite errors, ``iterations``, ``seconds``).
 
     Raises:
-        ValueError: The counts of DotSets, rules, colours and spray times differ.
+        ValueError: The counts of DotSets, rules, colours and spray times differ, or ``resume``
+            is of another number of steps or layers.
     """
     t_start = time.perf_counter()
     cans: list[CanKernels] = [kernels] if callable(kernels) else list(kernels)
     _check_counts(dotsets, rules, colours, spray_times, cans)
+    problem = _problem(target_rgb, mm_per_px, primer, colours, alpha_targets, fixed_trans, settings, cans[0])
+    npx = float(problem.target.shape[0] * problem.target.shape[1] * 3)
+    if resume is None:
+        problem.state = _start_layers(dotsets, rules, spray_times, settings, mm_per_px)
+        e_start = (ev := problem.evaluate()).e
+    else:
+        ev, e_start = _resumed(problem, cans, resume, settings, len(dotsets))
+    ev = _iterate(problem, cans, ev, settings, progress, 1 if resume is None else resume.step + 1)
+    last = min(settings.iterations, settings.stop_after or settings.iterations)
+    if on_pause is not None and last < settings.iterations:
+        on_pause(_paused(problem, cans, ev, last, settings.iterations, e_start))
+    ev = _nominal(problem, cans, ev)
+    out = [_refined(ds, layer) for ds, layer in zip(dotsets, problem.state, strict=True)]
+    report = {
+        "iterations": last,
+        "objective_start": math.sqrt(e_start / npx),
+        "objective_end": math.sqrt(ev.e / npx),
+        "seconds": round(time.perf_counter() - t_start, 3),
+    }
+    log.debug("refined: %s", report)
+    return out, report
+
+
+def _resumed(p: _Problem, cans: list[CanKernels], resume: Paused, settings: RefineSettings, n: int):
+    """``p`` set to a copy of ``resume``'s state: ``(the evaluation there, the starting objective)``."""
+    if resume.iterations != settings.iterations or len(resume.state) != n:
+        raise ValueError("resume is of another refinement (its steps or layers differ)")
+    p.state = copy.deepcopy(resume.state)
+    p.kernels = cans[resume.can]
+    return copy.deepcopy(resume.ev), resume.e_start
+
+
+def _problem(
+    target_rgb, mm_per_px, primer, colours, alpha_targets, fixed_trans, settings, kernels
+) -> _Problem:
+    """The refinement's problem with no holes yet: the images in float32, the viewer's filters."""
     # float32 images: half the memory traffic of every whole-image pass (see the kernels' note).
     target = np.ascontiguousarray(target_rgb, dtype=np.float32)
     alpha_targets = None if alpha_targets is None else np.ascontiguousarray(alpha_targets, dtype=np.float32)
-    problem = _Problem(
-        state=_start_layers(dotsets, rules, spray_times, settings, mm_per_px),
-        kernels=cans[0],
+    return _Problem(
+        state=[],
+        kernels=kernels,
         mm_per_px=mm_per_px,
         target=target,
         alpha_targets=alpha_targets,
@@ -447,15 +530,3 @@ def refine_dots(
         viewer=_Viewer(target, mm_per_px, settings.view) if settings.view is not None else None,
         fixed_trans=None if fixed_trans is None else np.ascontiguousarray(fixed_trans, dtype=np.float32),
     )
-    npx = float(target.shape[0] * target.shape[1] * 3)
-    e_start = (ev := problem.evaluate()).e
-    ev = _iterate(problem, cans, ev, settings, progress)
-    out = [_refined(ds, layer) for ds, layer in zip(dotsets, problem.state, strict=True)]
-    report = {
-        "iterations": min(settings.iterations, settings.stop_after or settings.iterations),
-        "objective_start": math.sqrt(e_start / npx),
-        "objective_end": math.sqrt(ev.e / npx),
-        "seconds": round(time.perf_counter() - t_start, 3),
-    }
-    log.debug("refined: %s", report)
-    return out, report

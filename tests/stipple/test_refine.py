@@ -180,6 +180,40 @@ def test_a_refinement_stopped_part_way_takes_the_whole_refinements_first_steps()
     assert not np.array_equal(part.xy_mm, short.xy_mm) and not np.array_equal(part.xy_mm, full.xy_mm)
 
 
+@pytest.mark.parametrize("cans", [1, 3])
+def test_a_refinement_carried_on_from_a_pause_is_the_whole_refinement(cans):
+    # The job's refinement carries on the plate-design trial's, stopped part way: the same holes,
+    # figures and objective as refined in one go, under one can and under a prior's turns of cans.
+    from dataclasses import replace
+
+    rules, ramp, xy, r = _ramp_case(2)
+    ds = DotSet(xy_mm=xy, r_mm=r, report={})
+    whole = RefineSettings(iterations=12, max_radius_mm=1.0, add_remove_every=4, eye_sigma_mm=0.3)
+    kern = [_kernels(CFG.model_copy(update={"nozzle_height": 7.0 + i})) for i in range(cans)]
+
+    def refined(s, **kw):
+        out, rep = refine_dots(ramp, 0.25, PRIMER, INK, [ds], [rules], kern, [0.8], s, **kw)
+        return out[0], rep
+
+    full, rep_full = refined(whole)
+    kept: list = []
+    part, _ = refined(replace(whole, stop_after=5), on_pause=kept.append)
+    assert len(kept) == 1 and kept[0].step == 5
+    steps: list[int] = []
+    for _ in range(2):  # the pause is copied, not used up
+        on, rep = refined(whole, resume=kept[0], progress=lambda it, total: steps.append(it))
+        assert np.array_equal(on.xy_mm, full.xy_mm) and np.array_equal(on.r_mm, full.r_mm)
+        assert on.report == full.report
+        assert rep["objective_start"] == rep_full["objective_start"]
+        assert rep["objective_end"] == rep_full["objective_end"]
+    assert steps == [*range(6, 13)] * 2
+    with pytest.raises(ValueError, match="another refinement"):
+        refined(replace(whole, iterations=13), resume=kept[0])
+    # No pause where the refinement runs to its end.
+    refined(replace(whole, stop_after=12), on_pause=kept.append)
+    assert len(kept) == 1
+
+
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     seed=st.integers(0, 2**31 - 1),
