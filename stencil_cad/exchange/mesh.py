@@ -299,11 +299,15 @@ def mesh_checks(mesh: TriMesh) -> dict:
     nv = len(v)
     e0 = f.reshape(-1)
     e1 = f[:, [1, 2, 0]].reshape(-1)
-    directed = np.sort(e0 * nv + e1)
-    undirected = np.sort(np.minimum(e0, e1) * nv + np.maximum(e0, e1))
+    # One sort for both counts: each edge's undirected key with its direction in the lowest bit.
+    # Equal keys are the same directed edge twice; keys equal but for that bit, one undirected
+    # edge. The example's eight meshes' checks took 0.51 CPU-s with a sort of the directed and
+    # one of the undirected keys, 0.41 so (time.process_time).
+    keyed = np.sort((np.minimum(e0, e1) * nv + np.maximum(e0, e1)) * 2 + (e0 < e1))
+    undirected = keyed >> 1
     starts = np.flatnonzero(np.r_[True, undirected[1:] != undirected[:-1]])
     ucount = np.diff(np.r_[starts, len(undirected)])
-    dup_directed = bool((directed[1:] == directed[:-1]).any())
+    dup_directed = bool((keyed[1:] == keyed[:-1]).any())
     watertight = bool((ucount == 2).all())
     consistent = watertight and not dup_directed
     # The edges are counted already (one start per distinct edge): genus need not sort them again.

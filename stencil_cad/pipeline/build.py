@@ -10,8 +10,10 @@ the others once the holes are split, so each part is a separate task.
 
 from __future__ import annotations
 
+import gc
 import logging
 from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, cast
 
@@ -293,7 +295,27 @@ def build_part(task: PartTask) -> PartResult:
     Raises:
         UserError: The holes break the rules, the label cannot fit, or the part does not fit the bed.
     """
-    return _build_plate(task) if task.kind == "plate" else _build_wall(task)
+    with _young_objects_collected():
+        return _build_plate(task) if task.kind == "plate" else _build_wall(task)
+
+
+@contextmanager
+def _young_objects_collected() -> Iterator[None]:
+    """Let Python's cyclic garbage collector look only at the objects made inside the block.
+
+    A full collection walks every object the process holds, and a job's process holds the earlier
+    stages' objects when it builds: in ``stencil-cad run`` on the example, the build stage's three
+    full collections took 0.69 of its 10.7 CPU-s, and 0.17 with each part built in this block
+    (``gc.callbacks`` timing each collection with ``time.process_time``). ``gc.freeze`` sets the
+    objects there are aside and ``gc.unfreeze`` gives them back to the collector, so nothing is
+    kept longer than the block; blocks on other threads only lose the gain, as the collector is
+    the process's.
+    """
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
 
 
 def _solid_below(holes: Any, height_mm: float) -> float:
