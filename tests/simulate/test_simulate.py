@@ -537,3 +537,26 @@ def test_the_scores_map_is_the_error_map_and_its_scores_the_scores():
     got, de = scores.score_and_map(ref, sim)
     assert got == scores.score(ref, sim)
     np.testing.assert_array_equal(de, scores.delta_e_map(ref, sim))
+
+
+def test_unimodal_least_is_the_full_scan_on_unimodal_scores():
+    """The spray-amount bisection picks what scoring every amount picks (the first least one)."""
+    from stencil_cad.simulate.tone import _unimodal_least
+
+    rng = np.random.default_rng(3)
+    for n in (1, 2, 3, 7, 30):
+        values = [0.25 * 2 ** (k / 2) for k in range(n)]
+        for best in range(n):
+            left = np.sort(rng.random(best))[::-1] + 1.0
+            right = np.sort(rng.random(n - best - 1)) + 1.0
+            scores = dict(zip(values, np.concatenate([left, [0.5], right]), strict=True))
+            calls = []
+
+            def score(v, scores=scores, calls=calls):
+                calls.append(v)
+                return float(scores[v])
+
+            assert _unimodal_least(values, score) == values[best]
+            assert len(set(calls)) <= 2 * max(n - 1, 1).bit_length()
+    # Ties at the minimum: the first, like min() over the full scan.
+    assert _unimodal_least([1.0, 2.0, 3.0, 4.0, 5.0], {1.0: 3, 2.0: 1, 3.0: 1, 4.0: 2, 5.0: 4}.get) == 2.0
