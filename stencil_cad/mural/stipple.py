@@ -344,6 +344,9 @@ class StippleTask:
     closed: np.ndarray | None = None
     #: ``(H, W)`` bool, the windows' own pixels, or None.
     windows: np.ndarray | None = None
+    #: ``(M, 2)`` the layer's holes on another wall in mm, for Lloyd to start from
+    #: (:func:`stencil_cad.stipple.warm.warm_seeds`), or None. A layer stippled in one piece only.
+    start_xy_mm: np.ndarray | None = None
 
     def holes_alpha(self) -> np.ndarray:
         """The opacity left to the holes: none where they may not go."""
@@ -379,7 +382,14 @@ def stipple_task(task: StippleTask) -> tuple[DotSet, dict[str, Any] | None]:
 
     choice, spray_time = layer_tone(task)
     density = None if choice is None else choice.density
-    ds = stipple_layer(task.holes_alpha(), task.mm_per_px, task.cfg.stipple, task.rng, density=density)
+    ds = stipple_layer(
+        task.holes_alpha(),
+        task.mm_per_px,
+        task.cfg.stipple,
+        task.rng,
+        density=density,
+        start_xy_mm=task.start_xy_mm,
+    )
     return replace(ds, spray_time=spray_time), None if choice is None else choice.summary()
 
 

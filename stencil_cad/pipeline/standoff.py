@@ -101,6 +101,12 @@ RANK_AFTER = 30
 #: smallest gap after 30 steps was 5.5 % (the bundled example); after 20 steps the example's walls
 #: stood 1.0 % apart and after 25 0.4 %, yet 6 % apart refined in full.
 RANK_NOISE = 0.02
+#: With light plates the second wall's stippling starts each layer's Lloyd relaxation from the first
+#: wall's holes (:func:`stencil_cad.stipple.warm.warm_seeds`) rather than from an importance sample:
+#: the picture and opacities are the same, only the tone (and the dot count, 1 to 22 % lower at 8 mm
+#: than at 5 on the bundled example) differ. On the example its Lloyd took 8 to 19 passes per layer
+#: rather than 22 to 32 (1.2 CPU-s rather than 2.4), the CVT energy no higher.
+WARM_START = True
 #: The trials simulate on a grid this many times coarser than the job's (at least ...).
 TRIAL_COARSENING = 2.0
 
@@ -213,13 +219,16 @@ def _trial_score(
     refined: bool = False,
     paints: Paints | None = None,
     stop_after: int | None = None,
+    warm: list[Any] | None = None,
 ) -> float:
     """S-CIELAB at the viewing distance of ``cfg``'s plates stippled (not refined) and sprayed.
 
     Sprayed on a grid of ``grid_mm_per_px`` (the job's simulation grid by default); with
     ``refined``, refined as the job refines them (stopped after ``stop_after`` of the refinement's
     steps, where given). Each layer sprays as ``paints`` (the job's plan's) resolve for ``cfg``:
-    the sprays of the design tried.
+    the sprays of the design tried. ``warm`` carries one wall's unrefined holes to the next: where it
+    holds some, each layer's Lloyd relaxation starts from them (:func:`stencil_cad.plan.holes.stippled`);
+    where it is empty, this trial's are put in it (None: neither).
     """
     from .. import resolution, simulate
     from ..plan import holes
@@ -237,7 +246,9 @@ def _trial_score(
     trial = Run(cfg=run.cfg, out=run.out, quiet=True, executor=run.executor, cancel=run.cancel, kept=run.kept)
     plan = whole(trial_cfg, picture_mm, paints)
     # Stippled, then refined (when the trial's config refines), as the job's stages run them.
-    unrefined = holes.stippled(trial, plan, layers)[0]
+    unrefined = holes.stippled(trial, plan, layers, warm[0] if warm else None)[0]
+    if warm is not None and not warm:
+        warm.append(unrefined)
     dotsets = holes.refined(trial, plan, layers, unrefined, picture, stop_after)[0].sets
     made = [made_dots(d, cfg.stipple, picture_mm) for d in dotsets]
     sim = simulate.simulate(
@@ -278,6 +289,8 @@ def stage_standoff(run: Run, plan: Plan, layers: Layers, picture: Picture | None
         designs = candidates(cfg, share)
         grid = trial_mm_per_px(cfg)
         direct = direct_pair(cfg, share)
+        # The second wall's Lloyd starts from the first's holes (see WARM_START).
+        warm: list[Any] | None = [] if direct and WARM_START else None
 
         def score(w: str, g: float, refined: bool, stop_after: int | None = None) -> float:
             design = with_design(plan, w, g)
@@ -292,6 +305,7 @@ def stage_standoff(run: Run, plan: Plan, layers: Layers, picture: Picture | None
                     refined=refined,
                     paints=plan.paints,
                     stop_after=stop_after,
+                    warm=warm,
                 ),
                 3,
             )

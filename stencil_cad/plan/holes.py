@@ -54,15 +54,21 @@ class Refined:
     report: Any
 
 
-def stippled(run: Run, plan: Plan, layers: Layers) -> tuple[Stippled, bool]:
+def stippled(run: Run, plan: Plan, layers: Layers, start: Stippled | None = None) -> tuple[Stippled, bool]:
     """Every layer's holes as the stipple stage makes them, not refined: ``(the holes and figures, whether kept)``.
 
     Under ``plan``'s config (``stipple.dots`` capped already: :func:`stencil_cad.plan.plan.capped`) and
     tiling. Kept in ``run.kept`` by the config, layers and tiling (the second value says they were).
+    ``start``: the same layers' holes under another design (the plate-design trials' first wall), from
+    which each layer's Lloyd relaxation starts on a one-piece tiling
+    (:func:`stencil_cad.stipple.warm.warm_seeds`). It is not part of the key: the trials stipple each
+    wall once, and the job's stages reuse the wall they keep as it was made.
     """
     picture_mm, tiling = plan.picture_mm, plan.grid
     key = ("stipple", plan.cfg.model_dump_json(), id(layers), picture_mm, repr(tiling))
-    made, kept = run.keep(key, lambda: _stippled(run, plan.cfg, layers, picture_mm, tiling, plan.sprays))
+    made, kept = run.keep(
+        key, lambda: _stippled(run, plan.cfg, layers, picture_mm, tiling, plan.sprays, start)
+    )
     return cast("Stippled", made), kept
 
 
@@ -112,11 +118,12 @@ def _stippled(
     picture_mm: tuple[float, float],
     tiling: TileGrid,
     sprays: Sequence[SprayConfig],
+    start: Stippled | None = None,
 ) -> Stippled:
     """Every layer's holes: stippled under its own can (``sprays``, the plan's), with its windows (not refined)."""
     # Each layer's tone is chosen under its own paint's can (spray.profile).
     jobs = layer_jobs(cfg, sprays)
-    sets, tones, windows = _holes(run, cfg, layers, picture_mm, tiling, jobs)
+    sets, tones, windows = _holes(run, cfg, layers, picture_mm, tiling, jobs, start)
     dark_end = tuple(
         _dark_end(job, alpha, ds.amount(job.spray.amount), w.mask)
         for job, alpha, ds, w in zip(jobs, layers.alphas, sets, windows, strict=True)
@@ -135,18 +142,19 @@ def _holes(
     picture_mm: tuple[float, float],
     tiling: TileGrid,
     jobs: list[JobConfig],
+    start: Stippled | None = None,
 ) -> tuple[list[DotSet], Any, list[Any]]:
     """Every layer's holes as stippled, before the refinement: ``(sets, tones, windows)``.
 
     The stippler reads no ``refine`` setting, so the plate-design trials' unrefined screen and their
     refined trial of the same design stipple alike: the holes are kept by the config without its
     ``refine`` section, and the refined trial starts from the screen's (on the bundled example two
-    of its six stipples).
+    of its six stipples). ``start``: :func:`stippled`'s.
     """
 
     def make() -> tuple[list[DotSet], Any, list[Any]]:
         with run.stage("stipple"):
-            tasks, windows, hole_alphas = _tasks(run, cfg, layers, tiling, picture_mm, jobs)
+            tasks, windows, hole_alphas = _tasks(run, cfg, layers, tiling, picture_mm, jobs, start)
             sets, tones = stipple_layers(
                 tasks, hole_alphas, tiling, lambda i, k: run.seed_for("stipple", i, k), run.tasks.map
             )
@@ -168,8 +176,12 @@ def _tasks(
     tiling: TileGrid,
     picture_mm: tuple[float, float],
     jobs: list[JobConfig],
+    start: Stippled | None = None,
 ) -> tuple[list[StippleTask], list[Any], np.ndarray]:
-    """One stipple task per layer (under its own can: ``jobs``), its windows and the opacities left to the holes."""
+    """One stipple task per layer (under its own can: ``jobs``), its windows and the opacities left to the holes.
+
+    With ``start`` (another design's holes of the same layers) a one-piece layer's Lloyd starts from its holes there.
+    """
     # One task per layer (on a cluster the layers stipple side by side); each layer's
     # generator comes from the seed, so any number of workers gives the same holes.
     # The colour weights only steer the choice of each layer's spray time.
@@ -180,6 +192,8 @@ def _tasks(
     )
     # Hybrid plates: each layer's wide solid regions become windows; the holes take the rest.
     windows, closed = layer_windows(cfg, layers, tiling, picture_mm, jobs)
+    one = len(tiling.tiles) == 1 and start is not None and len(start.sets) == layers.count
+    starts = [start.sets[i].xy_mm if one and start is not None else None for i in range(layers.count)]
     tasks = [
         StippleTask(
             alpha,
@@ -189,6 +203,7 @@ def _tasks(
             weights[i],
             closed[i],
             windows[i].mask if closed[i] is not None else None,
+            starts[i],
         )
         for i, alpha in enumerate(layers.alphas)
     ]

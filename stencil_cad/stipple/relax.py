@@ -354,6 +354,7 @@ def stipple_layer(
     n_dots: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     keepouts: tuple | list = (),
+    start_xy_mm: np.ndarray | None = None,
 ) -> DotSet:
     """Stipple one layer's opacity into holes that satisfy the design rules.
 
@@ -368,6 +369,8 @@ def stipple_layer(
         n_dots: Dot count replacing ``cfg.dots`` and the automatic count.
         progress: Called as ``progress(iteration, max_iterations)``.
         keepouts: Extra keep-out rectangles ``(x0, y0, x1, y1)`` in picture mm.
+        start_xy_mm: The layer's holes on another wall, for Lloyd to start from (see
+            :func:`place_holes`), or None.
 
     Returns:
         The dots in picture mm. ``report`` holds ``n_initial``, ``n_final``,
@@ -389,7 +392,9 @@ def stipple_layer(
         raise ValueError(f"mm_per_px must be > 0, got {mm_per_px}")
     h, w = alpha.shape
     rules = cfg.design_rules(w * mm_per_px, h * mm_per_px, keepouts)
-    xy, r, report = place_holes(alpha, mm_per_px, cfg, rng, rules, density, n_dots, progress)
+    xy, r, report = place_holes(
+        alpha, mm_per_px, cfg, rng, rules, density, n_dots, progress, start_xy_mm=start_xy_mm
+    )
     xy, r, rep = enforce_rules(xy, r, rules)
     report.update({key: v for key, v in rep.items() if key not in ("n_in", "n_out", "removed")})
     report["removed"] = rep["removed"] + report["removed_empty"] + report["removed_threshold"]
@@ -441,6 +446,7 @@ def place_holes(
     free: np.ndarray | None = None,
     fixed_xy_mm: np.ndarray | None = None,
     origin_mm: tuple[float, float] = (0.0, 0.0),
+    start_xy_mm: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """The relaxed hole centres and radii of one layer (or one region of it), before the rules.
 
@@ -460,6 +466,9 @@ def place_holes(
             automatic dot count leaves those out). They are not returned.
         origin_mm: Where ``alpha``'s bottom-left corner lies in the rules' frame (a region:
             the margins hold at the picture's edges, not at the region's).
+        start_xy_mm: ``(M, 2)`` the layer's holes on another wall, in mm, for Lloyd to start
+            from (:func:`stencil_cad.stipple.warm.warm_seeds`) rather than from an importance
+            sample; None for the importance sample.
 
     Returns:
         ``(xy_mm, r_mm, report)``: the new holes (in ``alpha``'s frame) whose cells hold weight
@@ -493,21 +502,36 @@ def place_holes(
         t, mask, r_of_t = _tone_and_radius(alpha, density, mm_per_px, cfg, rules, origin_mm)
     lam = t * (r1 / r_of_t) ** 2
     weight = lam * lam
-    seeds = importance_sample(lam if free is None else np.where(free, lam, 0.0), n_dots, rng)
-    if nfix:
-        seeds = np.concatenate([seeds, mm_to_px(fixed_xy_mm, h, mm_per_px)])
+    lam_free = lam if free is None else np.where(free, lam, 0.0)
+    seeds = _start_seeds(lam_free, n_dots, rng, start_xy_mm, fixed_xy_mm, mm_per_px)
     seeds, info = lloyd(weight, seeds, cfg.max_iterations, cfg.tolerance_px * k, progress, OMEGA, fixed=nfix)
-    iterations = info["iterations"]
-    info["mean_move_px"] /= k
-
     report: dict = {
         "n_initial": int(n_dots),
-        "iterations": iterations,
-        "mean_move_px": info["mean_move_px"],
-        "refine": k,
-        "bucket_px": info["bucket_px"],
+        "iterations": info["iterations"],
+        "mean_move_px": info["mean_move_px"] / k,
     }
+    report |= {"refine": k, "bucket_px": info["bucket_px"]}
     return _kept_holes(seeds, weight, nfix, mask, r_of_t, mm_per_px, report)
+
+
+def _start_seeds(lam, n_dots: int, rng, start_xy_mm, fixed_xy_mm: np.ndarray, mm_per_px: float) -> np.ndarray:
+    """Lloyd's start on ``lam``'s grid: ``n_dots`` free seeds, then the fixed holes.
+
+    The free seeds are an importance sample of ``lam``, or with ``start_xy_mm`` (the layer's holes
+    on another wall, mm) those holes thinned or topped up (:func:`stencil_cad.stipple.warm.warm_seeds`).
+    """
+    h = lam.shape[0]
+    if start_xy_mm is None:
+        seeds = importance_sample(lam, n_dots, rng)
+    else:
+        from .warm import warm_seeds
+
+        seeds = warm_seeds(
+            mm_to_px(np.asarray(start_xy_mm, dtype=np.float64), h, mm_per_px), lam, n_dots, rng
+        )
+    if len(fixed_xy_mm):
+        seeds = np.concatenate([seeds, mm_to_px(fixed_xy_mm, h, mm_per_px)])
+    return seeds
 
 
 def _upsample_inputs(alpha, density, free, k: int):

@@ -237,7 +237,16 @@ def test_light_plates_rank_two_walls_part_way_through_their_refinement(monkeypat
         asked: list[tuple[float, int | None]] = []
 
         def trial(
-            run, cfg, layers, picture_mm, picture, grid=None, refined=False, paints=None, stop_after=None
+            run,
+            cfg,
+            layers,
+            picture_mm,
+            picture,
+            grid=None,
+            refined=False,
+            paints=None,
+            stop_after=None,
+            warm=None,
         ):
             assert refined
             asked.append((cfg.standoff.design_mm, stop_after))
