@@ -192,8 +192,8 @@ def _tasks(
     )
     # Hybrid plates: each layer's wide solid regions become windows; the holes take the rest.
     windows, closed = layer_windows(cfg, layers, tiling, picture_mm, jobs)
-    one = len(tiling.tiles) == 1 and start is not None and len(start.sets) == layers.count
-    starts = [start.sets[i].xy_mm if one and start is not None else None for i in range(layers.count)]
+    warm = start is not None and len(tiling.tiles) == 1 and len(start.sets) == layers.count
+    starts = [ds.xy_mm for ds in start.sets] if start is not None and warm else [None] * layers.count
     tasks = [
         StippleTask(
             alpha,
