@@ -379,6 +379,7 @@ def stipple_task(task: StippleTask) -> tuple[DotSet, dict[str, Any] | None]:
     from dataclasses import replace
 
     from ..stipple import stipple_layer
+    from ..stipple.warm import WarmStart
 
     choice, spray_time = layer_tone(task)
     density = None if choice is None else choice.density
@@ -388,7 +389,7 @@ def stipple_task(task: StippleTask) -> tuple[DotSet, dict[str, Any] | None]:
         task.cfg.stipple,
         task.rng,
         density=density,
-        start_xy_mm=task.start_xy_mm,
+        start=None if task.start_xy_mm is None else WarmStart(task.start_xy_mm),
     )
     return replace(ds, spray_time=spray_time), None if choice is None else choice.summary()
 

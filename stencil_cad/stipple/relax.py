@@ -42,6 +42,9 @@ from ..model import DotSet
 from .relax_kernels import _accumulate, _nearest_seed
 from .rules import DesignRules, _keepout_clearance, enforce_rules
 
+#: Lloyd's start: ``start(lam, n, rng, mm_per_px)`` gives ``n`` seeds (px, row and col) on ``lam``'s grid.
+StartSeeds = Callable[[np.ndarray, int, np.random.Generator, float], np.ndarray]
+
 log = logging.getLogger(__name__)
 
 #: Gersho's constant: normalised polar second moment of the regular hexagon.
@@ -354,7 +357,7 @@ def stipple_layer(
     n_dots: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     keepouts: tuple | list = (),
-    start_xy_mm: np.ndarray | None = None,
+    start: StartSeeds | None = None,
 ) -> DotSet:
     """Stipple one layer's opacity into holes that satisfy the design rules.
 
@@ -369,8 +372,7 @@ def stipple_layer(
         n_dots: Dot count replacing ``cfg.dots`` and the automatic count.
         progress: Called as ``progress(iteration, max_iterations)``.
         keepouts: Extra keep-out rectangles ``(x0, y0, x1, y1)`` in picture mm.
-        start_xy_mm: The layer's holes on another wall, for Lloyd to start from (see
-            :func:`place_holes`), or None.
+        start: Lloyd's start seeds (see :func:`place_holes`), or None for an importance sample.
 
     Returns:
         The dots in picture mm. ``report`` holds ``n_initial``, ``n_final``,
@@ -392,9 +394,7 @@ def stipple_layer(
         raise ValueError(f"mm_per_px must be > 0, got {mm_per_px}")
     h, w = alpha.shape
     rules = cfg.design_rules(w * mm_per_px, h * mm_per_px, keepouts)
-    xy, r, report = place_holes(
-        alpha, mm_per_px, cfg, rng, rules, density, n_dots, progress, start_xy_mm=start_xy_mm
-    )
+    xy, r, report = place_holes(alpha, mm_per_px, cfg, rng, rules, density, n_dots, progress, start=start)
     xy, r, rep = enforce_rules(xy, r, rules)
     report.update({key: v for key, v in rep.items() if key not in ("n_in", "n_out", "removed")})
     report["removed"] = rep["removed"] + report["removed_empty"] + report["removed_threshold"]
@@ -446,7 +446,7 @@ def place_holes(
     free: np.ndarray | None = None,
     fixed_xy_mm: np.ndarray | None = None,
     origin_mm: tuple[float, float] = (0.0, 0.0),
-    start_xy_mm: np.ndarray | None = None,
+    start: StartSeeds | None = None,
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """The relaxed hole centres and radii of one layer (or one region of it), before the rules.
 
@@ -466,9 +466,9 @@ def place_holes(
             automatic dot count leaves those out). They are not returned.
         origin_mm: Where ``alpha``'s bottom-left corner lies in the rules' frame (a region:
             the margins hold at the picture's edges, not at the region's).
-        start_xy_mm: ``(M, 2)`` the layer's holes on another wall, in mm, for Lloyd to start
-            from (:func:`stencil_cad.stipple.warm.warm_seeds`) rather than from an importance
-            sample; None for the importance sample.
+        start: Lloyd's start seeds, called as ``start(lam, n, rng, mm_per_px)`` on the grid it
+            relaxes on (:class:`stencil_cad.stipple.warm.WarmStart`), or None for an importance
+            sample of ``lam``.
 
     Returns:
         ``(xy_mm, r_mm, report)``: the new holes (in ``alpha``'s frame) whose cells hold weight
@@ -503,7 +503,7 @@ def place_holes(
     lam = t * (r1 / r_of_t) ** 2
     weight = lam * lam
     lam_free = lam if free is None else np.where(free, lam, 0.0)
-    seeds = _start_seeds(lam_free, n_dots, rng, start_xy_mm, fixed_xy_mm, mm_per_px)
+    seeds = _start_seeds(lam_free, n_dots, rng, start, fixed_xy_mm, mm_per_px)
     seeds, info = lloyd(weight, seeds, cfg.max_iterations, cfg.tolerance_px * k, progress, OMEGA, fixed=nfix)
     report: dict = {
         "n_initial": int(n_dots),
@@ -514,21 +514,16 @@ def place_holes(
     return _kept_holes(seeds, weight, nfix, mask, r_of_t, mm_per_px, report)
 
 
-def _start_seeds(lam, n_dots: int, rng, start_xy_mm, fixed_xy_mm: np.ndarray, mm_per_px: float) -> np.ndarray:
+def _start_seeds(
+    lam, n_dots: int, rng, start: StartSeeds | None, fixed_xy_mm: np.ndarray, mm_per_px: float
+) -> np.ndarray:
     """Lloyd's start on ``lam``'s grid: ``n_dots`` free seeds, then the fixed holes.
 
-    The free seeds are an importance sample of ``lam``, or with ``start_xy_mm`` (the layer's holes
-    on another wall, mm) those holes thinned or topped up (:func:`stencil_cad.stipple.warm.warm_seeds`).
+    The free seeds are an importance sample of ``lam``, or ``start``'s (for instance another wall's
+    holes of the layer thinned or topped up: :class:`stencil_cad.stipple.warm.WarmStart`).
     """
     h = lam.shape[0]
-    if start_xy_mm is None:
-        seeds = importance_sample(lam, n_dots, rng)
-    else:
-        from .warm import warm_seeds
-
-        seeds = warm_seeds(
-            mm_to_px(np.asarray(start_xy_mm, dtype=np.float64), h, mm_per_px), lam, n_dots, rng
-        )
+    seeds = importance_sample(lam, n_dots, rng) if start is None else start(lam, n_dots, rng, mm_per_px)
     if len(fixed_xy_mm):
         seeds = np.concatenate([seeds, mm_to_px(fixed_xy_mm, h, mm_per_px)])
     return seeds

@@ -20,8 +20,11 @@ small ones (310 and 44 dots).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
+from ..frames import mm_to_px
 from .relax import importance_sample, voronoi_pass
 
 #: Side of the Hilbert curve's grid the holes are ordered on (a power of two).
@@ -88,3 +91,19 @@ def warm_seeds(old: np.ndarray, lam: np.ndarray, n: int, rng: np.random.Generato
     lack[inside] = lam[inside] * np.maximum(0.0, 1.0 - 1.0 / np.maximum(cell_share, 1e-12))
     extra = importance_sample(lack if lack.sum() > 0.0 else lam, n - len(old), rng)
     return np.concatenate([old, extra])
+
+
+@dataclass(frozen=True)
+class WarmStart:
+    """Lloyd's start (:data:`stencil_cad.stipple.relax.StartSeeds`) from another wall's holes of the layer.
+
+    ``xy_mm``: ``(M, 2)`` those holes in picture mm; called on the grid Lloyd relaxes on, it gives
+    :func:`warm_seeds` of them there.
+    """
+
+    xy_mm: np.ndarray
+
+    def __call__(self, lam: np.ndarray, n: int, rng: np.random.Generator, mm_per_px: float) -> np.ndarray:
+        """``n`` seeds on ``lam``'s grid (``mm_per_px`` its pixel): :func:`warm_seeds` of the holes there."""
+        old = mm_to_px(np.asarray(self.xy_mm, dtype=np.float64), lam.shape[0], mm_per_px)
+        return warm_seeds(old, lam, n, rng)
