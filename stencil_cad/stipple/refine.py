@@ -259,8 +259,12 @@ def _add_and_remove(p: _Problem, ev: _Eval, final: bool) -> _Eval | None:
     g, q = _g_and_q(ev, 0)
     for k, layer in enumerate(p.state):
         kern = layer_kernels(p.kernels, k)
-        layer.removed += _remove_holes(layer, g, q, trans[k], kern, p.mm_per_px, shape[0])
-        g, q = p.layer_g_and_q(trans, k, k)
+        removed = _remove_holes(layer, g, q, trans[k], kern, p.mm_per_px, shape[0])
+        layer.removed += removed
+        if removed:
+            # With none removed the layers are as they were when layer k's G and Q were taken: the
+            # same bits again (11 of the example's 40 layer rounds remove none).
+            g, q = p.layer_g_and_q(trans, k, k)
         layer.added += _add_holes(layer, g, q, trans[k], kern, p.mm_per_px, shape)
         if k + 1 < len(p.state):
             g, q = p.layer_g_and_q(trans, k, k + 1)

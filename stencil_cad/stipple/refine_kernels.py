@@ -200,10 +200,13 @@ def _removal_change(g, q, t, rows, cols, sig, peak, exp_mode):  # pragma: no cov
 
 
 @njit_parallel(cache=True)
-def _composite_residuals(trans, primer, colours, target, alpha_t, res, lres):  # pragma: no cover - compiled
-    """Composite minus target into ``res`` (H, W, 3); each layer's opacity minus its target into ``lres``.
+def _composite_residuals(
+    trans, primer, colours, target, alpha_t, res, lres, first
+):  # pragma: no cover - compiled
+    """Composite minus target into ``res`` (H, W, 3); layers ``first`` on's opacity minus its target into ``lres``.
 
-    ``lres`` has no layers when the per-layer term is off (then ``alpha_t`` is not read).
+    ``lres[m]`` is layer ``first + m``'s: every layer's from ``first = 0``, one layer's into an
+    ``lres`` of one. ``lres`` has no layers when the per-layer term is off (then ``alpha_t`` is not read).
     """
     n_l, h, w = trans.shape
     for r in numba.prange(h):
@@ -221,7 +224,7 @@ def _composite_residuals(trans, primer, colours, target, alpha_t, res, lres):  #
             res[r, c, 1] = c1 - target[r, c, 1]
             res[r, c, 2] = c2 - target[r, c, 2]
             for m in range(lres.shape[0]):
-                lres[m, r, c] = (1.0 - trans[m, r, c]) - alpha_t[m, r, c]
+                lres[m, r, c] = (1.0 - trans[first + m, r, c]) - alpha_t[first + m, r, c]
 
 
 @njit_parallel(cache=True)

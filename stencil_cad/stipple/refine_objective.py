@@ -240,19 +240,19 @@ def _evaluate(
     return _Eval(trans, e, gt, gq if want_q else None)
 
 
-def _residuals(trans, target, alpha_targets, lam, primer, colours, eye_px, viewer):
-    """``(E of the composite, dE/dC, the metric of Q, each layer's opacity residual)`` at ``trans``.
+def _residuals(trans, target, alpha_targets, lam, primer, colours, eye_px, viewer, only=None):
+    """``(E of the composite, dE/dC, the metric of Q, the layers' opacity residuals)`` at ``trans``.
 
     The residuals are of every layer when ``lam > 0`` (``alpha_targets`` (L, H, W) is read then),
-    of none otherwise.
+    or of layer ``only`` alone (an (1, H, W) array), of none when ``lam`` is 0.
     """
     h, w = target.shape[:2]
     dt = target.dtype
-    n_t = trans.shape[0] if lam > 0 else 0
+    n_t = (trans.shape[0] if only is None else 1) if lam > 0 else 0
     res = np.empty((h, w, 3), dtype=dt)
     lres = np.empty((n_t, h, w), dtype=dt)
     a_t = alpha_targets if n_t else lres
-    _composite_residuals(trans, primer, colours, target, a_t, res, lres)
+    _composite_residuals(trans, primer, colours, target, a_t, res, lres, 0 if only is None else only)
     if viewer is not None:
         e, dedc = viewer.error(res, target)
         qm = viewer.q
@@ -294,8 +294,10 @@ def _layer_g_and_q(
         _transmittance(trans[changed], rows, cols, sig, peak, exp_mode)
     if fixed_trans is not None:
         trans[changed] *= fixed_trans[changed]
-    _, dedc, qm, lres = _residuals(trans, target, alpha_targets, lam, primer, colours, eye_px, viewer)
-    dl = _filtered(lres[want], eye_px)[1] if lres.shape[0] else np.empty((1, 1), dtype=target.dtype)
+    # Layer want's opacity residual alone: the other layers' were 8 of the 9 images the residual
+    # kernel wrote on the example's eight plates, and only want's is read.
+    _, dedc, qm, lres = _residuals(trans, target, alpha_targets, lam, primer, colours, eye_px, viewer, want)
+    dl = _filtered(lres[0], eye_px)[1] if lres.shape[0] else np.empty((1, 1), dtype=target.dtype)
     gq = np.empty((2, *target.shape[:2]), dtype=target.dtype)
     _layer_gradient(trans, primer, colours, dedc, dl, float(lam), want, gq, qm)
     return gq[0], gq[1]
