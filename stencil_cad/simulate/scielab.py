@@ -185,18 +185,17 @@ class _Plan:
                 yield (r0, r1, c0, c1), (max(r0 - m, 0), min(r1 + m, h), max(c0 - m, 0), min(c1 + m, w))
 
 
-def _wide_maps(rgb: np.ndarray, plan: _Plan) -> list:
+def _wide_maps(rgb: np.ndarray, plan: _Plan, opp=None) -> list:
     """Per channel, the wide Gaussians' weighted sums on block-averaged grids: ``[(map, cell, pad), ...]`` or None.
 
     Each wide Gaussian is applied on cells of about a third of :data:`DIRECT_SIGMA_PX` of its own
     width (Gaussians whose cells are the same size share one map). The channel is mirrored past
     the picture's edges (scipy's "reflect") by the Gaussians' reach and rounded up to whole cells
     before averaging, so the picture's edge lies where the whole-picture filter reflects it and
-    every cell holds ``cell`` × ``cell`` pixels.
+    every cell holds ``cell`` × ``cell`` pixels. ``opp`` is ``rgb`` converted (:func:`_srgb_to_opp`), or None.
     """
     h, w = plan.shape
     out: list = []
-    opp = None
     for c, gaussians in enumerate(plan.wide):
         if not gaussians:
             out.append(None)
@@ -270,13 +269,13 @@ def _reference_wide_maps(ref: np.ndarray, plan: _Plan, ref_digest: bytes) -> lis
     return _WIDE_CACHE.get((ref_digest, plan.k, tuple(tuple(ch) for ch in plan.wide)), make)
 
 
-def _filter_region(part: np.ndarray, region, plan: _Plan, wide: list) -> np.ndarray:
-    """A region (``part``, the picture's pixels in ``region``) as the eye sees it, upsampled, in XYZ."""
+def _filter_region(part: np.ndarray, region, plan: _Plan, wide: list, opp=None) -> np.ndarray:
+    """A region (``part``, the picture's pixels in ``region``; ``opp``, them converted, or None) as the eye sees it, upsampled, in XYZ."""
     r0, _, c0, _ = region
     k = plan.k
     # Colour conversion is per pixel, so it commutes with the upsampling (each pixel repeated):
     # converted first, it costs k² times less.
-    opp = _srgb_to_opp(part)
+    opp = _srgb_to_opp(part) if opp is None else opp
     h, w = opp.shape[0] * k, opp.shape[1] * k
     out = np.zeros((h, w, 3))
     for c in range(3):
@@ -414,6 +413,7 @@ class BlockTask:
     wide_ref: list
     wide_test: list
     ref_digest: bytes
+    test_opp: np.ndarray | None = None  # ``test`` converted (a block that is the whole picture), or None
 
 
 #: The reference's filtered blocks of the last few scores, by the block's pixels, the reference's wide
@@ -463,9 +463,8 @@ def block_delta_e(task: BlockTask) -> np.ndarray:
 
     k = task.plan.k
     xyz_ref = _reference_block(task)
-    xyz_test = _core(
-        _filter_region(task.test, task.region, task.plan, task.wide_test), task.core, task.region, k
-    )
+    region = _filter_region(task.test, task.region, task.plan, task.wide_test, task.test_opp)
+    xyz_test = _core(region, task.core, task.region, k)
     return delta_e_xyz(xyz_ref, xyz_test)
 
 
@@ -486,8 +485,11 @@ def _block_tasks(reference_rgb, test_rgb, mm_per_px: float, distance_m: float, b
         raise ValueError(f"images differ in shape: {ref.shape} and {test.shape}")
     plan = _Plan(ref.shape[:2], mm_per_px, distance_m, block_pixels)
     ref_digest = digest(np.ascontiguousarray(ref))
-    wide_ref, wide_test = _reference_wide_maps(ref, plan, ref_digest), _wide_maps(test, plan)
     blocks = list(plan.blocks())
+    # One block of the whole picture: the test picture converted once, for its wide maps and its block.
+    whole = len(blocks) == 1 and blocks[0][1] == (0, plan.shape[0], 0, plan.shape[1])
+    test_opp = _srgb_to_opp(test) if whole else None
+    wide_ref, wide_test = _reference_wide_maps(ref, plan, ref_digest), _wide_maps(test, plan, test_opp)
 
     def tasks():
         for core, region in blocks:
@@ -501,6 +503,7 @@ def _block_tasks(reference_rgb, test_rgb, mm_per_px: float, distance_m: float, b
                 wide_ref,
                 wide_test,
                 ref_digest,
+                test_opp,
             )
 
     return plan, tasks(), len(blocks)
