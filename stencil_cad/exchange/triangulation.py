@@ -18,6 +18,17 @@ log = logging.getLogger(__name__)
 #: Rounds of midpoint insertion to recover ring edges missing from the triangulation.
 MAX_RECOVERY_ROUNDS = 12
 
+#: Qhull's options: SciPy's defaults for a 2-D Delaunay triangulation ("Qt" is always added)
+#: and "Q5", which skips the computation of each facet's outer plane (``qh_check_maxout``),
+#: run after the triangulation is complete. It bounds how far input points lie above the
+#: facets, for Qhull's own precision report and point location (``find_simplex``); this module
+#: uses neither, and every ring edge and region is checked afterwards anyway. The simplices
+#: are the same, in the same order (so the same files): the 16 triangulations of the bundled
+#: example's plates took 1.73 -> 1.40 CPU-s (``time.process_time`` around ``Delaunay``, median
+#: of three), and random, duplicated, grid and cocircular point sets gave identical
+#: ``simplices``, ``neighbors`` and ``coplanar`` with and without it.
+QHULL_OPTIONS = "Qbb Qc Qz Q12 Q5"
+
 
 class MeshError(RuntimeError):
     """The mesher could not produce a closed, consistently wound mesh."""
@@ -140,7 +151,7 @@ def _conforming_delaunay(points, ring_id, left, right, extra):
     for rounds in range(MAX_RECOVERY_ROUNDS + 1):
         allp = np.concatenate([points, extra]) if len(extra) else points
         nv = len(allp)
-        tri = Delaunay(allp).simplices.astype(np.int64)
+        tri = Delaunay(allp, qhull_options=QHULL_OPTIONS).simplices.astype(np.int64)
         a, b, c = allp[tri[:, 0]], allp[tri[:, 1]], allp[tri[:, 2]]
         cross = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
         flip = cross < 0
