@@ -23,8 +23,10 @@ holes 13 s, 2,000 holes 278 s here), and so is ``BRepCheck_Shell`` (100 s at
 
 from __future__ import annotations
 
+import functools
 import logging
 import time
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -96,11 +98,13 @@ def store_plane_pcurves(shape) -> None:
         fexp.Next()
 
 
-def _face_terms(face) -> tuple[int, int, float | None, bool]:
-    """One face's share of :func:`topology_checks`: ``(is cylinder, wires, flux term, flux ok)``.
+@functools.cache
+def _occ():
+    """The OCCT names :func:`_face_terms` uses, imported once.
 
-    The flux term is ``z n_z area`` of a horizontal plane (None for other faces); flux ok is
-    False for a face neither horizontal nor vertical.
+    An import statement in a function runs on every call: seven of them per face cost
+    ``topology_checks`` on the example's eight plates (25,095 faces) a tenth of its time:
+    0.82 -> 0.73 CPU-s (``time.process_time``, median of three).
     """
     from OCP.BRepAdaptor import BRepAdaptor_Surface
     from OCP.BRepGProp import BRepGProp
@@ -110,14 +114,34 @@ def _face_terms(face) -> tuple[int, int, float | None, bool]:
     from OCP.TopExp import TopExp
     from OCP.TopTools import TopTools_IndexedMapOfShape
 
-    surf = BRepAdaptor_Surface(face, False)
+    return SimpleNamespace(
+        surface=BRepAdaptor_Surface,
+        surface_properties=BRepGProp.SurfaceProperties_s,
+        cylinder=GeomAbs_Cylinder,
+        plane=GeomAbs_Plane,
+        props=GProp_GProps,
+        reversed=TopAbs_REVERSED,
+        wire=TopAbs_WIRE,
+        map_shapes=TopExp.MapShapes_s,
+        shape_map=TopTools_IndexedMapOfShape,
+    )
+
+
+def _face_terms(face) -> tuple[int, int, float | None, bool]:
+    """One face's share of :func:`topology_checks`: ``(is cylinder, wires, flux term, flux ok)``.
+
+    The flux term is ``z n_z area`` of a horizontal plane (None for other faces); flux ok is
+    False for a face neither horizontal nor vertical.
+    """
+    occ = _occ()
+    surf = occ.surface(face, False)
     kind = surf.GetType()
-    if kind == GeomAbs_Cylinder:
+    if kind == occ.cylinder:
         return 1, 0, None, not abs(abs(surf.Cylinder().Axis().Direction().Z()) - 1.0) > 1e-12
-    if kind != GeomAbs_Plane:
+    if kind != occ.plane:
         return 0, 0, None, False
-    wm = TopTools_IndexedMapOfShape()
-    TopExp.MapShapes_s(face, TopAbs_WIRE, wm)
+    wm = occ.shape_map()
+    occ.map_shapes(face, occ.wire, wm)
     pos = surf.Plane().Position()
     nz = pos.Direction().Z() * (1.0 if pos.Direct() else -1.0)
     if abs(abs(nz) - 1.0) <= 1e-12:
@@ -126,9 +150,9 @@ def _face_terms(face) -> tuple[int, int, float | None, bool]:
             # area of a face with every hole is the slow part: topology_checks on the example's
             # eight plates took 1.27 CPU-s, 0.88 without the bottoms' areas (time.process_time).
             return 0, wm.Extent(), 0.0, True
-        props = GProp_GProps()
-        BRepGProp.SurfaceProperties_s(face, props)
-        sign = -1.0 if face.Orientation() == TopAbs_REVERSED else 1.0
+        props = occ.props()
+        occ.surface_properties(face, props)
+        sign = -1.0 if face.Orientation() == occ.reversed else 1.0
         return 0, wm.Extent(), sign * np.sign(nz) * pos.Location().Z() * props.Mass(), True
     return 0, wm.Extent(), None, not abs(nz) > 1e-12
 
