@@ -18,7 +18,7 @@ holes 13 s, 2,000 holes 278 s here), and so is ``BRepCheck_Shell`` (100 s at
 3. The full ``BRepCheck_Analyzer`` on the whole plate up to
    ``full_check_max_holes`` holes, and above that on tiles: plates built by the
    same code from windows of the same description (a dense window of holes,
-   the picture corner, the label).
+   the picture corner, the label; :mod:`.fullcheck`).
 """
 
 from __future__ import annotations
@@ -32,6 +32,7 @@ import numpy as np
 
 from ..exchange.mesh import mesh_checks
 from ..model import Holes, PlateGeometry
+from .fullcheck import TILE_HOLES, brep_valid, check_tiles, store_plane_pcurves
 from .plate import PlateModel
 
 log = logging.getLogger(__name__)
@@ -42,60 +43,9 @@ __all__ = ["PlateCheckError", "brep_valid", "check_plate", "store_plane_pcurves"
 BREP_RTOL = 1e-6
 MESH_RTOL = 1e-3
 
-#: Holes per tile in the tile check.
-TILE_HOLES = 80
-
 
 class PlateCheckError(RuntimeError):
     """A built plate failed a check; the message lists every failed check."""
-
-
-def brep_valid(shape, plane_pcurves: bool = False) -> bool:
-    """OCCT's full B-rep check (quadratic in the holes of one face: small shapes only).
-
-    Args:
-        shape: The OCCT shape.
-        plane_pcurves: First store on every planar face the curves of its edges in the face's
-            parameters (:func:`store_plane_pcurves`; this changes the shape): the same check,
-            2-3 times faster on a face with many holes.
-    """
-    from OCP.BRepCheck import BRepCheck_Analyzer
-
-    if plane_pcurves:
-        store_plane_pcurves(shape)
-    return bool(BRepCheck_Analyzer(shape).IsValid())
-
-
-def store_plane_pcurves(shape) -> None:
-    """Store on each planar face of ``shape`` its edges' curves in the face's (u, v) parameters.
-
-    A plate's planar faces carry no such curves: OCCT projects an edge onto a plane whenever it
-    asks for the curve (``BRep_Tool::CurveOnSurface``), and ``BRepCheck_Face`` asks again for every
-    pair of wires of a face when it classifies them, so most of a perforated face's check is
-    that projection. ``BRepLib::BuildPCurveForEdgeOnPlane`` stores the very curve that call
-    computes, with the edge's tolerance unchanged, so the check sees the same geometry and
-    comes to the same verdict (``tests/cad/test_plate.py``), only sooner. Measured on the
-    example's plates (OCP 7.9, ``time.process_time`` around ``BRepCheck_Analyzer(s).IsValid()``,
-    two runs): a tile of 299 holes 1.06 -> 0.28-0.36 CPU-s, the whole plate of 274 holes and a
-    label 1.6-2.2 -> 0.57-0.76 CPU-s, a label's tile 0.23-0.28 -> 0.19-0.22 CPU-s; the build
-    stage of ``stencil-cad build`` on the example's saved dots 16.1 -> 13.2 CPU-s.
-    """
-    from OCP.BRepAdaptor import BRepAdaptor_Surface
-    from OCP.BRepLib import BRepLib
-    from OCP.GeomAbs import GeomAbs_Plane
-    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
-    from OCP.TopExp import TopExp_Explorer
-    from OCP.TopoDS import TopoDS
-
-    fexp = TopExp_Explorer(shape, TopAbs_FACE)
-    while fexp.More():
-        face = TopoDS.Face_s(fexp.Current())
-        if BRepAdaptor_Surface(face, False).GetType() == GeomAbs_Plane:
-            eexp = TopExp_Explorer(face, TopAbs_EDGE)
-            while eexp.More():
-                BRepLib.BuildPCurveForEdgeOnPlane_s(TopoDS.Edge_s(eexp.Current()), face)
-                eexp.Next()
-        fexp.Next()
 
 
 @functools.cache
@@ -283,55 +233,6 @@ def _curved_area(shape) -> float:
     return total
 
 
-def _tiles(geom: PlateGeometry, n_holes: int) -> list[tuple[str, PlateGeometry]]:
-    """Small plates cut from windows of a big plate's description, built by the same code."""
-    from dataclasses import replace
-
-    out = []
-    xy = np.asarray(geom.circles_xy).reshape(-1, 2)
-    r = np.asarray(geom.circles_r).reshape(-1)
-
-    def window(name: str, cx: float, cy: float, half: float) -> None:
-        x0, y0, x1, y1 = cx - half, cy - half, cx + half, cy + half
-        inside = (xy[:, 0] - r > x0) & (xy[:, 0] + r < x1) & (xy[:, 1] - r > y0) & (xy[:, 1] + r < y1)
-        polys = tuple(
-            p
-            for p in geom.polygons
-            if p[:, 0].min() > x0 and p[:, 0].max() < x1 and p[:, 1].min() > y0 and p[:, 1].max() < y1
-        )
-        ring = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
-        out.append(
-            (
-                name,
-                replace(
-                    geom, outline=ring, circles_xy=xy[inside], circles_r=r[inside], polygons=polys, glyphs=()
-                ),
-            )
-        )
-
-    if len(r):
-        # A window holding about n_holes holes at the densest place, and one at the first hole.
-        area = geom.width_mm * geom.height_mm
-        half = 0.5 * np.sqrt(area * n_holes / max(len(r), 1))
-        i = int(np.argmax(r))
-        window("largest-hole", float(xy[i, 0]), float(xy[i, 1]), half)
-        window("first-hole", float(xy[0, 0]), float(xy[0, 1]), half)
-        window("centre", 0.5 * geom.width_mm, 0.5 * geom.height_mm, half)
-    elif geom.polygons:
-        c = geom.polygons[0].mean(axis=0)
-        window("first-polygon", c[0], c[1], max(geom.width_mm, geom.height_mm) * 0.2)
-    if geom.glyphs and geom.label_box is not None:
-        x0, y0, x1, y1 = geom.label_box
-        ring = np.array([[x0 - 1, y0 - 1], [x1 + 1, y0 - 1], [x1 + 1, y1 + 1], [x0 - 1, y1 + 1]])
-        out.append(
-            (
-                "label",
-                replace(geom, outline=ring, circles_xy=np.zeros((0, 2)), circles_r=np.zeros(0), polygons=()),
-            )
-        )
-    return out
-
-
 def _topology_fails(topo: dict) -> list[str]:
     """One solid with one closed, consistently oriented shell."""
     fails = []
@@ -391,19 +292,6 @@ def _hole_fails(geom: PlateGeometry | None, topo: dict, dots: Holes | None) -> l
             if not same:
                 fails.append("the plate's holes are not the given dots")
     return fails
-
-
-def _check_tiles(geom: PlateGeometry, tile_holes: int) -> tuple[list[dict], list[str]]:
-    """OCCT's full check on tiles of the same construction: ``(per-tile figures, failures)``."""
-    from .solid import make_solid
-
-    tiles_info, fails = [], []
-    for name, tg in _tiles(geom, tile_holes):
-        ok = brep_valid(make_solid(tg), plane_pcurves=True)
-        tiles_info.append({"tile": name, "holes": tg.hole_count, "valid": ok})
-        if not ok:
-            fails.append(f"BRepCheck_Analyzer: tile {name!r} ({tg.hole_count} holes) is not valid")
-    return tiles_info, fails
 
 
 def _allowed_mesh_error(shape, geom: PlateGeometry | None, tolerance_mm: float, mref: float) -> float:
@@ -484,7 +372,7 @@ def _full_check(shape, geom, n: int, full_check_max_holes: int, tile_holes: int,
             fails.append("BRepCheck_Analyzer: the B-rep is not valid")
         tiles_info: list[dict] = []
     else:
-        tiles_info, tile_fails = _check_tiles(geom, tile_holes)
+        tiles_info, tile_fails = check_tiles(geom, tile_holes)
         fails += tile_fails
         valid = all(t["valid"] for t in tiles_info) and not fails
         method = (
