@@ -1,7 +1,7 @@
 """Stippling: one layer's opacity into round holes, under the printable design rules.
 
-:mod:`.relax` places the holes (weighted centroidal Voronoi relaxation) and
-:mod:`.rules` enforces and checks the hole floor, web, margin and keep-outs.
+:mod:`.relax` places the holes (weighted centroidal Voronoi relaxation from :mod:`.sampling`'s
+start points) and :mod:`.rules` enforces and checks the hole floor, web, margin and keep-outs.
 """
 
 from .made import drawn_dots, drawn_radii, made_dots
@@ -15,7 +15,6 @@ from .relax import (
     cvt_energy,
     cvt_optimum,
     e_norm,
-    importance_sample,
     lloyd,
     refine_factor,
     stipple_layer,
@@ -32,6 +31,7 @@ from .rules import (
     min_web,
     rule_violations,
 )
+from .sampling import importance_sample, start_sample, stratified_sample
 
 __all__ = [
     "drawn_dots",
@@ -53,6 +53,8 @@ __all__ = [
     "e_norm",
     "enforce_rules",
     "importance_sample",
+    "start_sample",
+    "stratified_sample",
     "lloyd",
     "min_web",
     "refine_factor",

@@ -1,7 +1,8 @@
 """Weighted centroidal Voronoi stippling of one layer's opacity into holes.
 
 Method (Secord 2002, "Weighted Voronoi Stippling"): draw the start points by
-importance sampling of the target point density, then run Lloyd relaxation on
+importance sampling of the target point density (stratified along a Hilbert curve:
+:mod:`.sampling`), then run Lloyd relaxation on
 the pixel grid — assign every pixel to its nearest seed, move every seed to
 the weighted centroid of its pixels — until the mean move is below
 ``tolerance_px`` or ``max_iterations`` is reached.
@@ -41,6 +42,7 @@ from ..frames import mm_to_px, pixel_centres_mm, px_to_mm
 from ..model import DotSet
 from .relax_kernels import _accumulate, _nearest_seed
 from .rules import DesignRules, _keepout_clearance, enforce_rules
+from .sampling import start_sample
 
 #: Lloyd's start: ``start(lam, n, rng, mm_per_px)`` gives ``n`` seeds (px, row and col) on ``lam``'s grid.
 StartSeeds = Callable[[np.ndarray, int, np.random.Generator, float], np.ndarray]
@@ -128,29 +130,6 @@ def e_norm(w: np.ndarray, seeds: np.ndarray) -> float:
     if len(seeds) == 0:
         return math.nan
     return cvt_energy(w, seeds) / cvt_optimum(w, len(seeds))
-
-
-def importance_sample(lam: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
-    """Draw ``n`` points with probability proportional to ``lam`` (not dithering).
-
-    Args:
-        lam: ``(H, W)`` non-negative point density.
-        n: Number of points.
-        rng: Random generator.
-
-    Returns:
-        ``(n, 2)`` positions in px (row, col), uniformly jittered inside the
-        chosen pixels.
-    """
-    flat = np.cumsum(lam, axis=None, dtype=np.float64)
-    total = flat[-1]
-    if n <= 0 or total <= 0:
-        return np.empty((0, 2))
-    idx = np.searchsorted(flat, rng.random(n) * total, side="right")
-    idx = np.minimum(idx, flat.size - 1)
-    rows, cols = np.divmod(idx, lam.shape[1])
-    jitter = rng.random((n, 2)) - 0.5
-    return np.column_stack([rows, cols]).astype(np.float64) + jitter
 
 
 def lloyd(
@@ -519,11 +498,12 @@ def _start_seeds(
 ) -> np.ndarray:
     """Lloyd's start on ``lam``'s grid: ``n_dots`` free seeds, then the fixed holes.
 
-    The free seeds are an importance sample of ``lam``, or ``start``'s (for instance another wall's
-    holes of the layer thinned or topped up: :class:`stencil_cad.stipple.warm.WarmStart`).
+    The free seeds are a sample of ``lam`` (stratified along a Hilbert curve where there are
+    enough of them: :func:`stencil_cad.stipple.sampling.start_sample`), or ``start``'s (for instance another
+    wall's holes of the layer thinned or topped up: :class:`stencil_cad.stipple.warm.WarmStart`).
     """
     h = lam.shape[0]
-    seeds = importance_sample(lam, n_dots, rng) if start is None else start(lam, n_dots, rng, mm_per_px)
+    seeds = start_sample(lam, n_dots, rng) if start is None else start(lam, n_dots, rng, mm_per_px)
     if len(fixed_xy_mm):
         seeds = np.concatenate([seeds, mm_to_px(fixed_xy_mm, h, mm_per_px)])
     return seeds

@@ -25,31 +25,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..frames import mm_to_px
-from .relax import importance_sample, voronoi_pass
+from .relax import voronoi_pass
+from .sampling import hilbert_order, importance_sample
 
-#: Side of the Hilbert curve's grid the holes are ordered on (a power of two).
-HILBERT_SIDE = 1024
-
-
-def hilbert_order(points: np.ndarray, side: int = HILBERT_SIDE) -> np.ndarray:
-    """The indices of ``points`` ``(N, 2)`` in order along a Hilbert curve over their bounding box."""
-    p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-    if len(p) == 0:
-        return np.zeros(0, dtype=np.int64)
-    lo, span = p.min(axis=0), np.ptp(p, axis=0)
-    q = np.clip(((p - lo) / np.maximum(span, 1e-12) * (side - 1)).astype(np.int64), 0, side - 1)
-    y, x = q[:, 0], q[:, 1]
-    d = np.zeros(len(p), dtype=np.int64)
-    s = side // 2
-    while s > 0:
-        rx, ry = (x & s) > 0, (y & s) > 0
-        d += s * s * ((3 * rx.astype(np.int64)) ^ ry.astype(np.int64))
-        turn = ~ry
-        flip = turn & rx
-        x, y = np.where(flip, s - 1 - x, x), np.where(flip, s - 1 - y, y)
-        x, y = np.where(turn, y, x), np.where(turn, x, y)
-        s //= 2
-    return np.argsort(d, kind="stable")
+__all__ = ["WarmStart", "hilbert_order", "warm_seeds"]
 
 
 def warm_seeds(old: np.ndarray, lam: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:

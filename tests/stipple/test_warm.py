@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from stencil_cad.stipple.relax import cvt_energy, importance_sample, lloyd
+from stencil_cad.stipple.relax import cvt_energy, lloyd
+from stencil_cad.stipple.sampling import importance_sample
 from stencil_cad.stipple.warm import hilbert_order, warm_seeds
 
 
