@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..config.spray import SprayConfig, SprayModel
+from ..config.spray import CanConstants, SprayConfig, SprayModel
 from . import paper, physical
 
 if TYPE_CHECKING:
@@ -125,6 +125,10 @@ class Sprayer:
 
     def depth(self, cfg: SprayConfig, amount: float) -> float:
         """The optical depth ``amount`` gives :meth:`unit_dose`'s field, where :attr:`dose_is_linear`."""
+        raise NotImplementedError(f"{type(self).__name__}: the dose is not linear in the amount")
+
+    def unit_dose_settings(self, cfg: SprayConfig) -> SprayConfig:
+        """``cfg`` less what only scales :meth:`depth`, where :attr:`dose_is_linear`: what a unit dose is kept by."""
         raise NotImplementedError(f"{type(self).__name__}: the dose is not linear in the amount")
 
     def full_coat(self, cfg: SprayConfig, amount: float) -> float:
@@ -305,6 +309,16 @@ class PhysicalSprayer(Sprayer):
         if not amount > 0.0:
             raise ValueError(f"passes must be > 0, got {amount}")
         return amount * physical.dose_per_pass(cfg)
+
+    def unit_dose_settings(self, cfg) -> SprayConfig:
+        """``cfg`` with a can of its spread and bleed alone (:meth:`Sprayer.unit_dose_settings`).
+
+        The unit dose and the holes' blur read only these of the can; its deposit, distance and speed
+        scale the depth. The paints of the bundled example differ only in their deposit, so their layers
+        share one set of tone-response patches per stand-off and hole size.
+        """
+        can = CanConstants(spread_k=cfg.can.spread_k, bleed_sigma_mm=cfg.can.bleed_sigma_mm)
+        return cfg.model_copy(update={"can": can})
 
     def full_coat(self, cfg, amount) -> float:
         """``1 - exp(-passes * dose_per_pass)``."""

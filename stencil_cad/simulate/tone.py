@@ -190,9 +190,14 @@ def _patch_layouts(
 
 @functools.lru_cache(maxsize=16)
 def _dose_patches(
-    radius_mm: float, max_radius_mm: float, web_mm: float, spacing_factor: float, cfg_key: str, geometry
+    radius_mm: float, max_radius_mm: float, web_mm: float, spacing_factor: float, dose_key: str, geometry
 ) -> tuple[tuple[int, np.ndarray], ...]:
     """Each tone sample's patch as unit-depth dose, shared by every amount compared (a dose-linear model).
+
+    ``dose_key`` is :func:`_model_key` of the model's :meth:`~.models.Sprayer.unit_dose_settings`, so
+    layers whose cans differ only in what scales the depth share the patches: on the bundled example
+    the plate-design trials measure 5 sets of patches, not 13 (its three paints differ only in their
+    deposit), the same patches.
 
     Under the physical model the dose field does not depend on the passes (nor does a patch's layout:
     the physical hole kernel's width does not), so the calibration's 20-30 candidate doses map one
@@ -200,7 +205,7 @@ def _dose_patches(
     the stand-off trials' tone calibration went from about a third of the job's CPU time to a few
     per cent, with the same curves to the last digit.
     """
-    cfg = SprayConfig.model_validate_json(cfg_key)
+    cfg = SprayConfig.model_validate_json(dose_key)
     model = sprayer(cfg)
     return tuple(
         (k, model.unit_dose(xy, r, (n_px, n_px), px, cfg, geometry))
@@ -228,7 +233,8 @@ def _response(
         from .physical import opacity_of_dose
 
         depth = model.depth(cfg, spray_time)
-        for k, dose in _dose_patches(radius_mm, max_radius_mm, web_mm, spacing_factor, cfg_key, geometry):
+        dose_key = _model_key(model.unit_dose_settings(cfg))
+        for k, dose in _dose_patches(radius_mm, max_radius_mm, web_mm, spacing_factor, dose_key, geometry):
             opacity = opacity_of_dose(dose, depth)
             mean[k] = float(opacity.mean())
             var[k] = float(opacity.var())
