@@ -51,6 +51,7 @@ from ..config.spray import Calibrate, SprayConfig
 from .models import sprayer
 from .opacity import spray_opacity
 from .spray import hole_kernels
+from .tone_order import OrderedOpacities
 
 if TYPE_CHECKING:
     from ..config.job import JobConfig
@@ -127,13 +128,16 @@ class ToneCurve:
         m = self.mean + 1e-9 * np.arange(self.mean.size)
         return np.interp(np.asarray(alpha, dtype=np.float64), m, self.t, left=0.0, right=1.0)
 
+    def errors(self, alpha: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Each pixel's predicted squared error of spraying tone ``t`` for target ``alpha``: bias^2 + texture variance."""
+        return (self.opacity(t) - np.asarray(alpha, dtype=np.float64)) ** 2 + self.variance(t)
+
     def predicted_mse(self, alpha: np.ndarray, t: np.ndarray, weight: np.ndarray | None = None) -> float:
         """Predicted layer MSE of spraying tone ``t`` for target ``alpha``: bias^2 + texture variance.
 
         With ``weight`` (shaped like ``alpha``) the weighted mean.
         """
-        alpha = np.asarray(alpha, dtype=np.float64)
-        err = (self.opacity(t) - alpha) ** 2 + self.variance(t)
+        err = self.errors(alpha, t)
         if weight is None:
             return float(np.mean(err))
         total = float(np.sum(weight))
@@ -194,10 +198,8 @@ def _dose_patches(
 ) -> tuple[tuple[int, np.ndarray], ...]:
     """Each tone sample's patch as unit-depth dose, shared by every amount compared (a dose-linear model).
 
-    ``dose_key`` is :func:`_model_key` of the model's :meth:`~.models.Sprayer.unit_dose_settings`, so
-    layers whose cans differ only in what scales the depth share the patches: on the bundled example
-    the plate-design trials measure 5 sets of patches, not 13 (its three paints differ only in their
-    deposit), the same patches.
+    Kept by ``dose_key`` (:meth:`~.models.Sprayer.unit_dose_settings`), so cans differing only in deposit share them:
+    the bundled example's ``stencil-cad run`` measures 5 sets of patches, not 13.
 
     Under the physical model the dose field does not depend on the passes (nor does a patch's layout:
     the physical hole kernel's width does not), so the calibration's 20-30 candidate doses map one
@@ -487,7 +489,7 @@ def choose_tone(
     mode = Calibrate(cfg.calibrate if mode is None else mode)
     a = np.clip(np.nan_to_num(np.asarray(alpha, dtype=np.float64)), 0.0, 1.0)
     flat, w = _sampled(a, weight)
-    allowed = flat >= opacity_threshold
+    ordered = OrderedOpacities.of(flat, w, opacity_threshold)
     r1 = radius_mm if max_radius_mm is None else float(max_radius_mm)
     curve = functools.partial(
         tone_response,
@@ -499,22 +501,20 @@ def choose_tone(
         geometry=geometry,
     )
 
-    def mse(c: ToneCurve, t: np.ndarray, weighted: bool = False) -> float:
-        return c.predicted_mse(flat, np.where(allowed, t, 0.0), w if weighted else None)
-
     def score(amount: float) -> float:
         c = curve(spray_time=amount)
-        return mse(c, c.inverse(flat), weighted=True) + _windows_mse(windows, weight, cfg, amount)
+        mse = ordered.mse(c, c.inverse(ordered.alpha), weighted=True)
+        return mse + _windows_mse(windows, weight, cfg, amount)
 
     base = curve(spray_time=cfg.amount)
-    linear_mse = mse(base, flat)
+    linear_mse = ordered.mse(base, ordered.alpha)
     chosen: ToneCurve | None = None
     if mode == Calibrate.none:
         best_a, best_curve, best_mse, density = cfg.amount, base, linear_mse, a
     else:
         best_a = _unimodal_least(_spray_time_candidates(mode, cfg), score)
         chosen = best_curve = curve(spray_time=best_a)
-        best_mse = mse(best_curve, best_curve.inverse(flat))
+        best_mse = ordered.mse(best_curve, best_curve.inverse(ordered.alpha))
         density = best_curve.inverse(a)
     t_eff = np.where(a >= opacity_threshold, density, 0.0)
     n_dots = _expected_dots(t_eff, radius_mm, r1, web_mm, spacing_factor, mm_per_px)
