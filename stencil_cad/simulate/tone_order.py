@@ -8,14 +8,17 @@ cheap and leaves every score the same bits.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from .tone import ToneCurve
-
 __all__ = ["OrderedOpacities"]
+
+
+class _Curve(Protocol):
+    """What a score reads of a :class:`~.tone.ToneCurve` (this module sits below it)."""
+
+    def errors(self, alpha: np.ndarray, t: np.ndarray) -> np.ndarray: ...
 
 
 @dataclass(frozen=True)
@@ -56,7 +59,7 @@ class OrderedOpacities:
         total = 0.0 if w is None else float(np.sum(w))
         return cls(alpha, alpha >= opacity_threshold, None if w is None else w[order], back, total)
 
-    def mse(self, c: ToneCurve, t: np.ndarray, weighted: bool = False) -> float:
+    def mse(self, c: _Curve, t: np.ndarray, weighted: bool = False) -> float:
         """:meth:`~.tone.ToneCurve.predicted_mse` of tones ``t`` (in :attr:`alpha`'s order, 0 where not allowed)."""
         err = c.errors(self.alpha, np.where(self.allowed, t, 0.0))
         if not weighted or self.weight is None:
