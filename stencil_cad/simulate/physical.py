@@ -232,11 +232,15 @@ def _raster_open_area(img, cy, cx, rad, weight, per_radius):  # pragma: no cover
         rr1 = int(math.ceil(cy[i] + R + 0.5))
         cc0 = int(math.floor(cx[i] - R - 0.5))
         cc1 = int(math.ceil(cx[i] + R + 0.5))
-        # A disc may be clipped by the raster edge: scale by the full disc's sub-sample count.
+        # A disc may be clipped by the raster edge: scale by the full disc's sub-sample count. Each
+        # pixel's count is kept for the spread below rather than counted again (the same counts).
+        counts = np.empty((rr1 - rr0 + 1, cc1 - cc0 + 1), dtype=np.int64)
         full = 0
         for r in range(rr0, rr1 + 1):
             for c in range(cc0, cc1 + 1):
-                full += _covered(r, c, cy[i], cx[i], R, ss)
+                n = _covered(r, c, cy[i], cx[i], R, ss)
+                counts[r - rr0, c - cc0] = n
+                full += n
         if full == 0:
             # A disc smaller than the sub-sample spacing: all of it in its centre pixel.
             rc = int(math.floor(cy[i] + 0.5))
@@ -247,7 +251,7 @@ def _raster_open_area(img, cy, cx, rad, weight, per_radius):  # pragma: no cover
         scale = weight[i] * math.pi * R * R / full
         for r in range(max(0, rr0), min(h - 1, rr1) + 1):
             for c in range(max(0, cc0), min(w - 1, cc1) + 1):
-                n = _covered(r, c, cy[i], cx[i], R, ss)
+                n = counts[r - rr0, c - cc0]
                 if n:
                     img[r, c] += scale * n
 
