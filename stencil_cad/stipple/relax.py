@@ -351,7 +351,7 @@ def stipple_layer(
         n_dots: Dot count replacing ``cfg.dots`` and the automatic count.
         progress: Called as ``progress(iteration, max_iterations)``.
         keepouts: Extra keep-out rectangles ``(x0, y0, x1, y1)`` in picture mm.
-        start: Lloyd's start seeds (see :func:`place_holes`), or None for an importance sample.
+        start: Lloyd's start seeds (see :func:`place_holes`), or None for a sample of the density.
 
     Returns:
         The dots in picture mm. ``report`` holds ``n_initial``, ``n_final``,
@@ -446,8 +446,8 @@ def place_holes(
         origin_mm: Where ``alpha``'s bottom-left corner lies in the rules' frame (a region:
             the margins hold at the picture's edges, not at the region's).
         start: Lloyd's start seeds, called as ``start(lam, n, rng, mm_per_px)`` on the grid it
-            relaxes on (:class:`stencil_cad.stipple.warm.WarmStart`), or None for an importance
-            sample of ``lam``.
+            relaxes on (:class:`stencil_cad.stipple.warm.WarmStart`), or None for a sample of
+            ``lam`` (:func:`_start_seeds`).
 
     Returns:
         ``(xy_mm, r_mm, report)``: the new holes (in ``alpha``'s frame) whose cells hold weight

@@ -74,12 +74,13 @@ def hilbert_order(points: np.ndarray, side: int = HILBERT_SIDE) -> np.ndarray:
     return np.argsort(_hilbert_index(q[:, 0], q[:, 1], side), kind="stable")
 
 
-@lru_cache(maxsize=8)
+@lru_cache(maxsize=2)
 def pixel_order(h: int, w: int) -> np.ndarray:
     """The flat indices of an ``h`` x ``w`` grid's pixels along a Hilbert curve over its blocks.
 
-    The curve visits blocks of :data:`BLOCK_PX` pixels a side; within a block, row by row. Kept for
-    the grids last asked for (a job's plates share one or two), read-only.
+    The curve visits blocks of :data:`BLOCK_PX` pixels a side; within a block, row by row. Kept,
+    read-only, for the two grids last asked for (a job's plates relax on one or two): 4 bytes a
+    pixel, 64 MB for the largest Lloyd grid (:data:`stencil_cad.stipple.relax.MAX_GRID_PX`).
     """
     bh, bw = -(-h // BLOCK_PX), -(-w // BLOCK_PX)
     side = 1 << max(int(np.ceil(np.log2(max(bh, bw, 1)))), 0)
@@ -89,7 +90,7 @@ def pixel_order(h: int, w: int) -> np.ndarray:
     rows = (by[blocks] * BLOCK_PX)[:, None] + dr[None, :]
     cols = (bx[blocks] * BLOCK_PX)[:, None] + dc[None, :]
     inside = (rows < h) & (cols < w)
-    order = (rows * w + cols)[inside]
+    order = (rows * w + cols)[inside].astype(np.int32 if h * w < 2**31 else np.int64)
     order.setflags(write=False)
     return order
 
