@@ -12,6 +12,7 @@ import numpy as np
 
 from ..geometry import as_ccw, as_cw, rings_cross
 from .solid import PlateBuildError
+from .text import text_faces
 
 
 @dataclass(frozen=True)
@@ -131,21 +132,17 @@ def _bundled_font() -> str | None:
 
 def _text_glyphs(text: str, size: float, font: str, tol: float) -> list:
     """Glyph polygons of a text line, baseline at y = 0, starting at x = 0."""
-    from build123d import Align, FontStyle, Text
-
-    # The default font ships with the package, so labels do not depend on the system's fonts.
+    # The default font ships with the package, so labels do not depend on the system's fonts;
+    # it goes through OCCT's font classes directly (:mod:`.text`), the same faces as build123d's.
     font_path = _bundled_font() if font == DEFAULT_FONT else None
-    sketch = Text(
-        text,
-        font_size=size,
-        font=font,
-        font_path=font_path,
-        font_style=FontStyle.BOLD,
-        align=(Align.MIN, Align.MIN),
+    faces = (
+        text_faces(text, size, font, font_path)
+        if font_path is not None
+        else _build123d_faces(text, size, font)
     )
     glyphs = []
-    for f in sketch.faces():
-        outer, inner = _face_rings(f.wrapped, tol)
+    for f in faces:
+        outer, inner = _face_rings(f, tol)
         if outer is not None:
             glyphs.append((outer, inner))
     # The kernel lists a text's faces in an order that differs between processes (the dot and
@@ -153,6 +150,14 @@ def _text_glyphs(text: str, size: float, font: str, tol: float) -> list:
     # in every process and on every worker.
     glyphs.sort(key=lambda g: (*np.round(g[0].min(axis=0), 6), *np.round(g[0].max(axis=0), 6)))
     return glyphs
+
+
+def _build123d_faces(text: str, size: float, font: str) -> list:
+    """The faces of ``text`` in a system font, by build123d's ``Text`` (which knows its single-stroke fonts)."""
+    from build123d import Align, FontStyle, Text
+
+    sketch = Text(text, font_size=size, font=font, font_style=FontStyle.BOLD, align=(Align.MIN, Align.MIN))
+    return [f.wrapped for f in sketch.faces()]
 
 
 def _label_candidates(label: LabelInfo) -> list[str]:

@@ -2,19 +2,21 @@
 
 :class:`StencilPlate` wraps :func:`stencil_cad.cad.build_plate` as a ``BasePartObject``, so a
 plate can be placed in a ``BuildPart`` context or used in algebra mode next to the
-:class:`~stencil_cad.cad.wall.Wall`; the pipeline itself works on the
-:class:`~stencil_cad.cad.plate.PlateModel`, which also carries what the fast exporters need.
+:class:`Wall`; the pipeline itself works on the :class:`~stencil_cad.cad.plate.PlateModel` and
+the :class:`~stencil_cad.cad.wall.WallModel`, which carry what the fast exporters need and
+make no build123d object unless asked.
 """
 
 from __future__ import annotations
 
 import build123d as bd
 
-from ..config.cad import PlateConfig
+from ..config.cad import PlateConfig, WallConfig
+from ..config.outline import OutlineConfig
 from ..model import PlateGeometry
 from .plate import LabelInfo, PlateBuildError, PlateModel
 from .template import build_plate
-from .wall import Wall
+from .wall import WallRings, wall_solid
 
 __all__ = ["StencilPlate", "Wall"]
 
@@ -82,3 +84,47 @@ class StencilPlate(bd.BasePartObject):
     def thickness_mm(self) -> float:
         """Plate thickness in mm."""
         return float(self.geometry.thickness_mm)
+
+
+class Wall(bd.BasePartObject):
+    """The interlocking wall as a build123d part (usable in BuildPart or algebra mode).
+
+    The solid is :func:`stencil_cad.cad.wall.wall_solid`'s, the one a job builds.
+
+    Args:
+        width_mm: Picture width in mm.
+        height_mm: Picture height in mm.
+        outline: The plate's outline config (margin, key).
+        wall: Wall config (clearance, thickness, opening, pocket depth).
+        plate_thickness_mm: The plate's thickness in mm.
+        standoff_mm: Height in mm of the plate's underside above the surface.
+        rotation: Rotation applied after building. Defaults to none.
+        align: Alignment; None (default) keeps the picture frame, which registration needs.
+        mode: Builder combine mode. Defaults to ADD.
+
+    Raises:
+        ValueError: If the sizes do not make a wall (naming the value and its limit).
+    """
+
+    _applies_to = [bd.BuildPart._tag]
+
+    def __init__(
+        self,
+        width_mm: float,
+        height_mm: float,
+        outline: OutlineConfig,
+        wall: WallConfig,
+        plate_thickness_mm: float,
+        standoff_mm: float,
+        rotation: bd.RotationLike = (0, 0, 0),
+        align: bd.Align | tuple[bd.Align, bd.Align, bd.Align] | None = None,
+        mode: bd.Mode = bd.Mode.ADD,
+    ):
+        made = wall_solid(width_mm, height_mm, outline, wall, plate_thickness_mm, standoff_mm)
+        self.rings: WallRings = made.rings
+        self.standoff_mm = made.standoff_mm
+        self.pocket_depth_mm = made.pocket_depth_mm
+        self.total_height_mm = made.total_height_mm
+        self.slot_volume_mm3 = made.slot_volume_mm3
+        self.analytic_volume_mm3 = made.analytic_volume_mm3
+        super().__init__(part=bd.Part(made.shape), rotation=rotation, align=align, mode=mode)

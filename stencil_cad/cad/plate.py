@@ -26,7 +26,7 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -59,23 +59,58 @@ __all__ = [
 # ----------------------------------------------------------------------------- model
 
 
-@dataclass
+@dataclass(init=False)
 class PlateModel:
     """A built plate: the solid plus what the exporters and checks need.
 
+    Made from a build123d shape (``part``) or an OCCT one (``shape``); the build123d ``Part``
+    is made only when :attr:`part` is first asked for (a template editing the solid), so a job
+    whose template returns :func:`perforated_plate`'s model never imports build123d.
+
     Attributes:
-        part: The plate as a build123d ``Part`` (its ``.wrapped`` is the OCCT solid).
         geometry: The plate's kernel-free description (fast STEP and mesh), or
             None when a template returned its own shape.
         label: What the label says, or None.
         info: Figures for the manifest (timings, label text and size).
     """
 
-    part: Part
     geometry: PlateGeometry | None
-    label: LabelInfo | None = None
-    info: dict = field(default_factory=dict)
-    _meshes: dict = field(default_factory=dict, repr=False)
+    label: LabelInfo | None
+    info: dict
+    _shape: Any = field(repr=False)
+    _part: Any = field(repr=False)
+    _meshes: dict = field(repr=False)
+
+    def __init__(
+        self,
+        part: object = None,
+        geometry: PlateGeometry | None = None,
+        label: LabelInfo | None = None,
+        info: dict | None = None,
+        *,
+        shape: object = None,
+    ):
+        if (part is None) == (shape is None):
+            raise TypeError("a PlateModel needs a build123d part or an OCCT shape, one of them")
+        self.geometry, self.label = geometry, label
+        self.info = {} if info is None else info
+        self._part = part
+        self._shape = None if shape is None else _compound(_unwrap(shape))
+        self._meshes = {}
+
+    @property
+    def part(self) -> Part:
+        """The plate as a build123d ``Part`` (its ``.wrapped`` is :attr:`shape`), made on first use."""
+        if self._part is None:
+            from build123d import Part
+
+            self._part = Part(self._shape)
+        return self._part
+
+    @property
+    def shape(self):
+        """The plate's OCCT shape: the solid in a compound (the part's, once a part is made)."""
+        return self._part.wrapped if self._part is not None else self._shape
 
     @property
     def analytic_volume(self) -> float | None:
@@ -110,7 +145,7 @@ class PlateModel:
             else:
                 from .writers import occt_mesh
 
-                self._meshes[key] = occt_mesh(self.part, tolerance_mm)
+                self._meshes[key] = occt_mesh(self.shape, tolerance_mm)
             self.info.setdefault("mesh_seconds", {})[str(key)] = round(time.perf_counter() - t0, 3)
         return self._meshes[key]
 
@@ -167,7 +202,7 @@ class PlateModel:
             extra_holes=geom.extra_holes + len(r),
         )
         info = {**self.info, "extra_holes": new.extra_holes}
-        return PlateModel(part=as_part(make_solid(new)), geometry=new, label=self.label, info=info)
+        return PlateModel(shape=make_solid(new), geometry=new, label=self.label, info=info)
 
     def with_part(self, shape: object) -> PlateModel:
         """This model with its solid replaced by an edited one.
@@ -181,9 +216,9 @@ class PlateModel:
             kernel-free description, exported through OCCT's writers.
         """
         wrapped = _unwrap(shape)
-        if wrapped.IsSame(self.part.wrapped):
+        if wrapped.IsSame(self.shape):
             return self
-        return PlateModel(part=as_part(wrapped), geometry=None, label=self.label, info=dict(self.info))
+        return PlateModel(shape=wrapped, geometry=None, label=self.label, info=dict(self.info))
 
 
 def _point_in_ring(x: float, y: float, ring: np.ndarray) -> bool:
@@ -200,18 +235,23 @@ def as_part(shape: object) -> Part:
     ``Part(TopoDS_Solid)`` reports a volume of 0 in build123d 0.12: a Part is a compound.
     """
     from build123d import Part
+
+    return Part(_compound(_unwrap(shape)))
+
+
+def _compound(wrapped):
+    """``wrapped`` if it is a compound, else a compound holding it."""
     from OCP.BRep import BRep_Builder
     from OCP.TopAbs import TopAbs_COMPOUND
     from OCP.TopoDS import TopoDS_Compound
 
-    wrapped = _unwrap(shape)
-    if wrapped.ShapeType() != TopAbs_COMPOUND:
-        comp = TopoDS_Compound()
-        builder = BRep_Builder()
-        builder.MakeCompound(comp)
-        builder.Add(comp, wrapped)
-        wrapped = comp
-    return Part(wrapped)
+    if wrapped.ShapeType() == TopAbs_COMPOUND:
+        return wrapped
+    comp = TopoDS_Compound()
+    builder = BRep_Builder()
+    builder.MakeCompound(comp)
+    builder.Add(comp, wrapped)
+    return comp
 
 
 def _unwrap(shape):
@@ -375,4 +415,4 @@ def perforated_plate(
         "label": linfo,
         "seconds": {"label": round(t1 - t0, 3), "solid": round(t2 - t1, 3)},
     }
-    return PlateModel(part=as_part(solid), geometry=geom, label=label, info=info)
+    return PlateModel(shape=solid, geometry=geom, label=label, info=info)

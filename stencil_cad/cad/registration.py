@@ -10,7 +10,6 @@ from __future__ import annotations
 import logging
 from dataclasses import replace
 
-import build123d as bd
 import numpy as np
 
 from ..geometry import point_ring_distance as _point_ring_distance
@@ -49,7 +48,12 @@ def notch_wall(
     top = float(model.outer_ring[:, 1].max())
     cutters = []
     removed = 0.0
-    for _, tri in notch_triangles(model.outer_ring, lines, depth_mm):
+    triangles = notch_triangles(model.outer_ring, lines, depth_mm)
+    if not triangles:
+        return model, 0
+    import build123d as bd  # a mural's walls only: a job's walls need no build123d
+
+    for _, tri in triangles:
         apex = tri[1:2]
         if _inside(apex, model.pocket_ring)[0] or _point_ring_distance(apex, model.pocket_ring)[0] < 0.5:
             log.info("wall %s: no sight notch at %s (the rim is too thin there)", model.name, tri[1])
@@ -74,4 +78,4 @@ def notch_wall(
     part = model.part
     for c in cutters:
         part = part - c
-    return replace(model, part=part, volume_mm3=model.volume_mm3 - removed), len(cutters)
+    return replace(model, shape=part.wrapped, volume_mm3=model.volume_mm3 - removed), len(cutters)

@@ -157,14 +157,14 @@ def _first_solid(shape):
 
 
 def check_simple_solid(
-    part, volume_mm3: float, bbox: tuple[float, ...], name: str, error: type[Exception], rel_tol: float
+    shape, volume_mm3: float, bbox: tuple[float, ...], name: str, error: type[Exception], rel_tol: float
 ) -> dict:
     """Check a part of few faces (a wall, a post) against its analytic oracle: one valid solid, volume, box.
 
     The full ``BRepCheck_Analyzer`` is cheap on a few dozen faces.
 
     Args:
-        part: The build123d part.
+        shape: The OCCT shape (or a build123d shape: anything with ``.wrapped``).
         volume_mm3: Its analytic volume in mm³.
         bbox: Its expected bounding box ``(xmin, ymin, zmin, xmax, ymax, zmax)`` in mm.
         name: The part as the message names it (``wall A1``, ``post``).
@@ -177,13 +177,14 @@ def check_simple_solid(
     Raises:
         error: Naming the failed check.
     """
-    solids = part.solids()
-    volume = sum(s.volume for s in solids)
+    from . import occt
+
+    shape = getattr(shape, "wrapped", shape)
+    solids = occt.solids(shape)
+    volume = sum(occt.volume(s) for s in solids)
     rel = abs(volume - volume_mm3) / volume_mm3
-    bb = part.bounding_box()
-    got = (bb.min.X, bb.min.Y, bb.min.Z, bb.max.X, bb.max.Y, bb.max.Z)
-    is_valid = part.is_valid
-    is_valid = bool(is_valid() if callable(is_valid) else is_valid)
+    got = occt.bounding_box(shape)
+    is_valid = occt.is_valid(shape)
     if len(solids) != 1 or not is_valid:
         raise error(f"{name}: {len(solids)} solids, valid={is_valid}")
     if rel > rel_tol:

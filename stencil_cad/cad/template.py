@@ -24,7 +24,7 @@ from .. import outline as outline_mod
 from ..config.cad import PlateConfig
 from ..model import Holes, PlateGeometry
 from ..stipple.rules import DesignRules
-from .plate import LabelInfo, PlateBuildError, PlateModel, _unwrap, as_part, check_holes
+from .plate import LabelInfo, PlateBuildError, PlateModel, _unwrap, check_holes
 
 log = logging.getLogger(__name__)
 
@@ -196,7 +196,7 @@ def run_template(
         ) from exc
     if not hasattr(wrapped, "ShapeType"):
         raise PlateBuildError(f"template {path} build() returned {type(result).__name__}, not a shape")
-    return PlateModel(part=as_part(wrapped), geometry=None, label=label, info={"template": str(path)})
+    return PlateModel(shape=wrapped, geometry=None, label=label, info={"template": str(path)})
 
 
 def check_template(path: str | Path, overrides: dict, strict: set) -> dict:

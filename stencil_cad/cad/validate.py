@@ -430,7 +430,7 @@ def check_plate(
         tolerance_mm = 0.02
     if full_check_max_holes is None:
         full_check_max_holes = int(model.info.get("full_check_max_holes", 300))
-    shape = model.part.wrapped
+    shape = model.shape
     geom: PlateGeometry | None = model.geometry
     n_big = geom is not None and geom.hole_count > full_check_max_holes
     fails: list[str] = []

@@ -20,17 +20,19 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
+from typing import Any
 
-import build123d as bd
 import numpy as np
 
 from ..config.cad import WallConfig
 from ..config.outline import OutlineConfig
 from ..outline import Segment, check_key, fits, min_clearance, outline_path, path_area, path_ring
+from . import occt
 from .solid import check_simple_solid
 
-__all__ = ["Wall", "WallModel", "build_wall", "wall_step", "wall_stl"]
+__all__ = ["WallModel", "WallSolid", "build_wall", "wall_solid", "wall_step", "wall_stl"]
 
 log = logging.getLogger(__name__)
 
@@ -77,116 +79,39 @@ def wall_rings(
     return WallRings(outer=outer, pocket=pocket, opening=opening)
 
 
-def _wire(path: list[Segment], z: float) -> bd.Wire:
+def _wire(path: list[Segment], z: float):
     edges = []
     for s in path:
-        p0, p1 = bd.Vector(*s.start, z), bd.Vector(*s.end, z)
-        if s.is_arc:
-            edges.append(bd.Edge.make_three_point_arc(p0, bd.Vector(*s.midpoint(), z), p1))
-        else:
-            edges.append(bd.Edge.make_line(p0, p1))
-    return bd.Wire(edges)
+        p0, p1 = (*s.start, z), (*s.end, z)
+        edges.append(occt.arc_edge(p0, (*s.midpoint(), z), p1) if s.is_arc else occt.line_edge(p0, p1))
+    return occt.wire(edges)
 
 
-def _prism(path: list[Segment], z0: float, z1: float) -> bd.Solid:
-    # The face's normal may point down (build123d picks it from the wire), so the extrusion
+def _prism(path: list[Segment], z0: float, z1: float):
+    # The face's normal may point down (the face is fixed to the wire's sense), so the extrusion
     # direction is given explicitly and the result's bbox is checked by the caller.
-    return bd.Solid.extrude(bd.Face(_wire(path, z0)), bd.Vector(0, 0, z1 - z0))
+    return occt.prism(occt.planar_face(_wire(path, z0)), z1 - z0)
 
 
-class Wall(bd.BasePartObject):
-    """The interlocking wall as a build123d part (usable in BuildPart or algebra mode).
+@dataclass(frozen=True)
+class WallSolid:
+    """A wall's OCCT solid and the figures it was made from.
 
-    Args:
-        width_mm: Picture width in mm.
-        height_mm: Picture height in mm.
-        outline: The plate's outline config (margin, key).
-        wall: Wall config (clearance, thickness, opening, pocket depth).
-        plate_thickness_mm: The plate's thickness in mm.
-        standoff_mm: Height in mm of the plate's underside above the surface.
-        rotation: Rotation applied after building. Defaults to none.
-        align: Alignment; None (default) keeps the picture frame, which registration needs.
-        mode: Builder combine mode. Defaults to ADD.
-
-    Raises:
-        ValueError: If the sizes do not make a wall (naming the value and its limit).
+    Attributes:
+        rings: The wall's outlines.
+        standoff_mm: Height of the plate's underside above the surface, in mm.
+        pocket_depth_mm: Depth of the plate's pocket, in mm.
+        total_height_mm: The wall's height, in mm.
+        slot_volume_mm3: The finger slot's volume in mm³ (0 without one).
+        shape: A compound of the one solid (the shape a build123d ``Part`` wraps), picture frame.
     """
 
-    _applies_to = [bd.BuildPart._tag]
-
-    def __init__(
-        self,
-        width_mm: float,
-        height_mm: float,
-        outline: OutlineConfig,
-        wall: WallConfig,
-        plate_thickness_mm: float,
-        standoff_mm: float,
-        rotation: bd.RotationLike = (0, 0, 0),
-        align: bd.Align | tuple[bd.Align, bd.Align, bd.Align] | None = None,
-        mode: bd.Mode = bd.Mode.ADD,
-    ):
-        if plate_thickness_mm <= 0:
-            raise ValueError(f"plate thickness must be > 0 mm, got {plate_thickness_mm}")
-        if standoff_mm < 0.5:
-            raise ValueError(f"wall stand-off must be ≥ 0.5 mm, got {standoff_mm}")
-        wall.check_plate(outline, plate_thickness_mm)
-        self.rings = wall_rings(width_mm, height_mm, outline, wall)
-        self.standoff_mm = float(standoff_mm)
-        self.pocket_depth_mm = float(wall.pocket_depth(plate_thickness_mm))
-        self.total_height_mm = self.standoff_mm + self.pocket_depth_mm
-        s, top = self.standoff_mm, self.total_height_mm
-        solid = _prism(self.rings.outer, 0.0, top)
-        # Cutters overshoot the faces they open so no coplanar boolean is left to chance.
-        cut = _prism(self.rings.opening, -1.0, top + 1.0).fuse(_prism(self.rings.pocket, s, top + 1.0))
-        self.slot_volume_mm3 = 0.0
-        slot = self._finger_slot(width_mm, height_mm, outline, wall)
-        if slot is not None:
-            cut = cut.fuse(slot)
-        part = solid.cut(cut).clean()
-        super().__init__(part=part, rotation=rotation, align=align, mode=mode)
-
-    def _finger_slot(
-        self, width_mm: float, height_mm: float, outline: OutlineConfig, wall: WallConfig
-    ) -> bd.Solid | None:
-        """The slot cutter at the middle of the top side, or None; sets its analytic volume."""
-        fw = wall.finger_slot_mm
-        if fw <= 0:
-            return None
-        m, c, t = outline.border_mm, wall.clearance_mm, wall.wall_thickness_mm
-        if fw > 0.5 * width_mm:
-            # On pictures under about 13 mm wide the slot's analytic volume stopped matching the
-            # B-rep (measured); a slot wider than half the picture is no use anyway, so leave it out.
-            log.warning(
-                "wall.finger_slot_mm (%.3g mm) left out: it needs a picture at least twice as wide (%.3g mm)",
-                fw,
-                width_mm,
-            )
-            return None
-        x0, x1 = 0.5 * (width_mm - fw), 0.5 * (width_mm + fw)
-        if x0 < -m + outline.corner_radius_mm:
-            raise ValueError(
-                f"wall.finger_slot_mm ({fw} mm) must leave the rounded corners alone: at most "
-                f"{width_mm + 2 * (m - outline.corner_radius_mm):g} mm for this plate"
-            )
-        for i, k in enumerate(outline.keys):
-            if k.side.value != "top":
-                continue
-            a = k.position * width_mm - 0.5 * k.width_mm - c - t
-            b = k.position * width_mm + 0.5 * k.width_mm + c + t
-            if a < x1 and b > x0:
-                raise ValueError(
-                    f"wall.finger_slot_mm ({fw} mm) meets plate.outline.keys[{i}] on the top side: "
-                    "move the tab, narrow the slot, or set finger_slot_mm to 0"
-                )
-        ledge = m + c - wall.opening_margin_mm
-        under = min(3.0, ledge - 1.0)  # keeps ≥ 1 mm of ledge under the plate at the slot
-        below = min(1.5, 0.5 * self.standoff_mm)
-        y_pocket = height_mm + m + c
-        z0, top = self.standoff_mm - below, self.total_height_mm
-        self.slot_volume_mm3 = fw * (t * (top - z0) + max(under, 0.0) * below)
-        box = bd.Solid.make_box(fw, t + 1.0 + max(under, 0.0), top + 1.0 - z0)
-        return box.moved(bd.Location((x0, y_pocket - max(under, 0.0), z0)))
+    rings: WallRings
+    standoff_mm: float
+    pocket_depth_mm: float
+    total_height_mm: float
+    slot_volume_mm3: float
+    shape: Any
 
     @property
     def analytic_volume_mm3(self) -> float:
@@ -200,12 +125,104 @@ class Wall(bd.BasePartObject):
         )
 
 
+def wall_solid(
+    width_mm: float,
+    height_mm: float,
+    outline: OutlineConfig,
+    wall: WallConfig,
+    plate_thickness_mm: float,
+    standoff_mm: float,
+) -> WallSolid:
+    """The interlocking wall's solid (the kernel of :func:`build_wall` and of the build123d part ``Wall``).
+
+    Args:
+        width_mm: Picture width in mm.
+        height_mm: Picture height in mm.
+        outline: The plate's outline config (margin, key).
+        wall: Wall config (clearance, thickness, opening, pocket depth).
+        plate_thickness_mm: The plate's thickness in mm.
+        standoff_mm: Height in mm of the plate's underside above the surface.
+
+    Raises:
+        ValueError: If the sizes do not make a wall (naming the value and its limit).
+    """
+    if plate_thickness_mm <= 0:
+        raise ValueError(f"plate thickness must be > 0 mm, got {plate_thickness_mm}")
+    if standoff_mm < 0.5:
+        raise ValueError(f"wall stand-off must be ≥ 0.5 mm, got {standoff_mm}")
+    wall.check_plate(outline, plate_thickness_mm)
+    rings = wall_rings(width_mm, height_mm, outline, wall)
+    s = float(standoff_mm)
+    depth = float(wall.pocket_depth(plate_thickness_mm))
+    top = s + depth
+    solid = _prism(rings.outer, 0.0, top)
+    # Cutters overshoot the faces they open so no coplanar boolean is left to chance.
+    cutter = occt.fuse(_prism(rings.opening, -1.0, top + 1.0), _prism(rings.pocket, s, top + 1.0))
+    slot = _finger_slot(width_mm, height_mm, outline, wall, s, top)
+    if slot is not None:
+        cutter = occt.fuse(cutter, slot[0])
+    from OCP.TopAbs import TopAbs_COMPOUND
+
+    part = occt.unify(occt.cut(solid, cutter))
+    shape = part if part.ShapeType() == TopAbs_COMPOUND else occt.compound([part])
+    return WallSolid(rings, s, depth, top, 0.0 if slot is None else slot[1], shape)
+
+
+def _finger_slot(
+    width_mm: float,
+    height_mm: float,
+    outline: OutlineConfig,
+    wall: WallConfig,
+    standoff_mm: float,
+    top: float,
+) -> tuple[Any, float] | None:
+    """The slot cutter at the middle of the top side and its analytic volume, or None."""
+    fw = wall.finger_slot_mm
+    if fw <= 0:
+        return None
+    m, c, t = outline.border_mm, wall.clearance_mm, wall.wall_thickness_mm
+    if fw > 0.5 * width_mm:
+        # On pictures under about 13 mm wide the slot's analytic volume stopped matching the
+        # B-rep (measured); a slot wider than half the picture is no use anyway, so leave it out.
+        log.warning(
+            "wall.finger_slot_mm (%.3g mm) left out: it needs a picture at least twice as wide (%.3g mm)",
+            fw,
+            width_mm,
+        )
+        return None
+    x0, x1 = 0.5 * (width_mm - fw), 0.5 * (width_mm + fw)
+    if x0 < -m + outline.corner_radius_mm:
+        raise ValueError(
+            f"wall.finger_slot_mm ({fw} mm) must leave the rounded corners alone: at most "
+            f"{width_mm + 2 * (m - outline.corner_radius_mm):g} mm for this plate"
+        )
+    for i, k in enumerate(outline.keys):
+        if k.side.value != "top":
+            continue
+        a = k.position * width_mm - 0.5 * k.width_mm - c - t
+        b = k.position * width_mm + 0.5 * k.width_mm + c + t
+        if a < x1 and b > x0:
+            raise ValueError(
+                f"wall.finger_slot_mm ({fw} mm) meets plate.outline.keys[{i}] on the top side: "
+                "move the tab, narrow the slot, or set finger_slot_mm to 0"
+            )
+    ledge = m + c - wall.opening_margin_mm
+    under = min(3.0, ledge - 1.0)  # keeps ≥ 1 mm of ledge under the plate at the slot
+    below = min(1.5, 0.5 * standoff_mm)
+    y_pocket = height_mm + m + c
+    z0 = standoff_mm - below
+    volume = fw * (t * (top - z0) + max(under, 0.0) * below)
+    cutter = occt.box(fw, t + 1.0 + max(under, 0.0), top + 1.0 - z0)
+    return occt.moved(cutter, (x0, y_pocket - max(under, 0.0), z0)), volume
+
+
 @dataclass(frozen=True)
 class WallModel:
     """A built wall and the figures that check it.
 
     Attributes:
-        part: The build123d part (one solid), picture frame, z = 0 on the surface.
+        shape: The OCCT shape (one solid, in a compound when unnotched), picture frame, z = 0
+            on the surface.
         volume_mm3: Analytic volume in mm³ from the exact outline areas.
         standoff_mm: Height of the plate's underside above the surface, in mm.
         height_mm: Total height of the wall, in mm.
@@ -214,9 +231,10 @@ class WallModel:
         outer_ring: ``(M, 2)`` ring of the wall's outside (sampled).
         pocket_ring: ``(M, 2)`` ring of the pocket (sampled).
         ledge_mm: Smallest width in mm of the ledge the plate rests on.
+        rings: The exact outlines the wall is made of.
     """
 
-    part: bd.Part
+    shape: Any
     volume_mm3: float
     standoff_mm: float
     height_mm: float
@@ -225,11 +243,20 @@ class WallModel:
     outer_ring: np.ndarray
     pocket_ring: np.ndarray
     ledge_mm: float
+    rings: WallRings
 
     @property
     def name(self) -> str:
         """A file-name stem, e.g. ``wall_10mm`` or ``wall_7.5mm``."""
         return f"wall_{self.standoff_mm:g}mm"
+
+    @cached_property
+    def part(self):
+        """The wall as a build123d shape (made on first use: a job needs only :attr:`shape`)."""
+        import build123d as bd
+        from OCP.TopAbs import TopAbs_COMPOUND
+
+        return bd.Part(self.shape) if self.shape.ShapeType() == TopAbs_COMPOUND else bd.Solid(self.shape)
 
 
 def build_wall(
@@ -258,7 +285,7 @@ def build_wall(
         ValueError: If the config cannot make a wall, or the key does not stop a wrong placement.
     """
     check_key(width_mm, height_mm, outline_cfg, wall_cfg.clearance_mm)
-    wall = Wall(width_mm, height_mm, outline_cfg, wall_cfg, plate_thickness_mm, standoff_mm)
+    wall = wall_solid(width_mm, height_mm, outline_cfg, wall_cfg, plate_thickness_mm, standoff_mm)
     tol = outline_cfg.chord_tol_mm
     outer = path_ring(wall.rings.outer, tol)
     pocket = path_ring(wall.rings.pocket, tol)
@@ -272,7 +299,7 @@ def build_wall(
     lo, hi = outer.min(axis=0), outer.max(axis=0)
     bbox = (float(lo[0]), float(lo[1]), 0.0, float(hi[0]), float(hi[1]), wall.total_height_mm)
     return WallModel(
-        part=wall,
+        shape=wall.shape,
         volume_mm3=wall.analytic_volume_mm3,
         standoff_mm=wall.standoff_mm,
         height_mm=wall.total_height_mm,
@@ -281,6 +308,7 @@ def build_wall(
         outer_ring=outer,
         pocket_ring=pocket,
         ledge_mm=ledge,
+        rings=wall.rings,
     )
 
 
@@ -292,8 +320,7 @@ def _ledge_width(opening: np.ndarray, pocket: np.ndarray) -> float:
 
 def wall_step(model: WallModel, path: str | Path) -> None:
     """Write the wall as STEP (AP214, mm, exact arcs) to ``path``."""
-    if not bd.export_step(model.part, str(path), timestamp="2000-01-01T00:00:00"):
-        raise OSError(f"STEP export failed: {path}")
+    occt.write_step(model.shape, path, timestamp="2000-01-01T00:00:00")
 
 
 def wall_stl(
@@ -311,8 +338,7 @@ def wall_stl(
         angular_tolerance: Largest angle between neighbouring facets on a curve, in
             radians. Defaults to 0.1.
     """
-    if not bd.export_stl(model.part, str(path), tolerance=tolerance_mm, angular_tolerance=angular_tolerance):
-        raise OSError(f"STL export failed: {path}")
+    occt.write_stl(model.shape, path, tolerance_mm, angular_tolerance)
 
 
 class WallCheckError(RuntimeError):
@@ -335,5 +361,5 @@ def check_wall(model: WallModel, rel_tol: float = 1e-6) -> dict:
         WallCheckError: Naming the failed check.
     """
     return check_simple_solid(
-        model.part, model.volume_mm3, model.bbox, f"wall {model.name}", WallCheckError, rel_tol
+        model.shape, model.volume_mm3, model.bbox, f"wall {model.name}", WallCheckError, rel_tol
     )

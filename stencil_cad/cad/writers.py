@@ -63,7 +63,7 @@ def write_step(model, path: str | os.PathLike) -> None:
 
     writer = STEPControl_Writer()
     Interface_Static.SetCVal_s("write.step.unit", "MM")
-    writer.Transfer(model.part.wrapped, STEPControl_AsIs)
+    writer.Transfer(model.shape, STEPControl_AsIs)
     if writer.Write(str(path)) != IFSelect_RetDone:
         raise OSError(f"OCCT could not write {path}")
 

@@ -6,7 +6,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from stencil_cad.cad.wall import Wall, build_wall, wall_step, wall_stl
+from stencil_cad.cad.parts import Wall
+from stencil_cad.cad.wall import build_wall, wall_step, wall_stl
 from stencil_cad.config import JobConfig
 from stencil_cad.config.cad import WallConfig
 from stencil_cad.config.outline import KeyTab, OutlineConfig, Side
@@ -132,7 +133,7 @@ def test_several_heights_take_the_same_plate():
         assert w.part.volume == pytest.approx(w.volume_mm3, rel=1e-6)
         np.testing.assert_array_equal(w.pocket_ring, walls[0].pocket_ring)
     # Only the base frame grows with the stand-off.
-    frame = path_area(w.part.rings.outer) - W * H
+    frame = path_area(w.rings.outer) - W * H
     assert walls[2].volume_mm3 - walls[0].volume_mm3 == pytest.approx(frame * 10.0, rel=1e-9)
     assert [w.name for w in walls] == ["wall_5mm", "wall_8.5mm", "wall_15mm"]
 
@@ -269,3 +270,53 @@ def test_random_walls(w, h, margin, corner, clearance, thickness, standoff, pos,
     )
     plate = plate_outline(w, h, outline)
     assert fits(plate, m.pocket_ring, clearance, tol_mm=2 * outline.chord_tol_mm)
+
+
+def _build123d_wall(w, h, outline, wall_cfg, thickness, standoff):
+    """The wall as build123d's own operations make it (the construction the wall module mirrors)."""
+    from stencil_cad.cad.wall import wall_rings
+
+    def wire(path, z):
+        edges = []
+        for s in path:
+            p0, p1 = bd.Vector(*s.start, z), bd.Vector(*s.end, z)
+            mid = bd.Vector(*s.midpoint(), z)
+            edges.append(bd.Edge.make_three_point_arc(p0, mid, p1) if s.is_arc else bd.Edge.make_line(p0, p1))
+        return bd.Wire(edges)
+
+    def solid(path, z0, z1):
+        return bd.Solid.extrude(bd.Face(wire(path, z0)), bd.Vector(0, 0, z1 - z0))
+
+    rings = wall_rings(w, h, outline, wall_cfg)
+    s, top = standoff, standoff + wall_cfg.pocket_depth(thickness)
+    cut = solid(rings.opening, -1.0, top + 1.0).fuse(solid(rings.pocket, s, top + 1.0))
+    if wall_cfg.finger_slot_mm > 0:
+        m, c, t, fw = (
+            outline.border_mm,
+            wall_cfg.clearance_mm,
+            wall_cfg.wall_thickness_mm,
+            wall_cfg.finger_slot_mm,
+        )
+        under = min(3.0, m + c - wall_cfg.opening_margin_mm - 1.0)
+        z0 = s - min(1.5, 0.5 * s)
+        box = bd.Solid.make_box(fw, t + 1.0 + max(under, 0.0), top + 1.0 - z0)
+        cut = cut.fuse(box.moved(bd.Location((0.5 * (w - fw), h + m + c - max(under, 0.0), z0))))
+    return bd.Part(bd.Compound([solid(rings.outer, 0.0, top).cut(cut).clean()]).wrapped)
+
+
+@pytest.mark.parametrize("slot", [0.0, None])
+@pytest.mark.parametrize("standoff", [3.0, 10.0])
+def test_wall_files_are_build123ds_to_the_byte(tmp_path, slot, standoff):
+    # The wall is made through OCP alone (a job imports no build123d): the same OCCT calls as
+    # build123d's, so the same STEP and STL bytes as build123d's own construction and writers.
+    wall_cfg = WallConfig() if slot is None else WallConfig(finger_slot_mm=slot)
+    outline = OutlineConfig()
+    m = build_wall(97.3, 61.9, outline, wall_cfg, T, standoff)
+    wall_step(m, tmp_path / "ours.step")
+    wall_stl(m, tmp_path / "ours.stl", tolerance_mm=0.01)
+    part = _build123d_wall(97.3, 61.9, outline, wall_cfg, T, standoff)
+    assert bd.export_step(part, str(tmp_path / "bd.step"), timestamp="2000-01-01T00:00:00")
+    assert bd.export_stl(part, str(tmp_path / "bd.stl"), tolerance=0.01, angular_tolerance=0.1)
+    for ext in ("step", "stl"):
+        assert (tmp_path / f"ours.{ext}").read_bytes() == (tmp_path / f"bd.{ext}").read_bytes(), ext
+    assert m.part.volume == pytest.approx(part.volume, rel=1e-12)

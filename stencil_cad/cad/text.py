@@ -1,0 +1,93 @@
+"""A line of text as OCCT faces, through OCCT's own font classes: the label's letters without build123d.
+
+build123d 0.12's ``Text(txt, size, font, font_path, FontStyle.BOLD, align=(Align.MIN, Align.MIN))``
+registers the font file with OCCT's font manager, has ``StdPrs_BRepTextBuilder`` lay the text out
+centred on the origin with a ``StdPrs_BRepFont`` of the font's bold aspect, and moves the result
+by its optimal bounding box's low corner. :func:`text_faces` makes the same OCCT calls with the
+same arguments in the same order, so the faces, and the label rings sampled from them, are the
+same to the bit (``tests/cad/test_label.py`` holds them to build123d's); a job then needs no
+build123d, whose import cost the example's ``stencil-cad run`` about a second of CPU. Only the
+bundled font goes this way; another font family keeps build123d's route, which also knows its
+single-stroke fonts and its font aliases.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+__all__ = ["text_faces"]
+
+
+def _font_manager():
+    """OCCT's font manager, started as build123d starts it (its font configuration on Linux)."""
+    from OCP.Font import Font_FontMgr
+
+    if sys.platform.startswith("linux"):
+        # build123d sets these before it first asks for the manager, which reads the system's
+        # fonts then; set alike, the manager knows the same fonts whichever asks first.
+        os.environ["FONTCONFIG_FILE"] = "/etc/fonts/fonts.conf"
+        os.environ["FONTCONFIG_PATH"] = "/etc/fonts/"
+    return Font_FontMgr.GetInstance_s()
+
+
+def _bold_font(family: str, path: str):
+    """The font file ``path`` registered as the bold aspect of ``family`` (replacing the system's), and its font."""
+    from OCP.Font import Font_FA_Bold, Font_SystemFont
+    from OCP.TCollection import TCollection_AsciiString
+
+    manager = _font_manager()
+    font = Font_SystemFont(TCollection_AsciiString(family))
+    font.SetFontPath(Font_FA_Bold, TCollection_AsciiString(path), 0)
+    font.SetSingleStrokeFont(False)
+    manager.RegisterFont(font, True)
+    return manager.FindFont(TCollection_AsciiString(family), Font_FA_Bold)
+
+
+def text_faces(text: str, size: float, family: str, path: str) -> list:
+    """The faces of ``text`` set in the bold face of the font file ``path``, its ink's low corner at the origin.
+
+    Args:
+        text: One line of text.
+        size: Font size in mm.
+        family: The font's family name, as the file names it (``"DejaVu Sans"``).
+        path: The font file (a bold face).
+
+    Returns:
+        ``TopoDS_Face`` per glyph part, in the order OCCT's explorer gives them.
+    """
+    from OCP.Bnd import Bnd_Box
+    from OCP.BRepBndLib import BRepBndLib
+    from OCP.BRepTools import BRepTools
+    from OCP.Font import Font_FA_Bold
+    from OCP.gp import gp_Ax3, gp_Trsf, gp_Vec
+    from OCP.Graphic3d import Graphic3d_HTA_CENTER, Graphic3d_VTA_CENTER
+    from OCP.NCollection import NCollection_Utf8String
+    from OCP.StdPrs import StdPrs_BRepFont, StdPrs_BRepTextBuilder
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS
+
+    system_font = _bold_font(family, path)
+    font = StdPrs_BRepFont(
+        NCollection_Utf8String(system_font.FontName().ToCString()), Font_FA_Bold, float(size)
+    )
+    laid = TopoDS.Compound_s(
+        StdPrs_BRepTextBuilder().Perform(
+            font, NCollection_Utf8String(text), gp_Ax3(), Graphic3d_HTA_CENTER, Graphic3d_VTA_CENTER
+        )
+    )
+    box = Bnd_Box()
+    BRepTools.Clean_s(laid)
+    BRepBndLib.AddOptimal_s(laid, box)
+    x0, y0 = box.Get()[:2] if not box.IsVoid() else (0.0, 0.0)
+    shift = gp_Trsf()
+    shift.SetTranslation(gp_Vec(-x0, -y0, 0.0))
+    placed = laid.Moved(TopLoc_Location(shift))
+    faces = []
+    exp = TopExp_Explorer(placed, TopAbs_FACE)
+    while exp.More():
+        faces.append(TopoDS.Face_s(exp.Current()))
+        exp.Next()
+    return faces
