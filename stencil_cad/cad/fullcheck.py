@@ -6,11 +6,16 @@ from windows of its description (dense windows of holes, the label). The label's
 checked in groups of letters (:func:`label_windows`): its faces number about 30 per letter.
 Measured on the example's eight labels (``time.process_time`` around building, storing the
 plane curves and checking the label tiles): the whole label 1.64 CPU-s, in runs of six letters
-1.32 (medians of three); runs of three took 1.33, of twelve 1.39 (one run each).
+1.32 (medians of three); runs of three took 1.33, of twelve 1.39 (one run each). A process checks
+a letter or a pair of letters it found valid before only once (:func:`_label_valid`).
 """
 
 from __future__ import annotations
 
+import hashlib
+import itertools
+import threading
+from collections import OrderedDict
 from dataclasses import replace
 
 import numpy as np
@@ -27,6 +32,10 @@ LABEL_WINDOW_LETTERS = 6
 
 #: Two letters whose bounding boxes, grown by this much (mm), meet are checked together.
 LABEL_PAIR_MARGIN_MM = 0.1
+
+#: Most letters and letter pairs a process remembers as found valid (:func:`_label_valid`): 32 bytes
+#: each, a few hundred per job.
+LABEL_CACHE_KEYS = 8192
 
 
 def brep_valid(shape, plane_pcurves: bool = False) -> bool:
@@ -159,16 +168,105 @@ def label_windows(
     )
 
 
+class _Checked:
+    """Keys of the letters and letter pairs a label tile's check found valid: the newest ``size``, thread-safe."""
+
+    def __init__(self, size: int):
+        self._keys: OrderedDict[bytes, None] = OrderedDict()
+        self._size = size
+        self._lock = threading.Lock()
+
+    def __contains__(self, key: object) -> bool:
+        with self._lock:
+            if key not in self._keys:
+                return False
+            self._keys.move_to_end(key)  # type: ignore[arg-type]
+            return True
+
+    def add(self, keys: list[bytes]) -> None:
+        with self._lock:
+            for key in keys:
+                self._keys[key] = None
+                self._keys.move_to_end(key)
+            while len(self._keys) > self._size:
+                self._keys.popitem(last=False)
+
+
+#: The letters and letter pairs this process has found valid (:func:`_label_valid`).
+_CHECKED = _Checked(LABEL_CACHE_KEYS)
+
+
+def _letter_key(tile: PlateGeometry, glyph) -> bytes:
+    """A digest of everything a letter's own faces are built from: the plate's thickness and relief, its rings' bits."""
+    h = hashlib.sha256(np.array([tile.thickness_mm, tile.relief_mm], dtype=np.float64).tobytes())
+    outer, inner = glyph
+    for ring in (outer, *inner):
+        r = np.ascontiguousarray(ring, dtype=np.float64)
+        h.update(len(r).to_bytes(8, "little"))
+        h.update(r.tobytes())
+    return h.digest()
+
+
+def _label_valid(
+    tile: PlateGeometry, size: int = LABEL_WINDOW_LETTERS, margin_mm: float = LABEL_PAIR_MARGIN_MM
+) -> bool:
+    """OCCT's full check of a label tile in groups of letters, leaving out what this process found valid before.
+
+    The check in groups (:func:`label_windows`) rests on this: what ``BRepCheck_Analyzer`` finds
+    wrong in a label tile is in one letter (its edges, vertices, wires, faces), between two
+    letters whose boxes meet, or between a letter and the tile's outline. A letter's faces are
+    built from its rings, the plate's thickness and its relief alone, by the same code, so a letter
+    whose rings have the same bits as one found valid before, on the same thickness and relief,
+    is the same B-rep and gets the same verdict; so does a pair of such letters. Its relation to
+    the outline, a rectangle, needs no check when its box grown by ``margin_mm`` lies inside the
+    rectangle. So only the letters (in runs of ``size``) and the meeting pairs not found valid
+    before are checked; a changed letter, a letter across the edge, crossing letters are new and
+    checked as before (``tests/cad/test_fullcheck.py``).
+
+    Labels of one job differ in a few characters and the same text lays out to the same bits:
+    of the example's 175 letters on seven label tiles, 74 are new to the process. Its seven label
+    tiles' checks took 1.28 CPU-s in groups, 0.59 so (medians of three, each a fresh process,
+    ``time.process_time`` around the checks of the label tiles ``stencil-cad build`` made).
+    """
+    from .solid import make_solid
+
+    glyphs = tile.glyphs
+    n = len(glyphs)
+    keys = [_letter_key(tile, g) for g in glyphs]
+    pts = [np.concatenate([np.asarray(o), *map(np.asarray, inner)]).reshape(-1, 2) for o, inner in glyphs]
+    lo = np.array([p.min(axis=0) for p in pts]).reshape(-1, 2) - margin_mm
+    hi = np.array([p.max(axis=0) for p in pts]).reshape(-1, 2) + margin_mm
+    ring = np.asarray(tile.outline, dtype=np.float64)
+    olo, ohi = ring.min(axis=0), ring.max(axis=0)
+    rectangle = len(ring) == 4 and all(len(set(ring[:, k].tolist())) == 2 for k in (0, 1))
+    inside = rectangle & (lo > olo).all(axis=1) & (hi < ohi).all(axis=1)
+    todo = [i for i in range(n) if not (inside[i] and keys[i] in _CHECKED)]
+    meet = ((lo[:, None] <= hi[None]) & (lo[None] <= hi[:, None])).all(axis=2)
+    pairs = {(i, j) for i, j in zip(*np.nonzero(np.triu(meet, 1)), strict=True)}
+    pending = {(i, j) for i, j in pairs if _pair_key(keys, i, j) not in _CHECKED}
+    runs = [tuple(todo[s : s + size]) for s in range(0, len(todo), size)]
+    within = {(i, j) for w in runs for i, j in itertools.combinations(w, 2)}
+    for w in runs + sorted(pending - within):
+        if not brep_valid(make_solid(replace(tile, glyphs=tuple(glyphs[i] for i in w))), plane_pcurves=True):
+            return False
+        _CHECKED.add(
+            [keys[i] for i in w]
+            + [_pair_key(keys, i, j) for i, j in itertools.combinations(w, 2) if (i, j) in pairs]
+        )
+    return True
+
+
+def _pair_key(keys: list[bytes], i: int, j: int) -> bytes:
+    return b"".join(sorted((keys[i], keys[j])))
+
+
 def _tile_valid(name: str, tile: PlateGeometry) -> bool:
-    """OCCT's full check of one tile; the label tile's in groups of letters (:func:`label_windows`)."""
+    """OCCT's full check of one tile; the label tile's in groups of letters (:func:`_label_valid`)."""
     from .solid import make_solid
 
     if name != "label":
         return brep_valid(make_solid(tile), plane_pcurves=True)
-    return all(
-        brep_valid(make_solid(replace(tile, glyphs=tuple(tile.glyphs[i] for i in w))), plane_pcurves=True)
-        for w in label_windows(tile.glyphs)
-    )
+    return _label_valid(tile)
 
 
 def check_tiles(geom: PlateGeometry, tile_holes: int = TILE_HOLES) -> tuple[list[dict], list[str]]:

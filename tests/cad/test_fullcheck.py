@@ -95,3 +95,35 @@ def test_label_windows_hold_every_letter_and_every_pair_whose_boxes_meet():
             lo_j, hi_j = glyphs[j][0].min(axis=0) - 0.1, glyphs[j][0].max(axis=0) + 0.1
             if np.all(lo_i <= hi_j) and np.all(lo_j <= hi_i):
                 assert any(i in g and j in g for g in groups), (i, j)
+
+
+def test_letters_found_valid_before_are_not_checked_again(label_tile, monkeypatch):
+    from stencil_cad.cad import fullcheck
+
+    assert _tile_valid("label", label_tile)  # the letters and pairs are now known
+    calls = []
+    real = fullcheck.brep_valid
+    monkeypatch.setattr(fullcheck, "brep_valid", lambda s, **kw: calls.append(1) or real(s, **kw))
+    assert _tile_valid("label", label_tile)
+    assert calls == []
+    # One letter changed: that letter, in a run of its own, and its meeting pairs are checked.
+    k = 3
+    moved = _with_glyph(
+        label_tile,
+        k,
+        label_tile.glyphs[k][0] + [0.0, 1e-3],
+        [i + [0.0, 1e-3] for i in label_tile.glyphs[k][1]],
+    )
+    assert _tile_valid("label", moved)
+    assert 1 <= len(calls) <= 3
+
+
+def test_a_known_letter_across_a_smaller_tiles_edge_fails(label_tile):
+    # The letters' bits are known valid, but the outline now cuts the last letter: its box is not
+    # inside the outline, so it is checked again with the outline, and fails.
+    assert _tile_valid("label", label_tile)
+    outer = label_tile.glyphs[-1][0]
+    cut_at = float(outer[:, 0].mean())
+    ring = label_tile.outline.copy()
+    ring[ring[:, 0] == ring[:, 0].max(), 0] = cut_at
+    assert _both_verdicts(replace(label_tile, outline=ring)) == (False, False)
