@@ -166,7 +166,9 @@ def work(cfg_json: dict[str, Any], making: str, picture: str | None, events: Any
 
     from .. import api, interrupts
     from ..errors import UserError
+    from ..runtime import tune_collector
 
+    tune_collector()
     folder = Path(making)
     try:
         with interrupts.as_interrupts():
