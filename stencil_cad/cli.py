@@ -16,7 +16,7 @@ from .command_table import COMMANDS
 from .command_table import command as command_named
 from .errors import ConfigError, UserError
 from .names import CARD_JSON, CONFIG_COPY, INIT_CONFIG, SPRAY_PROFILE_YAML
-from .runtime import tune_collector
+from .runtime import tune_process
 
 log = logging.getLogger("stencil_cad")
 
@@ -207,8 +207,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
-    # The process runs commands of ours: its collector is tuned for a job's objects (runtime.py).
-    tune_collector()
+    # The process runs commands of ours: its collector and allocator are tuned for a job (runtime.py).
+    tune_process()
     verbose = getattr(args, "verbose", False)
     logging.basicConfig(
         level=logging.DEBUG if verbose else logging.WARNING,

@@ -166,9 +166,9 @@ def work(cfg_json: dict[str, Any], making: str, picture: str | None, events: Any
 
     from .. import api, interrupts
     from ..errors import UserError
-    from ..runtime import tune_collector
+    from ..runtime import tune_process
 
-    tune_collector()
+    tune_process()
     folder = Path(making)
     try:
         with interrupts.as_interrupts():

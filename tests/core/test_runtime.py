@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import gc
+import sys
 
 import pytest
 
-from stencil_cad.runtime import THRESHOLDS, tune_collector
+from stencil_cad.runtime import THRESHOLDS, tune_allocator, tune_collector
 
 
 @pytest.fixture
@@ -39,3 +40,12 @@ def test_the_command_line_tunes_its_process(restored_collector, tmp_path, capsys
     assert main(["run", str(tmp_path / "missing.yaml")]) == 2
     capsys.readouterr()
     assert gc.get_threshold() == THRESHOLDS
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's mallopt")
+def test_tune_allocator_sets_glibc_settings():
+    import platform
+
+    if platform.libc_ver()[0] != "glibc":
+        pytest.skip("not glibc")
+    assert tune_allocator() is True
