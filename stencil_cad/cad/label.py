@@ -12,7 +12,7 @@ import numpy as np
 
 from ..geometry import as_ccw, as_cw, rings_cross
 from .solid import PlateBuildError
-from .text import text_faces
+from .text import FONT_LOCK, text_faces
 
 
 @dataclass(frozen=True)
@@ -156,7 +156,10 @@ def _build123d_faces(text: str, size: float, font: str) -> list:
     """The faces of ``text`` in a system font, by build123d's ``Text`` (which knows its single-stroke fonts)."""
     from build123d import Align, FontStyle, Text
 
-    sketch = Text(text, font_size=size, font=font, font_style=FontStyle.BOLD, align=(Align.MIN, Align.MIN))
+    with FONT_LOCK:  # the same font manager as :func:`.text.text_faces`
+        sketch = Text(
+            text, font_size=size, font=font, font_style=FontStyle.BOLD, align=(Align.MIN, Align.MIN)
+        )
     return [f.wrapped for f in sketch.faces()]
 
 

@@ -17,20 +17,34 @@ from __future__ import annotations
 
 import os
 import sys
+import threading
 
-__all__ = ["text_faces"]
+__all__ = ["FONT_LOCK", "text_faces"]
+
+#: OCCT's font manager is one per process and not thread-safe (its font map, FreeType's library):
+#: a worker with several threads lays out one label at a time.
+FONT_LOCK = threading.Lock()
+_manager = None
 
 
 def _font_manager():
-    """OCCT's font manager, started as build123d starts it (its font configuration on Linux)."""
+    """OCCT's font manager, started as build123d starts it (its font configuration on Linux).
+
+    Called with :data:`FONT_LOCK` held.
+    """
+    global _manager
     from OCP.Font import Font_FontMgr
 
-    if sys.platform.startswith("linux"):
-        # build123d sets these before it first asks for the manager, which reads the system's
-        # fonts then; set alike, the manager knows the same fonts whichever asks first.
-        os.environ["FONTCONFIG_FILE"] = "/etc/fonts/fonts.conf"
-        os.environ["FONTCONFIG_PATH"] = "/etc/fonts/"
-    return Font_FontMgr.GetInstance_s()
+    if _manager is None:
+        if sys.platform.startswith("linux"):
+            # build123d sets these (whatever the user set) before it first asks for the manager,
+            # which reads the system's fonts then; set alike, the manager knows the same fonts
+            # whichever asks first. Only then: the manager reads them once, and setting the
+            # environment while other threads read it is unsafe.
+            os.environ["FONTCONFIG_FILE"] = "/etc/fonts/fonts.conf"
+            os.environ["FONTCONFIG_PATH"] = "/etc/fonts/"
+        _manager = Font_FontMgr.GetInstance_s()
+    return _manager
 
 
 def _bold_font(family: str, path: str):
@@ -71,15 +85,16 @@ def text_faces(text: str, size: float, family: str, path: str) -> list:
     from OCP.TopLoc import TopLoc_Location
     from OCP.TopoDS import TopoDS
 
-    system_font = _bold_font(family, path)
-    font = StdPrs_BRepFont(
-        NCollection_Utf8String(system_font.FontName().ToCString()), Font_FA_Bold, float(size)
-    )
-    laid = TopoDS.Compound_s(
-        StdPrs_BRepTextBuilder().Perform(
-            font, NCollection_Utf8String(text), gp_Ax3(), Graphic3d_HTA_CENTER, Graphic3d_VTA_CENTER
+    with FONT_LOCK:
+        system_font = _bold_font(family, path)
+        font = StdPrs_BRepFont(
+            NCollection_Utf8String(system_font.FontName().ToCString()), Font_FA_Bold, float(size)
         )
-    )
+        laid = TopoDS.Compound_s(
+            StdPrs_BRepTextBuilder().Perform(
+                font, NCollection_Utf8String(text), gp_Ax3(), Graphic3d_HTA_CENTER, Graphic3d_VTA_CENTER
+            )
+        )
     box = Bnd_Box()
     BRepTools.Clean_s(laid)
     BRepBndLib.AddOptimal_s(laid, box)

@@ -1,3 +1,4 @@
+import os
 import subprocess
 import sys
 
@@ -51,3 +52,23 @@ def test_label_glyphs_are_build123ds_text_to_the_bit():
         [sys.executable, "-c", SAME_AS_BUILD123D], capture_output=True, text=True, check=True
     )
     assert out.stdout.strip() == "same"
+
+
+def _bits(glyphs):
+    return [(o.tobytes(), [r.tobytes() for r in i]) for o, i in glyphs]
+
+
+def test_labels_laid_out_in_threads_are_the_same_and_leave_the_environment_alone(monkeypatch):
+    # OCCT's font manager is one per process and not thread-safe: a worker with several threads
+    # lays out one label at a time, and the font configuration is set once, before the manager.
+    from concurrent.futures import ThreadPoolExecutor
+
+    from stencil_cad.cad.label import DEFAULT_FONT, _text_glyphs
+
+    texts = [f"L{k}/8  SPRAY {k}  #1A2B3C" for k in range(1, 9)]
+    alone = [_bits(_text_glyphs(t, 3.0, DEFAULT_FONT, 0.01)) for t in texts]
+    monkeypatch.setenv("FONTCONFIG_FILE", "my-fonts.conf")
+    with ThreadPoolExecutor(4) as pool:
+        threaded = list(pool.map(lambda t: _bits(_text_glyphs(t, 3.0, DEFAULT_FONT, 0.01)), texts))
+    assert threaded == alone
+    assert os.environ["FONTCONFIG_FILE"] == "my-fonts.conf"
