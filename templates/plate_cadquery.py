@@ -3,9 +3,9 @@
 A template is Python code: stencil-cad runs it with your rights (see ``templates/plate.py``).
 
 The same parameters and ``build`` as ``templates/plate.py`` (see its docstring), with the
-solid handed to CadQuery: build123d and CadQuery 2.8 both run on OCP 7.9, so shapes pass
-between them through ``.wrapped``. Point the config at this file (or a copy) with
-``plate.template``.
+solid handed to CadQuery: the plate's OCCT shape (``plate.shape``) goes in as it is, since
+CadQuery 2.8 runs on OCP 7.9 as stencil-cad does (``plate.part`` would import build123d only to
+wrap the same shape). Point the config at this file (or a copy) with ``plate.template``.
 """
 
 import cadquery as cq
@@ -44,7 +44,7 @@ def build(holes, outline, label_area, label):
         label_font=LABEL_FONT,
         label_tolerance_mm=LABEL_TOLERANCE_MM,
     )
-    solid = cq.Workplane("XY").add(cq.Solid(plate.part.wrapped))
+    solid = cq.Workplane("XY").add(cq.Solid(plate.shape))
     # Edit here with CadQuery. A round hole (a 3 mm hanging hole)
     # (top-right corner) is best added to the description, which keeps the fast writers at any
     # hole count:

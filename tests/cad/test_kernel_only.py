@@ -3,6 +3,8 @@
 import subprocess
 import sys
 
+import pytest
+
 SCRIPT = """
 import sys, tempfile
 from pathlib import Path
@@ -36,3 +38,29 @@ def test_a_jobs_plate_and_wall_need_no_build123d():
     # second of CPU; a template that asks for plate.part still gets a build123d Part.
     out = subprocess.run([sys.executable, "-c", SCRIPT], capture_output=True, text=True, check=True)
     assert out.stdout.split("\n")[:2] == ["[]", "Part True"]
+
+
+CADQUERY = """
+import sys
+
+import pytest
+import numpy as np
+from stencil_cad import cad
+from stencil_cad.cad.template import builtin_template
+from stencil_cad.config import JobConfig
+from stencil_cad.model import DotSet
+
+xy = np.stack(np.meshgrid(np.arange(3.0, 40.0, 4.0), np.arange(3.0, 30.0, 4.0)), -1).reshape(-1, 2)
+dots = DotSet(xy_mm=xy, r_mm=np.full(len(xy), 1.0))
+plate = JobConfig().plate.model_copy(update={"thickness_mm": 1.2, "template": builtin_template("plate_cadquery.py")})
+model = cad.build_plate(dots, 44.0, 34.0, plate, cad.LabelInfo(layer=1, layers=2, colour="#102030", job="cq"))
+print(model.geometry is not None, "build123d" in sys.modules)
+"""
+
+
+@pytest.mark.slow
+def test_the_cadquery_template_needs_no_build123d():
+    # It hands CadQuery the plate's OCCT shape (plate.shape), not a build123d Part's.
+    pytest.importorskip("cadquery")
+    out = subprocess.run([sys.executable, "-c", CADQUERY], capture_output=True, text=True, check=True)
+    assert out.stdout.split("\n")[0] == "True False"
