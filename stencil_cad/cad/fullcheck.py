@@ -33,8 +33,8 @@ LABEL_WINDOW_LETTERS = 6
 #: Two letters whose bounding boxes, grown by this much (mm), meet are checked together.
 LABEL_PAIR_MARGIN_MM = 0.1
 
-#: Most letters and letter pairs a process remembers as found valid (:func:`_label_valid`): 32 bytes
-#: each, a few hundred per job.
+#: Most letters and letter pairs a process remembers as found valid (:func:`_label_valid`): a key of
+#: 32 bytes a letter, 64 a pair, a few hundred per job.
 LABEL_CACHE_KEYS = 8192
 
 
@@ -157,15 +157,26 @@ def label_windows(
     n = len(glyphs)
     if n <= size:
         return [tuple(range(n))]
-    pts = [np.concatenate([np.asarray(o), *map(np.asarray, inner)]).reshape(-1, 2) for o, inner in glyphs]
-    lo = np.array([p.min(axis=0) for p in pts]) - margin_mm
-    hi = np.array([p.max(axis=0) for p in pts]) + margin_mm
-    meet = ((lo[:, None] <= hi[None]) & (lo[None] <= hi[:, None])).all(axis=2)
+    lo, hi = _letter_boxes(glyphs, margin_mm)
+    meet = _boxes_meet(lo, hi)
     run = np.arange(n) // size
     i, j = np.nonzero(np.triu(meet & (run[:, None] != run[None, :]), 1))
     return [tuple(range(s, min(s + size, n))) for s in range(0, n, size)] + list(
         zip(i.tolist(), j.tolist(), strict=True)
     )
+
+
+def _letter_boxes(glyphs: tuple, margin_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """Each letter's bounding box grown by ``margin_mm`` (mm): ``(lo, hi)``, each ``(n, 2)``."""
+    pts = [np.concatenate([np.asarray(o), *map(np.asarray, inner)]).reshape(-1, 2) for o, inner in glyphs]
+    lo = np.array([p.min(axis=0) for p in pts]).reshape(-1, 2) - margin_mm
+    hi = np.array([p.max(axis=0) for p in pts]).reshape(-1, 2) + margin_mm
+    return lo, hi
+
+
+def _boxes_meet(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """``(n, n)`` booleans: whether boxes ``i`` and ``j`` meet (touching counts)."""
+    return ((lo[:, None] <= hi[None]) & (lo[None] <= hi[:, None])).all(axis=2)
 
 
 class _Checked:
@@ -233,15 +244,15 @@ def _label_valid(
     glyphs = tile.glyphs
     n = len(glyphs)
     keys = [_letter_key(tile, g) for g in glyphs]
-    pts = [np.concatenate([np.asarray(o), *map(np.asarray, inner)]).reshape(-1, 2) for o, inner in glyphs]
-    lo = np.array([p.min(axis=0) for p in pts]).reshape(-1, 2) - margin_mm
-    hi = np.array([p.max(axis=0) for p in pts]).reshape(-1, 2) + margin_mm
+    lo, hi = _letter_boxes(glyphs, margin_mm)
     ring = np.asarray(tile.outline, dtype=np.float64)
     olo, ohi = ring.min(axis=0), ring.max(axis=0)
-    rectangle = len(ring) == 4 and all(len(set(ring[:, k].tolist())) == 2 for k in (0, 1))
+    # A rectangle: four sides, each along x or along y (four corners in a bow-tie order are not one).
+    sides = np.diff(ring, axis=0, append=ring[:1]) != 0
+    rectangle = len(ring) == 4 and bool((sides.sum(axis=1) == 1).all()) and bool(sides.any(axis=0).all())
     inside = rectangle & (lo > olo).all(axis=1) & (hi < ohi).all(axis=1)
     todo = [i for i in range(n) if not (inside[i] and keys[i] in _CHECKED)]
-    meet = ((lo[:, None] <= hi[None]) & (lo[None] <= hi[:, None])).all(axis=2)
+    meet = _boxes_meet(lo, hi)
     pairs = {(i, j) for i, j in zip(*np.nonzero(np.triu(meet, 1)), strict=True)}
     pending = {(i, j) for i, j in pairs if _pair_key(keys, i, j) not in _CHECKED}
     runs = [tuple(todo[s : s + size]) for s in range(0, len(todo), size)]

@@ -127,3 +127,12 @@ def test_a_known_letter_across_a_smaller_tiles_edge_fails(label_tile):
     ring = label_tile.outline.copy()
     ring[ring[:, 0] == ring[:, 0].max(), 0] = cut_at
     assert _both_verdicts(replace(label_tile, outline=ring)) == (False, False)
+
+
+def test_known_letters_in_a_four_cornered_outline_that_is_no_rectangle_are_checked(label_tile):
+    # The letters' bits are known valid; the outline's corners in a bow-tie order are no
+    # rectangle (its sides cross), so the letters are checked with it again, and fail.
+    assert _tile_valid("label", label_tile)
+    bow_tie = replace(label_tile, outline=label_tile.outline[[0, 2, 1, 3]])
+    assert not brep_valid(make_solid(bow_tie), plane_pcurves=True)
+    assert not _tile_valid("label", bow_tie)
