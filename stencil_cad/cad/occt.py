@@ -24,6 +24,7 @@ __all__ = [
     "compound",
     "cut",
     "fuse",
+    "in_compound",
     "is_valid",
     "line_edge",
     "moved",
@@ -137,6 +138,13 @@ def compound(shapes: Iterable):
     for s in shapes:
         builder.Add(comp, s)
     return comp
+
+
+def in_compound(shape):
+    """``shape`` if it is a compound, else a compound holding it (the shape a build123d ``Part`` wraps)."""
+    from OCP.TopAbs import TopAbs_COMPOUND
+
+    return shape if shape.ShapeType() == TopAbs_COMPOUND else compound([shape])
 
 
 def fuse(a, b):

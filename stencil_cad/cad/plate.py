@@ -37,6 +37,7 @@ from ..geometry import as_ccw, point_ring_distance, points_in_ring, polygon_area
 from ..model import Holes, PlateGeometry, TriMesh
 from ..stipple.rules import DesignRules, DotRuleError, check_rules
 from ..stipple.windows import window_clearance
+from . import occt
 from .label import LabelInfo, label_glyphs, label_text
 from .solid import PlateBuildError, make_solid
 
@@ -95,12 +96,16 @@ class PlateModel:
         self.geometry, self.label = geometry, label
         self.info = {} if info is None else info
         self._part = part
-        self._shape = None if shape is None else _compound(_unwrap(shape))
+        self._shape = None if shape is None else occt.in_compound(_unwrap(shape))
         self._meshes = {}
 
     @property
     def part(self) -> Part:
-        """The plate as a build123d ``Part`` (its ``.wrapped`` is :attr:`shape`), made on first use."""
+        """The plate as a build123d ``Part`` (its ``.wrapped`` is :attr:`shape`), made on first use.
+
+        :attr:`shape` is a compound because ``Part(TopoDS_Solid)`` reports a volume of 0 in
+        build123d 0.12.
+        """
         if self._part is None:
             from build123d import Part
 
@@ -227,31 +232,6 @@ def _point_in_ring(x: float, y: float, ring: np.ndarray) -> bool:
 
 def _ring_distance(x: float, y: float, ring: np.ndarray) -> float:
     return float(point_ring_distance(np.array([[x, y]]), ring)[0])
-
-
-def as_part(shape: object) -> Part:
-    """A build123d ``Part`` around an OCCT shape (a bare solid is put in a compound first).
-
-    ``Part(TopoDS_Solid)`` reports a volume of 0 in build123d 0.12: a Part is a compound.
-    """
-    from build123d import Part
-
-    return Part(_compound(_unwrap(shape)))
-
-
-def _compound(wrapped):
-    """``wrapped`` if it is a compound, else a compound holding it."""
-    from OCP.BRep import BRep_Builder
-    from OCP.TopAbs import TopAbs_COMPOUND
-    from OCP.TopoDS import TopoDS_Compound
-
-    if wrapped.ShapeType() == TopAbs_COMPOUND:
-        return wrapped
-    comp = TopoDS_Compound()
-    builder = BRep_Builder()
-    builder.MakeCompound(comp)
-    builder.Add(comp, wrapped)
-    return comp
 
 
 def _unwrap(shape):

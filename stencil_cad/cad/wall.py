@@ -161,10 +161,7 @@ def wall_solid(
     slot = _finger_slot(width_mm, height_mm, outline, wall, s, top)
     if slot is not None:
         cutter = occt.fuse(cutter, slot[0])
-    from OCP.TopAbs import TopAbs_COMPOUND
-
-    part = occt.unify(occt.cut(solid, cutter))
-    shape = part if part.ShapeType() == TopAbs_COMPOUND else occt.compound([part])
+    shape = occt.in_compound(occt.unify(occt.cut(solid, cutter)))
     return WallSolid(rings, s, depth, top, 0.0 if slot is None else slot[1], shape)
 
 
