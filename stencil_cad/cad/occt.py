@@ -100,7 +100,7 @@ def planar_face(outer):
 
 
 def prism(face, dz: float):
-    """The solid swept by a face along z by ``dz`` (``Solid.extrude``)."""
+    """The solid swept by a face along z by ``dz`` mm (``Solid.extrude``)."""
     from OCP.BRepPrimAPI import BRepPrimAPI_MakePrism
     from OCP.gp import gp_Vec
     from OCP.TopoDS import TopoDS
@@ -109,7 +109,7 @@ def prism(face, dz: float):
 
 
 def box(length: float, width: float, height: float):
-    """A box from the origin along +x, +y, +z (``Solid.make_box`` on the XY plane)."""
+    """A box of the sizes in mm from the origin along +x, +y, +z (``Solid.make_box`` on the XY plane)."""
     from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
     from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt
     from OCP.TopoDS import TopoDS
@@ -119,7 +119,7 @@ def box(length: float, width: float, height: float):
 
 
 def moved(shape, offset: Point):
-    """``shape`` moved by ``offset`` (``moved(Location(offset))``: a location, the geometry kept)."""
+    """``shape`` moved by ``offset`` in mm (``moved(Location(offset))``: a location, the geometry kept)."""
     from OCP.gp import gp_Trsf, gp_Vec
     from OCP.TopLoc import TopLoc_Location
 
@@ -224,7 +224,7 @@ def solids(shape) -> list:
 
 
 def volume(solid) -> float:
-    """A solid's volume (``volume``)."""
+    """A solid's volume in mm³ (``volume``)."""
     from OCP.BRepGProp import BRepGProp
     from OCP.GProp import GProp_GProps
 
@@ -234,7 +234,7 @@ def volume(solid) -> float:
 
 
 def bounding_box(shape) -> tuple[float, float, float, float, float, float]:
-    """``(xmin, ymin, zmin, xmax, ymax, zmax)`` of ``shape`` (``bounding_box()``: optimal, mesh dropped)."""
+    """``(xmin, ymin, zmin, xmax, ymax, zmax)`` of ``shape`` in mm (``bounding_box()``: optimal, mesh dropped)."""
     from OCP.Bnd import Bnd_Box
     from OCP.BRepBndLib import BRepBndLib
     from OCP.BRepTools import BRepTools
@@ -315,6 +315,12 @@ def _xde(shape):
 
 def write_stl(shape, path: str | os.PathLike, tolerance: float, angular_tolerance: float) -> None:
     """Mesh ``shape`` and write it as binary STL (``export_stl``).
+
+    Args:
+        shape: The OCCT shape.
+        path: The file.
+        tolerance: Largest distance in mm between the mesh and the surface.
+        angular_tolerance: Largest angle in radians between neighbouring facets on a curve.
 
     Raises:
         OSError: The folder does not exist, or OCCT could not write the file.
