@@ -85,7 +85,7 @@ def _wall_case(tmp: Path) -> dict:
         "build_seconds": round(build, 3),
         "step_seconds": round(step, 3),
         "stl_seconds": round(stl, 3),
-        "import_build123d_seconds": round(import_seconds, 2),
+        "import_wall_seconds": round(import_seconds, 2),  # the wall module (OCP, no build123d)
         "faces": len(m.part.faces()),
         "solids": len(m.part.solids()),
         "volume_mm3": round(vol, 3),
