@@ -59,6 +59,13 @@ class StandoffFigures:
     #: The refinement steps after which the refined designs were scored (they ranked two walls part
     #: way through their refinement), or None: scored refined in full.
     ranked_after: int | None = None
+    #: Where the second of two walls was not stippled: the steps the first wall's holes (after
+    #: ``ranked_after`` of their own) were refined for it before it was sprayed and scored
+    #: (``refined``'s second score), or None: every refined design was stippled.
+    scouted_after: int | None = None
+    #: The first of two walls' blur floor (S-CIELAB at the viewing distance of its layers blurred
+    #: as its wall blurs a hole, no dots), where the scout of the second looked at it, or None.
+    blur_floor: float | None = None
 
     @property
     def chosen(self) -> PlateTrial | None:
@@ -81,6 +88,8 @@ class StandoffFigures:
             seconds=section.get("seconds", 0.0),
             refined=tuple(PlateTrial.from_json(t) for t in section.get("refined") or ()),
             ranked_after=section.get("ranked_after"),
+            scouted_after=section.get("scouted_after"),
+            blur_floor=section.get("blur_floor"),
         )
 
     def to_json(self) -> dict[str, Any]:
@@ -94,5 +103,7 @@ class StandoffFigures:
             "seconds": self.seconds,
             **({"refined": [t.to_json() for t in self.refined]} if self.refined else {}),
             **({"ranked_after": self.ranked_after} if self.ranked_after is not None else {}),
+            **({"scouted_after": self.scouted_after} if self.scouted_after is not None else {}),
+            **({"blur_floor": self.blur_floor} if self.blur_floor is not None else {}),
             "reason": self.reason,
         }

@@ -29,7 +29,9 @@ their refinement, where the scores already tell them apart: only the winner is r
 (:func:`_ranked_pair`), and the job's refinement of the winner carries on from its trial's 30th step
 (:func:`stencil_cad.plan.holes.refined`): on the bundled example the walls' refinement takes 120
 steps rather than 180, 30 each to rank them and 60 more for the winner, with the same choice and the
-same holes.
+same holes. And the second wall's plates are made only where a scout of it cannot tell that the
+first wins (:mod:`stencil_cad.plan.scout`: the first wall's holes refined a few steps for the
+second): on the example they scored 3.08 against 2.71, and its 8 mm plates are never made.
 """
 
 from __future__ import annotations
@@ -37,6 +39,8 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -45,6 +49,7 @@ from ..config import JobConfig
 from ..config.stipple import Windows
 from ..figures import PlateTrial, StandoffFigures
 from ..model import Layers, Picture
+from ..plan import scout
 from ..plan.plan import Plan, designed, whole, with_design
 from ..plan.profiles import Paints
 from ..plan.results import Designed
@@ -228,16 +233,12 @@ def _trial_score(
     Sprayed on a grid of ``grid_mm_per_px`` (the job's simulation grid by default); with
     ``refined``, refined as the job refines them (stopped after ``stop_after`` of the refinement's
     steps, where given). Each layer sprays as ``paints`` (the job's plan's) resolve for ``cfg``:
-    the sprays of the design tried. ``warm`` carries one wall's unrefined holes to the next: where it
-    holds some, each layer's Lloyd relaxation starts from them (:func:`stencil_cad.plan.holes.stippled`);
-    where it is empty, this trial's are put in it (None: neither).
+    the sprays of the design tried. ``warm`` carries one wall's holes to the next: where it holds
+    some, each layer's Lloyd relaxation starts from its first, the unrefined holes
+    (:func:`stencil_cad.plan.holes.stippled`); where it is empty, this trial's unrefined and refined
+    holes are put in it, the refined ones for :func:`stencil_cad.plan.scout.scouted` (None: neither).
     """
-    from .. import resolution, simulate
     from ..plan import holes
-    from ..plan.picture import source_reference
-    from ..simulate.physical import SprayGeometry
-    from ..simulate.scielab import scielab
-    from ..stipple.made import made_dots
 
     trial_cfg = (
         cfg
@@ -249,20 +250,10 @@ def _trial_score(
     plan = whole(trial_cfg, picture_mm, paints)
     # Stippled, then refined (when the trial's config refines), as the job's stages run them.
     unrefined = holes.stippled(trial, plan, layers, warm[0] if warm else None)[0]
-    if warm is not None and not warm:
-        warm.append(unrefined)
     dotsets = holes.refined(trial, plan, layers, unrefined, picture, stop_after)[0].sets
-    made = [made_dots(d, cfg.stipple, picture_mm) for d in dotsets]
-    sim = simulate.simulate(
-        layers,
-        made,
-        cfg.spray,
-        resolution.sim_mm_per_px(cfg) if grid_mm_per_px is None else grid_mm_per_px,
-        geometry=SprayGeometry.for_job(cfg),
-        layer_sprays=plan.sprays,
-    )
-    ref = source_reference(cfg, picture, layers, sim.composite.shape[:2], sim.mm_per_px)
-    return float(scielab(ref, sim.composite, sim.mm_per_px, cfg.view.distance_m))
+    if warm is not None and not warm:
+        warm += [unrefined, dotsets]
+    return scout.sprayed_score(plan, layers, picture, grid_mm_per_px, dotsets)
 
 
 def stage_standoff(run: Run, plan: Plan, layers: Layers, picture: Picture | None) -> Designed:
@@ -270,10 +261,9 @@ def stage_standoff(run: Run, plan: Plan, layers: Layers, picture: Picture | None
 
     The designs of :func:`candidates` are tried (:func:`_screen`, :func:`_trial_score`, on the coarse
     grid of :func:`trial_mm_per_px`) and the best kept, or with light plates the two walls of
-    :func:`direct_pair` refined outright (ranked part way through: :func:`_ranked_pair`); with one
-    candidate the plan comes back as it is.
-    The run calls it for one-plate jobs only (a mural keeps its config: trials over every tile would
-    cost more than the job).
+    :func:`direct_pair` refined outright (ranked part way through, the second scouted first:
+    :func:`_ranked_pair`); with one candidate the plan comes back as it is. The run calls it for
+    one-plate jobs only (a mural keeps its config: trials over every tile would cost more than the job).
 
     Returns:
         The plan with the design (:func:`stencil_cad.plan.plan.designed`) and figure ``standoff``
@@ -291,7 +281,7 @@ def stage_standoff(run: Run, plan: Plan, layers: Layers, picture: Picture | None
         designs = candidates(cfg, share)
         grid = trial_mm_per_px(cfg)
         direct = direct_pair(cfg, share)
-        # The second wall's Lloyd starts from the first's holes (see WARM_START).
+        # The first wall's holes start the second's Lloyd (WARM_START) and scout it (plan.scout).
         warm: list[Any] | None = [] if direct and WARM_START else None
 
         def score(w: str, g: float, refined: bool, stop_after: int | None = None) -> float:
@@ -317,33 +307,50 @@ def stage_standoff(run: Run, plan: Plan, layers: Layers, picture: Picture | None
             trials = _screen(designs, cfg, share, lambda w, g: score(w, g, False))
         # Light plates: the unrefined screen ranks walls badly, so two walls are refined outright,
         # ranked part way through their refinement where that tells them apart.
-        ranked_after = None
+        ranked = _Ranked([])
         if direct:
-            refined, ranked_after = _ranked_pair(direct, cfg.refine.iterations, score)
+            # The first wall's refined holes scout the second (stencil_cad.plan.scout).
+            scouting = partial(scout.scouted, run, plan, layers, picture, grid, warm)
+            ranked = _ranked_pair(
+                direct, cfg.refine.iterations, score, scouting if warm is not None else None
+            )
+            refined = ranked.trials
         else:
             refined = [PlateTrial(w, g, score(w, g, True)) for w, g in _refined_pair(cfg, trials)]
-        if direct:
-            best = min(refined, key=lambda t: t.scielab)
-        else:
-            # The first best wins a tie: the config's own design is tried first.
-            best = min(trials, key=lambda t: t.scielab) if trials else PlateTrial(*designs[0], float("nan"))
-            if refined:
-                best = next(t for t in trials if t.label == min(refined, key=lambda t: t.scielab).label)
+        best = _best(designs[0], trials, refined, bool(direct))
         chosen = designed(plan, best.windows, best.standoff_mm)
     fig = StandoffFigures(
         window_share=round(share, 3),
         standoff_mm=best.standoff_mm,
         trials=tuple(trials),
-        reason=_reason(designs[0], best, trials, cfg.view.distance_m, refined, ranked_after),
+        reason=_reason(designs[0], best, trials, cfg.view.distance_m, refined, ranked),
         windows=best.windows,
         trial_mm_per_px=round(grid, 4) if trials or direct else None,
         seconds=round(time.perf_counter() - t0, 2),
         refined=tuple(refined),
-        ranked_after=ranked_after,
+        ranked_after=ranked.after,
+        scouted_after=ranked.scouted_after,
+        blur_floor=ranked.floor,
     )
     if trials or direct:
         log.info("plates: %s", fig.reason)
     return Designed(chosen, fig)
+
+
+def _best(
+    own: tuple[str, float], trials: list[PlateTrial], refined: list[PlateTrial], direct: bool
+) -> PlateTrial:
+    """The design kept: the best refined of two walls refined outright, else the screen's best (``own`` without trials).
+
+    The first best wins a tie: the config's own design is tried first. Where the screen's two best
+    of different stand-offs were refined, the better refined one's trial.
+    """
+    if direct:
+        return min(refined, key=lambda t: t.scielab)
+    best = min(trials, key=lambda t: t.scielab) if trials else PlateTrial(*own, float("nan"))
+    if refined:
+        best = next(t for t in trials if t.label == min(refined, key=lambda t: t.scielab).label)
+    return best
 
 
 def _screen(
@@ -423,9 +430,27 @@ def direct_pair(cfg: JobConfig, share: float) -> list[tuple[str, float]]:
     return [(own_w, low), (own_w, near)]
 
 
+@dataclass(frozen=True)
+class _Ranked:
+    """Two walls ranked (:func:`_ranked_pair`): their trials and how they were scored.
+
+    ``after``: the steps they were scored after, or None for all; ``scouted_after``: the scout's
+    steps where it ranked the second wall (its trial the scout's), else None; ``floor``: the first
+    wall's blur floor where the scout looked at it, else None.
+    """
+
+    trials: list[PlateTrial]
+    after: int | None = None
+    scouted_after: int | None = None
+    floor: float | None = None
+
+
 def _ranked_pair(
-    pair: list[tuple[str, float]], steps: int, score: Callable[[str, float, bool, int | None], float]
-) -> tuple[list[PlateTrial], int | None]:
+    pair: list[tuple[str, float]],
+    steps: int,
+    score: Callable[[str, float, bool, int | None], float],
+    scouting: Callable[[PlateTrial, tuple[str, float]], tuple[float, float | None]] | None = None,
+) -> _Ranked:
     """The walls of ``pair`` scored part way through their refinement, or refined in full where that ties them.
 
     Each wall's refinement is stopped after :data:`RANK_AFTER` of its ``steps`` (the whole
@@ -433,16 +458,23 @@ def _ranked_pair(
     scores better than the other by more than :data:`RANK_NOISE`, those scores rank the walls and
     only the winner is refined in full, by the job's refine stage. Otherwise, or where the
     refinement takes no more than :data:`RANK_AFTER` steps, both are refined in full and scored.
-
-    Returns:
-        ``(the trials in the order of pair, the steps they were scored after or None for all)``.
+    With ``scouting`` (:func:`stencil_cad.plan.scout.scouted`: ``(the first wall's blur floor, the
+    scout's score or None)``), the second wall is not stippled where the scout scores worse than
+    the first by more than :data:`stencil_cad.plan.scout.SCOUT_MARGIN`: the first wins, ranked so.
     """
+    floor = None
     if RANK_AFTER < steps:
-        early = [PlateTrial(w, g, score(w, g, True, RANK_AFTER)) for w, g in pair]
+        (w0, g0), second = pair
+        first = PlateTrial(w0, g0, score(w0, g0, True, RANK_AFTER))
+        if scouting is not None:
+            floor, scouted = scouting(first, second)
+            if scouted is not None and scouted > first.scielab * (1.0 + scout.SCOUT_MARGIN):
+                return _Ranked([first, PlateTrial(*second, scouted)], RANK_AFTER, scout.SCOUT_STEPS, floor)
+        early = [first, PlateTrial(*second, score(*second, True, RANK_AFTER))]
         low, high = sorted(t.scielab for t in early)
         if high > low * (1.0 + RANK_NOISE):
-            return early, RANK_AFTER
-    return [PlateTrial(w, g, score(w, g, True, None)) for w, g in pair], None
+            return _Ranked(early, RANK_AFTER, None, floor)
+    return _Ranked([PlateTrial(w, g, score(w, g, True, None)) for w, g in pair], None, None, floor)
 
 
 def _reason(
@@ -451,15 +483,22 @@ def _reason(
     trials: list[PlateTrial],
     distance_m: float,
     refined: list[PlateTrial] | None = None,
-    ranked_after: int | None = None,
+    ranked: _Ranked | None = None,
 ) -> str:
     """Why the design was chosen, in one line."""
     if not trials and refined:
         lost = max(refined, key=lambda t: t.scielab)
-        how = "refined" if ranked_after is None else f"refined for {ranked_after} steps"
+        after = ranked.after if ranked is not None else None
+        how = "refined" if after is None else f"refined for {after} steps"
+        against = f"{lost.label} {lost.scielab:.2f}"
+        if ranked is not None and ranked.scouted_after is not None and ranked.floor:
+            against += (
+                f" (not stippled: the {best.standoff_mm:g} mm holes, {best.scielab / ranked.floor:.2f} times "
+                f"their blur floor, refined {ranked.scouted_after} steps for {lost.standoff_mm:g} mm)"
+            )
         return (
             f"{best.label} (chosen): {how}, it scored {best.scielab:.2f} (S-CIELAB at {distance_m:g} m) "
-            f"against {lost.label} {lost.scielab:.2f}"
+            f"against {against}"
         )
     if not trials:
         return f"{best.label}: the only design left to the job"

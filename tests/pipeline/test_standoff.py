@@ -15,6 +15,7 @@ from stencil_cad.mural import TileGrid
 from stencil_cad.pipeline import standoff
 from stencil_cad.pipeline.recorder import record_standoff
 from stencil_cad.pipeline.standoff import WINDOW_SHARE, candidates, stage_standoff, window_share, with_design
+from stencil_cad.plan import scout
 from stencil_cad.plan.plan import painted, planned, whole
 from stencil_cad.record import Run
 
@@ -157,7 +158,12 @@ def _scripted(monkeypatch, scores: dict[tuple[str, float], float], refined=None)
         table = (refined or scores) if kw.get("refined", refined_trial) else scores
         return table[(cfg.stipple.windows.value, cfg.standoff.design_mm)]
 
+    def scouted(run, plan, layers, picture, grid, held, first, second):
+        # A scout scores as the wall's own trial: within SCOUT_MARGIN of the other's it says nothing.
+        return 0.1, (refined or scores)[second]
+
     monkeypatch.setattr(standoff, "_trial_score", trial)
+    monkeypatch.setattr(scout, "scouted", scouted)
 
 
 def test_a_coarse_step_is_tried_only_where_the_near_one_points(monkeypatch):
@@ -229,12 +235,19 @@ def test_light_plates_rank_two_walls_part_way_through_their_refinement(monkeypat
     # Only the winner's refinement runs in full (the job's refine stage runs it): the pair is scored
     # after RANK_AFTER steps, and refined in full only where those scores are within the noise.
     from stencil_cad.pipeline.standoff import MIN_WINDOW_SHARE, RANK_AFTER, RANK_NOISE
+    from stencil_cad.plan.scout import FLOOR_RATIO, SCOUT_MARGIN, SCOUT_STEPS
 
     pic, layers = _photo_layers()
     monkeypatch.setattr(standoff, "window_share", lambda *a: MIN_WINDOW_SHARE / 2)
 
-    def scripted(early: dict[float, float], full: dict[float, float], **cfg_kw) -> tuple[Any, list]:
-        asked: list[tuple[float, int | None]] = []
+    def scripted(
+        early: dict[float, float],
+        full: dict[float, float],
+        scouts: dict[float, float] | None = None,
+        floor: float = 2.09,
+        **cfg_kw,
+    ) -> tuple[Any, list]:
+        asked: list[tuple[float, int | str | None]] = []
 
         def trial(
             run,
@@ -250,29 +263,81 @@ def test_light_plates_rank_two_walls_part_way_through_their_refinement(monkeypat
         ):
             assert refined
             asked.append((cfg.standoff.design_mm, stop_after))
+            if warm is not None and not warm:
+                warm += ["unrefined", "refined"]
             return (full if stop_after is None else early)[cfg.standoff.design_mm]
 
+        def scout_score(run, cfg, layers, picture_mm, picture, grid, paints, start):
+            assert start == "refined"  # the first wall's holes after its RANK_AFTER steps
+            asked.append((cfg.standoff.design_mm, "scout"))
+            return (scouts or early)[cfg.standoff.design_mm]
+
         monkeypatch.setattr(standoff, "_trial_score", trial)
+        monkeypatch.setattr(scout, "scout_score", scout_score)
+        monkeypatch.setattr(scout, "blur_floor", lambda *a: floor)
         run = Run(cfg=_cfg(**cfg_kw), out=None)  # type: ignore[arg-type]
         cfg = _choose(run, layers, pic)
         return (cfg.standoff.listed_mm, run.figures.standoff), asked
 
-    # The bundled example's scores after 30 steps (2.87 and 3.03) rank the walls: nothing is refined in full.
-    (chosen, fig), asked = scripted({5.0: 2.87, 8.0: 3.03}, {5.0: 2.58, 8.0: 2.74})
-    assert chosen == (5.0,) and asked == [(5.0, RANK_AFTER), (8.0, RANK_AFTER)]
-    assert fig.ranked_after == RANK_AFTER and [t.scielab for t in fig.refined] == [2.87, 3.03]
+    # The bundled example: after 30 steps 2.71 from 5 mm (1.30 times its blur floor, 2.09), and its
+    # holes refined 10 steps for 8 mm scored 3.08 (14 % worse, past SCOUT_MARGIN): 8 mm is not
+    # stippled, and 5 mm wins.
+    (chosen, fig), asked = scripted({5.0: 2.71, 8.0: 2.95}, {5.0: 2.58, 8.0: 2.74}, {8.0: 3.08})
+    assert chosen == (5.0,) and asked == [(5.0, RANK_AFTER), (8.0, "scout")]
+    assert fig.ranked_after == RANK_AFTER and fig.scouted_after == SCOUT_STEPS and fig.blur_floor == 2.09
+    assert [t.scielab for t in fig.refined] == [2.71, 3.08]
+    assert fig.reason.endswith(
+        f"8 mm 3.08 (not stippled: the 5 mm holes, 1.30 times their blur floor, refined {SCOUT_STEPS} steps for 8 mm)"
+    )
     assert StandoffFigures.from_json(fig.to_json()) == fig
-    (chosen, fig), asked = scripted({5.0: 2.46, 8.0: 1.97}, {5.0: 2.05, 8.0: 1.69})  # rocket's
-    assert chosen == (8.0,) and asked == [(5.0, RANK_AFTER), (8.0, RANK_AFTER)]
+    # A scout within the margin says nothing: the second wall is stippled and refined as the first
+    # was, and those scores rank the walls (the example's, were its scout so close).
+    (chosen, fig), asked = scripted({5.0: 2.71, 8.0: 2.95}, {}, {8.0: 2.71 * (1.0 + SCOUT_MARGIN / 2)})
+    assert chosen == (5.0,) and asked == [(5.0, RANK_AFTER), (8.0, "scout"), (8.0, RANK_AFTER)]
+    assert fig.ranked_after == RANK_AFTER and fig.scouted_after is None and "stippled" not in fig.reason
+    assert [t.scielab for t in fig.refined] == [2.71, 2.95] and "scouted_after" not in fig.to_json()
+    # First holes far above their blur floor: the higher wall's blur may pay, and no scout decides
+    # (the example with seed 2: 3.22 from 5 mm, 1.58 times its floor; its scout 3.62 ranked wrongly).
+    (chosen, fig), asked = scripted(
+        {5.0: 3.22, 8.0: 2.92}, {}, {8.0: 3.62}, floor=3.22 / (FLOOR_RATIO * 1.01)
+    )
+    assert chosen == (8.0,) and asked == [(5.0, RANK_AFTER), (8.0, RANK_AFTER)] and fig.scouted_after is None
+    (chosen, fig), asked = scripted({5.0: 2.34, 8.0: 1.93}, {}, {8.0: 1.83})  # rocket's, were its floor low
+    assert chosen == (8.0,) and asked == [(5.0, RANK_AFTER), (8.0, "scout"), (8.0, RANK_AFTER)]
     # Within the noise the part-way scores say nothing: both walls are refined in full, and those rank.
     close = {5.0: 3.0, 8.0: 3.0 * (1.0 + RANK_NOISE / 2)}
-    (chosen, fig), asked = scripted(close, {5.0: 2.7, 8.0: 2.6})
-    assert chosen == (8.0,) and asked == [(5.0, RANK_AFTER), (8.0, RANK_AFTER), (5.0, None), (8.0, None)]
+    (chosen, fig), asked = scripted(close, {5.0: 2.7, 8.0: 2.6}, floor=3.0)
+    assert chosen == (8.0,) and asked == [
+        (5.0, RANK_AFTER),
+        (8.0, "scout"),
+        (8.0, RANK_AFTER),
+        (5.0, None),
+        (8.0, None),
+    ]
     assert fig.ranked_after is None and [t.scielab for t in fig.refined] == [2.7, 2.6]
     assert "windows, 8 mm (chosen): refined, it scored 2.60" in fig.reason
-    # A refinement of no more steps than the ranking's is run in full at once.
+    # A refinement of no more steps than the ranking's is run in full at once, unscouted.
     (chosen, fig), asked = scripted({}, {5.0: 2.7, 8.0: 2.8}, refine={"iterations": RANK_AFTER})
     assert chosen == (5.0,) and asked == [(5.0, None), (8.0, None)] and fig.ranked_after is None
+
+
+def test_a_scout_keeps_nothing_for_the_job():
+    """The scout's refinement leaves the run's kept holes as they were: the job never takes them up."""
+    pic, layers = _photo_layers()
+    run = Run(cfg=_cfg(), out=None)  # type: ignore[arg-type]
+    plan = painted(whole(run.cfg, (60.0, 60.0)), layers.colours)
+    low, near = (with_design(plan, "auto", g) for g in (5.0, 8.0))
+    warm: list[Any] = []
+    first = standoff._trial_score(run, low, layers, (60.0, 60.0), pic, 0.5, True, plan.paints, 3, warm)
+    assert len(warm) == 2 and len(warm[1]) == layers.count
+    kept = dict(run.kept)
+    got = scout.scout_score(run, near, layers, (60.0, 60.0), pic, 0.5, plan.paints, warm[1])
+    assert run.kept == kept and np.isfinite(got) and got != first
+    # The first wall's holes are moved by the scout's steps, not the kept ones.
+    again = standoff._trial_score(run, low, layers, (60.0, 60.0), pic, 0.5, True, plan.paints, 3, warm)
+    assert again == first
+    # The blur floor: the layers blurred more from the higher wall, and no dots.
+    assert 0.0 < scout.blur_floor(low, layers, pic, 0.5) < scout.blur_floor(near, layers, pic, 0.5)
 
 
 def test_windows_carrying_almost_no_paint_are_not_tried_off():

@@ -1,0 +1,151 @@
+"""A second wall judged from the first wall's holes, before its own plates are made.
+
+With light plates the plate-design trials refine the holes for two walls (5 and 8 mm on the
+processes' 10) for :data:`stencil_cad.pipeline.standoff.RANK_AFTER` steps each and keep the better
+(:func:`stencil_cad.pipeline.standoff.direct_pair`). The first wall's holes are the job's when it
+wins; the second wall's stippling and steps (4.0 CPU-s on the bundled example, a seventh of the
+job) are spent for nothing where the first wins clearly. So the second wall is first scouted
+(:func:`scouted`), and its own plates are made only where the scout cannot tell the first wins:
+
+- the first wall's score after its steps is held against its blur floor (:func:`blur_floor`: the
+  layers blurred as the wall blurs a hole's image, with no dots): where its holes cost more than
+  :data:`FLOOR_RATIO` times the floor, the blur of the higher wall may pay, and the second wall is
+  tried without a scout;
+- otherwise the first wall's holes take :data:`SCOUT_STEPS` steps of the second wall's refinement
+  and are sprayed (:func:`scout_score`); where they score worse than the first wall by more than
+  :data:`SCOUT_MARGIN`, the first wins.
+
+Measured on the bundled example and the pictures of ``python -m benchmarks fidelity`` that refine
+two walls (9 on FDM, 8 on SLA; ``benchmarks.fidelity.job_config(image, process, folder)``), with
+each wall's own trial scored as ranked: every one kept the wall it had, and its holes.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..config import JobConfig
+from ..figures import PlateTrial
+from ..model import DotSet, Layers, Picture
+from ..record import Run
+from .plan import Plan, whole, with_design
+from .profiles import Paints
+
+#: The first wall's score after its steps over its blur floor above which the second wall is tried
+#: without a scout. Where the first wall (5 mm) won, its holes scored 0.87 to 1.30 times its floor
+#: (the example 2.71 against 2.09, astronaut 1.27, immunohistochemistry 0.98 and 0.98 on SLA, grass
+#: 0.87, text 1.01, hubble_deep_field 1.04, astronaut on SLA 1.23); where the second (8 mm) won,
+#: 1.53 to 2.77 (coffee 1.53, chelsea 1.56 and 1.60 on SLA, rocket 2.59 and 2.52, low_contrast 2.77
+#: and 2.75), and 1.58 for the example with seed 2, whose 5 mm holes scored 3.22 after 30 steps
+#: against 2.92 from 8 mm: there the scout alone (1.12 times the first wall) ranked wrongly, and its
+#: 5 mm job scored 3.12 at 1 m where the 8 mm one scores 2.86.
+FLOOR_RATIO = 1.4
+#: Steps of the second wall's refinement the first wall's holes take in the scout (the whole
+#: refinement's first steps, its step sizes decaying over all of its ``refine.iterations``). The
+#: scout's score over the first wall's: 1.10 to 1.43 where the first won (the example 3.08 against
+#: 2.71, its own trial 2.95; astronaut 1.15 and 1.10 with seed 1, the example 1.13 with seed 1) and
+#: 0.71 to 0.98 where the second won (chelsea on SLA 0.98, its own trial 0.96; coffee 0.91 and 0.96
+#: with seed 1, low_contrast 0.82 and 0.89 on SLA, rocket 0.71 and 0.73). Of 5 steps it ranked
+#: less clearly (chelsea on SLA 1.16 where the second won, the example 1.17), of 3 worse still,
+#: and the first wall's holes sprayed from the second wall unrefined not at all (coffee 1.33 and
+#: chelsea 1.53 where the second won). The scout costs 0.9 CPU-s on the example.
+SCOUT_STEPS = 10
+#: How much worse than the first wall the scout must score for the first to win unstippled: below
+#: the closest ratio where the first won (1.10), above the closest where the second did (0.98).
+SCOUT_MARGIN = 0.06
+
+
+def scouted(
+    run: Run,
+    plan: Plan,
+    layers: Layers,
+    picture: Picture | None,
+    grid_mm_per_px: float,
+    held: list[Any] | None,
+    first: PlateTrial,
+    second: tuple[str, float],
+) -> tuple[float, float | None]:
+    """``(the first wall's blur floor, the scout's score of the second wall or None)``.
+
+    ``first``: the first wall's trial, scored after its steps; ``held``: its holes as its trial
+    left them (:func:`stencil_cad.pipeline.standoff._trial_score`'s ``warm``: unrefined, then
+    refined). The scout runs only where ``first`` scored within :data:`FLOOR_RATIO` of the floor
+    and its refined holes are held (None otherwise). Both are S-CIELAB at the viewing distance on
+    the trials' grid, rounded as the trials' are.
+    """
+    floor = round(
+        blur_floor(with_design(plan, first.windows, first.standoff_mm), layers, picture, grid_mm_per_px), 3
+    )
+    if first.scielab > FLOOR_RATIO * floor or not held or len(held) < 2:
+        return floor, None
+    design = with_design(plan, *second)
+    got = scout_score(run, design, layers, plan.picture_mm, picture, grid_mm_per_px, plan.paints, held[1])
+    return floor, round(got, 3)
+
+
+def scout_score(
+    run: Run,
+    cfg: JobConfig,
+    layers: Layers,
+    picture_mm: tuple[float, float],
+    picture: Picture | None,
+    grid_mm_per_px: float,
+    paints: Paints | None,
+    start: list[DotSet],
+) -> float:
+    """S-CIELAB at the viewing distance of another wall's holes ``start`` refined :data:`SCOUT_STEPS` steps for ``cfg``'s wall.
+
+    Not stippled: the holes take the first :data:`SCOUT_STEPS` steps of ``cfg``'s refinement, then
+    spray on the grid of ``grid_mm_per_px`` as a trial's do (:func:`sprayed_score`). Nothing of it
+    is kept in the run: the job never takes these holes up.
+    """
+    from .refinement import refine_holes
+
+    trial = Run(cfg=run.cfg, out=run.out, quiet=True, executor=run.executor, cancel=run.cancel)
+    plan = whole(cfg, picture_mm, paints)
+    dotsets, _ = refine_holes(trial, plan, layers, start, picture, SCOUT_STEPS)
+    return sprayed_score(plan, layers, picture, grid_mm_per_px, dotsets)
+
+
+def blur_floor(cfg: JobConfig, layers: Layers, picture: Picture | None, grid_mm_per_px: float) -> float:
+    """S-CIELAB at the viewing distance of the layers blurred as ``cfg``'s wall blurs a hole's image, with no dots.
+
+    Each layer's opacity blurred by the physical model's Gaussian at the design's stand-off
+    (:func:`stencil_cad.simulate.physical.spread_sigma_mm`, ``spray.can``'s), composited on the grid
+    of ``grid_mm_per_px`` and scored against the picture as a trial is.
+    """
+    from ..simulate import blurred_composite
+    from ..simulate.physical import spread_sigma_mm
+    from ..simulate.scielab import scielab
+    from .picture import source_reference
+
+    sprayed = blurred_composite(layers, spread_sigma_mm(cfg.spray, cfg.standoff.design_mm), grid_mm_per_px)
+    ref = source_reference(cfg, picture, layers, sprayed.shape[:2], grid_mm_per_px)
+    return float(scielab(ref, sprayed, grid_mm_per_px, cfg.view.distance_m))
+
+
+def sprayed_score(
+    plan: Plan, layers: Layers, picture: Picture | None, grid_mm_per_px: float | None, dotsets: list[DotSet]
+) -> float:
+    """S-CIELAB at the viewing distance of ``dotsets`` made and sprayed under ``plan`` on a grid of ``grid_mm_per_px``.
+
+    The job's simulation grid where None. Each layer sprays as ``plan``'s sprays say.
+    """
+    from .. import resolution, simulate
+    from ..simulate.physical import SprayGeometry
+    from ..simulate.scielab import scielab
+    from ..stipple.made import made_dots
+    from .picture import source_reference
+
+    cfg = plan.cfg
+    made = [made_dots(d, cfg.stipple, plan.picture_mm) for d in dotsets]
+    sim = simulate.simulate(
+        layers,
+        made,
+        cfg.spray,
+        resolution.sim_mm_per_px(cfg) if grid_mm_per_px is None else grid_mm_per_px,
+        geometry=SprayGeometry.for_job(cfg),
+        layer_sprays=plan.sprays,
+    )
+    ref = source_reference(cfg, picture, layers, sim.composite.shape[:2], sim.mm_per_px)
+    return float(scielab(ref, sim.composite, sim.mm_per_px, cfg.view.distance_m))
