@@ -23,7 +23,8 @@ trials cost the floor and the scout (1.1 CPU-s) instead of the 8 mm wall's stipp
 the standoff stage took 6.4 and 6.8 CPU-s rather than 9.1 and 9.8 (``time.process_time``, two runs
 of each), and ``stencil-cad run`` 27.8 CPU-s rather than 29.9 (user and system time, medians of 5
 runs alternated with the code before), with the same holes to the last digit (S-CIELAB 2.575 at
-1 m, 1.611 at 2 m). ``python -m benchmarks fidelity`` kept every FDM picture's wall and scores.
+1 m, 1.611 at 2 m). ``python -m benchmarks fidelity`` kept every picture's wall and scores, FDM
+and SLA (the scout ranked 5 of the 12 pictures on each process, as it ranks the example).
 """
 
 from __future__ import annotations
@@ -53,9 +54,9 @@ FLOOR_RATIO = 1.4
 #: scout's score over the first wall's: 1.10 to 1.43 where the first won (the example 3.08 against
 #: 2.71, its own trial 2.95; astronaut 1.15 and 1.10 with seed 1, the example 1.13 with seeds 1 and
 #: 3) and 0.71 to 0.98 where the second won (chelsea on SLA 0.98, its own trial 0.96; coffee 0.91,
-#: 0.96 with seed 1 and 0.93 with seed 2, low_contrast 0.82 and 0.89 on SLA, rocket 0.71 and 0.73)
-#: but where the first wall's holes were poor (the example with seeds 2 and 4: :data:`FLOOR_RATIO`
-#: sends those to the second wall's own trial). Of 5 steps it ranked
+#: 0.96 with seed 1 and 0.93 with seed 2, low_contrast 0.82 and 0.89 on SLA, rocket 0.71 and 0.73),
+#: but for the example with seeds 2 and 4, whose first wall's holes were poor (1.12 and 1.13:
+#: :data:`FLOOR_RATIO` sends those to the second wall's own trial). Of 5 steps the scout ranked
 #: less clearly (chelsea on SLA 1.16 where the second won, the example 1.17), of 3 worse still,
 #: and the first wall's holes sprayed from the second wall unrefined not at all (coffee 1.33 and
 #: chelsea 1.53 where the second won). The scout costs 0.9 CPU-s on the example.
