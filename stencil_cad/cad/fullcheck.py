@@ -176,7 +176,7 @@ def _letter_boxes(glyphs: tuple, margin_mm: float) -> tuple[np.ndarray, np.ndarr
 
 def _boxes_meet(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """``(n, n)`` booleans: whether boxes ``i`` and ``j`` meet (touching counts)."""
-    return ((lo[:, None] <= hi[None]) & (lo[None] <= hi[:, None])).all(axis=2)
+    return np.asarray(((lo[:, None] <= hi[None]) & (lo[None] <= hi[:, None])).all(axis=2))
 
 
 class _Checked:
