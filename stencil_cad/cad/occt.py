@@ -1,20 +1,25 @@
-"""The few build123d operations the wall and the simple parts' checks use, made through OCP alone.
+"""The wall's solid, its checks and its files, made through OCP (OCCT's Python binding) alone.
 
 Importing build123d costs a job over a second of CPU beyond OCP's own extension (its modules and
 what they import: scikit-learn for its STL reader, IPython for its notebook display), and every job
 builds a wall: with the label's letters set without it too (:mod:`.text`), ``stencil-cad build``
 on the example's saved stage took 11.6 CPU-s, 10.4 without build123d (user + system, medians of
-five and four runs alternated with the other code). So the wall is made here by the same OCCT calls, with the same arguments and in the
-same order, as build123d 0.12 makes it (``Edge.make_line``, ``Edge.make_three_point_arc``,
-``Wire(edges)``, ``Face(wire)``, ``Solid.extrude``, ``fuse``, ``cut``, ``clean``, ``Solid.make_box``,
-``moved``, ``export_step``, ``export_stl``, ``is_valid``, ``volume``, ``bounding_box``): the same
-solid, and the same bytes in its files (``tests/cad/test_wall.py`` holds them to build123d's).
+five and four runs alternated with the other code). So the wall is made here from OCCT's
+documented classes: edges and a wire from points, a planar face bounded by the wire, a prism
+swept from it, one Boolean cut of every cutter, the faces on one plane merged, and OCCT's STEP
+and STL writers. ``tests/cad/test_occt.py`` holds these helpers to their contracts, and
+``tests/cad/test_wall.py`` holds the wall read back from its STEP file to one valid solid with the
+analytic volume and the volume, box and face count of the same wall made with build123d.
+Lengths are in mm throughout.
 """
 
 from __future__ import annotations
 
+import logging
 import os
-from collections.abc import Iterable, Sequence
+import threading
+from collections.abc import Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
 __all__ = [
@@ -23,11 +28,10 @@ __all__ = [
     "box",
     "compound",
     "cut",
-    "fuse",
+    "faces",
     "in_compound",
     "is_valid",
     "line_edge",
-    "moved",
     "planar_face",
     "prism",
     "solids",
@@ -38,69 +42,82 @@ __all__ = [
     "write_stl",
 ]
 
+log = logging.getLogger(__name__)
+
 Point = Sequence[float]
+
+#: OCCT's STEP settings (``Interface_Static``) and its message printers are one per process:
+#: one STEP file is written at a time.
+_STEP_LOCK = threading.Lock()
+
+
+def _pnt(p: Point):
+    from OCP.gp import gp_Pnt
+
+    x, y, z = map(float, p)
+    return gp_Pnt(x, y, z)
 
 
 def line_edge(p0: Point, p1: Point):
-    """A straight edge from ``p0`` to ``p1`` (``Edge.make_line``)."""
+    """A straight edge from ``p0`` to ``p1``."""
     from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeEdge
-    from OCP.gp import gp_Pnt
 
-    return BRepBuilderAPI_MakeEdge(gp_Pnt(*map(float, p0)), gp_Pnt(*map(float, p1))).Edge()
+    return BRepBuilderAPI_MakeEdge(_pnt(p0), _pnt(p1)).Edge()
 
 
 def arc_edge(p0: Point, mid: Point, p1: Point):
-    """A circular arc from ``p0`` through ``mid`` to ``p1`` (``Edge.make_three_point_arc``)."""
+    """The circular arc from ``p0`` through ``mid`` to ``p1``.
+
+    Raises:
+        ValueError: The three points lie on one line (or two of them coincide).
+    """
     from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeEdge
     from OCP.GC import GC_MakeArcOfCircle
-    from OCP.gp import gp_Pnt
 
-    pts = (gp_Pnt(*map(float, p)) for p in (p0, mid, p1))
-    return BRepBuilderAPI_MakeEdge(GC_MakeArcOfCircle(*pts).Value()).Edge()
+    arc = GC_MakeArcOfCircle(_pnt(p0), _pnt(mid), _pnt(p1))
+    if not arc.IsDone():
+        raise ValueError(f"no circular arc through {p0}, {mid}, {p1}")
+    return BRepBuilderAPI_MakeEdge(arc.Value()).Edge()
 
 
 def wire(edges: Iterable):
-    """A wire of edges given in order (``Wire(edges)``)."""
+    """The wire of ``edges``, each one starting where the one before it ends.
+
+    Raises:
+        ValueError: An edge does not meet the wire made so far.
+    """
     from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeWire
-    from OCP.TopTools import TopTools_ListOfShape
 
     builder = BRepBuilderAPI_MakeWire()
-    listed = TopTools_ListOfShape()
-    for e in edges:
-        listed.Append(e)
-    builder.Add(listed)
-    builder.Build()
-    if not builder.IsDone():
-        raise ValueError(f"the edges make no wire (OCCT error {builder.Error()})")
+    for i, edge in enumerate(edges):
+        builder.Add(edge)
+        if not builder.IsDone():
+            raise ValueError(f"edge {i} does not meet the wire (OCCT error {builder.Error()})")
     return builder.Wire()
 
 
 def planar_face(outer):
-    """The planar face inside a closed wire (``Face(wire)``: the wire fixed, the face's orientation fixed)."""
+    """The face bounded by a closed wire that lies in one plane.
+
+    OCCT finds the plane through the wire and keeps the face inside the wire whichever way the
+    wire runs, so the face's normal may point either way along the plane's axis.
+
+    Raises:
+        ValueError: The wire is open, or lies in no plane.
+    """
     from OCP.BRep import BRep_Tool
     from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
-    from OCP.BRepLib import BRepLib_FindSurface
-    from OCP.ShapeFix import ShapeFix_Face, ShapeFix_Shape
-    from OCP.TopoDS import TopoDS
 
     if not BRep_Tool.IsClosed_s(outer):
         raise ValueError("a face needs a closed wire")
-    if not BRepLib_FindSurface(compound([outer]), OnlyPlane=True).Found():
-        raise ValueError("the wire is not planar")
-    fix = ShapeFix_Shape(outer)
-    fix.Perform()
-    builder = BRepBuilderAPI_MakeFace(TopoDS.Wire_s(fix.Shape()), True)
-    builder.Build()
+    builder = BRepBuilderAPI_MakeFace(outer, True)  # True: a plane or nothing
     if not builder.IsDone():
-        raise ValueError(f"no face from the wire (OCCT error {builder.Error()})")
-    face_fix = ShapeFix_Face(builder.Face())
-    face_fix.FixOrientation()
-    face_fix.Perform()
-    return TopoDS.Face_s(face_fix.Result())
+        raise ValueError(f"no planar face inside the wire (OCCT error {builder.Error()})")
+    return builder.Face()
 
 
 def prism(face, dz: float):
-    """The solid swept by a face along z by ``dz`` mm (``Solid.extrude``)."""
+    """The solid a face sweeps when moved ``dz`` mm along z (either sign)."""
     from OCP.BRepPrimAPI import BRepPrimAPI_MakePrism
     from OCP.gp import gp_Vec
     from OCP.TopoDS import TopoDS
@@ -108,32 +125,22 @@ def prism(face, dz: float):
     return TopoDS.Solid_s(BRepPrimAPI_MakePrism(face, gp_Vec(0.0, 0.0, float(dz))).Shape())
 
 
-def box(length: float, width: float, height: float):
-    """A box of the sizes in mm from the origin along +x, +y, +z (``Solid.make_box`` on the XY plane)."""
+def box(corner: Point, size: Point):
+    """The box with its low corner at ``corner`` and sides ``size`` = (dx, dy, dz) along x, y, z."""
     from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
-    from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt
     from OCP.TopoDS import TopoDS
 
-    axes = gp_Ax2(gp_Pnt(0.0, 0.0, 0.0), gp_Dir(0.0, 0.0, 1.0), gp_Dir(1.0, 0.0, 0.0))
-    return TopoDS.Solid_s(BRepPrimAPI_MakeBox(axes, length, width, height).Shape())
-
-
-def moved(shape, offset: Point):
-    """``shape`` moved by ``offset`` in mm (``moved(Location(offset))``: a location, the geometry kept)."""
-    from OCP.gp import gp_Trsf, gp_Vec
-    from OCP.TopLoc import TopLoc_Location
-
-    trsf = gp_Trsf()
-    trsf.SetTranslationPart(gp_Vec(*map(float, offset)))
-    return _downcast(shape.Moved(TopLoc_Location(trsf)))
+    dx, dy, dz = map(float, size)
+    return TopoDS.Solid_s(BRepPrimAPI_MakeBox(_pnt(corner), dx, dy, dz).Shape())
 
 
 def compound(shapes: Iterable):
     """A compound of the shapes."""
-    from OCP.TopoDS import TopoDS_Builder, TopoDS_Compound
+    from OCP.BRep import BRep_Builder
+    from OCP.TopoDS import TopoDS_Compound
 
     comp = TopoDS_Compound()
-    builder = TopoDS_Builder()
+    builder = BRep_Builder()
     builder.MakeCompound(comp)
     for s in shapes:
         builder.Add(comp, s)
@@ -143,88 +150,77 @@ def compound(shapes: Iterable):
 def in_compound(shape):
     """``shape`` if it is a compound, else a compound holding it (the shape a build123d ``Part`` wraps)."""
     from OCP.TopAbs import TopAbs_COMPOUND
+    from OCP.TopoDS import TopoDS
 
-    return shape if shape.ShapeType() == TopAbs_COMPOUND else compound([shape])
-
-
-def fuse(a, b):
-    """``a`` fused with ``b``, its faces unified (``a.fuse(b)``)."""
-    from OCP.BRepAlgoAPI import BRepAlgoAPI_Fuse
-
-    return _boolean(BRepAlgoAPI_Fuse(), a, b)
+    return TopoDS.Compound_s(shape) if shape.ShapeType() == TopAbs_COMPOUND else compound([shape])
 
 
-def cut(a, b):
-    """``a`` with ``b`` cut away, its faces unified (``a.cut(b)``)."""
+def cut(shape, tools: Iterable):
+    """``shape`` with every tool cut away, in one Boolean operation (the tools may overlap each other).
+
+    Raises:
+        ValueError: OCCT's Boolean operation failed.
+    """
     from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut
-
-    return _boolean(BRepAlgoAPI_Cut(), a, b)
-
-
-def _boolean(operation, a, b):
     from OCP.TopTools import TopTools_ListOfShape
 
-    args, tools = TopTools_ListOfShape(), TopTools_ListOfShape()
-    args.Append(a)
-    tools.Append(b)
-    operation.SetArguments(args)
-    operation.SetTools(tools)
-    operation.SetRunParallel(True)
+    objects, cutters = TopTools_ListOfShape(), TopTools_ListOfShape()
+    objects.Append(shape)
+    for tool in tools:
+        cutters.Append(tool)
+    operation = BRepAlgoAPI_Cut()
+    operation.SetArguments(objects)
+    operation.SetTools(cutters)
     operation.Build()
-    return _unwrapped(unify(_downcast(operation.Shape())))
+    if not operation.IsDone():
+        raise ValueError("OCCT's Boolean cut failed")
+    return operation.Shape()
 
 
 def unify(shape):
-    """``shape`` with its coplanar faces and collinear edges merged (``clean``)."""
+    """``shape`` with the faces on one surface merged into one face, and the edges on one curve.
+
+    A Boolean operation may leave one plane's face in pieces (where two cutters met); merged, a
+    solid has the faces it would have if drawn by hand. Where OCCT fails to merge them, the shape
+    is kept as it is (a valid solid with more faces than needed) and a warning says so.
+    """
     from OCP.ShapeUpgrade import ShapeUpgrade_UnifySameDomain
+    from OCP.Standard import Standard_Failure
 
-    upgrader = ShapeUpgrade_UnifySameDomain(shape, True, True, True)
-    upgrader.AllowInternalEdges(False)
-    upgrader.Build()
-    return _downcast(upgrader.Shape())
-
-
-def _downcast(shape):
-    from OCP.TopAbs import TopAbs_COMPOUND, TopAbs_FACE, TopAbs_SHELL, TopAbs_SOLID, TopAbs_WIRE
-    from OCP.TopoDS import TopoDS
-
-    cast = {
-        TopAbs_COMPOUND: TopoDS.Compound_s,
-        TopAbs_SOLID: TopoDS.Solid_s,
-        TopAbs_SHELL: TopoDS.Shell_s,
-        TopAbs_FACE: TopoDS.Face_s,
-        TopAbs_WIRE: TopoDS.Wire_s,
-    }.get(shape.ShapeType())
-    return shape if cast is None else cast(shape)
-
-
-def _unwrapped(shape):
-    """The one shape inside nested one-child compounds, or the shape."""
-    from OCP.TopAbs import TopAbs_COMPOUND
-    from OCP.TopoDS import TopoDS_Iterator
-
-    while shape.ShapeType() == TopAbs_COMPOUND and shape.NbChildren() == 1:
-        shape = _downcast(TopoDS_Iterator(shape).Value())
-    return shape
+    upgrader = ShapeUpgrade_UnifySameDomain(shape)  # edges and faces merged, internal edges removed
+    try:
+        upgrader.Build()
+    except Standard_Failure as err:
+        log.warning("OCCT could not merge the faces of a solid (%s): its faces are kept as they are", err)
+        return shape
+    return upgrader.Shape()
 
 
 def solids(shape) -> list:
-    """The distinct solids of ``shape`` (``solids()``)."""
+    """The distinct solids of ``shape``."""
     from OCP.TopAbs import TopAbs_SOLID
-    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopExp import TopExp
     from OCP.TopoDS import TopoDS
     from OCP.TopTools import TopTools_IndexedMapOfShape
 
-    seen = TopTools_IndexedMapOfShape()
-    exp = TopExp_Explorer(shape, TopAbs_SOLID)
-    while exp.More():
-        seen.Add(exp.Current())
-        exp.Next()
-    return [TopoDS.Solid_s(seen.FindKey(i)) for i in range(1, seen.Extent() + 1)]
+    found = TopTools_IndexedMapOfShape()
+    TopExp.MapShapes_s(shape, TopAbs_SOLID, found)
+    return [TopoDS.Solid_s(found.FindKey(i)) for i in range(1, found.Extent() + 1)]
+
+
+def faces(shape) -> int:
+    """How many distinct faces ``shape`` has."""
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopExp import TopExp
+    from OCP.TopTools import TopTools_IndexedMapOfShape
+
+    found = TopTools_IndexedMapOfShape()
+    TopExp.MapShapes_s(shape, TopAbs_FACE, found)
+    return found.Extent()
 
 
 def volume(solid) -> float:
-    """A solid's volume in mm³ (``volume``)."""
+    """A solid's volume in mm³."""
     from OCP.BRepGProp import BRepGProp
     from OCP.GProp import GProp_GProps
 
@@ -234,87 +230,101 @@ def volume(solid) -> float:
 
 
 def bounding_box(shape) -> tuple[float, float, float, float, float, float]:
-    """``(xmin, ymin, zmin, xmax, ymax, zmax)`` of ``shape`` in mm (``bounding_box()``: optimal, mesh dropped)."""
+    """``(xmin, ymin, zmin, xmax, ymax, zmax)`` of ``shape`` in mm, from its exact geometry."""
     from OCP.Bnd import Bnd_Box
     from OCP.BRepBndLib import BRepBndLib
-    from OCP.BRepTools import BRepTools
 
     bb = Bnd_Box()
-    BRepTools.Clean_s(shape)
-    BRepBndLib.AddOptimal_s(shape, bb)
+    BRepBndLib.AddOptimal_s(shape, bb, False, False)  # neither a mesh nor the tolerances
     return tuple(bb.Get()) if not bb.IsVoid() else (0.0,) * 6
 
 
 def is_valid(shape) -> bool:
-    """OCCT's full B-rep check (``is_valid``)."""
+    """OCCT's full B-rep check (``BRepCheck_Analyzer``)."""
     from OCP.BRepCheck import BRepCheck_Analyzer
 
-    check = BRepCheck_Analyzer(shape)
-    check.SetParallel(True)
-    return bool(check.IsValid())
+    return bool(BRepCheck_Analyzer(shape).IsValid())
 
 
-def write_step(shape, path: str | os.PathLike, timestamp: str) -> None:
-    """Write ``shape`` as STEP (AP214, mm, with its plane curves) as ``export_step`` does for an unnamed part.
+@contextmanager
+def _quiet() -> Iterator[None]:
+    """OCCT's messages short of failures kept off the console (its STEP writer prints statistics)."""
+    from OCP.Message import Message, Message_Gravity
+
+    printers = list(Message.DefaultMessenger_s().Printers())
+    levels = [p.GetTraceLevel() for p in printers]
+    for p in printers:
+        p.SetTraceLevel(Message_Gravity.Message_Fail)
+    try:
+        yield
+    finally:
+        for p, level in zip(printers, levels, strict=True):
+            p.SetTraceLevel(level)
+
+
+def write_step(shape, path: str | os.PathLike, name: str, description: str, timestamp: str) -> None:
+    """Write ``shape`` as STEP AP214 in mm, with its curves on the faces' surfaces (OCCT's STEP writer).
+
+    The product and the header's file name are ``name``; the header gives ``description``,
+    ``timestamp`` and stencil_cad as the originating system, and no author, so the same shape
+    gives the same bytes.
+
+    Args:
+        shape: The OCCT shape.
+        path: The file.
+        name: The part's name (plain ASCII).
+        description: The header's file description.
+        timestamp: The header's time stamp (ISO 8601).
 
     Raises:
-        OSError: OCCT could not write the file.
+        OSError: OCCT could not translate the shape or write the file.
     """
-    from OCP.APIHeaderSection import APIHeaderSection_MakeHeader
-    from OCP.IFSelect import IFSelect_ReturnStatus
-    from OCP.IGESControl import IGESControl_Controller
+    from OCP.IFSelect import IFSelect_RetDone
     from OCP.Interface import Interface_Static
-    from OCP.Message import Message, Message_Gravity
-    from OCP.STEPCAFControl import STEPCAFControl_Controller, STEPCAFControl_Writer
-    from OCP.STEPControl import STEPControl_Controller, STEPControl_StepModelType
-    from OCP.TCollection import TCollection_HAsciiString
-    from OCP.XSControl import XSControl_WorkSession
+    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
 
-    doc = _xde(shape)
-    for printer in Message.DefaultMessenger_s().Printers():
-        printer.SetTraceLevel(Message_Gravity.Message_Fail)
-    writer = STEPCAFControl_Writer(XSControl_WorkSession(), False)
-    writer.SetColorMode(True)
-    writer.SetLayerMode(True)
-    writer.SetNameMode(True)
-    header = APIHeaderSection_MakeHeader(writer.Writer().Model())
-    if not header.IsDone():
-        header = APIHeaderSection_MakeHeader(0)
-        header.Apply(writer.Writer().Model())
-    header.SetTimeStamp(TCollection_HAsciiString(timestamp))
-    header.SetOriginatingSystem(TCollection_HAsciiString("build123d"))
-    STEPCAFControl_Controller.Init_s()
-    STEPControl_Controller.Init_s()
-    IGESControl_Controller.Init_s()
-    Interface_Static.SetIVal_s("write.surfacecurve.mode", 1)
-    Interface_Static.SetIVal_s("write.precision.mode", 0)
-    writer.Transfer(doc, STEPControl_StepModelType.STEPControl_AsIs)
-    if writer.Write(os.fsdecode(path)) != IFSelect_ReturnStatus.IFSelect_RetDone:
-        raise OSError(f"STEP export failed: {path}")
+    with _STEP_LOCK, _quiet():
+        writer = STEPControl_Writer()
+        for key, value in (
+            ("write.step.schema", "AP214IS"),
+            ("write.step.unit", "MM"),
+            ("write.surfacecurve.mode", "On"),
+        ):
+            if not Interface_Static.SetCVal_s(key, value):
+                raise OSError(f"OCCT's STEP writer has no setting {key} = {value}")
+        if writer.Transfer(shape, STEPControl_AsIs) != IFSelect_RetDone:
+            raise OSError(f"STEP export failed: OCCT could not translate the shape for {path}")
+        _name_step(writer.Model(), name, description, timestamp)
+        if writer.Write(os.fsdecode(path)) != IFSelect_RetDone:
+            raise OSError(f"STEP export failed: {path}")
 
 
-def _xde(shape):
-    """An XCAF document (mm) holding ``shape`` as one free shape, named automatically."""
-    from OCP.TCollection import TCollection_ExtendedString
-    from OCP.TDocStd import TDocStd_Document
-    from OCP.XCAFApp import XCAFApp_Application
-    from OCP.XCAFDoc import XCAFDoc_DocumentTool
+def _name_step(model, name: str, description: str, timestamp: str) -> None:
+    """Name the STEP model's products and fill its header (see :func:`write_step`)."""
+    from OCP.APIHeaderSection import APIHeaderSection_MakeHeader
+    from OCP.StepBasic import StepBasic_Product
+    from OCP.TCollection import TCollection_HAsciiString as Text
 
-    doc = TDocStd_Document(TCollection_ExtendedString("XmlOcaf"))
-    application = XCAFApp_Application.GetApplication_s()
-    application.NewDocument(TCollection_ExtendedString("MDTV-XCAF"), doc)
-    application.InitDocument(doc)
-    XCAFDoc_DocumentTool.SetLengthUnit_s(doc, 1 / 1000)
-    shape_tool = XCAFDoc_DocumentTool.ShapeTool_s(doc.Main())
-    XCAFDoc_DocumentTool.ColorTool_s(doc.Main())
-    shape_tool.SetAutoNaming_s(True)
-    shape_tool.AddShape(shape, False)
-    shape_tool.UpdateAssemblies()
-    return doc
+    products = model.Entities()
+    products.SelectType(StepBasic_Product.get_type_descriptor_s(), True)
+    products.Start()
+    while products.More():
+        products.Value().SetId(Text(name))
+        products.Value().SetName(Text(name))
+        products.Next()
+    header = APIHeaderSection_MakeHeader(model)
+    header.SetName(Text(name))
+    header.SetTimeStamp(Text(timestamp))
+    header.SetAuthorValue(1, Text(""))
+    header.SetOrganizationValue(1, Text(""))
+    header.SetOriginatingSystem(Text("stencil_cad"))
+    header.SetAuthorisation(Text(""))
+    header.SetDescriptionValue(1, Text(description))
+    header.Apply(model)
 
 
 def write_stl(shape, path: str | os.PathLike, tolerance: float, angular_tolerance: float) -> None:
-    """Mesh ``shape`` and write it as binary STL (``export_stl``).
+    """Mesh ``shape`` and write it as binary STL.
 
     Args:
         shape: The OCCT shape.
@@ -331,8 +341,7 @@ def write_stl(shape, path: str | os.PathLike, tolerance: float, angular_toleranc
     out = Path(os.fsdecode(path))
     if not out.parent.is_dir():
         raise OSError(f"STL export failed: no folder {out.parent}")
-    mesh = BRepMesh_IncrementalMesh(shape, tolerance, True, angular_tolerance, True)
-    mesh.Perform()
+    BRepMesh_IncrementalMesh(shape, tolerance, False, angular_tolerance, False)  # absolute, one thread
     writer = StlAPI_Writer()
     writer.ASCIIMode = False
     if not writer.Write(shape, str(out)):

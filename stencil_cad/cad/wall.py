@@ -28,6 +28,7 @@ import numpy as np
 
 from ..config.cad import WallConfig
 from ..config.outline import OutlineConfig
+from ..exchange.step import STEP_TIMESTAMP
 from ..outline import Segment, check_key, fits, min_clearance, outline_path, path_area, path_ring
 from . import occt
 from .solid import check_simple_solid
@@ -88,8 +89,8 @@ def _wire(path: list[Segment], z: float):
 
 
 def _prism(path: list[Segment], z0: float, z1: float):
-    # The face's normal may point down (the face is fixed to the wire's sense), so the extrusion
-    # direction is given explicitly and the result's bbox is checked by the caller.
+    # The face's normal follows the wire's sense and may point down, so the extrusion is given
+    # as a signed height along z; the wall's box is checked by its caller.
     return occt.prism(occt.planar_face(_wire(path, z0)), z1 - z0)
 
 
@@ -157,11 +158,11 @@ def wall_solid(
     top = s + depth
     solid = _prism(rings.outer, 0.0, top)
     # Cutters overshoot the faces they open so no coplanar boolean is left to chance.
-    cutter = occt.fuse(_prism(rings.opening, -1.0, top + 1.0), _prism(rings.pocket, s, top + 1.0))
+    cutters = [_prism(rings.opening, -1.0, top + 1.0), _prism(rings.pocket, s, top + 1.0)]
     slot = _finger_slot(width_mm, height_mm, outline, wall, s, top)
     if slot is not None:
-        cutter = occt.fuse(cutter, slot[0])
-    shape = occt.in_compound(occt.unify(occt.cut(solid, cutter)))
+        cutters.append(slot[0])
+    shape = occt.in_compound(occt.unify(occt.cut(solid, cutters)))
     return WallSolid(rings, s, depth, top, 0.0 if slot is None else slot[1], shape)
 
 
@@ -209,8 +210,8 @@ def _finger_slot(
     y_pocket = height_mm + m + c
     z0 = standoff_mm - below
     volume = fw * (t * (top - z0) + max(under, 0.0) * below)
-    cutter = occt.box(fw, t + 1.0 + max(under, 0.0), top + 1.0 - z0)
-    return occt.moved(cutter, (x0, y_pocket - max(under, 0.0), z0)), volume
+    corner = (x0, y_pocket - max(under, 0.0), z0)
+    return occt.box(corner, (fw, t + 1.0 + max(under, 0.0), top + 1.0 - z0)), volume
 
 
 @dataclass(frozen=True)
@@ -316,8 +317,11 @@ def _ledge_width(opening: np.ndarray, pocket: np.ndarray) -> float:
 
 
 def wall_step(model: WallModel, path: str | Path) -> None:
-    """Write the wall as STEP (AP214, mm, exact arcs) to ``path``."""
-    occt.write_step(model.shape, path, timestamp="2000-01-01T00:00:00")
+    """Write the wall as STEP (AP214, mm, exact arcs) to ``path``: the same wall, the same bytes.
+
+    The header's time stamp is the plates' fixed one (:data:`~stencil_cad.exchange.step.STEP_TIMESTAMP`).
+    """
+    occt.write_step(model.shape, path, model.name, "stencil_cad wall", STEP_TIMESTAMP)
 
 
 def wall_stl(

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from readers import need, run
 
+from stencil_cad.cad import occt
 from stencil_cad.cad.wall import build_wall, wall_step, wall_stl
 from stencil_cad.config.cad import WallConfig
 from stencil_cad.config.outline import OutlineConfig
@@ -110,6 +111,7 @@ FREECAD_SCRIPT = textwrap.dedent(
         "valid": bool(shape.isValid()),
         "closed": bool(solids) and all(s.isClosed() for s in solids),
         "volume": float(shape.Volume),
+        "faces": len(shape.Faces),
         "bbox": [shape.BoundBox.XMin, shape.BoundBox.YMin, shape.BoundBox.ZMin,
                  shape.BoundBox.XMax, shape.BoundBox.YMax, shape.BoundBox.ZMax],
     }
@@ -136,6 +138,8 @@ def test_wall_step_freecad(wall_files, tmp_path):
     assert got["valid"] and got["closed"]
     assert got["volume"] == pytest.approx(model.volume_mm3, rel=1e-6)
     np.testing.assert_allclose(got["bbox"], model.bbox, atol=1e-3)
+    # The faces the wall was built with (tests/cad/test_wall.py: those of build123d's wall).
+    assert got["faces"] == occt.faces(model.shape)
 
 
 @pytest.fixture(scope="module")

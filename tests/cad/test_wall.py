@@ -6,11 +6,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from stencil_cad.cad import occt
 from stencil_cad.cad.parts import Wall
 from stencil_cad.cad.wall import build_wall, wall_step, wall_stl
 from stencil_cad.config import JobConfig
 from stencil_cad.config.cad import WallConfig
 from stencil_cad.config.outline import KeyTab, OutlineConfig, Side
+from stencil_cad.exchange.step import STEP_TIMESTAMP
 from stencil_cad.outline import (
     fits,
     min_clearance,
@@ -273,7 +275,7 @@ def test_random_walls(w, h, margin, corner, clearance, thickness, standoff, pos,
 
 
 def _build123d_wall(w, h, outline, wall_cfg, thickness, standoff):
-    """The wall as build123d's own operations make it (the construction the wall module mirrors)."""
+    """The wall made with build123d's own operations: the oracle for the wall module's."""
     from stencil_cad.cad.wall import wall_rings
 
     def wire(path, z):
@@ -304,19 +306,53 @@ def _build123d_wall(w, h, outline, wall_cfg, thickness, standoff):
     return bd.Part(bd.Compound([solid(rings.outer, 0.0, top).cut(cut).clean()]).wrapped)
 
 
+def read_step(path):
+    """The shape OCCT's own STEP reader makes of a file."""
+    from OCP.IFSelect import IFSelect_RetDone
+    from OCP.STEPControl import STEPControl_Reader
+
+    reader = STEPControl_Reader()
+    assert reader.ReadFile(str(path)) == IFSelect_RetDone
+    assert reader.TransferRoots() == 1
+    return reader.OneShape()
+
+
 @pytest.mark.parametrize("slot", [0.0, None])
 @pytest.mark.parametrize("standoff", [3.0, 10.0])
-def test_wall_files_are_build123ds_to_the_byte(tmp_path, slot, standoff):
-    # The wall is made through OCP alone (a job imports no build123d): the same OCCT calls as
-    # build123d's, so the same STEP and STL bytes as build123d's own construction and writers.
+def test_wall_files_hold_build123ds_wall(tmp_path, slot, standoff):
+    # The wall is made through OCP alone (a job imports no build123d); the same wall made
+    # with build123d's own operations is the oracle for the solid read back from its STEP.
+    import trimesh
+
     wall_cfg = WallConfig() if slot is None else WallConfig(finger_slot_mm=slot)
     outline = OutlineConfig()
     m = build_wall(97.3, 61.9, outline, wall_cfg, T, standoff)
-    wall_step(m, tmp_path / "ours.step")
-    wall_stl(m, tmp_path / "ours.stl", tolerance_mm=0.01)
+    wall_step(m, tmp_path / "wall.step")
+    wall_stl(m, tmp_path / "wall.stl", tolerance_mm=0.01)
     part = _build123d_wall(97.3, 61.9, outline, wall_cfg, T, standoff)
-    assert bd.export_step(part, str(tmp_path / "bd.step"), timestamp="2000-01-01T00:00:00")
-    assert bd.export_stl(part, str(tmp_path / "bd.stl"), tolerance=0.01, angular_tolerance=0.1)
+    bb = part.bounding_box()
+    oracle = (bb.min.X, bb.min.Y, bb.min.Z, bb.max.X, bb.max.Y, bb.max.Z)
+    back = read_step(tmp_path / "wall.step")
+    (solid,) = occt.solids(back)
+    assert occt.is_valid(back)
+    assert occt.volume(solid) == pytest.approx(part.volume, rel=1e-9)
+    assert occt.volume(solid) == pytest.approx(m.volume_mm3, rel=1e-6)
+    np.testing.assert_allclose(occt.bounding_box(back), oracle, atol=1e-6)
+    assert occt.faces(back) == len(part.faces())
+    # build123d's reader (through OCCT's document reader) agrees.
+    theirs = bd.import_step(tmp_path / "wall.step")
+    assert len(theirs.solids()) == 1 and len(theirs.faces()) == len(part.faces())
+    assert theirs.volume == pytest.approx(part.volume, rel=1e-9)
+    # The same wall, built again, gives the same bytes.
+    again = build_wall(97.3, 61.9, outline, wall_cfg, T, standoff)
+    wall_step(again, tmp_path / "again.step")
+    wall_stl(again, tmp_path / "again.stl", tolerance_mm=0.01)
     for ext in ("step", "stl"):
-        assert (tmp_path / f"ours.{ext}").read_bytes() == (tmp_path / f"bd.{ext}").read_bytes(), ext
-    assert m.part.volume == pytest.approx(part.volume, rel=1e-12)
+        assert (tmp_path / f"again.{ext}").read_bytes() == (tmp_path / f"wall.{ext}").read_bytes(), ext
+    text = (tmp_path / "wall.step").read_text()
+    assert f"FILE_NAME('{m.name}','{STEP_TIMESTAMP}'" in text and "'stencil_cad'" in text
+    assert "build123d" not in text
+    mesh = trimesh.load(tmp_path / "wall.stl")
+    assert mesh.is_watertight and mesh.is_winding_consistent and mesh.body_count == 1
+    assert mesh.volume == pytest.approx(part.volume, rel=1e-3)
+    np.testing.assert_allclose(mesh.bounds.ravel(), oracle, atol=1e-3)
