@@ -1,16 +1,16 @@
 """A line of text as OCCT faces, through OCCT's own font classes: the label's letters without build123d.
 
-build123d 0.12's ``Text(txt, size, font, font_path, FontStyle.BOLD, align=(Align.MIN, Align.MIN))``
-registers the font file with OCCT's font manager, has ``StdPrs_BRepTextBuilder`` lay the text out
-centred on the origin with a ``StdPrs_BRepFont`` of the font's bold aspect, and moves the result
-by its optimal bounding box's low corner. :func:`text_faces` makes the same OCCT calls with the
-same arguments in the same order, so the faces, and the label rings sampled from them, are the
-same to the bit (``tests/cad/test_label_order.py`` holds them to build123d's). With the wall
-made through OCP too (:mod:`.occt`), a job imports no build123d (nor the scikit-learn and IPython
-under it): ``stencil-cad build`` on the example's saved stage took 11.6 CPU-s, 10.4 so (user +
-system, ``/usr/bin/time``, medians of five and four runs alternated with the other code). Only
-the bundled font goes this way; another font family keeps build123d's route, which also knows
-its single-stroke fonts and its font aliases.
+:func:`text_faces` registers the font file with OCCT's font manager as its family's bold face,
+has ``StdPrs_BRepTextBuilder`` lay the line out as planar faces (``StdPrs_BRepFont``) centred on
+the origin, and moves the faces so the low corner of their exact bounding box is at the origin.
+``tests/cad/test_label_order.py`` holds the label rings sampled from them to those of build123d's
+``Text`` in the same font and placement, to the bit (the plates' files are made from them), and to
+one order of the letters in every process and thread. With the wall made through OCP too
+(:mod:`.occt`), a job imports no build123d (nor the scikit-learn and IPython under it):
+``stencil-cad build`` on the example's saved stage took 11.6 CPU-s, 10.4 so (user + system,
+``/usr/bin/time``, medians of five and four runs alternated with the other code). Only the
+bundled font goes this way; another font family keeps build123d's route, which also knows its
+single-stroke fonts and its font aliases.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ _manager = None
 
 
 def _font_manager():
-    """OCCT's font manager, started as build123d starts it (its font configuration on Linux).
+    """OCCT's font manager, made once per process, after fontconfig is pointed at the system's files on Linux.
 
     Called with :data:`FONT_LOCK` held.
     """
@@ -37,10 +37,11 @@ def _font_manager():
 
     if _manager is None:
         if sys.platform.startswith("linux"):
-            # build123d sets these (whatever the user set) before it first asks for the manager,
-            # which reads the system's fonts then; set alike, the manager knows the same fonts
-            # whichever asks first. Only then: the manager reads them once, and setting the
-            # environment while other threads read it is unsafe.
+            # The manager reads the system's fonts when first made. build123d, which sets a label
+            # in any other font, sets these (whatever the user set) before it first asks for the
+            # manager; set alike here, the manager knows the same fonts whichever asks first.
+            # Only then: the manager reads them once, and setting the environment while other
+            # threads read it is unsafe.
             os.environ["FONTCONFIG_FILE"] = "/etc/fonts/fonts.conf"
             os.environ["FONTCONFIG_PATH"] = "/etc/fonts/"
         _manager = Font_FontMgr.GetInstance_s()
