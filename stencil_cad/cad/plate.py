@@ -239,15 +239,7 @@ def _unwrap(shape):
     if hasattr(shape, "vals") and hasattr(shape, "val"):  # CadQuery Workplane
         vals = shape.vals()
         if len(vals) != 1:
-            from OCP.BRep import BRep_Builder
-            from OCP.TopoDS import TopoDS_Compound
-
-            comp = TopoDS_Compound()
-            b = BRep_Builder()
-            b.MakeCompound(comp)
-            for v in vals:
-                b.Add(comp, _unwrap(v))
-            return comp
+            return occt.compound(_unwrap(v) for v in vals)
         shape = vals[0]
     return shape.wrapped if hasattr(shape, "wrapped") else shape
 
