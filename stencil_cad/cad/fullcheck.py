@@ -21,6 +21,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..model import PlateGeometry
+from . import occt
 
 __all__ = ["TILE_HOLES", "brep_valid", "check_tiles", "label_windows", "plate_tiles", "store_plane_pcurves"]
 
@@ -47,11 +48,9 @@ def brep_valid(shape, plane_pcurves: bool = False) -> bool:
             parameters (:func:`store_plane_pcurves`; this changes the shape): the same check,
             2-3 times faster on a face with many holes.
     """
-    from OCP.BRepCheck import BRepCheck_Analyzer
-
     if plane_pcurves:
         store_plane_pcurves(shape)
-    return bool(BRepCheck_Analyzer(shape).IsValid())
+    return occt.is_valid(shape)
 
 
 def store_plane_pcurves(shape) -> None:

@@ -32,6 +32,7 @@ import numpy as np
 
 from ..exchange.mesh import mesh_checks
 from ..model import Holes, PlateGeometry
+from . import occt
 from .fullcheck import TILE_HOLES, brep_valid, check_tiles, store_plane_pcurves
 from .plate import PlateModel
 
@@ -202,15 +203,6 @@ def topology_checks(shape, orientation: bool = True) -> dict:
     }
 
 
-def _volume(shape) -> float:
-    from OCP.BRepGProp import BRepGProp
-    from OCP.GProp import GProp_GProps
-
-    props = GProp_GProps()
-    BRepGProp.VolumeProperties_s(shape, props)
-    return float(props.Mass())
-
-
 def _curved_area(shape) -> float:
     """Total area in mm² of a shape's faces that are not planes."""
     from OCP.BRepAdaptor import BRepAdaptor_Surface
@@ -251,12 +243,8 @@ def _topology_fails(topo: dict) -> list[str]:
 
 def _bbox(shape) -> list[list[float]]:
     """``[[xmin, ymin, zmin], [xmax, ymax, zmax]]`` in mm, OCCT's optimal bounding box."""
-    from OCP.Bnd import Bnd_Box
-    from OCP.BRepBndLib import BRepBndLib
-
-    box = Bnd_Box()
-    BRepBndLib.AddOptimal_s(shape, box, False, False)
-    return [list(box.CornerMin().Coord()), list(box.CornerMax().Coord())]
+    box = occt.bounding_box(shape)
+    return [list(box[:3]), list(box[3:])]
 
 
 def _hole_fails(geom: PlateGeometry | None, topo: dict, dots: Holes | None) -> list[str]:
@@ -334,7 +322,7 @@ def _volume_check(shape, topo: dict, n_big: bool, analytic: float | None, sec: d
     if n_big and topo["flux_volume"] is not None:
         volume, volume_method = topo["flux_volume"], "divergence theorem over the horizontal faces"
     else:
-        volume, volume_method = _volume(shape), "GProp"
+        volume, volume_method = occt.volume(shape), "GProp"
     sec["volume"] = time.perf_counter() - t0
     rel = None if analytic is None else abs(volume - analytic) / abs(analytic)
     if volume <= 0:

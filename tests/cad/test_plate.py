@@ -64,11 +64,12 @@ def test_plain_plate_matches_analytic_oracle(plain):
 
 @pytest.mark.parametrize("mode", ["none", "engrave", "emboss"])
 def test_flux_volume_equals_gprop(mode):
-    from stencil_cad.cad.validate import _volume, topology_checks
+    from stencil_cad.cad.occt import volume
+    from stencil_cad.cad.validate import topology_checks
 
     m = cad.build_plate(grid_dots(pitch=4.0), W, H, cfg(label=LabelMode(mode)), LABEL)
     topo = topology_checks(m.part.wrapped)
-    assert topo["flux_volume"] == pytest.approx(_volume(m.part.wrapped), rel=1e-9)
+    assert topo["flux_volume"] == pytest.approx(volume(m.part.wrapped), rel=1e-9)
     assert topo["flux_volume"] == pytest.approx(m.analytic_volume, rel=1e-9)
 
 
