@@ -89,21 +89,13 @@ class StencilPlate(bd.BasePartObject):
 class Wall(bd.BasePartObject):
     """The interlocking wall as a build123d part (usable in BuildPart or algebra mode).
 
-    The solid is :func:`stencil_cad.cad.wall.wall_solid`'s, the one a job builds.
+    The solid is :func:`stencil_cad.cad.wall.wall_solid`'s, the one a job builds; the first six
+    arguments, and the ``ValueError`` on sizes that make no wall, are that function's.
 
     Args:
-        width_mm: Picture width in mm.
-        height_mm: Picture height in mm.
-        outline: The plate's outline config (margin, key).
-        wall: Wall config (clearance, thickness, opening, pocket depth).
-        plate_thickness_mm: The plate's thickness in mm.
-        standoff_mm: Height in mm of the plate's underside above the surface.
         rotation: Rotation applied after building. Defaults to none.
         align: Alignment; None (default) keeps the picture frame, which registration needs.
         mode: Builder combine mode. Defaults to ADD.
-
-    Raises:
-        ValueError: If the sizes do not make a wall (naming the value and its limit).
     """
 
     _applies_to = [bd.BuildPart._tag]
