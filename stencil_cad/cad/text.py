@@ -19,6 +19,8 @@ import os
 import sys
 import threading
 
+from . import occt
+
 __all__ = ["FONT_LOCK", "text_faces"]
 
 #: OCCT's font manager is one per process and not thread-safe (its font map, FreeType's library):
@@ -73,8 +75,6 @@ def text_faces(text: str, size: float, family: str, path: str) -> list:
     Returns:
         ``TopoDS_Face`` per glyph part, in the order OCCT's explorer gives them.
     """
-    from OCP.Bnd import Bnd_Box
-    from OCP.BRepBndLib import BRepBndLib
     from OCP.BRepTools import BRepTools
     from OCP.Font import Font_FA_Bold
     from OCP.gp import gp_Ax3, gp_Trsf, gp_Vec
@@ -96,10 +96,8 @@ def text_faces(text: str, size: float, family: str, path: str) -> list:
                 font, NCollection_Utf8String(text), gp_Ax3(), Graphic3d_HTA_CENTER, Graphic3d_VTA_CENTER
             )
         )
-    box = Bnd_Box()
     BRepTools.Clean_s(laid)
-    BRepBndLib.AddOptimal_s(laid, box)
-    x0, y0 = box.Get()[:2] if not box.IsVoid() else (0.0, 0.0)
+    x0, y0 = occt.bounding_box(laid)[:2]
     shift = gp_Trsf()
     shift.SetTranslation(gp_Vec(-x0, -y0, 0.0))
     placed = laid.Moved(TopLoc_Location(shift))
