@@ -13,6 +13,7 @@ import numpy as np
 
 from ..geometry import as_ccw, as_cw
 from ..model import PlateGeometry
+from . import occt
 
 if TYPE_CHECKING:
     from OCP.TopoDS import TopoDS_Solid
@@ -87,14 +88,11 @@ def _with_label(geom: PlateGeometry, prism, solid, t: float) -> TopoDS_Solid:
     from OCP.gp import gp_Dir, gp_Pln, gp_Pnt, gp_Vec
     from OCP.TopAbs import TopAbs_FACE
     from OCP.TopExp import TopExp_Explorer
-    from OCP.TopoDS import TopoDS, TopoDS_Compound, TopoDS_Shell, TopoDS_Solid
+    from OCP.TopoDS import TopoDS, TopoDS_Shell, TopoDS_Solid
     from OCP.TopTools import TopTools_MapOfShape
 
     # Label surgery. Glyph faces at z = t; their prism gives the relief's walls and far faces.
     pln_top = gp_Pln(gp_Pnt(0, 0, t), gp_Dir(0, 0, 1))
-    builder = BRep_Builder()
-    comp = TopoDS_Compound()
-    builder.MakeCompound(comp)
     outer_wires, inner_wires, gfaces = [], [], []
     for outer, inner in geom.glyphs:
         ow = _polygon_wire(as_ccw(outer), t)
@@ -104,10 +102,9 @@ def _with_label(geom: PlateGeometry, prism, solid, t: float) -> TopoDS_Solid:
             gm.Add(w)
         gf = gm.Face()
         gfaces.append(gf)
-        builder.Add(comp, gf)
         outer_wires.append(ow)
         inner_wires.extend(iws)
-    relief = BRepPrimAPI_MakePrism(comp, gp_Vec(0, 0, float(geom.relief_mm)))
+    relief = BRepPrimAPI_MakePrism(occt.compound(gfaces), gp_Vec(0, 0, float(geom.relief_mm)))
     rshape = relief.Shape()
 
     top = TopoDS.Face_s(prism.LastShape())
@@ -116,6 +113,7 @@ def _with_label(geom: PlateGeometry, prism, solid, t: float) -> TopoDS_Solid:
         new_top.Add(TopoDS.Wire_s(w.Reversed()))
     top2 = new_top.Face()
 
+    builder = BRep_Builder()
     shell = TopoDS_Shell()
     builder.MakeShell(shell)
     exp = TopExp_Explorer(solid, TopAbs_FACE)
@@ -177,8 +175,6 @@ def check_simple_solid(
     Raises:
         error: Naming the failed check.
     """
-    from . import occt
-
     shape = getattr(shape, "wrapped", shape)
     solids = occt.solids(shape)
     volume = sum(occt.volume(s) for s in solids)
