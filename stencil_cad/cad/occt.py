@@ -23,6 +23,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 __all__ = [
+    "STEP_LOCK",
     "arc_edge",
     "bounding_box",
     "box",
@@ -48,7 +49,7 @@ Point = Sequence[float]
 
 #: OCCT's STEP settings (``Interface_Static``) and its message printers are one per process:
 #: one STEP file is written at a time.
-_STEP_LOCK = threading.Lock()
+STEP_LOCK = threading.Lock()
 
 
 def _pnt(p: Point):
@@ -283,7 +284,7 @@ def write_step(shape, path: str | os.PathLike, name: str, description: str, time
     from OCP.Interface import Interface_Static
     from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
 
-    with _STEP_LOCK, _quiet():
+    with STEP_LOCK, _quiet():
         writer = STEPControl_Writer()
         for key, value in (
             ("write.step.schema", "AP214IS"),

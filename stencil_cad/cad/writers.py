@@ -61,11 +61,15 @@ def write_step(model, path: str | os.PathLike) -> None:
     from OCP.Interface import Interface_Static
     from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
 
-    writer = STEPControl_Writer()
-    Interface_Static.SetCVal_s("write.step.unit", "MM")
-    writer.Transfer(model.shape, STEPControl_AsIs)
-    if writer.Write(str(path)) != IFSelect_RetDone:
-        raise OSError(f"OCCT could not write {path}")
+    from .occt import STEP_LOCK
+
+    # OCCT's STEP settings are the process's: the wall's writer sets them too, under the same lock.
+    with STEP_LOCK:
+        writer = STEPControl_Writer()
+        Interface_Static.SetCVal_s("write.step.unit", "MM")
+        writer.Transfer(model.shape, STEPControl_AsIs)
+        if writer.Write(str(path)) != IFSelect_RetDone:
+            raise OSError(f"OCCT could not write {path}")
 
 
 def write_stl(model, path: str | os.PathLike, tolerance_mm: float = 0.02) -> None:
