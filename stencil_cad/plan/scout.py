@@ -158,6 +158,7 @@ def sprayed_score(
         resolution.sim_mm_per_px(cfg) if grid_mm_per_px is None else grid_mm_per_px,
         geometry=SprayGeometry.for_job(cfg),
         layer_sprays=plan.sprays,
+        errors=False,  # only the composite is scored: no layer's tone error is read
     )
     ref = source_reference(cfg, picture, layers, sim.composite.shape[:2], sim.mm_per_px)
     return float(scielab(ref, sim.composite, sim.mm_per_px, cfg.view.distance_m))
