@@ -54,7 +54,8 @@ class StandoffFigures:
     #: Seconds the trials took.
     seconds: float = 0.0
     #: The two best designs' plates refined and sprayed, where their stand-offs differ (the
-    #: refinement gains more under more blur): empty otherwise.
+    #: refinement gains more under more blur), or with light plates the two walls refined outright
+    #: (the second's score a scout's where ``scouted_after`` is set): empty otherwise.
     refined: Sequence[PlateTrial] = ()
     #: The refinement steps after which the refined designs were scored (they ranked two walls part
     #: way through their refinement), or None: scored refined in full.
