@@ -254,7 +254,7 @@ def _trial_score(
     dotsets = holes.refined(trial, plan, layers, unrefined, picture, stop_after)[0].sets
     if warm is not None and not warm:
         warm += [unrefined, dotsets]
-    return scout.sprayed_score(plan, layers, picture, grid_mm_per_px, dotsets)
+    return scout.sprayed_score(plan, layers, picture, grid_mm_per_px, dotsets, trial)
 
 
 def stage_standoff(run: Run, plan: Plan, layers: Layers, picture: Picture | None) -> Designed:

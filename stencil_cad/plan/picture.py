@@ -9,6 +9,7 @@ import numpy as np
 
 from ..config import JobConfig
 from ..model import Layers, Picture
+from ..record import Run
 
 log = logging.getLogger(__name__)
 
@@ -60,6 +61,34 @@ def source_reference(
         a = src.alpha[..., None]
         src = replace(src, rgb=src.rgb * a + (1.0 - a))
     return _resample(src.rgb, shape)
+
+
+def kept_reference(
+    run: Run | None,
+    cfg: JobConfig,
+    picture: Picture | None,
+    layers: Layers,
+    shape: tuple[int, int],
+    mm_per_px: float,
+) -> np.ndarray:
+    """:func:`source_reference`, kept in ``run.kept`` by what it reads (None: not kept).
+
+    The plate-design trials score every design they spray, the blur floor and the scout against
+    the same reference on their grid; it was read from the image file and resized again for each.
+    """
+    if run is None:
+        return source_reference(cfg, picture, layers, shape, mm_per_px)
+    key = (
+        "reference",
+        str(cfg.image),
+        cfg.decompose.opacity_source,
+        id(picture),
+        id(layers),
+        tuple(shape),
+        mm_per_px,
+    )
+    ref, _ = run.keep(key, lambda: source_reference(cfg, picture, layers, shape, mm_per_px))
+    return np.asarray(ref)
 
 
 def _resample(img: np.ndarray, shape: tuple[int, int]) -> np.ndarray:

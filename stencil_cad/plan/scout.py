@@ -86,7 +86,8 @@ def scouted(
     the trials' grid, rounded as the trials' are.
     """
     floor = round(
-        blur_floor(with_design(plan, first.windows, first.standoff_mm), layers, picture, grid_mm_per_px), 3
+        blur_floor(with_design(plan, first.windows, first.standoff_mm), layers, picture, grid_mm_per_px, run),
+        3,
     )
     if first.scielab > FLOOR_RATIO * floor or not held or len(held) < 2:
         return floor, None
@@ -108,46 +109,55 @@ def scout_score(
     """S-CIELAB at the viewing distance of another wall's holes ``start`` refined :data:`SCOUT_STEPS` steps for ``cfg``'s wall.
 
     Not stippled: the holes take the first :data:`SCOUT_STEPS` steps of ``cfg``'s refinement, then
-    spray on the grid of ``grid_mm_per_px`` as a trial's do (:func:`sprayed_score`). Nothing of it
-    is kept in the run: the job never takes these holes up.
+    spray on the grid of ``grid_mm_per_px`` as a trial's do (:func:`sprayed_score`, against the
+    reference the run keeps). None of its holes is kept in the run: the job never takes them up.
     """
     from .refinement import refine_holes
 
     trial = Run(cfg=run.cfg, out=run.out, quiet=True, executor=run.executor, cancel=run.cancel)
     plan = whole(cfg, picture_mm, paints)
     dotsets, _ = refine_holes(trial, plan, layers, start, picture, SCOUT_STEPS)
-    return sprayed_score(plan, layers, picture, grid_mm_per_px, dotsets)
+    return sprayed_score(plan, layers, picture, grid_mm_per_px, dotsets, run)
 
 
-def blur_floor(cfg: JobConfig, layers: Layers, picture: Picture | None, grid_mm_per_px: float) -> float:
+def blur_floor(
+    cfg: JobConfig, layers: Layers, picture: Picture | None, grid_mm_per_px: float, run: Run | None = None
+) -> float:
     """S-CIELAB at the viewing distance of the layers blurred as ``cfg``'s wall blurs a hole's image, with no dots.
 
     Each layer's opacity blurred by the physical model's Gaussian at the design's stand-off
     (:func:`stencil_cad.simulate.physical.spread_sigma_mm`, ``spray.can``'s), composited on the grid
-    of ``grid_mm_per_px`` and scored against the picture as a trial is.
+    of ``grid_mm_per_px`` and scored against the picture as a trial is (the reference kept in
+    ``run``, where given: :func:`stencil_cad.plan.picture.kept_reference`).
     """
     from ..simulate import blurred_composite
     from ..simulate.physical import spread_sigma_mm
     from ..simulate.scielab import scielab
-    from .picture import source_reference
+    from .picture import kept_reference
 
     sprayed = blurred_composite(layers, spread_sigma_mm(cfg.spray, cfg.standoff.design_mm), grid_mm_per_px)
-    ref = source_reference(cfg, picture, layers, sprayed.shape[:2], grid_mm_per_px)
+    ref = kept_reference(run, cfg, picture, layers, sprayed.shape[:2], grid_mm_per_px)
     return float(scielab(ref, sprayed, grid_mm_per_px, cfg.view.distance_m))
 
 
 def sprayed_score(
-    plan: Plan, layers: Layers, picture: Picture | None, grid_mm_per_px: float | None, dotsets: list[DotSet]
+    plan: Plan,
+    layers: Layers,
+    picture: Picture | None,
+    grid_mm_per_px: float | None,
+    dotsets: list[DotSet],
+    run: Run | None = None,
 ) -> float:
     """S-CIELAB at the viewing distance of ``dotsets`` made and sprayed under ``plan`` on a grid of ``grid_mm_per_px``.
 
-    The job's simulation grid where None. Each layer sprays as ``plan``'s sprays say.
+    The job's simulation grid where None. Each layer sprays as ``plan``'s sprays say. The
+    reference is kept in ``run``, where given (:func:`stencil_cad.plan.picture.kept_reference`).
     """
     from .. import resolution, simulate
     from ..simulate.physical import SprayGeometry
     from ..simulate.scielab import scielab
     from ..stipple.made import made_dots
-    from .picture import source_reference
+    from .picture import kept_reference
 
     cfg = plan.cfg
     made = [made_dots(d, cfg.stipple, plan.picture_mm) for d in dotsets]
@@ -160,5 +170,5 @@ def sprayed_score(
         layer_sprays=plan.sprays,
         errors=False,  # only the composite is scored: no layer's tone error is read
     )
-    ref = source_reference(cfg, picture, layers, sim.composite.shape[:2], sim.mm_per_px)
+    ref = kept_reference(run, cfg, picture, layers, sim.composite.shape[:2], sim.mm_per_px)
     return float(scielab(ref, sim.composite, sim.mm_per_px, cfg.view.distance_m))
