@@ -5,12 +5,16 @@ from __future__ import annotations
 import contextlib
 import html
 import io
+import threading
 from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
 from ..names import INPUT_PNG, MURAL_MAP_PNG, PREVIEW_PNG, SIMULATED_PNG
 from . import mural
 from .content import _NO_CAN, Sheet, _amount, _drop, _plate_caption, _plates_text, _unit_note
+
+#: One sheet is made at a time: :func:`_binary_streams` changes a process-wide ReportLab setting.
+_SHEET_LOCK = threading.Lock()
 
 
 def _pdf_fonts() -> tuple[str, str]:
@@ -302,16 +306,18 @@ def _binary_streams() -> Iterator[None]:
 
     ASCII85 makes a stream 25 % longer and costs time to encode: the bundled example's sheet took 0.81
     CPU-s and 9.3 MB with it, 0.61 CPU-s and 7.5 MB without (median of 5 ``render_pdf`` calls, the same
-    pages). ``useA85`` is a process-wide ReportLab setting, so it is put back afterwards.
+    pages). ``useA85`` is a process-wide ReportLab setting, so one sheet is made at a time (the studio
+    makes sheets in threads) and the setting is put back afterwards.
     """
     from reportlab import rl_config
 
-    before = rl_config.useA85
-    rl_config.useA85 = 0
-    try:
-        yield
-    finally:
-        rl_config.useA85 = before
+    with _SHEET_LOCK:
+        before = rl_config.useA85
+        rl_config.useA85 = 0
+        try:
+            yield
+        finally:
+            rl_config.useA85 = before
 
 
 def _tile_drawing(tiles: Sequence[mural.MapTile], width_mm: float, height_mm: float, width_pt: float) -> Any:
