@@ -6,18 +6,22 @@ copy of the first); counter-clockwise rings have positive area.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 
 __all__ = [
     "as_ccw",
     "as_cw",
+    "circles_clear_of_rings",
     "genus",
     "index_triangles",
     "mesh_genus",
+    "min_web",
     "point_ring_distance",
     "points_in_ring",
     "polygon_area",
@@ -134,6 +138,81 @@ def rings_cross(rings: Sequence[np.ndarray], *, touching: bool = True, within: b
     if touching:
         return bool(((d1 * d2 <= 0) & (d3 * d4 <= 0)).any())
     return bool(((d1 * d2 < 0) & (d3 * d4 < 0)).any())
+
+
+def circles_clear_of_rings(
+    xy: np.ndarray, r: np.ndarray, rings: Sequence[np.ndarray], clearance_mm: float, inside: bool = False
+) -> np.ndarray:
+    """Which circles keep at least ``clearance_mm`` from every ring's edges, on the ring's chosen side.
+
+    Args:
+        xy: ``(N, 2)`` circle centres in mm.
+        r: ``(N,)`` radii in mm.
+        rings: ``(K_i, 2)`` rings.
+        clearance_mm: Least distance in mm between a circle and a ring's edges.
+        inside: True: each circle must lie inside every ring (a plate's outline); False: outside
+            every ring (a window, a cut-out). Defaults to False.
+
+    Returns:
+        ``(N,)`` bool: True where the circle is on its side of every ring, clear of its edges.
+    """
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    r = np.asarray(r, dtype=np.float64).reshape(-1)
+    ok = np.ones(len(r), dtype=bool)
+    reach = float(r.max(initial=0.0)) + clearance_mm
+    for ring in rings:
+        ring = np.asarray(ring, dtype=np.float64)
+        lo, hi = ring.min(axis=0) - reach, ring.max(axis=0) + reach
+        near = np.all((xy >= lo) & (xy <= hi), axis=1)
+        if inside:
+            ok &= near  # a circle away from the ring's box is outside it
+        near = np.flatnonzero(near & ok)
+        # Chunks keep the points x edges arrays small on long rings.
+        for start in range(0, len(near), 2048):
+            idx = near[start : start + 2048]
+            p = xy[idx]
+            d = point_ring_distance(p, ring)
+            bad = (points_in_ring(p, ring) != inside) | (d < r[idx] + clearance_mm)
+            ok[idx[bad]] = False
+    return ok
+
+
+def min_web(xy: np.ndarray, r: np.ndarray) -> float:
+    """Smallest web ``|c_i - c_j| - r_i - r_j`` over all pairs, in mm.
+
+    Exact, O(N log N) for spread-out dots: pairs are gathered with a KD-tree
+    within a reach ``R``; if the smallest web ``U`` among them satisfies
+    ``U + 2 max(r) <= R`` no pair outside the reach can do better, otherwise
+    the reach grows to ``U + 2 max(r)`` (or doubles when no pair was found).
+
+    Args:
+        xy: ``(N, 2)`` hole centres in mm.
+        r: ``(N,)`` hole radii in mm.
+
+    Returns:
+        The smallest web in mm (negative when holes overlap), ``inf`` for fewer
+        than two holes.
+    """
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    r = np.asarray(r, dtype=np.float64).reshape(-1)
+    n = len(xy)
+    if n < 2:
+        return math.inf
+    rmax = float(r.max())
+    span = np.ptp(xy, axis=0)
+    spacing = math.sqrt(max(float(span[0] * span[1]), float(span.max()) ** 2 / n, 1e-12) / n)
+    reach = 2.0 * rmax + 0.5 * spacing
+    tree = cKDTree(xy)
+    while True:
+        pairs = tree.query_pairs(reach, output_type="ndarray")
+        if len(pairs) == 0:
+            reach *= 2.0
+            continue
+        d = np.hypot(*(xy[pairs[:, 0]] - xy[pairs[:, 1]]).T)
+        best = float(np.min(d - r[pairs[:, 0]] - r[pairs[:, 1]]))
+        if best + 2.0 * rmax <= reach:
+            return best
+        reach = best + 2.0 * rmax + 1e-9
 
 
 def index_triangles(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

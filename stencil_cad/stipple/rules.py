@@ -17,13 +17,13 @@ what it did; :func:`check_rules` only checks and raises :class:`DotRuleError`.
 from __future__ import annotations
 
 import logging
-import math
 
 import numba
 import numpy as np
 from scipy.spatial import cKDTree
 
 from ..config.rules import DesignRules
+from ..geometry import min_web
 
 log = logging.getLogger(__name__)
 
@@ -187,44 +187,6 @@ def _alive_after_removal(resolve: np.ndarray, all_pairs: np.ndarray, r: np.ndarr
 
 
 # --------------------------------------------------------------------------- public API
-
-
-def min_web(xy: np.ndarray, r: np.ndarray) -> float:
-    """Smallest web ``|c_i - c_j| - r_i - r_j`` over all pairs, in mm.
-
-    Exact, O(N log N) for spread-out dots: pairs are gathered with a KD-tree
-    within a reach ``R``; if the smallest web ``U`` among them satisfies
-    ``U + 2 max(r) <= R`` no pair outside the reach can do better, otherwise
-    the reach grows to ``U + 2 max(r)`` (or doubles when no pair was found).
-
-    Args:
-        xy: ``(N, 2)`` hole centres in mm.
-        r: ``(N,)`` hole radii in mm.
-
-    Returns:
-        The smallest web in mm (negative when holes overlap), ``inf`` for fewer
-        than two holes.
-    """
-    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-    r = np.asarray(r, dtype=np.float64).reshape(-1)
-    n = len(xy)
-    if n < 2:
-        return math.inf
-    rmax = float(r.max())
-    span = np.ptp(xy, axis=0)
-    spacing = math.sqrt(max(float(span[0] * span[1]), float(span.max()) ** 2 / n, 1e-12) / n)
-    reach = 2.0 * rmax + 0.5 * spacing
-    tree = cKDTree(xy)
-    while True:
-        pairs = tree.query_pairs(reach, output_type="ndarray")
-        if len(pairs) == 0:
-            reach *= 2.0
-            continue
-        d = np.hypot(*(xy[pairs[:, 0]] - xy[pairs[:, 1]]).T)
-        best = float(np.min(d - r[pairs[:, 0]] - r[pairs[:, 1]]))
-        if best + 2.0 * rmax <= reach:
-            return best
-        reach = best + 2.0 * rmax + 1e-9
 
 
 def _merge_fused(xy: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:

@@ -17,7 +17,7 @@ from dataclasses import replace
 import numpy as np
 from scipy import ndimage as ndi
 
-from ..geometry import point_ring_distance, points_in_ring
+from ..geometry import circles_clear_of_rings
 from ..model import DotSet
 
 #: Slack in mm of the web check against a window's edge (as the rules' own check slack).
@@ -37,22 +37,7 @@ def window_clearance(xy_mm: np.ndarray, r_mm: np.ndarray, windows: Sequence, web
         ``(N,)`` bool: True where the hole is clear of every window (outside it, its edge at least
         a web from the window's edge).
     """
-    xy = np.asarray(xy_mm, dtype=np.float64).reshape(-1, 2)
-    r = np.asarray(r_mm, dtype=np.float64).reshape(-1)
-    ok = np.ones(len(r), dtype=bool)
-    reach = float(r.max(initial=0.0)) + web_mm
-    for outer, _inner in windows:
-        ring = np.asarray(outer, dtype=np.float64)
-        lo, hi = ring.min(axis=0) - reach, ring.max(axis=0) + reach
-        near = np.flatnonzero(np.all((xy >= lo) & (xy <= hi), axis=1) & ok)
-        # Chunks keep the points x edges arrays small on long rings.
-        for start in range(0, len(near), 2048):
-            idx = near[start : start + 2048]
-            p = xy[idx]
-            d = point_ring_distance(p, ring)
-            bad = points_in_ring(p, ring) | (d < r[idx] + web_mm - _TOL_MM)
-            ok[idx[bad]] = False
-    return ok
+    return circles_clear_of_rings(xy_mm, r_mm, [outer for outer, _inner in windows], web_mm - _TOL_MM)
 
 
 def with_windows(ds: DotSet, windows: Sequence, web_mm: float) -> DotSet:

@@ -1,0 +1,266 @@
+"""The B-rep of a plate's STEP text, as :func:`~stencil_cad.exchange.step.step_text` writes it, read into arrays.
+
+This reads exactly the entities our writer uses (points, directions, vectors, placements,
+lines, circles, planes, cylinders, vertices, edges, loops, bounds, faces, one shell and one
+solid), one entity per line, ``#id=NAME('',...);``; it is not a general STEP reader. It exists
+so :mod:`stencil_cad.exchange.step_check` can check the very text a maker gets, kernel-free.
+
+Every step is vectorised over the whole text: a plate of 4,300 holes is 150,000 entities
+(7 MB), and a Python loop over them would cost more than the check is meant to save. The
+lines are found and typed with numpy (the first eight bytes of each name), every ``#``
+reference is parsed at once as digits after a ``#`` and given to its line, and the reals come
+from one regular expression per entity that holds any (a literal name first, which Python's
+``re`` finds quickly).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["KINDS", "Brep", "StepReadError", "read_brep"]
+
+
+class StepReadError(ValueError):
+    """The text is not a STEP file of the kind :func:`~stencil_cad.exchange.step.step_text` writes."""
+
+
+#: The entities read, each with the number of ``#`` references it holds (None: a list) and
+#: whether it ends with a ``.T.``/``.F.`` flag.
+KINDS: dict[str, tuple[int | None, bool]] = {
+    "CARTESIAN_POINT": (0, False),
+    "DIRECTION": (0, False),
+    "VECTOR": (1, False),
+    "AXIS2_PLACEMENT_3D": (3, False),
+    "LINE": (2, False),
+    "CIRCLE": (1, False),
+    "PLANE": (1, False),
+    "CYLINDRICAL_SURFACE": (1, False),
+    "VERTEX_POINT": (1, False),
+    "EDGE_CURVE": (3, True),
+    "ORIENTED_EDGE": (1, True),
+    "EDGE_LOOP": (None, False),
+    "FACE_BOUND": (1, True),
+    "FACE_OUTER_BOUND": (1, True),
+    "ADVANCED_FACE": (None, True),
+    "CLOSED_SHELL": (None, False),
+    "OPEN_SHELL": (None, False),
+    "MANIFOLD_SOLID_BREP": (1, False),
+}
+
+#: The reals of the entities that hold any: the text between the name's ``('',`` and its end.
+_REALS = {
+    "CARTESIAN_POINT": (re.compile(r"=CARTESIAN_POINT\('',\(([^)]*)\)\);"), 3),
+    "DIRECTION": (re.compile(r"=DIRECTION\('',\(([^)]*)\)\);"), 3),
+    "VECTOR": (re.compile(r"=VECTOR\('',#\d+,([^)]*)\);"), 1),
+    "CIRCLE": (re.compile(r"=CIRCLE\('',#\d+,([^)]*)\);"), 1),
+    "CYLINDRICAL_SURFACE": (re.compile(r"=CYLINDRICAL_SURFACE\('',#\d+,([^)]*)\);"), 1),
+}
+
+_DIGITS = 10  # most digits of a reference
+
+
+@dataclass
+class Brep:
+    """The entities of one STEP text as arrays, by kind.
+
+    Attributes:
+        kind: ``(max id + 1,)`` the kind's index in :data:`KINDS` of each entity id, -1 for ids
+            not written or of other kinds.
+        row: ``(max id + 1,)`` each entity's row among its kind's.
+        ids: Per kind, ``(n,)`` entity ids in the order written.
+        refs: Per kind of fixed arity, ``(n, k)`` referenced ids.
+        lists: Per kind holding a list, ``(ptr, flat)``: the references of row ``i`` are
+            ``flat[ptr[i]:ptr[i + 1]]`` (an ADVANCED_FACE's last one is its surface).
+        flag: Per flagged kind, ``(n,)`` bool, True for ``.T.``.
+        reals: Per kind holding reals, ``(n, k)`` float64 (mm for lengths).
+    """
+
+    kind: np.ndarray
+    row: np.ndarray
+    ids: dict[str, np.ndarray]
+    refs: dict[str, np.ndarray]
+    lists: dict[str, tuple[np.ndarray, np.ndarray]]
+    flag: dict[str, np.ndarray]
+    reals: dict[str, np.ndarray]
+
+    def count(self, kind: str) -> int:
+        """How many entities of ``kind`` the text holds."""
+        return len(self.ids[kind])
+
+    def rows(self, refs: np.ndarray, kind: str, where: str) -> np.ndarray:
+        """The rows of ``refs`` among the entities of ``kind``.
+
+        Raises:
+            StepReadError: A reference names no entity of that kind (``where`` says whose).
+        """
+        refs = np.asarray(refs, dtype=np.int64)
+        inside = (refs >= 0) & (refs < len(self.kind))
+        code = list(KINDS).index(kind)
+        ok = inside & (self.kind[np.where(inside, refs, 0)] == code)
+        if not ok.all():
+            bad = int(refs[np.flatnonzero(~ok)[0]])
+            raise StepReadError(f"{where} #{bad} is not a {kind}")
+        return self.row[refs]
+
+
+def _lines(data: bytes) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The bytes of the data section, each line's start and end (exclusive, before the newline)."""
+    b = np.frombuffer(data, dtype=np.uint8)
+    nl = np.flatnonzero(b == 10)
+    starts = np.concatenate([[0], nl + 1])
+    ends = np.concatenate([nl, [len(b)]])
+    return b, starts, ends
+
+
+def _hash_numbers(b: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every ``#`` of the section: the number after it, and each line's first ``#`` index.
+
+    Raises:
+        StepReadError: A ``#`` with no number after it, or a line that does not start with one.
+    """
+    pos = np.flatnonzero(b == 35)
+    padded = np.concatenate([b, np.zeros(_DIGITS + 1, dtype=np.uint8)])
+    value = np.zeros(len(pos), dtype=np.int64)
+    ndig = np.zeros(len(pos), dtype=np.int64)
+    alive = np.ones(len(pos), dtype=bool)
+    # Digit by digit over every reference at once; references are short, so this stops early.
+    for k in range(_DIGITS + 1):
+        d = padded[pos + 1 + k] - np.uint8(48)  # a byte that is not a digit wraps past 9
+        alive &= d < 10
+        if not alive.any():
+            break
+        value = np.where(alive, value * 10 + d, value)
+        ndig += alive
+    if (ndig == 0).any() or (ndig > _DIGITS).any():
+        at = int(pos[np.flatnonzero((ndig == 0) | (ndig > _DIGITS))[0]])
+        raise StepReadError(f"a '#' at byte {at} of the data section is not followed by a number")
+    first = np.searchsorted(pos, starts)
+    if not (first < len(pos)).all() or not (pos[np.minimum(first, len(pos) - 1)] == starts).all():
+        raise StepReadError("every entity line of the data section must start with '#id='")
+    return value, first
+
+
+def _kinds(b: np.ndarray, eq: np.ndarray) -> np.ndarray:
+    """Each line's kind (index in :data:`KINDS`, -1 for others), from the name after its ``=``."""
+    padded = np.concatenate([b, np.zeros(32, dtype=np.uint8)])
+    head = np.ascontiguousarray(padded[eq[:, None] + 1 + np.arange(8)]).view(np.uint64).reshape(-1)
+    code = np.full(len(eq), -1, dtype=np.int64)
+    for i, kind in enumerate(KINDS):
+        key = np.frombuffer((kind + "('',")[:8].encode("ascii"), dtype=np.uint64)[0]
+        lines = np.flatnonzero(head == key)
+        # The same first eight bytes, a name of another length (ADVANCED_FACE, ADVANCED_BREP_...).
+        code[lines[padded[eq[lines] + 1 + len(kind)] == ord("(")]] = i
+    return code
+
+
+def _equals(b: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """Each line's ``=`` (the one after its id).
+
+    Raises:
+        StepReadError: A line with no ``=``, or more than one.
+    """
+    eq = np.flatnonzero(b == 61)
+    line = np.searchsorted(starts, eq, side="right") - 1
+    if len(eq) != len(starts) or not (line == np.arange(len(starts))).all() or (eq >= ends).any():
+        raise StepReadError("every line of the data section must be one entity '#id=...;'")
+    return eq
+
+
+def _flags(b: np.ndarray, ends: np.ndarray, where: str) -> np.ndarray:
+    """The ``.T.``/``.F.`` before each line's ``);``.
+
+    Raises:
+        StepReadError: A line that does not end so.
+    """
+    tail = b[ends[:, None] + np.arange(-5, 0)]
+    fixed = np.frombuffer(b".T.);", dtype=np.uint8)
+    ok = (tail[:, [0, 2, 3, 4]] == fixed[[0, 2, 3, 4]]).all(axis=1) & np.isin(tail[:, 1], (84, 70))
+    if not ok.all():
+        raise StepReadError(f"a {where} does not end with .T. or .F.")
+    return tail[:, 1] == 84
+
+
+def _reals(text: str, kind: str, n: int) -> np.ndarray:
+    """The reals of every entity of ``kind``, in the order written.
+
+    Raises:
+        StepReadError: An entity of that kind whose reals cannot be read.
+    """
+    pattern, width = _REALS[kind]
+    found = pattern.findall(text)
+    if len(found) != n:
+        raise StepReadError(f"{n - len(found)} {kind} entities cannot be read")
+    if n == 0:
+        return np.zeros((0, width))
+    try:
+        values = np.fromiter(map(float, ",".join(found).split(",")), dtype=np.float64)
+    except ValueError:
+        raise StepReadError(f"a {kind} holds a value that is not a number") from None
+    if len(values) != n * width:
+        raise StepReadError(f"a {kind} holds the wrong number of values (expected {width})")
+    return values.reshape(n, width)
+
+
+def _data(text: str) -> tuple[str, bytes]:
+    """The data section, as text and bytes.
+
+    Raises:
+        StepReadError: No ``DATA;`` section, or text that is not ASCII.
+    """
+    begin, end = text.find("\nDATA;\n"), text.rfind("\nENDSEC;\nEND-ISO-10303-21;")
+    if not text.startswith("ISO-10303-21;") or begin < 0 or end < begin:
+        raise StepReadError("not a STEP file: no ISO-10303-21 header with a DATA section")
+    data = text[begin + 7 : end]
+    try:
+        return data, data.encode("ascii")
+    except UnicodeEncodeError:
+        raise StepReadError("the data section is not ASCII") from None
+
+
+def read_brep(text: str) -> Brep:
+    """Read the B-rep entities of a STEP text written by :func:`~stencil_cad.exchange.step.step_text`.
+
+    Args:
+        text: The file's text.
+
+    Returns:
+        The entities as arrays.
+
+    Raises:
+        StepReadError: The text is not of that form (a line that is not one entity, an id used
+            twice, an entity of a known kind that cannot be read).
+    """
+    data, raw = _data(text)
+    b, starts, ends = _lines(raw)
+    eq = _equals(b, starts, ends)
+    value, first = _hash_numbers(b, starts)
+    nref = np.diff(np.concatenate([first, [len(value)]])) - 1
+    ids = value[first]
+    if len(ids) and np.bincount(ids).max() > 1:
+        raise StepReadError("an entity id is used twice")
+    code = _kinds(b, eq)
+    kind = np.full(int(ids.max(initial=0)) + 1, -1, dtype=np.int64)
+    row = np.full(len(kind), -1, dtype=np.int64)
+    out = Brep(kind, row, {}, {}, {}, {}, {})
+    for i, (name, (arity, flagged)) in enumerate(KINDS.items()):
+        lines = np.flatnonzero(code == i)
+        out.ids[name] = ids[lines]
+        kind[ids[lines]] = i
+        row[ids[lines]] = np.arange(len(lines))
+        if arity is None:
+            counts = nref[lines]
+            ptr = np.concatenate([[0], np.cumsum(counts)])
+            take = np.repeat(first[lines] + 1 - ptr[:-1], counts) + np.arange(ptr[-1])
+            out.lists[name] = (ptr, value[take])
+        else:
+            if (nref[lines] != arity).any():
+                raise StepReadError(f"a {name} holds other than {arity} references")
+            out.refs[name] = value[first[lines][:, None] + 1 + np.arange(arity)]
+        if flagged:
+            out.flag[name] = _flags(b, ends[lines], name)
+        if name in _REALS:
+            out.reals[name] = _reals(data, name, len(lines))
+    return out
