@@ -64,9 +64,12 @@ __all__ = [
 class PlateModel:
     """A built plate: the solid plus what the exporters and checks need.
 
-    Made from a build123d shape (``part``) or an OCCT one (``shape``); the build123d ``Part``
-    is made only when :attr:`part` is first asked for (a template editing the solid), so a job
-    whose template returns :func:`perforated_plate`'s model never imports build123d.
+    Made from a build123d shape (``part``), an OCCT one (``shape``) or a description alone
+    (``geometry``). The OCCT solid of a description is built (:func:`make_solid`) only when
+    :attr:`shape` or :attr:`part` is first asked for (OCCT's check, a template editing the
+    solid): a job writes and checks a plate from its description, so it builds no solid; and
+    the build123d ``Part`` is made only when :attr:`part` is asked for, so a job whose template
+    returns :func:`perforated_plate`'s model never imports build123d.
 
     Attributes:
         geometry: The plate's kernel-free description (fast STEP and mesh), or
@@ -91,8 +94,10 @@ class PlateModel:
         *,
         shape: object = None,
     ):
-        if (part is None) == (shape is None):
-            raise TypeError("a PlateModel needs a build123d part or an OCCT shape, one of them")
+        if part is not None and shape is not None:
+            raise TypeError("a PlateModel takes a build123d part or an OCCT shape, not both")
+        if part is None and shape is None and geometry is None:
+            raise TypeError("a PlateModel needs a build123d part, an OCCT shape or a description")
         self.geometry, self.label = geometry, label
         self.info = {} if info is None else info
         self._part = part
@@ -109,13 +114,23 @@ class PlateModel:
         if self._part is None:
             from build123d import Part
 
-            self._part = Part(self._shape)
+            self._part = Part(self.shape)
         return self._part
 
     @property
     def shape(self):
-        """The plate's OCCT shape: the solid in a compound (the part's, once a part is made)."""
-        return self._part.wrapped if self._part is not None else self._shape
+        """The plate's OCCT shape: the solid in a compound (the part's, once a part is made).
+
+        A description's solid is built on first use (:func:`make_solid`, linear in the holes).
+        """
+        if self._part is not None:
+            return self._part.wrapped
+        if self._shape is None:
+            assert self.geometry is not None
+            t0 = time.perf_counter()
+            self._shape = occt.in_compound(make_solid(self.geometry))
+            self.info.setdefault("seconds", {})["solid"] = round(time.perf_counter() - t0, 3)
+        return self._shape
 
     @property
     def analytic_volume(self) -> float | None:
@@ -207,7 +222,7 @@ class PlateModel:
             extra_holes=geom.extra_holes + len(r),
         )
         info = {**self.info, "extra_holes": new.extra_holes}
-        return PlateModel(shape=make_solid(new), geometry=new, label=self.label, info=info)
+        return PlateModel(geometry=new, label=self.label, info=info)
 
     def with_part(self, shape: object) -> PlateModel:
         """This model with its solid replaced by an edited one.
@@ -379,12 +394,10 @@ def perforated_plate(
         relief_mm=float(relief),
         label_box=box,
     )
-    t1 = time.perf_counter()
-    solid = make_solid(geom)
-    t2 = time.perf_counter()
     info = {
         "holes": geom.hole_count,
         "label": linfo,
-        "seconds": {"label": round(t1 - t0, 3), "solid": round(t2 - t1, 3)},
+        "seconds": {"label": round(time.perf_counter() - t0, 3)},
     }
-    return PlateModel(shape=solid, geometry=geom, label=label, info=info)
+    # The OCCT solid is built when first asked for (PlateModel.shape): a job never asks.
+    return PlateModel(geometry=geom, label=label, info=info)

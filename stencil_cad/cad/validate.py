@@ -31,6 +31,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from ..exchange.mesh import mesh_checks
+from ..exchange.step_check import check_step_text
 from ..model import Holes, PlateGeometry
 from . import occt
 from .fullcheck import TILE_HOLES, brep_valid, check_tiles, store_plane_pcurves
@@ -38,7 +39,14 @@ from .plate import PlateModel
 
 log = logging.getLogger(__name__)
 
-__all__ = ["PlateCheckError", "brep_valid", "check_plate", "store_plane_pcurves", "topology_checks"]
+__all__ = [
+    "PlateCheckError",
+    "brep_valid",
+    "check_plate",
+    "check_plate_file",
+    "store_plane_pcurves",
+    "topology_checks",
+]
 
 #: Relative tolerances of the volume oracles.
 BREP_RTOL = 1e-6
@@ -250,7 +258,6 @@ def _bbox(shape) -> list[list[float]]:
 def _hole_fails(geom: PlateGeometry | None, topo: dict, dots: Holes | None) -> list[str]:
     """Hole faces and top-face bounds against the description, and the holes against the input."""
     fails = []
-    holes = None
     if geom is not None:
         holes = geom.hole_count
         n_cyl = topo["cylinders"]
@@ -263,22 +270,30 @@ def _hole_fails(geom: PlateGeometry | None, topo: dict, dots: Holes | None) -> l
                 f"the top face has {topo['max_face_wires']} bounds, expected {holes + 1 + letters} "
                 f"(outline, {holes} holes, {letters} letters)"
             )
-    if dots is not None:
-        n_in = dots.hole_count
-        # Holes a template added (a hanging hole) come after the input's.
-        extra = geom.extra_holes if geom is not None else 0
-        if holes is not None and n_in + extra != holes:
-            fails.append(
-                f"the plate has {holes} holes but the input has {n_in}"
-                + (f" and the template added {extra}" if extra else "")
-            )
-        if geom is not None and len(dots.r_mm):
-            n = len(geom.circles_r) - extra
-            same = np.array_equal(np.asarray(dots.xy_mm), geom.circles_xy[:n]) and np.array_equal(
-                np.asarray(dots.r_mm), geom.circles_r[:n]
-            )
-            if not same:
-                fails.append("the plate's holes are not the given dots")
+    return fails + _input_fails(geom, dots)
+
+
+def _input_fails(geom: PlateGeometry | None, dots: Holes | None) -> list[str]:
+    """The plate's holes against the input it was built from: their count and the round holes themselves."""
+    if dots is None:
+        return []
+    fails = []
+    holes = None if geom is None else geom.hole_count
+    n_in = dots.hole_count
+    # Holes a template added (a hanging hole) come after the input's.
+    extra = geom.extra_holes if geom is not None else 0
+    if holes is not None and n_in + extra != holes:
+        fails.append(
+            f"the plate has {holes} holes but the input has {n_in}"
+            + (f" and the template added {extra}" if extra else "")
+        )
+    if geom is not None and len(dots.r_mm):
+        n = len(geom.circles_r) - extra
+        same = np.array_equal(np.asarray(dots.xy_mm), geom.circles_xy[:n]) and np.array_equal(
+            np.asarray(dots.r_mm), geom.circles_r[:n]
+        )
+        if not same:
+            fails.append("the plate's holes are not the given dots")
     return fails
 
 
@@ -456,6 +471,64 @@ def check_plate(
         "bbox": bbox,
         "hole_count": holes,
         "faces": topo["faces"],
+        "mesh": mc,
+        "seconds": {k: round(v, 3) for k, v in sec.items()},
+    }
+    if fails:
+        raise PlateCheckError(f"plate check failed ({len(fails)}): " + "; ".join(fails))
+    return report
+
+
+def check_plate_file(
+    model: PlateModel, step: str, dots: Holes | None = None, tolerance_mm: float | None = None
+) -> dict:
+    """Check a plate by the files it is written as, without building its OCCT solid; raise if anything is off.
+
+    The STEP text is checked kernel-free (:func:`stencil_cad.exchange.step_check.check_step_text`:
+    one closed, consistently oriented solid of the right genus, edges on their faces, volume,
+    bounding box, no bounds crossing or touching), the mesh as :func:`check_plate` checks it,
+    and the holes against the input.
+
+    Args:
+        model: A :class:`~stencil_cad.cad.plate.PlateModel` with a description.
+        step: The STEP text its file will hold.
+        dots: The :class:`~stencil_cad.model.DotSet` or :class:`~stencil_cad.model.CutLayer` it
+            was built from, or None.
+        tolerance_mm: Mesh tolerance in mm (the STL's). Defaults to 0.02 mm.
+
+    Returns:
+        The figures :func:`check_plate` returns, ``valid_method`` and ``volume_method`` saying
+        what was checked; ``tiles`` is empty.
+
+    Raises:
+        PlateCheckError: Listing every failed check.
+    """
+    geom = model.geometry
+    if geom is None:
+        raise ValueError("check_plate_file needs a plate with a description (check_plate checks the others)")
+    tolerance_mm = 0.02 if tolerance_mm is None else tolerance_mm
+    rep = check_step_text(step, geom)
+    fails = list(rep["fails"])
+    sec = {"step_check": rep["seconds"]}
+    fails += _input_fails(geom, dots)
+    analytic = geom.volume
+    mc = _mesh_report(model, None, geom, tolerance_mm, analytic, geom.hole_count, sec, fails)
+    bbox = rep.get("bbox")
+    report = {
+        "n_solids": rep["solids"],
+        "valid": not fails,
+        "valid_method": (
+            "kernel-free check of the written STEP: one closed, consistently oriented solid, "
+            "Euler-Poincare genus = holes, edges on their faces, no bounds crossing or touching"
+        ),
+        "tiles": [],
+        "volume": rep.get("volume"),
+        "volume_method": "divergence theorem over the written STEP's horizontal faces (exact circles)",
+        "analytic_volume": analytic,
+        "rel_error": rep.get("rel_error"),
+        "bbox": bbox,
+        "hole_count": geom.hole_count,
+        "faces": rep.get("faces"),
         "mesh": mc,
         "seconds": {k: round(v, 3) for k, v in sec.items()},
     }

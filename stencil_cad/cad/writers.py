@@ -18,7 +18,7 @@ from ..exchange.step import step_text
 from ..exchange.writers import PartFiles
 from ..model import TriMesh
 
-__all__ = ["occt_mesh", "plate_part", "write_3mf", "write_step", "write_stl"]
+__all__ = ["occt_mesh", "plate_part", "plate_step_text", "write_3mf", "write_step", "write_stl"]
 
 
 def _name(model) -> str:
@@ -29,33 +29,50 @@ def _name(model) -> str:
     return f"{job} layer {label.layer} of {label.layers}"
 
 
-def plate_part(model, drawing: DxfStencil | None = None, title: str = "") -> PartFiles:
+def plate_step_text(model) -> str:
+    """The STEP text of a plate with a description, as :func:`write_step` writes it.
+
+    Args:
+        model: A :class:`~stencil_cad.cad.plate.PlateModel` whose ``geometry`` is not None.
+    """
+    return step_text(model.geometry, _name(model))
+
+
+def plate_part(
+    model, drawing: DxfStencil | None = None, title: str = "", step: str | None = None
+) -> PartFiles:
     """A built plate as the registry of writers (:mod:`stencil_cad.exchange.writers`) reads it.
 
     Args:
         model: A :class:`~stencil_cad.cad.plate.PlateModel`.
         drawing: Its cut drawing, for the DXF and SVG. Defaults to none.
         title: The SVG's title. Defaults to none.
+        step: The plate's STEP text when the caller made it already (:func:`plate_step_text`,
+            checked before writing), written as it is. Defaults to none: made when written.
     """
     return PartFiles(
         name=_name(model),
-        step=lambda path: write_step(model, path),
+        step=lambda path: write_step(model, path, step),
         mesh=model.mesh,
         drawing=drawing,
         title=title,
     )
 
 
-def write_step(model, path: str | os.PathLike) -> None:
+def write_step(model, path: str | os.PathLike, text: str | None = None) -> None:
     """Write a plate as STEP (AP214, mm): one manifold solid with exact circles.
 
     Args:
         model: A :class:`~stencil_cad.cad.plate.PlateModel`.
         path: Where to write (the caller renames it into place).
+        text: The plate's STEP text (:func:`plate_step_text`), when made already. Defaults to none.
     """
     path = Path(path)
+    if text is not None:
+        path.write_text(text, encoding="ascii")
+        return
     if getattr(model, "geometry", None) is not None:
-        path.write_text(step_text(model.geometry, _name(model)), encoding="ascii")
+        path.write_text(plate_step_text(model), encoding="ascii")
         return
     from OCP.IFSelect import IFSelect_RetDone
     from OCP.Interface import Interface_Static

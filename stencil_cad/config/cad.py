@@ -55,6 +55,13 @@ class LabelMode(str, enum.Enum):
     none = "none"
 
 
+class PlateCheck(str, enum.Enum):
+    """How a job checks each plate it writes."""
+
+    file = "file"
+    kernel = "kernel"
+
+
 def _nullable_label(schema: dict) -> None:
     """The label's schema: one of the modes, or null (filled in by the job)."""
     schema.pop("$ref", None)
@@ -152,14 +159,28 @@ class PlateConfig(StrictModel):
             "Dots that break it, or holes below the 0.5 mm radius floor, stop the build with a list."
         ),
     )
+    check: PlateCheck = Field(
+        PlateCheck.file,
+        description=(
+            "How each plate is checked before its files are written. Choices: file (the STEP text written, "
+            "read back without the CAD kernel: one closed, consistently oriented solid whose genus is the "
+            "hole count, every edge on its faces, volume by the divergence theorem equal to the analytic "
+            "one, bounding box, no hole crossing or touching another, a window, a letter or the outline; "
+            "plus the mesh's checks), kernel (OCCT builds the plate's solid and checks it: topology, "
+            "volume, bounding box and BRepCheck_Analyzer, on tiles above full_check_max_holes; plus the "
+            "mesh's checks; slower). A template that returns its "
+            "own solid is always checked by OCCT."
+        ),
+    )
     full_check_max_holes: int = Field(
         300,
         ge=0,
         le=100000,
         description=(
-            "Plates with at most this many holes get OCCT's full B-rep check (BRepCheck_Analyzer, whose cost "
-            "grows with the square of the hole count on one face); larger plates are checked on tiles of "
-            "the same construction plus linear whole-plate checks. Range [0, 100000]."
+            "With check: kernel, plates with at most this many holes get OCCT's full B-rep check "
+            "(BRepCheck_Analyzer, whose cost grows with the square of the hole count on one face); larger "
+            "plates are checked on tiles of the same construction plus linear whole-plate checks. Range "
+            "[0, 100000]."
         ),
     )
     template: Path | None = Field(

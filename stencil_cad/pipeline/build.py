@@ -351,13 +351,14 @@ def _build_plate(task: PartTask) -> PartResult:
     except ValueError as exc:
         # Holes that break the rules, a label that cannot fit, a bad template.
         raise UserError(f"{task.what or stem}: {exc}") from exc
-    check = cad.check_plate(model, holes, tolerance_mm=exp.stl_tolerance_mm)
+    step, check = _checked_plate(model, holes, cfg, exp.stl_tolerance_mm)
     (x0, y0, _), (x1, y1, _) = check["bbox"]
     if task.bed is not None and not task.bed.fits(x1 - x0, y1 - y0):
         raise UserError(f"{stem}: plate is {x1 - x0:.1f} × {y1 - y0:.1f} mm, larger than the bed {task.bed}")
     drawing = dxf.stencil_for(holes, ring, task.cut_name or stem.upper(), *model.cut_label())
     cut = round(dxf.cut_length_mm(holes, ring), 1)
-    files, written = part_bytes(stem, cad.plate_part(model, drawing, title=task.title), task.order, exp)
+    part = cad.plate_part(model, drawing, title=task.title, step=step)
+    files, written = part_bytes(stem, part, task.order, exp)
     info = written.get(".dxf")
     sheet = None if info is None else (info.bbox_mm[2] - info.bbox_mm[0], info.bbox_mm[3] - info.bbox_mm[1])
     if sheet is not None and task.bed is not None and not task.bed.fits(*sheet):
@@ -367,6 +368,27 @@ def _build_plate(task: PartTask) -> PartResult:
     plain = _plain(check)
     row = _plate_row(task, plain, part_figures(written), cut, [round(x1 - x0, 3), round(y1 - y0, 3)], sheet)
     return PartResult("plate", tuple(files), row, plain)
+
+
+def _checked_plate(
+    model: Any, holes: Holes, cfg: JobConfig, tolerance_mm: float
+) -> tuple[str | None, dict[str, Any]]:
+    """A plate's STEP text (None: made when written) and its check's figures.
+
+    A plate with a description is checked by its written STEP text and mesh (``plate.check: file``,
+    no OCCT solid is built), or by OCCT on its solid (``plate.check: kernel``); a template's own
+    solid always by OCCT.
+
+    Raises:
+        PlateCheckError: A failed check, each one named.
+    """
+    from .. import cad
+    from ..config.cad import PlateCheck
+
+    if model.geometry is None or PlateCheck(cfg.plate.check) is PlateCheck.kernel:
+        return None, cad.check_plate(model, holes, tolerance_mm=tolerance_mm)
+    step = cad.plate_step_text(model)
+    return step, cad.check_plate_file(model, step, holes, tolerance_mm=tolerance_mm)
 
 
 def _plate_row(
