@@ -151,8 +151,10 @@ def _kinds(b: np.ndarray, eq: np.ndarray) -> np.ndarray:
     for i, kind in enumerate(KINDS):
         key = np.frombuffer((kind + "('',")[:8].encode("ascii"), dtype=np.uint64)[0]
         lines = np.flatnonzero(head == key)
-        # The same first eight bytes, a name of another length (ADVANCED_FACE, ADVANCED_BREP_...).
-        code[lines[padded[eq[lines] + 1 + len(kind)] == ord("(")]] = i
+        # The first eight bytes find the candidates; the whole name and its "(" decide.
+        name = np.frombuffer((kind + "(").encode("ascii"), dtype=np.uint8)
+        same = (padded[eq[lines, None] + 1 + np.arange(len(name))] == name).all(axis=1)
+        code[lines[same]] = i
     return code
 
 

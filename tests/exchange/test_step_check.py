@@ -1,0 +1,181 @@
+"""The kernel-free check of a plate's STEP text: it passes the writer's plates and names what a broken file breaks."""
+
+import re
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from stencil_cad.exchange.step import step_text
+from stencil_cad.exchange.step_check import check_step_text, expected_counts
+from stencil_cad.model import PlateGeometry
+
+SQUARE = np.array([[0.0, 0.0], [30.0, 0.0], [30.0, 20.0], [0.0, 20.0]])
+
+
+def plate(relief=0.0, polygons=True, glyphs=True, xy=None, r=None):
+    """A 30 x 20 mm plate: round holes, a square cut-out and two letters (one with an island)."""
+    xy = np.array([[5.0, 5.0], [9.0, 5.0], [5.0, 9.0], [22.0, 14.0]]) if xy is None else np.asarray(xy)
+    r = np.array([1.0, 1.2, 0.8, 1.5]) if r is None else np.asarray(r)
+    cut = (np.array([[14.0, 3.0], [18.0, 3.0], [18.0, 8.0], [14.0, 8.0]]),) if polygons else ()
+    letters = (
+        (np.array([[20.0, 2.0], [23.0, 2.0], [23.0, 6.0], [20.0, 6.0]]), [np.array([[21.0, 3.0], [21.0, 5.0], [22.0, 5.0], [22.0, 3.0]])]),
+        (np.array([[24.0, 2.0], [26.0, 2.0], [25.0, 5.0]]), []),
+    )  # fmt: skip
+    return PlateGeometry(
+        width_mm=30.0,
+        height_mm=20.0,
+        thickness_mm=1.2,
+        outline=SQUARE,
+        circles_xy=xy,
+        circles_r=r,
+        polygons=cut,
+        glyphs=letters if glyphs and relief else (),
+        relief_mm=relief,
+    )
+
+
+@pytest.mark.parametrize("relief", [0.0, -0.4, 0.3])
+def test_the_writers_plates_pass(relief):
+    geom = plate(relief)
+    rep = check_step_text(step_text(geom), geom)
+    assert rep["fails"] == []
+    assert rep["solids"] == 1 and rep["shells"] == 1
+    assert rep["genus"] == geom.hole_count == 5
+    assert rep["cylinders"] == 4 and rep["faces"] == expected_counts(geom)["faces"]
+    assert rep["volume"] == pytest.approx(geom.volume, rel=1e-12)
+    np.testing.assert_allclose(rep["bbox"], geom.bbox, atol=1e-9)
+
+
+def test_a_plate_without_holes_passes():
+    geom = plate(polygons=False, xy=np.zeros((0, 2)), r=np.zeros(0))
+    rep = check_step_text(step_text(geom), geom)
+    assert rep["fails"] == [] and rep["genus"] == 0 and rep["faces"] == 6
+
+
+# ----------------------------------------------------------------------------- broken files
+
+
+@pytest.fixture(scope="module")
+def written():
+    geom = plate(-0.4)
+    return geom, step_text(geom)
+
+
+def entities(text, kind):
+    """``{id: body}`` of every entity of ``kind``, in the order written."""
+    return {int(i): b for i, b in re.findall(rf"^#(\d+)=({kind}\(.*\));$", text, flags=re.M)}
+
+
+def set_entity(text, i, body):
+    new, n = re.subn(rf"^#{i}=.*;$", f"#{i}={body};", text, count=1, flags=re.M)
+    assert n == 1
+    return new
+
+
+def fails_of(text, geom):
+    return "; ".join(check_step_text(text, geom)["fails"])
+
+
+def side_loop(text):
+    """The id and oriented edges of the first four-edge loop (a side face)."""
+    for i, body in entities(text, "EDGE_LOOP").items():
+        oes = re.findall(r"#(\d+)", body)
+        if len(oes) == 4:
+            return i, [int(o) for o in oes]
+    raise AssertionError("no side face")
+
+
+def test_a_flipped_oriented_edge_is_named(written):
+    geom, text = written
+    _, oes = side_loop(text)
+    body = entities(text, "ORIENTED_EDGE")[oes[0]]
+    bad = set_entity(text, oes[0], body.replace(".T.)", ".F.)"))
+    got = fails_of(bad, geom)
+    assert "used twice in the same direction" in got and "do not close" in got
+
+
+def test_an_edge_used_three_times_and_once_is_named(written):
+    geom, text = written
+    loop, oes = side_loop(text)
+    # The loop's first oriented edge now uses the edge of its third: that edge three times, its own once.
+    third = entities(text, "ORIENTED_EDGE")[oes[2]]
+    bad = set_entity(text, oes[0], third)
+    got = fails_of(bad, geom)
+    assert "not used by exactly two ORIENTED_EDGEs" in got and "once" in got and "three times" in got
+
+
+def test_a_face_dropped_from_the_shell_is_named(written):
+    geom, text = written
+    ((shell, body),) = entities(text, "CLOSED_SHELL").items()
+    first = re.search(r"#(\d+),", body).group(0)
+    got = fails_of(set_entity(text, shell, body.replace(first, "", 1)), geom)
+    assert "not in the solid's shell" in got
+
+
+def test_a_second_solid_is_named(written):
+    geom, text = written
+    ((shell, _),) = entities(text, "CLOSED_SHELL").items()
+    n = max(int(i) for i in re.findall(r"^#(\d+)=", text, flags=re.M)) + 1
+    bad = text.replace("\nENDSEC;\nEND-ISO", f"\n#{n}=MANIFOLD_SOLID_BREP('',#{shell});\nENDSEC;\nEND-ISO")
+    assert "exactly one MANIFOLD_SOLID_BREP, the file has 2" in fails_of(bad, geom)
+
+
+def test_a_broken_loop_is_named(written):
+    geom, text = written
+    loop, oes = side_loop(text)
+    swapped = f"EDGE_LOOP('',(#{oes[0]},#{oes[2]},#{oes[1]},#{oes[3]}))"
+    got = fails_of(set_entity(text, loop, swapped), geom)
+    assert "EDGE_LOOPs do not close" in got and f"#{loop}" in got
+
+
+@pytest.mark.parametrize(
+    "where, match",
+    [
+        ([9.0, 5.5], "round holes overlap or touch"),  # onto its neighbour at (9, 5)
+        ([9.0, 7.7], "round holes overlap or touch"),  # tangent to it (1.2 + 1.5 mm apart)
+        ([0.5, 12.0], "leaves its outer bound"),  # across the outline
+        ([15.0, 4.0], "lies in a polygon bound"),  # across the cut-out
+        ([21.0, 4.0], "lies in a polygon bound"),  # under a letter
+    ],
+)
+def test_a_hole_moved_onto_another_bound_is_named(written, where, match):
+    geom, _ = written
+    xy = geom.circles_xy.copy()
+    xy[3] = where
+    moved = step_text(replace(geom, circles_xy=xy))
+    got = fails_of(moved, geom)
+    assert match in got
+    assert "volume" not in got  # the same holes, elsewhere: only the geometry check sees it
+
+
+def test_a_wrong_radius_changes_the_volume(written):
+    geom, _ = written
+    r = geom.circles_r.copy()
+    r[0] += 0.01
+    got = fails_of(step_text(replace(geom, circles_r=r)), geom)
+    assert "differs from the analytic" in got
+
+
+def test_a_top_circle_off_its_cylinder_is_named(written):
+    geom, text = written
+    circles = entities(text, "CIRCLE")
+    last = max(circles)  # a top circle (written after the bottom ones)
+    body = re.sub(r",([0-9.]+)\)$", lambda m: f",{float(m.group(1)) + 0.05:.10f})", circles[last])
+    got = fails_of(set_entity(text, last, body), geom)
+    assert "off its cylinder" in got and "does not lie on its circle" in got and "analytic" in got
+
+
+def test_a_missing_hole_breaks_the_genus_and_the_counts(written):
+    geom, _ = written
+    fewer = replace(geom, circles_xy=geom.circles_xy[:-1], circles_r=geom.circles_r[:-1])
+    got = fails_of(step_text(fewer), geom)
+    assert "Euler–Poincaré" in got and "cylindrical hole faces" in got
+
+
+def test_text_that_is_not_a_plate_step_is_refused(written):
+    geom, text = written
+    assert "cannot be read" in fails_of("hello", geom)
+    circle = next(iter(entities(text, "CIRCLE")))
+    bad = set_entity(text, circle, "CIRCLE('',#1,abc)")
+    assert "cannot be read" in fails_of(bad, geom)
