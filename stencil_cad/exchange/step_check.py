@@ -46,7 +46,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from ..geometry import circles_clear_of_rings, min_web, points_in_ring, rings_cross
+from ..geometry import as_ccw, circles_clear_of_rings, min_web, points_in_ring, rings_cross
 from ..model import PlateGeometry
 from .step_brep import KINDS, Brep, StepReadError, read_brep
 
@@ -412,19 +412,22 @@ def _crossings(rings: list[np.ndarray], xy: np.ndarray, r: np.ndarray) -> list[s
     """What is wrong with one face's bounds: crossing, touching, outside the outer one, nested."""
     out: list[str] = []
     outer, inner = rings[0], rings[1:]
+    inside_outer = circles_clear_of_rings(xy, r, [outer], CLEARANCE_MM, inside=True)
     if rings_cross(rings):
         out.append(
             "its polygon bounds cross or touch (a cut-out, window or letter over another or the outline)"
         )
     if len(r) > 1 and (web := min_web(xy, r)) <= CLEARANCE_MM:
         out.append(f"its round holes overlap or touch (smallest web {web:.4g} mm)")
-    for ok, where in (
-        (
-            circles_clear_of_rings(xy, r, [outer], CLEARANCE_MM, inside=True),
-            "crosses, touches or leaves its outer bound",
-        ),
-        (circles_clear_of_rings(xy, r, inner, CLEARANCE_MM), "crosses, touches or lies in a polygon bound"),
-    ):
+    checks = [(inside_outer, "crosses, touches or leaves its outer bound")] if len(r) else []
+    if len(r) and inner:
+        checks.append(
+            (
+                circles_clear_of_rings(xy, r, inner, CLEARANCE_MM),
+                "crosses, touches or lies in a polygon bound",
+            )
+        )
+    for ok, where in checks:
         if not ok.all():
             x, y = xy[np.flatnonzero(~ok)[0]]
             out.append(f"{int((~ok).sum())} round holes: the one at ({x:.4f}, {y:.4f}) mm {where}")
@@ -445,16 +448,47 @@ def _crossings(rings: list[np.ndarray], xy: np.ndarray, r: np.ndarray) -> list[s
 
 
 def _geometry_fails(br: Brep, g: _Geometry, sh: _Shell, fl: _Flat) -> list[str]:
-    """Each horizontal face's bounds: one outer polygon, the rest disjoint and inside it."""
+    """Each horizontal face's bounds: one outer polygon, the rest disjoint and inside it.
+
+    A face whose bounds are, in plan, the first bounds of a face already found valid (a plate's
+    bottom and its top with the letters' bounds besides) is valid too, and is not checked again.
+    """
     fails = []
-    for face in fl.faces:
+    checked: list[tuple[list[np.ndarray], np.ndarray, np.ndarray]] = []
+    bounds = np.bincount(sh.face_of_bound, minlength=len(sh.faces))
+    for face in fl.faces[np.argsort(-bounds[fl.faces], kind="stable")]:  # most bounds first
         rings, xy, r, polygon_outer = _face_bounds(g, sh, fl, int(face))
         name = f"face #{int(br.ids['ADVANCED_FACE'][sh.faces[face]])}"
         if not polygon_outer:
             fails.append(f"{name} has no single polygon outer bound")
             continue
-        fails += [f"{name}: {what}" for what in _crossings(rings, xy, r)]
+        if any(_within(rings, xy, r, seen) for seen in checked):
+            continue
+        found = _crossings(rings, xy, r)
+        fails += [f"{name}: {what}" for what in found]
+        if not found:
+            checked.append((rings, xy, r))
     return fails
+
+
+def _within(rings: list[np.ndarray], xy: np.ndarray, r: np.ndarray, seen: tuple) -> bool:
+    """Whether a face's bounds are the first bounds of a face found valid (the same xy, in order)."""
+    their_rings, their_xy, their_r = seen
+    return (
+        len(rings) <= len(their_rings)
+        and np.array_equal(xy, their_xy)
+        and np.array_equal(r, their_r)
+        and all(
+            np.array_equal(_canonical(a), _canonical(b)) for a, b in zip(rings, their_rings, strict=False)
+        )
+    )
+
+
+def _canonical(ring: np.ndarray) -> np.ndarray:
+    """A ring counter-clockwise from its lowest-then-leftmost vertex: the same ring, however traversed."""
+    ring = as_ccw(ring)
+    first = np.lexsort((ring[:, 0], ring[:, 1]))[0]
+    return np.roll(ring, -first, axis=0)
 
 
 def expected_counts(geom: PlateGeometry) -> dict[str, int]:
