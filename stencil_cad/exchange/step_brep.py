@@ -3,7 +3,9 @@
 This reads exactly the entities our writer uses (points, directions, vectors, placements,
 lines, circles, planes, cylinders, vertices, edges, loops, bounds, faces, one shell and one
 solid), one entity per line, ``#id=NAME('',...);``; it is not a general STEP reader. It exists
-so :mod:`stencil_cad.exchange.step_check` can check the very text a maker gets, kernel-free.
+so :mod:`stencil_cad.exchange.step_check` can check the very text a maker gets, kernel-free;
+:func:`geometry_of` and :func:`shell_of` gather what its checks read (every point behind a vertex,
+curve and surface; a shell's faces down to their edge uses, in loop order).
 
 Every step is vectorised over the whole text: a plate of 4,300 holes is 150,000 entities
 (7 MB), and a Python loop over them would cost more than the check is meant to save. The
@@ -20,7 +22,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["KINDS", "Brep", "StepReadError", "read_brep"]
+__all__ = [
+    "KINDS",
+    "Brep",
+    "Geometry",
+    "Shell",
+    "StepReadError",
+    "geometry_of",
+    "kind_of",
+    "read_brep",
+    "segments",
+    "shell_of",
+]
 
 
 class StepReadError(ValueError):
@@ -294,3 +307,147 @@ def read_brep(text: str) -> Brep:
         if name in _REALS:
             out.reals[name] = _reals(data, name, len(lines))
     return out
+
+
+def segments(ptr: np.ndarray, flat: np.ndarray, rows: np.ndarray, drop_last: bool = False):
+    """The list entries of ``rows``: ``(owner, values)``, the owner an index into ``rows``."""
+    lo = ptr[rows]
+    n = ptr[rows + 1] - lo - (1 if drop_last else 0)
+    owner = np.repeat(np.arange(len(rows)), n)
+    start = np.concatenate([[0], np.cumsum(n)[:-1]])
+    return owner, flat[np.repeat(lo - start, n) + np.arange(int(n.sum()))]
+
+
+def kind_of(br: Brep, refs: np.ndarray, kinds: tuple[str, ...], where: str) -> tuple[np.ndarray, np.ndarray]:
+    """Each reference's kind (index in ``kinds``) and row.
+
+    Raises:
+        StepReadError: A reference to an entity of none of ``kinds``.
+    """
+    codes = np.array([list(KINDS).index(k) for k in kinds])
+    inside = (refs >= 0) & (refs < len(br.kind))
+    code = np.where(inside, br.kind[np.where(inside, refs, 0)], -1)
+    which = np.argmax(code[:, None] == codes[None, :], axis=1)
+    ok = code == codes[which]
+    if not ok.all():
+        bad = int(refs[np.flatnonzero(~ok)[0]])
+        raise StepReadError(
+            f"{where} #{bad} is not a {' or '.join(kinds)} (this check reads what step_text writes)"
+        )
+    return which, br.row[refs]
+
+
+@dataclass
+class Shell:
+    """The solid's faces, bounds and edge uses, as arrays (uses in loop order)."""
+
+    faces: np.ndarray  # ADVANCED_FACE rows
+    surface_kind: np.ndarray  # 0 plane, 1 cylinder, per face
+    surface: np.ndarray  # its row among planes or cylinders
+    face_of_bound: np.ndarray
+    bound_fwd: np.ndarray
+    bound_outer: np.ndarray
+    loop_id: np.ndarray  # EDGE_LOOP id per bound
+    loop_of_use: np.ndarray
+    edge: np.ndarray  # EDGE_CURVE row per use
+    fwd: np.ndarray  # ORIENTED_EDGE's sense per use
+    start: np.ndarray  # VERTEX_POINT row where the use starts
+    end: np.ndarray
+    nxt: np.ndarray  # the next use in the same loop
+
+
+@dataclass
+class Geometry:
+    """Every point the edges and surfaces need, by row of their kind (mm, unit directions)."""
+
+    vertex: np.ndarray  # (n, 3) per VERTEX_POINT
+    edge_v1: np.ndarray  # VERTEX_POINT rows per EDGE_CURVE
+    edge_v2: np.ndarray
+    curve_kind: np.ndarray  # per EDGE_CURVE: 0 line, 1 circle
+    curve: np.ndarray  # its row among lines or circles
+    edge_fwd: np.ndarray  # EDGE_CURVE's sense
+    line_point: np.ndarray
+    line_dir: np.ndarray
+    circle_centre: np.ndarray
+    circle_axis: np.ndarray
+    circle_r: np.ndarray
+    plane_point: np.ndarray
+    plane_normal: np.ndarray
+    cyl_centre: np.ndarray
+    cyl_axis: np.ndarray
+    cyl_r: np.ndarray
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    n = np.linalg.norm(v, axis=1, keepdims=True)
+    return v / np.where(n > 0, n, 1.0)
+
+
+def geometry_of(br: Brep) -> Geometry:
+    """The points, directions and radii behind every vertex, curve and surface."""
+    pts = br.reals["CARTESIAN_POINT"]
+    dirs = br.reals["DIRECTION"]
+
+    def point(refs: np.ndarray, where: str) -> np.ndarray:
+        return pts[br.rows(refs, "CARTESIAN_POINT", where)]
+
+    def axis(refs: np.ndarray, where: str) -> tuple[np.ndarray, np.ndarray]:
+        ax = br.refs["AXIS2_PLACEMENT_3D"][br.rows(refs, "AXIS2_PLACEMENT_3D", where)]
+        return point(ax[:, 0], "a placement's origin"), _unit(
+            dirs[br.rows(ax[:, 1], "DIRECTION", "a placement's axis")]
+        )
+
+    vec = br.refs["VECTOR"][:, 0]
+    vec_dir = _unit(dirs[br.rows(vec, "DIRECTION", "a vector's direction")])
+    line = br.refs["LINE"]
+    kind, curve = kind_of(br, br.refs["EDGE_CURVE"][:, 2], ("LINE", "CIRCLE"), "an edge's curve")
+    cc, ca = axis(br.refs["CIRCLE"][:, 0], "a circle's placement")
+    pc, pn = axis(br.refs["PLANE"][:, 0], "a plane's placement")
+    yc, ya = axis(br.refs["CYLINDRICAL_SURFACE"][:, 0], "a cylinder's placement")
+    ends = br.refs["EDGE_CURVE"]
+    return Geometry(
+        vertex=point(br.refs["VERTEX_POINT"][:, 0], "a vertex's point"),
+        edge_v1=br.rows(ends[:, 0], "VERTEX_POINT", "an edge's vertex"),
+        edge_v2=br.rows(ends[:, 1], "VERTEX_POINT", "an edge's vertex"),
+        curve_kind=kind, curve=curve, edge_fwd=br.flag["EDGE_CURVE"],
+        line_point=point(line[:, 0], "a line's point"),
+        line_dir=vec_dir[br.rows(line[:, 1], "VECTOR", "a line's vector")],
+        circle_centre=cc, circle_axis=ca, circle_r=br.reals["CIRCLE"][:, 0],
+        plane_point=pc, plane_normal=pn,
+        cyl_centre=yc, cyl_axis=ya, cyl_r=br.reals["CYLINDRICAL_SURFACE"][:, 0],
+    )  # fmt: skip
+
+
+def shell_of(br: Brep, g: Geometry, faces: np.ndarray) -> Shell:
+    """The faces (ADVANCED_FACE rows) down to their edge uses.
+
+    Raises:
+        StepReadError: A reference to an entity of a kind the writer does not put there.
+    """
+    ptr, flat = br.lists["ADVANCED_FACE"]
+    surface_kind, surface = kind_of(
+        br, flat[ptr[faces + 1] - 1], ("PLANE", "CYLINDRICAL_SURFACE"), "a face's surface"
+    )
+    face_of_bound, brefs = segments(ptr, flat, faces, drop_last=True)
+    outer, brow = kind_of(br, brefs, ("FACE_BOUND", "FACE_OUTER_BOUND"), "a face's bound")
+    bound_outer = outer == 1
+    loop_ref = np.zeros(len(brefs), dtype=np.int64)
+    bound_fwd = np.zeros(len(brefs), dtype=bool)
+    for k, kind in enumerate(("FACE_BOUND", "FACE_OUTER_BOUND")):
+        mine = outer == k
+        loop_ref[mine] = br.refs[kind][brow[mine], 0]
+        bound_fwd[mine] = br.flag[kind][brow[mine]]
+    loops = br.rows(loop_ref, "EDGE_LOOP", "a bound's loop")
+    loop_of_use, oe_ref = segments(*br.lists["EDGE_LOOP"], loops)
+    oe = br.rows(oe_ref, "ORIENTED_EDGE", "a loop's oriented edge")
+    edge = br.rows(br.refs["ORIENTED_EDGE"][oe, 0], "EDGE_CURVE", "an oriented edge's edge")
+    fwd = br.flag["ORIENTED_EDGE"][oe]
+    v1, v2 = g.edge_v1[edge], g.edge_v2[edge]
+    first = np.searchsorted(loop_of_use, np.arange(len(loops)))
+    nxt = np.arange(len(oe)) + 1
+    last = np.concatenate([first[1:], [len(oe)]]) - 1
+    nxt[last] = first
+    return Shell(
+        faces, surface_kind, surface, face_of_bound, bound_fwd, bound_outer, loop_ref,
+        loop_of_use, edge, fwd, np.where(fwd, v1, v2), np.where(fwd, v2, v1), nxt,
+    )  # fmt: skip

@@ -48,7 +48,7 @@ from scipy.sparse.csgraph import connected_components
 
 from ..geometry import as_ccw, circles_clear_of_rings, min_web, points_in_ring, rings_cross
 from ..model import PlateGeometry
-from .step_brep import KINDS, Brep, StepReadError, read_brep
+from .step_brep import Brep, Geometry, Shell, StepReadError, geometry_of, read_brep, segments, shell_of
 
 __all__ = ["CLEARANCE_MM", "VOLUME_RTOL", "StepReadError", "check_step_text"]
 
@@ -63,53 +63,6 @@ VOLUME_RTOL = 1e-9
 _AXIS_TOL = 1e-9
 
 
-def _segments(ptr: np.ndarray, flat: np.ndarray, rows: np.ndarray, drop_last: bool = False):
-    """The list entries of ``rows``: ``(owner, values)``, the owner an index into ``rows``."""
-    lo = ptr[rows]
-    n = ptr[rows + 1] - lo - (1 if drop_last else 0)
-    owner = np.repeat(np.arange(len(rows)), n)
-    start = np.concatenate([[0], np.cumsum(n)[:-1]])
-    return owner, flat[np.repeat(lo - start, n) + np.arange(int(n.sum()))]
-
-
-def _kind_of(br: Brep, refs: np.ndarray, kinds: tuple[str, ...], where: str) -> tuple[np.ndarray, np.ndarray]:
-    """Each reference's kind (index in ``kinds``) and row.
-
-    Raises:
-        StepReadError: A reference to an entity of none of ``kinds``.
-    """
-    codes = np.array([list(KINDS).index(k) for k in kinds])
-    inside = (refs >= 0) & (refs < len(br.kind))
-    code = np.where(inside, br.kind[np.where(inside, refs, 0)], -1)
-    which = np.argmax(code[:, None] == codes[None, :], axis=1)
-    ok = code == codes[which]
-    if not ok.all():
-        bad = int(refs[np.flatnonzero(~ok)[0]])
-        raise StepReadError(
-            f"{where} #{bad} is not a {' or '.join(kinds)} (this check reads what step_text writes)"
-        )
-    return which, br.row[refs]
-
-
-@dataclass
-class _Shell:
-    """The solid's faces, bounds and edge uses, as arrays (uses in loop order)."""
-
-    faces: np.ndarray  # ADVANCED_FACE rows
-    surface_kind: np.ndarray  # 0 plane, 1 cylinder, per face
-    surface: np.ndarray  # its row among planes or cylinders
-    face_of_bound: np.ndarray
-    bound_fwd: np.ndarray
-    bound_outer: np.ndarray
-    loop_id: np.ndarray  # EDGE_LOOP id per bound
-    loop_of_use: np.ndarray
-    edge: np.ndarray  # EDGE_CURVE row per use
-    fwd: np.ndarray  # ORIENTED_EDGE's sense per use
-    start: np.ndarray  # VERTEX_POINT row where the use starts
-    end: np.ndarray
-    nxt: np.ndarray  # the next use in the same loop
-
-
 def _solid_faces(br: Brep, fails: list[str]) -> np.ndarray:
     """The rows of the faces the one solid's shell lists."""
     n_solids = br.count("MANIFOLD_SOLID_BREP")
@@ -121,7 +74,7 @@ def _solid_faces(br: Brep, fails: list[str]) -> np.ndarray:
     if shells != 1:
         fails.append(f"expected exactly one shell, the file has {shells}")
     shell = br.rows(br.refs["MANIFOLD_SOLID_BREP"][:1, 0], "CLOSED_SHELL", "the solid's shell")
-    _, refs = _segments(*br.lists["CLOSED_SHELL"], shell)
+    _, refs = segments(*br.lists["CLOSED_SHELL"], shell)
     faces = br.rows(refs, "ADVANCED_FACE", "the shell's face")
     listed = np.bincount(faces, minlength=br.count("ADVANCED_FACE"))
     if (listed > 1).any():
@@ -134,39 +87,7 @@ def _solid_faces(br: Brep, fails: list[str]) -> np.ndarray:
     return faces
 
 
-def _shell(br: Brep, g: _Geometry, fails: list[str]) -> _Shell:
-    """The solid's faces down to their edge uses."""
-    faces = _solid_faces(br, fails)
-    ptr, flat = br.lists["ADVANCED_FACE"]
-    surface_kind, surface = _kind_of(
-        br, flat[ptr[faces + 1] - 1], ("PLANE", "CYLINDRICAL_SURFACE"), "a face's surface"
-    )
-    face_of_bound, brefs = _segments(ptr, flat, faces, drop_last=True)
-    outer, brow = _kind_of(br, brefs, ("FACE_BOUND", "FACE_OUTER_BOUND"), "a face's bound")
-    bound_outer = outer == 1
-    loop_ref = np.zeros(len(brefs), dtype=np.int64)
-    bound_fwd = np.zeros(len(brefs), dtype=bool)
-    for k, kind in enumerate(("FACE_BOUND", "FACE_OUTER_BOUND")):
-        mine = outer == k
-        loop_ref[mine] = br.refs[kind][brow[mine], 0]
-        bound_fwd[mine] = br.flag[kind][brow[mine]]
-    loops = br.rows(loop_ref, "EDGE_LOOP", "a bound's loop")
-    loop_of_use, oe_ref = _segments(*br.lists["EDGE_LOOP"], loops)
-    oe = br.rows(oe_ref, "ORIENTED_EDGE", "a loop's oriented edge")
-    edge = br.rows(br.refs["ORIENTED_EDGE"][oe, 0], "EDGE_CURVE", "an oriented edge's edge")
-    fwd = br.flag["ORIENTED_EDGE"][oe]
-    v1, v2 = g.edge_v1[edge], g.edge_v2[edge]
-    first = np.searchsorted(loop_of_use, np.arange(len(loops)))
-    nxt = np.arange(len(oe)) + 1
-    last = np.concatenate([first[1:], [len(oe)]]) - 1
-    nxt[last] = first
-    return _Shell(
-        faces, surface_kind, surface, face_of_bound, bound_fwd, bound_outer, loop_ref,
-        loop_of_use, edge, fwd, np.where(fwd, v1, v2), np.where(fwd, v2, v1), nxt,
-    )  # fmt: skip
-
-
-def _topology(br: Brep, sh: _Shell, fails: list[str]) -> dict[str, int]:
+def _topology(br: Brep, sh: Shell, fails: list[str]) -> dict[str, int]:
     """Edge uses, loops, connectivity and the Euler–Poincaré count; returns V, E, F, L and the genus."""
     n_edges = br.count("EDGE_CURVE")
     direction = sh.fwd == sh.bound_fwd[sh.loop_of_use]  # a bound reversed reverses its loop
@@ -210,69 +131,7 @@ def _topology(br: Brep, sh: _Shell, fails: list[str]) -> dict[str, int]:
     return {"vertices": v, "edges": e, "faces": f, "bounds": loops_n, "chi": chi, "genus": 1 - chi // 2}
 
 
-@dataclass
-class _Geometry:
-    """Every point the edges and surfaces need, by row of their kind (mm, unit directions)."""
-
-    vertex: np.ndarray  # (n, 3) per VERTEX_POINT
-    edge_v1: np.ndarray  # VERTEX_POINT rows per EDGE_CURVE
-    edge_v2: np.ndarray
-    curve_kind: np.ndarray  # per EDGE_CURVE: 0 line, 1 circle
-    curve: np.ndarray  # its row among lines or circles
-    edge_fwd: np.ndarray  # EDGE_CURVE's sense
-    line_point: np.ndarray
-    line_dir: np.ndarray
-    circle_centre: np.ndarray
-    circle_axis: np.ndarray
-    circle_r: np.ndarray
-    plane_point: np.ndarray
-    plane_normal: np.ndarray
-    cyl_centre: np.ndarray
-    cyl_axis: np.ndarray
-    cyl_r: np.ndarray
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    n = np.linalg.norm(v, axis=1, keepdims=True)
-    return v / np.where(n > 0, n, 1.0)
-
-
-def _geometry(br: Brep) -> _Geometry:
-    """The points, directions and radii behind every vertex, curve and surface."""
-    pts = br.reals["CARTESIAN_POINT"]
-    dirs = br.reals["DIRECTION"]
-
-    def point(refs: np.ndarray, where: str) -> np.ndarray:
-        return pts[br.rows(refs, "CARTESIAN_POINT", where)]
-
-    def axis(refs: np.ndarray, where: str) -> tuple[np.ndarray, np.ndarray]:
-        ax = br.refs["AXIS2_PLACEMENT_3D"][br.rows(refs, "AXIS2_PLACEMENT_3D", where)]
-        return point(ax[:, 0], "a placement's origin"), _unit(
-            dirs[br.rows(ax[:, 1], "DIRECTION", "a placement's axis")]
-        )
-
-    vec = br.refs["VECTOR"][:, 0]
-    vec_dir = _unit(dirs[br.rows(vec, "DIRECTION", "a vector's direction")])
-    line = br.refs["LINE"]
-    kind, curve = _kind_of(br, br.refs["EDGE_CURVE"][:, 2], ("LINE", "CIRCLE"), "an edge's curve")
-    cc, ca = axis(br.refs["CIRCLE"][:, 0], "a circle's placement")
-    pc, pn = axis(br.refs["PLANE"][:, 0], "a plane's placement")
-    yc, ya = axis(br.refs["CYLINDRICAL_SURFACE"][:, 0], "a cylinder's placement")
-    ends = br.refs["EDGE_CURVE"]
-    return _Geometry(
-        vertex=point(br.refs["VERTEX_POINT"][:, 0], "a vertex's point"),
-        edge_v1=br.rows(ends[:, 0], "VERTEX_POINT", "an edge's vertex"),
-        edge_v2=br.rows(ends[:, 1], "VERTEX_POINT", "an edge's vertex"),
-        curve_kind=kind, curve=curve, edge_fwd=br.flag["EDGE_CURVE"],
-        line_point=point(line[:, 0], "a line's point"),
-        line_dir=vec_dir[br.rows(line[:, 1], "VECTOR", "a line's vector")],
-        circle_centre=cc, circle_axis=ca, circle_r=br.reals["CIRCLE"][:, 0],
-        plane_point=pc, plane_normal=pn,
-        cyl_centre=yc, cyl_axis=ya, cyl_r=br.reals["CYLINDRICAL_SURFACE"][:, 0],
-    )  # fmt: skip
-
-
-def _off_curves(g: _Geometry) -> list[str]:
+def _off_curves(g: Geometry) -> list[str]:
     """Vertices off their edges' lines and circles; circle edges that are not whole circles."""
     fails = []
     line = np.flatnonzero(g.curve_kind == 0)
@@ -294,7 +153,7 @@ def _off_curves(g: _Geometry) -> list[str]:
     return fails
 
 
-def _off_surfaces(br: Brep, g: _Geometry, sh: _Shell) -> list[str]:
+def _off_surfaces(br: Brep, g: Geometry, sh: Shell) -> list[str]:
     """Planes neither horizontal nor vertical, cylinders not about z, edges off their faces."""
     fails = []
     face = sh.face_of_bound[sh.loop_of_use]
@@ -348,7 +207,7 @@ class _Flat:
     first_use: np.ndarray  # per bound: its first use
 
 
-def _flat_faces(br: Brep, g: _Geometry, sh: _Shell, fails: list[str]) -> _Flat:
+def _flat_faces(br: Brep, g: Geometry, sh: Shell, fails: list[str]) -> _Flat:
     """Signed areas of the horizontal faces' bounds; fails bounds that mix circles and lines."""
     n_bounds = len(sh.face_of_bound)
     first_use = np.searchsorted(sh.loop_of_use, np.arange(n_bounds))
@@ -394,7 +253,7 @@ def _flat_faces(br: Brep, g: _Geometry, sh: _Shell, fails: list[str]) -> _Flat:
     return _Flat(flat, g.plane_point[sh.surface[flat], 2], face_area, circle, first_use)
 
 
-def _face_bounds(g: _Geometry, sh: _Shell, fl: _Flat, face: int):
+def _face_bounds(g: Geometry, sh: Shell, fl: _Flat, face: int):
     """One horizontal face's polygon bounds (xy rings, outer first) and circles (centres, radii)."""
     bounds = np.flatnonzero(sh.face_of_bound == face)
     outer = bounds[sh.bound_outer[bounds]]
@@ -447,7 +306,7 @@ def _crossings(rings: list[np.ndarray], xy: np.ndarray, r: np.ndarray) -> list[s
     return out
 
 
-def _geometry_fails(br: Brep, g: _Geometry, sh: _Shell, fl: _Flat) -> list[str]:
+def _geometry_fails(br: Brep, g: Geometry, sh: Shell, fl: _Flat) -> list[str]:
     """Each horizontal face's bounds: one outer polygon, the rest disjoint and inside it.
 
     A face whose bounds are, in plan, the first bounds of a face already found valid (a plate's
@@ -535,7 +394,7 @@ def _against(geom: PlateGeometry, topo: dict[str, int], cylinders: int, most_bou
     return fails
 
 
-def _bbox(g: _Geometry, sh: _Shell) -> np.ndarray:
+def _bbox(g: Geometry, sh: Shell) -> np.ndarray:
     """``[[xmin, ymin, zmin], [xmax, ymax, zmax]]`` mm of the shell's vertices and whole circles."""
     pts = g.vertex[np.unique(sh.start)]
     circ = np.unique(g.curve[sh.edge[g.curve_kind[sh.edge] == 1]])
@@ -561,8 +420,8 @@ def check_step_text(text: str, geom: PlateGeometry) -> dict[str, Any]:
     fails: list[str] = []
     try:
         br = read_brep(text)
-        g = _geometry(br)
-        sh = _shell(br, g, fails)
+        g = geometry_of(br)
+        sh = shell_of(br, g, _solid_faces(br, fails))
     except StepReadError as exc:
         return {
             "solids": 0,
