@@ -167,14 +167,32 @@ def circles_clear_of_rings(
         if inside:
             ok &= near  # a circle away from the ring's box is outside it
         near = np.flatnonzero(near & ok)
+        close = _maybe_close(xy[near], r[near] + clearance_mm, ring, reach)
         # Chunks keep the points x edges arrays small on long rings.
         for start in range(0, len(near), 2048):
-            idx = near[start : start + 2048]
-            p = xy[idx]
-            d = point_ring_distance(p, ring)
-            bad = (points_in_ring(p, ring) != inside) | (d < r[idx] + clearance_mm)
+            idx, c = near[start : start + 2048], close[start : start + 2048]
+            bad = points_in_ring(xy[idx], ring) != inside
+            bad[c] |= point_ring_distance(xy[idx[c]], ring) < r[idx[c]] + clearance_mm
             ok[idx[bad]] = False
     return ok
+
+
+def _maybe_close(xy: np.ndarray, reach: np.ndarray, ring: np.ndarray, spacing: float) -> np.ndarray:
+    """Which points may lie within ``reach`` of the ring's edges (a point not flagged does not).
+
+    The edges are sampled every ``spacing`` mm at most, so every point of the ring is within half
+    that of a sample: a point whose nearest sample is further than ``reach`` plus that is clear,
+    and its exact distance (points x edges) need not be computed.
+    """
+    if len(xy) == 0:
+        return np.zeros(0, dtype=bool)
+    a, b = _edges(ring)
+    pieces = np.maximum(np.ceil(np.hypot(*(b - a).T) / max(spacing, 1e-3)).astype(np.int64), 1)
+    t = np.arange(int(pieces.sum())) - np.repeat(np.cumsum(pieces) - pieces, pieces)
+    step = np.repeat(1.0 / pieces, pieces)[:, None]
+    samples = np.repeat(a, pieces, axis=0) + (t[:, None] * step) * np.repeat(b - a, pieces, axis=0)
+    half = 0.5 * float(np.max(np.hypot(*(b - a).T) / pieces))
+    return cKDTree(samples).query(xy)[0] <= reach + half
 
 
 def min_web(xy: np.ndarray, r: np.ndarray) -> float:

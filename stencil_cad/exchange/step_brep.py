@@ -119,9 +119,8 @@ class Brep:
         return self.row[refs]
 
 
-def _lines(data: bytes) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The bytes of the data section, each line's start and end (exclusive, before the newline)."""
-    b = np.frombuffer(data, dtype=np.uint8)
+def _lines(b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The data section's bytes, each line's start and end (exclusive, before the newline)."""
     nl = np.flatnonzero(b == 10)
     starts = np.concatenate([[0], nl + 1])
     ends = np.concatenate([nl, [len(b)]])
@@ -135,13 +134,14 @@ def _hash_numbers(b: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.nda
         StepReadError: A ``#`` with no number after it, or a line that does not start with one.
     """
     pos = np.flatnonzero(b == 35)
-    padded = np.concatenate([b, np.zeros(_DIGITS + 1, dtype=np.uint8)])
+    last = len(b) - 1  # a reference at the very end reads its last byte again, not past it
     value = np.zeros(len(pos), dtype=np.int64)
     ndig = np.zeros(len(pos), dtype=np.int64)
     alive = np.ones(len(pos), dtype=bool)
     # Digit by digit over every reference at once; references are short, so this stops early.
     for k in range(_DIGITS + 1):
-        d = padded[pos + 1 + k] - np.uint8(48)  # a byte that is not a digit wraps past 9
+        d = b[np.minimum(pos + 1 + k, last)] - np.uint8(48)  # a byte that is not a digit wraps past 9
+        d[pos + 1 + k > last] = 10
         alive &= d < 10
         if not alive.any():
             break
@@ -158,15 +158,17 @@ def _hash_numbers(b: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.nda
 
 def _kinds(b: np.ndarray, eq: np.ndarray) -> np.ndarray:
     """Each line's kind (index in :data:`KINDS`, -1 for others), from the name after its ``=``."""
-    padded = np.concatenate([b, np.zeros(32, dtype=np.uint8)])
-    head = np.ascontiguousarray(padded[eq[:, None] + 1 + np.arange(8)]).view(np.uint64).reshape(-1)
+    last = len(b) - 1
+    head = (
+        np.ascontiguousarray(b[np.minimum(eq[:, None] + 1 + np.arange(8), last)]).view(np.uint64).reshape(-1)
+    )
     code = np.full(len(eq), -1, dtype=np.int64)
     for i, kind in enumerate(KINDS):
         key = np.frombuffer((kind + "('',")[:8].encode("ascii"), dtype=np.uint64)[0]
         lines = np.flatnonzero(head == key)
         # The first eight bytes find the candidates; the whole name and its "(" decide.
         name = np.frombuffer((kind + "(").encode("ascii"), dtype=np.uint8)
-        same = (padded[eq[lines, None] + 1 + np.arange(len(name))] == name).all(axis=1)
+        same = (b[np.minimum(eq[lines, None] + 1 + np.arange(len(name)), last)] == name).all(axis=1)
         code[lines[same]] = i
     return code
 
@@ -224,6 +226,14 @@ def _fixed_point(joined: str) -> np.ndarray | None:
     return np.where(negative & (digits == 0), -0.0, value)
 
 
+def _lines_text(b: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> str:
+    """The given lines alone, each with its newline: a short text for a regular expression to scan."""
+    n = ends - starts + 1
+    first = np.concatenate([[0], np.cumsum(n)[:-1]])
+    take = np.minimum(np.repeat(starts - first, n) + np.arange(int(n.sum())), len(b) - 1)
+    return b[take].tobytes().decode("ascii")
+
+
 def _reals(text: str, kind: str, n: int) -> np.ndarray:
     """The reals of every entity of ``kind``, in the order written.
 
@@ -247,20 +257,20 @@ def _reals(text: str, kind: str, n: int) -> np.ndarray:
     return values.reshape(n, width)
 
 
-def _data(text: str) -> tuple[str, bytes]:
-    """The data section, as text and bytes.
+def _data(text: str) -> np.ndarray:
+    """The data section's bytes (a view of the encoded text, not a copy).
 
     Raises:
         StepReadError: No ``DATA;`` section, or text that is not ASCII.
     """
-    begin, end = text.find("\nDATA;\n"), text.rfind("\nENDSEC;\nEND-ISO-10303-21;")
-    if not text.startswith("ISO-10303-21;") or begin < 0 or end < begin:
-        raise StepReadError("not a STEP file: no ISO-10303-21 header with a DATA section")
-    data = text[begin + 7 : end]
     try:
-        return data, data.encode("ascii")
+        raw = text.encode("ascii")
     except UnicodeEncodeError:
-        raise StepReadError("the data section is not ASCII") from None
+        raise StepReadError("the text is not ASCII") from None
+    begin, end = raw.find(b"\nDATA;\n"), raw.rfind(b"\nENDSEC;\nEND-ISO-10303-21;")
+    if not raw.startswith(b"ISO-10303-21;") or begin < 0 or end < begin:
+        raise StepReadError("not a STEP file: no ISO-10303-21 header with a DATA section")
+    return np.frombuffer(raw, dtype=np.uint8, count=end - begin - 7, offset=begin + 7)
 
 
 def read_brep(text: str) -> Brep:
@@ -276,8 +286,7 @@ def read_brep(text: str) -> Brep:
         StepReadError: The text is not of that form (a line that is not one entity, an id used
             twice, an entity of a known kind that cannot be read).
     """
-    data, raw = _data(text)
-    b, starts, ends = _lines(raw)
+    b, starts, ends = _lines(_data(text))
     eq = _equals(b, starts, ends)
     value, first = _hash_numbers(b, starts)
     nref = np.diff(np.concatenate([first, [len(value)]])) - 1
@@ -305,7 +314,7 @@ def read_brep(text: str) -> Brep:
         if flagged:
             out.flag[name] = _flags(b, ends[lines], name)
         if name in _REALS:
-            out.reals[name] = _reals(data, name, len(lines))
+            out.reals[name] = _reals(_lines_text(b, starts[lines], ends[lines]), name, len(lines))
     return out
 
 

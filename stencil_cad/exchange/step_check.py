@@ -309,8 +309,9 @@ def _crossings(rings: list[np.ndarray], xy: np.ndarray, r: np.ndarray) -> list[s
 def _geometry_fails(br: Brep, g: Geometry, sh: Shell, fl: _Flat) -> list[str]:
     """Each horizontal face's bounds: one outer polygon, the rest disjoint and inside it.
 
-    A face whose bounds are, in plan, the first bounds of a face already found valid (a plate's
-    bottom and its top with the letters' bounds besides) is valid too, and is not checked again.
+    A face with round holes whose bounds are, in plan, the first bounds of a face already found
+    valid (a plate's bottom, and its top with the letters' bounds besides) is valid too, and is
+    not checked again.
     """
     fails = []
     checked: list[tuple[list[np.ndarray], np.ndarray, np.ndarray]] = []
@@ -321,11 +322,12 @@ def _geometry_fails(br: Brep, g: Geometry, sh: Shell, fl: _Flat) -> list[str]:
         if not polygon_outer:
             fails.append(f"{name} has no single polygon outer bound")
             continue
-        if any(_within(rings, xy, r, seen) for seen in checked):
+        # Only faces with round holes are worth the look-up: the others are checked in no time.
+        if len(r) and any(_within(rings, xy, r, seen) for seen in checked):
             continue
         found = _crossings(rings, xy, r)
         fails += [f"{name}: {what}" for what in found]
-        if not found:
+        if not found and len(r):
             checked.append((rings, xy, r))
     return fails
 
@@ -338,7 +340,8 @@ def _within(rings: list[np.ndarray], xy: np.ndarray, r: np.ndarray, seen: tuple)
         and np.array_equal(xy, their_xy)
         and np.array_equal(r, their_r)
         and all(
-            np.array_equal(_canonical(a), _canonical(b)) for a, b in zip(rings, their_rings, strict=False)
+            len(a) == len(b) and np.array_equal(_canonical(a), _canonical(b))
+            for a, b in zip(rings, their_rings, strict=False)
         )
     )
 
