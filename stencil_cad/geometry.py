@@ -6,6 +6,7 @@ copy of the first); counter-clockwise rings have positive area.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 
@@ -23,6 +24,8 @@ __all__ = [
     "mesh_genus",
     "min_web",
     "point_ring_distance",
+    "points_in_any_ring",
+    "points_in_circles",
     "points_in_ring",
     "polygon_area",
     "rings_cross",
@@ -84,8 +87,49 @@ def point_ring_distance(points: np.ndarray, ring: np.ndarray) -> np.ndarray:
     return np.sqrt(np.min(np.einsum("pij,pij->pi", diff, diff), axis=1))
 
 
+def _box_pairs(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every pair ``(i, j)`` of boxes that overlap, once each, and some that come close.
+
+    A sweep along x within horizontal strips: each box joins the strips its y-range covers and
+    meets, in each, the boxes whose x-range starts within its own; a pair is kept in the first
+    strip both cover. One sweep along x over the whole plane meets every box in the same columns
+    (a hard stencil's thousands of cut-outs: edges x rows); strips as tall as a few edges keep
+    the pairs near linear in the edges.
+
+    Args:
+        lo: ``(N, 2)`` the boxes' lower corners in mm.
+        hi: ``(N, 2)`` their upper corners.
+
+    Returns:
+        ``(i, j)`` index arrays; the caller tests the pairs exactly.
+    """
+    n = len(lo)
+    if n < 2:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    (x0, y0), (x1, y1) = lo.min(axis=0), hi.max(axis=0)
+    tall = max(4.0 * float(np.median((hi - lo).sum(axis=1))), (y1 - y0) / math.sqrt(n), 1e-9)
+    first = np.floor((lo[:, 1] - y0) / tall).astype(np.int64)
+    last = np.floor((hi[:, 1] - y0) / tall).astype(np.int64)
+    covers = last - first + 1
+    box = np.repeat(np.arange(n), covers)
+    strip = first[box] + np.arange(len(box)) - np.repeat(np.cumsum(covers) - covers, covers)
+    order = np.lexsort((lo[box, 0], strip))
+    box, strip = box[order], strip[order]
+    # One sorted key: the strip, then x from the left (the strips' keys do not meet); partners
+    # start at most at the box's right end (plus a margin for the rounding of the key).
+    width = (x1 - x0) + 1.0
+    key = strip * width + (lo[box, 0] - x0)
+    ends = np.searchsorted(key, strip * width + (hi[box, 0] - x0) + 1e-9 * (1.0 + np.abs(key)), side="right")
+    counts = np.maximum(ends - np.arange(len(box)) - 1, 0)
+    p = np.repeat(np.arange(len(box)), counts)
+    q = p + 1 + np.arange(len(p)) - np.repeat(np.cumsum(counts) - counts, counts)
+    i, j = box[p], box[q]
+    once = np.maximum(first[i], first[j]) == strip[p]
+    return i[once], j[once]
+
+
 def rings_cross(rings: Sequence[np.ndarray], *, touching: bool = True, within: bool = True) -> bool:
-    """Whether any two edges of a set of rings cross (a sweep along x, O(n log n + pairs)).
+    """Whether any two edges of a set of rings cross (sweeps along x in strips of y, :func:`_box_pairs`).
 
     Neighbouring edges of one ring share a vertex and are never counted.
 
@@ -108,18 +152,9 @@ def rings_cross(rings: Sequence[np.ndarray], *, touching: bool = True, within: b
     idx = np.concatenate([np.arange(len(r)) for r in rings])
     rlen = np.concatenate([np.full(len(r), len(r)) for r in rings])
     lo, hi = np.minimum(a, b), np.maximum(a, b)
-    # Sweep along x: candidate pairs whose x-ranges overlap, found by sorting.
-    order = np.argsort(lo[:, 0])
-    lo, hi, a, b = lo[order], hi[order], a[order], b[order]
-    ring_key, idx, rlen = ring_key[order], idx[order], rlen[order]
-    n = len(a)
-    ends = np.searchsorted(lo[:, 0], hi[:, 0], side="right")
-    counts = np.maximum(ends - np.arange(n) - 1, 0)  # partners j in (i, ends)
-    i = np.repeat(np.arange(n), counts)
-    first = np.repeat(np.cumsum(counts) - counts, counts)
-    j = i + 1 + (np.arange(len(i)) - first)
-    yo = (lo[i, 1] <= hi[j, 1]) & (lo[j, 1] <= hi[i, 1])
-    i, j = i[yo], j[yo]
+    i, j = _box_pairs(lo, hi)
+    overlap = np.all((lo[i] <= hi[j]) & (lo[j] <= hi[i]), axis=1)
+    i, j = i[overlap], j[overlap]
     same = ring_key[i] == ring_key[j]
     drop = (
         same
@@ -138,6 +173,83 @@ def rings_cross(rings: Sequence[np.ndarray], *, touching: bool = True, within: b
     if touching:
         return bool(((d1 * d2 <= 0) & (d3 * d4 <= 0)).any())
     return bool(((d1 * d2 < 0) & (d3 * d4 < 0)).any())
+
+
+def _pairs(found, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """A KD-tree's ball query as pairs ``(query, found)``: each query's index repeated per hit."""
+    counts = np.fromiter(map(len, found), dtype=np.int64, count=n)
+    hits = np.fromiter(itertools.chain.from_iterable(found), dtype=np.int64, count=int(counts.sum()))
+    return np.repeat(np.arange(n), counts), hits
+
+
+def points_in_any_ring(
+    points: np.ndarray, rings: Sequence[np.ndarray], own: np.ndarray | None = None
+) -> np.ndarray:
+    """Which points lie inside at least one of the rings (even-odd), near linear for spread-out rings.
+
+    Only the rings whose box holds a point are tested against it (a KD-tree finds them), so
+    thousands of small rings cost little more than their edges; a pairwise test would cost
+    points x edges.
+
+    Args:
+        points: ``(P, 2)`` points in mm.
+        rings: ``(N_k, 2)`` rings.
+        own: ``(P,)`` the index of a ring each point is not tested against (the ring it is a
+            vertex of), or None.
+
+    Returns:
+        ``(P,)`` bool, True inside some ring.
+    """
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    out = np.zeros(len(points), dtype=bool)
+    if len(points) == 0 or len(rings) == 0:
+        return out
+    rings = [np.asarray(ring, dtype=np.float64) for ring in rings]
+    lengths = np.array([len(ring) for ring in rings])
+    starts = np.concatenate([[0], np.cumsum(lengths)[:-1]])
+    corners = np.concatenate(rings)
+    lo, hi = np.minimum.reduceat(corners, starts, axis=0), np.maximum.reduceat(corners, starts, axis=0)
+    found = cKDTree(points).query_ball_point(
+        (lo + hi) / 2, np.hypot(*((hi - lo) / 2).T) * (1 + 1e-9) + 1e-12, return_sorted=False
+    )
+    ring, point = _pairs(found, len(rings))
+    keep = np.all((points[point] >= lo[ring]) & (points[point] <= hi[ring]), axis=1)
+    if own is not None:
+        keep &= np.asarray(own)[point] != ring
+    ring, point = ring[keep], point[keep]
+    order = np.argsort(ring, kind="stable")
+    ring, point = ring[order], point[order]
+    cut = np.flatnonzero(np.diff(ring)) + 1
+    if len(ring) == 0:
+        return out
+    for k, mine in zip(ring[np.concatenate([[0], cut])], np.split(point, cut), strict=True):
+        out[mine[points_in_ring(points[mine], rings[k])]] = True
+    return out
+
+
+def points_in_circles(points: np.ndarray, xy: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Which points lie strictly inside at least one circle (a KD-tree over the centres).
+
+    Args:
+        points: ``(P, 2)`` points in mm.
+        xy: ``(N, 2)`` circle centres in mm.
+        r: ``(N,)`` radii in mm.
+
+    Returns:
+        ``(P,)`` bool.
+    """
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    r = np.asarray(r, dtype=np.float64).reshape(-1)
+    out = np.zeros(len(points), dtype=bool)
+    if len(points) == 0 or len(r) == 0:
+        return out
+    point, circle = _pairs(
+        cKDTree(xy).query_ball_point(points, float(r.max()), return_sorted=False), len(points)
+    )
+    inside = np.hypot(*(points[point] - xy[circle]).T) < r[circle]
+    out[point[inside]] = True
+    return out
 
 
 def circles_clear_of_rings(
