@@ -1,11 +1,14 @@
 """The B-rep of a plate's STEP text, as :func:`~stencil_cad.exchange.step.step_text` writes it, read into arrays.
 
 This reads exactly the entities our writer uses (points, directions, vectors, placements,
-lines, circles, planes, cylinders, vertices, edges, loops, bounds, faces, one shell and one
-solid), one entity per line, ``#id=NAME('',...);``; it is not a general STEP reader. It exists
-so :mod:`stencil_cad.exchange.step_check` can check the very text a maker gets, kernel-free;
-:func:`geometry_of` and :func:`shell_of` gather what its checks read (every point behind a vertex,
-curve and surface; a shell's faces down to their edge uses, in loop order).
+lines, circles, planes, cylinders, vertices, edges, loops, bounds, faces, one shell, one
+solid and the shape representation that lists it), one entity per line, ``#id=NAME('',...);``;
+it is not a general STEP reader, and it raises :class:`StepReadError` on what it does not read
+so (an entity of another kind where one of these belongs, one with a label, a real that is not
+a finite number). It exists so :mod:`stencil_cad.exchange.step_check` can check the very text a
+maker gets, kernel-free; :func:`geometry_of` and :func:`shell_of` gather what its checks read
+(every point behind a vertex, curve and surface; a shell's faces down to their edge uses, in loop
+order), :func:`shape_items` what the product's shape holds and its unit.
 
 Every step is vectorised over the whole text: a plate of 4,300 holes is 150,000 entities
 (7 MB), and a Python loop over them would cost more than the check is meant to save. The
@@ -32,6 +35,7 @@ __all__ = [
     "kind_of",
     "read_brep",
     "segments",
+    "shape_items",
     "shell_of",
 ]
 
@@ -61,6 +65,7 @@ KINDS: dict[str, tuple[int | None, bool]] = {
     "CLOSED_SHELL": (None, False),
     "OPEN_SHELL": (None, False),
     "MANIFOLD_SOLID_BREP": (1, False),
+    "ADVANCED_BREP_SHAPE_REPRESENTATION": (None, False),
 }
 
 #: The reals of the entities that hold any: the text between the name's ``('',`` and its end.
@@ -89,6 +94,9 @@ class Brep:
             ``flat[ptr[i]:ptr[i + 1]]`` (an ADVANCED_FACE's last one is its surface).
         flag: Per flagged kind, ``(n,)`` bool, True for ``.T.``.
         reals: Per kind holding reals, ``(n, k)`` float64 (mm for lengths).
+        data: The data section's bytes.
+        span: ``(max id + 1, 2)`` each entity's line in ``data``, from after its ``=`` to
+            before its ``;`` (``(0, 0)`` for ids not written).
     """
 
     kind: np.ndarray
@@ -98,6 +106,15 @@ class Brep:
     lists: dict[str, tuple[np.ndarray, np.ndarray]]
     flag: dict[str, np.ndarray]
     reals: dict[str, np.ndarray]
+    data: np.ndarray
+    span: np.ndarray
+
+    def line(self, i: int) -> str:
+        """Entity ``#i`` as written, without its ``#i=`` and ``;`` (empty when not written)."""
+        if not 0 <= i < len(self.span):
+            return ""
+        lo, hi = self.span[i]
+        return self.data[lo:hi].tobytes().decode("ascii")
 
     def count(self, kind: str) -> int:
         """How many entities of ``kind`` the text holds."""
@@ -166,8 +183,9 @@ def _kinds(b: np.ndarray, eq: np.ndarray) -> np.ndarray:
     for i, kind in enumerate(KINDS):
         key = np.frombuffer((kind + "('',")[:8].encode("ascii"), dtype=np.uint64)[0]
         lines = np.flatnonzero(head == key)
-        # The first eight bytes find the candidates; the whole name and its "(" decide.
-        name = np.frombuffer((kind + "(").encode("ascii"), dtype=np.uint8)
+        # The first eight bytes find the candidates; the whole name and its empty label decide
+        # (an entity with a label is of no kind read here: a '#' in a label is not a reference).
+        name = np.frombuffer((kind + "('',").encode("ascii"), dtype=np.uint8)
         same = (b[np.minimum(eq[lines, None] + 1 + np.arange(len(name)), last)] == name).all(axis=1)
         code[lines[same]] = i
     return code
@@ -246,14 +264,26 @@ def _reals(text: str, kind: str, n: int) -> np.ndarray:
         raise StepReadError(f"{n - len(found)} {kind} entities cannot be read")
     if n == 0:
         return np.zeros((0, width))
-    values = _fixed_point(",".join(found))
+    # Each entity's own count of values, not only the total: (1, 2) and (3, 4, 5, 6) are not two points.
+    joined = ";".join(found)
+    raw = np.frombuffer(joined.encode("ascii"), dtype=np.uint8)
+    commas = np.concatenate([[0], np.cumsum(raw == 44)])
+    ends = np.concatenate([np.flatnonzero(raw == 59), [len(raw)]])
+    starts = np.concatenate([[0], ends[:-1] + 1])
+    if len(ends) != n or (commas[ends] - commas[starts] != width - 1).any():
+        raise StepReadError(f"a {kind} holds the wrong number of values (expected {width})")
+    joined = joined.replace(";", ",")
+    values = _fixed_point(joined)
     if values is None:
         try:
-            values = np.fromiter(map(float, ",".join(found).split(",")), dtype=np.float64)
+            values = np.fromiter(map(float, joined.split(",")), dtype=np.float64)
         except ValueError:
             raise StepReadError(f"a {kind} holds a value that is not a number") from None
     if len(values) != n * width:
         raise StepReadError(f"a {kind} holds the wrong number of values (expected {width})")
+    if not np.isfinite(values).all():
+        # float() reads "nan" and "inf", which no check below would see (every comparison is False).
+        raise StepReadError(f"a {kind} holds a value that is not a finite number")
     return values.reshape(n, width)
 
 
@@ -291,12 +321,18 @@ def read_brep(text: str) -> Brep:
     value, first = _hash_numbers(b, starts)
     nref = np.diff(np.concatenate([first, [len(value)]])) - 1
     ids = value[first]
+    # The writer numbers its entities from 1 without gaps; ids far past their count would only
+    # make the id-indexed arrays below huge.
+    if int(ids.max(initial=0)) > 2 * len(ids) + 64:
+        raise StepReadError(f"entity ids run to #{int(ids.max())} for {len(ids)} entities")
     if len(ids) and np.bincount(ids).max() > 1:
         raise StepReadError("an entity id is used twice")
     code = _kinds(b, eq)
     kind = np.full(int(ids.max(initial=0)) + 1, -1, dtype=np.int64)
     row = np.full(len(kind), -1, dtype=np.int64)
-    out = Brep(kind, row, {}, {}, {}, {}, {})
+    span = np.zeros((len(kind), 2), dtype=np.int64)
+    span[ids, 0], span[ids, 1] = eq + 1, ends - 1
+    out = Brep(kind, row, {}, {}, {}, {}, {}, b, span)
     for i, (name, (arity, flagged)) in enumerate(KINDS.items()):
         lines = np.flatnonzero(code == i)
         out.ids[name] = ids[lines]
@@ -316,6 +352,38 @@ def read_brep(text: str) -> Brep:
         if name in _REALS:
             out.reals[name] = _reals(_lines_text(b, starts[lines], ends[lines]), name, len(lines))
     return out
+
+
+_SHAPE_DEFINITION = re.compile(rb"=SHAPE_DEFINITION_REPRESENTATION\(#\d+,#(\d+)\);")
+_UNITS = re.compile(r"GLOBAL_UNIT_ASSIGNED_CONTEXT\(\(([^)]*)\)\)")
+
+
+def shape_items(br: Brep) -> np.ndarray:
+    """The ids of the items of the product's shape, whose lengths are in millimetres.
+
+    An importer finds a file's solids through its SHAPE_DEFINITION_REPRESENTATION, which names the
+    one ADVANCED_BREP_SHAPE_REPRESENTATION; that lists the items (OCCT's reader transfers
+    nothing else) and the context whose units every length is read in.
+
+    Raises:
+        StepReadError: No such pair, more than one, or lengths not in millimetres.
+    """
+    reps = br.ids["ADVANCED_BREP_SHAPE_REPRESENTATION"]
+    if len(reps) != 1:
+        raise StepReadError(f"expected one ADVANCED_BREP_SHAPE_REPRESENTATION, the file has {len(reps)}")
+    named = [int(m.group(1)) for m in _SHAPE_DEFINITION.finditer(br.data.data)]
+    if named.count(int(reps[0])) != 1:
+        raise StepReadError(f"no one SHAPE_DEFINITION_REPRESENTATION names the shape #{int(reps[0])}")
+    ptr, flat = br.lists["ADVANCED_BREP_SHAPE_REPRESENTATION"]
+    refs = flat[ptr[0] : ptr[1]]
+    units = _UNITS.search(br.line(int(refs[-1]))) if len(refs) > 1 else None
+    if units is None:
+        raise StepReadError(f"the shape #{int(reps[0])} has no context with units")
+    lengths = [br.line(int(u)) for u in re.findall(r"#(\d+)", units.group(1))]
+    lengths = [u for u in lengths if "LENGTH_UNIT()" in u]
+    if len(lengths) != 1 or "SI_UNIT(.MILLI.,.METRE.)" not in lengths[0]:
+        raise StepReadError("the shape's lengths are not in millimetres")
+    return refs[:-1]
 
 
 def segments(ptr: np.ndarray, flat: np.ndarray, rows: np.ndarray, drop_last: bool = False):

@@ -179,3 +179,108 @@ def test_text_that_is_not_a_plate_step_is_refused(written):
     circle = next(iter(entities(text, "CIRCLE")))
     bad = set_entity(text, circle, "CIRCLE('',#1,abc)")
     assert "cannot be read" in fails_of(bad, geom)
+
+
+# ----------------------------------------------------------------------------- what the reader refuses
+
+
+def test_a_value_that_is_not_a_finite_number_is_refused(written):
+    # float() reads "nan", and every comparison with it is False: read, it would pass every check.
+    geom, text = written
+    direction = next(iter(entities(text, "DIRECTION")))
+    got = fails_of(set_entity(text, direction, "DIRECTION('',(nan,nan,0.))"), geom)
+    assert "cannot be read" in got and "not a finite number" in got
+
+
+def test_a_point_with_the_wrong_number_of_coordinates_is_refused(written):
+    # Two points of 2 and 4 coordinates hold the right total: each point is counted on its own.
+    geom, text = written
+    first, second = list(entities(text, "CARTESIAN_POINT"))[1:3]
+    bad = set_entity(
+        set_entity(text, first, "CARTESIAN_POINT('',(1.,2.))"), second, "CARTESIAN_POINT('',(1.,2.,3.,4.))"
+    )
+    assert "wrong number of values" in fails_of(bad, geom)
+
+
+def test_a_labelled_entity_is_not_read_as_one_of_the_writers(written):
+    # A '#' in a label would read as a reference: an entity with a label is of no kind read here.
+    geom, text = written
+    loop, oes = side_loop(text)
+    bad = set_entity(text, loop, f"EDGE_LOOP('#{oes[0]}',(" + ",".join(f"#{o}" for o in oes) + "))")
+    got = fails_of(bad, geom)
+    assert "cannot be read" in got and f"#{loop} is not a EDGE_LOOP" in got
+
+
+def test_ids_far_past_the_entity_count_are_refused(written):
+    geom, text = written
+    bad = text.replace("\nENDSEC;\nEND-ISO", "\n#999999999=CARTESIAN_POINT('',(0.,0.,0.));\nENDSEC;\nEND-ISO")
+    assert "entity ids run to #999999999" in fails_of(bad, geom)
+
+
+def test_the_solid_must_be_the_products_shape_in_millimetres(written):
+    # OCCT finds no shape when the representation does not list the solid, and reads metres as metres.
+    geom, text = written
+    ((rep, body),) = entities(text, "ADVANCED_BREP_SHAPE_REPRESENTATION").items()
+    solid = next(iter(entities(text, "MANIFOLD_SOLID_BREP")))
+    got = fails_of(set_entity(text, rep, body.replace(f",#{solid})", ")")), geom)
+    assert f"the solid #{solid} is not an item of the product's shape" in got
+    assert "not in millimetres" in fails_of(
+        text.replace("SI_UNIT(.MILLI.,.METRE.)", "SI_UNIT($,.METRE.)"), geom
+    )
+    no_product = text.replace("=SHAPE_DEFINITION_REPRESENTATION(", "=PROPERTY_DEFINITION_REPRESENTATION(")
+    assert "no one SHAPE_DEFINITION_REPRESENTATION names the shape" in fails_of(no_product, geom)
+
+
+# ----------------------------------------------------------------------------- faults OCCT's analyzer passes
+
+
+def _face_on(text, surfaces):
+    """The id and body of the first ADVANCED_FACE on one of ``surfaces``."""
+    for i, body in entities(text, "ADVANCED_FACE").items():
+        if int(re.findall(r"#(\d+)", body)[-1]) in surfaces:
+            return i, body
+    raise AssertionError("no such face")
+
+
+def test_a_side_face_turned_inside_out_is_named(written):
+    # The edge uses and the volume are the same, and OCCT's analyzer passes it: the face's own
+    # normal against its loop is what is wrong.
+    geom, text = written
+    sides = {i for i, b in entities(text, "PLANE").items()} - {
+        int(re.findall(r"#(\d+)", b)[-1])
+        for b in entities(text, "ADVANCED_FACE").values()
+        if b.count("#") > 2
+    }
+    face, body = _face_on(text, sides)
+    got = fails_of(set_entity(text, face, body.replace(".T.)", ".F.)")), geom)
+    assert f"1 vertical faces have their normal against their loop (first #{face})" in got
+    face, body = _face_on(text, set(entities(text, "CYLINDRICAL_SURFACE")))
+    got = fails_of(set_entity(text, face, body.replace(".F.)", ".T.)")), geom)
+    assert f"1 cylindrical faces have their normal against their loop (first #{face})" in got
+
+
+def test_an_engraving_as_deep_as_the_plate_is_named(written):
+    # Its floor would lie on the bottom, facing up: the volume and the box are those of the description.
+    geom, _ = written
+    through = replace(geom, relief_mm=-geom.thickness_mm)
+    got = fails_of(step_text(through), through)
+    assert "none is left below" in got and "volume" not in got and "bounding box" not in got
+
+
+def test_a_face_at_a_height_the_description_has_not_is_named(written):
+    geom, text = written
+    floor = replace(geom, relief_mm=-0.3)  # the file's floors at 0.8 mm, the description's at 0.9
+    assert (
+        "horizontal faces lie where the description has none (first at z = 0.800000 mm, facing up)"
+        in fails_of(text, floor)
+    )
+
+
+def test_a_bound_without_area_and_a_hole_without_radius_are_named():
+    flat = np.array([[4.0, 4.0], [8.0, 4.0], [6.0, 4.0]])  # a cut-out folded flat: OCCT rejects its file
+    geom = replace(plate(polygons=False), polygons=(flat,))
+    assert "enclose no area" in fails_of(step_text(geom), geom)
+    r = plate().circles_r.copy()
+    r[0] = 0.0
+    geom = plate(r=r)
+    assert "a degenerate hole" in fails_of(step_text(geom), geom)
