@@ -31,7 +31,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from ..exchange.mesh import mesh_checks
-from ..exchange.step_check import check_step_text
+from ..exchange.step_check import check_step_text, expected_counts
 from ..model import Holes, PlateGeometry
 from . import occt
 from .fullcheck import TILE_HOLES, brep_valid, check_tiles, store_plane_pcurves
@@ -264,11 +264,11 @@ def _hole_fails(geom: PlateGeometry | None, topo: dict, dots: Holes | None) -> l
         if n_cyl != len(geom.circles_r):
             fails.append(f"B-rep has {n_cyl} cylindrical hole faces, expected {len(geom.circles_r)}")
         # The top face bounds the outline, every hole and (with a label) every letter.
-        letters = len(geom.glyphs) if geom.glyphs and geom.relief_mm != 0.0 else 0
-        if topo["max_face_wires"] != holes + 1 + letters:
+        top = expected_counts(geom)["top_bounds"]
+        if topo["max_face_wires"] != top:
             fails.append(
-                f"the top face has {topo['max_face_wires']} bounds, expected {holes + 1 + letters} "
-                f"(outline, {holes} holes, {letters} letters)"
+                f"the top face has {topo['max_face_wires']} bounds, expected {top} "
+                f"(outline, {holes} holes, {top - holes - 1} letters)"
             )
     return fails + _input_fails(geom, dots)
 

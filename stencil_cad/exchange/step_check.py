@@ -68,7 +68,7 @@ from .step_brep import (
 )
 from .step_faces import AXIS_TOL, CLEARANCE_MM, Flat, face_geometry_fails, flat_faces
 
-__all__ = ["CLEARANCE_MM", "VOLUME_RTOL", "StepReadError", "check_step_text"]
+__all__ = ["CLEARANCE_MM", "VOLUME_RTOL", "StepReadError", "check_step_text", "expected_counts"]
 
 #: Largest relative difference between the file's volume and the description's.
 VOLUME_RTOL = 1e-9

@@ -284,3 +284,23 @@ def test_a_bound_without_area_and_a_hole_without_radius_are_named():
     r[0] = 0.0
     geom = plate(r=r)
     assert "a degenerate hole" in fails_of(step_text(geom), geom)
+
+
+LETTER = np.array([[20.0, 2.0], [23.0, 2.0], [23.0, 6.0], [20.0, 6.0]])
+
+
+@pytest.mark.parametrize("relief", [-0.4, 0.3])
+@pytest.mark.parametrize(
+    "glyphs, match",
+    [
+        # An island out of its letter: only the letter's floor (engraved) or top (embossed) shows it.
+        (((LETTER, [np.array([[10.0, 12.0], [10.0, 14.0], [12.0, 14.0], [12.0, 12.0]])]),), "lie outside"),
+        (((LETTER, [np.array([[21.0, 3.0], [21.0, 7.0], [22.0, 7.0], [22.0, 3.0]])]),), "cross or touch"),
+        (((LETTER, []), (LETTER + [2.0, 1.0], [])), "cross or touch"),  # letters over each other
+        (((LETTER - [16.0, -1.0], []),), "lies in a polygon bound"),  # a letter over a round hole
+        (((LETTER + [8.0, 0.0], []),), "cross or touch"),  # a letter across the outline
+    ],
+)
+def test_a_faulty_label_is_named(relief, glyphs, match):
+    geom = replace(plate(relief, polygons=False), glyphs=glyphs)
+    assert match in fails_of(step_text(geom), geom)
