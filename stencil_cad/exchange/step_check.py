@@ -31,8 +31,9 @@ of 15,000 holes: 0.35 CPU-s). Each failure is named:
 - **bounding box** of the vertices and circles against the description's;
 - **geometry OCCT's analyzer would catch** and the topology cannot
   (:func:`~stencil_cad.exchange.step_faces.face_geometry_fails`): on every horizontal face,
-  bounds that cross, touch, overlap, nest or leave the outer one, and bounds that enclose no
-  area, to the file's distance accuracy (:data:`CLEARANCE_MM`).
+  bounds that cross, touch, overlap, nest or leave the outer one (a round hole within the file's
+  distance accuracy, :data:`CLEARANCE_MM`, of another bound touches it), and bounds that enclose
+  no area.
 
 The reader refuses text it does not read as the writer writes it (an unknown entity where one
 of its own belongs, a labelled entity, a value that is not a finite number, a point with the
