@@ -279,7 +279,8 @@ def stipple_mural(
         ``e_norm`` their mean weighted by holes (each over its region with the fixed cells, so
         not comparable with a one-piece stipple's), ``tiles``, ``halo_mm`` and ``min_web_mm``.
     """
-    from ..stipple.rules import check_rules, min_web
+    from ..geometry import min_web
+    from ..stipple.rules import check_rules
 
     h, w = alphas.shape[1:]
     rules = cfg.stipple.design_rules(w * mm_per_px, h * mm_per_px)
