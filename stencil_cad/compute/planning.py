@@ -52,7 +52,7 @@ class Plan:
 #: of work (:func:`stencil_cad.mural.plan_cost`) runs on a local cluster of one worker per core,
 #: whatever its picture's size: its tiles' tasks (placing and refining the holes, building the
 #: plates, the scores' blocks) then share the cores. The 600 x 400 mm coffee mural of
-#: ``python -m benchmarks mural --case mural600`` (0.96 MP, 8 tiles, planned at 349 s) on 2 workers
+#: ``python -m benchmarks mural --case mural600`` (0.96 MP, 8 tiles, planned at 83 s) on 2 workers
 #: of a shared 2-core machine: its refinement 59 s against 108 s in this process, the plates 51 s
 #: against 66 s, the hole placement 18 s against 31 s, the same files. A cluster costs a few seconds
 #: to start (and each worker loads the compiled kernels), which a small mural would not win back.

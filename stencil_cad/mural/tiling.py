@@ -388,14 +388,19 @@ def check_fits_bed(grid: TileGrid, cfg: JobConfig) -> list[dict[str, Any]]:
 # --------------------------------------------------------------------------- plan and map
 
 
-#: Rates for the cost estimate, seconds per unit of one core, from the 1.2 m × 0.8 m FDM mural
-#: of 40 tiles (1,050 CPU-s in all): a checked and exported plate of ~500–2,000 holes takes about
-#: 4 s (the mesher, the mesh checks and the B-rep check on sub-tiles), a notched wall about 1.5 s,
-#: stippling, refining and simulating (with the registration costs) about 2 ms per hole, the
-#: decomposition about 2 s per megapixel and layer.
-_SECONDS_PER_PLATE = 4.0
+#: Rates for the cost estimate, CPU-seconds per unit, fitted on three jobs of this code (CPU-s of
+#: the command and its workers, ``python -m benchmarks mural --case 1m2 --case mural600`` and
+#: ``python -m benchmarks e2e``): the 1 m² FDM mural (30 tiles, 120 plates) took 353.8, the 600 x
+#: 400 mm coffee mural (8 tiles on its local cluster) 145.6, the bundled example (one tile, eight
+#: plates) 24.0. A plate is about 0.6 s to write and check (0.62 per plate in the 1 m² mural's
+#: build stage), a notched wall about 1.5 s, and stippling, refining and simulating about 0.5 ms
+#: per hole of the estimate (half the full-ink count), the decomposition about 2 s per megapixel
+#: and layer. The three estimates: 436 s (+23 %), 83 s (-43 %: the cluster's own cost is not in
+#: the rates) and 23 s (-5 %). (The earlier rates, 4 s a plate and 2 ms a hole, from a build that
+#: also made and checked an OCCT solid of every plate, estimated 1,867, 349 and 96 s.)
+_SECONDS_PER_PLATE = 0.6
 _SECONDS_PER_WALL = 1.5
-_SECONDS_PER_HOLE = 2e-3
+_SECONDS_PER_HOLE = 5e-4
 _SECONDS_PER_MPX = 2.0
 
 
