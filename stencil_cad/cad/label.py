@@ -12,7 +12,7 @@ import numpy as np
 
 from ..geometry import as_ccw, as_cw, rings_cross
 from .solid import PlateBuildError
-from .text import FONT_LOCK, text_faces
+from .text import FONT_LOCK, text_rings
 
 
 @dataclass(frozen=True)
@@ -131,20 +131,18 @@ def _bundled_font() -> str | None:
 
 
 def _text_glyphs(text: str, size: float, font: str, tol: float) -> list:
-    """Glyph polygons of a text line, baseline at y = 0, starting at x = 0."""
+    """Glyph polygons of a text line, its ink's low corner at the origin."""
     # The default font ships with the package, so labels do not depend on the system's fonts;
-    # it goes through OCCT's font classes directly (:mod:`.text`), the same faces as build123d's.
+    # its letters are read from the file by fontTools (:mod:`.text`), without the CAD kernel.
     font_path = _bundled_font() if font == DEFAULT_FONT else None
-    faces = (
-        text_faces(text, size, font, font_path)
-        if font_path is not None
-        else _build123d_faces(text, size, font)
-    )
-    glyphs = []
-    for f in faces:
-        outer, inner = _face_rings(f, tol)
-        if outer is not None:
-            glyphs.append((outer, inner))
+    if font_path is not None:
+        glyphs = text_rings(text, size, font_path, tol)
+    else:
+        glyphs = []
+        for f in _build123d_faces(text, size, font):
+            outer, inner = _face_rings(f, tol)
+            if outer is not None:
+                glyphs.append((outer, inner))
     # The kernel lists a text's faces in an order that differs between processes (the dot and
     # the stem of an "i" swap places), so sort them: the same label gives the same file bytes
     # in every process and on every worker.
@@ -156,7 +154,7 @@ def _build123d_faces(text: str, size: float, font: str) -> list:
     """The faces of ``text`` in a system font, by build123d's ``Text`` (which knows its single-stroke fonts)."""
     from build123d import Align, FontStyle, Text
 
-    with FONT_LOCK:  # the same font manager as :func:`.text.text_faces`
+    with FONT_LOCK:  # OCCT's font manager is one per process and not thread-safe
         sketch = Text(
             text, font_size=size, font=font, font_style=FontStyle.BOLD, align=(Align.MIN, Align.MIN)
         )

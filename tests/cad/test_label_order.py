@@ -14,7 +14,7 @@ print(hashlib.sha256(b"".join(o.tobytes() + b"".join(r.tobytes() for r in i) for
 
 @pytest.mark.slow
 def test_label_glyphs_come_in_the_same_order_in_every_process():
-    # The kernel's face order differs between processes; unsorted, three runs gave three orders.
+    # A kernel's face order differed between processes; unsorted, three runs gave three orders.
     runs = {
         subprocess.run([sys.executable, "-c", SCRIPT], capture_output=True, text=True, check=True).stdout
         for _ in range(3)
@@ -22,36 +22,48 @@ def test_label_glyphs_come_in_the_same_order_in_every_process():
     assert len(runs) == 1
 
 
-SAME_AS_BUILD123D = """
+NEAR_BUILD123D = """
 import sys
 import numpy as np
 from stencil_cad.cad.label import DEFAULT_FONT, _bundled_font, _face_rings, _text_glyphs
+from stencil_cad.geometry import point_ring_distance, polygon_area
 
-texts = ["L3/8  SPRAY 3  #1A2B3C  example", "TILE B2 of 2x3  L1/2  SPRAY 1  BLACK  café ijk", "L8/8"]
-ours = {(t, s): _text_glyphs(t, s, DEFAULT_FONT, 0.01) for t in texts for s in (4.0, 2.7182818)}
-assert "build123d" not in sys.modules
+texts = ["L3/8  SPRAY 3  #1A2B3C  example", "TILE B2 of 2x3  L1/2  SPRAY 1  BLACK  café ijk", "L8/8", "%@&"]
+cases = [(t, s, tol) for t in texts for s in (4.0, 2.7182818) for tol in (0.01, 0.0001)]
+ours = {c: _text_glyphs(*c[:2], DEFAULT_FONT, c[2]) for c in cases}
+assert "OCP" not in sys.modules and "build123d" not in sys.modules
 from build123d import Align, FontStyle, Text
 
-for (t, s), glyphs in ours.items():
+
+def area(glyphs):
+    return sum(polygon_area(o) + sum(polygon_area(r) for r in i) for o, i in glyphs)
+
+
+for (t, s, tol), glyphs in ours.items():
     sketch = Text(t, font_size=s, font=DEFAULT_FONT, font_path=_bundled_font(), font_style=FontStyle.BOLD,
                   align=(Align.MIN, Align.MIN))
-    theirs = [r for r in (_face_rings(f.wrapped, 0.01) for f in sketch.faces()) if r[0] is not None]
+    theirs = [r for r in (_face_rings(f.wrapped, tol) for f in sketch.faces()) if r[0] is not None]
     theirs.sort(key=lambda g: (*np.round(g[0].min(axis=0), 6), *np.round(g[0].max(axis=0), 6)))
-    assert len(theirs) == len(glyphs), (t, s)
+    assert [len(i) for _, i in glyphs] == [len(i) for _, i in theirs], (t, s)
     for (o1, i1), (o2, i2) in zip(glyphs, theirs):
-        assert o1.tobytes() == o2.tobytes() and [r.tobytes() for r in i1] == [r.tobytes() for r in i2], (t, s)
-print("same")
+        for a, b in [(o1, o2), *zip(i1, i2)]:
+            far = max(point_ring_distance(a, b).max(), point_ring_distance(b, a).max())
+            assert far <= 1.1 * tol, (t, s, tol, far)
+            assert polygon_area(a) * polygon_area(b) > 0, (t, s)  # the same way round
+    assert abs(area(glyphs) / area(theirs) - 1) < 5e-3, (t, s, tol)
+print("near")
 """
 
 
 @pytest.mark.slow
-def test_label_glyphs_are_build123ds_text_to_the_bit():
-    # The bundled font goes through OCCT's font classes directly (no build123d import); the
-    # rings are those of build123d's Text with the same font, to the bit.
-    out = subprocess.run(
-        [sys.executable, "-c", SAME_AS_BUILD123D], capture_output=True, text=True, check=True
-    )
-    assert out.stdout.strip() == "same"
+def test_label_glyphs_are_build123ds_text_within_the_tolerance():
+    # The bundled font's letters are read by fontTools (no OCP import); they are the faces of
+    # build123d's Text (OCCT's font classes) in the same font: the same faces and holes, each ring
+    # within 1.1 times the chord tolerance in Hausdorff distance (measured 1.02; two flattenings of
+    # one curve may differ by twice it), so the same size, advances and kerning, and the ink's area
+    # within 0.5 % (measured 0.22 % at 0.01 mm).
+    out = subprocess.run([sys.executable, "-c", NEAR_BUILD123D], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "near"
 
 
 def _bits(glyphs):
@@ -59,8 +71,8 @@ def _bits(glyphs):
 
 
 def test_labels_laid_out_in_threads_are_the_same_and_leave_the_environment_alone(monkeypatch):
-    # OCCT's font manager is one per process and not thread-safe: a worker with several threads
-    # lays out one label at a time, and the font configuration is set once, before the manager.
+    # A font's tables are read lazily and a kernel's font manager is one per process: a worker
+    # with several threads reads a glyph once, and its labels come out the same as alone.
     from concurrent.futures import ThreadPoolExecutor
 
     from stencil_cad.cad.label import DEFAULT_FONT, _text_glyphs
@@ -72,3 +84,18 @@ def test_labels_laid_out_in_threads_are_the_same_and_leave_the_environment_alone
         threaded = list(pool.map(lambda t: _bits(_text_glyphs(t, 3.0, DEFAULT_FONT, 0.01)), texts))
     assert threaded == alone
     assert os.environ["FONTCONFIG_FILE"] == "my-fonts.conf"
+
+
+def test_threads_read_a_fresh_font_once_and_alike():
+    # The font's glyphs are read as they are asked for; threads asking at once get the same rings.
+    from concurrent.futures import ThreadPoolExecutor
+
+    from stencil_cad.cad import text
+    from stencil_cad.cad.label import _bundled_font
+
+    path = _bundled_font()
+    text._font.cache_clear()
+    with ThreadPoolExecutor(4) as pool:
+        runs = list(pool.map(lambda _: _bits(text.text_rings("Qg8&@ ÉÅ", 2.5, path, 0.01)), range(8)))
+    assert all(r == runs[0] for r in runs)
+    assert len(runs[0]) == 8  # one face a letter, and two for É (its accent)
