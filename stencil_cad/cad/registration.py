@@ -8,7 +8,6 @@ exact (each notch removes its triangle times the wall height).
 from __future__ import annotations
 
 import logging
-from dataclasses import replace
 
 import numpy as np
 
@@ -78,4 +77,4 @@ def notch_wall(
     part = model.part
     for c in cutters:
         part = part - c
-    return replace(model, shape=part.wrapped, volume_mm3=model.volume_mm3 - removed), len(cutters)
+    return model.cut(part.wrapped, removed), len(cutters)

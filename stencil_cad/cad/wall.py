@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -28,10 +28,14 @@ import numpy as np
 
 from ..config.cad import WallConfig
 from ..config.outline import OutlineConfig
+from ..exchange.brep import Brep
+from ..exchange.brep_check import check_brep_text
+from ..exchange.mesh import stl_bytes
 from ..exchange.step import STEP_TIMESTAMP
 from ..outline import Segment, check_key, fits, min_clearance, outline_path, path_area, path_ring
 from . import occt
 from .solid import check_simple_solid
+from .wall_brep import wall_brep
 
 __all__ = ["WallModel", "WallSolid", "build_wall", "wall_solid", "wall_step", "wall_stl"]
 
@@ -117,13 +121,30 @@ class WallSolid:
     @property
     def analytic_volume_mm3(self) -> float:
         """Volume in mm³ from the exact outline areas: A_outer·H − A_open·s − A_pocket·p − finger slot."""
-        r = self.rings
-        return (
-            path_area(r.outer) * self.total_height_mm
-            - path_area(r.opening) * self.standoff_mm
-            - path_area(r.pocket) * self.pocket_depth_mm
-            - self.slot_volume_mm3
+        return _volume(
+            self.rings, self.standoff_mm, self.pocket_depth_mm, self.total_height_mm, self.slot_volume_mm3
         )
+
+
+def _volume(rings: WallRings, standoff: float, depth: float, top: float, slot: float) -> float:
+    """A wall's volume in mm³ from the exact outline areas (:attr:`WallSolid.analytic_volume_mm3`)."""
+    return (
+        path_area(rings.outer) * top
+        - path_area(rings.opening) * standoff
+        - path_area(rings.pocket) * depth
+        - slot
+    )
+
+
+def _check_sizes(
+    wall: WallConfig, outline: OutlineConfig, plate_thickness_mm: float, standoff_mm: float
+) -> None:
+    """Raise ValueError, naming the value, when the sizes make no wall."""
+    if plate_thickness_mm <= 0:
+        raise ValueError(f"plate thickness must be > 0 mm, got {plate_thickness_mm}")
+    if standoff_mm < 0.5:
+        raise ValueError(f"wall stand-off must be ≥ 0.5 mm, got {standoff_mm}")
+    wall.check_plate(outline, plate_thickness_mm)
 
 
 def wall_solid(
@@ -147,11 +168,7 @@ def wall_solid(
     Raises:
         ValueError: If the sizes do not make a wall (naming the value and its limit).
     """
-    if plate_thickness_mm <= 0:
-        raise ValueError(f"plate thickness must be > 0 mm, got {plate_thickness_mm}")
-    if standoff_mm < 0.5:
-        raise ValueError(f"wall stand-off must be ≥ 0.5 mm, got {standoff_mm}")
-    wall.check_plate(outline, plate_thickness_mm)
+    _check_sizes(wall, outline, plate_thickness_mm, standoff_mm)
     rings = wall_rings(width_mm, height_mm, outline, wall)
     s = float(standoff_mm)
     depth = float(wall.pocket_depth(plate_thickness_mm))
@@ -161,9 +178,23 @@ def wall_solid(
     cutters = [_prism(rings.opening, -1.0, top + 1.0), _prism(rings.pocket, s, top + 1.0)]
     slot = _finger_slot(width_mm, height_mm, outline, wall, s, top)
     if slot is not None:
-        cutters.append(slot[0])
+        cutters.append(occt.box(slot.corner, slot.size))
     shape = occt.in_compound(occt.unify(occt.cut(solid, cutters)))
-    return WallSolid(rings, s, depth, top, 0.0 if slot is None else slot[1], shape)
+    return WallSolid(rings, s, depth, top, 0.0 if slot is None else slot.volume_mm3, shape)
+
+
+@dataclass(frozen=True)
+class SlotBox:
+    """The finger slot's cutter: a box from its low corner, its sides, and the volume it takes from the wall (mm)."""
+
+    corner: tuple[float, float, float]
+    size: tuple[float, float, float]
+    volume_mm3: float
+
+    @property
+    def faces(self) -> tuple[float, float, float, float]:
+        """``(x0, x1, y of its back, z of its floor)``: what :func:`.wall_brep.wall_brep` cuts."""
+        return (self.corner[0], self.corner[0] + self.size[0], self.corner[1], self.corner[2])
 
 
 def _finger_slot(
@@ -173,7 +204,7 @@ def _finger_slot(
     wall: WallConfig,
     standoff_mm: float,
     top: float,
-) -> tuple[Any, float] | None:
+) -> SlotBox | None:
     """The slot cutter at the middle of the top side and its analytic volume, or None."""
     fw = wall.finger_slot_mm
     if fw <= 0:
@@ -211,7 +242,7 @@ def _finger_slot(
     z0 = standoff_mm - below
     volume = fw * (t * (top - z0) + max(under, 0.0) * below)
     corner = (x0, y_pocket - max(under, 0.0), z0)
-    return occt.box(corner, (fw, t + 1.0 + max(under, 0.0), top + 1.0 - z0)), volume
+    return SlotBox(corner, (fw, t + 1.0 + max(under, 0.0), top + 1.0 - z0), volume)
 
 
 @dataclass(frozen=True)
@@ -219,8 +250,6 @@ class WallModel:
     """A built wall and the figures that check it.
 
     Attributes:
-        shape: The OCCT shape (one solid, in a compound when unnotched), picture frame, z = 0
-            on the surface.
         volume_mm3: Analytic volume in mm³ from the exact outline areas.
         standoff_mm: Height of the plate's underside above the surface, in mm.
         height_mm: Total height of the wall, in mm.
@@ -230,9 +259,11 @@ class WallModel:
         pocket_ring: ``(M, 2)`` ring of the pocket (sampled).
         ledge_mm: Smallest width in mm of the ledge the plate rests on.
         rings: The exact outlines the wall is made of.
+        brep: The wall's faces drawn from its outlines (:mod:`.wall_brep`), which its files and
+            check are made from without OCCT; None when the wall is OCCT's (notched, or asked for).
+        solid: How to make the OCCT solid: the shape itself, or the arguments of :func:`wall_solid`.
     """
 
-    shape: Any
     volume_mm3: float
     standoff_mm: float
     height_mm: float
@@ -242,11 +273,23 @@ class WallModel:
     pocket_ring: np.ndarray
     ledge_mm: float
     rings: WallRings
+    brep: Brep | None
+    solid: Any
 
     @property
     def name(self) -> str:
         """A file-name stem, e.g. ``wall_10mm`` or ``wall_7.5mm``."""
         return f"wall_{self.standoff_mm:g}mm"
+
+    @cached_property
+    def shape(self):
+        """The OCCT shape (one solid, in a compound when unnotched), picture frame, z = 0 on the surface.
+
+        Made on first use: a job that writes the wall from :attr:`brep` needs none.
+        """
+        if isinstance(self.solid, tuple):
+            return wall_solid(*self.solid).shape
+        return self.solid
 
     @cached_property
     def part(self):
@@ -256,6 +299,17 @@ class WallModel:
 
         return bd.Part(self.shape) if self.shape.ShapeType() == TopAbs_COMPOUND else bd.Solid(self.shape)
 
+    @cached_property
+    def step_text(self) -> str:
+        """The STEP text of a wall drawn from its outlines (:attr:`brep`), made once for its check and its file."""
+        if self.brep is None:
+            raise ValueError(f"{self.name} is OCCT's solid: OCCT writes its STEP")
+        return self.brep.step_text(self.name, "stencil_cad wall")
+
+    def cut(self, shape: Any, removed_mm3: float) -> WallModel:
+        """The wall made ``shape`` by OCCT (a mural's notches cut), ``removed_mm3`` less in volume."""
+        return replace(self, solid=shape, brep=None, volume_mm3=self.volume_mm3 - removed_mm3)
+
 
 def build_wall(
     width_mm: float,
@@ -264,6 +318,7 @@ def build_wall(
     wall_cfg: WallConfig,
     plate_thickness_mm: float,
     standoff_mm: float,
+    kernel: bool = False,
 ) -> WallModel:
     """Build the wall for one stand-off height.
 
@@ -275,6 +330,9 @@ def build_wall(
         plate_thickness_mm: The plate's thickness in mm.
         standoff_mm: Height in mm of the plate's underside above the surface (one of
             :meth:`~stencil_cad.config.WallConfig.heights`).
+        kernel: Make the wall's OCCT solid now and write and check it through OCCT
+            (``plate.check: kernel``); else its faces are drawn from its outlines and OCCT is not
+            imported.
 
     Returns:
         The wall with its analytic volume and expected bounding box.
@@ -283,11 +341,30 @@ def build_wall(
         ValueError: If the config cannot make a wall, or the key does not stop a wrong placement.
     """
     check_key(width_mm, height_mm, outline_cfg, wall_cfg.clearance_mm)
-    wall = wall_solid(width_mm, height_mm, outline_cfg, wall_cfg, plate_thickness_mm, standoff_mm)
+    args = (width_mm, height_mm, outline_cfg, wall_cfg, plate_thickness_mm, standoff_mm)
+    if kernel:
+        wall = wall_solid(*args)
+        rings, s, depth, top, slot_volume = (
+            wall.rings,
+            wall.standoff_mm,
+            wall.pocket_depth_mm,
+            wall.total_height_mm,
+            wall.slot_volume_mm3,
+        )
+        brep = None
+    else:
+        _check_sizes(wall_cfg, outline_cfg, plate_thickness_mm, standoff_mm)
+        rings = wall_rings(width_mm, height_mm, outline_cfg, wall_cfg)
+        s = float(standoff_mm)
+        depth = float(wall_cfg.pocket_depth(plate_thickness_mm))
+        top = s + depth
+        slot = _finger_slot(width_mm, height_mm, outline_cfg, wall_cfg, s, top)
+        slot_volume = 0.0 if slot is None else slot.volume_mm3
+        brep = wall_brep(rings, s, top, None if slot is None else slot.faces)
     tol = outline_cfg.chord_tol_mm
-    outer = path_ring(wall.rings.outer, tol)
-    pocket = path_ring(wall.rings.pocket, tol)
-    opening = np.array([s.start for s in wall.rings.opening], dtype=np.float64)
+    outer = path_ring(rings.outer, tol)
+    pocket = path_ring(rings.pocket, tol)
+    opening = np.array([s.start for s in rings.opening], dtype=np.float64)
     ledge = _ledge_width(opening, pocket)
     if ledge < 1.0 - 2.0 * tol:
         raise ValueError(
@@ -295,18 +372,18 @@ def build_wall(
             "reduce wall.opening_margin_mm or plate.outline.corner_radius_mm"
         )
     lo, hi = outer.min(axis=0), outer.max(axis=0)
-    bbox = (float(lo[0]), float(lo[1]), 0.0, float(hi[0]), float(hi[1]), wall.total_height_mm)
     return WallModel(
-        shape=wall.shape,
-        volume_mm3=wall.analytic_volume_mm3,
-        standoff_mm=wall.standoff_mm,
-        height_mm=wall.total_height_mm,
-        pocket_depth_mm=wall.pocket_depth_mm,
-        bbox=bbox,
+        volume_mm3=_volume(rings, s, depth, top, slot_volume),
+        standoff_mm=s,
+        height_mm=top,
+        pocket_depth_mm=depth,
+        bbox=(float(lo[0]), float(lo[1]), 0.0, float(hi[0]), float(hi[1]), top),
         outer_ring=outer,
         pocket_ring=pocket,
         ledge_mm=ledge,
-        rings=wall.rings,
+        rings=rings,
+        brep=brep,
+        solid=wall.shape if kernel else args,
     )
 
 
@@ -321,7 +398,15 @@ def wall_step(model: WallModel, path: str | Path) -> None:
 
     The header's time stamp is the plates' fixed one (:data:`~stencil_cad.exchange.step.STEP_TIMESTAMP`).
     """
+    if model.brep is not None:
+        Path(path).write_text(wall_step_text(model), encoding="ascii", newline="\n")
+        return
     occt.write_step(model.shape, path, model.name, "stencil_cad wall", STEP_TIMESTAMP)
+
+
+def wall_step_text(model: WallModel) -> str:
+    """The STEP text of a wall drawn from its outlines (:attr:`WallModel.brep`)."""
+    return model.step_text
 
 
 def wall_stl(
@@ -329,16 +414,19 @@ def wall_stl(
 ) -> None:
     """Write the wall as binary STL to ``path``.
 
-    The wall has a few dozen faces, so OCCT's incremental mesher is quick here (unlike the
-    perforated plate).
+    A wall drawn from its outlines is meshed by :meth:`~stencil_cad.exchange.brep.Brep.mesh` (each
+    arc within ``tolerance_mm``); OCCT's wall by its incremental mesher, quick on a few dozen faces.
 
     Args:
         model: The wall.
         path: Output file.
         tolerance_mm: Largest chord error in mm. Defaults to 0.01 mm.
         angular_tolerance: Largest angle between neighbouring facets on a curve, in
-            radians. Defaults to 0.1.
+            radians, for OCCT's mesher. Defaults to 0.1.
     """
+    if model.brep is not None:
+        Path(path).write_bytes(stl_bytes(model.brep.mesh(tolerance_mm), "stencil wall"))
+        return
     occt.write_stl(model.shape, path, tolerance_mm, angular_tolerance)
 
 
@@ -361,6 +449,13 @@ def check_wall(model: WallModel, rel_tol: float = 1e-6) -> dict:
     Raises:
         WallCheckError: Naming the failed check.
     """
-    return check_simple_solid(
-        model.shape, model.volume_mm3, model.bbox, f"wall {model.name}", WallCheckError, rel_tol
-    )
+    if model.brep is None:
+        return check_simple_solid(
+            model.shape, model.volume_mm3, model.bbox, f"wall {model.name}", WallCheckError, rel_tol
+        )
+    check = check_brep_text(wall_step_text(model), model.volume_mm3, model.bbox, genus=1, bbox_atol_mm=1e-3)
+    fails = check.pop("fails")
+    if fails:
+        raise WallCheckError(f"wall {model.name}: its STEP file fails its check: " + "; ".join(fails))
+    check.pop("faces")
+    return check
