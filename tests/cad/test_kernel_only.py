@@ -64,3 +64,27 @@ def test_the_cadquery_template_needs_no_build123d():
     pytest.importorskip("cadquery")
     out = subprocess.run([sys.executable, "-c", CADQUERY], capture_output=True, text=True, check=True)
     assert out.stdout.split("\n")[0] == "True False"
+
+
+JOB = """
+import sys
+from stencil_cad.cli import main
+
+code = main(["run", sys.argv[1], "--out", sys.argv[2], "-q", "--force"])
+print(code, sorted(m for m in ("OCP", "build123d") if m in sys.modules))
+"""
+
+
+@pytest.mark.slow
+def test_a_job_imports_no_ocp(tmp_path):
+    # Its plates' letters come from fontTools, its plates' and walls' files from our writers and
+    # mesher, each checked from its written STEP text: OCP's import (0.6-1.0 CPU-s) is not made.
+    from jobs import small_soft
+
+    cfg = tmp_path / "job.yaml"
+    cfg.write_text(small_soft("no kernel"), encoding="utf-8")
+    out = subprocess.run(
+        [sys.executable, "-c", JOB, str(cfg), str(tmp_path / "out")], capture_output=True, text=True, check=True
+    )
+    assert out.stdout.strip().splitlines()[-1] == "0 []"
+    assert (tmp_path / "out" / "wall.step").read_text(encoding="ascii").startswith("ISO-10303-21;")
