@@ -169,7 +169,9 @@ class PlateConfig(StrictModel):
             "plus the mesh's checks), kernel (OCCT builds the plate's solid and checks it: topology, "
             "volume, bounding box and BRepCheck_Analyzer, on tiles above full_check_max_holes; plus the "
             "mesh's checks; slower). A template that returns its "
-            "own solid is always checked by OCCT."
+            "own solid is always checked by OCCT. The walls follow: file, each wall's STEP text drawn "
+            "from its outlines and read back the same way (one closed solid with the opening as its one "
+            "hole, its analytic volume, its box); kernel, OCCT cuts the wall and checks and writes it."
         ),
     )
     full_check_max_holes: int = Field(

@@ -434,14 +434,18 @@ def _plate_row(
 def _build_wall(task: PartTask) -> PartResult:
     from ..cad import registration
     from ..cad import wall as wall_mod
+    from ..config.cad import PlateCheck
     from ..exchange.writers import path_bytes
 
     cfg, stem = task.cfg, task.stem
     w, h = task.size_mm
     if task.standoff_mm is None:
         raise ValueError(f"{stem}: a wall task needs its stand-off height")
+    # A wall is drawn from its outlines and written and checked without OCCT, unless the maker asked
+    # for the kernel's checks (plate.check: kernel); a mural's notches are cut by OCCT.
+    kernel = PlateCheck(cfg.plate.check) is PlateCheck.kernel
     wm = wall_mod.build_wall(
-        w, h, cfg.plate.outline, cfg.wall, cfg.plate.planned_thickness_mm, task.standoff_mm
+        w, h, cfg.plate.outline, cfg.wall, cfg.plate.planned_thickness_mm, task.standoff_mm, kernel=kernel
     )
     wm, wall_notches = registration.notch_wall(wm, task.lines, w, cfg.wall.finger_slot_mm)
     wcheck = wall_mod.check_wall(wm)
