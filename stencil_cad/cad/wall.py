@@ -192,9 +192,10 @@ class SlotBox:
     volume_mm3: float
 
     @property
-    def faces(self) -> tuple[float, float, float, float]:
-        """``(x0, x1, y of its back, z of its floor)``: what :func:`.wall_brep.wall_brep` cuts."""
-        return (self.corner[0], self.corner[0] + self.size[0], self.corner[1], self.corner[2])
+    def faces(self) -> tuple[float, float, float, float, float]:
+        """``(x0, x1, y of its back, y of its far side, z of its floor)``: what :func:`.wall_brep.wall_brep` cuts."""
+        (x, y, z), (dx, dy, _) = self.corner, self.size
+        return (x, x + dx, y, y + dy, z)
 
 
 def _finger_slot(

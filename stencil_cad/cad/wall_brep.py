@@ -15,9 +15,10 @@ from the outlines, so they are written out here rather than cut by OCCT:
 
 These are the faces OCCT's cut and unify gave the same wall (``tests/cad/test_wall.py`` reads the
 file back with OCCT: one valid solid of the same volume, box and face count). The slot must lie on
-one straight segment of the outside's and the pocket's top sides, and reach under the plate, as
-:func:`.wall._finger_slot` makes it; :func:`wall_brep` returns None otherwise, and the wall is
-cut by OCCT.
+one straight segment of the outside's and the pocket's top sides, reach under the plate and out
+through the rim, as :func:`.wall._finger_slot` makes it; :func:`wall_brep` returns None
+otherwise (a rim grown to a plain rectangle round tabs too close together is thicker than the
+slot is long), and the wall is cut by OCCT.
 """
 
 from __future__ import annotations
@@ -31,8 +32,8 @@ __all__ = ["Slot", "wall_brep"]
 
 #: A piece of a bound in plan: start, end, arc centre (None for a line), counter-clockwise.
 Piece = tuple[tuple[float, float], tuple[float, float], tuple[float, float] | None, bool]
-#: The finger slot: x0, x1, the y of its back under the plate, the z of its floor.
-Slot = tuple[float, float, float, float]
+#: The finger slot: x0, x1, the y of its back under the plate, the y it reaches outside, the z of its floor.
+Slot = tuple[float, float, float, float, float]
 
 
 def _pieces(path: list[Segment]) -> list[Piece]:
@@ -87,12 +88,15 @@ def _polygon(b: Brep, pts: list[tuple[float, float, float]], normal: tuple[float
 
 
 def _top_side(pieces: list[Piece], x0: float, x1: float) -> int | None:
-    """The index of the straight piece of a counter-clockwise outline's top side that spans ``[x0, x1]``."""
-    top = max(max(p[1], q[1]) for p, q, _, _ in pieces)
-    for i, (p, q, c, _) in enumerate(pieces):
-        if c is None and p[1] == q[1] == top and p[0] > x1 and q[0] < x0:
-            return i
-    return None
+    """The index of the straight piece of a counter-clockwise outline's top side that spans ``[x0, x1]``.
+
+    A counter-clockwise outline runs its top side towards -x; of its horizontal pieces that span the
+    slot that way, the highest (a tab's, were one to span it, is not: the slot is kept clear of tabs).
+    """
+    spans = [
+        i for i, (p, q, c, _) in enumerate(pieces) if c is None and p[1] == q[1] and p[0] > x1 and q[0] < x0
+    ]
+    return max(spans, key=lambda i: pieces[i][0][1], default=None)
 
 
 def _split(pieces: list[Piece], i: int, x0: float, x1: float) -> tuple[Piece, list[Piece], Piece]:
@@ -125,9 +129,9 @@ def wall_brep(rings, standoff_mm: float, top_mm: float, slot: Slot | None) -> Br
         _flat(b, s, True, [pocket, _rev(opening)])
         _flat(b, h, True, [outer, _rev(pocket)])
         return b
-    x0, x1, ys, z0 = slot
+    x0, x1, ys, y_out, z0 = slot
     i, j = _top_side(outer, x0, x1), _top_side(pocket, x0, x1)
-    if i is None or j is None or not (z0 < s and ys < pocket[j][0][1] and x0 < x1):
+    if i is None or j is None or not (z0 < s and ys < pocket[j][0][1] < outer[i][0][1] < y_out and x0 < x1):
         return None
     yo, yp = outer[i][0][1], pocket[j][0][1]
     o_right, o_rest, o_left = _split(outer, i, x0, x1)
