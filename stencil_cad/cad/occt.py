@@ -1,5 +1,9 @@
 """The wall's solid, its checks and its files, made through OCP (OCCT's Python binding) alone.
 
+A job draws its walls' faces from their outlines (:mod:`.wall_brep`) and imports no OCP; this
+route makes the wall when the maker asks for the kernel's checks (``plate.check: kernel``), for a
+mural's walls whose sight notches build123d cuts, and for the tests that hold the drawn wall to it.
+
 Importing build123d costs a job over a second of CPU beyond OCP's own extension (its modules and
 what they import: scikit-learn for its STL reader, IPython for its notebook display), and every job
 builds a wall: with the label's letters set without it too (:mod:`.text`), ``stencil-cad build``

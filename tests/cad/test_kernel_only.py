@@ -84,7 +84,10 @@ def test_a_job_imports_no_ocp(tmp_path):
     cfg = tmp_path / "job.yaml"
     cfg.write_text(small_soft("no kernel"), encoding="utf-8")
     out = subprocess.run(
-        [sys.executable, "-c", JOB, str(cfg), str(tmp_path / "out")], capture_output=True, text=True, check=True
+        [sys.executable, "-c", JOB, str(cfg), str(tmp_path / "out")],
+        capture_output=True,
+        text=True,
+        check=True,
     )
     assert out.stdout.strip().splitlines()[-1] == "0 []"
     assert (tmp_path / "out" / "wall.step").read_text(encoding="ascii").startswith("ISO-10303-21;")

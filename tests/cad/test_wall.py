@@ -414,5 +414,7 @@ def test_random_wall_files_are_occts_wall(
     np.testing.assert_allclose(occt.bounding_box(back), occt.bounding_box(kernel.shape), atol=1e-6)
     assert occt.faces(back) == occt.faces(kernel.shape)
     mesh = mesh_checks(ours.brep.mesh(0.01))
-    assert mesh["watertight"] and mesh["consistent_winding"] and mesh["components"] == 1 and mesh["genus"] == 1
+    assert (
+        mesh["watertight"] and mesh["consistent_winding"] and mesh["components"] == 1 and mesh["genus"] == 1
+    )
     assert mesh["volume"] == pytest.approx(ours.volume_mm3, rel=1e-3)
