@@ -15,9 +15,11 @@ overhangs. Coordinates are the picture frame (mm, picture area ``[0, w] x [0, h]
 frame the plates use, so a plate moved up by the stand-off sits exactly in its pocket.
 
 A job's wall is drawn as faces from its outlines (:mod:`.wall_brep`), written as STEP text and a
-mesh by :mod:`stencil_cad.exchange.brep` and checked from that text, without OCCT: in
-``stencil-cad run`` on the example, the wall took 0.04 CPU-s this way and its STEP file passes
-the same check as the plates' (one closed solid, its genus, the analytic volume to 1e-9); OCCT
+mesh by :mod:`stencil_cad.exchange.brep` and checked from that text, without OCCT: the example's
+wall (150 mm, 5 mm stand-off) is built, checked and written in 0.03 CPU-s this way, against 0.10 s
+through OCCT after the 0.9-1.0 s of its first wall's imports (``time.process_time`` about
+``build_wall``, ``check_wall``, ``wall_step`` and ``wall_stl``), and its STEP file passes a check
+like the plates' (one closed solid, its genus, the analytic volume to 1e-9); OCCT
 cuts it (:func:`wall_solid`) when the maker asks for the kernel's checks and for a mural's
 notched walls, and ``tests/cad/test_wall.py`` holds the drawn wall, read back by OCCT, to that
 solid: the same volume, box and face count.
