@@ -143,8 +143,8 @@ def _text_glyphs(text: str, size: float, font: str, tol: float) -> list:
             outer, inner = _face_rings(f, tol)
             if outer is not None:
                 glyphs.append((outer, inner))
-    # The kernel lists a text's faces in an order that differs between processes (the dot and
-    # the stem of an "i" swap places), so sort them: the same label gives the same file bytes
+    # OCCT lists another font's faces in an order that differs between processes (the dot and
+    # the stem of an "i" swap places), so sort them all: the same label gives the same file bytes
     # in every process and on every worker.
     glyphs.sort(key=lambda g: (*np.round(g[0].min(axis=0), 6), *np.round(g[0].max(axis=0), 6)))
     return glyphs
