@@ -15,6 +15,7 @@ import numpy as np
 from ..config.spray import SprayConfig
 from ..frames import mm_to_px
 from ..parallel import njit_parallel
+from .cells import gaussian
 
 __all__ = [
     "A_FACTORS",
@@ -313,8 +314,6 @@ def paper_mask_opacity(
 
     The paper's side of :func:`stencil_cad.simulate.opacity.spray_mask`, which gives the derivation.
     """
-    from scipy.ndimage import gaussian_filter
-
     _check_params(a, cfg.nozzle_height)
     m = np.asarray(mask, dtype=np.float64)
     if m.ndim != 2:
@@ -323,7 +322,7 @@ def paper_mask_opacity(
     sigma_px = r_ref * math.sqrt(cfg.nozzle_height) / 2.0 / mm_per_px
     if sigma_px > 0.0:
         # Paint sprayed past the picture edge is lost, not reflected back.
-        m = gaussian_filter(m, sigma_px, mode="constant", cval=0.0, truncate=5.0)
+        m = gaussian(m, sigma_px, mode="constant", truncate=5.0)
     return np.clip(1.0 - np.exp(-a * (1.0 + cfg.nozzle_height) / 2.0 * m), 0.0, 1.0)
 
 

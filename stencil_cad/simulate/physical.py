@@ -41,6 +41,7 @@ import numpy as np
 
 from ..config.spray import SprayConfig
 from ..frames import mm_to_px
+from .cells import gaussian
 from .kept import Kept, digest
 
 __all__ = [
@@ -272,14 +273,12 @@ def holes_array(xy_mm, r_mm) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _blur(img: np.ndarray, sigma_px: float, mm_per_px: float) -> np.ndarray:
-    from scipy.ndimage import gaussian_filter
-
     # The box of one pixel already adds a variance of 1/12 px^2 per axis.
     s = math.sqrt(max(sigma_px * sigma_px - 1.0 / 12.0, 0.0))
     if s <= 0.0:
         return img
     # Paint sprayed past the raster edge is lost, not reflected back.
-    return gaussian_filter(img, s, mode="constant", cval=0.0, truncate=5.0)
+    return gaussian(img, s, mode="constant", truncate=5.0)
 
 
 def physical_opacity(

@@ -52,7 +52,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .cells import cell_means, gaussian_reflect, mirrored
+from .cells import cell_means, correlate_axis, gaussian_reflect, mirrored
 from .kept import Kept, digest
 
 __all__ = [
@@ -340,8 +340,6 @@ def _upsampled_gaussian(x: np.ndarray, sigma: float, k: int) -> np.ndarray:
     ``k = 3`` of a 1 mm grid seen from 1 m). Mirroring the input at its edges ("reflect") is
     mirroring the upsampled picture at its edges, so the borders agree too.
     """
-    from scipy.ndimage import correlate1d
-
     kernels = _phase_kernels(sigma, k)
     y = x
     for axis in (0, 1):
@@ -351,7 +349,7 @@ def _upsampled_gaussian(x: np.ndarray, sigma: float, k: int) -> np.ndarray:
         for p, w in enumerate(kernels):
             index = [slice(None), slice(None)]
             index[axis] = slice(p, None, k)
-            z[tuple(index)] = correlate1d(y, w, axis=axis, mode="reflect")
+            z[tuple(index)] = correlate_axis(y, w, axis, "reflect")
         y = z
     return y
 

@@ -46,6 +46,7 @@ import numpy as np
 
 from ..config.spray import SprayConfig
 from ..model import DotSet, Layers, composite
+from .cells import gaussian
 from .models import sprayer
 from .opacity import spray_opacity, windows_opacity
 
@@ -114,12 +115,10 @@ def blurred_composite(layers: Layers, sigma_mm: float, grid_mm_per_px: float) ->
     ``sigma_mm`` and composited. The studio's first preview, and the fidelity benchmark's blur floor
     (what no plate of that blur sprays sharper than).
     """
-    from scipy.ndimage import gaussian_filter
-
     shape = sim_shape(layers.alphas.shape[1:], layers.mm_per_px, grid_mm_per_px)
     alphas = np.stack([resample(a, shape) for a in layers.alphas])
     if sigma_mm > 0.0:
-        alphas = np.stack([gaussian_filter(a, sigma_mm / grid_mm_per_px) for a in alphas])
+        alphas = np.stack([gaussian(a, sigma_mm / grid_mm_per_px) for a in alphas])
     return np.clip(composite(layers.primer, layers.colours, alphas), 0.0, 1.0)
 
 
@@ -146,11 +145,9 @@ def target_on_grid(alpha: np.ndarray, shape: tuple[int, int], blur_mm: float, mm
     Returns:
         ``(H, W)`` ndarray of float in [0, 1].
     """
-    from scipy.ndimage import gaussian_filter
-
     t = resample(alpha, shape)
     if blur_mm > 0:
-        t = gaussian_filter(t, blur_mm / mm_per_px, mode="nearest")
+        t = gaussian(t, blur_mm / mm_per_px, mode="nearest")
     return t
 
 
@@ -317,12 +314,8 @@ def _layer_opacity(dots: DotSet, shape, g: float, cfg: SprayConfig, a: float, ge
 
 def _layer_errors(target_alpha, simulated, shape, blur_mm: float, g: float) -> tuple[float, float]:
     """A layer's RMSE against its target on the grid, and with both sides blurred (the tone error alone)."""
-    from scipy.ndimage import gaussian_filter
-
     target = target_on_grid(target_alpha, shape, blur_mm, g)
-    return layer_rmse(target, simulated), layer_rmse(
-        target, gaussian_filter(simulated, blur_mm / g, mode="nearest")
-    )
+    return layer_rmse(target, simulated), layer_rmse(target, gaussian(simulated, blur_mm / g, mode="nearest"))
 
 
 def _median_radius(dotsets: list[DotSet]) -> float:

@@ -23,6 +23,7 @@ from skimage.color import rgb2xyz, xyz2rgb
 
 from ..config.spray import SprayConfig
 from ..model import composite
+from .cells import gaussian
 from .opacity import spray_opacity
 from .scielab import scielab
 from .spray import hole_kernels
@@ -142,15 +143,12 @@ def pattern_flat(sprayed: np.ndarray, ideal: np.ndarray, spacing_px: float) -> n
     Returns:
         ``(H, W, 3)`` sRGB in [0, 1].
     """
-    from scipy.ndimage import gaussian_filter
-
     xyz_s, xyz_i = rgb2xyz(np.clip(sprayed, 0.0, 1.0)), rgb2xyz(np.clip(ideal, 0.0, 1.0))
-    sigma = (0.5 * spacing_px, 0.5 * spacing_px, 0)
     # Mirrored at the edges: repeating the edge's own difference outward (mode "nearest") shifted the
     # low-passed tone of a corner square, and a tone difference shows from any distance (the bundled
     # example with light plates, whose sparsest plate sets a 6.5 mm spacing: its flag's corner square
     # kept S-CIELAB 0.71 at 64 m and the job said its dots show up to 16 m; mirrored, 4.8 m, elsewhere).
-    flat = xyz_i + gaussian_filter(xyz_s - xyz_i, sigma, mode="reflect") if spacing_px > 0 else xyz_s
+    flat = xyz_i + gaussian(xyz_s - xyz_i, 0.5 * spacing_px, mode="reflect") if spacing_px > 0 else xyz_s
     return np.clip(xyz2rgb(np.maximum(flat, 0.0)), 0.0, 1.0)
 
 
