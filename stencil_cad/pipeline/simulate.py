@@ -17,7 +17,7 @@ from ..figures import PaintFigures, PaintLayer, SimulateFigures, SprayStep
 from ..model import DotSet, Layers, Picture
 from ..output import plain as _plain
 from ..plan.names import simulated_stems
-from ..plan.picture import _resample, source_reference
+from ..plan.picture import _resample, kept_reference
 from ..plan.plan import Plan
 from ..plan.results import Simulated
 from ..record import Run
@@ -82,7 +82,7 @@ def stage_simulate(
     with run.stage("simulate"):
         grid_mm = resolution.sim_mm_per_px(cfg)
         sim = simulate.simulate(layers, dotsets, cfg.spray, grid_mm, geometry=design, layer_sprays=sprays)
-        ref = source_reference(cfg, picture, layers, sim.composite.shape[:2], sim.mm_per_px)
+        ref = kept_reference(run, cfg, picture, layers, sim.composite.shape[:2], sim.mm_per_px)
         started = also(sim, ref) if also is not None else None
         cans = _start_cans(run, cfg, layers, dotsets, ref, grid_mm, design, sprays, here=workers_busy)
         visible = _start_visibility(run, cfg, layers, dotsets, sim)

@@ -17,7 +17,7 @@ import numpy as np
 from ..model import DotSet, Layers, Picture
 from ..output import plain as _plain
 from ..record import Run
-from .picture import source_reference
+from .picture import kept_reference
 from .plan import Plan
 
 if TYPE_CHECKING:
@@ -71,8 +71,9 @@ def refine_holes(
 
     cfg, picture_mm = plan.cfg, plan.picture_mm
     shape, grid_mm = refine_grid(plan, layers)
-    # The picture the simulation is scored against: the source image on the simulation grid.
-    target = source_reference(cfg, picture, layers, shape, grid_mm)
+    # The picture the simulation is scored against: the source image on the simulation grid (read and
+    # resized once for the trials' refinements, the scout's and the job's: 3 reads of 0.04 s on the example).
+    target = kept_reference(run, cfg, picture, layers, shape, grid_mm)
     rules = cfg.stipple.design_rules(*picture_mm)
     rc = cfg.refine
     settings = replace(refine_settings(cfg), stop_after=stop_after)
