@@ -33,6 +33,7 @@ The paper's model maps onto this one by ``h_eq = 4 (r^2 / 4 + sigma^2) / r^2 - 1
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -54,6 +55,7 @@ __all__ = [
     "physical_opacity",
     "plate_transmission",
     "spread_sigma_mm",
+    "transmission_and_slope",
 ]
 
 #: Sub-samples across a hole's radius when rasterising its disc (2 to 8 per pixel side; each disc
@@ -183,6 +185,62 @@ def plate_transmission(r_mm: np.ndarray | float, thickness_mm: float, spread_k: 
     out *= pdf
     out *= _GL_LENS
     return np.sum(out, axis=-1)
+
+
+#: ``log(r / (k t))`` at the nodes of the table of :func:`transmission_and_slope`. The open share is a
+#: function of ``x = r / (k t)`` alone: the plate sets ``d = k t D`` with ``D`` Rayleigh of scale 1. The
+#: table holds it for ``x`` from 0.05 to 500 (a 0.25 mm hole under a 3 mm plate at k = 0.3 is 0.28,
+#: a 3 mm hole under a 0.5 mm plate at k = 0.05 is 120); outside, the quadrature runs as it is.
+_LOG_X = np.linspace(math.log(0.05), math.log(500.0), 4097)
+
+
+def _open_share(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`plate_transmission`'s quadrature as a function of ``x = r / (k t)``, and its slope in ``log x``.
+
+    With ``d = 2 r X_i``: ``T = sum_i 4 W_i X_i lens_i x^2 exp(-2 x^2 X_i^2)``, whose derivative in
+    ``x`` is ``sum_i 4 W_i X_i lens_i (2 x - 4 x^3 X_i^2) exp(-2 x^2 X_i^2)``.
+    """
+    x = np.asarray(x, dtype=np.float64)[..., None]
+    c = 4.0 * _GL_W * _GL_X * _GL_LENS
+    e = c * np.exp(-2.0 * x * x * _GL_X * _GL_X)
+    share = np.sum(e * x * x, axis=-1)
+    slope = np.sum(e * (2.0 * x - 4.0 * x**3 * _GL_X * _GL_X), axis=-1) * x[..., 0]
+    return share, slope
+
+
+@functools.cache
+def _open_share_table():
+    """The open share's cubic Hermite interpolant in ``log x`` over :data:`_LOG_X` (values and slopes exact at the nodes)."""
+    from scipy.interpolate import CubicHermiteSpline
+
+    share, slope = _open_share(np.exp(_LOG_X))
+    return CubicHermiteSpline(_LOG_X, share, slope, extrapolate=False)
+
+
+def transmission_and_slope(
+    r_mm: np.ndarray, thickness_mm: float, spread_k: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`plate_transmission` of each radius and its derivative in the radius (1/mm).
+
+    The refinement asks for both at every hole three times a step. They are read off a table of the
+    quadrature's values and exact slopes (:func:`_open_share`), interpolated by scipy's cubic Hermite
+    spline: values within 2e-13 of the quadrature's up to ``x = 100`` (1e-11 up to 500), slopes within
+    2e-9 of its exact derivative (the central difference used before was 1e-8 off). For 4,000 distinct
+    radii the quadrature's value and central difference took 3.8 ms, the table 0.54 ms
+    (``time.process_time`` over 200 calls); the example job's hole kernels, 1.5 CPU-s before, 0.6 now.
+    """
+    r = np.asarray(r_mm, dtype=np.float64)
+    s = spread_k * thickness_mm
+    if s <= 0.0:
+        return np.ones_like(r), np.zeros_like(r)
+    u = np.log(r / s)
+    table = _open_share_table()
+    share = table(u)
+    slope = table(u, 1)
+    out = ~((u >= _LOG_X[0]) & (u <= _LOG_X[-1]))
+    if out.any():
+        share[out], slope[out] = _open_share(r[out] / s)
+    return share, slope / r
 
 
 def disc_profile(rho_mm: np.ndarray, r_mm: float, sigma_mm: float) -> np.ndarray:
@@ -509,9 +567,7 @@ def physical_hole_kernels(
     s = spread_sigma_mm(cfg, geometry.standoff_mm)
     depth = passes * dose_per_pass(cfg)
     t, k = geometry.plate_thickness_mm, cfg.can.spread_k
-    trans = plate_transmission(r, t, k)
-    eps = 1e-4 * np.maximum(r, 1e-3)
-    dtrans = (plate_transmission(r + eps, t, k) - plate_transmission(r - eps, t, k)) / (2.0 * eps)
+    trans, dtrans = transmission_and_slope(r, t, k)
     s2 = r * r / 4.0 + s * s
     sigma = np.sqrt(s2)
     peak = depth * trans * r * r / (2.0 * s2)

@@ -312,3 +312,15 @@ def test_a_dose_is_computed_once_for_the_same_holes_at_any_passes(monkeypatch):
     assert not np.array_equal(phys.physical_opacity(xy, r, shape, 0.25, PHYS, thick, 1.0), ones)
     assert phys.physical_opacity(xy, r, (100, 120), 0.25, PHYS, GEOM, 1.0).shape == (100, 120)
     assert len(doses) == 5
+
+
+@pytest.mark.parametrize(("t", "k"), [(0.9, 0.15), (3.0, 0.3), (0.5, 0.05), (1.2, 0.15)])
+def test_the_transmission_table_gives_the_quadrature_and_its_slope(t, k):
+    """The table's values are the quadrature's, its slopes the derivative of it, inside the table and past it."""
+    r = np.exp(np.random.default_rng(5).uniform(math.log(0.005), math.log(8.0), 5000))
+    share, slope = phys.transmission_and_slope(r, t, k)
+    np.testing.assert_allclose(share, phys.plate_transmission(r, t, k), rtol=0.0, atol=1e-11)
+    eps = 1e-5 * r
+    central = (phys.plate_transmission(r + eps, t, k) - phys.plate_transmission(r - eps, t, k)) / (2.0 * eps)
+    np.testing.assert_allclose(slope, central, rtol=1e-6, atol=1e-6)
+    assert phys.transmission_and_slope(np.array([0.5]), 0.0, 0.15)[0][0] == 1.0
