@@ -13,6 +13,7 @@ from PIL import Image, ImageOps, UnidentifiedImageError
 from .colour import distinct_colours
 from .errors import ConfigError, ImageError
 from .files import DATA_LIMIT, open_input
+from .filters import resize_linear
 from .model import Picture
 
 log = logging.getLogger(__name__)
@@ -283,8 +284,6 @@ def fit_to_size(
     Raises:
         ImageError: The image has too few pixels for the requested size and resolution.
     """
-    from skimage.transform import resize
-
     h, w = rgb.shape[:2]
     if height_mm is None:
         height_mm = width_mm * h / w
@@ -313,9 +312,9 @@ def fit_to_size(
             f"size.px_per_mm)"
         )
     if (out_h, out_w) != (h, w):
-        rgb = resize(rgb, (out_h, out_w, 3), order=1, anti_aliasing=scale < 1, preserve_range=True)
+        rgb = resize_linear(rgb, (out_h, out_w), anti_aliasing=scale < 1)
         if alpha is not None:
-            alpha = resize(alpha, (out_h, out_w), order=1, anti_aliasing=scale < 1, preserve_range=True)
+            alpha = resize_linear(alpha, (out_h, out_w), anti_aliasing=scale < 1)
     rgb = np.clip(rgb, 0.0, 1.0)
     if alpha is not None:
         alpha = np.clip(alpha, 0.0, 1.0)

@@ -15,8 +15,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg
 from scipy.optimize import lsq_linear
-from skimage.transform import resize
 
+from ..filters import resize_linear
 from . import energy as en
 
 log = logging.getLogger(__name__)
@@ -241,7 +241,7 @@ def downsample(image: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """Area-averaged ``image`` at ``shape`` (anti-aliased)."""
     if image.shape[:2] == tuple(shape):
         return np.ascontiguousarray(image, dtype=np.float64)
-    out = resize(image, shape, order=1, anti_aliasing=True, preserve_range=True, mode="edge")
+    out = resize_linear(image, shape, "edge")
     return np.ascontiguousarray(np.clip(out, 0.0, 1.0), dtype=np.float64)
 
 
@@ -249,5 +249,5 @@ def upsample_alphas(alphas: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """Bilinear ``(L, h, w)`` to ``(L, *shape)``, clipped to [0, 1]."""
     out = np.empty((alphas.shape[0], *shape))
     for layer, a in enumerate(alphas):
-        out[layer] = resize(a, shape, order=1, anti_aliasing=False, preserve_range=True, mode="edge")
+        out[layer] = resize_linear(a, shape, "edge", anti_aliasing=False)
     return np.clip(out, 0.0, 1.0)

@@ -92,9 +92,9 @@ def kept_reference(
 
 
 def _resample(img: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    from skimage.transform import resize
+    from ..filters import resize_linear
 
     if img.shape[:2] == tuple(shape):
         return img
-    out: np.ndarray = np.clip(resize(img, (*shape, img.shape[2]), order=1, anti_aliasing=True), 0, 1)
+    out: np.ndarray = np.clip(resize_linear(img, shape), 0, 1)
     return out

@@ -13,9 +13,9 @@ import numba
 import numpy as np
 
 from ..config.spray import SprayConfig
+from ..filters import gaussian
 from ..frames import mm_to_px
 from ..parallel import njit_parallel
-from .cells import gaussian
 
 __all__ = [
     "A_FACTORS",

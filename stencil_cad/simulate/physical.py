@@ -41,8 +41,8 @@ import numba
 import numpy as np
 
 from ..config.spray import SprayConfig
+from ..filters import gaussian
 from ..frames import mm_to_px
-from .cells import gaussian
 from .kept import Kept, digest
 
 __all__ = [

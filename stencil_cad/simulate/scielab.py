@@ -52,7 +52,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .cells import cell_means, correlate_axis, gaussian_reflect, mirrored
+from ..filters import correlate_axis
+from .cells import cell_means, gaussian_reflect, mirrored
 from .kept import Kept, digest
 
 __all__ = [

@@ -45,8 +45,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..config.spray import SprayConfig
+from ..filters import gaussian, resize_linear
 from ..model import DotSet, Layers, composite
-from .cells import gaussian
 from .models import sprayer
 from .opacity import spray_opacity, windows_opacity
 
@@ -124,12 +124,10 @@ def blurred_composite(layers: Layers, sigma_mm: float, grid_mm_per_px: float) ->
 
 def resample(img: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """Resample an ``(H, W)`` or ``(H, W, C)`` image to ``shape`` (bilinear, anti-aliased)."""
-    from skimage.transform import resize
-
     img = np.asarray(img, dtype=np.float64)
     if img.shape[:2] == tuple(shape):
         return img
-    out = resize(img, (*shape, *img.shape[2:]), order=1, anti_aliasing=True, mode="edge")
+    out = resize_linear(img, shape, "edge")
     return np.clip(out, 0.0, 1.0)
 
 

@@ -22,8 +22,8 @@ import numpy as np
 from skimage.color import rgb2xyz, xyz2rgb
 
 from ..config.spray import SprayConfig
+from ..filters import gaussian
 from ..model import composite
-from .cells import gaussian
 from .opacity import spray_opacity
 from .scielab import scielab
 from .spray import hole_kernels

@@ -35,9 +35,9 @@ import math
 from collections.abc import Callable
 
 import numpy as np
-from scipy import ndimage
 
 from ..config.stipple import StippleConfig, Tone
+from ..filters import resize_linear
 from ..frames import mm_to_px, pixel_centres_mm, px_to_mm
 from ..model import DotSet
 from .relax_kernels import _accumulate, _nearest_seed
@@ -324,7 +324,7 @@ def refine_factor(active_px: int, n_dots: int, total_px: int) -> int:
 
 def _upsample(a: np.ndarray, k: int) -> np.ndarray:
     """Bilinear ``k``-fold upsampling with pixel areas aligned (pixel edges map to edges)."""
-    return ndimage.zoom(a, k, order=1, mode="nearest", grid_mode=True)
+    return resize_linear(a, (a.shape[0] * k, a.shape[1] * k), "edge", anti_aliasing=False)
 
 
 def stipple_layer(
