@@ -71,8 +71,7 @@ def refine_holes(
 
     cfg, picture_mm = plan.cfg, plan.picture_mm
     shape, grid_mm = refine_grid(plan, layers)
-    # The picture the simulation is scored against: the source image on the simulation grid (read and
-    # resized once for the trials' refinements, the scout's and the job's: 3 reads of 0.04 s on the example).
+    # The picture the simulation is scored against: the source image on the simulation grid (kept in the run).
     target = kept_reference(run, cfg, picture, layers, shape, grid_mm)
     rules = cfg.stipple.design_rules(*picture_mm)
     rc = cfg.refine
