@@ -556,14 +556,22 @@ def physical_hole_kernels(
         ``(sigma_mm, peak, dsigma_dr, dpeak_dr)``, each shaped like ``r_mm``.
     """
     r = np.asarray(r_mm, dtype=np.float64)
-    if r.ndim == 1 and r.size > 1:
-        # Each radius once: a refined layer's holes mostly sit at the radius floor (70-82 % of each
-        # layer's on the example), and every value below is a function of the hole's own radius, so
-        # the kernels are the same bits (the example job's 1,015 calls: 1.92 CPU-s, now 0.94).
-        u, inv = np.unique(r, return_inverse=True)
-        if u.size < r.size:
-            sigma, peak, dsigma, dpeak = physical_hole_kernels(u, cfg, passes, geometry)
-            return sigma[inv], peak[inv], dsigma[inv], dpeak[inv]
+    if r.ndim == 1 and r.size > 2:
+        # The floor's radius once: a refined layer's holes mostly sit at the radius floor (70-82 % of
+        # each layer's on the example), and every value below is a function of the hole's own radius,
+        # so the kernels are the same bits. A sort for every distinct radius (np.unique) cost more than
+        # the kernels it saved once they came off a table (0.12 of 0.3 ms a call at 4,000 holes).
+        floor = r.min()
+        at = r == floor
+        if at.sum() > 1:
+            rest = ~at
+            sigma, peak, dsigma, dpeak = physical_hole_kernels(np.r_[floor, r[rest]], cfg, passes, geometry)
+            out = []
+            for v in (sigma, peak, dsigma, dpeak):
+                full = np.full(r.shape, v[0])
+                full[rest] = v[1:]
+                out.append(full)
+            return out[0], out[1], out[2], out[3]
     s = spread_sigma_mm(cfg, geometry.standoff_mm)
     depth = passes * dose_per_pass(cfg)
     t, k = geometry.plate_thickness_mm, cfg.can.spread_k
