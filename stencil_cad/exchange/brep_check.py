@@ -5,8 +5,9 @@ volume, its box), as :mod:`.step_check` does a plate's, and reuses that module's
 checks: the product's one closed, oriented solid in mm (every edge used twice, once each way;
 loops that close; connected faces), its Euler–Poincaré genus, every vertex on its edges' curves
 and its faces' surfaces, planes horizontal or vertical and cylinders about z, each side face's
-normal with its loop. What differs from a plate: a horizontal face's bound may mix lines and
-arcs, so its area is the shoelace over its vertices plus each arc's circular segment,
+normal with its loop, and each horizontal face's with its bounds (an outer bound counter-clockwise
+about the face's outward normal, a hole clockwise). What differs from a plate: a horizontal face's
+bound may mix lines and arcs, so its area is the shoelace over its vertices plus each arc's circular segment,
 ``r² (θ − sin θ) / 2`` signed by the way the loop turns; and the box takes each arc's extreme
 points that its sweep passes. The volume is the divergence theorem with F = (0, 0, z) over the
 horizontal faces, against the analytic one to :data:`~.step_check.VOLUME_RTOL`.
@@ -48,24 +49,55 @@ def _sweeps(g: Geometry, sh: Shell, uses: np.ndarray) -> tuple[np.ndarray, np.nd
     return cr, a0, turn * sweep
 
 
-def _volume(br, g: Geometry, sh: Shell) -> float:
-    """The divergence theorem over the horizontal faces: z times each face's signed area seen from +z."""
+def _flat_bounds(g: Geometry, sh: Shell) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The horizontal faces' bounds: each one's face, its signed area seen from +z (mm², arcs' segments in) and its z."""
     planar = sh.surface_kind == 0
     row = np.where(planar, sh.surface, 0)
     flat = planar & (np.abs(g.plane_normal[row, 2]) > 1 - AXIS_TOL)
     face = sh.face_of_bound[sh.loop_of_use]
     use = np.flatnonzero(flat[face])
-    a, b = g.vertex[sh.start[use], :2], g.vertex[sh.end[use], :2]
-    ref = g.vertex[sh.start[use[:1]], :2] if len(use) else np.zeros((1, 2))
-    a, b = a - ref, b - ref
+    loop = sh.loop_of_use[use]
+    first = np.searchsorted(sh.loop_of_use, np.arange(len(sh.face_of_bound)))
+    ref = g.vertex[sh.start[np.minimum(first, max(len(sh.start) - 1, 0))[loop]], :2]
+    a, b = g.vertex[sh.start[use], :2] - ref, g.vertex[sh.end[use], :2] - ref
     area = 0.5 * (a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1])
     arc = g.curve_kind[sh.edge[use]] == 1
     if arc.any():
         cr, _, sweep = _sweeps(g, sh, use[arc])
         area[arc] += 0.5 * g.circle_r[cr] ** 2 * (sweep - np.sin(sweep))
-    area *= np.where(sh.bound_fwd[sh.loop_of_use[use]], 1.0, -1.0)
-    z = g.plane_point[row[face[use]], 2]
+    area *= np.where(sh.bound_fwd[loop], 1.0, -1.0)
+    bounds = np.flatnonzero(flat[sh.face_of_bound])
+    per_bound = np.bincount(loop, weights=area, minlength=len(sh.face_of_bound))[bounds]
+    return bounds, per_bound, g.plane_point[row[sh.face_of_bound[bounds]], 2]
+
+
+def _volume(g: Geometry, sh: Shell) -> float:
+    """The divergence theorem over the horizontal faces: z times each face's signed area seen from +z."""
+    _, area, z = _flat_bounds(g, sh)
     return float(np.sum(z * area))
+
+
+def _flats_outward(br, g: Geometry, sh: Shell) -> list[str]:
+    """Horizontal faces whose normal is against their bounds, or a bound that encloses no area.
+
+    An outer bound runs counter-clockwise about its face's outward normal, a hole's clockwise.
+    Neither the edge uses (which tie the loops to one another) nor the volume (from the loops' way
+    round) see a face whose own normal is turned into the material; the side faces are checked
+    for that by :func:`~.step_check._sides_outward`.
+    """
+    bounds, area, _ = _flat_bounds(g, sh)
+    face = sh.face_of_bound[bounds]
+    up = np.sign(g.plane_normal[sh.surface[face], 2]) * np.where(
+        br.flag["ADVANCED_FACE"][sh.faces[face]], 1, -1
+    )
+    seen = area * up * np.where(sh.bound_outer[bounds], 1.0, -1.0)
+    bad = np.flatnonzero(~(seen > 0))
+    if not len(bad):
+        return []
+    return [
+        f"{len(np.unique(face[bad]))} horizontal faces have a bound that runs the wrong way about the "
+        f"face's normal or encloses no area (first #{int(br.ids['ADVANCED_FACE'][sh.faces[face[bad[0]]]])})"
+    ]
 
 
 def _bbox(g: Geometry, sh: Shell) -> np.ndarray:
@@ -114,7 +146,8 @@ def check_brep_text(
         )
     whole = "a circle edge does not start and end at one vertex (a whole circle)"
     fails += [f for f in _off_curves(g) if f != whole] + _off_surfaces(br, g, sh) + _sides_outward(br, g, sh)
-    volume = _volume(br, g, sh)
+    fails += _flats_outward(br, g, sh)
+    volume = _volume(g, sh)
     rel = abs(volume - volume_mm3) / abs(volume_mm3) if volume_mm3 else math.inf
     if not rel <= VOLUME_RTOL:
         fails.append(
