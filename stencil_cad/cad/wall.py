@@ -60,11 +60,14 @@ class WallRings:
         outer: The wall's outside: the pocket grown by the wall thickness.
         pocket: The plate outline grown by the clearance.
         opening: The inner opening, a rectangle around the picture area.
+        rim_mm: The rim's thickness on the top side, from the pocket out: the wall thickness, or
+            that plus the deepest tab's depth where the rim is a plain rounded rectangle.
     """
 
     outer: list[Segment]
     pocket: list[Segment]
     opening: list[Segment]
+    rim_mm: float
 
 
 def _rect_path(x0: float, y0: float, x1: float, y1: float) -> list[Segment]:
@@ -83,15 +86,17 @@ def wall_rings(
     """
     c, t = wall_cfg.clearance_mm, wall_cfg.wall_thickness_mm
     pocket = outline_path(width_mm, height_mm, outline_cfg, c)
+    rim = t
     try:
         outer = outline_path(width_mm, height_mm, outline_cfg, c + t)
     except ValueError:
         log.info("wall: the key tabs are too close to fit the rim's shape; using a plain rounded rectangle")
         plain = outline_cfg.model_copy(update={"keys": []})
-        outer = outline_path(width_mm, height_mm, plain, c + t + max(k.depth_mm for k in outline_cfg.keys))
+        rim = t + max(k.depth_mm for k in outline_cfg.keys)
+        outer = outline_path(width_mm, height_mm, plain, c + rim)
     o = wall_cfg.opening_margin_mm
     opening = _rect_path(-o, -o, width_mm + o, height_mm + o)
-    return WallRings(outer=outer, pocket=pocket, opening=opening)
+    return WallRings(outer=outer, pocket=pocket, opening=opening, rim_mm=rim)
 
 
 def _wire(path: list[Segment], z: float):
@@ -186,7 +191,7 @@ def wall_solid(
     solid = _prism(rings.outer, 0.0, top)
     # Cutters overshoot the faces they open so no coplanar boolean is left to chance.
     cutters = [_prism(rings.opening, -1.0, top + 1.0), _prism(rings.pocket, s, top + 1.0)]
-    slot = _finger_slot(width_mm, height_mm, outline, wall, s, top)
+    slot = _finger_slot(width_mm, height_mm, outline, wall, s, top, rings.rim_mm)
     if slot is not None:
         cutters.append(occt.box(slot.corner, slot.size))
     shape = occt.in_compound(occt.unify(occt.cut(solid, cutters)))
@@ -215,8 +220,12 @@ def _finger_slot(
     wall: WallConfig,
     standoff_mm: float,
     top: float,
+    rim_mm: float,
 ) -> SlotBox | None:
-    """The slot cutter at the middle of the top side and its analytic volume, or None."""
+    """The slot cutter at the middle of the top side and its analytic volume, or None.
+
+    It reaches from under the plate out through the rim, ``rim_mm`` thick on the top side.
+    """
     fw = wall.finger_slot_mm
     if fw <= 0:
         return None
@@ -251,9 +260,9 @@ def _finger_slot(
     below = min(1.5, 0.5 * standoff_mm)
     y_pocket = height_mm + m + c
     z0 = standoff_mm - below
-    volume = fw * (t * (top - z0) + max(under, 0.0) * below)
+    volume = fw * (rim_mm * (top - z0) + max(under, 0.0) * below)
     corner = (x0, y_pocket - max(under, 0.0), z0)
-    return SlotBox(corner, (fw, t + 1.0 + max(under, 0.0), top + 1.0 - z0), volume)
+    return SlotBox(corner, (fw, rim_mm + 1.0 + max(under, 0.0), top + 1.0 - z0), volume)
 
 
 @dataclass(frozen=True)
@@ -369,7 +378,7 @@ def build_wall(
         s = float(standoff_mm)
         depth = float(wall_cfg.pocket_depth(plate_thickness_mm))
         top = s + depth
-        slot = _finger_slot(width_mm, height_mm, outline_cfg, wall_cfg, s, top)
+        slot = _finger_slot(width_mm, height_mm, outline_cfg, wall_cfg, s, top, rings.rim_mm)
         slot_volume = 0.0 if slot is None else slot.volume_mm3
         brep = wall_brep(rings, s, top, None if slot is None else slot.faces)
     tol = outline_cfg.chord_tol_mm

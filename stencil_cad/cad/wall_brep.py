@@ -16,9 +16,9 @@ from the outlines, so they are written out here rather than cut by OCCT:
 These are the faces OCCT's cut and unify gave the same wall (``tests/cad/test_wall.py`` reads the
 file back with OCCT: one valid solid of the same volume, box and face count). The slot must lie on
 one straight segment of the outside's and the pocket's top sides, reach under the plate and out
-through the rim, as :func:`.wall._finger_slot` makes it; :func:`wall_brep` returns None
-otherwise (a rim grown to a plain rectangle round tabs too close together is thicker than the
-slot is long), and the wall is cut by OCCT.
+through the rim, as :func:`.wall._finger_slot` makes it (through the rim's full thickness, also
+where the rim is a plain rounded rectangle round tabs too close together); :func:`wall_brep`
+returns None otherwise, and the wall is cut by OCCT.
 """
 
 from __future__ import annotations
