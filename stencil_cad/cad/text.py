@@ -24,6 +24,7 @@ from __future__ import annotations
 import functools
 import math
 import threading
+import unicodedata
 
 import numpy as np
 
@@ -124,11 +125,21 @@ def _faces(rings: list[np.ndarray]) -> list[Glyph]:
     return list(faces.values())
 
 
+def _one_line(text: str) -> str:
+    """``text`` with its control characters out: a tab or line break as a space, the rest dropped.
+
+    The font has no glyph for them, so fontTools would set its missing-glyph box where OCCT's text
+    builder spaced a tab, broke the line and stopped at a NUL; a label is one line.
+    """
+    return "".join((" " if ch.isspace() else "") if unicodedata.category(ch) == "Cc" else ch for ch in text)
+
+
 def text_rings(text: str, size: float, path: str, tol: float) -> list[Glyph]:
     """The faces of ``text`` set in the font file ``path``, its ink's low corner at the origin.
 
     Args:
-        text: One line of text.
+        text: One line of text (a tab or line break in it is set as a space, other control
+            characters left out; a character the font lacks as its missing-glyph box).
         size: Font size in mm (the font's em).
         path: The font file (TrueType outlines).
         tol: Largest chord error of the rings in mm.
@@ -139,7 +150,7 @@ def text_rings(text: str, size: float, path: str, tol: float) -> list[Glyph]:
     """
     font = _font(path)
     scale = float(size) / font.em
-    names = [font.cmap.get(ord(ch), ".notdef") for ch in text]
+    names = [font.cmap.get(ord(ch), ".notdef") for ch in _one_line(text)]
     glyphs: list[Glyph] = []
     pen = 0.0
     for i, name in enumerate(names):

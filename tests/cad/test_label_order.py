@@ -99,3 +99,14 @@ def test_threads_read_a_fresh_font_once_and_alike():
         runs = list(pool.map(lambda _: _bits(text.text_rings("Qg8&@ ÉÅ", 2.5, path, 0.01)), range(8)))
     assert all(r == runs[0] for r in runs)
     assert len(runs[0]) == 8  # one face a letter, and two for É (its accent)
+
+
+def test_control_characters_are_not_set_as_missing_glyph_boxes():
+    # The font has no glyph for a tab, a line break or a NUL: each would come out as the box the
+    # font draws for a missing character, cut into the plate. A label is one line: spaces instead.
+    from stencil_cad.cad.label import DEFAULT_FONT, _text_glyphs
+
+    spaced = _bits(_text_glyphs("paint  a b", 3.0, DEFAULT_FONT, 0.01))
+    assert _bits(_text_glyphs("paint\t\ra\nb", 3.0, DEFAULT_FONT, 0.01)) == spaced
+    assert _bits(_text_glyphs("pai\x00nt  a\x7f b", 3.0, DEFAULT_FONT, 0.01)) == spaced
+    assert len(_text_glyphs("\t\n\x00", 3.0, DEFAULT_FONT, 0.01)) == 0
