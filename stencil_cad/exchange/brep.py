@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..model import TriMesh
-from .step import STEP_TIMESTAMP, _f, _Step, _unit_context, _write_head
+from .step import StepWriter, begin_solid, end_solid, step_reals
 
 __all__ = ["Brep", "Edge", "Face"]
 
@@ -114,7 +114,7 @@ class Brep:
 # ----------------------------------------------------------------------------- STEP
 
 
-def _write_edges(w: _Step, br: Brep, ids: dict) -> list[int]:
+def _write_edges(w: StepWriter, br: Brep, ids: dict) -> list[int]:
     """Points, vertices and EDGE_CURVEs of every edge; returns the edges' ids."""
     pts = np.array(br.points, dtype=np.float64).reshape(-1, 3)
     cp = w.points(pts)
@@ -126,17 +126,17 @@ def _write_edges(w: _Step, br: Brep, ids: dict) -> list[int]:
             d = p1 - p0
             length = float(np.linalg.norm(d))
             du = w.directions((d / length)[None])[0]
-            vec = w.one(f"VECTOR('',#{du},{_f([length])[0]})")
+            vec = w.one(f"VECTOR('',#{du},{step_reals([length])[0]})")
             curve = w.one(f"LINE('',#{cp[e.v0]},#{vec})")
         else:
             c = w.points(np.array([e.centre]))[0]
             ax = w.one(f"AXIS2_PLACEMENT_3D('',#{c},#{ids['dz']},#{ids['dx']})")
-            curve = w.one(f"CIRCLE('',#{ax},{_f([e.radius])[0]})")
+            curve = w.one(f"CIRCLE('',#{ax},{step_reals([e.radius])[0]})")
         out.append(w.one(f"EDGE_CURVE('',#{vx[e.v0]},#{vx[e.v1]},#{curve},.T.)"))
     return out
 
 
-def _write_face(w: _Step, face: Face, edge_ids: list[int], ids: dict, pts: np.ndarray, br: Brep) -> int:
+def _write_face(w: StepWriter, face: Face, edge_ids: list[int], ids: dict, pts: np.ndarray, br: Brep) -> int:
     bounds = []
     for k, loop in enumerate(face.loops):
         oes = [w.one(f"ORIENTED_EDGE('',*,*,#{edge_ids[e]},{'.T.' if fwd else '.F.'})") for e, fwd in loop]
@@ -155,30 +155,17 @@ def _write_face(w: _Step, face: Face, edge_ids: list[int], ids: dict, pts: np.nd
         assert face.centre is not None
         c = w.points(np.array([face.centre]))[0]
         ax = w.one(f"AXIS2_PLACEMENT_3D('',#{c},#{ids['dz']},#{ids['dx']})")
-        surface = w.one(f"CYLINDRICAL_SURFACE('',#{ax},{_f([face.radius])[0]})")
+        surface = w.one(f"CYLINDRICAL_SURFACE('',#{ax},{step_reals([face.radius])[0]})")
         sense = ".T." if face.outward else ".F."
     return w.one("ADVANCED_FACE('',(" + ",".join(f"#{b}" for b in bounds) + f"),#{surface},{sense})")
 
 
 def _step_text(br: Brep, name: str, description: str) -> str:
-    w = _Step()
-    safe = "".join(ch for ch in name if ch.isalnum() or ch in " _-.")[:60] or "stencil_part"
-    rep_line, msb_line, ids = _write_head(w, safe)
-    edge_ids = _write_edges(w, br, ids)
+    w, head = begin_solid(name, "stencil_part")
+    edge_ids = _write_edges(w, br, head.ids)
     pts = np.array(br.points, dtype=np.float64).reshape(-1, 3)
-    faces = [_write_face(w, f, edge_ids, ids, pts, br) for f in br.faces]
-    shell = w.one("CLOSED_SHELL('',(" + ",".join(f"#{f}" for f in faces) + "))")
-    w.lines[msb_line] = f"#15=MANIFOLD_SOLID_BREP('',#{shell});"
-    ctx = _unit_context(w)
-    w.lines[rep_line] = f"#10=ADVANCED_BREP_SHAPE_REPRESENTATION('',(#11,#15),#{ctx});"
-    w.one("PRODUCT_RELATED_PRODUCT_CATEGORY('part',$,(#7))")
-    desc = "".join(ch for ch in description if ch.isalnum() or ch in " _-.")
-    header = (
-        f"ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION(('{desc}'),'2;1');\n"
-        f"FILE_NAME('{safe}','{STEP_TIMESTAMP}',(''),(''),'stencil_cad','stencil_cad','');\n"
-        "FILE_SCHEMA(('AUTOMOTIVE_DESIGN { 1 0 10303 214 1 1 1 1 }'));\nENDSEC;\nDATA;\n"
-    )
-    return header + "\n".join(w.lines) + "\nENDSEC;\nEND-ISO-10303-21;\n"
+    faces = [_write_face(w, f, edge_ids, head.ids, pts, br) for f in br.faces]
+    return end_solid(w, head, faces, description)
 
 
 # ----------------------------------------------------------------------------- mesh

@@ -20,8 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from .step_brep import Geometry, Shell, StepReadError, geometry_of, read_brep, shell_of
-from .step_check import VOLUME_RTOL, _off_curves, _off_surfaces, _sides_outward, _solid_faces, _topology
+from .step_brep import Geometry, Shell, StepReadError
+from .step_check import VOLUME_RTOL, off_curves, off_surfaces, read_solid, sides_outward, topology
 from .step_faces import AXIS_TOL
 
 __all__ = ["check_brep_text"]
@@ -83,7 +83,7 @@ def _flats_outward(br, g: Geometry, sh: Shell) -> list[str]:
     An outer bound runs counter-clockwise about its face's outward normal, a hole's clockwise.
     Neither the edge uses (which tie the loops to one another) nor the volume (from the loops' way
     round) see a face whose own normal is turned into the material; the side faces are checked
-    for that by :func:`~.step_check._sides_outward`.
+    for that by :func:`~.step_check.sides_outward`.
     """
     bounds, area, _ = _flat_bounds(g, sh)
     face = sh.face_of_bound[bounds]
@@ -134,18 +134,16 @@ def check_brep_text(
     """
     fails: list[str] = []
     try:
-        br = read_brep(text)
-        g = geometry_of(br)
-        sh = shell_of(br, g, _solid_faces(br, fails))
+        br, g, sh = read_solid(text, fails)
     except StepReadError as exc:
         return {"n_solids": 0, "valid": False, "fails": [f"the STEP text cannot be read: {exc}"]}
-    topo = _topology(br, sh, fails)
+    topo = topology(br, sh, fails)
     if topo["genus"] != genus:
         fails.append(
             f"the solid has genus {topo['genus']} (V - E + 2F - L = {topo['chi']}), expected {genus}"
         )
     whole = "a circle edge does not start and end at one vertex (a whole circle)"
-    fails += [f for f in _off_curves(g) if f != whole] + _off_surfaces(br, g, sh) + _sides_outward(br, g, sh)
+    fails += [f for f in off_curves(g) if f != whole] + off_surfaces(br, g, sh) + sides_outward(br, g, sh)
     fails += _flats_outward(br, g, sh)
     volume = _volume(g, sh)
     rel = abs(volume - volume_mm3) / abs(volume_mm3) if volume_mm3 else math.inf

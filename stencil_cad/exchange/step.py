@@ -18,6 +18,7 @@ fast for small plates.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -25,31 +26,33 @@ import numpy as np
 from ..geometry import as_ccw, as_cw
 from ..model import PlateGeometry
 
-__all__ = ["STEP_TIMESTAMP", "step_text"]
+__all__ = ["STEP_TIMESTAMP", "SolidHead", "StepWriter", "begin_solid", "end_solid", "step_reals", "step_text"]
 
 #: Fixed timestamp in the STEP header, so the same plate gives the same file.
 STEP_TIMESTAMP = "2026-01-01T00:00:00"
 
 
-def _f(a) -> list[str]:
+def step_reals(a) -> list[str]:
     """STEP reals: fixed notation (a decimal point is required), 1e-10 mm resolution."""
     return [f"{v:.10f}" for v in np.asarray(a, dtype=np.float64).reshape(-1).tolist()]
 
 
-class _Step:
-    """Accumulates numbered STEP entity lines."""
+class StepWriter:
+    """Accumulates numbered STEP entity lines (a plate's, and :class:`~.brep.Brep`'s solid)."""
 
     def __init__(self) -> None:
         self.lines: list[str] = []
         self.next = 1
 
     def one(self, body: str) -> int:
+        """Write one entity; returns its id."""
         i = self.next
         self.lines.append(f"#{i}={body};")
         self.next += 1
         return i
 
     def many(self, bodies: list[str]) -> np.ndarray:
+        """Write entities in order; returns their ids."""
         n = len(bodies)
         ids = np.arange(self.next, self.next + n)
         self.lines.extend(f"#{i}={b};" for i, b in zip(ids.tolist(), bodies, strict=True))
@@ -57,13 +60,15 @@ class _Step:
         return ids
 
     def points(self, xyz: np.ndarray) -> np.ndarray:
-        s = _f(xyz)
+        """A CARTESIAN_POINT per row of ``(n, 3)`` mm; returns their ids."""
+        s = step_reals(xyz)
         return self.many(
             [f"CARTESIAN_POINT('',({x},{y},{z}))" for x, y, z in zip(s[0::3], s[1::3], s[2::3], strict=True)]
         )
 
     def directions(self, xyz: np.ndarray) -> np.ndarray:
-        s = _f(xyz)
+        """A DIRECTION per row of ``(n, 3)`` unit vectors; returns their ids."""
+        s = step_reals(xyz)
         return self.many(
             [f"DIRECTION('',({x},{y},{z}))" for x, y, z in zip(s[0::3], s[1::3], s[2::3], strict=True)]
         )
@@ -87,7 +92,7 @@ class _Ring:
         self.eb = self.et = np.zeros(0, dtype=np.int64)
 
 
-def _write_polygon_rings(w: _Step, rings: list[_Ring], dz: int, faces: list) -> None:
+def _write_polygon_rings(w: StepWriter, rings: list[_Ring], dz: int, faces: list) -> None:
     """Vertices, edges and planar side faces of polygon rings (vectorised over all rings)."""
     if not rings:
         return
@@ -109,11 +114,11 @@ def _write_polygon_rings(w: _Step, rings: list[_Ring], dz: int, faces: list) -> 
     vt = w.many([f"VERTEX_POINT('',#{p})" for p in p1.tolist()])
     du = w.directions(np.column_stack([u, np.zeros(n)]))
     dn = w.directions(np.column_stack([u[:, 1], -u[:, 0], np.zeros(n)]))  # outward: right of the ring
-    ls = _f(length)
+    ls = step_reals(length)
     vec = w.many([f"VECTOR('',#{a},{b})" for a, b in zip(du.tolist(), ls, strict=True)])
     lb = w.many([f"LINE('',#{p},#{v})" for p, v in zip(p0.tolist(), vec.tolist(), strict=True)])
     lt = w.many([f"LINE('',#{p},#{v})" for p, v in zip(p1.tolist(), vec.tolist(), strict=True)])
-    hs = _f(z1 - z0)
+    hs = step_reals(z1 - z0)
     vz = w.many([f"VECTOR('',#{dz},{h})" for h in hs])
     lv = w.many([f"LINE('',#{p},#{v})" for p, v in zip(p0.tolist(), vz.tolist(), strict=True)])
     eb = w.many(
@@ -148,7 +153,7 @@ def _write_polygon_rings(w: _Step, rings: list[_Ring], dz: int, faces: list) -> 
 
 
 def _side_faces(
-    w: _Step,
+    w: StepWriter,
     bottom: np.ndarray,
     up: np.ndarray,
     top: np.ndarray,
@@ -181,7 +186,7 @@ def _side_faces(
 
 
 def _write_circle_rings(
-    w: _Step, xy: np.ndarray, rad: np.ndarray, z0: float, z1: float, ids: dict, faces: list
+    w: StepWriter, xy: np.ndarray, rad: np.ndarray, z0: float, z1: float, ids: dict, faces: list
 ):
     """Round through holes: two circles about -z, a seam line and a cylindrical face each.
 
@@ -196,7 +201,7 @@ def _write_circle_rings(
     dzn, dz, dx = ids["dzn"], ids["dz"], ids["dx"]
     a0 = w.many([f"AXIS2_PLACEMENT_3D('',#{p},#{dzn},#{dx})" for p in c0.tolist()])
     a1 = w.many([f"AXIS2_PLACEMENT_3D('',#{p},#{dzn},#{dx})" for p in c1.tolist()])
-    rs = _f(rad)
+    rs = step_reals(rad)
     k0 = w.many([f"CIRCLE('',#{a},{r})" for a, r in zip(a0.tolist(), rs, strict=True)])
     k1 = w.many([f"CIRCLE('',#{a},{r})" for a, r in zip(a1.tolist(), rs, strict=True)])
     start = xy + np.column_stack([rad, np.zeros(n)])  # the circles' parameter 0
@@ -221,7 +226,7 @@ def _write_circle_rings(
     return eb, et
 
 
-def _loop(w: _Step, edges: np.ndarray, forward: bool, outer: bool) -> int:
+def _loop(w: StepWriter, edges: np.ndarray, forward: bool, outer: bool) -> int:
     """One bound from a ring's edges, in ring order (forward) or reversed."""
     seq = np.asarray(edges) if forward else np.asarray(edges)[::-1]
     oes = w.many(_oe(seq, forward))
@@ -230,14 +235,14 @@ def _loop(w: _Step, edges: np.ndarray, forward: bool, outer: bool) -> int:
     return w.one(f"{kind}('',#{lp},.T.)")
 
 
-def _loops_many(w: _Step, edge_ids: np.ndarray, forward: bool) -> np.ndarray:
+def _loops_many(w: StepWriter, edge_ids: np.ndarray, forward: bool) -> np.ndarray:
     """Single-edge bounds (circles), vectorised."""
     oes = w.many(_oe(edge_ids, forward))
     lps = w.many([f"EDGE_LOOP('',(#{o}))" for o in oes.tolist()])
     return w.many([f"FACE_BOUND('',#{lp},.T.)" for lp in lps.tolist()])
 
 
-def _plane_face(w: _Step, z: float, up: bool, bounds: list[int], ids: dict) -> int:
+def _plane_face(w: StepWriter, z: float, up: bool, bounds: list[int], ids: dict) -> int:
     pt = w.points(np.array([[0.0, 0.0, z]]))[0]
     ax = w.one(f"AXIS2_PLACEMENT_3D('',#{pt},#{ids['dz']},#{ids['dx']})")
     pl = w.one(f"PLANE('',#{ax})")
@@ -247,7 +252,12 @@ def _plane_face(w: _Step, z: float, up: bool, bounds: list[int], ids: dict) -> i
 
 
 def _glyph_top_bounds(
-    w: _Step, glyph_rings: list[tuple[_Ring, list[_Ring]]], relief: float, t: float, ids: dict, faces: list
+    w: StepWriter,
+    glyph_rings: list[tuple[_Ring, list[_Ring]]],
+    relief: float,
+    t: float,
+    ids: dict,
+    faces: list,
 ) -> list[int]:
     """The letters' bounds in the top face; the islands inside letters get top faces of their own."""
     bounds = []
@@ -264,7 +274,12 @@ def _glyph_top_bounds(
 
 
 def _relief_far_faces(
-    w: _Step, glyph_rings: list[tuple[_Ring, list[_Ring]]], relief: float, t: float, ids: dict, faces: list
+    w: StepWriter,
+    glyph_rings: list[tuple[_Ring, list[_Ring]]],
+    relief: float,
+    t: float,
+    ids: dict,
+    faces: list,
 ) -> None:
     """Far faces of the relief: an engraving's floor, an emboss's top; both face +z."""
     for outer, inner in glyph_rings:
@@ -275,7 +290,7 @@ def _relief_far_faces(
         faces.append(_plane_face(w, t + relief, True, b, ids))
 
 
-def _unit_context(w: _Step) -> int:
+def _unit_context(w: StepWriter) -> int:
     """Millimetres, radians, steradians and a 1e-7 mm uncertainty: the representation context."""
     mm = w.one("( LENGTH_UNIT() NAMED_UNIT(*) SI_UNIT(.MILLI.,.METRE.) )")
     rad = w.one("( NAMED_UNIT(*) PLANE_ANGLE_UNIT() SI_UNIT($,.RADIAN.) )")
@@ -290,7 +305,7 @@ def _unit_context(w: _Step) -> int:
     )
 
 
-def _write_head(w: _Step, safe: str) -> tuple[int, int, dict[str, Any]]:
+def _write_head(w: StepWriter, safe: str) -> tuple[int, int, dict[str, Any]]:
     """The product records and the solid's placement (#1 to #15 and -z).
 
     Returns:
@@ -322,15 +337,56 @@ def _write_head(w: _Step, safe: str) -> tuple[int, int, dict[str, Any]]:
     return rep_line, msb_line, {"dz": dz, "dx": dx, "dzn": dzn, "vz": {}}
 
 
-def _vector_z(w: _Step, ids: dict[str, Any], z0: float, z1: float) -> int:
+@dataclass(frozen=True)
+class SolidHead:
+    """A solid's file begun by :func:`begin_solid`: its product name and what :func:`end_solid` fills in.
+
+    Attributes:
+        name: The product's name as written (letters, digits, space, ``_-.``; at most 60).
+        rep_line: The line of #10, the shape representation, whose context comes last.
+        msb_line: The line of #15, the solid, whose shell comes last.
+        ids: The ids of the +z, +x and -z directions (``dz``, ``dx``, ``dzn``) and a cache of z vectors (``vz``).
+    """
+
+    name: str
+    rep_line: int
+    msb_line: int
+    ids: dict[str, Any]
+
+
+def begin_solid(name: str, default: str) -> tuple[StepWriter, SolidHead]:
+    """A writer holding one solid's product records and placement (#1 to #15), named ``name`` (else ``default``)."""
+    w = StepWriter()
+    safe = "".join(ch for ch in name if ch.isalnum() or ch in " _-.")[:60] or default
+    rep_line, msb_line, ids = _write_head(w, safe)
+    return w, SolidHead(safe, rep_line, msb_line, ids)
+
+
+def end_solid(w: StepWriter, head: SolidHead, faces: list[int], description: str) -> str:
+    """The file's text: the solid's closed shell of ``faces``, its context in mm, the header with ``description``."""
+    shell = w.one("CLOSED_SHELL('',(" + ",".join(f"#{f}" for f in faces) + "))")
+    w.lines[head.msb_line] = f"#15=MANIFOLD_SOLID_BREP('',#{shell});"
+    ctx = _unit_context(w)
+    w.lines[head.rep_line] = f"#10=ADVANCED_BREP_SHAPE_REPRESENTATION('',(#11,#15),#{ctx});"
+    w.one("PRODUCT_RELATED_PRODUCT_CATEGORY('part',$,(#7))")
+    desc = "".join(ch for ch in description if ch.isalnum() or ch in " _-.")
+    header = (
+        f"ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION(('{desc}'),'2;1');\n"
+        f"FILE_NAME('{head.name}','{STEP_TIMESTAMP}',(''),(''),'stencil_cad','stencil_cad','');\n"
+        "FILE_SCHEMA(('AUTOMOTIVE_DESIGN { 1 0 10303 214 1 1 1 1 }'));\nENDSEC;\nDATA;\n"
+    )
+    return header + "\n".join(w.lines) + "\nENDSEC;\nEND-ISO-10303-21;\n"
+
+
+def _vector_z(w: StepWriter, ids: dict[str, Any], z0: float, z1: float) -> int:
     """The VECTOR from ``z0`` to ``z1`` along +z, written once per pair."""
     key = (z0, z1)
     if key not in ids["vz"]:
-        ids["vz"][key] = w.one(f"VECTOR('',#{ids['dz']},{_f([z1 - z0])[0]})")
+        ids["vz"][key] = w.one(f"VECTOR('',#{ids['dz']},{step_reals([z1 - z0])[0]})")
     return ids["vz"][key]
 
 
-def _glyph_rings(w: _Step, ids: dict[str, Any], geom: PlateGeometry, relief: float, t: float) -> list:
+def _glyph_rings(w: StepWriter, ids: dict[str, Any], geom: PlateGeometry, relief: float, t: float) -> list:
     """The letters' rings ``(outer, [inners])`` between the top and the relief, material on the left."""
     glyph_rings: list = []
     if relief != 0.0:
@@ -357,9 +413,8 @@ def step_text(geom: PlateGeometry, name: str = "stencil_plate") -> str:
     Returns:
         The file's text.
     """
-    w = _Step()
-    safe = "".join(ch for ch in name if ch.isalnum() or ch in " _-.")[:60] or "stencil_plate"
-    rep_line, msb_line, ids = _write_head(w, safe)
+    w, head = begin_solid(name, "stencil_plate")
+    ids = head.ids
     dz = ids["dz"]
     t = float(geom.thickness_mm)
     relief = float(geom.relief_mm) if geom.glyphs else 0.0
@@ -397,14 +452,4 @@ def step_text(geom: PlateGeometry, name: str = "stencil_plate") -> str:
     faces.append(_plane_face(w, t, True, bounds, ids))
     _relief_far_faces(w, glyph_rings, relief, t, ids, faces)
 
-    shell = w.one("CLOSED_SHELL('',(" + ",".join(f"#{f}" for f in faces) + "))")
-    w.lines[msb_line] = f"#15=MANIFOLD_SOLID_BREP('',#{shell});"
-    ctx = _unit_context(w)
-    w.lines[rep_line] = f"#10=ADVANCED_BREP_SHAPE_REPRESENTATION('',(#11,#15),#{ctx});"
-    w.one("PRODUCT_RELATED_PRODUCT_CATEGORY('part',$,(#7))")
-    header = (
-        "ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION(('stencil_cad plate'),'2;1');\n"
-        f"FILE_NAME('{safe}','{STEP_TIMESTAMP}',(''),(''),'stencil_cad','stencil_cad','');\n"
-        "FILE_SCHEMA(('AUTOMOTIVE_DESIGN { 1 0 10303 214 1 1 1 1 }'));\nENDSEC;\nDATA;\n"
-    )
-    return header + "\n".join(w.lines) + "\nENDSEC;\nEND-ISO-10303-21;\n"
+    return end_solid(w, head, faces, "stencil_cad plate")

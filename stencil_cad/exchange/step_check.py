@@ -69,13 +69,25 @@ from .step_brep import (
 )
 from .step_faces import AXIS_TOL, CLEARANCE_MM, Flat, face_geometry_fails, flat_faces
 
-__all__ = ["CLEARANCE_MM", "VOLUME_RTOL", "StepReadError", "check_step_text", "expected_counts"]
+__all__ = [
+    "CLEARANCE_MM",
+    "VOLUME_RTOL",
+    "StepReadError",
+    "check_step_text",
+    "expected_counts",
+    "off_curves",
+    "off_surfaces",
+    "read_solid",
+    "sides_outward",
+    "solid_faces",
+    "topology",
+]
 
 #: Largest relative difference between the file's volume and the description's.
 VOLUME_RTOL = 1e-9
 
 
-def _solid_faces(br: Brep, fails: list[str]) -> np.ndarray:
+def solid_faces(br: Brep, fails: list[str]) -> np.ndarray:
     """The rows of the faces the one solid's shell lists.
 
     Raises:
@@ -106,7 +118,7 @@ def _solid_faces(br: Brep, fails: list[str]) -> np.ndarray:
     return faces
 
 
-def _topology(br: Brep, sh: Shell, fails: list[str]) -> dict[str, int]:
+def topology(br: Brep, sh: Shell, fails: list[str]) -> dict[str, int]:
     """Edge uses, loops, connectivity and the Euler–Poincaré count; returns V, E, F, L and the genus."""
     n_edges = br.count("EDGE_CURVE")
     direction = sh.fwd == sh.bound_fwd[sh.loop_of_use]  # a bound reversed reverses its loop
@@ -150,7 +162,7 @@ def _topology(br: Brep, sh: Shell, fails: list[str]) -> dict[str, int]:
     return {"vertices": v, "edges": e, "faces": f, "bounds": loops_n, "chi": chi, "genus": 1 - chi // 2}
 
 
-def _off_curves(g: Geometry) -> list[str]:
+def off_curves(g: Geometry) -> list[str]:
     """Vertices off their edges' lines and circles; circle edges that are not whole circles."""
     fails = []
     line = np.flatnonzero(g.curve_kind == 0)
@@ -177,7 +189,7 @@ def _off_curves(g: Geometry) -> list[str]:
     return fails
 
 
-def _off_surfaces(br: Brep, g: Geometry, sh: Shell) -> list[str]:
+def off_surfaces(br: Brep, g: Geometry, sh: Shell) -> list[str]:
     """Planes neither horizontal nor vertical, cylinders not about z, edges off their faces."""
     fails = []
     face = sh.face_of_bound[sh.loop_of_use]
@@ -220,7 +232,7 @@ def _off_surfaces(br: Brep, g: Geometry, sh: Shell) -> list[str]:
     return fails
 
 
-def _sides_outward(br: Brep, g: Geometry, sh: Shell) -> list[str]:
+def sides_outward(br: Brep, g: Geometry, sh: Shell) -> list[str]:
     """Side faces whose normal points into the material: vertical planes and the holes' cylinders.
 
     The edge uses tie every loop's direction to the horizontal faces' (checked in
@@ -342,6 +354,17 @@ def _bbox(g: Geometry, sh: Shell) -> np.ndarray:
     return np.array([allp.min(axis=0), allp.max(axis=0)])
 
 
+def read_solid(text: str, fails: list[str]) -> tuple[Brep, Geometry, Shell]:
+    """The STEP text's entities, their geometry and its solid's shell; a solid beyond the first is a fail.
+
+    Raises:
+        StepReadError: Text this reader does not take (not the writers' entities, not mm, no closed shell).
+    """
+    br = read_brep(text)
+    g = geometry_of(br)
+    return br, g, shell_of(br, g, solid_faces(br, fails))
+
+
 def check_step_text(text: str, geom: PlateGeometry) -> dict[str, Any]:
     """Check a plate's STEP text against its description, without the CAD kernel (see the module doc).
 
@@ -358,19 +381,17 @@ def check_step_text(text: str, geom: PlateGeometry) -> dict[str, Any]:
     t0 = time.perf_counter()
     fails: list[str] = []
     try:
-        br = read_brep(text)
-        g = geometry_of(br)
-        sh = shell_of(br, g, _solid_faces(br, fails))
+        br, g, sh = read_solid(text, fails)
     except StepReadError as exc:
         return {
             "solids": 0,
             "fails": [f"the STEP text cannot be read: {exc}"],
             "seconds": time.perf_counter() - t0,
         }
-    topo = _topology(br, sh, fails)
-    fails += _off_curves(g) + _off_surfaces(br, g, sh)
+    topo = topology(br, sh, fails)
+    fails += off_curves(g) + off_surfaces(br, g, sh)
     fl = flat_faces(br, g, sh, fails)
-    fails += _sides_outward(br, g, sh) + _heights(geom, fl)
+    fails += sides_outward(br, g, sh) + _heights(geom, fl)
     fails += face_geometry_fails(br, g, sh, fl)
     cylinders = int((sh.surface_kind == 1).sum())
     most_bounds = int(np.bincount(sh.face_of_bound).max(initial=0)) if len(sh.face_of_bound) else 0
