@@ -457,11 +457,14 @@ class WallCheckError(RuntimeError):
 def check_wall(model: WallModel, rel_tol: float = 1e-6) -> dict:
     """Check a wall against its analytic oracle.
 
-    The wall has a few dozen faces, so the full ``BRepCheck_Analyzer`` is cheap here.
+    A wall drawn from its outlines is checked from its STEP text without OCCT
+    (:func:`~stencil_cad.exchange.brep_check.check_brep_text`: one closed, oriented solid of genus 1,
+    its volume to :data:`~stencil_cad.exchange.step_check.VOLUME_RTOL`, its box to 1e-3 mm); OCCT's
+    wall (notched, or ``plate.check: kernel``) by ``BRepCheck_Analyzer``, cheap on a few dozen faces.
 
     Args:
         model: The wall.
-        rel_tol: Largest relative volume error. Defaults to 1e-6.
+        rel_tol: Largest relative volume error of OCCT's wall. Defaults to 1e-6.
 
     Returns:
         ``n_solids``, ``valid``, ``volume``, ``analytic_volume``, ``rel_error``, ``bbox``.
