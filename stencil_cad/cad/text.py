@@ -6,8 +6,9 @@ font's em is ``size`` mm, the pen moved by the glyph's advance and the font's ke
 Its TrueType contours are quadratic curves, flattened here into chords: a quadratic Bézier's chord
 over a parameter step ``h`` strays at most ``|P0 - 2 P1 + P2| h² / 4`` from it, so each curve is
 cut into the fewest equal steps that keep that under the tolerance. A glyph's contours are grouped
-into faces by nesting (a contour inside an odd number of others is a hole of the innermost one
-around it), each face an outer ring counter-clockwise and its holes clockwise.
+into faces by nesting (a contour inside an odd number of others, by most of its vertices, is a
+hole of the innermost one around it), each face an outer ring counter-clockwise and its holes
+clockwise: for every character of the bundled font, the faces and holes OCCT gave.
 
 Until now the letters came from OCCT's font classes (``StdPrs_BRepTextBuilder``), which made every
 job import OCP: ``tests/cad/test_label_order.py`` holds these rings to build123d's ``Text`` in the
@@ -107,14 +108,20 @@ def _flatten(pts: np.ndarray, on: np.ndarray, tol: float) -> np.ndarray:
     return ring[keep]
 
 
+def _inside(ring: np.ndarray, other: np.ndarray) -> bool:
+    """Whether ``ring`` lies inside ``other``: most of its vertices do.
+
+    A glyph's contours may touch at a vertex (U+2732's inner star starts on its outer one), where a
+    test of one vertex says each lies inside the other.
+    """
+    return 2 * int(np.count_nonzero(points_in_ring(ring, other))) > len(ring)
+
+
 def _faces(rings: list[np.ndarray]) -> list[Glyph]:
     """A glyph's rings grouped into faces by nesting: ``(outer ccw, [holes cw])``."""
     rings = [r for r in rings if len(r) >= 3]
     inside = np.array(
-        [
-            [i != j and bool(points_in_ring(rings[i][:1], rings[j])[0]) for j in range(len(rings))]
-            for i in range(len(rings))
-        ]
+        [[i != j and _inside(rings[i], rings[j]) for j in range(len(rings))] for i in range(len(rings))]
     ).reshape(len(rings), len(rings))
     depth = inside.sum(axis=1)
     faces: dict[int, Glyph] = {i: (as_ccw(r), []) for i, r in enumerate(rings) if depth[i] % 2 == 0}
