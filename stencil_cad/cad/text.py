@@ -8,7 +8,10 @@ over a parameter step ``h`` strays at most ``|P0 - 2 P1 + P2| h² / 4`` from it,
 cut into the fewest equal steps that keep that under the tolerance. A glyph's contours are grouped
 into faces by nesting (a contour inside an odd number of others, by most of its vertices, is a
 hole of the innermost one around it), each face an outer ring counter-clockwise and its holes
-clockwise: for every character of the bundled font, the faces and holes OCCT gave.
+clockwise: for every character of the bundled font, the faces and holes OCCT gave, but for the 69
+whose mark overlaps or touches its letter (the cedilla of Ç, the ogonek of ą, the horn of ư …):
+OCCT's faces crossed there, which made a label refuse them, and here the glyph is filled by the
+font's non-zero rule (manifold3d's ``CrossSection``) into faces that do not.
 
 Until now the letters came from OCCT's font classes (``StdPrs_BRepTextBuilder``), which made every
 job import OCP: ``tests/cad/test_label_order.py`` holds these rings to build123d's ``Text`` in the
@@ -29,7 +32,7 @@ import unicodedata
 
 import numpy as np
 
-from ..geometry import as_ccw, as_cw, points_in_ring
+from ..geometry import as_ccw, as_cw, points_in_ring, polygon_area, rings_cross
 
 __all__ = ["FONT_LOCK", "text_rings"]
 
@@ -129,7 +132,26 @@ def _faces(rings: list[np.ndarray]) -> list[Glyph]:
         if depth[i] % 2 == 1:
             owner = max((j for j in faces if inside[i, j]), key=lambda j: depth[j])
             faces[owner][1].append(as_cw(r))
+    if len(faces) > 1 and rings_cross(rings, within=False):
+        return _filled(rings)
     return list(faces.values())
+
+
+def _filled(rings: list[np.ndarray]) -> list[Glyph]:
+    """The faces a glyph's crossing contours fill by TrueType's non-zero rule: a mark merged with its letter.
+
+    A cedilla or an ogonek overlaps or touches its letter (Ç, ą, ş): as faces of their own they
+    would cross, which a plate's label refuses.
+    """
+    from manifold3d import CrossSection, FillRule
+
+    filled = CrossSection([np.ascontiguousarray(r) for r in rings], FillRule.NonZero)
+    out: list[Glyph] = []
+    for part in filled.decompose():
+        polys = [np.asarray(p, dtype=np.float64) for p in part.to_polygons()]
+        k = int(np.argmax([abs(polygon_area(p)) for p in polys]))
+        out.append((as_ccw(polys[k]), [as_cw(p) for i, p in enumerate(polys) if i != k]))
+    return out
 
 
 def _one_line(text: str) -> str:
