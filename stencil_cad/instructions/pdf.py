@@ -12,6 +12,7 @@ from typing import Any
 from ..names import INPUT_PNG, MURAL_MAP_PNG, PREVIEW_PNG, SIMULATED_PNG
 from . import mural
 from .content import _NO_CAN, Sheet, _amount, _drop, _plate_caption, _plates_text, _unit_note
+from .pdf_png import png_flowable, png_rows
 
 #: One sheet is made at a time: :func:`_binary_streams` changes a process-wide ReportLab setting.
 _SHEET_LOCK = threading.Lock()
@@ -91,13 +92,19 @@ class _PdfKit:
         return Paragraph(text, style)
 
     def img(self, name: str, width: float) -> Any:
-        """The named picture at ``width`` pt, or a note that it is missing."""
+        """The named picture at ``width`` pt, or a note that it is missing.
+
+        A PNG that a PDF takes as it is goes in undecoded (:mod:`stencil_cad.instructions.pdf_png`).
+        """
         from reportlab.lib.utils import ImageReader
         from reportlab.platypus import Image
 
         data = self.images.get(name)
         if not data:
             return self.p("(no image)", self.small)
+        rows = png_rows(data)
+        if rows is not None:
+            return png_flowable(data, rows, width)
         reader = ImageReader(io.BytesIO(data))
         iw, ih = reader.getSize()
         return Image(io.BytesIO(data), width=width, height=width * ih / iw)
