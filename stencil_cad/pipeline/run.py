@@ -19,7 +19,7 @@ from ..figures import ComputeFigures, MuralFigures
 from ..interrupts import CancelToken
 from ..model import DotSet, Layers, Picture
 from ..names import cut_png, dots_png
-from ..output import OutputDir, sha256_file
+from ..output import OutputDir
 from ..plan import tiles
 from ..plan.cans import can_names
 from ..plan.names import LAYERS_NPZ, PLAN_JSON, run_outputs, stage_outputs
@@ -122,7 +122,7 @@ def finished(run: Run, plan: Plan, command: str, plan_text: str | None = None) -
 
 def saved_plan(run: Run, plan: Plan | None, copy: JobConfig, primer: str | None = None) -> str:
     """``plan.json`` of ``plan`` (designed), or of ``decompose``'s primer alone; ``copy``: the folder's config copy."""
-    layers_sha = sha256_file(run.out.stage / LAYERS_NPZ)
+    layers_sha = run.out.sha256(LAYERS_NPZ)
     configs = [config_digest(run.cfg), config_digest(copy)]
     names = can_names(run.figures)
     return plan_json(plan, configs, layers_sha, designed=plan is not None, primer=primer, can_names=names)

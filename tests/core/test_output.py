@@ -175,3 +175,18 @@ def test_file_table_has_size_and_sha(tmp_path):
     assert row["bytes"] == 3
     assert row["sha256"] == "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
     out.abort()
+
+
+def test_file_table_hashes_each_file_once(tmp_path, monkeypatch):
+    import stencil_cad.output as output
+
+    read = []
+    real = output.sha256_file
+    monkeypatch.setattr(output, "sha256_file", lambda p: read.append(p.name) or real(p))
+    out = OutputDir(tmp_path / "o")
+    out.write_text("a.txt", "abc")
+    first = out.file_table()
+    out.write_text("b.txt", "def")
+    assert out.sha256("a.txt") == first[0]["sha256"]
+    assert out.file_table()[0] == first[0] and read == ["a.txt", "b.txt"]
+    out.abort()
