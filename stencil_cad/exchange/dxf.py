@@ -241,6 +241,36 @@ def _circle_text(handles: list[int], owner: str, layer: str, circles: np.ndarray
     return "".join([fmt % row for row in zip(handles, *circles.T.tolist(), strict=True)])
 
 
+def _polyline_text(handle: int, owner: str, layer: str, ring: list[list[float]]) -> str:
+    """DXF text of one closed LWPOLYLINE, in the group-code layout ezdxf writes for R2010."""
+    head = (
+        f"  0\nLWPOLYLINE\n  5\n{handle:X}\n330\n{owner}\n100\nAcDbEntity\n  8\n{layer}\n"
+        f"100\nAcDbPolyline\n 90\n{len(ring)}\n 70\n1\n"
+    )
+    return head + "".join([f" 10\n{x!r}\n 20\n{y!r}\n" for x, y in ring])
+
+
+def _polylines(msp, layer: str, rings: list[np.ndarray], shift: np.ndarray, blocks: dict[str, str]) -> None:
+    """Closed LWPOLYLINEs of ``rings`` moved by ``shift``: the first made by ezdxf, its text the block of all.
+
+    ezdxf spends about 0.2 ms on a polyline of a label's letter (create and export), a third of the
+    bundled example's DXF time: its eight files (316 polylines) took 0.163 CPU-s with every polyline
+    made by ezdxf and 0.102 s so (median of 5 calls of :func:`write_dxf_stencils` each, on the
+    job's stencils), the same bytes. The others' handles are reserved as ezdxf would have given
+    them, one after another.
+    """
+    if not rings:
+        return
+    points = [(r + shift).tolist() for r in rings]
+    first = msp.add_lwpolyline(points[0], format="xy", close=True, dxfattribs={"layer": layer})
+    start = int(first.dxf.handle, 16)
+    msp.doc.entitydb.handles.reset("%X" % (start + len(rings)))
+    owner = msp.layout_key
+    blocks[f"  0\nLWPOLYLINE\n  5\n{first.dxf.handle}\n"] = "".join(
+        [_polyline_text(start + k, owner, layer, ring) for k, ring in enumerate(points)]
+    )
+
+
 def _extent(outline, circles, rings) -> tuple[np.ndarray, np.ndarray]:
     lo, hi = outline.min(axis=0), outline.max(axis=0)
     if len(circles):
@@ -251,16 +281,12 @@ def _extent(outline, circles, rings) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
-def _add_score(doc, st: DxfStencil, shift: np.ndarray) -> int:
+def _add_score(doc, st: DxfStencil, shift: np.ndarray, blocks: dict[str, str]) -> int:
     """Draw a stencil's label rings on its score layer (created when it has any); returns how many."""
     score = st.score_rings()
     if score:
         doc.layers.add(st.score_layer, color=SCORE_COLOUR)
-        msp = doc.modelspace()
-        for ring in score:
-            msp.add_lwpolyline(
-                (ring + shift).tolist(), format="xy", close=True, dxfattribs={"layer": st.score_layer}
-            )
+        _polylines(doc.modelspace(), st.score_layer, score, shift, blocks)
     return len(score)
 
 
@@ -283,11 +309,13 @@ def _draw(doc, stencils: Sequence[DxfStencil], prepared: list, shifts: list, ext
 
     Returns:
         ``(circles, polylines, score polylines)`` per stencil, the circle templates
-        ``(handle, layer, circles)`` and the drawing's extent ``(lo, hi)``.
+        ``(handle, layer, circles)``, the polylines' blocks (:func:`_polylines`) and the
+        drawing's extent ``(lo, hi)``.
     """
     msp = doc.modelspace()
     counts_c, counts_p, scored = [], [], []
     templates: list[tuple[str, str, np.ndarray]] = []
+    blocks: dict[str, str] = {}
     all_lo, all_hi = np.full(2, np.inf), np.full(2, -np.inf)
     for i, (st, (outline, circles, rings), shift, (lo, hi)) in enumerate(
         zip(stencils, prepared, shifts, extents, strict=True)
@@ -295,7 +323,7 @@ def _draw(doc, stencils: Sequence[DxfStencil], prepared: list, shifts: list, ext
         doc.layers.add(st.layer_name, color=CUT_COLOURS[i % len(CUT_COLOURS)])
         attribs = {"layer": st.layer_name}
         # The label first: a laser that works in file order scores it while the sheet is still whole.
-        scored.append(_add_score(doc, st, shift))
+        scored.append(_add_score(doc, st, shift, blocks))
         if len(circles):
             moved = circles.copy()
             moved[:, :2] += shift
@@ -303,39 +331,46 @@ def _draw(doc, stencils: Sequence[DxfStencil], prepared: list, shifts: list, ext
             # layer is made by ezdxf, as a template whose text is replaced after writing.
             first = msp.add_circle(tuple(moved[0, :2].tolist()), float(moved[0, 2]), dxfattribs=attribs)
             templates.append((first.dxf.handle, st.layer_name, moved))
-        for ring in rings:
-            msp.add_lwpolyline((ring + shift).tolist(), format="xy", close=True, dxfattribs=attribs)
-        msp.add_lwpolyline((outline + shift).tolist(), format="xy", close=True, dxfattribs=attribs)
+        _polylines(msp, st.layer_name, [*rings, outline], shift, blocks)
         counts_c.append(len(circles))
         counts_p.append(len(rings) + 1)
         all_lo, all_hi = np.minimum(all_lo, lo + shift), np.maximum(all_hi, hi + shift)
-    return counts_c, counts_p, scored, templates, all_lo, all_hi
+    return counts_c, counts_p, scored, templates, blocks, all_lo, all_hi
 
 
-def _text_with_circles(doc, templates: list[tuple[str, str, np.ndarray]], deterministic: bool) -> str:
-    """The document's DXF text, each template circle replaced by its layer's every circle."""
+def _text_with_templates(
+    doc, templates: list[tuple[str, str, np.ndarray]], blocks: dict[str, str], deterministic: bool
+) -> str:
+    """The document's DXF text, each template entity replaced by its block.
+
+    A circle template stands for its layer's every circle (``templates``); a polyline template
+    for a run of polylines (``blocks``, keyed by the template's first lines).
+    """
     owner = doc.modelspace().layout_key
     handles = doc.entitydb.handles
-    blocks = {}
+    blocks = dict(blocks)
     for handle, layer, moved in templates:
         start = int(str(handles), 16)
         # The template keeps its handle; the others take fresh ones, reserved by advancing
         # the generator so that $HANDSEED stays above every handle in the file.
         hs = [int(handle, 16)] + list(range(start, start + len(moved) - 1))
         handles.reset("%X" % (start + len(moved) - 1))
-        blocks[handle] = _circle_text(hs, owner, layer, moved)
+        blocks[f"  0\nCIRCLE\n  5\n{handle}\n"] = _circle_text(hs, owner, layer, moved)
     stream = io.StringIO()
     if deterministic:
         _sorted_classes(doc)
     with _fixed_metadata(deterministic):
         doc.write(stream)
     text = stream.getvalue()
-    for handle, block in blocks.items():
-        head = f"  0\nCIRCLE\n  5\n{handle}\n"
+    cuts = []
+    for head, block in blocks.items():
         i = text.index(head)
-        j = text.index("\n  0\n", i + len(head)) + 1
-        text = text[:i] + block + text[j:]
-    return text
+        cuts.append((i, text.index("\n  0\n", i + len(head)) + 1, block))
+    pieces, at = [], 0
+    for i, j, block in sorted(cuts):
+        pieces += [text[at:i], block]
+        at = j
+    return "".join([*pieces, text[at:]])
 
 
 def write_dxf_stencils(
@@ -381,7 +416,9 @@ def write_dxf_stencils(
         doc = ezdxf.new(DXF_VERSION, setup=False, units=units.MM)
     doc.header["$MEASUREMENT"] = 1
     doc.header["$LUNITS"] = 2
-    counts_c, counts_p, scored, templates, all_lo, all_hi = _draw(doc, stencils, prepared, shifts, extents)
+    counts_c, counts_p, scored, templates, blocks, all_lo, all_hi = _draw(
+        doc, stencils, prepared, shifts, extents
+    )
 
     offset = (float(shifts[0][0]), float(shifts[0][1]))
     doc.header.custom_vars.append("STENCIL_OFFSET_X_MM", repr(offset[0]))
@@ -389,7 +426,7 @@ def write_dxf_stencils(
     doc.header.custom_vars.append("STENCIL_KERF_MM", repr(float(kerf_mm)))
     doc.header["$EXTMIN"] = (float(all_lo[0]), float(all_lo[1]), 0.0)
     doc.header["$EXTMAX"] = (float(all_hi[0]), float(all_hi[1]), 0.0)
-    text = _text_with_circles(doc, templates, deterministic)
+    text = _text_with_templates(doc, templates, blocks, deterministic)
     Path(path).write_bytes(doc.encode(text))
     info = DxfInfo(
         path=str(path),

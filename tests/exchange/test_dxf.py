@@ -80,6 +80,38 @@ def test_handles_unique_and_below_handseed(tmp_path, rng, ring):
     assert all(e.dxf.owner == owner for e in doc.modelspace())
 
 
+def _square(x, y, side):
+    return np.array([[x, y], [x + side, y], [x + side, y + side], [x, y + side]], dtype=float)
+
+
+def test_polylines_written_as_ezdxf_writes_them(tmp_path, rng, ring):
+    # Labels and cut-outs: their polylines after the first of a run are written as text (_polylines).
+    glyphs = [(_square(3, 3, 4) + rng.normal(0, 0.1, (4, 2)), [_square(4, 4, 1)]), (_square(9, 3, 4), [])]
+    cuts = [_square(30, 30, 10), (_square(60, 60, 20), [_square(65, 65, 5)])]
+    st = DxfStencil(ring, random_circles(rng, 50), cuts, "LAYER_07", "L7", glyphs)
+    write_dxf_stencils(tmp_path / "a.dxf", [st], deterministic=True)
+    doc = read(tmp_path / "a.dxf")
+    handles = [int(e.dxf.handle, 16) for e in doc.entitydb.values()]
+    assert len(handles) == len(set(handles)) and max(handles) < int(doc.header["$HANDSEED"], 16)
+    polys = doc.modelspace().query("LWPOLYLINE")
+    assert [p.dxf.layer for p in polys] == ["LAYER_07_SCORE"] * 3 + ["LAYER_07"] * 4
+    assert all(p.closed for p in polys)
+    # The same file, every polyline made by ezdxf: the same bytes.
+    import stencil_cad.exchange.dxf as dxf
+
+    def by_ezdxf(msp, layer, rings, shift, blocks):
+        for r in rings:
+            msp.add_lwpolyline((r + shift).tolist(), format="xy", close=True, dxfattribs={"layer": layer})
+
+    real = dxf._polylines
+    dxf._polylines = by_ezdxf
+    try:
+        write_dxf_stencils(tmp_path / "b.dxf", [st], deterministic=True)
+    finally:
+        dxf._polylines = real
+    assert (tmp_path / "a.dxf").read_bytes() == (tmp_path / "b.dxf").read_bytes()
+
+
 def test_kerf_compensation(tmp_path, rng, ring):
     c = random_circles(rng, 50)
     kerf = 0.2
