@@ -3,14 +3,15 @@
 PDF's Flate filter takes PNG's row filters as a "predictor" (PDF 1.2, ``/DecodeParms`` with
 ``/Predictor 15``), so an 8-bit grey or RGB PNG without transparency and interlacing is an image
 stream already: its IDAT data, concatenated. ReportLab has no such path: it decodes the PNG and
-compresses the raw pixels again at zlib's level 6. On the bundled example's sheet (18 pictures, the
-same pages) made ``render_pdf`` take 0.63 CPU-s, most of it in ``zlib.compress`` and Pillow's
-decoder (0.47 and 0.16 s under cProfile); drawn as they are, the pictures cost almost nothing
-(timings in :func:`png_flowable`). Any other PNG is left to ReportLab.
+compresses the raw pixels again at zlib's level 6. The bundled example's sheet (18 pictures) took
+0.63 CPU-s in ``render_pdf`` so, most of it in ``zlib.compress`` and Pillow's decoder (0.47 and
+0.16 s under cProfile); drawn as they are, the pictures cost almost nothing (timings in
+:func:`png_flowable`). Any other PNG is left to ReportLab.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import io
 import struct
@@ -80,12 +81,22 @@ def png_rows(png: bytes) -> PngRows | None:
     return PngRows(width, height, space, n, b"".join(idat), digest)
 
 
-def _xobject(rows: PngRows) -> Any:
-    """The image XObject whose stream is ``rows``'s data, Flate with PNG predictors."""
+@functools.cache
+def _classes() -> tuple[Any, Any]:
+    """The image XObject and the flowable, made once ReportLab is imported (a job imports it late)."""
     from reportlab.pdfbase.pdfdoc import PDFDictionary, PDFImageXObject, PDFName, PDFStream
+    from reportlab.platypus import Image
 
     class PngXObject(PDFImageXObject):
+        """An image XObject whose stream is a PNG's rows, Flate with PNG predictors."""
+
+        def __init__(self, rows: PngRows):
+            super().__init__(rows.digest)
+            self.rows = rows
+            self.width, self.height = rows.width, rows.height
+
         def format(self, document: Any) -> bytes:
+            rows = self.rows
             stream = PDFStream(content=rows.data)
             d = stream.dictionary
             d["Type"] = PDFName("XObject")
@@ -102,9 +113,25 @@ def _xobject(rows: PngRows) -> Any:
             d["Length"] = len(rows.data)
             return stream.format(document)  # type: ignore[no-any-return]
 
-    obj = PngXObject(rows.digest)
-    obj.width, obj.height = rows.width, rows.height
-    return obj
+    class PngImage(Image):
+        """ReportLab's ``Image`` of a PNG's bytes, drawn from its rows (:func:`png_flowable`)."""
+
+        def __init__(self, png: bytes, rows: PngRows, width: float):
+            super().__init__(io.BytesIO(png), width=width, height=width * rows.height / rows.width)
+            self.rows = rows
+
+        def draw(self) -> None:
+            canv, name = self.canv, self.rows.digest
+            if not canv.hasForm(name):
+                canv._doc.addForm(name, PngXObject(self.rows))
+            canv._currentPageHasImages = 1
+            canv.saveState()
+            canv.translate(getattr(self, "_offs_x", 0), getattr(self, "_offs_y", 0))
+            canv.scale(self.drawWidth, self.drawHeight)
+            canv.doForm(name)
+            canv.restoreState()
+
+    return PngXObject, PngImage
 
 
 def png_flowable(png: bytes, rows: PngRows, width: float) -> Any:
@@ -117,18 +144,4 @@ def png_flowable(png: bytes, rows: PngRows, width: float) -> Any:
     pages: pdftoppm at 100 and 200 dpi renders no pixel otherwise, pdfimages gives the same 19
     pictures) and the PDF 7.5 -> 5.7 MB (the PNGs' level-3 rows against ReportLab's level-6 pixels).
     """
-    from reportlab.platypus import Image
-
-    class PngImage(Image):
-        def draw(self) -> None:
-            canv = self.canv
-            if not canv.hasForm(rows.digest):
-                canv._doc.addForm(rows.digest, _xobject(rows))
-            canv._currentPageHasImages = 1
-            canv.saveState()
-            canv.translate(getattr(self, "_offs_x", 0), getattr(self, "_offs_y", 0))
-            canv.scale(self.drawWidth, self.drawHeight)
-            canv.doForm(rows.digest)
-            canv.restoreState()
-
-    return PngImage(io.BytesIO(png), width=width, height=width * rows.height / rows.width)
+    return _classes()[1](png, rows, width)
