@@ -31,11 +31,13 @@ def _gauss(img: np.ndarray, sigma_px: float) -> np.ndarray:
     """
     import cv2
 
+    from ..filters import sep_filter
+
     rad = int(4.0 * sigma_px + 0.5)
     xs = np.arange(-rad, rad + 1, dtype=np.float64)
     k = np.exp(-(xs * xs) / (2.0 * sigma_px * sigma_px))
     k = (k / k.sum()).astype(img.dtype)
-    return cv2.sepFilter2D(np.ascontiguousarray(img), -1, k, k, borderType=cv2.BORDER_CONSTANT)
+    return sep_filter(np.ascontiguousarray(img), k, k, cv2.BORDER_CONSTANT)
 
 
 def _filtered(res: np.ndarray, eye_px: float) -> tuple[float, np.ndarray]:

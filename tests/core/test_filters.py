@@ -44,3 +44,17 @@ def test_the_linear_resize_gives_scikit_images_values(mode, shape):
             got = filters.resize_linear(x, out, mode, anti_aliasing)
             assert got.shape == want.shape
             np.testing.assert_allclose(got, want, rtol=0.0, atol=1e-13)
+
+
+def test_a_small_map_filters_on_one_thread_and_leaves_the_count():
+    """Under the threshold the filter runs on one thread and restores OpenCV's count; the values are the same."""
+    import cv2
+
+    from stencil_cad import filters
+
+    x = np.random.default_rng(3).random((50, 40)).astype(np.float32)
+    k = np.full(5, 0.2, dtype=np.float32)
+    before = cv2.getNumThreads()
+    got = filters.sep_filter(x, k, k, cv2.BORDER_CONSTANT)
+    assert cv2.getNumThreads() == before
+    assert np.array_equal(got, cv2.sepFilter2D(x, -1, k, k, borderType=cv2.BORDER_CONSTANT))
