@@ -107,9 +107,7 @@ def _reflect_operator(n: int, sigma: float) -> np.ndarray:
     job scores at (the reference and the sprayed patch, each channel, share one).
     """
     radius = int(4.0 * sigma + 0.5)
-    taps = np.arange(-radius, radius + 1, dtype=np.float64)
-    w = np.exp(-0.5 / (sigma * sigma) * taps * taps)
-    w /= w.sum()
+    w = taps(sigma, 4.0)
     period = 2 * n
     folded = np.bincount(np.mod(np.arange(-radius, radius + 1), period), weights=w, minlength=period)
     rows = np.arange(n)[:, None]
